@@ -1,0 +1,195 @@
+"""Scene model -> flat arrays the kernels read, plus the BVH over spheres and triangles."""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+
+from .accel.bvh import build_bvh, bvh_nbytes
+from .errors import SceneError
+from .kernels import layout as L
+from .kernels.camera import camera_frame
+from .kernels.scene import KernelScene
+from .scene.mesh import MeshError, load_mesh
+from .scene.model import DEFAULT_MATERIAL, Material, Mesh, Plane, Scene, Sphere, Triangle
+
+
+class CompiledScene(NamedTuple):
+    kernel: KernelScene
+    camera: np.ndarray  # float64 (12,), see kernels/camera.py
+    stats: dict  # primitives, triangles, bvh_nodes, bvh_bytes, build_seconds, ...
+
+
+def material_row(mat: Material) -> np.ndarray:
+    row = np.zeros(L.MAT_WIDTH, dtype=np.float64)
+    row[L.MAT_COLOR : L.MAT_COLOR + 3] = mat.color
+    row[L.MAT_SPECULAR] = mat.specular if mat.specular is not None else -1.0
+    row[L.MAT_REFLECTIVE] = mat.reflective
+    row[L.MAT_TRANSPARENCY] = mat.transparency
+    row[L.MAT_IOR] = mat.ior
+    row[L.MAT_ABSORPTION : L.MAT_ABSORPTION + 3] = mat.absorption
+    if mat.texture is not None:
+        row[L.MAT_TEXTURE] = L.TEXTURE_CHECKER
+        row[L.MAT_CHECK_A : L.MAT_CHECK_A + 3] = mat.texture.colors[0]
+        row[L.MAT_CHECK_B : L.MAT_CHECK_B + 3] = mat.texture.colors[1]
+        row[L.MAT_CHECK_SCALE] = mat.texture.scale
+    return row
+
+
+def _lights(scene: Scene):
+    kinds = np.zeros(len(scene.lights), dtype=np.int32)
+    data = np.zeros((len(scene.lights), 6), dtype=np.float64)
+    for k, light in enumerate(scene.lights):
+        data[k, 3:6] = light.intensity
+        if light.type == "ambient":
+            kinds[k] = L.LIGHT_AMBIENT
+        elif light.type == "point":
+            kinds[k] = L.LIGHT_POINT
+            data[k, 0:3] = light.position
+        else:
+            kinds[k] = L.LIGHT_DIRECTIONAL
+            data[k, 0:3] = np.asarray(light.direction) / np.linalg.norm(light.direction)
+    return kinds, data
+
+
+class _TriangleSoup:
+    """Triangles gathered object by object before the BVH reorders them."""
+
+    def __init__(self):
+        self.parts: list[tuple] = []  # (verts (F, 9) f32, normals (F, 9) f32 or None, material, object)
+        self.degenerate = 0
+
+    def add(self, vertices9: np.ndarray, normals9: np.ndarray | None, material: int, obj: int):
+        self.parts.append((vertices9, normals9, material, obj))
+
+    def arrays(self):
+        if not self.parts:
+            empty9 = np.zeros((0, 9), dtype=np.float32)
+            return empty9, np.zeros((1, 9), np.float32), np.zeros(0, bool), *(np.zeros(0, np.int32),) * 3
+        verts = np.concatenate([p[0] for p in self.parts])
+        counts = [len(p[0]) for p in self.parts]
+        any_smooth = any(p[1] is not None for p in self.parts)
+        if any_smooth:
+            normals = np.concatenate([p[1] if p[1] is not None else np.zeros_like(p[0]) for p in self.parts])
+        else:
+            normals = np.zeros((1, 9), dtype=np.float32)
+        smooth = np.concatenate([np.full(n, p[1] is not None) for n, p in zip(counts, self.parts)])
+        material = np.concatenate([np.full(n, p[2], np.int32) for n, p in zip(counts, self.parts)])
+        obj = np.concatenate([np.full(n, p[3], np.int32) for n, p in zip(counts, self.parts)])
+        prim = np.concatenate([np.arange(n, dtype=np.int32) for n in counts])
+        return verts, normals, smooth, material, obj, prim
+
+
+def _load_mesh_object(scene: Scene, k: int, obj: Mesh, source):
+    path = Path(obj.file)
+    if not path.is_absolute():
+        path = scene.base_dir / path
+    t = obj.transform
+    try:
+        return load_mesh(path, translate=t.translate, rotate=t.rotate, scale=t.scale3, smooth=obj.smooth)
+    except MeshError as exc:
+        raise SceneError(f"{source}: objects[{k}].file: {exc}") from None
+
+
+def compile_scene(scene: Scene, width: int, height: int, source="<scene>") -> CompiledScene:
+    start = time.perf_counter()
+    materials: dict[Material, int] = {DEFAULT_MATERIAL: 0}
+
+    def material_index(obj) -> int:
+        return materials.setdefault(scene.material_of(obj), len(materials))
+
+    spheres, sphere_mat, sphere_obj = [], [], []
+    planes, plane_mat, plane_obj = [], [], []
+    soup = _TriangleSoup()
+    for k, obj in enumerate(scene.objects):
+        m = material_index(obj)
+        if isinstance(obj, Sphere):
+            spheres.append((*obj.center, obj.radius))
+            sphere_mat.append(m)
+            sphere_obj.append(k)
+        elif isinstance(obj, Plane):
+            n = np.asarray(obj.normal) / np.linalg.norm(obj.normal)
+            planes.append((*obj.point, *n))
+            plane_mat.append(m)
+            plane_obj.append(k)
+        elif isinstance(obj, Triangle):
+            soup.add(np.asarray(obj.vertices, dtype=np.float32).reshape(1, 9), None, m, k)
+        else:
+            mesh = _load_mesh_object(scene, k, obj, source)
+            verts = mesh.vertices.astype(np.float32)[mesh.faces].reshape(-1, 9)
+            normals = None if mesh.normals is None else mesh.normals.astype(np.float32)[mesh.faces].reshape(-1, 9)
+            soup.add(verts, normals, m, k)
+            soup.degenerate += mesh.degenerate
+
+    sphere_arr = np.asarray(spheres, dtype=np.float64).reshape(-1, 4)
+    tri, tri_n, tri_smooth, tri_mat, tri_obj, tri_prim = soup.arrays()
+    n_spheres, n_tris = len(sphere_arr), len(tri)
+
+    # Bounds of every BVH primitive: spheres first, then triangles (of the float32 vertices
+    # the kernels intersect, so the boxes are exact).
+    lo = np.empty((n_spheres + n_tris, 3), dtype=np.float64)
+    hi = np.empty_like(lo)
+    lo[:n_spheres] = sphere_arr[:, :3] - sphere_arr[:, 3:4]
+    hi[:n_spheres] = sphere_arr[:, :3] + sphere_arr[:, 3:4]
+    if n_tris:
+        corners = tri.reshape(-1, 3, 3)
+        lo[n_spheres:] = corners.min(axis=1)
+        hi[n_spheres:] = corners.max(axis=1)
+        del corners
+    bvh = build_bvh(lo, hi)
+
+    # Reorder so that leaves read consecutive triangles (cache-friendly traversal).
+    order = bvh.prim_order.astype(np.int64)
+    is_tri = order >= n_spheres
+    prim_type = np.where(is_tri, L.PRIM_TRIANGLE, L.PRIM_SPHERE).astype(np.int8)
+    prim_id = order.astype(np.int32)
+    tri_perm = order[is_tri] - n_spheres
+    prim_id[is_tri] = np.arange(n_tris, dtype=np.int32)
+    if n_tris:
+        tri, tri_smooth, tri_mat, tri_obj, tri_prim = (a[tri_perm] for a in (tri, tri_smooth, tri_mat, tri_obj, tri_prim))
+        if len(tri_n) == n_tris:
+            tri_n = tri_n[tri_perm]
+
+    mat_rows = np.stack([material_row(m) for m in materials])
+    finite_extent = [np.abs(lo).max() if len(lo) else 0.0, np.abs(hi).max() if len(hi) else 0.0]
+    if planes:
+        finite_extent.append(np.abs(np.asarray(planes)[:, :3]).max())
+    finite_extent.append(np.abs(scene.camera.position).max())
+    kinds, data = _lights(scene)
+    kernel = KernelScene(
+        materials=mat_rows,
+        light_kind=kinds,
+        light_data=data,
+        spheres=sphere_arr,
+        sphere_material=np.asarray(sphere_mat, dtype=np.int32),
+        sphere_object=np.asarray(sphere_obj, dtype=np.int32),
+        planes=np.asarray(planes, dtype=np.float64).reshape(-1, 6),
+        plane_material=np.asarray(plane_mat, dtype=np.int32),
+        plane_object=np.asarray(plane_obj, dtype=np.int32),
+        triangles=np.ascontiguousarray(tri),
+        triangle_normals=np.ascontiguousarray(tri_n),
+        triangle_smooth=tri_smooth,
+        triangle_material=tri_mat,
+        triangle_object=tri_obj,
+        triangle_prim=tri_prim,
+        node_bounds=bvh.node_bounds,
+        node_index=bvh.node_index,
+        prim_type=prim_type,
+        prim_id=prim_id,
+        has_transparency=bool((mat_rows[:, L.MAT_TRANSPARENCY] > 0).any()),
+        epsilon_floor=float(max(1e-3 * max(finite_extent), 1e-30)),
+    )
+    cam = scene.camera
+    camera = camera_frame(cam.position, cam.look_at, cam.up, cam.fov, width, height)
+    stats = {
+        "primitives": n_spheres + n_tris + len(planes),
+        "triangles": n_tris,
+        "degenerate_triangles": soup.degenerate,
+        "bvh_nodes": int(len(bvh.node_index)),
+        "bvh_bytes": int(bvh_nbytes(bvh) + prim_type.nbytes + prim_id.nbytes),
+        "build_seconds": time.perf_counter() - start,
+    }
+    return CompiledScene(kernel, camera, stats)

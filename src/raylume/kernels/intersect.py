@@ -1,0 +1,131 @@
+"""Ray-primitive intersection: spheres, planes, triangles (watertight), boxes.
+
+All arithmetic in float64, whatever the storage precision. Rays have unit directions.
+Each function returns the hit distance, or +inf for no hit in (tmin, tmax).
+"""
+
+import math
+
+from numba import njit
+
+from .vec import FAST, dot, sub
+
+INF = math.inf
+
+
+@njit(fastmath=FAST)
+def intersect_sphere(o, d, center, radius, tmin, tmax):
+    """The seed's quadratic in a stable form (Ray Tracing Gems ch. 7): the discriminant is
+    computed from the ray's closest approach, and the second root via Vieta, so neither a
+    radius-5000 sphere nor a grazing ray loses precision to cancellation."""
+    co = sub(o, center)
+    b = dot(co, d)  # half the seed's b, with a = dot(D, D) = 1
+    px = co[0] - b * d[0]
+    py = co[1] - b * d[1]
+    pz = co[2] - b * d[2]
+    disc = radius * radius - (px * px + py * py + pz * pz)
+    if disc < 0.0:
+        return INF
+    c = dot(co, co) - radius * radius
+    q = -b - math.copysign(math.sqrt(disc), b)
+    if q == 0.0:
+        return INF
+    t0 = c / q
+    t1 = q
+    if t0 > t1:
+        t0, t1 = t1, t0
+    if t0 > tmin and t0 < tmax:
+        return t0
+    if t1 > tmin and t1 < tmax:
+        return t1
+    return INF
+
+
+@njit(fastmath=FAST)
+def intersect_plane(o, d, point, normal, tmin, tmax):
+    denom = dot(d, normal)
+    if denom == 0.0:
+        return INF
+    t = dot(sub(point, o), normal) / denom
+    if t > tmin and t < tmax:
+        return t
+    return INF
+
+
+@njit(fastmath=FAST)
+def ray_shear(d):
+    """Per-ray constants of the watertight test (Woop, Benthin, Wald 2013)."""
+    ax, ay, az = abs(d[0]), abs(d[1]), abs(d[2])
+    kz = 0
+    if ay > ax and ay >= az:
+        kz = 1
+    elif az > ax and az > ay:
+        kz = 2
+    kx = (kz + 1) % 3
+    ky = (kx + 1) % 3
+    if d[kz] < 0.0:
+        kx, ky = ky, kx
+    sz = 1.0 / d[kz]
+    return kx, ky, kz, d[kx] * sz, d[ky] * sz, sz
+
+
+@njit(fastmath=FAST)
+def intersect_triangle(o, shear, tri, i, tmin, tmax):
+    """Watertight ray-triangle test against row i of tri (float32 (T, 9): v0, v1, v2).
+
+    Returns (t, b1, b2): b1, b2 are the barycentric weights of v1 and v2. Edges shared by two
+    triangles are evaluated identically from both sides, so closed meshes have no pinholes."""
+    kx, ky, kz, sx, sy, sz = shear
+    ax = tri[i, kx] - o[kx]
+    ay = tri[i, ky] - o[ky]
+    az = tri[i, kz] - o[kz]
+    bx = tri[i, 3 + kx] - o[kx]
+    by = tri[i, 3 + ky] - o[ky]
+    bz = tri[i, 3 + kz] - o[kz]
+    cx = tri[i, 6 + kx] - o[kx]
+    cy = tri[i, 6 + ky] - o[ky]
+    cz = tri[i, 6 + kz] - o[kz]
+    ax -= sx * az
+    ay -= sy * az
+    bx -= sx * bz
+    by -= sy * bz
+    cx -= sx * cz
+    cy -= sy * cz
+    u = cx * by - cy * bx
+    v = ax * cy - ay * cx
+    w = bx * ay - by * ax
+    if (u < 0.0 or v < 0.0 or w < 0.0) and (u > 0.0 or v > 0.0 or w > 0.0):
+        return INF, 0.0, 0.0
+    det = u + v + w
+    if det == 0.0:
+        return INF, 0.0, 0.0
+    t = (u * az + v * bz + w * cz) * sz / det
+    if t > tmin and t < tmax:
+        return t, v / det, w / det
+    return INF, 0.0, 0.0
+
+
+@njit(fastmath=FAST)
+def intersect_box(bounds, n, o, inv_d, tmax):
+    """Slab test against node n of bounds (float32 (M, 6)); entry distance or +inf."""
+    t0x = (bounds[n, 0] - o[0]) * inv_d[0]
+    t1x = (bounds[n, 3] - o[0]) * inv_d[0]
+    t0y = (bounds[n, 1] - o[1]) * inv_d[1]
+    t1y = (bounds[n, 4] - o[1]) * inv_d[1]
+    t0z = (bounds[n, 2] - o[2]) * inv_d[2]
+    t1z = (bounds[n, 5] - o[2]) * inv_d[2]
+    tnear = max(min(t0x, t1x), min(t0y, t1y), min(t0z, t1z), 0.0)
+    # Widen the far side by a few ulps so rounding never culls a box the ray touches.
+    tfar = min(max(t0x, t1x), max(t0y, t1y), max(t0z, t1z), tmax) * 1.0000000000000004
+    if tnear <= tfar:
+        return tnear
+    return INF
+
+
+@njit(fastmath=FAST)
+def safe_inverse(d):
+    """1/d with zero components replaced by a huge finite value (no inf * 0 = NaN in slabs)."""
+    out0 = 1.0 / d[0] if d[0] != 0.0 else 1e200
+    out1 = 1.0 / d[1] if d[1] != 0.0 else 1e200
+    out2 = 1.0 / d[2] if d[2] != 0.0 else 1e200
+    return (out0, out1, out2)

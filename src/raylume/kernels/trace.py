@@ -1,0 +1,114 @@
+"""Whitted ray tracing: local lighting with shadows, mirror reflection and refraction.
+
+The seed's recursive TraceRay becomes an explicit stack of weighted rays: each hit adds its
+weighted local colour and may push a reflected and a transmitted ray. A surface with
+reflectivity r and transparency T contributes (1 - T)(1 - r) local, reflects (1 - T) r + T F
+and transmits T (1 - F), F being the Fresnel reflectance. With T = 0 this is exactly the seed's
+local * (1 - r) + reflected * r. At depth 0 the surface returns its local colour, as the seed does.
+"""
+
+import math
+
+from numba import njit
+
+from .intersect import INF
+from .layout import MAT_ABSORPTION, MAT_IOR, MAT_REFLECTIVE, MAT_TRANSPARENCY
+from .optics import fresnel_dielectric, reflect, refract
+from .shade import albedo_at, local_lighting, ray_epsilon, surface_at
+from .traverse import closest_hit
+from .vec import FAST, dot, hadamard, madd, mul
+
+# Branches whose weight falls below this cannot change an 8-bit pixel.
+MIN_WEIGHT = 1e-4
+
+
+@njit(fastmath=FAST)
+def trace_ray(S, o, d, max_depth, background, rays, node_stack, t_stack):
+    """Colour seen along the ray (o, d). `rays` is a float64 (K, 10) work stack of
+    origin, direction, weight, depth. Returns (rgb, rays traced)."""
+    cr = 0.0
+    cg = 0.0
+    cb = 0.0
+    count = 0
+    top = 0
+    _push(rays, top, o, d, (1.0, 1.0, 1.0), max_depth)
+    top = 1
+    while top > 0:
+        top -= 1
+        o = (rays[top, 0], rays[top, 1], rays[top, 2])
+        d = (rays[top, 3], rays[top, 4], rays[top, 5])
+        w = (rays[top, 6], rays[top, 7], rays[top, 8])
+        depth = int(rays[top, 9])
+        t, kind, index, b1, b2 = closest_hit(S, o, d, 0.0, INF, node_stack, t_stack)
+        count += 1
+        if t == INF:
+            cr += w[0] * background[0]
+            cg += w[1] * background[1]
+            cb += w[2] * background[2]
+            continue
+        p = madd(o, d, t)
+        ng, ns, m, obj, prim = surface_at(S, kind, index, b1, b2, p)
+        mat = S.materials
+        entering = dot(ng, d) < 0.0
+        if not entering:
+            # The segment just travelled lay inside this surface's medium: Beer-Lambert.
+            w = (
+                w[0] * math.exp(-mat[m, MAT_ABSORPTION] * t),
+                w[1] * math.exp(-mat[m, MAT_ABSORPTION + 1] * t),
+                w[2] * math.exp(-mat[m, MAT_ABSORPTION + 2] * t),
+            )
+            ng = mul(ng, -1.0)
+            ns = mul(ns, -1.0)
+        # ng, ns now face the incoming ray; a shading normal bent past the horizon is clamped.
+        if dot(ns, d) >= 0.0:
+            ns = ng
+        eps = ray_epsilon(S, p)
+        outside = madd(p, ng, eps)
+        view = mul(d, -1.0)
+        light, shadow_rays = local_lighting(S, outside, ns, view, m, True, node_stack, t_stack)
+        count += shadow_rays
+        local = hadamard(albedo_at(S, m, p), light)
+        if depth <= 0:
+            cr += w[0] * local[0]
+            cg += w[1] * local[1]
+            cb += w[2] * local[2]
+            continue
+        r = mat[m, MAT_REFLECTIVE]
+        transparency = mat[m, MAT_TRANSPARENCY]
+        fresnel = 0.0
+        cos_i = -dot(ns, d)
+        cos_t = 0.0
+        eta = 1.0
+        if transparency > 0.0:
+            ior = mat[m, MAT_IOR]
+            eta = 1.0 / ior if entering else ior
+            fresnel, cos_t = fresnel_dielectric(cos_i, eta)
+        k_local = (1.0 - transparency) * (1.0 - r)
+        cr += w[0] * k_local * local[0]
+        cg += w[1] * k_local * local[1]
+        cb += w[2] * k_local * local[2]
+        k_reflect = (1.0 - transparency) * r + transparency * fresnel
+        w_reflect = mul(w, k_reflect)
+        if max(w_reflect[0], w_reflect[1], w_reflect[2]) > MIN_WEIGHT and top < rays.shape[0]:
+            _push(rays, top, outside, reflect(d, ns), w_reflect, depth - 1)
+            top += 1
+        w_transmit = mul(w, transparency * (1.0 - fresnel))
+        if max(w_transmit[0], w_transmit[1], w_transmit[2]) > MIN_WEIGHT and top < rays.shape[0]:
+            inside = madd(p, ng, -eps)
+            _push(rays, top, inside, refract(d, ns, eta, cos_i, cos_t), w_transmit, depth - 1)
+            top += 1
+    return (cr, cg, cb), count
+
+
+@njit(fastmath=FAST)
+def _push(rays, top, o, d, w, depth):
+    rays[top, 0] = o[0]
+    rays[top, 1] = o[1]
+    rays[top, 2] = o[2]
+    rays[top, 3] = d[0]
+    rays[top, 4] = d[1]
+    rays[top, 5] = d[2]
+    rays[top, 6] = w[0]
+    rays[top, 7] = w[1]
+    rays[top, 8] = w[2]
+    rays[top, 9] = depth

@@ -1,0 +1,120 @@
+"""One render call: compile the scene, run the mode's kernels tile by tile, collect the Image."""
+
+from __future__ import annotations
+
+import math
+import time
+from typing import Callable
+
+import numba
+import numpy as np
+
+from .compile import compile_scene
+from .image import Image
+from .kernels.frame import render_rows
+from .kernels.layout import MODE_CAST, MODE_TRACE
+from .scene.model import Scene
+
+AOV_NAMES = ("depth", "normal", "object", "prim", "albedo")
+_MODES = {"cast": MODE_CAST, "trace": MODE_TRACE}
+# Rows per kernel call are chosen so each call takes about this long: short enough for a
+# smooth progress bar and a prompt Ctrl-C, long enough that call overhead does not show.
+TARGET_CALL_SECONDS = 0.2
+
+
+def render(
+    scene: Scene,
+    *,
+    width: int | None = None,
+    height: int | None = None,
+    spp: int | None = None,
+    mode: str | None = None,
+    max_depth: int | None = None,
+    seed: int | None = None,
+    threads: int | None = None,
+    aovs: bool = True,
+    progress: Callable[[int, int], None] | None = None,
+    source: str = "<scene>",
+) -> Image:
+    """Render `scene` (flags override its [render] table). Returns an Image with linear float32
+    RGB, the AOVs of DESIGN.md when `aovs` is true, and the stats dictionary."""
+    scene = scene.with_render(width=width, height=height, spp=spp, mode=mode, max_depth=max_depth, seed=seed)
+    settings = scene.render
+    W, H = settings.width, settings.height
+    threads = _set_threads(threads)
+
+    compiled = compile_scene(scene, W, H, source=source)
+    if settings.mode == "raster":
+        from .raster import rasterize
+
+        rgb, aov_arrays, kernel_seconds, rays = rasterize(scene, compiled, progress=progress)
+        primary = 0
+    else:
+        rgb, aov_arrays, kernel_seconds, rays = _ray_render(scene, compiled, aovs, progress)
+        primary = W * H * settings.spp
+    stats = {
+        "width": W,
+        "height": H,
+        "spp": settings.spp,
+        "mode": settings.mode,
+        "threads": threads,
+        **compiled.stats,
+        "rays": int(rays),
+        "primary_rays": int(primary),
+        "render_seconds": kernel_seconds,
+        "mrays_per_second": (rays / kernel_seconds / 1e6) if kernel_seconds > 0 else 0.0,
+    }
+    return Image(rgb, aov_arrays if aovs else {}, stats, settings.encoding)
+
+
+def _set_threads(threads: int | None) -> int:
+    if threads is not None:
+        if not 1 <= threads <= numba.config.NUMBA_NUM_THREADS:
+            raise ValueError(f"threads must be between 1 and {numba.config.NUMBA_NUM_THREADS}")
+        numba.set_num_threads(threads)
+    else:
+        numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+    return numba.get_num_threads()
+
+
+def allocate_aovs(H: int, W: int) -> dict:
+    return {
+        "depth": np.full((H, W), np.inf, dtype=np.float32),
+        "normal": np.zeros((H, W, 3), dtype=np.float32),
+        "object": np.full((H, W), -1, dtype=np.int32),
+        "prim": np.full((H, W), -1, dtype=np.int32),
+        "albedo": np.zeros((H, W, 3), dtype=np.float32),
+    }
+
+
+def _ray_render(scene: Scene, compiled, want_aovs: bool, progress):
+    settings = scene.render
+    W, H = settings.width, settings.height
+    rgb = np.zeros((H, W, 3), dtype=np.float32)
+    aov = allocate_aovs(H, W) if want_aovs else allocate_aovs(1, 1)
+    rays_per_row = np.zeros(H, dtype=np.int64)
+    background = np.asarray(settings.background, dtype=np.float64)
+
+    def run(row_begin: int, row_end: int) -> None:
+        render_rows(
+            compiled.kernel, compiled.camera, W, H, row_begin, row_end, settings.spp, settings.seed,
+            _MODES[settings.mode], settings.max_depth, background, want_aovs, rgb,
+            aov["depth"], aov["normal"], aov["object"], aov["prim"], aov["albedo"], rays_per_row,
+        )
+
+    run(0, 0)  # compile (or load from the cache) before any timing starts
+    kernel_seconds = 0.0
+    row = 0
+    rows_per_call = max(1, min(H, 2 * numba.get_num_threads()))
+    while row < H:
+        end = min(H, row + rows_per_call)
+        t0 = time.perf_counter()
+        run(row, end)
+        elapsed = time.perf_counter() - t0
+        kernel_seconds += elapsed
+        per_row = elapsed / (end - row)
+        rows_per_call = max(1, min(H, int(math.ceil(TARGET_CALL_SECONDS / max(per_row, 1e-9)))))
+        row = end
+        if progress is not None:
+            progress(row, H)
+    return rgb, (aov if want_aovs else {}), kernel_seconds, rays_per_row.sum()

@@ -1,0 +1,360 @@
+"""The user-facing scene model: validated pydantic objects mirroring the scene-file schema.
+
+Every table is optional and unknown keys are errors (DESIGN.md section 3). Tagged unions use
+callable discriminators whose tags are written ``<name>`` so that error paths can drop them
+(``objects[2].radius``, not ``objects.2.sphere.radius``).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Annotated, Literal, Union
+
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Discriminator,
+    Field,
+    PrivateAttr,
+    Tag,
+    field_validator,
+    model_validator,
+)
+
+# Limits that keep a render inside memory and time a user would expect (documented in README).
+MAX_SIDE = 16384
+MAX_SPP = 4096
+MAX_DEPTH = 64
+
+
+class Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, frozen=True)
+
+
+FiniteFloat = Annotated[float, Field(allow_inf_nan=False)]
+Vec3 = tuple[FiniteFloat, FiniteFloat, FiniteFloat]
+
+
+def _parse_hex(value: str) -> tuple[float, float, float]:
+    text = value.strip()
+    if not (len(text) == 7 and text[0] == "#"):
+        raise ValueError(f"colour string {value!r} must look like '#rrggbb'")
+    try:
+        return tuple(int(text[k : k + 2], 16) / 255.0 for k in (1, 3, 5))  # type: ignore[return-value]
+    except ValueError:
+        raise ValueError(f"colour string {value!r} must look like '#rrggbb'") from None
+
+
+def _colour(value, *, upper: float | None):
+    """Accept [r, g, b] (linear floats) or '#rrggbb'; check components lie in 0..upper."""
+    if isinstance(value, str):
+        rgb = _parse_hex(value)
+    else:
+        if not isinstance(value, (list, tuple)) or len(value) != 3:
+            raise ValueError("a colour is [r, g, b] or '#rrggbb'")
+        for c in value:
+            if isinstance(c, bool) or not isinstance(c, (int, float)):
+                raise ValueError(f"colour components must be numbers, got {c!r}")
+            if not math.isfinite(c):
+                raise ValueError("colour components must be finite numbers")
+        rgb = tuple(float(c) for c in value)
+    if min(rgb) < 0 or (upper is not None and max(rgb) > upper):
+        allowed = f"0..{upper:g}" if upper is not None else ">= 0"
+        raise ValueError(f"colour components must be in {allowed}, got {list(rgb)}")
+    return rgb
+
+
+Color = Annotated[tuple[float, float, float], Field()]
+
+
+def _intensity(value):
+    """A light intensity: a number (grey) or [r, g, b], each >= 0 (may exceed 1)."""
+    if isinstance(value, bool):
+        raise ValueError("intensity must be a number or [r, g, b]")
+    if isinstance(value, (int, float)):
+        if not math.isfinite(value) or value < 0:
+            raise ValueError(f"intensity must be a finite number >= 0, got {value}")
+        return (float(value),) * 3
+    return _colour(value, upper=None)
+
+
+def _nonzero(v: Vec3, what: str) -> Vec3:
+    if v[0] == 0 and v[1] == 0 and v[2] == 0:
+        raise ValueError(f"{what} must not be the zero vector")
+    return v
+
+
+class RenderSettings(Strict):
+    width: int = Field(600, ge=1, le=MAX_SIDE)
+    height: int = Field(600, ge=1, le=MAX_SIDE)
+    spp: int = Field(1, ge=1, le=MAX_SPP)
+    max_depth: int = Field(3, ge=0, le=MAX_DEPTH)
+    mode: Literal["cast", "trace", "raster"] = "trace"
+    background: Color = (0.0, 0.0, 0.0)
+    encoding: Literal["clamp", "srgb"] = "clamp"
+    seed: int = Field(0, ge=0, le=2**32 - 1)
+
+    @field_validator("background", mode="before")
+    @classmethod
+    def _bg(cls, v):
+        return _colour(v, upper=None)
+
+
+class Camera(Strict):
+    position: Vec3 = (0.0, 0.0, 0.0)
+    look_at: Vec3 = (0.0, 0.0, 1.0)
+    up: Vec3 = (0.0, 1.0, 0.0)
+    fov: FiniteFloat = Field(53.13, gt=0, lt=180)
+
+    @model_validator(mode="after")
+    def _frame(self):
+        f = [b - a for a, b in zip(self.position, self.look_at)]
+        if not any(f):
+            raise ValueError("look_at must differ from position")
+        _nonzero(self.up, "up")
+        cross = (
+            self.up[1] * f[2] - self.up[2] * f[1],
+            self.up[2] * f[0] - self.up[0] * f[2],
+            self.up[0] * f[1] - self.up[1] * f[0],
+        )
+        norm_f = math.sqrt(sum(c * c for c in f))
+        norm_u = math.sqrt(sum(c * c for c in self.up))
+        if math.sqrt(sum(c * c for c in cross)) <= 1e-9 * norm_f * norm_u:
+            raise ValueError("up must not be parallel to the viewing direction (look_at - position)")
+        return self
+
+
+class Checker(Strict):
+    """A 3D checkerboard in world space: cells of side `scale` alternate between two colours."""
+
+    type: Literal["checker"]
+    colors: tuple[Color, Color] = ((1.0, 1.0, 1.0), (0.1, 0.1, 0.1))
+    scale: FiniteFloat = Field(1.0, gt=0)
+
+    @field_validator("colors", mode="before")
+    @classmethod
+    def _cols(cls, v):
+        if not isinstance(v, (list, tuple)) or len(v) != 2:
+            raise ValueError("colors must be a list of two colours")
+        return tuple(_colour(c, upper=1.0) for c in v)
+
+
+class Material(Strict):
+    color: Color = (1.0, 1.0, 1.0)
+    specular: FiniteFloat | None = Field(None, gt=0)
+    reflective: FiniteFloat = Field(0.0, ge=0, le=1)
+    transparency: FiniteFloat = Field(0.0, ge=0, le=1)
+    ior: FiniteFloat = Field(1.5, gt=0)
+    absorption: Color = (0.0, 0.0, 0.0)
+    texture: Checker | None = None
+
+    @field_validator("color", mode="before")
+    @classmethod
+    def _col(cls, v):
+        return _colour(v, upper=1.0)
+
+    @field_validator("absorption", mode="before")
+    @classmethod
+    def _abs(cls, v):
+        return _colour(v, upper=None)
+
+    @model_validator(mode="after")
+    def _energy(self):
+        if self.reflective + self.transparency > 1 + 1e-9:
+            raise ValueError("reflective + transparency must not exceed 1")
+        return self
+
+
+def _tag_by_type(value):
+    if isinstance(value, dict):
+        kind = value.get("type")
+        return f"<{kind}>" if isinstance(kind, str) else None
+    kind = getattr(value, "type", None)
+    return f"<{kind}>" if kind else None
+
+
+def _material_tag(value):
+    if isinstance(value, str):
+        return "<name>"
+    if isinstance(value, (dict, Material)):
+        return "<inline>"
+    return None
+
+
+MaterialRef = Annotated[
+    Union[Annotated[str, Tag("<name>")], Annotated[Material, Tag("<inline>")]],
+    Discriminator(
+        _material_tag,
+        custom_error_type="material_ref",
+        custom_error_message="material must be a name from [materials] or an inline table",
+    ),
+]
+
+
+class _LightBase(Strict):
+    intensity: Color = (1.0, 1.0, 1.0)
+
+    @field_validator("intensity", mode="before")
+    @classmethod
+    def _i(cls, v):
+        return _intensity(v)
+
+
+class AmbientLight(_LightBase):
+    type: Literal["ambient"]
+    intensity: Color = (0.2, 0.2, 0.2)
+
+
+class PointLight(_LightBase):
+    type: Literal["point"]
+    position: Vec3
+
+
+class DirectionalLight(_LightBase):
+    type: Literal["directional"]
+    direction: Vec3  # pointing towards the light
+
+    @field_validator("direction")
+    @classmethod
+    def _d(cls, v):
+        return _nonzero(v, "direction")
+
+
+LIGHT_TYPES = ("ambient", "point", "directional")
+Light = Annotated[
+    Union[
+        Annotated[AmbientLight, Tag("<ambient>")],
+        Annotated[PointLight, Tag("<point>")],
+        Annotated[DirectionalLight, Tag("<directional>")],
+    ],
+    Discriminator(
+        _tag_by_type,
+        custom_error_type="unknown_type",
+        custom_error_message=f"type must be one of: {', '.join(LIGHT_TYPES)}",
+    ),
+]
+
+
+class Sphere(Strict):
+    type: Literal["sphere"]
+    center: Vec3
+    radius: FiniteFloat = Field(gt=0)
+    material: MaterialRef = "default"
+
+
+class Plane(Strict):
+    type: Literal["plane"]
+    point: Vec3 = (0.0, 0.0, 0.0)
+    normal: Vec3 = (0.0, 1.0, 0.0)
+    material: MaterialRef = "default"
+
+    @field_validator("normal")
+    @classmethod
+    def _n(cls, v):
+        return _nonzero(v, "normal")
+
+
+class Triangle(Strict):
+    type: Literal["triangle"]
+    vertices: tuple[Vec3, Vec3, Vec3]
+    material: MaterialRef = "default"
+
+    @field_validator("vertices")
+    @classmethod
+    def _area(cls, v):
+        a, b, c = v
+        e1 = [b[k] - a[k] for k in range(3)]
+        e2 = [c[k] - a[k] for k in range(3)]
+        n = (e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0])
+        if not any(n):
+            raise ValueError("the triangle's vertices are collinear (zero area)")
+        return v
+
+
+class Transform(Strict):
+    translate: Vec3 = (0.0, 0.0, 0.0)
+    rotate: Vec3 = (0.0, 0.0, 0.0)  # degrees, applied about x, then y, then z
+    scale: FiniteFloat | Vec3 = 1.0
+
+    @field_validator("scale")
+    @classmethod
+    def _s(cls, v):
+        values = (v,) * 3 if isinstance(v, float) else v
+        if any(c == 0 for c in values):
+            raise ValueError("scale factors must be non-zero")
+        return v
+
+    @property
+    def scale3(self) -> tuple[float, float, float]:
+        return (self.scale,) * 3 if isinstance(self.scale, float) else self.scale
+
+
+class Mesh(Strict):
+    type: Literal["mesh"]
+    file: str
+    material: MaterialRef = "default"
+    transform: Transform = Transform()
+    smooth: bool | None = None  # None: use the file's vertex normals when it has them
+
+
+OBJECT_TYPES = ("sphere", "plane", "triangle", "mesh")
+SceneObject = Annotated[
+    Union[
+        Annotated[Sphere, Tag("<sphere>")],
+        Annotated[Plane, Tag("<plane>")],
+        Annotated[Triangle, Tag("<triangle>")],
+        Annotated[Mesh, Tag("<mesh>")],
+    ],
+    Discriminator(
+        _tag_by_type,
+        custom_error_type="unknown_type",
+        custom_error_message=f"type must be one of: {', '.join(OBJECT_TYPES)}",
+    ),
+]
+
+DEFAULT_MATERIAL = Material()
+
+
+class Scene(Strict):
+    render: RenderSettings = RenderSettings()
+    camera: Camera = Camera()
+    materials: dict[str, Material] = {}
+    lights: list[Light] = []
+    objects: list[SceneObject] = []
+
+    # Folder that relative paths (mesh files) are resolved against; set by the loader.
+    _base_dir: Path = PrivateAttr(default_factory=Path.cwd)
+
+    @model_validator(mode="after")
+    def _material_names(self):
+        for k, obj in enumerate(self.objects):
+            ref = obj.material
+            if isinstance(ref, str) and ref != "default" and ref not in self.materials:
+                known = ", ".join(sorted(self.materials)) or "none are defined"
+                raise ValueError(
+                    f"objects[{k}].material: no material named {ref!r} in [materials] ({known})"
+                )
+        return self
+
+    @property
+    def base_dir(self) -> Path:
+        return self._base_dir
+
+    def with_base_dir(self, base_dir: Path) -> "Scene":
+        self._base_dir = Path(base_dir)
+        return self
+
+    def material_of(self, obj) -> Material:
+        ref = obj.material
+        if isinstance(ref, Material):
+            return ref
+        return self.materials.get(ref, DEFAULT_MATERIAL)
+
+    def with_render(self, **overrides) -> "Scene":
+        """A copy whose [render] table has the given (non-None) values replaced, re-validated."""
+        values = {k: v for k, v in overrides.items() if v is not None}
+        if not values:
+            return self
+        render = RenderSettings.model_validate({**self.render.model_dump(), **values})
+        return self.model_copy(update={"render": render}).with_base_dir(self.base_dir)
