@@ -1,0 +1,63 @@
+"""Camera rays at the corners and centre, against DESIGN.md's formula and the seed's viewport."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from raylume.kernels.camera import camera_frame, camera_ray
+
+
+def _ray(pos, look, up, fov, W, H, i, j):
+    cam = camera_frame(pos, look, up, fov, W, H)
+    o, d = camera_ray(cam, i + 0.5, j + 0.5, W, H)
+    return np.array(o), np.array(d)
+
+
+def test_default_camera_centre_looks_along_plus_z():
+    o, d = _ray((0, 0, 0), (0, 0, 1), (0, 1, 0), 53.13, 3, 3, 1, 1)
+    np.testing.assert_allclose(o, 0)
+    np.testing.assert_allclose(d, (0, 0, 1), atol=1e-15)
+
+
+def test_seed_viewport_corners():
+    """The seed: viewport 1 x 1 at distance 1; pixel (0, 0) is the top-left, +x to the right."""
+    W = H = 600
+    h = math.tan(math.radians(53.13) / 2)
+    for (i, j), (sx, sy) in {(0, 0): (-1, 1), (W - 1, 0): (1, 1), (0, H - 1): (-1, -1), (W - 1, H - 1): (1, -1)}.items():
+        _, d = _ray((0, 0, 0), (0, 0, 1), (0, 1, 0), 53.13, W, H, i, j)
+        v = d / d[2]  # back onto the viewport plane z = 1
+        expected = (sx * (1 - 1 / W) * h, sy * (1 - 1 / H) * h)
+        np.testing.assert_allclose(v[:2], expected, atol=1e-12)
+        assert abs(v[0]) < 0.5 and abs(v[1]) < 0.5  # the seed's Vw = Vh = 1
+
+
+def test_aspect_ratio_widens_horizontal_field():
+    W, H = 200, 100
+    _, d = _ray((0, 0, 0), (0, 0, 1), (0, 1, 0), 90, W, H, W - 1, H // 2)
+    # vertical half-extent tan(45) = 1, so the horizontal half-extent is 2
+    assert d[0] / d[2] == pytest.approx(2 * (1 - 1 / W), rel=1e-12)
+
+
+def test_left_handed_frame_for_arbitrary_camera():
+    pos, look, up = np.array([1.0, 2.0, 3.0]), np.array([4.0, 0.0, -1.0]), np.array([0.0, 1.0, 0.0])
+    f = (look - pos) / np.linalg.norm(look - pos)
+    r = np.cross(up, f)
+    r /= np.linalg.norm(r)
+    u = np.cross(f, r)
+    W, H, fov = 64, 48, 60.0
+    h = math.tan(math.radians(fov) / 2)
+    w = h * W / H
+    for i, j in [(0, 0), (63, 0), (0, 47), (63, 47), (31, 20)]:
+        a = (i + 0.5) / W * 2 - 1
+        b = 1 - (j + 0.5) / H * 2
+        expected = f + r * a * w + u * b * h
+        expected /= np.linalg.norm(expected)
+        o, d = _ray(pos, look, up, fov, W, H, i, j)
+        np.testing.assert_allclose(o, pos)
+        np.testing.assert_allclose(d, expected, atol=1e-12)
+    # looking down -z with y up, +x appears on the left (DESIGN.md)
+    _, d_left = _ray((0, 0, 0), (0, 0, -1), (0, 1, 0), 60, 64, 64, 0, 32)
+    assert d_left[0] > 0

@@ -1,0 +1,91 @@
+"""Ray-primitive intersection against analytic answers."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from raylume.kernels.intersect import INF, intersect_box, intersect_plane, intersect_sphere, safe_inverse
+
+O = (0.0, 0.0, 0.0)
+Z = (0.0, 0.0, 1.0)
+
+
+def test_sphere_hit_from_outside_returns_near_root():
+    assert intersect_sphere(O, Z, (0.0, 0.0, 5.0), 1.0, 0.0, INF) == pytest.approx(4.0, abs=1e-12)
+
+
+def test_sphere_hit_from_inside_returns_far_root():
+    assert intersect_sphere(O, Z, (0.0, 0.0, 0.5), 2.0, 0.0, INF) == pytest.approx(2.5, abs=1e-12)
+
+
+def test_sphere_behind_origin_is_missed():
+    assert intersect_sphere(O, Z, (0.0, 0.0, -5.0), 1.0, 0.0, INF) == INF
+
+
+def test_sphere_tangent_ray_touches_once():
+    t = intersect_sphere((1.0, 0.0, 0.0), Z, (0.0, 0.0, 5.0), 1.0, 0.0, INF)
+    assert t == pytest.approx(5.0, abs=1e-6)
+
+
+def test_sphere_just_outside_tangent_is_missed():
+    assert intersect_sphere((1.0 + 1e-9, 0.0, 0.0), Z, (0.0, 0.0, 5.0), 1.0, 0.0, INF) == INF
+
+
+def test_sphere_respects_tmax():
+    assert intersect_sphere(O, Z, (0.0, 0.0, 5.0), 1.0, 0.0, 3.9) == INF
+
+
+def test_huge_ground_sphere_is_precise():
+    """The seed's radius-5000 ground sphere: the hit lies on the surface to ~1e-9."""
+    d = (0.0, -math.sin(0.3), math.cos(0.3))
+    center = (0.0, -5001.0, 0.0)
+    t = intersect_sphere(O, d, center, 5000.0, 0.0, INF)
+    p = tuple(t * c for c in d)
+    r = math.dist(p, center)
+    assert abs(r - 5000.0) < 1e-9
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    st.tuples(*[st.floats(-100, 100)] * 3),
+    st.tuples(*[st.floats(-1, 1)] * 3).filter(lambda v: sum(c * c for c in v) > 1e-3),
+    st.tuples(*[st.floats(-100, 100)] * 3),
+    st.floats(1e-3, 100),
+)
+def test_sphere_hits_lie_on_the_sphere(o, d, c, r):
+    n = math.sqrt(sum(x * x for x in d))
+    d = tuple(x / n for x in d)
+    t = intersect_sphere(o, d, c, r, 0.0, INF)
+    if t == INF:
+        # a miss means the line's closest approach is outside, or the sphere is behind
+        oc = [c[k] - o[k] for k in range(3)]
+        along = sum(oc[k] * d[k] for k in range(3))
+        closest = math.sqrt(max(0.0, sum(x * x for x in oc) - along * along))
+        assert closest >= r * (1 - 1e-9) or along < r
+    else:
+        assert t > 0 and math.isfinite(t)
+        p = [o[k] + t * d[k] for k in range(3)]
+        assert abs(math.dist(p, c) - r) <= 1e-9 * max(1.0, r, math.dist(o, c))
+
+
+def test_plane_hit_and_parallel_miss():
+    assert intersect_plane(O, Z, (0.0, 0.0, 3.0), (0.0, 0.0, -1.0), 0.0, INF) == pytest.approx(3.0)
+    assert intersect_plane(O, (1.0, 0.0, 0.0), (0.0, 0.0, 3.0), (0.0, 0.0, 1.0), 0.0, INF) == INF
+    assert intersect_plane(O, Z, (0.0, 0.0, -3.0), (0.0, 0.0, 1.0), 0.0, INF) == INF
+
+
+def test_box_slab_test_including_axis_parallel_rays():
+    bounds = np.array([[-1, -1, 2, 1, 1, 4]], dtype=np.float32)
+    assert intersect_box(bounds, 0, O, safe_inverse(Z), INF) == pytest.approx(2.0)
+    # parallel to x and y axes, inside the slab: hit; outside the slab: miss
+    assert intersect_box(bounds, 0, (0.5, 0.5, 0.0), safe_inverse(Z), INF) == pytest.approx(2.0)
+    assert intersect_box(bounds, 0, (1.5, 0.0, 0.0), safe_inverse(Z), INF) == INF
+    # origin inside the box: entry distance 0
+    assert intersect_box(bounds, 0, (0.0, 0.0, 3.0), safe_inverse(Z), INF) == 0.0
+    # box beyond tmax is culled
+    assert intersect_box(bounds, 0, O, safe_inverse(Z), 1.5) == INF

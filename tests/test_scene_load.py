@@ -1,0 +1,119 @@
+"""Scene files: valid documents load; each kind of bad input names the file and the key path."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+import raylume
+from raylume.errors import SceneError
+from raylume.scene.load import load_scene, scene_from_dict
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+
+
+def test_every_example_and_builtin_loads():
+    files = sorted(EXAMPLES.glob("*.toml")) + sorted(EXAMPLES.glob("*.json"))
+    assert len(files) >= 3
+    for path in files:
+        assert load_scene(path).objects, path
+    for name in raylume.builtin_names():
+        assert raylume.builtin_scene(name).objects
+
+
+def test_example_seed_equals_builtin_seed():
+    assert load_scene(EXAMPLES / "seed.toml").model_dump() == raylume.builtin_scene("seed").model_dump()
+
+
+def test_toml_and_json_give_the_same_scene(tmp_path):
+    doc = {
+        "render": {"width": 8, "height": 4},
+        "materials": {"red": {"color": "#ff0000", "specular": 10}},
+        "lights": [{"type": "point", "position": [1, 2, 3], "intensity": [1, 0.5, 0.5]}],
+        "objects": [{"type": "sphere", "center": [0, 0, 3], "radius": 1, "material": "red"}],
+    }
+    (tmp_path / "s.json").write_text(json.dumps(doc))
+    (tmp_path / "s.toml").write_text(
+        '[render]\nwidth = 8\nheight = 4\n[materials.red]\ncolor = "#ff0000"\nspecular = 10\n'
+        '[[lights]]\ntype = "point"\nposition = [1, 2, 3]\nintensity = [1, 0.5, 0.5]\n'
+        '[[objects]]\ntype = "sphere"\ncenter = [0, 0, 3]\nradius = 1\nmaterial = "red"\n'
+    )
+    a, b = load_scene(tmp_path / "s.json"), load_scene(tmp_path / "s.toml")
+    assert a == b
+    assert a.materials["red"].color == (1.0, 0.0, 0.0)
+    assert a.base_dir == tmp_path.resolve()
+
+
+def test_defaults_of_an_empty_document():
+    s = scene_from_dict({})
+    assert (s.render.width, s.render.height, s.render.mode, s.camera.fov) == (600, 600, "trace", 53.13)
+
+
+BAD = [
+    ({"objects": [{"type": "sphere", "center": [0, 0, 3], "radius": -1}]}, "objects[0].radius", "greater than 0"),
+    ({"objects": [{"type": "sphere", "center": [0, 0, 3], "radus": 1}]}, "objects[0].radus", "did you mean 'radius'"),
+    ({"objects": [{"type": "cube"}]}, "objects[0].type", "sphere, plane, triangle, mesh"),
+    ({"objects": [{"type": "sphere", "center": [0, 0], "radius": 1}]}, "objects[0].center", ""),
+    ({"objects": [{"type": "sphere", "center": [0, 0, 3], "radius": 1, "material": "gold"}]}, "objects[0].material", "no material named 'gold'"),
+    ({"lights": [{"type": "directional", "direction": [0, 0, 0]}]}, "lights[0].direction", "zero vector"),
+    ({"lights": [{"type": "spot"}]}, "lights[0].type", "ambient, point, directional"),
+    ({"camera": {"fov": 180}}, "camera.fov", "less than 180"),
+    ({"camera": {"fov": 0}}, "camera.fov", "greater than 0"),
+    ({"camera": {"look_at": [0, 0, 0]}}, "camera", "look_at must differ"),
+    ({"camera": {"look_at": [0, 5, 0]}}, "camera", "parallel"),
+    ({"materials": {"m": {"color": ["red", 0, 0]}}}, "materials.m.color", "must be numbers"),
+    ({"materials": {"m": {"color": [2, 0, 0]}}}, "materials.m.color", "0..1"),
+    ({"materials": {"m": {"color": "#12345"}}}, "materials.m.color", "#rrggbb"),
+    ({"materials": {"m": {"reflective": 1.5}}}, "materials.m.reflective", "less than or equal to 1"),
+    ({"materials": {"m": {"ior": 0}}}, "materials.m.ior", "greater than 0"),
+    ({"render": {"width": 0}}, "render.width", "greater than or equal to 1"),
+    ({"render": {"mode": "photon"}}, "render.mode", "'cast', 'trace' or 'raster'"),
+    ({"render": {"spp": 1e9}}, "render.spp", ""),
+    ({"rendr": {}}, "rendr", "did you mean 'render'"),
+    ({"objects": [{"type": "triangle", "vertices": [[0, 0, 0], [1, 1, 1], [2, 2, 2]]}]}, "objects[0].vertices", "collinear"),
+    ({"objects": [{"type": "plane", "normal": [0, 0, 0]}]}, "objects[0].normal", "zero vector"),
+]
+
+
+@pytest.mark.parametrize("document, key, words", BAD, ids=[b[1] + ":" + b[2][:12] for b in BAD])
+def test_bad_documents_name_the_key(document, key, words):
+    with pytest.raises(SceneError) as info:
+        scene_from_dict(document, source="scene.toml")
+    message = str(info.value)
+    assert message.startswith("scene.toml: ")
+    assert key in message
+    assert words in message
+
+
+def test_nan_is_rejected_in_json(tmp_path):
+    path = tmp_path / "nan.json"
+    path.write_text('{"objects": [{"type": "sphere", "center": [0, NaN, 3], "radius": 1}]}')
+    with pytest.raises(SceneError, match=r"nan.json: objects\[0\].center"):
+        load_scene(path)
+
+
+def test_syntax_errors_give_line_and_column(tmp_path):
+    (tmp_path / "bad.toml").write_text("[render]\nwidth = = 3\n")
+    with pytest.raises(SceneError, match=r"bad.toml: invalid TOML: .*line 2"):
+        load_scene(tmp_path / "bad.toml")
+    (tmp_path / "bad.json").write_text('{"render": {"width": 3,}}')
+    with pytest.raises(SceneError, match=r"bad.json: invalid JSON: .*line 1, column"):
+        load_scene(tmp_path / "bad.json")
+
+
+def test_missing_folder_and_wrong_extension(tmp_path):
+    with pytest.raises(SceneError, match="no such scene file"):
+        load_scene(tmp_path / "missing.toml")
+    (tmp_path / "dir.toml").mkdir()
+    with pytest.raises(SceneError, match="is a folder"):
+        load_scene(tmp_path / "dir.toml")
+    (tmp_path / "scene.yaml").write_text("render: {}")
+    with pytest.raises(SceneError, match=r"\.toml or \.json"):
+        load_scene(tmp_path / "scene.yaml")
+
+
+def test_unknown_builtin():
+    with pytest.raises(SceneError, match="no built-in scene named 'nope'"):
+        raylume.builtin_scene("nope")
