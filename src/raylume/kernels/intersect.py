@@ -69,7 +69,9 @@ def ray_shear(d):
     return kx, ky, kz, d[kx] * sz, d[ky] * sz, sz
 
 
-@njit(fastmath=FAST)
+# No fastmath here: contracting a*b - c*d into a fused multiply-add would make the edge
+# functions of two triangles sharing an edge differ, and rays through the edge could slip by.
+@njit
 def intersect_triangle(o, shear, tri, i, tmin, tmax):
     """Watertight ray-triangle test against row i of tri (float32 (T, 9): v0, v1, v2).
 

@@ -1,0 +1,278 @@
+"""Triangles and the BVH: analytic hits, barycentrics, BVH == brute force, meshes vs analytic shapes."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import trimesh
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from numba import njit
+
+import raylume
+from raylume.compile import compile_scene
+from raylume.kernels.intersect import INF, intersect_triangle, ray_shear
+from raylume.kernels.traverse import any_hit, closest_hit
+from raylume.scene.procedural import bumpy_sphere
+
+
+def tri_row(a, b, c):
+    return np.array([[*a, *b, *c]], dtype=np.float32)
+
+
+def hit(o, d, tri, tmin=0.0, tmax=INF):
+    d = np.asarray(d, dtype=np.float64)
+    d = tuple(d / np.linalg.norm(d))
+    return intersect_triangle(tuple(map(float, o)), ray_shear(d), tri, 0, tmin, tmax)
+
+
+TRI = tri_row((-1, -1, 5), (1, -1, 5), (0, 1, 5))
+
+
+def test_centre_hit_distance_and_barycentrics_reconstruct_the_point():
+    t, b1, b2 = hit((0.1, -0.2, 0), (0, 0, 1), TRI)
+    assert t == pytest.approx(5.0, abs=1e-12)
+    v0, v1, v2 = TRI[0, :3].astype(float), TRI[0, 3:6].astype(float), TRI[0, 6:].astype(float)
+    p = (1 - b1 - b2) * v0 + b1 * v1 + b2 * v2
+    np.testing.assert_allclose(p, (0.1, -0.2, 5), atol=1e-12)
+
+
+def test_back_face_is_hit_too():
+    t, _, _ = hit((0, 0, 10), (0, 0, -1), TRI)
+    assert t == pytest.approx(5.0)
+
+
+def test_parallel_ray_misses():
+    assert hit((0, 0, 5), (1, 0, 0), TRI)[0] == INF
+    assert hit((0, 0, 0), (1, 0, 0), TRI)[0] == INF
+
+
+def test_outside_and_behind_miss():
+    assert hit((2, 0, 0), (0, 0, 1), TRI)[0] == INF
+    assert hit((0, 0, 6), (0, 0, 1), TRI)[0] == INF
+
+
+def test_vertices_and_edges_are_hit():
+    for x, y in [(-1, -1), (1, -1), (0, 1), (0, -1), (0.5, 0), (-0.5, 0)]:
+        t, b1, b2 = hit((x, y, 0), (0, 0, 1), TRI)
+        assert t == pytest.approx(5.0), (x, y)
+        assert -1e-12 <= b1 <= 1 and -1e-12 <= b2 <= 1 and b1 + b2 <= 1 + 1e-12
+
+
+def test_shared_edge_of_two_triangles_has_no_gap():
+    """Rays along a diagonal shared by two triangles hit one of them, every time (watertight)."""
+    quad = np.array([[0, 0, 3, 1, 0, 3, 1, 1, 3.0], [0, 0, 3, 1, 1, 3, 0, 1, 3.0]], dtype=np.float32)
+    rng = np.random.default_rng(1)
+    o = np.array([0.3, 0.7, -1.0])
+    for s in rng.uniform(0.01, 0.99, 2000):
+        target = np.array([s, s, 3.0])
+        d = target - o
+        d /= np.linalg.norm(d)
+        shear = ray_shear(tuple(d))
+        hits = [intersect_triangle(tuple(o), shear, quad, k, 0.0, INF)[0] for k in range(2)]
+        assert min(hits) < INF
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    st.lists(st.floats(-10, 10), min_size=9, max_size=9),
+    st.lists(st.floats(-10, 10), min_size=3, max_size=3),
+    st.lists(st.floats(-1, 1), min_size=3, max_size=3).filter(lambda v: sum(c * c for c in v) > 1e-4),
+)
+def test_random_rays_never_nan_and_hits_lie_in_the_triangle(verts, o, d):
+    tri = np.array([verts], dtype=np.float32)
+    t, b1, b2 = hit(o, d, tri)
+    assert not math.isnan(t) and not math.isnan(b1) and not math.isnan(b2)
+    if t < INF:
+        assert t > 0
+        assert b1 >= -1e-9 and b2 >= -1e-9 and b1 + b2 <= 1 + 1e-9
+        v = tri[0].astype(np.float64).reshape(3, 3)
+        p = (1 - b1 - b2) * v[0] + b1 * v[1] + b2 * v[2]
+        dn = np.asarray(d) / np.linalg.norm(d)
+        np.testing.assert_allclose(np.asarray(o) + t * dn, p, atol=1e-6 * max(1.0, np.abs(p).max(), t))
+
+
+# --- BVH against brute force -------------------------------------------------------------------
+
+
+@njit
+def _closest_all(S, origins, dirs):
+    n = origins.shape[0]
+    out_t = np.empty(n)
+    out_i = np.empty(n, np.int64)
+    node_stack = np.empty(128, np.int32)
+    t_stack = np.empty(128)
+    for k in range(n):
+        o = (origins[k, 0], origins[k, 1], origins[k, 2])
+        d = (dirs[k, 0], dirs[k, 1], dirs[k, 2])
+        t, kind, index, b1, b2 = closest_hit(S, o, d, 0.0, INF, node_stack, t_stack)
+        out_t[k] = t
+        out_i[k] = S.triangle_prim[index] if kind == 2 else -1
+    return out_t, out_i
+
+
+@njit
+def _any_all(S, origins, dirs, tmax):
+    n = origins.shape[0]
+    out = np.empty(n, np.bool_)
+    node_stack = np.empty(128, np.int32)
+    for k in range(n):
+        out[k] = any_hit(S, (origins[k, 0], origins[k, 1], origins[k, 2]), (dirs[k, 0], dirs[k, 1], dirs[k, 2]), 0.0, tmax[k], node_stack)
+    return out
+
+
+@njit
+def _brute(tris, origins, dirs):
+    n = origins.shape[0]
+    out_t = np.full(n, np.inf)
+    out_i = np.full(n, -1, np.int64)
+    for k in range(n):
+        o = (origins[k, 0], origins[k, 1], origins[k, 2])
+        d = (dirs[k, 0], dirs[k, 1], dirs[k, 2])
+        shear = ray_shear(d)
+        for f in range(tris.shape[0]):
+            t, b1, b2 = intersect_triangle(o, shear, tris, f, 0.0, out_t[k])
+            if t < out_t[k]:
+                out_t[k] = t
+                out_i[k] = f
+    return out_t, out_i
+
+
+def _mesh_scene(tmp_path, vertices, faces, name="m.ply"):
+    path = tmp_path / name
+    trimesh.Trimesh(vertices, faces, process=False).export(path)
+    return raylume.scene_from_dict({"objects": [{"type": "mesh", "file": str(path)}]})
+
+
+def _random_rays(rng, n, center, spread):
+    origins = center + rng.normal(size=(n, 3)) * spread * 3
+    targets = center + rng.normal(size=(n, 3)) * spread * 0.5
+    dirs = targets - origins
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    return origins, dirs
+
+
+@pytest.mark.parametrize("kind", ["soup", "bumpy"])
+def test_bvh_closest_hit_equals_brute_force(tmp_path, kind):
+    rng = np.random.default_rng(7)
+    if kind == "soup":  # random overlapping triangles: the hardest case for a BVH
+        centers = rng.uniform(-1, 1, size=(3000, 1, 3))
+        v = (centers + rng.normal(scale=0.08, size=(3000, 3, 3))).reshape(-1, 3)
+        f = np.arange(len(v)).reshape(-1, 3)
+    else:
+        v, f = bumpy_sphere(20000)
+    scene = _mesh_scene(tmp_path, v, f)
+    compiled = compile_scene(scene, 8, 8)
+    origins, dirs = _random_rays(rng, 3000, np.zeros(3), 1.0)
+    t_bvh, i_bvh = _closest_all(compiled.kernel, origins, dirs)
+    tris = (v.astype(np.float32)[f]).reshape(-1, 9)
+    t_ref, i_ref = _brute(tris, origins, dirs)
+    assert (t_ref < INF).sum() > 500
+    np.testing.assert_allclose(t_bvh, t_ref, rtol=1e-12)  # same hits, to the last bits
+    same = i_bvh == i_ref
+    # where two triangles give the very same t (shared edges), either index is right
+    assert same.mean() > 0.999
+    occluded = _any_all(compiled.kernel, origins, dirs, np.where(np.isfinite(t_ref), t_ref * 1.0001, 1e30))
+    np.testing.assert_array_equal(occluded, np.isfinite(t_ref))
+    shorter = _any_all(compiled.kernel, origins, dirs, np.where(np.isfinite(t_ref), t_ref * 0.9999, 1e30))
+    assert not shorter[np.isfinite(t_ref)].any()
+
+
+def test_bvh_on_a_real_mesh_equals_brute_force(shared_models, tmp_path):
+    from raylume.scene.mesh import load_mesh
+
+    mesh = load_mesh(shared_models / "stanford-bunny.obj")
+    scene = raylume.scene_from_dict({"objects": [{"type": "mesh", "file": str(shared_models / "stanford-bunny.obj")}]})
+    compiled = compile_scene(scene, 8, 8)
+    center = mesh.vertices.mean(axis=0)
+    spread = mesh.vertices.std()
+    origins, dirs = _random_rays(np.random.default_rng(3), 1500, center, spread)
+    t_bvh, _ = _closest_all(compiled.kernel, origins, dirs)
+    t_ref, _ = _brute((mesh.vertices.astype(np.float32)[mesh.faces]).reshape(-1, 9), origins, dirs)
+    assert np.isfinite(t_ref).sum() > 300
+    np.testing.assert_allclose(t_bvh, t_ref, rtol=1e-12)  # same hits, to the last bits
+
+
+def test_mesh_sphere_depth_agrees_with_analytic_sphere(tmp_path):
+    """A finely tessellated sphere and the analytic sphere give the same depth, up to the
+    tessellation's sagitta (the chord's distance below the true surface)."""
+    mesh = trimesh.creation.icosphere(subdivisions=6, radius=1.0)  # 81920 faces
+    path = tmp_path / "sphere.ply"
+    mesh.export(path)
+    common = {"render": {"width": 64, "height": 64, "mode": "cast"}, "camera": {"position": [0, 0, -4], "look_at": [0, 0, 0]}}
+    mesh_scene = raylume.scene_from_dict({**common, "objects": [{"type": "mesh", "file": str(path)}]})
+    sphere_scene = raylume.scene_from_dict({**common, "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1}]})
+    d_mesh = raylume.render(mesh_scene).aovs["depth"]
+    d_sphere = raylume.render(sphere_scene).aovs["depth"]
+    both = np.isfinite(d_mesh) & np.isfinite(d_sphere)
+    assert both.sum() > 500
+    edge_len = np.linalg.norm(mesh.vertices[mesh.edges[:, 0]] - mesh.vertices[mesh.edges[:, 1]], axis=1).max()
+    sagitta = edge_len**2 / 8
+    # along a ray the gap grows as the surface turns away; skip the grazing rim
+    central = both & (d_sphere < 3.5)
+    assert np.all(d_mesh[central] - d_sphere[central] >= -1e-5)
+    assert np.all(d_mesh[central] - d_sphere[central] <= 3 * sagitta)
+    # silhouettes differ at most by a pixel ring
+    assert (np.isfinite(d_mesh) != np.isfinite(d_sphere)).sum() < 0.02 * 64 * 64
+
+
+def test_plane_and_two_triangles_agree():
+    common = {"render": {"width": 40, "height": 30, "mode": "cast"}, "camera": {"position": [0, 2, -3], "look_at": [0, 0, 2]}}
+    big = 50.0
+    quad = [
+        {"type": "triangle", "vertices": [[-big, 0, -big], [big, 0, -big], [big, 0, big]]},
+        {"type": "triangle", "vertices": [[-big, 0, -big], [big, 0, big], [-big, 0, big]]},
+    ]
+    plane = [{"type": "plane", "point": [0, 0, 0], "normal": [0, 1, 0]}]
+    a = raylume.render(raylume.scene_from_dict({**common, "objects": quad}))
+    b = raylume.render(raylume.scene_from_dict({**common, "objects": plane}))
+    near = np.isfinite(b.aovs["depth"]) & (b.aovs["depth"] < 40)
+    np.testing.assert_allclose(a.aovs["depth"][near], b.aovs["depth"][near], rtol=1e-5)
+    np.testing.assert_allclose(a.aovs["normal"][near], b.aovs["normal"][near], atol=1e-6)
+    assert set(np.unique(a.aovs["prim"][near])) <= {0} and set(np.unique(a.aovs["object"][near])) <= {0, 1}
+
+
+def test_transformed_mesh_lands_where_the_transform_says(tmp_path):
+    box = trimesh.creation.box(extents=(1, 1, 1))  # centred at the origin
+    path = tmp_path / "box.ply"
+    box.export(path)
+    scene = raylume.scene_from_dict({
+        "render": {"width": 33, "height": 33, "mode": "cast"},
+        "camera": {"position": [0, 0, 0], "look_at": [0, 0, 1], "fov": 40},
+        "objects": [{"type": "mesh", "file": str(path), "transform": {"scale": [2, 2, 0.5], "rotate": [0, 90, 0], "translate": [0, 0, 10]}}],
+    })
+    img = raylume.render(scene)
+    # rotated 90 degrees about y, the box's x extent (2) now lies along z: the front face is at z = 9
+    assert img.aovs["depth"][16, 16] == pytest.approx(9.0, abs=1e-5)
+    np.testing.assert_allclose(img.aovs["normal"][16, 16], [0, 0, -1], atol=1e-6)
+    # and its z extent (0.5) along x: half-width 0.25 at distance 9 subtends atan(0.25/9)
+    row = np.isfinite(img.aovs["depth"][16])
+    half_width_px = row.sum() / 2
+    expected = math.tan(math.atan(0.25 / 9)) / math.tan(math.radians(20)) * 16.5
+    assert abs(half_width_px - expected) <= 1.0
+
+
+def test_mirrored_mesh_keeps_outward_normals(tmp_path):
+    mesh = trimesh.creation.icosphere(subdivisions=3)
+    path = tmp_path / "s.ply"
+    mesh.export(path)
+    for scale in ([1, 1, 1], [-1, 1, 1]):
+        scene = raylume.scene_from_dict({
+            "render": {"width": 16, "height": 16, "mode": "cast"},
+            "objects": [{"type": "mesh", "file": str(path), "transform": {"scale": scale, "translate": [0, 0, 4]}}],
+        })
+        compiled = compile_scene(scene, 16, 16)
+        tri = compiled.kernel.triangles.reshape(-1, 3, 3).astype(np.float64)
+        n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        outward = np.einsum("ij,ij->i", n, tri.mean(axis=1) - [0, 0, 4])
+        assert (outward > 0).all()
+
+
+def test_stats_report_triangles_and_bvh(tmp_path):
+    v, f = bumpy_sphere(5000)
+    img = raylume.render(_mesh_scene(tmp_path, v, f), width=16, height=16)
+    s = img.stats
+    assert s["triangles"] == len(f) and s["primitives"] == len(f)
+    assert s["bvh_nodes"] > 2 * len(f) / 8 and s["bvh_bytes"] > 0 and s["build_seconds"] > 0
