@@ -14,6 +14,7 @@ from numba import njit
 import raylume
 from raylume.compile import compile_scene
 from raylume.kernels.intersect import INF, intersect_triangle, ray_shear
+from raylume.kernels.scene import geometry_of
 from raylume.kernels.traverse import any_hit, closest_hit
 from raylume.scene.procedural import bumpy_sphere
 
@@ -104,10 +105,11 @@ def _closest_all(S, origins, dirs):
     out_i = np.empty(n, np.int64)
     node_stack = np.empty(128, np.int32)
     t_stack = np.empty(128)
+    G = geometry_of(S)
     for k in range(n):
         o = (origins[k, 0], origins[k, 1], origins[k, 2])
         d = (dirs[k, 0], dirs[k, 1], dirs[k, 2])
-        t, kind, index, b1, b2 = closest_hit(S, o, d, 0.0, INF, node_stack, t_stack)
+        t, kind, index, b1, b2 = closest_hit(G, o, d, 0.0, INF, node_stack, t_stack)
         out_t[k] = t
         out_i[k] = S.triangle_prim[index] if kind == 2 else -1
     return out_t, out_i
@@ -118,8 +120,9 @@ def _any_all(S, origins, dirs, tmax):
     n = origins.shape[0]
     out = np.empty(n, np.bool_)
     node_stack = np.empty(128, np.int32)
+    G = geometry_of(S)
     for k in range(n):
-        out[k] = any_hit(S, (origins[k, 0], origins[k, 1], origins[k, 2]), (dirs[k, 0], dirs[k, 1], dirs[k, 2]), 0.0, tmax[k], node_stack)
+        out[k] = any_hit(G, (origins[k, 0], origins[k, 1], origins[k, 2]), (dirs[k, 0], dirs[k, 1], dirs[k, 2]), 0.0, tmax[k], node_stack)
     return out
 
 

@@ -9,6 +9,7 @@
 
 from .errors import RaylumeError, SceneError
 from .image import Image
+from .query import intersect
 from .render import render
 from .scene.builtin import builtin_names, builtin_scene
 from .scene.load import load_scene, scene_from_dict
@@ -21,6 +22,7 @@ __all__ = [
     "SceneError",
     "builtin_names",
     "builtin_scene",
+    "intersect",
     "load_scene",
     "render",
     "scene_from_dict",

@@ -1,0 +1,28 @@
+"""Numba kernels. Importing this package points Numba's on-disk cache at a folder named after
+a hash of the kernel sources: Numba checks only the timestamp of the file holding a cached
+entry point, so an edit to a function it calls (in another module) would otherwise run stale
+machine code."""
+
+import hashlib
+import os
+from pathlib import Path
+
+import numba
+
+
+def _kernel_source_hash() -> str:
+    digest = hashlib.sha1()
+    for path in sorted(Path(__file__).parent.glob("*.py")):
+        digest.update(path.name.encode())
+        digest.update(path.read_bytes())
+    return digest.hexdigest()[:12]
+
+
+def _configure_cache() -> None:
+    base = os.environ.get("NUMBA_CACHE_DIR") or os.path.join(
+        os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache"), "raylume"
+    )
+    numba.config.CACHE_DIR = os.path.join(base, f"kernels-{_kernel_source_hash()}")
+
+
+_configure_cache()

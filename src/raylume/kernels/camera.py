@@ -5,7 +5,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .vec import FAST, normalize
+from .vec import FAST, KERNEL, normalize
 
 
 def camera_frame(position, look_at, up, fov_degrees, width, height) -> np.ndarray:
@@ -21,7 +21,7 @@ def camera_frame(position, look_at, up, fov_degrees, width, height) -> np.ndarra
     return np.concatenate([p, f, r * w, u * h])
 
 
-@njit(fastmath=FAST)
+@njit(**KERNEL)
 def camera_ray(cam, x, y, width, height):
     """Unit direction through the image point (x, y) in pixels; (i + 0.5, j + 0.5) is a centre."""
     a = x / width * 2.0 - 1.0

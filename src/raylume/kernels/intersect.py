@@ -8,12 +8,12 @@ import math
 
 from numba import njit
 
-from .vec import FAST, dot, sub
+from .vec import FAST, KERNEL, dot, sub
 
 INF = math.inf
 
 
-@njit(fastmath=FAST)
+@njit(**KERNEL)
 def intersect_sphere(o, d, center, radius, tmin, tmax):
     """The seed's quadratic in a stable form (Ray Tracing Gems ch. 7): the discriminant is
     computed from the ray's closest approach, and the second root via Vieta, so neither a
@@ -41,7 +41,7 @@ def intersect_sphere(o, d, center, radius, tmin, tmax):
     return INF
 
 
-@njit(fastmath=FAST)
+@njit(**KERNEL)
 def intersect_plane(o, d, point, normal, tmin, tmax):
     denom = dot(d, normal)
     if denom == 0.0:
@@ -52,7 +52,7 @@ def intersect_plane(o, d, point, normal, tmin, tmax):
     return INF
 
 
-@njit(fastmath=FAST)
+@njit(**KERNEL)
 def ray_shear(d):
     """Per-ray constants of the watertight test (Woop, Benthin, Wald 2013)."""
     ax, ay, az = abs(d[0]), abs(d[1]), abs(d[2])
@@ -71,7 +71,7 @@ def ray_shear(d):
 
 # No fastmath here: contracting a*b - c*d into a fused multiply-add would make the edge
 # functions of two triangles sharing an edge differ, and rays through the edge could slip by.
-@njit
+@njit(error_model="numpy", _nrt=False)
 def intersect_triangle(o, shear, tri, i, tmin, tmax):
     """Watertight ray-triangle test against row i of tri (float32 (T, 9): v0, v1, v2).
 
@@ -107,7 +107,7 @@ def intersect_triangle(o, shear, tri, i, tmin, tmax):
     return INF, 0.0, 0.0
 
 
-@njit(fastmath=FAST)
+@njit(**KERNEL)
 def intersect_box(bounds, n, o, inv_d, tmax):
     """Slab test against node n of bounds (float32 (M, 6)); entry distance or +inf."""
     t0x = (bounds[n, 0] - o[0]) * inv_d[0]
@@ -124,7 +124,7 @@ def intersect_box(bounds, n, o, inv_d, tmax):
     return INF
 
 
-@njit(fastmath=FAST)
+@njit(**KERNEL)
 def safe_inverse(d):
     """1/d with zero components replaced by a huge finite value (no inf * 0 = NaN in slabs)."""
     out0 = 1.0 / d[0] if d[0] != 0.0 else 1e200

@@ -4,16 +4,16 @@ import math
 
 from numba import njit
 
-from .vec import FAST, dot, madd, mul, sub
+from .vec import FAST, KERNEL, dot, madd, mul, sub
 
 
-@njit(fastmath=FAST)
+@njit(**KERNEL)
 def reflect(d, n):
     """Mirror d about the unit normal n: d - 2 (d.n) n (the seed's 2N(N.L) - L with L = -d)."""
     return madd(d, n, -2.0 * dot(d, n))
 
 
-@njit(fastmath=FAST)
+@njit(**KERNEL)
 def fresnel_dielectric(cos_i, eta):
     """Unpolarised reflectance of a dielectric interface (exact Fresnel equations).
 
@@ -28,7 +28,7 @@ def fresnel_dielectric(cos_i, eta):
     return 0.5 * (r_s * r_s + r_p * r_p), cos_t
 
 
-@njit(fastmath=FAST)
+@njit(**KERNEL)
 def refract(d, n, eta, cos_i, cos_t):
     """Snell's law: d refracted through the unit normal n facing against d."""
     return madd(mul(d, eta), n, eta * cos_i - cos_t)

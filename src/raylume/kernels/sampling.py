@@ -14,7 +14,7 @@ _S11 = np.uint64(11)
 _TO_UNIT = 1.0 / 9007199254740992.0  # 2**-53
 
 
-@njit
+@njit(error_model="numpy", _nrt=False)
 def mix64(x):
     """splitmix64 finaliser."""
     x = (x ^ (x >> _S30)) * _M1
@@ -22,7 +22,7 @@ def mix64(x):
     return x ^ (x >> _S31)
 
 
-@njit
+@njit(error_model="numpy", _nrt=False)
 def uniform2(seed, pixel, sample):
     """Two independent uniforms in [0, 1) for (seed, pixel, sample)."""
     key = mix64(np.uint64(seed) * _GOLDEN + np.uint64(pixel))
@@ -32,7 +32,7 @@ def uniform2(seed, pixel, sample):
     return a, b
 
 
-@njit
+@njit(error_model="numpy", _nrt=False)
 def stratified_offset(seed, pixel, sample, spp):
     """Sample position inside the pixel, in [0, 1)^2: jittered in a near-square grid of strata.
     One sample per pixel is the pixel centre, as DESIGN.md's camera says."""

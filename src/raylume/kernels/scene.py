@@ -3,6 +3,7 @@
 from typing import NamedTuple
 
 import numpy as np
+from numba import njit
 
 
 class KernelScene(NamedTuple):
@@ -27,3 +28,59 @@ class KernelScene(NamedTuple):
     prim_id: np.ndarray  # int32 (P,): row in spheres or triangles
     has_transparency: bool
     epsilon_floor: float  # smallest ray offset: a tiny fraction of the scene's extent
+
+
+# Hot kernels take small views of the scene instead of the whole KernelScene: Numba passes a
+# tuple argument by value, and copying 21 array descriptors on every call cost more than the
+# traversal itself (measured: 250 ns vs 120 ns per ray on the bunny).
+
+
+class Geometry(NamedTuple):
+    """What traversal needs."""
+
+    planes: np.ndarray
+    spheres: np.ndarray
+    triangles: np.ndarray
+    node_bounds: np.ndarray
+    node_index: np.ndarray
+    prim_type: np.ndarray
+    prim_id: np.ndarray
+
+
+class Surfaces(NamedTuple):
+    """What shading a hit needs, beside the geometry."""
+
+    materials: np.ndarray
+    sphere_material: np.ndarray
+    sphere_object: np.ndarray
+    plane_material: np.ndarray
+    plane_object: np.ndarray
+    triangle_normals: np.ndarray
+    triangle_smooth: np.ndarray
+    triangle_material: np.ndarray
+    triangle_object: np.ndarray
+    triangle_prim: np.ndarray
+    has_transparency: bool
+    epsilon_floor: float
+
+
+class Lights(NamedTuple):
+    kind: np.ndarray
+    data: np.ndarray
+
+
+@njit
+def geometry_of(S):
+    return Geometry(S.planes, S.spheres, S.triangles, S.node_bounds, S.node_index, S.prim_type, S.prim_id)
+
+
+@njit
+def surfaces_of(S):
+    return Surfaces(S.materials, S.sphere_material, S.sphere_object, S.plane_material, S.plane_object,
+                    S.triangle_normals, S.triangle_smooth, S.triangle_material, S.triangle_object,
+                    S.triangle_prim, S.has_transparency, S.epsilon_floor)
+
+
+@njit
+def lights_of(S):
+    return Lights(S.light_kind, S.light_data)

@@ -14,16 +14,16 @@ from numba import njit
 from .intersect import INF
 from .layout import MAT_ABSORPTION, MAT_IOR, MAT_REFLECTIVE, MAT_TRANSPARENCY
 from .optics import fresnel_dielectric, reflect, refract
-from .shade import albedo_at, local_lighting, ray_epsilon, surface_at
+from .shade import albedo, lighting, offset_epsilon, surface
 from .traverse import closest_hit
-from .vec import FAST, dot, hadamard, madd, mul
+from .vec import FAST, KERNEL, dot, hadamard, madd, mul
 
 # Branches whose weight falls below this cannot change an 8-bit pixel.
 MIN_WEIGHT = 1e-4
 
 
-@njit(fastmath=FAST)
-def trace_ray(S, o, d, max_depth, background, rays, node_stack, t_stack):
+@njit(**KERNEL)
+def trace_ray(G, F, L, o, d, max_depth, background, rays, node_stack, t_stack):
     """Colour seen along the ray (o, d). `rays` is a float64 (K, 10) work stack of
     origin, direction, weight, depth. Returns (rgb, rays traced)."""
     cr = 0.0
@@ -39,7 +39,7 @@ def trace_ray(S, o, d, max_depth, background, rays, node_stack, t_stack):
         d = (rays[top, 3], rays[top, 4], rays[top, 5])
         w = (rays[top, 6], rays[top, 7], rays[top, 8])
         depth = int(rays[top, 9])
-        t, kind, index, b1, b2 = closest_hit(S, o, d, 0.0, INF, node_stack, t_stack)
+        t, kind, index, b1, b2 = closest_hit(G, o, d, 0.0, INF, node_stack, t_stack)
         count += 1
         if t == INF:
             cr += w[0] * background[0]
@@ -47,8 +47,8 @@ def trace_ray(S, o, d, max_depth, background, rays, node_stack, t_stack):
             cb += w[2] * background[2]
             continue
         p = madd(o, d, t)
-        ng, ns, m, obj, prim = surface_at(S, kind, index, b1, b2, p)
-        mat = S.materials
+        ng, ns, m, obj, prim = surface(G, F, kind, index, b1, b2, p)
+        mat = F.materials
         entering = dot(ng, d) < 0.0
         if not entering:
             # The segment just travelled lay inside this surface's medium: Beer-Lambert.
@@ -62,12 +62,12 @@ def trace_ray(S, o, d, max_depth, background, rays, node_stack, t_stack):
         # ng, ns now face the incoming ray; a shading normal bent past the horizon is clamped.
         if dot(ns, d) >= 0.0:
             ns = ng
-        eps = ray_epsilon(S, p)
+        eps = offset_epsilon(F.epsilon_floor, p)
         outside = madd(p, ng, eps)
         view = mul(d, -1.0)
-        light, shadow_rays = local_lighting(S, outside, ns, view, m, True, node_stack, t_stack)
+        light, shadow_rays = lighting(G, F, L, outside, ns, view, m, True, node_stack, t_stack)
         count += shadow_rays
-        local = hadamard(albedo_at(S, m, p), light)
+        local = hadamard(albedo(mat, m, p), light)
         if depth <= 0:
             cr += w[0] * local[0]
             cg += w[1] * local[1]
@@ -100,7 +100,7 @@ def trace_ray(S, o, d, max_depth, background, rays, node_stack, t_stack):
     return (cr, cg, cb), count
 
 
-@njit(fastmath=FAST)
+@njit(**KERNEL)
 def _push(rays, top, o, d, w, depth):
     rays[top, 0] = o[0]
     rays[top, 1] = o[1]

@@ -1,0 +1,197 @@
+"""Primary-ray throughput and BVH build, raylume beside Embree (embreex) and trimesh's ray module.
+
+Same camera rays for every engine (DESIGN.md camera, one ray per pixel through pixel centres),
+on the real meshes in ../shared/models and on procedural bumpy spheres of 10k..4M triangles.
+
+    python benchmarks/bench_bvh.py [--size 1024] [--repeats 5] [--quick] [--plot docs/images/bvh_scaling.png]
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+from common import SHARED_MODELS, machine, median_of, table
+
+import raylume
+from raylume.compile import compile_scene
+from raylume.kernels.query import intersect_rays
+from raylume.scene.mesh import load_mesh
+from raylume.scene.procedural import bumpy_sphere
+
+
+def camera_rays(center, radius, size):
+    """DESIGN.md camera 2.4 radii in front of the mesh, looking at its centre, pixel centres."""
+    from raylume.kernels.camera import camera_frame
+
+    position = center - np.array([0.0, 0.0, 2.4 * radius])
+    cam = camera_frame(position, center, (0, 1, 0), 53.13, size, size)
+    i, j = np.meshgrid(np.arange(size) + 0.5, np.arange(size) + 0.5)
+    a = (i / size * 2 - 1).reshape(-1, 1)
+    b = (1 - j / size * 2).reshape(-1, 1)
+    d = cam[3:6] + a * cam[6:9] + b * cam[9:12]
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    o = np.broadcast_to(position, d.shape).copy()
+    return o, d
+
+
+def meshes(quick: bool):
+    out = []
+    for name in ("stanford-bunny", "nefertiti"):
+        path = SHARED_MODELS / f"{name}.obj"
+        if path.exists():
+            m = load_mesh(path)
+            out.append((name, m.vertices, m.faces))
+        else:
+            print(f"(skipping {name}: {path} not found)")
+    sizes = (10_000, 40_000, 100_000, 1_000_000) if quick else (10_000, 40_000, 100_000, 1_000_000, 4_000_000)
+    for n in sizes:
+        v, f = bumpy_sphere(n)
+        out.append((f"bumpy {n // 1000}k" if n < 1_000_000 else f"bumpy {n // 1_000_000}M", v, f))
+    return out
+
+
+def raylume_scene(vertices, faces):
+    """A compiled single-mesh scene, built directly from arrays (no file round trip)."""
+    import raylume.compile as C
+
+    class _Mesh:
+        pass
+
+    # compile_scene loads meshes from files; here we hand it the arrays through a tiny PLY-free path
+    import tempfile, trimesh, os
+
+    with tempfile.TemporaryDirectory() as tmp:
+        path = os.path.join(tmp, "m.ply")
+        trimesh.Trimesh(vertices, faces, process=False).export(path)
+        scene = raylume.scene_from_dict({"objects": [{"type": "mesh", "file": path, "smooth": False}]})
+        t0 = time.perf_counter()
+        compiled = compile_scene(scene, 1, 1)
+        return compiled
+
+
+def time_raylume(compiled, o, d, threads, repeats):
+    import numba
+
+    numba.set_num_threads(threads)
+    n = len(o)
+    t = np.empty(n)
+    obj = np.empty(n, np.int32)
+    prim = np.empty(n, np.int32)
+    intersect_rays(compiled.kernel, o, d, t, obj, prim)  # compile / warm
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        intersect_rays(compiled.kernel, o, d, t, obj, prim)
+        times.append(time.perf_counter() - t0)
+    return median_of(times), t
+
+
+def time_embree(vertices, faces, o, d, repeats):
+    from embreex import rtcore_scene as rtcs
+    from embreex.mesh_construction import TriangleMesh
+
+    t0 = time.perf_counter()
+    scene = rtcs.EmbreeScene()
+    TriangleMesh(scene, vertices.astype(np.float32), faces.astype(np.int32))
+    o32, d32 = o.astype(np.float32), d.astype(np.float32)
+    first = scene.run(o32[:1], d32[:1], output=1)  # Embree builds lazily on the first query
+    build = time.perf_counter() - t0
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        res = scene.run(o32, d32, output=1)
+        times.append(time.perf_counter() - t0)
+    tfar = np.where(res["geomID"] >= 0, res["tfar"], np.inf)
+    return median_of(times), build, tfar
+
+
+def time_trimesh(vertices, faces, o, d, n_rays):
+    import trimesh
+
+    mesh = trimesh.Trimesh(vertices, faces, process=False)
+    sel = np.linspace(0, len(o) - 1, n_rays).astype(int)
+    t0 = time.perf_counter()
+    mesh.ray.intersects_first(o[sel], d[sel])
+    return (time.perf_counter() - t0) / n_rays * len(o)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--size", type=int, default=1024, help="image side: size x size camera rays")
+    parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--quick", action="store_true", help="skip the 4M mesh and trimesh")
+    parser.add_argument("--trimesh-rays", type=int, default=20_000)
+    parser.add_argument("--plot", default=None, help="write the scaling plot (PNG) here")
+    args = parser.parse_args()
+
+    try:
+        import embreex  # noqa: F401
+        have_embree = True
+    except ImportError:
+        have_embree = False
+        print("embreex not installed: pip install 'raylume[bench]' for the Embree column")
+
+    print(f"{args.size} x {args.size} primary rays, medians of {args.repeats}; {machine()}")
+    print("embreex's run() traces on one thread, so raylume is shown on 1 thread and on all cores.\n")
+    rows, build_rows, scaling = [], [], []
+    for name, v, f in meshes(args.quick):
+        compiled = raylume_scene(v, f)
+        o, d = camera_rays(v.mean(axis=0) * 0 + (v.min(0) + v.max(0)) / 2, np.linalg.norm(v.max(0) - v.min(0)) / 2, args.size)
+        n = len(o)
+        r1, t_ours = time_raylume(compiled, o, d, 1, args.repeats)
+        import numba
+
+        r2, _ = time_raylume(compiled, o, d, numba.config.NUMBA_NUM_THREADS, args.repeats)
+        row = [name, f"{len(f):,}", f"{n / r1 / 1e6:.2f}", f"{n / r2 / 1e6:.2f}"]
+        if have_embree:
+            e, e_build, t_embree = time_embree(v, f, o, d, args.repeats)
+            agree = np.mean(np.isclose(t_ours, t_embree, rtol=1e-4) | (np.isinf(t_ours) & np.isinf(t_embree)))
+            row += [f"{n / e / 1e6:.2f}", f"{e / r1:.2f}", f"{agree * 100:.2f}%"]
+        else:
+            e_build = float("nan")
+        if not args.quick and len(f) <= 1_000_000:
+            row.append(f"{n / time_trimesh(v, f, o, d, args.trimesh_rays) / 1e6:.3f}")
+        else:
+            row.append("-")
+        rows.append(row)
+        s = compiled.stats
+        build_rows.append([name, f"{len(f):,}", f"{s['build_seconds']:.2f}", f"{e_build:.2f}",
+                           f"{s['bvh_bytes'] / len(f):.1f}", f"{s['bvh_nodes']:,}"])
+        if name.startswith("bumpy"):
+            scaling.append((len(f), r2))
+        print(" | ".join(row), flush=True)
+
+    headers = ["mesh", "triangles", "raylume 1T Mrays/s", "raylume all Mrays/s"]
+    if have_embree:
+        headers += ["Embree 1T Mrays/s", "raylume/Embree (1T)", "same hits"]
+    headers += ["trimesh Mrays/s"]
+    print("\n" + table(headers, rows))
+    print("\nBVH build (raylume: compile + binned-SAH build; Embree: scene build on first query)\n")
+    print(table(["mesh", "triangles", "raylume build s", "Embree build s", "raylume BVH bytes/tri", "BVH nodes"], build_rows))
+    print("\nScaling of primary-ray time with triangle count (all threads)\n")
+    base = dict(scaling).get(40_000) or scaling[0][1]
+    print(table(["triangles", "time ms", "time / time(40k)"],
+                [[f"{n:,}", f"{t * 1000:.1f}", f"{t / base:.2f}"] for n, t in scaling]))
+    if args.plot:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        fig, ax = plt.subplots(figsize=(5.5, 3.6), dpi=110)
+        ns, ts = zip(*scaling)
+        ax.loglog(ns, [t * 1000 for t in ts], "o-", label="raylume ray casting (BVH)")
+        ax.loglog(ns, [ts[0] * 1000 * n / ns[0] for n in ns], ":", color="grey", label="linear in N")
+        ax.set_xlabel("triangles")
+        ax.set_ylabel(f"ms per {args.size}x{args.size} frame")
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend()
+        fig.tight_layout()
+        fig.savefig(args.plot)
+        print(f"\nplot written to {args.plot}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,31 @@
+"""raylume as a ray-intersection library: closest hits for arrays of rays against a scene."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .compile import CompiledScene, compile_scene
+from .kernels.query import intersect_rays
+from .scene.model import Scene
+
+
+def intersect(scene: Scene | CompiledScene, origins: np.ndarray, directions: np.ndarray):
+    """Closest hit of each ray: (t float64 (N,), object int32 (N,), prim int32 (N,)).
+
+    Directions are normalised here, so t is a distance. Misses give t = inf and -1 indices.
+    Pass a CompiledScene (raylume.compile.compile_scene) to reuse its BVH across calls."""
+    compiled = scene if isinstance(scene, CompiledScene) else compile_scene(scene, 1, 1)
+    origins = np.ascontiguousarray(origins, dtype=np.float64).reshape(-1, 3)
+    directions = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
+    if origins.shape != directions.shape:
+        raise ValueError(f"origins {origins.shape} and directions {directions.shape} differ in shape")
+    norms = np.linalg.norm(directions, axis=1, keepdims=True)
+    if not np.all(norms > 0) or not np.isfinite(directions).all() or not np.isfinite(origins).all():
+        raise ValueError("directions must be finite and non-zero, origins finite")
+    directions = np.ascontiguousarray(directions / norms)
+    n = len(origins)
+    t = np.empty(n)
+    obj = np.empty(n, dtype=np.int32)
+    prim = np.empty(n, dtype=np.int32)
+    intersect_rays(compiled.kernel, origins, directions, t, obj, prim)
+    return t, obj, prim
