@@ -81,11 +81,22 @@ def render(
     aov: Annotated[Optional[list[str]], typer.Option("--aov", help="NAME=PATH.npy; NAME in depth, normal, object, prim, albedo")] = None,
     stats: Annotated[Optional[Path], typer.Option("--stats", help="Write render statistics as JSON")] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar or summary")] = False,
+    partial: Annotated[bool, typer.Option("--partial", help="On Ctrl-C, save the rows done as OUT.partial.EXT")] = False,
     debug: Annotated[bool, typer.Option("--debug", help="Show tracebacks of errors")] = False,
 ) -> None:
     """Render SCENE to an image (default: the built-in `seed` scene to render.png)."""
+    from .render import RenderInterrupted
+
     try:
         _render(scene, output, width, height, spp, mode, max_depth, seed, threads, aov or [], stats, quiet)
+    except RenderInterrupted as exc:
+        if partial:
+            path = output.with_name(f"{output.stem}.partial{output.suffix}")
+            exc.image.save(path)
+            typer.echo(f"raylume: interrupted after {exc.rows_done} of {exc.image.height} rows; saved {path}", err=True)
+        else:
+            typer.echo("raylume: interrupted; nothing written", err=True)
+        raise typer.Exit(130)
     except KeyboardInterrupt:
         typer.echo("raylume: interrupted; nothing written", err=True)
         raise typer.Exit(130)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import os
 import time
 from typing import Callable
 
@@ -10,6 +11,7 @@ import numba
 import numpy as np
 
 from .compile import compile_scene
+from .errors import RaylumeError
 from .image import Image
 from .kernels.frame import render_rows
 from .kernels.layout import MODE_CAST, MODE_TRACE
@@ -20,6 +22,39 @@ _MODES = {"cast": MODE_CAST, "trace": MODE_TRACE}
 # Rows per kernel call are chosen so each call takes about this long: short enough for a
 # smooth progress bar and a prompt Ctrl-C, long enough that call overhead does not show.
 TARGET_CALL_SECONDS = 0.2
+
+
+class RenderInterrupted(KeyboardInterrupt):
+    """Ctrl-C during a render. `image` holds the rows finished so far (the rest is black)."""
+
+    def __init__(self, image: Image, rows_done: int):
+        super().__init__(f"interrupted after {rows_done} of {image.height} rows")
+        self.image = image
+        self.rows_done = rows_done
+
+
+def estimate_bytes(width: int, height: int, aovs: bool) -> int:
+    """Memory the image buffers need: RGB float32, plus depth, normal, object, prim, albedo."""
+    per_pixel = 12 + (4 + 12 + 4 + 4 + 12 if aovs else 0)
+    return width * height * per_pixel
+
+
+def available_bytes() -> int:
+    try:
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):  # not on every platform
+        return 1 << 62
+
+
+def check_memory(width: int, height: int, aovs: bool) -> None:
+    need = estimate_bytes(width, height, aovs)
+    free = available_bytes()
+    if need > 0.8 * free:
+        raise RaylumeError(
+            f"a {width} x {height} render needs about {need / 2**30:.1f} GiB of image buffers"
+            f"{' (with AOVs)' if aovs else ''}, more than the {free / 2**30:.1f} GiB of free memory; "
+            "render smaller, or without AOVs"
+        )
 
 
 def render(
@@ -42,6 +77,7 @@ def render(
     settings = scene.render
     W, H = settings.width, settings.height
     threads = _set_threads(threads)
+    check_memory(W, H, aovs)
 
     compiled = compile_scene(scene, W, H, source=source)
     if settings.mode == "raster":
@@ -52,7 +88,12 @@ def render(
     else:
         rgb, aov_arrays, kernel_seconds, rays = _ray_render(scene, compiled, aovs, progress)
         primary = W * H * settings.spp
-    stats = {
+    return Image(rgb, aov_arrays if aovs else {}, _stats(settings, threads, compiled, rays, primary, kernel_seconds), settings.encoding)
+
+
+def _stats(settings, threads, compiled, rays, primary, kernel_seconds) -> dict:
+    W, H = settings.width, settings.height
+    return {
         "width": W,
         "height": H,
         "spp": settings.spp,
@@ -64,7 +105,6 @@ def render(
         "render_seconds": kernel_seconds,
         "mrays_per_second": (rays / kernel_seconds / 1e6) if kernel_seconds > 0 else 0.0,
     }
-    return Image(rgb, aov_arrays if aovs else {}, stats, settings.encoding)
 
 
 def _set_threads(threads: int | None) -> int:
@@ -114,7 +154,12 @@ def _ray_render(scene: Scene, compiled, want_aovs: bool, progress):
     while row < H:
         end = min(H, row + rows_per_call)
         t0 = time.perf_counter()
-        run(row, end)
+        try:
+            run(row, end)
+        except KeyboardInterrupt:
+            # Numba finishes the call in flight (calls last ~TARGET_CALL_SECONDS); keep what is done.
+            partial = Image(rgb, aov if want_aovs else {}, {}, settings.encoding)
+            raise RenderInterrupted(partial, end) from None
         elapsed = time.perf_counter() - t0
         kernel_seconds += elapsed
         per_row = elapsed / (end - row)
