@@ -69,3 +69,18 @@ def test_api_render_returns_image_with_arrays_and_png_repr():
     assert png.size == (20, 10)
     assert img.stats["width"] == 20 and img.stats["mode"] == "trace"
     assert "20x10" in repr(img)
+
+
+def test_written_files_get_ordinary_permissions(tmp_path):
+    import os
+    import stat
+
+    umask = os.umask(0o022)
+    try:
+        Image(np.zeros((2, 2, 3), np.float32)).save(tmp_path / "a.png")
+        assert stat.S_IMODE((tmp_path / "a.png").stat().st_mode) == 0o644
+        (tmp_path / "a.png").chmod(0o600)
+        Image(np.ones((2, 2, 3), np.float32)).save(tmp_path / "a.png")  # a replaced file keeps its mode
+        assert stat.S_IMODE((tmp_path / "a.png").stat().st_mode) == 0o600
+    finally:
+        os.umask(umask)

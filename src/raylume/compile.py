@@ -8,7 +8,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .accel.bvh import build_bvh, bvh_nbytes
+from .accel.bvh import build_bvh, bvh_depth, bvh_nbytes
 from .errors import SceneError
 from .kernels import layout as L
 from .kernels.camera import camera_frame
@@ -140,6 +140,10 @@ def compile_scene(scene: Scene, width: int, height: int, source="<scene>") -> Co
         hi[n_spheres:] = corners.max(axis=1)
         del corners
     bvh = build_bvh(lo, hi)
+    depth = bvh_depth(bvh)
+    if depth >= L.TRAVERSAL_STACK - 2:  # traversal stacks are fixed-size (no allocation per ray)
+        raise SceneError(f"{source}: the BVH is {depth} levels deep, more than the {L.TRAVERSAL_STACK - 2} "
+                         "traversal supports; the scene's primitives are pathologically arranged")
 
     # Reorder so that leaves read consecutive triangles (cache-friendly traversal).
     order = bvh.prim_order.astype(np.int64)
@@ -189,6 +193,7 @@ def compile_scene(scene: Scene, width: int, height: int, source="<scene>") -> Co
         "triangles": n_tris,
         "degenerate_triangles": soup.degenerate,
         "bvh_nodes": int(len(bvh.node_index)),
+        "bvh_depth": int(depth),
         "bvh_bytes": int(bvh_nbytes(bvh) + prim_type.nbytes + prim_id.nbytes),
         "build_seconds": time.perf_counter() - start,
     }

@@ -103,7 +103,7 @@ def _stats(settings, threads, compiled, rays, primary, kernel_seconds) -> dict:
         "rays": int(rays),
         "primary_rays": int(primary),
         "render_seconds": kernel_seconds,
-        "mrays_per_second": (rays / kernel_seconds / 1e6) if kernel_seconds > 0 else 0.0,
+        "mrays_per_second": float(rays / kernel_seconds / 1e6) if kernel_seconds > 0 else 0.0,
     }
 
 
