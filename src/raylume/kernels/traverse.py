@@ -15,7 +15,7 @@ from .vec import FAST, KERNEL, row3
 _NO_SHEAR = (0, 1, 2, 0.0, 0.0, 1.0)
 
 
-@njit(**KERNEL)
+@njit(**KERNEL, inline="always")
 def closest_hit(G, o, d, tmin, tmax, node_stack, t_stack):
     """Nearest hit in (tmin, tmax): (t, kind, index, b1, b2); kind HIT_NONE when nothing.
     b1, b2 are the barycentric weights of a triangle's second and third vertices."""
@@ -32,10 +32,14 @@ def closest_hit(G, o, d, tmin, tmax, node_stack, t_stack):
     nodes = G.node_index
     bounds = G.node_bounds
     shear = ray_shear(d) if G.triangles.shape[0] > 0 else _NO_SHEAR
-    inv_d = safe_inverse(d)
-    # A root leaf (small scenes) needs no box test; an inner root is tested first.
-    if nodes[0, 1] == 0 and (nodes[0, 0] == 0 or intersect_box(bounds, 0, o, inv_d, best_t) == INF):
-        return best_t, kind, index, b1, b2
+    # A root leaf (small scenes) needs neither box tests nor the inverse direction.
+    inv_d = (0.0, 0.0, 0.0)
+    if nodes[0, 1] == 0:
+        if nodes[0, 0] == 0:
+            return best_t, kind, index, b1, b2  # empty scene
+        inv_d = safe_inverse(d)
+        if intersect_box(bounds, 0, o, inv_d, best_t) == INF:
+            return best_t, kind, index, b1, b2
     node = 0
     top = 0
     while True:
@@ -85,7 +89,7 @@ def closest_hit(G, o, d, tmin, tmax, node_stack, t_stack):
     return best_t, kind, index, b1, b2
 
 
-@njit(**KERNEL)
+@njit(**KERNEL, inline="always")
 def any_hit(G, o, d, tmin, tmax, node_stack):
     """True when anything lies in (tmin, tmax): stops at the first blocker found."""
     for p in range(G.planes.shape[0]):
@@ -96,7 +100,7 @@ def any_hit(G, o, d, tmin, tmax, node_stack):
     if nodes[0, 1] == 0 and nodes[0, 0] == 0:
         return False  # empty scene
     shear = ray_shear(d) if G.triangles.shape[0] > 0 else _NO_SHEAR
-    inv_d = safe_inverse(d)
+    inv_d = safe_inverse(d) if nodes[0, 1] == 0 else (0.0, 0.0, 0.0)
     node_stack[0] = 0
     top = 1
     while top > 0:
