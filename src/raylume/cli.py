@@ -70,7 +70,7 @@ def _check_distinct(out: Path, scene_label: str, others: list[Path]) -> None:
 @app.command()
 def render(
     scene: Annotated[Optional[str], typer.Argument(help="Scene file (.toml/.json) or built-in name; default: seed")] = None,
-    output: Annotated[Path, typer.Option("-o", "--output", help="Output image: .png, .npy or .exr")] = Path("render.png"),
+    output: Annotated[Path, typer.Option("-o", "--output", help="Output image: .png, .npy, .exr or .hdr")] = Path("render.png"),
     width: Annotated[Optional[int], typer.Option("--width", help="Image width in pixels")] = None,
     height: Annotated[Optional[int], typer.Option("--height", help="Image height in pixels")] = None,
     spp: Annotated[Optional[int], typer.Option("--spp", help="Samples per pixel")] = None,
@@ -82,13 +82,16 @@ def render(
     stats: Annotated[Optional[Path], typer.Option("--stats", help="Write render statistics as JSON")] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar or summary")] = False,
     partial: Annotated[bool, typer.Option("--partial", help="On Ctrl-C, save the rows done as OUT.partial.EXT")] = False,
+    exposure: Annotated[Optional[float], typer.Option("--exposure", help="Exposure in stops for PNG output (2**E times brighter)")] = None,
+    pixel_filter: Annotated[Optional[str], typer.Option("--filter", help="Pixel filter for spp > 1: box | gaussian | mitchell")] = None,
     debug: Annotated[bool, typer.Option("--debug", help="Show tracebacks of errors")] = False,
 ) -> None:
     """Render SCENE to an image (default: the built-in `seed` scene to render.png)."""
     from .render import RenderInterrupted
 
     try:
-        _render(scene, output, width, height, spp, mode, max_depth, seed, threads, aov or [], stats, quiet)
+        _render(scene, output, width, height, spp, mode, max_depth, seed, threads, aov or [], stats, quiet,
+                exposure=exposure, pixel_filter=pixel_filter)
     except RenderInterrupted as exc:
         if partial:
             path = output.with_name(f"{output.stem}.partial{output.suffix}")
@@ -110,7 +113,8 @@ def render(
         _fail(f"{type(exc).__name__}: {exc}")
 
 
-def _render(scene, output, width, height, spp, mode, max_depth, seed, threads, aov_specs, stats_path, quiet):
+def _render(scene, output, width, height, spp, mode, max_depth, seed, threads, aov_specs, stats_path, quiet,
+            exposure=None, pixel_filter=None):
     import numba
     from pydantic import ValidationError
 
@@ -127,7 +131,8 @@ def _render(scene, output, width, height, spp, mode, max_depth, seed, threads, a
         raise OutputError(f"--threads {threads}: must be between 1 and {numba.config.NUMBA_NUM_THREADS}")
     try:
         scene_model = scene_model.with_render(
-            width=width, height=height, spp=spp, mode=mode, max_depth=max_depth, seed=seed
+            width=width, height=height, spp=spp, mode=mode, max_depth=max_depth, seed=seed,
+            exposure=exposure, filter=pixel_filter,
         )
     except ValidationError as exc:
         problems = "; ".join(

@@ -88,7 +88,8 @@ def render(
     else:
         rgb, aov_arrays, kernel_seconds, rays = _ray_render(scene, compiled, aovs, progress)
         primary = W * H * settings.spp
-    return Image(rgb, aov_arrays if aovs else {}, _stats(settings, threads, compiled, rays, primary, kernel_seconds), settings.encoding)
+    return Image(rgb, aov_arrays if aovs else {}, _stats(settings, threads, compiled, rays, primary, kernel_seconds), settings.encoding,
+                 exposure=settings.exposure)
 
 
 def _stats(settings, threads, compiled, rays, primary, kernel_seconds) -> dict:
@@ -158,7 +159,7 @@ def _ray_render(scene: Scene, compiled, want_aovs: bool, progress):
             run(row, end)
         except KeyboardInterrupt:
             # Numba finishes the call in flight (calls last ~TARGET_CALL_SECONDS); keep what is done.
-            partial = Image(rgb, aov if want_aovs else {}, {}, settings.encoding)
+            partial = Image(rgb, aov if want_aovs else {}, {}, settings.encoding, exposure=settings.exposure)
             raise RenderInterrupted(partial, end) from None
         elapsed = time.perf_counter() - t0
         kernel_seconds += elapsed

@@ -9,7 +9,7 @@ from numba import njit
 class KernelScene(NamedTuple):
     materials: np.ndarray  # float64 (M, MAT_WIDTH)
     light_kind: np.ndarray  # int32 (L,)
-    light_data: np.ndarray  # float64 (L, 6)
+    light_data: np.ndarray  # float64 (L, LIGHT_WIDTH), see layout.py
     spheres: np.ndarray  # float64 (S, 4): centre, radius
     sphere_material: np.ndarray  # int32 (S,)
     sphere_object: np.ndarray  # int32 (S,)
@@ -28,6 +28,8 @@ class KernelScene(NamedTuple):
     prim_id: np.ndarray  # int32 (P,): row in spheres or triangles
     has_transparency: bool
     epsilon_floor: float  # smallest ray offset: a tiny fraction of the scene's extent
+    triangle_uvs: np.ndarray  # float32 (T, 6): uv0, uv1, uv2, or (1, 6) when no triangle needs UVs
+    textures: np.ndarray  # float32 (N, 3): every image texture's linear texels, row by row
 
 
 # Hot kernels take small views of the scene instead of the whole KernelScene: Numba passes a
@@ -62,6 +64,8 @@ class Surfaces(NamedTuple):
     triangle_prim: np.ndarray
     has_transparency: bool
     epsilon_floor: float
+    triangle_uvs: np.ndarray
+    textures: np.ndarray
 
 
 class Lights(NamedTuple):
@@ -78,7 +82,7 @@ def geometry_of(S):
 def surfaces_of(S):
     return Surfaces(S.materials, S.sphere_material, S.sphere_object, S.plane_material, S.plane_object,
                     S.triangle_normals, S.triangle_smooth, S.triangle_material, S.triangle_object,
-                    S.triangle_prim, S.has_transparency, S.epsilon_floor)
+                    S.triangle_prim, S.has_transparency, S.epsilon_floor, S.triangle_uvs, S.textures)
 
 
 @njit

@@ -1,11 +1,21 @@
-"""Surface description at a hit and the seed's local lighting (ambient, diffuse, Phong).
+"""Surface description at a hit, textures, and the seed's local lighting (ambient, diffuse,
+Phong) from point, directional and area lights.
 
 The lean functions take the scene's views (Geometry G, Surfaces F, Lights L; see scene.py).
 `surface_at`, `albedo_at` and `local_lighting` take the whole KernelScene, for callers outside
-the hot ray loops."""
+the hot ray loops.
+
+Area lights (quad, sphere) are the seed's point light spread over a shape: their contribution
+is the average, over `samples` stratified points on the shape, of a point light of the same
+intensity at that point (diffuse and Phong terms, shadow ray to the point). A small area light
+therefore looks like the point light at its centre, and a large one casts soft shadows. A
+sphere light is sampled on its disk facing the shading point (its silhouette as seen from
+afar). Lights are not geometry: camera rays and reflections do not see them.
+"""
 
 import math
 
+import numpy as np
 from numba import njit
 
 from .intersect import INF
@@ -13,20 +23,37 @@ from .layout import (
     HIT_PLANE,
     HIT_SPHERE,
     LIGHT_AMBIENT,
+    LIGHT_DIRECTIONAL,
     LIGHT_POINT,
+    LIGHT_QUAD,
+    LIGHT_RADIUS,
+    LIGHT_SAMPLES,
+    LIGHT_U,
+    LIGHT_V,
     MAT_ABSORPTION,
     MAT_CHECK_A,
     MAT_CHECK_B,
     MAT_CHECK_SCALE,
     MAT_COLOR,
     MAT_SPECULAR,
+    MAT_TEX_HEIGHT,
+    MAT_TEX_OFFSET,
+    MAT_TEX_SCALE_U,
+    MAT_TEX_SCALE_V,
+    MAT_TEX_WIDTH,
     MAT_TEXTURE,
     MAT_TRANSPARENCY,
     TEXTURE_CHECKER,
+    TEXTURE_IMAGE,
 )
+from .sampling import concentric_disk, stratified_key, sub_key
 from .scene import geometry_of, lights_of, surfaces_of
 from .traverse import any_hit, closest_hit
 from .vec import FAST, KERNEL, add, cross, dot, length, madd, max_abs, mul, normalize, row3, sub
+
+# Shadow rays towards a point on an area light stop this fraction short of it, so a light
+# placed on a surface (a lamp on a ceiling) is not shadowed by that surface.
+AREA_SHADOW_SHORTEN = 1e-6
 
 
 @njit(**KERNEL, inline="always")
@@ -53,7 +80,8 @@ def surface(G, F, kind, index, b1, b2, p):
 
 @njit(**KERNEL, inline="always")
 def albedo(materials, m, p):
-    """The material's colour at p: its plain colour or a world-space checkerboard."""
+    """The material's colour at p: its plain colour or a world-space checkerboard. (An image
+    texture needs UVs, see `surface_albedo`; here it gives the texture's mean colour.)"""
     if materials[m, MAT_TEXTURE] == TEXTURE_CHECKER:
         inv = 1.0 / materials[m, MAT_CHECK_SCALE]
         # A tiny bias keeps a plane through a cell boundary (y = 0) inside one cell.
@@ -61,7 +89,87 @@ def albedo(materials, m, p):
         if parity == 0:
             return row3(materials, m, MAT_CHECK_A)
         return row3(materials, m, MAT_CHECK_B)
+    if materials[m, MAT_TEXTURE] == TEXTURE_IMAGE:
+        return row3(materials, m, MAT_CHECK_A)
     return row3(materials, m, MAT_COLOR)
+
+
+@njit(**KERNEL, inline="always")
+def surface_albedo(G, F, kind, index, b1, b2, p, m):
+    """The material's colour at a hit, image textures included (they need the hit's UVs)."""
+    mat = F.materials
+    if mat[m, MAT_TEXTURE] == TEXTURE_IMAGE:
+        # explicit int64: call sites after inlined traversal may type kind/index as literals,
+        # which would compile surface_uv once per literal
+        u, v = surface_uv(G, F, np.int64(kind), np.int64(index), b1, b2, p)
+        return texture_lookup(F.textures, int(mat[m, MAT_TEX_OFFSET]), int(mat[m, MAT_TEX_WIDTH]),
+                              int(mat[m, MAT_TEX_HEIGHT]), u * mat[m, MAT_TEX_SCALE_U], v * mat[m, MAT_TEX_SCALE_V])
+    return albedo(mat, m, p)
+
+
+@njit(**KERNEL)
+def surface_uv(G, F, kind, index, b1, b2, p):
+    """Texture coordinates of a hit.
+
+    Spheres: u = 0.5 + atan2(n.x, -n.z) / 2pi (0.5 faces -z, the default camera; the seam is
+    at the back, +z), v = 0.5 + asin(n.y) / pi (0 at the south pole, 1 at the north).
+    Planes: world units along two axes of the plane (right and up of a wall facing -z; x and
+    z on a floor). Triangles: the mesh's UVs interpolated; a `triangle` object has (0, 0),
+    (1, 0), (0, 1) at its vertices."""
+    if kind == HIT_SPHERE:
+        n = normalize(sub(p, row3(G.spheres, index, 0)))
+        u = 0.5 + math.atan2(n[0], -n[2]) * (0.5 / math.pi)
+        v = 0.5 + math.asin(min(1.0, max(-1.0, n[1]))) / math.pi
+        return u, v
+    if kind == HIT_PLANE:
+        n = row3(G.planes, index, 3)
+        hint = (0.0, 0.0, 1.0) if abs(n[1]) > 0.999 else (0.0, 1.0, 0.0)
+        t1 = normalize(cross(n, hint))
+        t2 = cross(t1, n)
+        rel = sub(p, row3(G.planes, index, 0))
+        return dot(rel, t1), dot(rel, t2)
+    uv = F.triangle_uvs
+    if uv.shape[0] <= index:
+        return b1, b2
+    b0 = 1.0 - b1 - b2
+    return (b0 * uv[index, 0] + b1 * uv[index, 2] + b2 * uv[index, 4],
+            b0 * uv[index, 1] + b1 * uv[index, 3] + b2 * uv[index, 5])
+
+
+@njit(**KERNEL)
+def texture_lookup(textures, offset, width, height, u, v):
+    """Bilinear lookup of an image texture at (u, v), wrapping (repeating) in both directions.
+
+    The image's top row is v = 1 and its left column u = 0 (OBJ/glTF convention); texel
+    (x, y), y counted from the top, has its centre at ((x + 0.5) / width, 1 - (y + 0.5) / height)
+    and there the lookup returns exactly that texel."""
+    if not (u == u and v == v):  # NaN
+        u = 0.0
+        v = 0.0
+    u -= math.floor(u)
+    v -= math.floor(v)
+    fx = u * width - 0.5
+    fy = (1.0 - v) * height - 0.5
+    x0f = math.floor(fx)
+    y0f = math.floor(fy)
+    tx = fx - x0f
+    ty = fy - y0f
+    x0 = int(x0f) % width
+    y0 = int(y0f) % height
+    x1 = (x0 + 1) % width
+    y1 = (y0 + 1) % height
+    top = offset + y0 * width
+    bottom = offset + y1 * width
+    w00 = (1.0 - tx) * (1.0 - ty)
+    w10 = tx * (1.0 - ty)
+    w01 = (1.0 - tx) * ty
+    w11 = tx * ty
+    t = textures
+    return (
+        t[top + x0, 0] * w00 + t[top + x1, 0] * w10 + t[bottom + x0, 0] * w01 + t[bottom + x1, 0] * w11,
+        t[top + x0, 1] * w00 + t[top + x1, 1] * w10 + t[bottom + x0, 1] * w01 + t[bottom + x1, 1] * w11,
+        t[top + x0, 2] * w00 + t[top + x1, 2] * w10 + t[bottom + x0, 2] * w01 + t[bottom + x1, 2] * w11,
+    )
 
 
 @njit(**KERNEL)
@@ -112,10 +220,33 @@ def shadow_transmittance(G, F, o, d, tmax, node_stack, t_stack):
 
 
 @njit(**KERNEL, inline="always")
+def _phong(n, l, view, specular):
+    """The seed's diffuse + specular factor for the unit direction l towards a light."""
+    n_dot_l = dot(n, l)
+    scale = max(n_dot_l, 0.0)
+    if specular > 0.0:
+        # the seed adds the highlight whatever the sign of N.L (R and V decide)
+        r = sub(mul(n, 2.0 * n_dot_l), l)
+        r_dot_v = dot(r, view)
+        if r_dot_v > 0.0:
+            scale += (r_dot_v / (length(r) * length(view))) ** specular
+    return scale
+
+
+@njit(**KERNEL, inline="always")
 def lighting(G, F, L, p, n, view, m, shadows, node_stack, t_stack):
+    """The seed's ComputeLighting (see `sampled_lighting`), with area lights sampled by a fixed
+    pattern: for callers without a per-sample random key."""
+    return sampled_lighting(G, F, L, p, n, view, m, shadows, node_stack, t_stack, np.uint64(0))
+
+
+@njit(**KERNEL, inline="always")
+def sampled_lighting(G, F, L, p, n, view, m, shadows, node_stack, t_stack, key):
     """The seed's ComputeLighting: ambient + diffuse + specular from each light, RGB.
 
-    n faces the viewer; p is already offset off the surface. Returns (intensity, rays)."""
+    n faces the viewer; p is already offset off the surface. Area lights take their light's
+    `samples` stratified points, jittered by hashes of `key` (unique to this shading event of
+    this camera sample). Returns (intensity, rays)."""
     specular = F.materials[m, MAT_SPECULAR]
     ir = 0.0
     ig = 0.0
@@ -129,32 +260,73 @@ def lighting(G, F, L, p, n, view, m, shadows, node_stack, t_stack):
             ig += intensity[1]
             ib += intensity[2]
             continue
-        if kind == LIGHT_POINT:
-            to_light = sub(row3(L.data, k, 0), p)
-            tmax = length(to_light)
+        # Point and directional lights take one sample; an area light the average of point
+        # lights at `samples` stratified points on its shape (one shadow-ray call site, to
+        # keep the compiled kernel small).
+        count = 1
+        centre = row3(L.data, k, 0)
+        e1 = (0.0, 0.0, 0.0)
+        e2 = (0.0, 0.0, 0.0)
+        if kind == LIGHT_QUAD:
+            count = int(L.data[k, LIGHT_SAMPLES])
+            e1 = row3(L.data, k, LIGHT_U)
+            e2 = row3(L.data, k, LIGHT_V)
+        elif kind != LIGHT_POINT and kind != LIGHT_DIRECTIONAL:  # sphere: its disk facing p
+            count = int(L.data[k, LIGHT_SAMPLES])
+            e1, e2 = _basis(normalize(sub(centre, p)))
+            e1 = mul(e1, L.data[k, LIGHT_RADIUS])
+            e2 = mul(e2, L.data[k, LIGHT_RADIUS])
+        light_key = sub_key(key, k)
+        sr = 0.0
+        sg = 0.0
+        sb = 0.0
+        for s in range(count):
+            if kind == LIGHT_POINT:
+                to_light = sub(centre, p)
+                tmax = length(to_light)
+            elif kind == LIGHT_DIRECTIONAL:
+                to_light = centre
+                tmax = INF
+            else:
+                u1, u2 = stratified_key(light_key, s, count)
+                if kind == LIGHT_QUAD:
+                    a = u1 - 0.5
+                    b = u2 - 0.5
+                else:
+                    a, b = concentric_disk(u1, u2)
+                to_light = sub(madd(madd(centre, e1, a), e2, b), p)
+                tmax = length(to_light) * (1.0 - AREA_SHADOW_SHORTEN)
+            l = normalize(to_light)
+            scale = _phong(n, l, view, specular)
+            if scale <= 0.0:
+                continue  # nothing to add: skip the shadow ray
+            if shadows:
+                tr, used = shadow_transmittance(G, F, p, l, tmax, node_stack, t_stack)
+                rays += used
+            else:
+                tr = (1.0, 1.0, 1.0)
+            sr += intensity[0] * scale * tr[0]
+            sg += intensity[1] * scale * tr[1]
+            sb += intensity[2] * scale * tr[2]
+        if count == 1:
+            ir += sr
+            ig += sg
+            ib += sb
         else:
-            to_light = row3(L.data, k, 0)
-            tmax = INF
-        l = normalize(to_light)
-        n_dot_l = dot(n, l)
-        scale = max(n_dot_l, 0.0)
-        if specular > 0.0:
-            # the seed adds the highlight whatever the sign of N.L (R and V decide)
-            r = sub(mul(n, 2.0 * n_dot_l), l)
-            r_dot_v = dot(r, view)
-            if r_dot_v > 0.0:
-                scale += (r_dot_v / (length(r) * length(view))) ** specular
-        if scale <= 0.0:
-            continue  # nothing to add: skip the shadow ray
-        if shadows:
-            tr, used = shadow_transmittance(G, F, p, l, tmax, node_stack, t_stack)
-            rays += used
-        else:
-            tr = (1.0, 1.0, 1.0)
-        ir += intensity[0] * scale * tr[0]
-        ig += intensity[1] * scale * tr[1]
-        ib += intensity[2] * scale * tr[2]
+            inv = 1.0 / count
+            ir += sr * inv
+            ig += sg * inv
+            ib += sb * inv
     return (ir, ig, ib), rays
+
+
+@njit(**KERNEL)
+def _basis(w):
+    """Two unit vectors completing the unit w to an orthonormal basis (Duff et al. 2017)."""
+    sign = 1.0 if w[2] >= 0.0 else -1.0
+    a = -1.0 / (sign + w[2])
+    b = w[0] * w[1] * a
+    return (1.0 + sign * w[0] * w[0] * a, sign * b, -sign * w[0]), (b, sign + w[1] * w[1] * a, -w[1])
 
 
 # --- whole-scene conveniences (not for per-ray use) -----------------------------------------

@@ -14,7 +14,8 @@ from numba import njit
 from .intersect import INF
 from .layout import MAT_ABSORPTION, MAT_IOR, MAT_REFLECTIVE, MAT_TRANSPARENCY
 from .optics import fresnel_dielectric, reflect, refract
-from .shade import albedo, lighting, offset_epsilon, surface
+from .sampling import event_key
+from .shade import offset_epsilon, sampled_lighting, surface, surface_albedo
 from .traverse import closest_hit
 from .vec import FAST, KERNEL, dot, hadamard, madd, mul
 
@@ -23,9 +24,10 @@ MIN_WEIGHT = 1e-4
 
 
 @njit(**KERNEL)
-def trace_ray(G, F, L, o, d, max_depth, background, rays, node_stack, t_stack):
+def trace_ray(G, F, L, o, d, max_depth, background, rays, node_stack, t_stack, key):
     """Colour seen along the ray (o, d). `rays` is a float64 (K, 10) work stack of
-    origin, direction, weight, depth. Returns (rgb, rays traced)."""
+    origin, direction, weight, depth; `key` the camera sample's random key (area lights).
+    Returns (rgb, rays traced)."""
     cr = 0.0
     cg = 0.0
     cb = 0.0
@@ -65,9 +67,10 @@ def trace_ray(G, F, L, o, d, max_depth, background, rays, node_stack, t_stack):
         eps = offset_epsilon(F.epsilon_floor, p)
         outside = madd(p, ng, eps)
         view = mul(d, -1.0)
-        light, shadow_rays = lighting(G, F, L, outside, ns, view, m, True, node_stack, t_stack)
+        light, shadow_rays = sampled_lighting(G, F, L, outside, ns, view, m, True, node_stack, t_stack,
+                                              event_key(key, count))
         count += shadow_rays
-        local = hadamard(albedo(mat, m, p), light)
+        local = hadamard(surface_albedo(G, F, kind, index, b1, b2, p, m), light)
         if depth <= 0:
             cr += w[0] * local[0]
             cg += w[1] * local[1]

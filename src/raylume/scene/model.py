@@ -26,6 +26,8 @@ from pydantic import (
 MAX_SIDE = 16384
 MAX_SPP = 4096
 MAX_DEPTH = 64
+MAX_LIGHT_SAMPLES = 1024
+PIXEL_FILTERS = ("box", "gaussian", "mitchell")
 
 
 class Strict(BaseModel):
@@ -94,6 +96,12 @@ class RenderSettings(Strict):
     background: Color = (0.0, 0.0, 0.0)
     encoding: Literal["clamp", "srgb"] = "clamp"
     seed: int = Field(0, ge=0, le=2**32 - 1)
+    # Pixel reconstruction filter for spp > 1 (box: the pixel itself; gaussian: radius 1.5 px,
+    # sigma 0.5; mitchell: B = C = 1/3, radius 2 px). One sample per pixel is always the centre.
+    filter: Literal["box", "gaussian", "mitchell"] = "box"
+    # Exposure in stops: 8-bit outputs (PNG) are encoded from rgb * 2**exposure; float outputs
+    # (.exr, .hdr, .npy) stay as rendered.
+    exposure: FiniteFloat = Field(0.0, ge=-64, le=64)
 
     @field_validator("background", mode="before")
     @classmethod
@@ -106,6 +114,16 @@ class Camera(Strict):
     look_at: Vec3 = (0.0, 0.0, 1.0)
     up: Vec3 = (0.0, 1.0, 0.0)
     fov: FiniteFloat = Field(53.13, gt=0, lt=180)
+    # Thin lens: the lens diameter (0: the pinhole camera of DESIGN.md) and the distance, along
+    # the viewing direction, of the plane in focus (default: the distance to look_at).
+    aperture: FiniteFloat = Field(0.0, ge=0)
+    focus_distance: FiniteFloat | None = Field(None, gt=0)
+
+    @property
+    def focus(self) -> float:
+        if self.focus_distance is not None:
+            return self.focus_distance
+        return math.dist(self.position, self.look_at)
 
     @model_validator(mode="after")
     def _frame(self):
@@ -125,6 +143,14 @@ class Camera(Strict):
         return self
 
 
+def _tag_by_type(value):
+    if isinstance(value, dict):
+        kind = value.get("type")
+        return f"<{kind}>" if isinstance(kind, str) else None
+    kind = getattr(value, "type", None)
+    return f"<{kind}>" if kind else None
+
+
 class Checker(Strict):
     """A 3D checkerboard in world space: cells of side `scale` alternate between two colours."""
 
@@ -140,6 +166,38 @@ class Checker(Strict):
         return tuple(_colour(c, upper=1.0) for c in v)
 
 
+class ImageTexture(Strict):
+    """A PNG or JPEG image (relative to the scene file) mapped by the surface's UVs, bilinear
+    filtered and repeating; `scale` multiplies the UVs (2 = the image twice across). It
+    replaces the material's colour; texels are sRGB-decoded to linear RGB."""
+
+    type: Literal["image"]
+    file: str
+    scale: tuple[FiniteFloat, FiniteFloat] = (1.0, 1.0)
+
+    @field_validator("scale", mode="before")
+    @classmethod
+    def _scale(cls, v):
+        if isinstance(v, (int, float)) and not isinstance(v, bool):
+            v = (v, v)
+        if not isinstance(v, (list, tuple)) or len(v) != 2:
+            raise ValueError("scale must be a number or [u, v]")
+        if any(isinstance(c, bool) or not isinstance(c, (int, float)) or not c > 0 for c in v):
+            raise ValueError("scale factors must be numbers > 0")
+        return tuple(v)
+
+
+TEXTURE_TYPES = ("checker", "image")
+Texture = Annotated[
+    Union[Annotated[Checker, Tag("<checker>")], Annotated[ImageTexture, Tag("<image>")]],
+    Discriminator(
+        _tag_by_type,
+        custom_error_type="unknown_type",
+        custom_error_message=f"type must be one of: {', '.join(TEXTURE_TYPES)}",
+    ),
+]
+
+
 class Material(Strict):
     color: Color = (1.0, 1.0, 1.0)
     specular: FiniteFloat | None = Field(None, gt=0)
@@ -147,7 +205,7 @@ class Material(Strict):
     transparency: FiniteFloat = Field(0.0, ge=0, le=1)
     ior: FiniteFloat = Field(1.5, gt=0)
     absorption: Color = (0.0, 0.0, 0.0)
-    texture: Checker | None = None
+    texture: Texture | None = None
 
     @field_validator("color", mode="before")
     @classmethod
@@ -164,14 +222,6 @@ class Material(Strict):
         if self.reflective + self.transparency > 1 + 1e-9:
             raise ValueError("reflective + transparency must not exceed 1")
         return self
-
-
-def _tag_by_type(value):
-    if isinstance(value, dict):
-        kind = value.get("type")
-        return f"<{kind}>" if isinstance(kind, str) else None
-    kind = getattr(value, "type", None)
-    return f"<{kind}>" if kind else None
 
 
 def _material_tag(value):
@@ -221,12 +271,43 @@ class DirectionalLight(_LightBase):
         return _nonzero(v, "direction")
 
 
-LIGHT_TYPES = ("ambient", "point", "directional")
+class QuadLight(_LightBase):
+    """A rectangle centred on `position` with edge vectors `u` and `v` (it spans
+    position +- u/2 +- v/2), sampled with `samples` shadow rays per shading point."""
+
+    type: Literal["quad"]
+    position: Vec3
+    u: Vec3
+    v: Vec3
+    samples: int = Field(16, ge=1, le=MAX_LIGHT_SAMPLES)
+
+    @model_validator(mode="after")
+    def _edges(self):
+        u, v = self.u, self.v
+        n = (u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0])
+        if not any(n):
+            raise ValueError("u and v must be non-zero and not parallel")
+        return self
+
+
+class SphereLight(_LightBase):
+    """A sphere of `radius` around `position`, sampled with `samples` shadow rays per shading
+    point (over its disk facing the point)."""
+
+    type: Literal["sphere"]
+    position: Vec3
+    radius: FiniteFloat = Field(gt=0)
+    samples: int = Field(16, ge=1, le=MAX_LIGHT_SAMPLES)
+
+
+LIGHT_TYPES = ("ambient", "point", "directional", "quad", "sphere")
 Light = Annotated[
     Union[
         Annotated[AmbientLight, Tag("<ambient>")],
         Annotated[PointLight, Tag("<point>")],
         Annotated[DirectionalLight, Tag("<directional>")],
+        Annotated[QuadLight, Tag("<quad>")],
+        Annotated[SphereLight, Tag("<sphere>")],
     ],
     Discriminator(
         _tag_by_type,
