@@ -17,6 +17,13 @@ from .scene.mesh import MeshError, load_mesh
 from .scene.model import DEFAULT_MATERIAL, ImageTexture, Material, Mesh, Plane, Scene, Sphere, Triangle
 
 
+# BVH shape, measured on the seed scene and the bunny (benchmarks/bench_bvh.py): visiting a node
+# (two box tests) costs about as much as two primitive tests, and scenes of a few primitives
+# are fastest as a single leaf, with no box test at all.
+BVH_MAX_LEAF = 4
+BVH_TRAVERSAL_COST = 2.0
+SMALL_SCENE = 8
+
 
 class CompiledScene(NamedTuple):
     kernel: KernelScene
@@ -248,7 +255,8 @@ def compile_scene(scene: Scene, width: int, height: int, source="<scene>") -> Co
         lo[n_spheres:] = corners.min(axis=1)
         hi[n_spheres:] = corners.max(axis=1)
         del corners
-    bvh = build_bvh(lo, hi)
+    bvh = build_bvh(lo, hi, max_leaf_size=max(BVH_MAX_LEAF, len(lo) if len(lo) <= SMALL_SCENE else 0),
+                    c_trav=BVH_TRAVERSAL_COST if len(lo) > SMALL_SCENE else 1e9)
     depth = bvh_depth(bvh)
     if depth >= L.TRAVERSAL_STACK - 2:  # traversal stacks are fixed-size (no allocation per ray)
         raise SceneError(f"{source}: the BVH is {depth} levels deep, more than the {L.TRAVERSAL_STACK - 2} "
