@@ -79,11 +79,11 @@ def render(
     threads = _set_threads(threads)
     check_memory(W, H, aovs)
 
-    compiled = compile_scene(scene, W, H, source=source)
+    compiled = compile_scene(scene, W, H, source=source, accelerate=settings.mode != "raster")
     if settings.mode == "raster":
         from .raster import rasterize
 
-        rgb, aov_arrays, kernel_seconds, rays = rasterize(scene, compiled, progress=progress)
+        rgb, aov_arrays, kernel_seconds, rays = rasterize(scene, compiled, progress=progress, aovs=aovs)
         primary = 0
     else:
         rgb, aov_arrays, kernel_seconds, rays = _ray_render(scene, compiled, aovs, progress)
