@@ -480,3 +480,44 @@ def test_quality_example_loads_and_renders_small():
     example = raylume.load_scene(REPO / "examples" / "quality.toml")
     img = raylume.render(example, width=40, height=25, spp=2, aovs=False)
     assert np.isfinite(img.rgb).all() and img.rgb.max() > 0.1
+
+
+# ------------------------------------------------------------------ properties
+
+from hypothesis import given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+_FLOATS = st.floats(min_value=-1e6, max_value=1e6, allow_nan=False)
+
+
+@settings(max_examples=300, deadline=None)
+@given(u=_FLOATS | st.just(float("nan")), v=_FLOATS, w=st.integers(1, 5), h=st.integers(1, 5))
+def test_texture_lookup_is_a_convex_blend_of_texels(u, v, w, h):
+    from raylume.kernels.shade import texture_lookup
+
+    texels = np.random.default_rng(w * 7 + h).random((w * h, 3)).astype(np.float32)
+    got = np.array(texture_lookup(texels, 0, w, h, u, v))
+    assert np.isfinite(got).all()
+    assert np.all(got >= texels.min(axis=0) - 1e-6) and np.all(got <= texels.max(axis=0) + 1e-6)
+
+
+@settings(max_examples=300, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), pixel=st.integers(0, 2**40), n=st.integers(1, 4096), data=st.data())
+def test_samples_stay_in_the_unit_square_and_lens_strata_are_a_permutation(seed, pixel, n, data):
+    from raylume.kernels.sampling import concentric_disk, lens_sample, permute, sample_key, stratified_key
+
+    s = data.draw(st.integers(0, n - 1))
+    key = np.uint64(sample_key(seed, pixel, s))  # back from Python as an int, which may not fit int64
+    for x, y in (stratified_key(key, s, n), lens_sample(key, s, n)):
+        assert 0.0 <= x < 1.0 and 0.0 <= y < 1.0
+        dx, dy = concentric_disk(x, y)
+        assert dx * dx + dy * dy <= 1.0 + 1e-12
+    if n <= 64:
+        assert sorted(permute(i, n, pixel) for i in range(n)) == list(range(n))
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.floats(allow_nan=True, allow_infinity=True, width=32), min_size=3, max_size=3))
+def test_rgbe_never_fails(rgb):
+    out = rgbe_encode(np.array([[rgb]], dtype=np.float32))
+    assert out.dtype == np.uint8 and out.shape == (1, 1, 4)

@@ -46,7 +46,7 @@ from .layout import (
     TEXTURE_CHECKER,
     TEXTURE_IMAGE,
 )
-from .sampling import concentric_disk, stratified_key, sub_key
+from .sampling import concentric_disk, event_key, stratified_key, sub_key
 from .scene import geometry_of, lights_of, surfaces_of
 from .traverse import any_hit, closest_hit
 from .vec import FAST, KERNEL, add, cross, dot, length, madd, max_abs, mul, normalize, row3, sub
@@ -237,16 +237,16 @@ def _phong(n, l, view, specular):
 def lighting(G, F, L, p, n, view, m, shadows, node_stack, t_stack):
     """The seed's ComputeLighting (see `sampled_lighting`), with area lights sampled by a fixed
     pattern: for callers without a per-sample random key."""
-    return sampled_lighting(G, F, L, p, n, view, m, shadows, node_stack, t_stack, np.uint64(0))
+    return sampled_lighting(G, F, L, p, n, view, m, shadows, node_stack, t_stack, np.uint64(0), 0)
 
 
 @njit(**KERNEL, inline="always")
-def sampled_lighting(G, F, L, p, n, view, m, shadows, node_stack, t_stack, key):
+def sampled_lighting(G, F, L, p, n, view, m, shadows, node_stack, t_stack, key, event):
     """The seed's ComputeLighting: ambient + diffuse + specular from each light, RGB.
 
     n faces the viewer; p is already offset off the surface. Area lights take their light's
-    `samples` stratified points, jittered by hashes of `key` (unique to this shading event of
-    this camera sample). Returns (intensity, rays)."""
+    `samples` stratified points, jittered by hashes of the camera sample's `key` and `event`
+    (a counter along its path, e.g. the rays traced so far). Returns (intensity, rays)."""
     specular = F.materials[m, MAT_SPECULAR]
     ir = 0.0
     ig = 0.0
@@ -260,42 +260,22 @@ def sampled_lighting(G, F, L, p, n, view, m, shadows, node_stack, t_stack, key):
             ig += intensity[1]
             ib += intensity[2]
             continue
-        # Point and directional lights take one sample; an area light the average of point
-        # lights at `samples` stratified points on its shape (one shadow-ray call site, to
-        # keep the compiled kernel small).
-        count = 1
-        centre = row3(L.data, k, 0)
-        e1 = (0.0, 0.0, 0.0)
-        e2 = (0.0, 0.0, 0.0)
-        if kind == LIGHT_QUAD:
-            count = int(L.data[k, LIGHT_SAMPLES])
-            e1 = row3(L.data, k, LIGHT_U)
-            e2 = row3(L.data, k, LIGHT_V)
-        elif kind != LIGHT_POINT and kind != LIGHT_DIRECTIONAL:  # sphere: its disk facing p
-            count = int(L.data[k, LIGHT_SAMPLES])
-            e1, e2 = _basis(normalize(sub(centre, p)))
-            e1 = mul(e1, L.data[k, LIGHT_RADIUS])
-            e2 = mul(e2, L.data[k, LIGHT_RADIUS])
-        light_key = sub_key(key, k)
-        sr = 0.0
-        sg = 0.0
-        sb = 0.0
-        for s in range(count):
+        # Point and directional lights take one sample, area lights `samples`, all through one
+        # shadow-ray call site (each inlined copy of the traversal costs seconds of JIT time).
+        # The area lights' state lives in `area_light_point` and is recomputed per sample, so
+        # that the point-light path keeps its registers (live values across the shadow ray
+        # slow the traversal) and gives the seed's results bit for bit.
+        remaining = 1 if kind == LIGHT_POINT or kind == LIGHT_DIRECTIONAL else int(L.data[k, LIGHT_SAMPLES])
+        while remaining > 0:
+            remaining -= 1
             if kind == LIGHT_POINT:
-                to_light = sub(centre, p)
+                to_light = sub(row3(L.data, k, 0), p)
                 tmax = length(to_light)
             elif kind == LIGHT_DIRECTIONAL:
-                to_light = centre
+                to_light = row3(L.data, k, 0)
                 tmax = INF
             else:
-                u1, u2 = stratified_key(light_key, s, count)
-                if kind == LIGHT_QUAD:
-                    a = u1 - 0.5
-                    b = u2 - 0.5
-                else:
-                    a, b = concentric_disk(u1, u2)
-                to_light = sub(madd(madd(centre, e1, a), e2, b), p)
-                tmax = length(to_light) * (1.0 - AREA_SHADOW_SHORTEN)
+                to_light, tmax = area_light_point(L, k, p, key, event, remaining)
             l = normalize(to_light)
             scale = _phong(n, l, view, specular)
             if scale <= 0.0:
@@ -305,19 +285,36 @@ def sampled_lighting(G, F, L, p, n, view, m, shadows, node_stack, t_stack, key):
                 rays += used
             else:
                 tr = (1.0, 1.0, 1.0)
-            sr += intensity[0] * scale * tr[0]
-            sg += intensity[1] * scale * tr[1]
-            sb += intensity[2] * scale * tr[2]
-        if count == 1:
-            ir += sr
-            ig += sg
-            ib += sb
-        else:
-            inv = 1.0 / count
-            ir += sr * inv
-            ig += sg * inv
-            ib += sb * inv
+            if kind == LIGHT_POINT or kind == LIGHT_DIRECTIONAL:
+                ir += intensity[0] * scale * tr[0]
+                ig += intensity[1] * scale * tr[1]
+                ib += intensity[2] * scale * tr[2]
+            else:
+                weight = scale / L.data[k, LIGHT_SAMPLES]
+                ir += intensity[0] * weight * tr[0]
+                ig += intensity[1] * weight * tr[1]
+                ib += intensity[2] * weight * tr[2]
     return (ir, ig, ib), rays
+
+
+@njit(**KERNEL)
+def area_light_point(L, k, p, key, event, s):
+    """Sample s of area light k (of its `samples`) for the shading event `event` of the camera
+    sample `key`, as seen from p: (vector from p to the point, shadow ray length). Quads are
+    sampled uniformly over their area, spheres over their disk facing p, at stratified points
+    jittered by hashes of (key, event, k, s)."""
+    count = int(L.data[k, LIGHT_SAMPLES])
+    u1, u2 = stratified_key(sub_key(event_key(key, event), k), s, count)
+    centre = row3(L.data, k, 0)
+    if L.kind[k] == LIGHT_QUAD:
+        q = madd(madd(centre, row3(L.data, k, LIGHT_U), u1 - 0.5), row3(L.data, k, LIGHT_V), u2 - 0.5)
+    else:
+        e1, e2 = _basis(normalize(sub(centre, p)))
+        a, b = concentric_disk(u1, u2)
+        r = L.data[k, LIGHT_RADIUS]
+        q = madd(madd(centre, e1, a * r), e2, b * r)
+    to_light = sub(q, p)
+    return to_light, length(to_light) * (1.0 - AREA_SHADOW_SHORTEN)
 
 
 @njit(**KERNEL)

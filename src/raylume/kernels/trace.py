@@ -14,7 +14,6 @@ from numba import njit
 from .intersect import INF
 from .layout import MAT_ABSORPTION, MAT_IOR, MAT_REFLECTIVE, MAT_TRANSPARENCY
 from .optics import fresnel_dielectric, reflect, refract
-from .sampling import event_key
 from .shade import offset_epsilon, sampled_lighting, surface, surface_albedo
 from .traverse import closest_hit
 from .vec import FAST, KERNEL, dot, hadamard, madd, mul
@@ -67,8 +66,7 @@ def trace_ray(G, F, L, o, d, max_depth, background, rays, node_stack, t_stack, k
         eps = offset_epsilon(F.epsilon_floor, p)
         outside = madd(p, ng, eps)
         view = mul(d, -1.0)
-        light, shadow_rays = sampled_lighting(G, F, L, outside, ns, view, m, True, node_stack, t_stack,
-                                              event_key(key, count))
+        light, shadow_rays = sampled_lighting(G, F, L, outside, ns, view, m, True, node_stack, t_stack, key, count)
         count += shadow_rays
         local = hadamard(surface_albedo(G, F, kind, index, b1, b2, p, m), light)
         if depth <= 0:
