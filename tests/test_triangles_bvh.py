@@ -279,3 +279,18 @@ def test_stats_report_triangles_and_bvh(tmp_path):
     s = img.stats
     assert s["triangles"] == len(f) and s["primitives"] == len(f)
     assert s["bvh_nodes"] > 2 * len(f) / 8 and s["bvh_bytes"] > 0 and s["build_seconds"] > 0
+
+
+def test_rays_through_a_shared_diagonal_hit_inside_the_renderer(tmp_path):
+    """Pixel centres exactly on the diagonal of a quad split in two: every pixel is covered,
+    through the whole kernel pipeline (camera, traversal, fast-math callers), not only when the
+    triangle test is called on its own."""
+    for faces in ([[0, 1, 2], [0, 2, 3]], [[0, 1, 3], [1, 2, 3]]):
+        path = tmp_path / "quad.obj"
+        trimesh.Trimesh([[-1, -1, 1], [1, -1, 1], [1, 1, 1], [-1, 1, 1]], faces, process=False).export(path)
+        for fov, size in ((90, 4), (60, 4), (90, 64)):
+            scene = raylume.scene_from_dict({
+                "render": {"width": size, "height": size, "mode": "cast"}, "camera": {"fov": fov},
+                "objects": [{"type": "mesh", "file": str(path)}],
+            })
+            assert (raylume.render(scene).aovs["object"] == 0).all(), (faces, fov, size)

@@ -96,14 +96,18 @@ def intersect_triangle(o, shear, tri, i, tmin, tmax):
     u = cx * by - cy * bx
     v = ax * cy - ay * cx
     w = bx * ay - by * ax
-    if (u < 0.0 or v < 0.0 or w < 0.0) and (u > 0.0 or v > 0.0 or w > 0.0):
+    # Edge functions within a hair of zero count as inside: inlined into fast-math callers,
+    # Numba/LLVM may evaluate the two triangles sharing an edge with different roundings, and a
+    # ray exactly through the edge must still hit at least one of them (no pinholes).
+    tol = 1e-12 * (abs(u) + abs(v) + abs(w))
+    if (u < -tol or v < -tol or w < -tol) and (u > tol or v > tol or w > tol):
         return INF, 0.0, 0.0
     det = u + v + w
     if det == 0.0:
         return INF, 0.0, 0.0
     t = (u * az + v * bz + w * cz) * sz / det
     if t > tmin and t < tmax:
-        return t, v / det, w / det
+        return t, min(max(v / det, 0.0), 1.0), min(max(w / det, 0.0), 1.0)
     return INF, 0.0, 0.0
 
 
