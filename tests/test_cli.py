@@ -149,3 +149,52 @@ def test_output_may_not_overwrite_the_scene(tmp_path, good):
     result = raylume("render", "scene.toml", "--aov", "depth=scene.npy", "-o", "scene.npy", cwd=tmp_path)
     assert result.returncode == 2
     assert good.read_text() == GOOD_SCENE
+
+
+# Every scene-file entry of the catalogue of bad inputs (docs/errors.md), end to end.
+from test_scene_load import BAD as BAD_DOCUMENTS  # noqa: E402
+
+
+@pytest.mark.parametrize("document, key, words", BAD_DOCUMENTS, ids=[b[1] + ":" + b[2][:12] for b in BAD_DOCUMENTS])
+def test_catalogue_of_bad_scene_files_end_to_end(tmp_path, document, key, words):
+    (tmp_path / "bad.json").write_text(json.dumps(document))
+    result = raylume("render", "bad.json", "-o", "out.png", "--stats", "s.json", cwd=tmp_path)
+    assert result.returncode == 2, result.stderr
+    assert "Traceback" not in result.stderr
+    assert "bad.json" in result.stderr and key in result.stderr and words in result.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.json"]
+
+
+BAD_MESHES = {
+    "empty.obj": ("", "empty"),
+    "points.ply": ("ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\n"
+                   "end_header\n0 0 0\n1 1 1\n", "no triangles"),
+    "range.obj": ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n", ""),
+    "nan.obj": ("v 0 0 0\nv 1 0 0\nv nan 1 0\nf 1 2 3\n", ""),
+    "notply.ply": ("this is not a ply file at all\n", ""),
+}
+
+
+@pytest.mark.parametrize("name", sorted(BAD_MESHES))
+def test_catalogue_of_bad_meshes_end_to_end(tmp_path, name):
+    text, words = BAD_MESHES[name]
+    (tmp_path / name).write_text(text)
+    (tmp_path / "scene.toml").write_text(f'[[objects]]\ntype = "mesh"\nfile = "{name}"\n')
+    result = raylume("render", "scene.toml", "-o", "out.png", cwd=tmp_path)
+    assert result.returncode == 2, result.stderr
+    assert "Traceback" not in result.stderr
+    assert "objects[0].file" in result.stderr and name in result.stderr and words in result.stderr
+    assert not (tmp_path / "out.png").exists()
+
+
+def test_mesh_folder_instead_of_file_end_to_end(tmp_path):
+    (tmp_path / "dir.obj").mkdir()
+    (tmp_path / "scene.toml").write_text('[[objects]]\ntype = "mesh"\nfile = "dir.obj"\n')
+    result = raylume("render", "scene.toml", cwd=tmp_path)
+    assert result.returncode == 2 and "dir.obj" in result.stderr and "Traceback" not in result.stderr
+
+
+def test_debug_shows_the_traceback(tmp_path):
+    (tmp_path / "bad.toml").write_text("[render]\nwidth = -1\n")
+    result = raylume("render", "bad.toml", "--debug", cwd=tmp_path)
+    assert result.returncode != 0 and "Traceback" in result.stderr

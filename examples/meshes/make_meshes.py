@@ -2,7 +2,8 @@
 
     python examples/meshes/make_meshes.py
 
-Writes bumpy_sphere.ply: raylume's benchmark surface (a sphere displaced by a
+Writes lens.ply (a smooth icosphere that examples/glass.toml squashes into a lens) and
+bumpy_sphere.ply: raylume's benchmark surface (a sphere displaced by a
 smooth random field) at a size fit for examples, as binary PLY with
 area-weighted vertex normals so it renders smooth by default. Deterministic.
 """
@@ -29,6 +30,13 @@ def main() -> None:
     out = HERE / "bumpy_sphere.ply"
     mesh.export(out, encoding="binary")
     print(f"wrote {out.name}: {len(vertices)} vertices, {len(faces)} triangles, {out.stat().st_size} bytes")
+
+    # A smooth unit sphere, squashed by a scene transform into a lens (examples/glass.toml).
+    sphere = trimesh.creation.icosphere(subdivisions=4, radius=1.0)
+    sphere.vertex_normals = sphere.vertices / (sphere.vertices ** 2).sum(axis=1, keepdims=True) ** 0.5
+    out = HERE / "lens.ply"
+    sphere.export(out, encoding="binary")
+    print(f"wrote {out.name}: {len(sphere.vertices)} vertices, {len(sphere.faces)} triangles, {out.stat().st_size} bytes")
 
 
 if __name__ == "__main__":
