@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import raylume
@@ -117,3 +118,16 @@ def test_missing_folder_and_wrong_extension(tmp_path):
 def test_unknown_builtin():
     with pytest.raises(SceneError, match="no built-in scene named 'nope'"):
         raylume.builtin_scene("nope")
+
+
+def test_tiny_but_nonzero_vectors_are_normalised_without_underflow():
+    from raylume.compile import compile_scene
+
+    scene = scene_from_dict({
+        "lights": [{"type": "directional", "direction": [0, 1e-200, 0]}],
+        "objects": [{"type": "plane", "point": [0, -1, 0], "normal": [0, 1e-200, 0]}],
+    })
+    k = compile_scene(scene, 4, 4).kernel
+    np.testing.assert_array_equal(k.planes[0, 3:], [0, 1, 0])
+    np.testing.assert_array_equal(k.light_data[0, :3], [0, 1, 0])
+    assert np.isfinite(raylume.render(scene, width=4, height=4).rgb).all()

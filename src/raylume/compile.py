@@ -31,6 +31,13 @@ class CompiledScene(NamedTuple):
     stats: dict  # primitives, triangles, bvh_nodes, bvh_bytes, build_seconds, ...
 
 
+def unit_vector(v) -> np.ndarray:
+    """v / |v|, scaled first so that tiny but non-zero vectors (1e-200) do not underflow."""
+    v = np.asarray(v, dtype=np.float64)
+    v = v / np.abs(v).max()
+    return v / np.linalg.norm(v)
+
+
 def material_row(mat: Material, atlas: "TextureAtlas | None" = None, where: str = "material") -> np.ndarray:
     """The material's row of the materials array; image textures are added to `atlas`."""
     row = np.zeros(L.MAT_WIDTH, dtype=np.float64)
@@ -130,7 +137,7 @@ def _lights(scene: Scene):
             data[k, 0:3] = light.position
         elif light.type == "directional":
             kinds[k] = L.LIGHT_DIRECTIONAL
-            data[k, 0:3] = np.asarray(light.direction) / np.linalg.norm(light.direction)
+            data[k, 0:3] = unit_vector(light.direction)
         elif light.type == "quad":
             kinds[k] = L.LIGHT_QUAD
             data[k, 0:3] = light.position
@@ -229,7 +236,7 @@ def compile_scene(scene: Scene, width: int, height: int, source="<scene>", accel
             sphere_mat.append(m)
             sphere_obj.append(k)
         elif isinstance(obj, Plane):
-            n = np.asarray(obj.normal) / np.linalg.norm(obj.normal)
+            n = unit_vector(obj.normal)
             planes.append((*obj.point, *n))
             plane_mat.append(m)
             plane_obj.append(k)

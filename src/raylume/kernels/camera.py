@@ -26,8 +26,10 @@ def camera_frame(position, look_at, up, fov_degrees, width, height, aperture=0.0
     the lens (radius aperture / 2, focus distance), w, h and the pixel filter's table."""
     p = np.asarray(position, dtype=np.float64)
     f = np.asarray(look_at, dtype=np.float64) - p
+    f /= np.abs(f).max()  # scale first: tiny differences must not underflow
     f /= np.linalg.norm(f)
     r = np.cross(np.asarray(up, dtype=np.float64), f)
+    r /= np.abs(r).max()
     r /= np.linalg.norm(r)
     u = np.cross(f, r)
     h = math.tan(math.radians(fov_degrees) / 2.0)
