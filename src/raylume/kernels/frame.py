@@ -29,7 +29,7 @@ from .traverse import closest_hit
 from .vec import FAST, KERNEL, dot, madd, mul
 
 
-@njit(**KERNEL)
+@njit(**KERNEL, inline="always")
 def _cast_ray(G, F, o, d, background, node_stack, t_stack):
     t, kind, index, b1, b2 = closest_hit(G, o, d, 0.0, INF, node_stack, t_stack)
     if kind == HIT_NONE:
@@ -100,48 +100,57 @@ def camera_sample(cam, seed, i, j, s, spp, width, height):
 def render_rows(S, cam, width, height, row_begin, row_end, spp, seed, mode, max_depth,
                 background, want_aovs, rgb, depth, normal, obj_id, prim_id, albedo, rays_per_row):
     """Render rows [row_begin, row_end) into the output arrays (all indexed by absolute row)."""
-    bg = (background[0], background[1], background[2])
     for j in prange(row_begin, row_end):
-        # Views made per row inside the parallel loop (parfor cannot capture them from outside).
-        G = geometry_of(S)
-        F = surfaces_of(S)
-        L = lights_of(S)
+        # Views and scratch stacks made per row inside the parallel loop (a parfor cannot
+        # capture a namedtuple built outside it); the row itself is one call, so the views are
+        # passed once per row rather than once per ray.
         node_stack = np.empty(TRAVERSAL_STACK, dtype=np.int32)
         t_stack = np.empty(TRAVERSAL_STACK, dtype=np.float64)
         work = np.empty((2 * max_depth + 4, 10), dtype=np.float64)
-        rays = 0
-        for i in range(width):
-            if want_aovs:
-                rays += _primary_aovs(G, F, cam, i, j, width, height, node_stack, t_stack,
-                                      depth, normal, obj_id, prim_id, albedo)
-            sr = 0.0
-            sg = 0.0
-            sb = 0.0
-            weights = 0.0
-            for s in range(spp):
-                o, d, w, key = camera_sample(cam, seed, i, j, s, spp, width, height)
-                if mode == MODE_CAST:
-                    col = _cast_ray(G, F, o, d, bg, node_stack, t_stack)
-                    rays += 1
-                else:
-                    col, used = trace_ray(G, F, L, o, d, max_depth, bg, work, node_stack, t_stack, key)
-                    rays += used
-                if w > 0.0:
-                    sr += col[0]
-                    sg += col[1]
-                    sb += col[2]
-                else:  # a negative lobe of the pixel filter
-                    sr -= col[0]
-                    sg -= col[1]
-                    sb -= col[2]
-                weights += w
-            # Weights are +-1, so a pixel's sum is spp when the filter is positive (box,
-            # gaussian). A Mitchell pixel whose weights cancel (possible at a few spp) is divided
-            # by spp instead; negative results of its lobes are clipped to 0.
-            if weights < 0.5:
-                weights = spp
-            inv = 1.0 / weights
-            rgb[j, i, 0] = max(sr * inv, 0.0)
-            rgb[j, i, 1] = max(sg * inv, 0.0)
-            rgb[j, i, 2] = max(sb * inv, 0.0)
-        rays_per_row[j] = rays
+        rays_per_row[j] = _render_row(
+            geometry_of(S), surfaces_of(S), lights_of(S), cam, j, width, height, spp, seed, mode, max_depth,
+            background, want_aovs, rgb, depth, normal, obj_id, prim_id, albedo, node_stack, t_stack, work,
+        )
+
+
+@njit(**KERNEL)
+def _render_row(G, F, L, cam, j, width, height, spp, seed, mode, max_depth, background, want_aovs,
+                rgb, depth, normal, obj_id, prim_id, albedo, node_stack, t_stack, work):
+    """One image row: samples per pixel, the pixel filter's weights, AOVs. Returns rays traced."""
+    bg = (background[0], background[1], background[2])
+    rays = 0
+    for i in range(width):
+        if want_aovs:
+            rays += _primary_aovs(G, F, cam, i, j, width, height, node_stack, t_stack,
+                                  depth, normal, obj_id, prim_id, albedo)
+        sr = 0.0
+        sg = 0.0
+        sb = 0.0
+        weights = 0.0
+        for s in range(spp):
+            o, d, w, key = camera_sample(cam, seed, i, j, s, spp, width, height)
+            if mode == MODE_CAST:
+                col = _cast_ray(G, F, o, d, bg, node_stack, t_stack)
+                rays += 1
+            else:
+                col, used = trace_ray(G, F, L, o, d, max_depth, bg, work, node_stack, t_stack, key)
+                rays += used
+            if w > 0.0:
+                sr += col[0]
+                sg += col[1]
+                sb += col[2]
+            else:  # a negative lobe of the pixel filter
+                sr -= col[0]
+                sg -= col[1]
+                sb -= col[2]
+            weights += w
+        # Weights are +-1, so a pixel's sum is spp when the filter is positive (box,
+        # gaussian). A Mitchell pixel whose weights cancel (possible at a few spp) is divided
+        # by spp instead; negative results of its lobes are clipped to 0.
+        if weights < 0.5:
+            weights = spp
+        inv = 1.0 / weights
+        rgb[j, i, 0] = max(sr * inv, 0.0)
+        rgb[j, i, 1] = max(sg * inv, 0.0)
+        rgb[j, i, 2] = max(sb * inv, 0.0)
+    return rays
