@@ -224,6 +224,20 @@ class Material(Strict):
         return self
 
 
+def tagged_union(kinds: dict):
+    """A union of models chosen by their `type` key, e.g. {"sphere": Sphere, ...}; an unknown
+    type is one clear error listing the allowed ones."""
+    members = tuple(Annotated[model, Tag(f"<{name}>")] for name, model in kinds.items())
+    return Annotated[
+        Union[members],
+        Discriminator(
+            _tag_by_type,
+            custom_error_type="unknown_type",
+            custom_error_message=f"type must be one of: {', '.join(kinds)}",
+        ),
+    ]
+
+
 def _material_tag(value):
     if isinstance(value, str):
         return "<name>"
@@ -300,21 +314,9 @@ class SphereLight(_LightBase):
     samples: int = Field(16, ge=1, le=MAX_LIGHT_SAMPLES)
 
 
-LIGHT_TYPES = ("ambient", "point", "directional", "quad", "sphere")
-Light = Annotated[
-    Union[
-        Annotated[AmbientLight, Tag("<ambient>")],
-        Annotated[PointLight, Tag("<point>")],
-        Annotated[DirectionalLight, Tag("<directional>")],
-        Annotated[QuadLight, Tag("<quad>")],
-        Annotated[SphereLight, Tag("<sphere>")],
-    ],
-    Discriminator(
-        _tag_by_type,
-        custom_error_type="unknown_type",
-        custom_error_message=f"type must be one of: {', '.join(LIGHT_TYPES)}",
-    ),
-]
+LIGHT_TYPES = {"ambient": AmbientLight, "point": PointLight, "directional": DirectionalLight,
+               "quad": QuadLight, "sphere": SphereLight}
+Light = tagged_union(LIGHT_TYPES)
 
 
 class Sphere(Strict):
@@ -379,20 +381,8 @@ class Mesh(Strict):
     smooth: bool | None = None  # None: use the file's vertex normals when it has them
 
 
-OBJECT_TYPES = ("sphere", "plane", "triangle", "mesh")
-SceneObject = Annotated[
-    Union[
-        Annotated[Sphere, Tag("<sphere>")],
-        Annotated[Plane, Tag("<plane>")],
-        Annotated[Triangle, Tag("<triangle>")],
-        Annotated[Mesh, Tag("<mesh>")],
-    ],
-    Discriminator(
-        _tag_by_type,
-        custom_error_type="unknown_type",
-        custom_error_message=f"type must be one of: {', '.join(OBJECT_TYPES)}",
-    ),
-]
+OBJECT_TYPES = {"sphere": Sphere, "plane": Plane, "triangle": Triangle, "mesh": Mesh}
+SceneObject = tagged_union(OBJECT_TYPES)
 
 DEFAULT_MATERIAL = Material()
 
