@@ -229,7 +229,11 @@ def _phong(n, l, view, specular):
         r = sub(mul(n, 2.0 * n_dot_l), l)
         r_dot_v = dot(r, view)
         if r_dot_v > 0.0:
-            scale += (r_dot_v / (length(r) * length(view))) ** specular
+            cos_rv = r_dot_v / (length(r) * length(view))
+            # Below 1 - 50/s the highlight is under e^-50 (about 2e-22): skip the power, whose
+            # result would otherwise often be a slow subnormal number.
+            if cos_rv > 1.0 - 50.0 / specular:
+                scale += cos_rv ** specular
     return scale
 
 
