@@ -5,9 +5,6 @@ penumbra geometry, the texel itself, the focus-plane invariant, the file formats
 from __future__ import annotations
 
 import math
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -427,8 +424,9 @@ def test_exposure_scales_png_only(tmp_path):
 
 
 def _cli(*args, cwd):
-    return subprocess.run([sys.executable, "-m", "raylume.cli", "render", *map(str, args)], cwd=cwd,
-                          capture_output=True, text=True, timeout=300, env={**os.environ, "PYTHONUNBUFFERED": "1"})
+    from test_cli import raylume as run_cli  # the CLI-as-a-subprocess helper
+
+    return run_cli("render", *args, cwd=cwd)
 
 
 def test_cli_quality_flags_and_float_outputs(tmp_path):

@@ -17,7 +17,7 @@ from .layout import (
     CAM_WIDTH,
 )
 from .sampling import concentric_disk, filter_table
-from .vec import FAST, KERNEL, madd, normalize, sub
+from .vec import KERNEL, madd, normalize, sub
 
 
 def camera_frame(position, look_at, up, fov_degrees, width, height, aperture=0.0, focus_distance=1.0,

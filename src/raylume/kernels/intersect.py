@@ -8,7 +8,7 @@ import math
 
 from numba import njit
 
-from .vec import FAST, KERNEL, dot, sub
+from .vec import KERNEL, dot, sub
 
 INF = math.inf
 

@@ -4,7 +4,7 @@ import math
 
 from numba import njit
 
-from .vec import FAST, KERNEL, dot, madd, mul, sub
+from .vec import KERNEL, dot, madd, mul
 
 
 @njit(**KERNEL)

@@ -49,7 +49,7 @@ from .layout import (
 from .sampling import concentric_disk, event_key, stratified_key, sub_key
 from .scene import geometry_of, lights_of, surfaces_of
 from .traverse import any_hit, closest_hit
-from .vec import FAST, KERNEL, add, cross, dot, length, madd, max_abs, mul, normalize, row3, sub
+from .vec import KERNEL, add, cross, dot, length, madd, max_abs, mul, normalize, row3, sub
 
 # Shadow rays towards a point on an area light stop this fraction short of it, so a light
 # placed on a surface (a lamp on a ceiling) is not shadowed by that surface.

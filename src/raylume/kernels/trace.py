@@ -16,7 +16,7 @@ from .layout import MAT_ABSORPTION, MAT_IOR, MAT_REFLECTIVE, MAT_TRANSPARENCY
 from .optics import fresnel_dielectric, reflect, refract
 from .shade import offset_epsilon, sampled_lighting, surface, surface_albedo
 from .traverse import closest_hit
-from .vec import FAST, KERNEL, dot, hadamard, madd, mul
+from .vec import KERNEL, dot, hadamard, madd, mul
 
 # Branches whose weight falls below this cannot change an 8-bit pixel.
 MIN_WEIGHT = 1e-4

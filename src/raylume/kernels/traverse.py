@@ -9,7 +9,7 @@ from numba import njit
 
 from .intersect import INF, intersect_box, intersect_plane, intersect_sphere, intersect_triangle, ray_shear, safe_inverse
 from .layout import HIT_NONE, HIT_PLANE, HIT_SPHERE, HIT_TRIANGLE, PRIM_SPHERE
-from .vec import FAST, KERNEL, row3
+from .vec import KERNEL, row3
 
 # Shear constants for rays in scenes without triangles (never used, but typed alike).
 _NO_SHEAR = (0, 1, 2, 0.0, 0.0, 1.0)
