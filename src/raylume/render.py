@@ -137,13 +137,11 @@ def _ray_render(scene: Scene, compiled, want_aovs: bool, progress):
     background = np.asarray(settings.background, dtype=np.float64)
 
     def run(row_begin: int, row_end: int) -> None:
-        # Rows differ in cost (sky against glass): hand them out one at a time.
-        with numba.parallel_chunksize(1):
-            render_rows(
-                compiled.kernel, compiled.camera, W, H, row_begin, row_end, settings.spp, settings.seed,
-                _MODES[settings.mode], settings.max_depth, background, want_aovs, rgb,
-                aov["depth"], aov["normal"], aov["object"], aov["prim"], aov["albedo"], rays_per_row,
-            )
+        render_rows(
+            compiled.kernel, compiled.camera, W, H, row_begin, row_end, numba.get_num_threads(), settings.spp,
+            settings.seed, _MODES[settings.mode], settings.max_depth, background, want_aovs, rgb,
+            aov["depth"], aov["normal"], aov["object"], aov["prim"], aov["albedo"], rays_per_row,
+        )
 
     run(0, 0)  # compile (or load from the cache) before any timing starts
     kernel_seconds = 0.0

@@ -19,6 +19,7 @@ from .layout import (
     FILTER_BOX,
     HIT_NONE,
     MODE_CAST,
+    SCRATCH_PAD,
     TRAVERSAL_STACK,
 )
 from .sampling import filter_offset, key_uniform2, lens_sample, sample_key, stratum
@@ -97,20 +98,26 @@ def camera_sample(cam, seed, i, j, s, spp, width, height):
 
 
 @njit(parallel=True, fastmath=FAST, cache=True, error_model="numpy")
-def render_rows(S, cam, width, height, row_begin, row_end, spp, seed, mode, max_depth,
+def render_rows(S, cam, width, height, row_begin, row_end, lanes, spp, seed, mode, max_depth,
                 background, want_aovs, rgb, depth, normal, obj_id, prim_id, albedo, rays_per_row):
-    """Render rows [row_begin, row_end) into the output arrays (all indexed by absolute row)."""
-    for j in prange(row_begin, row_end):
-        # Views and scratch stacks made per row inside the parallel loop (a parfor cannot
-        # capture a namedtuple built outside it); the row itself is one call, so the views are
-        # passed once per row rather than once per ray.
-        node_stack = np.empty(TRAVERSAL_STACK, dtype=np.int32)
-        t_stack = np.empty(TRAVERSAL_STACK, dtype=np.float64)
-        work = np.empty((2 * max_depth + 4, 10), dtype=np.float64)
-        rays_per_row[j] = _render_row(
-            geometry_of(S), surfaces_of(S), lights_of(S), cam, j, width, height, spp, seed, mode, max_depth,
-            background, want_aovs, rgb, depth, normal, obj_id, prim_id, albedo, node_stack, t_stack, work,
-        )
+    """Render rows [row_begin, row_end) into the output arrays (all indexed by absolute row).
+
+    Each of the `lanes` parallel iterations (one per thread) takes every lanes-th row. Rows
+    differ widely in cost (sky against floor), and a parallel loop over the rows themselves
+    hands each thread one contiguous block: on the seed scene one thread got the sky, the
+    other the floor, and two threads were only 1.4x faster than one. Interleaved, 1.85x."""
+    for lane in prange(lanes):
+        # Views and scratch stacks made inside the parallel loop (a parfor cannot capture a
+        # namedtuple built outside it); a row is one call, so the views are passed once per
+        # row rather than once per ray. The stacks are padded against false sharing.
+        node_stack = np.empty(TRAVERSAL_STACK + SCRATCH_PAD, dtype=np.int32)
+        t_stack = np.empty(TRAVERSAL_STACK + SCRATCH_PAD, dtype=np.float64)
+        work = np.empty((2 * max_depth + 4 + SCRATCH_PAD // 10, 10), dtype=np.float64)
+        for j in range(row_begin + lane, row_end, lanes):
+            rays_per_row[j] = _render_row(
+                geometry_of(S), surfaces_of(S), lights_of(S), cam, j, width, height, spp, seed, mode, max_depth,
+                background, want_aovs, rgb, depth, normal, obj_id, prim_id, albedo, node_stack, t_stack, work,
+            )
 
 
 @njit(**KERNEL)

@@ -5,7 +5,7 @@ import numpy as np
 from numba import njit, prange
 
 from .intersect import INF
-from .layout import HIT_NONE, HIT_PLANE, HIT_SPHERE, TRAVERSAL_STACK
+from .layout import HIT_NONE, HIT_PLANE, HIT_SPHERE, SCRATCH_PAD, TRAVERSAL_STACK
 from .scene import geometry_of
 from .traverse import closest_hit
 from .vec import FAST
@@ -18,8 +18,8 @@ def intersect_rays(S, origins, directions, t_out, object_out, prim_out):
     chunk = 256
     for c in prange((n + chunk - 1) // chunk):
         G = geometry_of(S)  # made inside the parallel loop: parfor cannot capture it from outside
-        node_stack = np.empty(TRAVERSAL_STACK, dtype=np.int32)
-        t_stack = np.empty(TRAVERSAL_STACK, dtype=np.float64)
+        node_stack = np.empty(TRAVERSAL_STACK + SCRATCH_PAD, dtype=np.int32)  # padded: see layout.py
+        t_stack = np.empty(TRAVERSAL_STACK + SCRATCH_PAD, dtype=np.float64)
         for k in range(c * chunk, min(n, (c + 1) * chunk)):
             o = (float(origins[k, 0]), float(origins[k, 1]), float(origins[k, 2]))
             d = (float(directions[k, 0]), float(directions[k, 1]), float(directions[k, 2]))
