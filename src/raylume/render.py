@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import concurrent.futures
 import math
 import os
 import time
+from concurrent.futures import ThreadPoolExecutor
 from typing import Callable
 
 import numba
@@ -13,12 +15,10 @@ import numpy as np
 from .compile import compile_scene
 from .errors import RaylumeError
 from .image import Image
-from .kernels.frame import render_rows
-from .kernels.layout import MODE_CAST, MODE_TRACE
+from .kernels.frame import aov_lane, cast_lane, trace_lane
 from .scene.model import Scene
 
 AOV_NAMES = ("depth", "normal", "object", "prim", "albedo")
-_MODES = {"cast": MODE_CAST, "trace": MODE_TRACE}
 # Rows per kernel call are chosen so each call takes about this long: short enough for a
 # smooth progress bar and a prompt Ctrl-C, long enough that call overhead does not show.
 TARGET_CALL_SECONDS = 0.2
@@ -86,7 +86,7 @@ def render(
         rgb, aov_arrays, kernel_seconds, rays = rasterize(scene, compiled, progress=progress, aovs=aovs)
         primary = 0
     else:
-        rgb, aov_arrays, kernel_seconds, rays = _ray_render(scene, compiled, aovs, progress)
+        rgb, aov_arrays, kernel_seconds, rays = _ray_render(scene, compiled, aovs, progress, threads)
         primary = W * H * settings.spp
     return Image(rgb, aov_arrays if aovs else {}, _stats(settings, threads, compiled, rays, primary, kernel_seconds), settings.encoding,
                  exposure=settings.exposure)
@@ -128,39 +128,58 @@ def allocate_aovs(H: int, W: int) -> dict:
     }
 
 
-def _ray_render(scene: Scene, compiled, want_aovs: bool, progress):
+def _ray_render(scene: Scene, compiled, want_aovs: bool, progress, lanes: int):
     settings = scene.render
     W, H = settings.width, settings.height
     rgb = np.zeros((H, W, 3), dtype=np.float32)
-    aov = allocate_aovs(H, W) if want_aovs else allocate_aovs(1, 1)
+    aov = allocate_aovs(H, W) if want_aovs else {}
     rays_per_row = np.zeros(H, dtype=np.int64)
     background = np.asarray(settings.background, dtype=np.float64)
+    S, cam = compiled.kernel, compiled.camera
 
-    def run(row_begin: int, row_end: int) -> None:
-        render_rows(
-            compiled.kernel, compiled.camera, W, H, row_begin, row_end, numba.get_num_threads(), settings.spp,
-            settings.seed, _MODES[settings.mode], settings.max_depth, background, want_aovs, rgb,
-            aov["depth"], aov["normal"], aov["object"], aov["prim"], aov["albedo"], rays_per_row,
-        )
+    def rows(row_begin: int, row_end: int, lane: int) -> None:
+        if want_aovs:
+            aov_lane(S, cam, W, H, row_begin, row_end, lane, lanes, aov["depth"], aov["normal"], aov["object"],
+                     aov["prim"], aov["albedo"], rays_per_row)
+        if settings.mode == "cast":
+            cast_lane(S, cam, W, H, row_begin, row_end, lane, lanes, settings.spp, settings.seed, background,
+                      rgb, rays_per_row)
+        else:
+            trace_lane(S, cam, W, H, row_begin, row_end, lane, lanes, settings.spp, settings.seed,
+                       settings.max_depth, background, rgb, rays_per_row)
 
-    run(0, 0)  # compile (or load from the cache) before any timing starts
+    rows(0, 0, 0)  # compile (or load from the cache) before any timing starts
     kernel_seconds = 0.0
     row = 0
-    rows_per_call = max(1, min(H, 2 * numba.get_num_threads()))
-    while row < H:
-        end = min(H, row + rows_per_call)
-        t0 = time.perf_counter()
-        try:
-            run(row, end)
-        except KeyboardInterrupt:
-            # Numba finishes the call in flight (calls last ~TARGET_CALL_SECONDS); keep what is done.
-            partial = Image(rgb, aov if want_aovs else {}, {}, settings.encoding, exposure=settings.exposure)
-            raise RenderInterrupted(partial, end) from None
-        elapsed = time.perf_counter() - t0
-        kernel_seconds += elapsed
-        per_row = elapsed / (end - row)
-        rows_per_call = max(1, min(H, int(math.ceil(TARGET_CALL_SECONDS / max(per_row, 1e-9)))))
-        row = end
-        if progress is not None:
-            progress(row, H)
-    return rgb, (aov if want_aovs else {}), kernel_seconds, rays_per_row.sum()
+    rows_per_call = max(1, min(H, 2 * lanes))
+    with ThreadPoolExecutor(max_workers=max(1, lanes - 1), thread_name_prefix="raylume") as pool:
+        while row < H:
+            end = min(H, row + rows_per_call)
+            t0 = time.perf_counter()
+            try:
+                _run_lanes(pool, lanes, lambda lane: rows(row, end, lane))
+            except KeyboardInterrupt:
+                # The lanes finish the call in flight (calls last ~TARGET_CALL_SECONDS); keep what is done.
+                partial = Image(rgb, aov, {}, settings.encoding, exposure=settings.exposure)
+                raise RenderInterrupted(partial, end) from None
+            elapsed = time.perf_counter() - t0
+            kernel_seconds += elapsed
+            per_row = elapsed / (end - row)
+            rows_per_call = max(1, min(H, int(math.ceil(TARGET_CALL_SECONDS / max(per_row, 1e-9)))))
+            row = end
+            if progress is not None:
+                progress(row, H)
+    return rgb, aov, kernel_seconds, rays_per_row.sum()
+
+
+def _run_lanes(pool: ThreadPoolExecutor, lanes: int, job: Callable[[int], None]) -> None:
+    """job(lane) for every lane: lane 0 on this thread, the others on the pool's threads (the
+    kernels release the GIL). Returns when all have finished, also when Ctrl-C interrupts,
+    so no kernel is still writing into the buffers afterwards."""
+    futures = [pool.submit(job, lane) for lane in range(1, lanes)]
+    try:
+        job(0)
+    finally:
+        concurrent.futures.wait(futures)
+    for future in futures:
+        future.result()  # re-raises a lane's exception

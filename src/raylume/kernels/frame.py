@@ -7,7 +7,7 @@ stratified point on the lens. One sample per pixel is the pinhole ray through th
 centre. The pixel's value is the filter-weighted mean of its samples."""
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from .camera import camera_ray, thin_lens_ray
 from .intersect import INF
@@ -18,7 +18,6 @@ from .layout import (
     CAM_LENS_RADIUS,
     FILTER_BOX,
     HIT_NONE,
-    MODE_CAST,
     SCRATCH_PAD,
     TRAVERSAL_STACK,
 )
@@ -38,33 +37,6 @@ def _cast_ray(G, F, o, d, background, node_stack, t_stack):
     p = madd(o, d, t)
     ng, ns, m, obj, prim = surface(G, F, kind, index, b1, b2, p)
     return surface_albedo(G, F, kind, index, b1, b2, p, m)
-
-
-@njit(**KERNEL)
-def _primary_aovs(G, F, cam, i, j, width, height, node_stack, t_stack, depth, normal, obj_id, prim_id, albedo):
-    """Depth, normal, object, prim and albedo of the (pinhole) ray through the pixel centre."""
-    o, d = camera_ray(cam, i + 0.5, j + 0.5, width, height)
-    t, kind, index, b1, b2 = closest_hit(G, o, d, 0.0, INF, node_stack, t_stack)
-    if kind == HIT_NONE:
-        depth[j, i] = INF
-        obj_id[j, i] = -1
-        prim_id[j, i] = -1
-        for c in range(3):
-            normal[j, i, c] = 0.0
-            albedo[j, i, c] = 0.0
-    else:
-        p = madd(o, d, t)
-        ng, ns, m, obj, prim = surface(G, F, kind, index, b1, b2, p)
-        if dot(ns, d) > 0.0:
-            ns = mul(ns, -1.0)
-        a = surface_albedo(G, F, kind, index, b1, b2, p, m)
-        depth[j, i] = t
-        obj_id[j, i] = obj
-        prim_id[j, i] = prim
-        for c in range(3):
-            normal[j, i, c] = ns[c]
-            albedo[j, i, c] = a[c]
-    return 1
 
 
 @njit(**KERNEL)
@@ -97,67 +69,137 @@ def camera_sample(cam, seed, i, j, s, spp, width, height):
     return o, d, weight, key
 
 
-@njit(parallel=True, fastmath=FAST, cache=True, error_model="numpy")
-def render_rows(S, cam, width, height, row_begin, row_end, lanes, spp, seed, mode, max_depth,
-                background, want_aovs, rgb, depth, normal, obj_id, prim_id, albedo, rays_per_row):
-    """Render rows [row_begin, row_end) into the output arrays (all indexed by absolute row).
+# Entry points, one per kind of work, so a render compiles only what it runs. Each renders one
+# lane: every lanes-th row of [row_begin, row_end), starting at row_begin + lane. render.py runs
+# the lanes on threads (the kernels release the GIL). Rows differ widely in cost (sky against
+# floor); interleaving them balances the threads, where contiguous blocks of rows left one
+# thread the sky and two threads were only 1.4x faster than one on the seed scene.
+LANE = dict(nogil=True, cache=True, fastmath=FAST, error_model="numpy")
 
-    Each of the `lanes` parallel iterations (one per thread) takes every lanes-th row. Rows
-    differ widely in cost (sky against floor), and a parallel loop over the rows themselves
-    hands each thread one contiguous block: on the seed scene one thread got the sky, the
-    other the floor, and two threads were only 1.4x faster than one. Interleaved, 1.85x."""
-    for lane in prange(lanes):
-        # Views and scratch stacks made inside the parallel loop (a parfor cannot capture a
-        # namedtuple built outside it); a row is one call, so the views are passed once per
-        # row rather than once per ray. The stacks are padded against false sharing.
-        node_stack = np.empty(TRAVERSAL_STACK + SCRATCH_PAD, dtype=np.int32)
-        t_stack = np.empty(TRAVERSAL_STACK + SCRATCH_PAD, dtype=np.float64)
-        work = np.empty((2 * max_depth + 4 + SCRATCH_PAD // 10, 10), dtype=np.float64)
-        for j in range(row_begin + lane, row_end, lanes):
-            rays_per_row[j] = _render_row(
-                geometry_of(S), surfaces_of(S), lights_of(S), cam, j, width, height, spp, seed, mode, max_depth,
-                background, want_aovs, rgb, depth, normal, obj_id, prim_id, albedo, node_stack, t_stack, work,
-            )
+
+@njit(**LANE)
+def trace_lane(S, cam, width, height, row_begin, row_end, lane, lanes, spp, seed, max_depth, background,
+               rgb, rays_per_row):
+    """Whitted-traced colour of the lane's rows into rgb; rays traced per row into rays_per_row."""
+    node_stack, t_stack = _traversal_stacks()
+    work = _padded((2 * max_depth + 4) * 10, np.float64).reshape((2 * max_depth + 4, 10))
+    bg = (background[0], background[1], background[2])
+    G, F, L = geometry_of(S), surfaces_of(S), lights_of(S)
+    for j in range(row_begin + lane, row_end, lanes):
+        rays_per_row[j] += _trace_row(G, F, L, cam, j, width, height, spp, seed, max_depth, bg, rgb,
+                                      work, node_stack, t_stack)
+
+
+@njit(**LANE)
+def cast_lane(S, cam, width, height, row_begin, row_end, lane, lanes, spp, seed, background, rgb, rays_per_row):
+    """Ray-cast colour (the closest hit's albedo) of the lane's rows."""
+    node_stack, t_stack = _traversal_stacks()
+    bg = (background[0], background[1], background[2])
+    G, F = geometry_of(S), surfaces_of(S)
+    for j in range(row_begin + lane, row_end, lanes):
+        rays_per_row[j] += _cast_row(G, F, cam, j, width, height, spp, seed, bg, rgb, node_stack, t_stack)
+
+
+@njit(**LANE)
+def aov_lane(S, cam, width, height, row_begin, row_end, lane, lanes, depth, normal, obj_id, prim_id, albedo,
+             rays_per_row):
+    """Primary-hit AOVs (depth, normal, object, prim, albedo) of the lane's rows."""
+    node_stack, t_stack = _traversal_stacks()
+    G, F = geometry_of(S), surfaces_of(S)
+    for j in range(row_begin + lane, row_end, lanes):
+        rays_per_row[j] += _primary_aovs_row(G, F, cam, j, width, height, node_stack, t_stack,
+                                             depth, normal, obj_id, prim_id, albedo)
+
+
+@njit(cache=True)
+def _traversal_stacks():
+    return _padded(TRAVERSAL_STACK, np.int32), _padded(TRAVERSAL_STACK, np.float64)
+
+
+@njit(cache=True)
+def _padded(n, dtype):
+    """An array of n elements for one thread's scratch, with SCRATCH_PAD unused elements on
+    either side: see layout.py."""
+    return np.empty(n + 2 * SCRATCH_PAD, dtype=dtype)[SCRATCH_PAD:SCRATCH_PAD + n]
+
+
+# The row loops below are two copies of one skeleton on purpose: each holds its per-ray work
+# inlined. A call per ray passes the scene's views (two dozen array descriptors, ~200 machine
+# words): that cost ~40 ns per pixel, a fifth of the seed scene's time.
 
 
 @njit(**KERNEL)
-def _render_row(G, F, L, cam, j, width, height, spp, seed, mode, max_depth, background, want_aovs,
-                rgb, depth, normal, obj_id, prim_id, albedo, node_stack, t_stack, work):
-    """One image row: samples per pixel, the pixel filter's weights, AOVs. Returns rays traced."""
-    bg = (background[0], background[1], background[2])
-    rays = 0
+def _cast_row(G, F, cam, j, width, height, spp, seed, bg, rgb, node_stack, t_stack):
     for i in range(width):
-        if want_aovs:
-            rays += _primary_aovs(G, F, cam, i, j, width, height, node_stack, t_stack,
-                                  depth, normal, obj_id, prim_id, albedo)
-        sr = 0.0
-        sg = 0.0
-        sb = 0.0
-        weights = 0.0
+        total = (0.0, 0.0, 0.0, 0.0)
         for s in range(spp):
             o, d, w, key = camera_sample(cam, seed, i, j, s, spp, width, height)
-            if mode == MODE_CAST:
-                col = _cast_ray(G, F, o, d, bg, node_stack, t_stack)
-                rays += 1
-            else:
-                col, used = trace_ray(G, F, L, o, d, max_depth, bg, work, node_stack, t_stack, key)
-                rays += used
-            if w > 0.0:
-                sr += col[0]
-                sg += col[1]
-                sb += col[2]
-            else:  # a negative lobe of the pixel filter
-                sr -= col[0]
-                sg -= col[1]
-                sb -= col[2]
-            weights += w
-        # Weights are +-1, so a pixel's sum is spp when the filter is positive (box,
-        # gaussian). A Mitchell pixel whose weights cancel (possible at a few spp) is divided
-        # by spp instead; negative results of its lobes are clipped to 0.
-        if weights < 0.5:
-            weights = spp
-        inv = 1.0 / weights
-        rgb[j, i, 0] = max(sr * inv, 0.0)
-        rgb[j, i, 1] = max(sg * inv, 0.0)
-        rgb[j, i, 2] = max(sb * inv, 0.0)
+            total = _add_sample(total, _cast_ray(G, F, o, d, bg, node_stack, t_stack), w)
+        _store_pixel(rgb, j, i, total, spp)
+    return width * spp
+
+
+@njit(**KERNEL)
+def _trace_row(G, F, L, cam, j, width, height, spp, seed, max_depth, bg, rgb, work, node_stack, t_stack):
+    rays = 0
+    for i in range(width):
+        total = (0.0, 0.0, 0.0, 0.0)
+        for s in range(spp):
+            o, d, w, key = camera_sample(cam, seed, i, j, s, spp, width, height)
+            col, used = trace_ray(G, F, L, o, d, max_depth, bg, work, node_stack, t_stack, key)
+            rays += used
+            total = _add_sample(total, col, w)
+        _store_pixel(rgb, j, i, total, spp)
     return rays
+
+
+@njit(**KERNEL, inline="always")
+def _add_sample(total, col, w):
+    """Running (r, g, b, weight) of a pixel plus one sample of filter weight w = +-1."""
+    if w > 0.0:
+        return (total[0] + col[0], total[1] + col[1], total[2] + col[2], total[3] + w)
+    # a negative lobe of the pixel filter
+    return (total[0] - col[0], total[1] - col[1], total[2] - col[2], total[3] + w)
+
+
+@njit(**KERNEL, inline="always")
+def _store_pixel(rgb, j, i, total, spp):
+    # Weights are +-1, so a pixel's sum is spp when the filter is positive (box,
+    # gaussian). A Mitchell pixel whose weights cancel (possible at a few spp) is divided
+    # by spp instead; negative results of its lobes are clipped to 0.
+    weights = total[3]
+    if weights < 0.5:
+        weights = spp
+    inv = 1.0 / weights
+    rgb[j, i, 0] = max(total[0] * inv, 0.0)
+    rgb[j, i, 1] = max(total[1] * inv, 0.0)
+    rgb[j, i, 2] = max(total[2] * inv, 0.0)
+
+
+@njit(**KERNEL)
+def _primary_aovs_row(G, F, cam, j, width, height, node_stack, t_stack, depth, normal, obj_id, prim_id, albedo):
+    """Depth, normal, object, prim and albedo of the (pinhole) rays through the row's pixel
+    centres. Returns rays traced."""
+    for i in range(width):
+        o, d = camera_ray(cam, i + 0.5, j + 0.5, width, height)
+        t, kind, index, b1, b2 = closest_hit(G, o, d, 0.0, INF, node_stack, t_stack)
+        if kind == HIT_NONE:
+            depth[j, i] = INF
+            obj_id[j, i] = -1
+            prim_id[j, i] = -1
+            for c in range(3):
+                normal[j, i, c] = 0.0
+                albedo[j, i, c] = 0.0
+        else:
+            p = madd(o, d, t)
+            ng, ns, m, obj, prim = surface(G, F, kind, index, b1, b2, p)
+            if dot(ns, d) > 0.0:
+                ns = mul(ns, -1.0)
+            a = surface_albedo(G, F, kind, index, b1, b2, p, m)
+            depth[j, i] = t
+            obj_id[j, i] = obj
+            prim_id[j, i] = prim
+            for c in range(3):
+                normal[j, i, c] = ns[c]
+                albedo[j, i, c] = a[c]
+    return width

@@ -47,10 +47,6 @@ HIT_PLANE = 3
 PRIM_SPHERE = 0
 PRIM_TRIANGLE = 1
 
-# Render modes
-MODE_CAST = 0
-MODE_TRACE = 1
-
 # Camera: float64 (CAM_WIDTH,): position, forward, right * half-width, up * half-height (the
 # pinhole of DESIGN.md, indices 0..11), then the thin lens and the pixel filter the film uses.
 CAM_LENS_RADIUS = 12  # aperture / 2; 0 for the pinhole
@@ -67,8 +63,9 @@ FILTER_WARPED = 1  # any other filter: samples placed by the tabulated inverse C
 
 # Size of per-thread traversal stacks; a BVH deeper than this is rejected at build time.
 TRAVERSAL_STACK = 128
-# Unused elements after each thread's scratch arrays (4 KiB as int32, more than a cache line).
-# Small arrays allocated by two threads lie back to back: without the gap one thread's stack
-# ended in the cache line where another's began, and their writes fought over it (false
-# sharing: the seed scene took 85 instead of 45 ms on 2 threads).
+# Unused elements on either side of each thread's scratch arrays (at least 256 bytes: beyond a
+# cache line and its prefetched neighbour). Small arrays allocated by two threads can lie back
+# to back: without the gap one thread's stack ended in the cache line where another's began,
+# and their writes fought over it (false sharing: the seed scene took 85 instead of 45 ms on
+# 2 threads).
 SCRATCH_PAD = 1024

@@ -18,8 +18,9 @@ def intersect_rays(S, origins, directions, t_out, object_out, prim_out):
     chunk = 256
     for c in prange((n + chunk - 1) // chunk):
         G = geometry_of(S)  # made inside the parallel loop: parfor cannot capture it from outside
-        node_stack = np.empty(TRAVERSAL_STACK + SCRATCH_PAD, dtype=np.int32)  # padded: see layout.py
-        t_stack = np.empty(TRAVERSAL_STACK + SCRATCH_PAD, dtype=np.float64)
+        # padded against false sharing, see layout.py
+        node_stack = np.empty(TRAVERSAL_STACK + 2 * SCRATCH_PAD, dtype=np.int32)[SCRATCH_PAD:]
+        t_stack = np.empty(TRAVERSAL_STACK + 2 * SCRATCH_PAD, dtype=np.float64)[SCRATCH_PAD:]
         for k in range(c * chunk, min(n, (c + 1) * chunk)):
             o = (float(origins[k, 0]), float(origins[k, 1]), float(origins[k, 2]))
             d = (float(directions[k, 0]), float(directions[k, 1]), float(directions[k, 2]))

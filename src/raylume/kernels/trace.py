@@ -22,7 +22,7 @@ from .vec import KERNEL, dot, hadamard, madd, mul
 MIN_WEIGHT = 1e-4
 
 
-@njit(**KERNEL)
+@njit(**KERNEL, inline="always")
 def trace_ray(G, F, L, o, d, max_depth, background, rays, node_stack, t_stack, key):
     """Colour seen along the ray (o, d). `rays` is a float64 (K, 10) work stack of
     origin, direction, weight, depth; `key` the camera sample's random key (area lights).
