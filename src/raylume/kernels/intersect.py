@@ -20,13 +20,15 @@ def intersect_sphere(o, d, center, radius, tmin, tmax):
     radius-5000 sphere nor a grazing ray loses precision to cancellation."""
     co = sub(o, center)
     b = dot(co, d)  # half the seed's b, with a = dot(D, D) = 1
+    c = dot(co, co) - radius * radius
+    if c > 0.0 and b > 0.0:
+        return INF  # outside, moving away: both roots are negative (tmin >= 0 always)
     px = co[0] - b * d[0]
     py = co[1] - b * d[1]
     pz = co[2] - b * d[2]
     disc = radius * radius - (px * px + py * py + pz * pz)
     if disc < 0.0:
         return INF
-    c = dot(co, co) - radius * radius
     q = -b - math.copysign(math.sqrt(disc), b)
     if q == 0.0:
         return INF

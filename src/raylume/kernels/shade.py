@@ -221,15 +221,15 @@ def shadow_transmittance(G, F, o, d, tmax, node_stack, t_stack):
 
 @njit(**KERNEL, inline="always")
 def _phong(n, l, view, specular):
-    """The seed's diffuse + specular factor for the unit direction l towards a light."""
+    """The seed's diffuse + specular factor for the unit direction l towards a light (n and
+    view unit too)."""
     n_dot_l = dot(n, l)
     scale = max(n_dot_l, 0.0)
     if specular > 0.0:
         # the seed adds the highlight whatever the sign of N.L (R and V decide)
         r = sub(mul(n, 2.0 * n_dot_l), l)
-        r_dot_v = dot(r, view)
-        if r_dot_v > 0.0:
-            cos_rv = r_dot_v / (length(r) * length(view))
+        cos_rv = dot(r, view)  # the seed divides by |R| |V|: both are 1 here
+        if cos_rv > 0.0:
             # Below 1 - 50/s the highlight is under e^-50 (about 2e-22): skip the power, whose
             # result would otherwise often be a slow subnormal number.
             if cos_rv > 1.0 - 50.0 / specular:
