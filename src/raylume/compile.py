@@ -8,7 +8,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .accel.bvh import build_bvh, bvh_depth, bvh_nbytes
+from .accel.bvh import BVH, build_bvh, bvh_depth, bvh_nbytes
 from .errors import SceneError
 from .kernels import layout as L
 from .kernels.camera import camera_frame
@@ -202,11 +202,14 @@ def _load_mesh_object(scene: Scene, k: int, obj: Mesh, source):
         raise SceneError(f"{source}: objects[{k}].file: {exc}") from None
 
 
-def single_leaf_bvh(n: int):
-    """A 'hierarchy' of one leaf holding every primitive, for modes that never trace rays."""
-    from .accel.bvh import BVH
-
-    bounds = np.array([[np.inf] * 3 + [-np.inf] * 3], dtype=np.float32)
+def single_leaf_bvh(lo: np.ndarray, hi: np.ndarray) -> BVH:
+    """A 'hierarchy' of one leaf holding every primitive: for small scenes (fastest so, and
+    the BVH builder need not even be compiled) and for modes that never trace rays."""
+    if len(lo):
+        bounds = np.concatenate([lo.min(axis=0), hi.max(axis=0)]).astype(np.float32)[None, :]
+    else:
+        bounds = np.array([[np.inf] * 3 + [-np.inf] * 3], dtype=np.float32)
+    n = len(lo)
     return BVH(bounds, np.array([[0, n]], dtype=np.int32), np.array([-1], dtype=np.int8), np.arange(n, dtype=np.int32))
 
 
@@ -272,12 +275,12 @@ def compile_scene(scene: Scene, width: int, height: int, source="<scene>", accel
         lo[n_spheres:] = corners.min(axis=1)
         hi[n_spheres:] = corners.max(axis=1)
         del corners
-    if accelerate:
-        bvh = build_bvh(lo, hi, max_leaf_size=max(BVH_MAX_LEAF, len(lo) if len(lo) <= SMALL_SCENE else 0),
-                        c_trav=BVH_TRAVERSAL_COST if len(lo) > SMALL_SCENE else 1e9)
+    if accelerate and len(lo) > SMALL_SCENE:
+        bvh = build_bvh(lo, hi, max_leaf_size=BVH_MAX_LEAF, c_trav=BVH_TRAVERSAL_COST)
+        depth = bvh_depth(bvh)
     else:
-        bvh = single_leaf_bvh(len(lo))
-    depth = bvh_depth(bvh) if accelerate else 1
+        bvh = single_leaf_bvh(lo, hi)
+        depth = 1
     if depth >= L.TRAVERSAL_STACK - 2:  # traversal stacks are fixed-size (no allocation per ray)
         raise SceneError(f"{source}: the BVH is {depth} levels deep, more than the {L.TRAVERSAL_STACK - 2} "
                          "traversal supports; the scene's primitives are pathologically arranged")

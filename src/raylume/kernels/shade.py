@@ -189,6 +189,13 @@ def shadow_transmittance(G, F, o, d, tmax, node_stack, t_stack):
         if any_hit(G, o, d, 0.0, tmax, node_stack):
             return (0.0, 0.0, 0.0), 1
         return (1.0, 1.0, 1.0), 1
+    return _transparent_shadow(G, F, o, d, tmax, node_stack, t_stack)
+
+
+# A call, not inlined: a walk through transparent surfaces costs several traversals anyway, and
+# one more inlined copy of the traversal costs seconds of compile time in every trace kernel.
+@njit(**KERNEL)
+def _transparent_shadow(G, F, o, d, tmax, node_stack, t_stack):
     tr = (1.0, 1.0, 1.0)
     origin = o
     remaining = tmax
