@@ -258,6 +258,9 @@ material = { texture = { type = "image", file = "tex.png" } }
     expected = _srgb_to_linear(texels / 255.0)
     np.testing.assert_allclose(img.rgb, expected, atol=2e-6)
     np.testing.assert_allclose(img.aovs["albedo"], expected, atol=2e-6)
+    # the rasterizer interpolates the same UVs (perspective-correct) and looks up the same texels
+    raster = raylume.render(raylume.load_scene(path), mode="raster")
+    np.testing.assert_allclose(raster.aovs["albedo"], expected, atol=1e-5)
     # scale [2, 2] tiles the image twice across: pixel (i, j) shows texel (2i mod 4, 2j mod 4)
     # blended half-way with its neighbour (the pixel centre falls on a texel border)
     text = path.read_text().replace('file = "tex.png" }', 'file = "tex.png", scale = [2, 2] }')

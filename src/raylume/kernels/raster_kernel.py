@@ -46,8 +46,9 @@ which owns that band's part of the Z-buffer, so there are no races. Within a ban
 triangles are drawn in index order and a fragment replaces the stored one only when
 strictly nearer, so at equal depth the lower triangle index wins: the image does not depend
 on the number of threads. Shading is deferred: the Z-buffer keeps 1/z and the triangle
-index, and a last pass shades each visible pixel once with the ray tracer's own
-`surface`, `albedo` and `lighting` (kernels/shade.py; no shadows, reflection or refraction).
+index, and a last pass shades each visible pixel once with the ray tracer's own `surface`,
+`surface_albedo` (image textures included) and `lighting` (kernels/shade.py; no shadows,
+reflection or refraction).
 """
 
 import math
@@ -57,9 +58,9 @@ import numba
 import numpy as np
 from numba import njit, prange
 
-from .layout import HIT_TRIANGLE, TRAVERSAL_STACK
+from .layout import HIT_TRIANGLE, MAT_TEXTURE, TEXTURE_IMAGE, TRAVERSAL_STACK
 from .scene import geometry_of, lights_of, surfaces_of
-from .shade import albedo, lighting, offset_epsilon, surface
+from .shade import lighting, offset_epsilon, surface, surface_albedo
 from .vec import dot, hadamard, madd, mul
 
 # Helpers that take arrays are inlined at the Numba level (inline="always"): a call that passes
@@ -388,7 +389,8 @@ def _shade_row(G, F, L, cam, view, width, height, j, extra, extra_kind, extra_in
         if t < n_main:
             kind = HIT_TRIANGLE
             index = t
-            if F.triangle_smooth[t]:
+            # vertex normals and image textures need the point's weights
+            if F.triangle_smooth[t] or F.materials[F.triangle_material[t], MAT_TEXTURE] == TEXTURE_IMAGE:
                 b1, b2 = barycentrics(view, tri, extra, n_main, t, x, y)
         else:
             kind = extra_kind[t - n_main]
@@ -397,7 +399,7 @@ def _shade_row(G, F, L, cam, view, width, height, j, extra, extra_kind, extra_in
         face = ns
         if dot(face, d) > 0.0:
             face = mul(face, -1.0)
-        col = albedo(F.materials, m, p)
+        col = surface_albedo(G, F, kind, index, b1, b2, p, m)
         # as trace_ray: normals turned towards the incoming ray, a shading normal bent past
         # the horizon replaced by the geometric one, lit from just outside the surface
         if dot(ng, d) >= 0.0:
