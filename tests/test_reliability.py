@@ -60,10 +60,15 @@ def test_sigint_with_partial_saves_the_rows_done(tmp_path):
     assert partial[-1].max() == 0.0  # the bottom rows (ground) were not reached
 
 
-def test_same_image_whatever_the_thread_count():
-    scene = raylume.builtin_scene("seed")
-    a = raylume.render(scene, width=64, height=48, spp=4, threads=1)
-    b = raylume.render(scene, width=64, height=48, spp=4, threads=2)
+@pytest.mark.parametrize("mode", ["trace", "cast"])
+@pytest.mark.parametrize("height", [48, 7, 1])  # threads take interleaved rows: odd counts, fewer rows than threads
+def test_same_image_whatever_the_thread_count(mode, height):
+    doc = raylume.builtin_scene("seed").model_dump()
+    doc["render"]["background"] = [0.1, 0.2, 0.3]  # so that every row has something to show
+    scene = raylume.scene_from_dict(doc)
+    a = raylume.render(scene, width=64, height=height, spp=4, threads=1, mode=mode)
+    b = raylume.render(scene, width=64, height=height, spp=4, threads=2, mode=mode)
+    assert a.rgb.shape == (height, 64, 3) and (a.rgb.max(axis=(1, 2)) > 0).all()  # every row rendered
     np.testing.assert_array_equal(a.rgb, b.rgb)
     for name in a.aovs:
         np.testing.assert_array_equal(a.aovs[name], b.aovs[name])
