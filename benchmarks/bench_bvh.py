@@ -74,11 +74,11 @@ def time_raylume(compiled, o, d, threads, repeats):
     t = np.empty(n)
     obj = np.empty(n, np.int32)
     prim = np.empty(n, np.int32)
-    intersect_rays(compiled.kernel, o, d, t, obj, prim)  # compile / warm
+    intersect_rays(compiled.kernel, o, d, t, obj, prim, threads)  # compile / warm
     times = []
     for _ in range(repeats):
         t0 = time.perf_counter()
-        intersect_rays(compiled.kernel, o, d, t, obj, prim)
+        intersect_rays(compiled.kernel, o, d, t, obj, prim, threads)
         times.append(time.perf_counter() - t0)
     return median_of(times), t
 

@@ -183,6 +183,28 @@ def test_bvh_closest_hit_equals_brute_force(tmp_path, kind):
     assert not shorter[np.isfinite(t_ref)].any()
 
 
+def test_public_intersect_equals_brute_force_on_all_threads(tmp_path):
+    """raylume.intersect (threads take interleaved chunks of rays) against the brute force:
+    distances to the last bits, face indices, object ids, misses; directions need not be unit."""
+    rng = np.random.default_rng(11)
+    v, f = bumpy_sphere(5000)
+    trimesh.Trimesh(v, f, process=False).export(tmp_path / "m.ply")
+    scene = raylume.scene_from_dict({"objects": [
+        {"type": "sphere", "center": [0, 0, 40], "radius": 0.5},  # object 0: far away, never hit
+        {"type": "mesh", "file": str(tmp_path / "m.ply")},
+    ]})
+    origins, dirs = _random_rays(rng, 5000, np.zeros(3), 1.0)
+    t, obj, prim = raylume.intersect(scene, origins, dirs * rng.uniform(0.5, 3.0, size=(len(dirs), 1)))
+    t_ref, i_ref = _brute((v.astype(np.float32)[f]).reshape(-1, 9), origins, dirs)
+    hit = np.isfinite(t_ref)
+    assert 1000 < hit.sum() < len(t_ref)
+    np.testing.assert_allclose(t, t_ref, rtol=1e-12)
+    assert (obj[hit] == 1).all() and (obj[~hit] == -1).all() and (prim[~hit] == -1).all()
+    assert (prim[hit] == i_ref[hit]).mean() > 0.999  # shared edges: either face is right
+    with pytest.raises(ValueError, match="non-zero"):
+        raylume.intersect(scene, origins[:2], np.zeros((2, 3)))
+
+
 def test_bvh_on_a_real_mesh_equals_brute_force(shared_models, tmp_path):
     from raylume.scene.mesh import load_mesh
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 
 from .compile import CompiledScene, compile_scene
@@ -27,5 +28,5 @@ def intersect(scene: Scene | CompiledScene, origins: np.ndarray, directions: np.
     t = np.empty(n)
     obj = np.empty(n, dtype=np.int32)
     prim = np.empty(n, dtype=np.int32)
-    intersect_rays(compiled.kernel, origins, directions, t, obj, prim)
+    intersect_rays(compiled.kernel, origins, directions, t, obj, prim, numba.get_num_threads())
     return t, obj, prim

@@ -2,7 +2,7 @@
 and users who want raylume as a ray-intersection library)."""
 
 import numpy as np
-from numba import get_num_threads, njit, prange
+from numba import njit, prange
 
 from .intersect import INF
 from .layout import HIT_NONE, HIT_PLANE, HIT_SPHERE, SCRATCH_PAD, TRAVERSAL_STACK
@@ -12,11 +12,12 @@ from .vec import FAST
 
 
 @njit(parallel=True, fastmath=FAST, cache=True, error_model="numpy")
-def intersect_rays(S, origins, directions, t_out, object_out, prim_out):
-    """Closest hit of each ray (unit directions). t = inf, object = prim = -1 for misses."""
+def intersect_rays(S, origins, directions, t_out, object_out, prim_out, lanes):
+    """Closest hit of each ray (unit directions). t = inf, object = prim = -1 for misses.
+    `lanes`: parallel iterations, one per thread (numba.get_num_threads(); passed in because
+    calling it here would keep Numba from caching the function)."""
     n = origins.shape[0]
     chunk = 256
-    lanes = get_num_threads()
     for lane in prange(lanes):
         G = geometry_of(S)  # made inside the parallel loop: parfor cannot capture it from outside
         # padded against false sharing, see layout.py

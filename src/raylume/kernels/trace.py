@@ -22,6 +22,7 @@ from .vec import KERNEL, dot, hadamard, madd, mul
 MIN_WEIGHT = 1e-4
 
 
+# Inlined into the row loop (frame.py): a call per camera ray passed the scene views by value.
 @njit(**KERNEL, inline="always")
 def trace_ray(G, F, L, o, d, max_depth, background, rays, node_stack, t_stack, key):
     """Colour seen along the ray (o, d). `rays` is a float64 (K, 10) work stack of
