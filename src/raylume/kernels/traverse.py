@@ -7,12 +7,14 @@ leaf costs more than the intersection tests it makes.
 
 from numba import njit
 
-from .intersect import INF, intersect_box, intersect_plane, intersect_sphere, intersect_triangle, ray_shear, safe_inverse
+from .intersect import INF, intersect_box, intersect_plane, intersect_sphere, intersect_triangle, ray_shear, slab_ray
 from .layout import HIT_NONE, HIT_PLANE, HIT_SPHERE, HIT_TRIANGLE, PRIM_SPHERE
 from .vec import KERNEL, row3
 
-# Shear constants for rays in scenes without triangles (never used, but typed alike).
+# Shear constants for rays in scenes without triangles, and slab constants for a root leaf
+# (never used, but typed alike).
 _NO_SHEAR = (0, 1, 2, 0.0, 0.0, 1.0)
+_NO_SLAB = ((0.0, 0.0, 0.0), (0, 0, 0))
 
 
 @njit(**KERNEL, inline="always")
@@ -33,12 +35,12 @@ def closest_hit(G, o, d, tmin, tmax, node_stack, t_stack):
     bounds = G.node_bounds
     shear = ray_shear(d) if G.triangles.shape[0] > 0 else _NO_SHEAR
     # A root leaf (small scenes) needs neither box tests nor the inverse direction.
-    inv_d = (0.0, 0.0, 0.0)
+    slab = _NO_SLAB
     if nodes[0, 1] == 0:
         if nodes[0, 0] == 0:
             return best_t, kind, index, b1, b2  # empty scene
-        inv_d = safe_inverse(d)
-        if intersect_box(bounds, 0, o, inv_d, best_t) == INF:
+        slab = slab_ray(d)
+        if intersect_box(bounds, 0, o, slab, best_t) == INF:
             return best_t, kind, index, b1, b2
     node = 0
     top = 0
@@ -59,8 +61,8 @@ def closest_hit(G, o, d, tmin, tmax, node_stack, t_stack):
         else:
             left = node + 1
             right = nodes[node, 0]
-            t_left = intersect_box(bounds, left, o, inv_d, best_t)
-            t_right = intersect_box(bounds, right, o, inv_d, best_t)
+            t_left = intersect_box(bounds, left, o, slab, best_t)
+            t_right = intersect_box(bounds, right, o, slab, best_t)
             if t_left != INF and t_right != INF:
                 if t_right < t_left:
                     left, right = right, left
@@ -100,7 +102,7 @@ def any_hit(G, o, d, tmin, tmax, node_stack):
     if nodes[0, 1] == 0 and nodes[0, 0] == 0:
         return False  # empty scene
     shear = ray_shear(d) if G.triangles.shape[0] > 0 else _NO_SHEAR
-    inv_d = safe_inverse(d) if nodes[0, 1] == 0 else (0.0, 0.0, 0.0)
+    slab = slab_ray(d) if nodes[0, 1] == 0 else _NO_SLAB
     node_stack[0] = 0
     top = 1
     while top > 0:
@@ -119,10 +121,10 @@ def any_hit(G, o, d, tmin, tmax, node_stack):
         else:
             # test children before pushing them, so the stack holds only boxes the ray enters
             right = nodes[node, 0]
-            if intersect_box(bounds, right, o, inv_d, tmax) != INF:
+            if intersect_box(bounds, right, o, slab, tmax) != INF:
                 node_stack[top] = right
                 top += 1
-            if intersect_box(bounds, node + 1, o, inv_d, tmax) != INF:
+            if intersect_box(bounds, node + 1, o, slab, tmax) != INF:
                 node_stack[top] = node + 1
                 top += 1
     return False
