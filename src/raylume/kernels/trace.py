@@ -25,22 +25,30 @@ MIN_WEIGHT = 1e-4
 # Inlined into the row loop (frame.py): a call per camera ray passed the scene views by value.
 @njit(**KERNEL, inline="always")
 def trace_ray(G, F, L, o, d, max_depth, background, rays, node_stack, t_stack, key):
-    """Colour seen along the ray (o, d). `rays` is a float64 (K, 10) work stack of
-    origin, direction, weight, depth; `key` the camera sample's random key (area lights).
+    """Colour seen along the ray (o, d). `rays` is a float64 (K, 10) stack of rays waiting to
+    be traced (origin, direction, weight, depth); `key` the camera sample's random key (area
+    lights).
     Returns (rgb, rays traced)."""
     cr = 0.0
     cg = 0.0
     cb = 0.0
     count = 0
     top = 0
-    _push(rays, top, o, d, (1.0, 1.0, 1.0), max_depth)
-    top = 1
-    while top > 0:
-        top -= 1
-        o = (rays[top, 0], rays[top, 1], rays[top, 2])
-        d = (rays[top, 3], rays[top, 4], rays[top, 5])
-        w = (rays[top, 6], rays[top, 7], rays[top, 8])
-        depth = int(rays[top, 9])
+    # The next ray is kept in (o, d, w, depth) while `pending`; only a second branch (a
+    # reflection beside a refraction) waits on the stack.
+    w = (1.0, 1.0, 1.0)
+    depth = max_depth
+    pending = True
+    while True:
+        if not pending:
+            if top == 0:
+                break
+            top -= 1
+            o = (rays[top, 0], rays[top, 1], rays[top, 2])
+            d = (rays[top, 3], rays[top, 4], rays[top, 5])
+            w = (rays[top, 6], rays[top, 7], rays[top, 8])
+            depth = int(rays[top, 9])
+        pending = False
         t, kind, index, b1, b2 = closest_hit(G, o, d, 0.0, INF, node_stack, t_stack)
         count += 1
         if t == INF:
@@ -89,16 +97,19 @@ def trace_ray(G, F, L, o, d, max_depth, background, rays, node_stack, t_stack, k
         cr += w[0] * k_local * local[0]
         cg += w[1] * k_local * local[1]
         cb += w[2] * k_local * local[2]
-        k_reflect = (1.0 - transparency) * r + transparency * fresnel
-        w_reflect = mul(w, k_reflect)
-        if max(w_reflect[0], w_reflect[1], w_reflect[2]) > MIN_WEIGHT and top < rays.shape[0]:
-            _push(rays, top, outside, reflect(d, ns), w_reflect, depth - 1)
-            top += 1
+        w_reflect = mul(w, (1.0 - transparency) * r + transparency * fresnel)
         w_transmit = mul(w, transparency * (1.0 - fresnel))
-        if max(w_transmit[0], w_transmit[1], w_transmit[2]) > MIN_WEIGHT and top < rays.shape[0]:
-            inside = madd(p, ng, -eps)
-            _push(rays, top, inside, refract(d, ns, eta, cos_i, cos_t), w_transmit, depth - 1)
-            top += 1
+        reflects = max(w_reflect[0], w_reflect[1], w_reflect[2]) > MIN_WEIGHT
+        transmits = max(w_transmit[0], w_transmit[1], w_transmit[2]) > MIN_WEIGHT
+        # The refracted ray is traced next and the reflected one waits on the stack (the order
+        # a stack of both would give).
+        if transmits:
+            if reflects and top < rays.shape[0]:
+                _push(rays, top, outside, reflect(d, ns), w_reflect, depth - 1)
+                top += 1
+            o, d, w, depth, pending = madd(p, ng, -eps), refract(d, ns, eta, cos_i, cos_t), w_transmit, depth - 1, True
+        elif reflects:
+            o, d, w, depth, pending = outside, reflect(d, ns), w_reflect, depth - 1, True
     return (cr, cg, cb), count
 
 
