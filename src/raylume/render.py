@@ -2,11 +2,10 @@
 
 from __future__ import annotations
 
-import concurrent.futures
 import math
 import os
 import time
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import ThreadPoolExecutor, wait
 from typing import Callable
 
 import numba
@@ -180,6 +179,6 @@ def _run_lanes(pool: ThreadPoolExecutor, lanes: int, job: Callable[[int], None])
     try:
         job(0)
     finally:
-        concurrent.futures.wait(futures)
+        wait(futures)
     for future in futures:
         future.result()  # re-raises a lane's exception

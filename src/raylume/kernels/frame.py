@@ -18,14 +18,12 @@ from .layout import (
     CAM_LENS_RADIUS,
     FILTER_BOX,
     HIT_NONE,
-    SCRATCH_PAD,
-    TRAVERSAL_STACK,
 )
 from .sampling import filter_offset, key_uniform2, lens_sample, sample_key, stratum
 from .scene import geometry_of, lights_of, surfaces_of
 from .shade import surface, surface_albedo
 from .trace import trace_ray
-from .traverse import closest_hit
+from .traverse import closest_hit, scratch_array, traversal_stacks
 from .vec import FAST, KERNEL, dot, madd, mul
 
 
@@ -81,8 +79,9 @@ LANE = dict(nogil=True, cache=True, fastmath=FAST, error_model="numpy")
 def trace_lane(S, cam, width, height, row_begin, row_end, lane, lanes, spp, seed, max_depth, background,
                rgb, rays_per_row):
     """Whitted-traced colour of the lane's rows into rgb; rays traced per row into rays_per_row."""
-    node_stack, t_stack = _traversal_stacks()
-    work = _padded((2 * max_depth + 4) * 10, np.float64).reshape((2 * max_depth + 4, 10))
+    node_stack, t_stack = traversal_stacks()
+    slots = 2 * max_depth + 4  # a ray's reflection and refraction at each level, and spare
+    work = scratch_array(slots * 10, np.float64).reshape((slots, 10))
     bg = (background[0], background[1], background[2])
     G, F, L = geometry_of(S), surfaces_of(S), lights_of(S)
     for j in range(row_begin + lane, row_end, lanes):
@@ -93,7 +92,7 @@ def trace_lane(S, cam, width, height, row_begin, row_end, lane, lanes, spp, seed
 @njit(**LANE)
 def cast_lane(S, cam, width, height, row_begin, row_end, lane, lanes, spp, seed, background, rgb, rays_per_row):
     """Ray-cast colour (the closest hit's albedo) of the lane's rows."""
-    node_stack, t_stack = _traversal_stacks()
+    node_stack, t_stack = traversal_stacks()
     bg = (background[0], background[1], background[2])
     G, F = geometry_of(S), surfaces_of(S)
     for j in range(row_begin + lane, row_end, lanes):
@@ -104,23 +103,11 @@ def cast_lane(S, cam, width, height, row_begin, row_end, lane, lanes, spp, seed,
 def aov_lane(S, cam, width, height, row_begin, row_end, lane, lanes, depth, normal, obj_id, prim_id, albedo,
              rays_per_row):
     """Primary-hit AOVs (depth, normal, object, prim, albedo) of the lane's rows."""
-    node_stack, t_stack = _traversal_stacks()
+    node_stack, t_stack = traversal_stacks()
     G, F = geometry_of(S), surfaces_of(S)
     for j in range(row_begin + lane, row_end, lanes):
         rays_per_row[j] += _primary_aovs_row(G, F, cam, j, width, height, node_stack, t_stack,
                                              depth, normal, obj_id, prim_id, albedo)
-
-
-@njit(cache=True)
-def _traversal_stacks():
-    return _padded(TRAVERSAL_STACK, np.int32), _padded(TRAVERSAL_STACK, np.float64)
-
-
-@njit(cache=True)
-def _padded(n, dtype):
-    """An array of n elements for one thread's scratch, with SCRATCH_PAD unused elements on
-    either side: see layout.py."""
-    return np.empty(n + 2 * SCRATCH_PAD, dtype=dtype)[SCRATCH_PAD:SCRATCH_PAD + n]
 
 
 # The row loops below are two copies of one skeleton on purpose: each holds its per-ray work

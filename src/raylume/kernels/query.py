@@ -1,13 +1,12 @@
 """Batch ray queries over a compiled scene: closest hits for arrays of rays (benchmarks, tests,
 and users who want raylume as a ray-intersection library)."""
 
-import numpy as np
 from numba import njit, prange
 
 from .intersect import INF
-from .layout import HIT_NONE, HIT_PLANE, HIT_SPHERE, SCRATCH_PAD, TRAVERSAL_STACK
+from .layout import HIT_NONE, HIT_PLANE, HIT_SPHERE
 from .scene import geometry_of
-from .traverse import closest_hit
+from .traverse import closest_hit, traversal_stacks
 from .vec import FAST
 
 
@@ -20,9 +19,7 @@ def intersect_rays(S, origins, directions, t_out, object_out, prim_out, lanes):
     chunk = 256
     for lane in prange(lanes):
         G = geometry_of(S)  # made inside the parallel loop: parfor cannot capture it from outside
-        # padded against false sharing, see layout.py
-        node_stack = np.empty(TRAVERSAL_STACK + 2 * SCRATCH_PAD, dtype=np.int32)[SCRATCH_PAD:]
-        t_stack = np.empty(TRAVERSAL_STACK + 2 * SCRATCH_PAD, dtype=np.float64)[SCRATCH_PAD:]
+        node_stack, t_stack = traversal_stacks()
         # interleaved chunks: neighbouring rays cost alike, distant ones may not (see frame.py)
         for c in range(lane, (n + chunk - 1) // chunk, lanes):
             for k in range(c * chunk, min(n, (c + 1) * chunk)):

@@ -5,16 +5,30 @@ hierarchy; they are few and tested first. Leaf loops are written inline: a helpe
 leaf costs more than the intersection tests it makes.
 """
 
+import numpy as np
 from numba import njit
 
 from .intersect import INF, intersect_box, intersect_plane, intersect_sphere, intersect_triangle, ray_shear, slab_ray
-from .layout import HIT_NONE, HIT_PLANE, HIT_SPHERE, HIT_TRIANGLE, PRIM_SPHERE
+from .layout import HIT_NONE, HIT_PLANE, HIT_SPHERE, HIT_TRIANGLE, PRIM_SPHERE, SCRATCH_PAD, TRAVERSAL_STACK
 from .vec import KERNEL, row3
 
 # Shear constants for rays in scenes without triangles, and slab constants for a root leaf
 # (never used, but typed alike).
 _NO_SHEAR = (0, 1, 2, 0.0, 0.0, 1.0)
 _NO_SLAB = ((0.0, 0.0, 0.0), (0, 0, 0))
+
+
+@njit(cache=True)
+def traversal_stacks():
+    """One thread's (node_stack, t_stack) for closest_hit and any_hit."""
+    return scratch_array(TRAVERSAL_STACK, np.int32), scratch_array(TRAVERSAL_STACK, np.float64)
+
+
+@njit(cache=True)
+def scratch_array(n, dtype):
+    """An array of n elements for one thread's scratch, with SCRATCH_PAD unused elements on
+    either side against false sharing: see layout.py."""
+    return np.empty(n + 2 * SCRATCH_PAD, dtype=dtype)[SCRATCH_PAD:SCRATCH_PAD + n]
 
 
 @njit(**KERNEL, inline="always")
