@@ -34,6 +34,14 @@ def raylume(*args, cwd):
     )
 
 
+def assert_refused(result, *words):
+    """The bad-input contract: exit status 2, a message naming each of `words`, no traceback."""
+    assert result.returncode == 2, result.stderr
+    assert "Traceback" not in result.stderr
+    for word in words:
+        assert word in result.stderr, (word, result.stderr)
+
+
 @pytest.fixture
 def good(tmp_path):
     path = tmp_path / "scene.toml"
@@ -105,9 +113,7 @@ def test_bad_scene_exits_2_with_message_and_writes_nothing(tmp_path, name):
     text, key = BAD_SCENES[name]
     (tmp_path / name).write_text(text)
     result = raylume("render", name, "-o", "out.png", "--stats", "s.json", cwd=tmp_path)
-    assert result.returncode == 2
-    assert "Traceback" not in result.stderr
-    assert name in result.stderr and key in result.stderr
+    assert_refused(result, name, key)
     assert not (tmp_path / "out.png").exists() and not (tmp_path / "s.json").exists()
 
 
@@ -127,8 +133,7 @@ def test_bad_scene_exits_2_with_message_and_writes_nothing(tmp_path, name):
 )
 def test_bad_flags_exit_2(tmp_path, args, words):
     result = raylume("render", *args, cwd=tmp_path)
-    assert result.returncode == 2, result.stderr
-    assert words in result.stderr and "Traceback" not in result.stderr
+    assert_refused(result, words)
     assert not (tmp_path / "render.png").exists()
 
 
@@ -158,9 +163,7 @@ from test_scene_load import BAD as BAD_DOCUMENTS  # noqa: E402
 def test_catalogue_of_bad_scene_files_end_to_end(tmp_path, document, key, words):
     (tmp_path / "bad.json").write_text(json.dumps(document))
     result = raylume("render", "bad.json", "-o", "out.png", "--stats", "s.json", cwd=tmp_path)
-    assert result.returncode == 2, result.stderr
-    assert "Traceback" not in result.stderr
-    assert "bad.json" in result.stderr and key in result.stderr and words in result.stderr
+    assert_refused(result, "bad.json", key, words)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.json"]
 
 
@@ -180,17 +183,14 @@ def test_catalogue_of_bad_meshes_end_to_end(tmp_path, name):
     (tmp_path / name).write_text(text)
     (tmp_path / "scene.toml").write_text(f'[[objects]]\ntype = "mesh"\nfile = "{name}"\n')
     result = raylume("render", "scene.toml", "-o", "out.png", cwd=tmp_path)
-    assert result.returncode == 2, result.stderr
-    assert "Traceback" not in result.stderr
-    assert "objects[0].file" in result.stderr and name in result.stderr and words in result.stderr
+    assert_refused(result, "objects[0].file", name, words)
     assert not (tmp_path / "out.png").exists()
 
 
 def test_mesh_folder_instead_of_file_end_to_end(tmp_path):
     (tmp_path / "dir.obj").mkdir()
     (tmp_path / "scene.toml").write_text('[[objects]]\ntype = "mesh"\nfile = "dir.obj"\n')
-    result = raylume("render", "scene.toml", cwd=tmp_path)
-    assert result.returncode == 2 and "dir.obj" in result.stderr and "Traceback" not in result.stderr
+    assert_refused(raylume("render", "scene.toml", cwd=tmp_path), "dir.obj")
 
 
 def test_debug_shows_the_traceback(tmp_path):
