@@ -84,3 +84,127 @@ def test_written_files_get_ordinary_permissions(tmp_path):
         assert stat.S_IMODE((tmp_path / "a.png").stat().st_mode) == 0o600
     finally:
         os.umask(umask)
+
+
+def _smooth_image(h=6, w=9) -> np.ndarray:
+    y, x = np.mgrid[0:h, 0:w]
+    return np.dstack([x / (w - 1), y / (h - 1), 0.25 + 0 * x]).astype(np.float32) * 1.1
+
+
+def test_jpeg_is_the_8_bit_encoding_at_quality_95(tmp_path):
+    rgb = _smooth_image(32, 48) * 0.5
+    Image(rgb, encoding="srgb").save(tmp_path / "a.jpg")
+    expected = io.BytesIO()
+    PILImage.fromarray(encode_8bit(rgb, "srgb")).save(expected, format="JPEG", quality=95)
+    assert (tmp_path / "a.jpg").read_bytes() == expected.getvalue()
+    back = np.asarray(PILImage.open(tmp_path / "a.jpg")).astype(int)
+    assert np.abs(back - encode_8bit(rgb, "srgb")).mean() < 3
+
+
+def _png_16_pixels(data: bytes) -> np.ndarray:
+    """Decode an 8-bit-free, non-interlaced 16-bit RGB PNG with zlib (filters none/sub/up)."""
+    import struct
+    import zlib
+
+    pos, idat, (w, h) = 8, b"", (0, 0)
+    while pos < len(data):
+        (n,), kind = struct.unpack(">I", data[pos:pos + 4]), data[pos + 4:pos + 8]
+        body = data[pos + 8:pos + 8 + n]
+        if kind == b"IHDR":
+            w, h, depth, colour = struct.unpack(">IIBB", body[:10])
+            assert (depth, colour) == (16, 2)
+        elif kind == b"IDAT":
+            idat += body
+        pos += 12 + n
+    raw = np.frombuffer(zlib.decompress(idat), np.uint8).reshape(h, 1 + w * 6)
+    rows = np.zeros((h, w * 6), np.uint8)
+    for j in range(h):
+        f, line = raw[j, 0], raw[j, 1:].copy()
+        if f == 1:
+            for k in range(6, len(line)):
+                line[k] = (int(line[k]) + int(line[k - 6])) & 255
+        elif f == 2 and j:
+            line = (line.astype(int) + rows[j - 1]).astype(np.uint8)
+        else:
+            assert f in (0, 2)
+        rows[j] = line
+    return rows.view(">u2").reshape(h, w, 3).astype(np.uint16)
+
+
+@pytest.mark.parametrize("encoding", ["clamp", "srgb"])
+def test_16_bit_png_has_the_same_curve(tmp_path, encoding):
+    rgb = np.random.default_rng(1).uniform(-0.1, 1.1, size=(6, 9, 3)).astype(np.float32)
+    Image(rgb, encoding=encoding).save(tmp_path / "a.png", bit_depth=16)
+    img = PILImage.open(tmp_path / "a.png")
+    assert img.size == (9, 6)
+    eight = encode_8bit(rgb, encoding).astype(int)
+    assert np.abs(np.asarray(img.convert("RGB")).astype(int) - eight).max() <= 1  # Pillow keeps the high bytes
+    pixels = _png_16_pixels((tmp_path / "a.png").read_bytes())
+    np.testing.assert_allclose(pixels / 65535.0, eight / 255.0, atol=0.5 / 255 + 1e-6)
+    assert len(np.unique(pixels)) > len(np.unique(eight))  # more levels than 8 bits
+
+
+def test_write_failure_is_an_output_error_in_words(tmp_path, monkeypatch):
+    import errno
+
+    import raylume.image as image_module
+
+    def full_disk(src, dst):
+        raise OSError(errno.ENOSPC, "No space left on device", src)
+
+    monkeypatch.setattr(image_module.os, "replace", full_disk)
+    with pytest.raises(OutputError) as info:
+        Image(np.zeros((2, 2, 3), np.float32)).save(tmp_path / "a.png")
+    message = str(info.value)
+    assert "a.png" in message and "No space left on device" in message
+    assert ".part" not in message and "OSError" not in message
+    assert list(tmp_path.iterdir()) == []  # the temporary file is gone
+
+
+def test_output_folder_must_be_writable(tmp_path, monkeypatch):
+    from raylume.image import check_output_path
+
+    monkeypatch.setattr("os.access", lambda path, mode, **kw: False)
+    with pytest.raises(OutputError, match="cannot write") as info:
+        check_output_path(tmp_path / "a.png")
+    assert str(tmp_path) in str(info.value)
+
+
+def test_output_folder_probe_catches_what_access_misses(tmp_path, monkeypatch):
+    import tempfile
+
+    from raylume.image import check_output_path
+
+    def refuse(*args, **kwargs):
+        raise PermissionError(13, "Permission denied", str(tmp_path / ".probe"))
+
+    monkeypatch.setattr(tempfile, "mkstemp", refuse)
+    with pytest.raises(OutputError, match="cannot write") as info:
+        check_output_path(tmp_path / "a.png")
+    assert ".probe" not in str(info.value) and "PermissionError" not in str(info.value)
+
+
+def test_a_folder_is_not_an_output_file(tmp_path):
+    from raylume.image import check_output_path
+
+    (tmp_path / "adir").mkdir()
+    with pytest.raises(OutputError, match="is a folder") as info:
+        check_output_path(tmp_path / "adir")
+    assert "(none)" not in str(info.value)
+
+
+def test_exr_layers_round_trip(tmp_path):
+    OpenEXR = pytest.importorskip("OpenEXR")
+    rgb = _smooth_image()
+    ids = np.full(rgb.shape[:2], -1, np.int32)
+    ids[2, 3] = 2**31 - 1
+    layers = {"depth": np.full(rgb.shape[:2], np.inf, np.float32), "normal": rgb[..., ::-1].copy(),
+              "object": ids, "prim": np.zeros_like(ids)}
+    Image(rgb, aovs=layers).save(tmp_path / "a.exr", layers=["depth", "normal", "object", "prim"])
+    with OpenEXR.File(str(tmp_path / "a.exr"), separate_channels=True) as f:
+        ch = {name: c.pixels for name, c in f.channels().items()}
+    assert set(ch) == {"R", "G", "B", "depth.Z", "normal.X", "normal.Y", "normal.Z", "object.id", "prim.id"}
+    np.testing.assert_array_equal(np.dstack([ch[c] for c in "RGB"]), rgb)
+    np.testing.assert_array_equal(np.dstack([ch[f"normal.{c}"] for c in "XYZ"]), layers["normal"])
+    np.testing.assert_array_equal(ch["object.id"].view(np.int32), ids)
+    assert np.isinf(ch["depth.Z"]).all()

@@ -1,23 +1,42 @@
-"""The rendered Image, 8-bit encodings (the seed's clamp, or sRGB, after an optional exposure)
-and atomic file writers: PNG, NPY, OpenEXR and Radiance HDR."""
+"""The rendered Image, 8- and 16-bit encodings (the seed's clamp, or sRGB, after an optional
+exposure) and atomic file writers: PNG (8 or 16 bits), JPEG, NPY, OpenEXR (with AOV layers) and
+Radiance HDR."""
 
 from __future__ import annotations
 
 import io
 import os
+import struct
 import tempfile
+import zlib
 from pathlib import Path
 
 import numpy as np
 
 from .errors import OutputError
 
-IMAGE_SUFFIXES = (".png", ".npy", ".exr", ".hdr")
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".npy", ".exr", ".hdr")
+# Outputs that hold encoded (display) values; the others store linear floats as rendered.
+ENCODED_SUFFIXES = (".png", ".jpg", ".jpeg")
+JPEG_QUALITY = 95
+
+# EXR channels of each AOV when written as layers beside R, G, B. Ids are UINT channels that
+# hold the int32 bits, so every id is exact and -1 (nothing hit) reads back as -1 through
+# `.view(np.int32)` (it is 4294967295 as an unsigned number).
+EXR_LAYERS = {
+    "depth": ("Z",),
+    "normal": ("X", "Y", "Z"),
+    "albedo": ("R", "G", "B"),
+    "object": ("id",),
+    "prim": ("id",),
+    "instance": ("id",),
+}
 
 
-def encode_8bit(rgb: np.ndarray, encoding: str = "clamp", exposure: float = 0.0) -> np.ndarray:
-    """Linear float RGB -> uint8. 'clamp' is the seed's: clamp to 0..1 and scale by 255.
-    `exposure` (in stops) scales the linear values by 2**exposure first."""
+def encode_levels(rgb: np.ndarray, encoding: str = "clamp", exposure: float = 0.0) -> np.ndarray:
+    """Linear float RGB -> encoded values in 0..1 (float64), before quantisation. 'clamp' is
+    the seed's: clamp to 0..1, no transfer curve; 'srgb' applies the sRGB curve. `exposure`
+    (in stops) scales the linear values by 2**exposure first."""
     if exposure:
         rgb = np.asarray(rgb, dtype=np.float32) * np.float32(2.0**exposure)
     x = np.nan_to_num(rgb, nan=0.0, posinf=1.0, neginf=0.0).clip(0.0, 1.0)
@@ -25,37 +44,86 @@ def encode_8bit(rgb: np.ndarray, encoding: str = "clamp", exposure: float = 0.0)
         x = np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1.0 / 2.4) - 0.055)
     elif encoding != "clamp":
         raise ValueError(f"unknown encoding {encoding!r}; use 'clamp' or 'srgb'")
-    return np.round(x * 255.0).astype(np.uint8)
+    return x
+
+
+def encode_8bit(rgb: np.ndarray, encoding: str = "clamp", exposure: float = 0.0) -> np.ndarray:
+    """Linear float RGB -> uint8: the encoded value times 255, rounded."""
+    return np.round(encode_levels(rgb, encoding, exposure) * 255.0).astype(np.uint8)
+
+
+def encode_16bit(rgb: np.ndarray, encoding: str = "clamp", exposure: float = 0.0) -> np.ndarray:
+    """Linear float RGB -> uint16 by the same curve as encode_8bit, times 65535."""
+    return np.round(encode_levels(rgb, encoding, exposure) * 65535.0).astype(np.uint16)
 
 
 def check_output_path(path: str | Path, allowed=IMAGE_SUFFIXES) -> Path:
-    """Reject an output path before rendering: unknown extension, missing folder, a folder."""
+    """Reject an output path before rendering: a folder, an unknown extension, a folder that is
+    missing, not a folder or not writable."""
     path = Path(path)
-    if path.suffix.lower() not in allowed:
-        raise OutputError(f"{path}: unknown output format {path.suffix or '(none)'!r}; use one of {', '.join(allowed)}")
     if path.is_dir():
-        raise OutputError(f"{path}: is a folder; give a file name such as {path / 'render.png'}")
-    if not path.parent.exists() and str(path.parent) not in ("", "."):
-        raise OutputError(f"{path}: the folder {path.parent} does not exist")
+        raise OutputError(f"{path}: is a folder; the output must be a file name ending in {_one_of(allowed)}, "
+                          f"e.g. {path / ('render' + allowed[0])}")
+    if path.suffix.lower() not in allowed:
+        raise OutputError(f"{path}: unknown output format {path.suffix or '(none)'!r}; use {_one_of(allowed)}")
+    check_writable_folder(path)
     return path
+
+
+def _one_of(allowed) -> str:
+    return allowed[0] if len(allowed) == 1 else f"one of {', '.join(allowed)}"
+
+
+def check_writable_folder(path: Path) -> None:
+    """The folder that will hold `path` exists, is a folder and takes new files. Asked before
+    rendering, so a render is never lost to an output that cannot be written. os.access alone
+    misses read-only mounts and ACLs (and root passes it everywhere), so a file is created too."""
+    folder = path.parent if str(path.parent) else Path(".")
+    if not folder.exists():
+        raise OutputError(f"{path}: the folder {folder} does not exist")
+    if not folder.is_dir():
+        raise OutputError(f"{path}: {folder} is not a folder")
+    reason = None
+    if not os.access(folder, os.W_OK | os.X_OK):
+        reason = "Permission denied"
+    else:
+        try:
+            fd, probe = tempfile.mkstemp(prefix=".raylume-", suffix=".probe", dir=folder)
+            os.close(fd)
+            os.unlink(probe)
+        except OSError as exc:
+            reason = _reason(exc)
+    if reason:
+        raise OutputError(f"{path}: cannot write into the folder {folder} ({reason}); choose another output path")
+
+
+def _reason(exc: OSError) -> str:
+    """An OSError in words: its strerror ("No space left on device"), never the temp file name."""
+    return exc.strerror or str(exc) or "unknown error"
 
 
 def write_atomic(path: str | Path, write) -> None:
     """Write through a temporary file in the target folder, then rename it into place, so an
-    existing file is only ever replaced by a complete new one."""
+    existing file is only ever replaced by a complete new one. An OSError (disk full, the
+    folder vanished) becomes an OutputError in words naming `path`."""
     path = Path(path)
     folder = path.parent if str(path.parent) else Path(".")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=folder)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=folder)
+    except OSError as exc:
+        raise OutputError(f"{path}: cannot write the file ({_reason(exc)})") from None
     try:
         with os.fdopen(fd, "wb") as fh:
             write(fh)
         os.chmod(tmp, _mode_for(path))  # mkstemp makes 0600 files; outputs get the usual mode
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as exc:
         try:
             os.unlink(tmp)
         except FileNotFoundError:
             pass
+        if isinstance(exc, OSError):
+            raise OutputError(f"{path}: cannot write the file ({_reason(exc)})") from None
         raise
 
 
@@ -77,13 +145,56 @@ def _png_bytes(rgb8: np.ndarray) -> bytes:
     return buf.getvalue()
 
 
-def _write_exr(fh, rgb: np.ndarray) -> None:
+def _jpeg_bytes(rgb8: np.ndarray) -> bytes:
+    from PIL import Image as PILImage
+
+    buf = io.BytesIO()
+    PILImage.fromarray(rgb8, mode="RGB").save(buf, format="JPEG", quality=JPEG_QUALITY)
+    return buf.getvalue()
+
+
+def _png16_bytes(rgb16: np.ndarray) -> bytes:
+    """A 16-bit RGB PNG (colour type 2, bit depth 16), written here because Pillow cannot.
+    Every row uses the Up filter (the byte difference to the row above), which lets zlib
+    compress smooth renders well."""
+    h, w = rgb16.shape[:2]
+    rows = np.ascontiguousarray(rgb16, dtype=">u2").view(np.uint8).reshape(h, w * 6)
+    up = rows.copy()
+    up[1:] -= rows[:-1]  # uint8 arithmetic wraps modulo 256, as the filter is defined
+    scanlines = np.concatenate([np.full((h, 1), 2, np.uint8), up], axis=1)
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+
+    header = struct.pack(">IIBBBBB", w, h, 16, 2, 0, 0, 0)
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(scanlines.tobytes(), 6))
+            + chunk(b"IEND", b""))
+
+
+def exr_channels(rgb: np.ndarray, layers: dict[str, np.ndarray] | None = None) -> dict[str, np.ndarray]:
+    """EXR channel name -> 2D array: R, G, B, then each AOV as `name.X`... (see EXR_LAYERS)."""
+    channels = {c: np.ascontiguousarray(rgb[..., k], dtype=np.float32) for k, c in enumerate("RGB")}
+    for name, array in (layers or {}).items():
+        suffixes = EXR_LAYERS.get(name)
+        if suffixes is None:
+            raise OutputError(f"no EXR layer for the AOV {name!r}; layers: {', '.join(EXR_LAYERS)}")
+        if suffixes == ("id",):
+            channels[f"{name}.id"] = np.ascontiguousarray(array, dtype=np.int32).view(np.uint32)
+        elif len(suffixes) == 1:
+            channels[f"{name}.{suffixes[0]}"] = np.ascontiguousarray(array, dtype=np.float32)
+        else:
+            for k, suffix in enumerate(suffixes):
+                channels[f"{name}.{suffix}"] = np.ascontiguousarray(array[..., k], dtype=np.float32)
+    return channels
+
+
+def _write_exr(fh, rgb: np.ndarray, layers: dict[str, np.ndarray] | None = None) -> None:
     try:
         import OpenEXR
     except ImportError:
-        raise OutputError("writing .exr needs the OpenEXR package: pip install 'raylume[exr]'") from None
+        raise OutputError("writing .exr needs the OpenEXR package: pip install OpenEXR") from None
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
-    channels = {"RGB": np.ascontiguousarray(rgb, dtype=np.float32)}
+    channels = exr_channels(rgb, layers)
     with tempfile.TemporaryDirectory() as tmpdir:
         # OpenEXR writes to a path; copy the bytes into the atomic temp file.
         tmp = Path(tmpdir) / "image.exr"
@@ -139,21 +250,42 @@ def _hdr_bytes(rgb: np.ndarray) -> bytes:
     return header + np.concatenate([marker, body], axis=1).tobytes()
 
 
-def save_array(path: str | Path, rgb: np.ndarray, encoding: str = "clamp", exposure: float = 0.0) -> Path:
-    """Write rgb by the path's extension: .png (8-bit, exposure and encoding applied), .npy,
-    .exr and .hdr (linear floats as rendered)."""
+def check_bit_depth(path: str | Path, bit_depth: int) -> None:
+    """16 bits per channel only exist for PNG here; 8 is every encoded format's depth."""
+    if bit_depth == 8:
+        return
+    if bit_depth != 16:
+        raise OutputError(f"--bit-depth {bit_depth}: use 8 or 16")
+    if Path(path).suffix.lower() != ".png":
+        raise OutputError(f"{path}: --bit-depth 16 is for .png outputs only (JPEG is 8-bit; .exr, .hdr and .npy "
+                          "store floats); write a .png, or drop --bit-depth")
+
+
+def save_array(path: str | Path, rgb: np.ndarray, encoding: str = "clamp", exposure: float = 0.0,
+               bit_depth: int = 8, layers: dict[str, np.ndarray] | None = None) -> Path:
+    """Write rgb by the path's extension: .png (8 or 16 bits) and .jpg/.jpeg (8 bits, quality
+    95), exposure and encoding applied; .npy, .exr and .hdr (linear floats as rendered).
+    `layers` (AOV name -> array) go into an .exr beside R, G, B."""
     path = check_output_path(path)
+    check_bit_depth(path, bit_depth)
     suffix = path.suffix.lower()
-    if suffix == ".png":
+    if layers and suffix != ".exr":
+        raise OutputError(f"{path}: AOV layers need an .exr output")
+    if suffix == ".png" and bit_depth == 16:
+        data = _png16_bytes(encode_16bit(rgb, encoding, exposure))
+    elif suffix == ".png":
         data = _png_bytes(encode_8bit(rgb, encoding, exposure))
-        write_atomic(path, lambda fh: fh.write(data))
-    elif suffix == ".npy":
-        write_atomic(path, lambda fh: np.save(fh, np.asarray(rgb, dtype=np.float32)))
+    elif suffix in (".jpg", ".jpeg"):
+        data = _jpeg_bytes(encode_8bit(rgb, encoding, exposure))
     elif suffix == ".hdr":
         data = _hdr_bytes(rgb)
-        write_atomic(path, lambda fh: fh.write(data))
+    elif suffix == ".npy":
+        write_atomic(path, lambda fh: np.save(fh, np.asarray(rgb, dtype=np.float32)))
+        return path
     else:
-        write_atomic(path, lambda fh: _write_exr(fh, rgb))
+        write_atomic(path, lambda fh: _write_exr(fh, rgb, layers))
+        return path
+    write_atomic(path, lambda fh: fh.write(data))
     return path
 
 
@@ -187,10 +319,16 @@ class Image:
     def to_uint8(self, encoding: str | None = None, exposure: float | None = None) -> np.ndarray:
         return encode_8bit(self.rgb, encoding or self.encoding, self.exposure if exposure is None else exposure)
 
-    def save(self, path: str | Path, encoding: str | None = None, exposure: float | None = None) -> Path:
-        """Write .png (8-bit: exposure, then encoding), .npy (float32 linear), .exr (float
-        linear) or .hdr (Radiance RGBE, linear), atomically."""
-        return save_array(path, self.rgb, encoding or self.encoding, self.exposure if exposure is None else exposure)
+    def save(self, path: str | Path, encoding: str | None = None, exposure: float | None = None, *,
+             bit_depth: int = 8, layers: list[str] | tuple[str, ...] = ()) -> Path:
+        """Write .png (8 or 16 bits) or .jpg/.jpeg (8 bits): exposure, then encoding; .npy
+        (float32 linear), .exr (float linear; `layers` names AOVs to add as layers, see
+        EXR_LAYERS) or .hdr (Radiance RGBE, linear), atomically."""
+        missing = [name for name in layers if name not in self.aovs]
+        if missing:
+            raise OutputError(f"{path}: the image has no {', '.join(missing)} AOV to write as a layer")
+        return save_array(path, self.rgb, encoding or self.encoding, self.exposure if exposure is None else exposure,
+                          bit_depth=bit_depth, layers={name: self.aovs[name] for name in layers})
 
     def _repr_png_(self) -> bytes:
         return _png_bytes(self.to_uint8())
