@@ -433,3 +433,48 @@ def test_shared_models_load(name):
     assert (d.uvs is not None) == (name == "spot.obj")  # the only one with vt
     smooth = load_mesh(path, smooth=True).normals
     assert np.allclose(np.linalg.norm(smooth, axis=1), 1.0, atol=1e-5)
+
+
+# ---------------------------------------------------------------- PLY triangle strips
+
+# A 1 x 3 ribbon in the z = 0 plane: vertex 2k is (0, k), vertex 2k + 1 is (1, k).
+RIBBON = np.array([[x, y, 0.0] for y in range(4) for x in range(2)])
+# Row 1 joins two strips with degenerate triangles (3, 3 and 4, 4); row 2 uses restart markers.
+STRIPS = [[0, 1, 2, 3, 3, 4, 4, 5, 6, 7], [-1, 2, 3, 4, 5, -1]]
+# The alternating rule: (s0, s1, s2), (s2, s1, s3), (s2, s3, s4), ... (zero-area joins dropped).
+STRIP_FACES = [[0, 1, 2], [2, 1, 3], [4, 5, 6], [6, 5, 7], [2, 3, 4], [4, 3, 5]]
+
+
+def strip_ply(fmt: str, count_type: str = "int") -> bytes:
+    header = (f"ply\nformat {fmt} 1.0\ncomment a ribbon made of triangle strips, as igea.ply stores its faces\n"
+              f"element vertex {len(RIBBON)}\nproperty float x\nproperty float y\nproperty float z\n"
+              f"property uchar confidence\nelement tristrips {len(STRIPS)}\n"
+              f"property list {count_type} int vertex_indices\nend_header\n").encode()
+    if fmt == "ascii":
+        rows = [f"{x:g} {y:g} {z:g} 7" for x, y, z in RIBBON] + [" ".join(map(str, [len(s), *s])) for s in STRIPS]
+        return header + ("\n".join(rows) + "\n").encode()
+    e = ">" if fmt == "binary_big_endian" else "<"
+    vertex = np.zeros(len(RIBBON), dtype=[("p", f"{e}f4", 3), ("c", "u1")])
+    vertex["p"], vertex["c"] = RIBBON, 7
+    count = {"int": f"{e}i4", "uchar": "u1", "ushort": f"{e}u2"}[count_type]
+    body = b"".join(np.array([len(s)], count).tobytes() + np.array(s, f"{e}i4").tobytes() for s in STRIPS)
+    return header + vertex.tobytes() + body
+
+
+@pytest.mark.parametrize("fmt, count_type", [("ascii", "int"), ("ascii", "uchar"), ("binary_big_endian", "int"),
+                                             ("binary_little_endian", "uchar"), ("binary_little_endian", "ushort")])
+def test_ply_triangle_strips(tmp_path, fmt, count_type):
+    path = tmp_path / "strips.ply"
+    path.write_bytes(strip_ply(fmt, count_type))
+    d = load_mesh(path)
+    np.testing.assert_allclose(d.vertices, RIBBON)
+    np.testing.assert_array_equal(d.faces, STRIP_FACES)
+    assert d.degenerate == 0  # strip joins are not faces of the model
+    assert area(d) == pytest.approx(3.0)
+    v, f = d.vertices, d.faces
+    assert (np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])[:, 2] > 0).all()  # one winding throughout
+
+
+def test_ply_strip_index_out_of_range(tmp_path):
+    text = strip_ply("ascii").decode().replace("6 7\n", "6 70\n")
+    assert_mesh_error(write(tmp_path / "bad.ply", text), match="outside the range")

@@ -36,6 +36,10 @@ What trimesh 5.x does and how this module copes
   coincident STL vertices are merged here (memory would otherwise triple).
 * Computed (area-weighted) normals are accumulated over all vertices at the
   same position, so vertices split only because of UV seams do not crease.
+* trimesh reads only a PLY's ``face`` element; a PLY that stores its surface as
+  triangle strips (``element tristrips`` with a ``vertex_indices`` list, -1
+  restarting a strip, as the Cyberware/Stanford scans such as igea.ply do) loads
+  as a point cloud. Such files are read by the small PLY reader below instead.
 """
 
 from __future__ import annotations
@@ -49,7 +53,7 @@ import numpy as np
 
 from .procedural import vertex_normals as _area_weighted_normals
 
-__all__ = ["MeshError", "MeshData", "load_mesh", "transform_matrix", "SUPPORTED_EXTENSIONS"]
+__all__ = ["SUPPORTED_EXTENSIONS", "MeshData", "MeshError", "load_mesh", "strips_to_triangles", "transform_matrix"]
 
 # Extension -> trimesh file type. Anything else is refused before trimesh is asked.
 SUPPORTED_EXTENSIONS = {".obj": "obj", ".ply": "ply", ".stl": "stl", ".off": "off", ".gltf": "gltf", ".glb": "glb"}
@@ -151,6 +155,10 @@ def _why(exc: Exception) -> str:
 def _read_parts(path: Path, file_type: str):
     """Every triangle mesh instance in the file as (vertices, faces, normals|None,
     uvs|None) with its scene-graph transform baked in."""
+    if file_type == "ply":
+        strips = _read_strip_ply(path)
+        if strips is not None:
+            return [strips]
     import trimesh  # imported here: it is slow to import and only meshes need it
 
     try:
@@ -184,6 +192,185 @@ def _read_parts(path: Path, file_type: str):
     if not parts:
         raise MeshError(f"Mesh file {path} contains no triangles.")
     return parts
+
+
+# ---------------------------------------------------------------- PLY triangle strips
+
+_PLY_TYPES = {
+    "char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short": "i2", "int16": "i2",
+    "ushort": "u2", "uint16": "u2", "int": "i4", "int32": "i4", "uint": "u4", "uint32": "u4",
+    "float": "f4", "float32": "f4", "double": "f8", "float64": "f8",
+}
+_PLY_FORMATS = {"ascii": "", "binary_little_endian": "<", "binary_big_endian": ">"}
+
+
+class _PlyElement(NamedTuple):
+    name: str
+    count: int
+    # (name, type) for a scalar, (name, (count type, item type)) for a list; numpy type codes
+    properties: list
+
+
+def _ply_header(data: bytes):
+    """(format, elements, body offset) of a PLY file; raises ValueError on a malformed header."""
+    end = data.find(b"end_header")
+    if not data.startswith(b"ply") or end < 0:
+        raise ValueError("it has no PLY header")
+    body = data.index(b"\n", end) + 1
+    fmt, elements = None, []
+    for line in data[:end].decode("ascii", "replace").splitlines()[1:]:
+        words = line.split()
+        if not words or words[0] in ("comment", "obj_info"):
+            continue
+        if words[0] == "format" and len(words) >= 2 and words[1] in _PLY_FORMATS:
+            fmt = words[1]
+        elif words[0] == "element" and len(words) == 3 and words[2].isdigit():
+            elements.append(_PlyElement(words[1], int(words[2]), []))
+        elif words[0] == "property" and elements and len(words) == 5 and words[1] == "list" \
+                and words[2] in _PLY_TYPES and words[3] in _PLY_TYPES:
+            elements[-1].properties.append((words[4], (_PLY_TYPES[words[2]], _PLY_TYPES[words[3]])))
+        elif words[0] == "property" and elements and len(words) == 3 and words[1] in _PLY_TYPES:
+            elements[-1].properties.append((words[2], _PLY_TYPES[words[1]]))
+        else:
+            raise ValueError(f"its header has a line PLY does not define: {line.strip()!r}")
+    if fmt is None:
+        raise ValueError("its header names no known format (ascii, binary_little_endian, binary_big_endian)")
+    return fmt, elements, body
+
+
+class _PlyBody:
+    """Reads one element after another from a PLY body, ASCII or binary. An element of
+    scalars comes back as a structured array (one vectorised read); an element with lists
+    as a list of rows, each a dict of property -> scalar or 1D array."""
+
+    def __init__(self, data: bytes, fmt: str, offset: int):
+        self.endian = _PLY_FORMATS[fmt]
+        self.ascii = fmt == "ascii"
+        self.data, self.pos = data, offset
+        if self.ascii:
+            self.tokens, self.pos = data[offset:].split(), 0
+
+    def read(self, element: _PlyElement):
+        if all(isinstance(t, str) for _, t in element.properties):
+            return self._scalars(element)
+        return [self._row(element.properties) for _ in range(element.count)]
+
+    def _scalars(self, element: _PlyElement) -> np.ndarray:
+        dtype = np.dtype([(name, self.endian + t) for name, t in element.properties])
+        if self.ascii:
+            n = element.count * len(element.properties)
+            if self.pos + n > len(self.tokens):
+                raise ValueError(f"its {element.name} element ends early")
+            values = np.array(self.tokens[self.pos:self.pos + n], dtype=np.float64).reshape(element.count, -1)
+            self.pos += n
+            out = np.empty(element.count, dtype=dtype)
+            for k, (name, _) in enumerate(element.properties):
+                out[name] = values[:, k]
+            return out
+        if self.pos + element.count * dtype.itemsize > len(self.data):
+            raise ValueError(f"its {element.name} element ends early")
+        out = np.frombuffer(self.data, dtype=dtype, count=element.count, offset=self.pos)
+        self.pos += element.count * dtype.itemsize
+        return out
+
+    def _row(self, properties) -> dict:
+        row = {}
+        for name, kind in properties:
+            if isinstance(kind, str):
+                row[name] = self._take(kind, 1)[0]
+            else:
+                count = int(self._take(kind[0], 1)[0])
+                if count < 0:
+                    raise ValueError(f"a {name} list has a negative length")
+                row[name] = self._take(kind[1], count)
+        return row
+
+    def _take(self, kind: str, n: int) -> np.ndarray:
+        if self.ascii:
+            if self.pos + n > len(self.tokens):
+                raise ValueError("its data ends early")
+            out = np.array(self.tokens[self.pos:self.pos + n], dtype=np.float64).astype(kind)
+            self.pos += n
+            return out
+        dtype = np.dtype(self.endian + kind)
+        if self.pos + n * dtype.itemsize > len(self.data):
+            raise ValueError("its data ends early")
+        out = np.frombuffer(self.data, dtype=dtype, count=n, offset=self.pos)
+        self.pos += n * dtype.itemsize
+        return out
+
+
+def strips_to_triangles(strips) -> np.ndarray:
+    """Triangle strips -> (F, 3) triangles, as OpenGL's GL_TRIANGLE_STRIP: the k-th triangle
+    of a strip s is (s[k], s[k+1], s[k+2]) for even k and (s[k+1], s[k], s[k+2]) for odd k,
+    so all face the same way. -1 ends a strip and starts a new one (k counts from 0 again).
+    Triangles that repeat an index (the zero-area joins between strips) are dropped."""
+    parts = [np.append(np.asarray(s, dtype=np.int64).ravel(), -1) for s in strips]
+    seq = np.concatenate(parts) if parts else np.zeros(0, np.int64)
+    if len(seq) < 3:
+        return np.zeros((0, 3), np.int64)
+    if (seq < -1).any():
+        raise ValueError("a triangle strip has a negative vertex index other than the -1 restart marker")
+    at = np.arange(len(seq))
+    last_restart = np.maximum.accumulate(np.where(seq == -1, at, -1))
+    odd = ((at - last_restart - 1)[:-2] % 2) == 1  # position of each triangle inside its strip
+    a, b, c = seq[:-2], seq[1:-1], seq[2:]
+    tri = np.stack([np.where(odd, b, a), np.where(odd, a, b), c], axis=1)
+    keep = (a >= 0) & (b >= 0) & (c >= 0) & (a != b) & (b != c) & (a != c)
+    return tri[keep]
+
+
+def _fan(polygons) -> np.ndarray:
+    """PLY face lists (any vertex count >= 3) -> triangles (v0, vk, vk+1)."""
+    tris = [[p[0], p[k], p[k + 1]] for p in polygons for k in range(1, len(p) - 1)]
+    return np.asarray(tris, dtype=np.int64).reshape(-1, 3)
+
+
+def _list_of(rows, element: _PlyElement):
+    """The vertex_indices (or vertex_index) list of each row of a face/tristrips element."""
+    names = [name for name, kind in element.properties if not isinstance(kind, str)]
+    name = next((n for n in ("vertex_indices", "vertex_index") if n in names), None)
+    if name is None:
+        raise ValueError(f"its {element.name} element has no vertex_indices list")
+    return [row[name] for row in rows]
+
+
+def _read_strip_ply(path: Path):
+    """The part (vertices, faces, normals|None, None) of a PLY file with a `tristrips`
+    element, or None for any other PLY (trimesh reads those)."""
+    with open(path, "rb") as fh:
+        head = fh.read(1 << 16)
+    if b"tristrips" not in head.split(b"end_header")[0]:
+        return None  # the usual case, decided without reading the whole file
+    try:
+        data = path.read_bytes()
+        fmt, elements, offset = _ply_header(data)
+        if "tristrips" not in {e.name for e in elements}:
+            return None
+        body, found = _PlyBody(data, fmt, offset), {}
+        wanted = {"vertex", "face", "tristrips"} & {e.name for e in elements}
+        for element in elements:
+            if wanted <= found.keys():
+                break  # what follows (edges, materials, ...) is not needed
+            found[element.name] = (element, body.read(element))
+        if "vertex" not in found or not {"x", "y", "z"} <= set(found["vertex"][1].dtype.names or ()):
+            raise ValueError("it has no vertex element with x, y and z")
+        vertex = found["vertex"][1]
+        faces = [strips_to_triangles(_list_of(found["tristrips"][1], found["tristrips"][0]))]
+        if "face" in found:
+            faces.insert(0, _fan(_list_of(found["face"][1], found["face"][0])))
+    except (ValueError, OverflowError) as exc:
+        raise MeshError(f"Mesh file {path} could not be parsed as PLY: {_why(exc)}.") from exc
+    v = np.column_stack([vertex[c] for c in "xyz"]).astype(np.float64)
+    f = np.concatenate(faces)
+    if len(f) == 0:
+        raise MeshError(f"Mesh file {path} contains no triangles.")
+    if f.min() < 0 or f.max() >= len(v):
+        raise MeshError(f"Mesh file {path} has a face index outside the range of its {len(v)} vertices.")
+    names = set(vertex.dtype.names)
+    n = np.column_stack([vertex[c] for c in ("nx", "ny", "nz")]).astype(np.float64) if {"nx", "ny", "nz"} <= names \
+        else None
+    return v, f, n, None
 
 
 def _concatenate(parts):
