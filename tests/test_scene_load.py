@@ -127,7 +127,44 @@ def test_tiny_but_nonzero_vectors_are_normalised_without_underflow():
         "lights": [{"type": "directional", "direction": [0, 1e-200, 0]}],
         "objects": [{"type": "plane", "point": [0, -1, 0], "normal": [0, 1e-200, 0]}],
     })
-    k = compile_scene(scene, 4, 4).kernel
-    np.testing.assert_array_equal(k.planes[0, 3:], [0, 1, 0])
+    k = compile_scene(scene).kernel
+    np.testing.assert_array_equal(k.shapes[0, 3:6], [0, 1, 0])  # the plane's normal
     np.testing.assert_array_equal(k.light_data[0, :3], [0, 1, 0])
     assert np.isfinite(raylume.render(scene, width=4, height=4).rgb).all()
+
+
+def _message(document) -> str:
+    with pytest.raises(SceneError) as info:
+        scene_from_dict(document, source="scene.toml")
+    return str(info.value)
+
+
+SPHERE = {"type": "sphere", "center": [0, 0, 3], "radius": 1}
+
+
+@pytest.mark.parametrize("key", ["instances", "normal", "zzz"])
+def test_unknown_key_gets_no_far_fetched_suggestion(key):
+    message = _message({"objects": [{**SPHERE, key: 3}]})
+    assert f"objects[0].{key}: unknown key {key!r}" in message
+    assert "did you mean" not in message, message
+
+
+def test_suggestions_come_from_the_keys_valid_at_that_path():
+    assert "did you mean 'focus_distance'" in _message({"camera": {"focus_distanse": 2}})
+    assert "did you mean 'center'" in _message({"objects": [{**SPHERE, "centre": [0, 0, 3]}]})
+    assert "did you mean 'color'" in _message({"materials": {"m": {"colour": [1, 0, 0]}}})
+    assert "did you mean 'intensity'" in _message({"lights": [{"type": "ambient", "intensty": 0.1}]})
+
+
+@pytest.mark.parametrize(
+    "document, value",
+    [
+        ({"lights": [{"type": "ambient", "intensity": -1}]}, "-1"),
+        ({"materials": {"m": {"color": "#12345"}}}, "'#12345'"),
+        ({"render": {"background": "red"}}, "'red'"),
+        ({"render": {"width": -1}}, "-1"),
+    ],
+)
+def test_messages_name_the_bad_value_once(document, value):
+    message = _message(document)
+    assert message.count(value) == 1, message

@@ -8,6 +8,7 @@ from pathlib import Path
 from ..errors import SceneError
 from .load import load_scene
 from .model import Scene
+from .overrides import Overrides
 
 DEFAULT_SCENE = "seed"
 
@@ -23,13 +24,17 @@ def builtin_path(name: str) -> Path:
     return Path(str(resources.files("raylume") / "scenes" / f"{name}.toml"))
 
 
-def builtin_scene(name: str = DEFAULT_SCENE) -> Scene:
-    return load_scene(builtin_path(name))
+def builtin_scene(name: str = DEFAULT_SCENE, overrides: Overrides | None = None) -> Scene:
+    """A built-in scene; `overrides` edit it before validation, as `--set` does."""
+    return load_scene(builtin_path(name), overrides=overrides)
 
 
 def builtin_description(name: str) -> str:
-    """The first comment line of the scene file."""
+    """The scene file's first block of comment lines, joined into one paragraph."""
+    lines = []
     for line in builtin_path(name).read_text().splitlines():
         if line.startswith("#"):
-            return line.lstrip("# ").strip()
-    return ""
+            lines.append(line.lstrip("#").strip())
+        elif lines:
+            break
+    return " ".join(" ".join(lines).split())
