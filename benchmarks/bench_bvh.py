@@ -63,7 +63,7 @@ def raylume_scene(vertices, faces):
         path = os.path.join(tmp, "m.ply")
         trimesh.Trimesh(vertices, faces, process=False).export(path)
         scene = raylume.scene_from_dict({"objects": [{"type": "mesh", "file": path, "smooth": False}]})
-        return compile_scene(scene, 1, 1)
+        return compile_scene(scene)
 
 
 def time_raylume(compiled, o, d, threads, repeats):

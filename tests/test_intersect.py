@@ -9,7 +9,9 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from raylume.kernels.intersect import INF, intersect_box, intersect_plane, intersect_sphere, slab_ray
+from raylume.kernels.shape_plane import intersect_plane
+from raylume.kernels.shape_sphere import intersect_sphere
+from raylume.kernels.traverse import INF, intersect_box, slab_ray
 
 O = (0.0, 0.0, 0.0)
 Z = (0.0, 0.0, 1.0)

@@ -14,7 +14,7 @@ from PIL import Image as PILImage
 import raylume
 from raylume.errors import SceneError
 from raylume.image import Image, rgbe_encode
-from raylume.kernels.layout import FILTER_TABLE_SIZE, HIT_PLANE, HIT_SPHERE
+from raylume.kernels.film import FILTER_TABLE_SIZE
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -116,7 +116,7 @@ def test_filters_keep_flat_colour_and_are_deterministic():
 
 
 def test_gaussian_filter_table_is_the_truncated_gaussian_inverse_cdf():
-    from raylume.kernels.sampling import filter_table
+    from raylume.kernels.film import filter_table
 
     radius, sigma = 1.5, 0.5
     edge = math.exp(-radius**2 / (2 * sigma**2))
@@ -208,7 +208,7 @@ def _srgb_to_linear(x):
 
 
 def test_texture_lookup_returns_texels_at_centres_and_blends_between():
-    from raylume.kernels.shade import texture_lookup
+    from raylume.kernels.textures import texture_lookup
 
     rng = np.random.default_rng(1)
     w, h = 5, 3
@@ -271,26 +271,26 @@ material = { texture = { type = "image", file = "tex.png" } }
 
 def test_sphere_and_plane_uvs():
     from raylume.compile import compile_scene
-    from raylume.kernels.scene import geometry_of, surfaces_of
-    from raylume.kernels.shade import surface_uv
+    from raylume.kernels.scene import geometry_of
+    from raylume.kernels.shapes import uv
 
     s = scene(objects=[{"type": "sphere", "center": [1, 2, 3], "radius": 2},
                        {"type": "plane", "point": [0, -1, 0], "normal": [0, 1, 0]},
                        {"type": "plane", "point": [0, 0, 5], "normal": [0, 0, -1]}])
-    S = compile_scene(s, 1, 1).kernel
-    G, F = geometry_of(S), surfaces_of(S)
+    S = compile_scene(s).kernel
+    G = geometry_of(S)  # primitives: the sphere (in the BVH), then the two planes
     c = np.array([1.0, 2.0, 3.0])
     cases = {(0, 0, -1): (0.5, 0.5), (1, 0, 0): (0.75, 0.5), (-1, 0, 0): (0.25, 0.5), (0, 1, 0): (None, 1.0),
              (0, -1, 0): (None, 0.0), (0, math.sqrt(0.5), -math.sqrt(0.5)): (0.5, 0.75)}
     for n, (u, v) in cases.items():
         p = tuple(c + 2 * np.array(n))
-        got = surface_uv(G, F, HIT_SPHERE, 0, 0.0, 0.0, p)
+        got = uv(G, 0, 0.0, 0.0, p)
         if u is not None:
             assert got[0] == pytest.approx(u, abs=1e-12)
         assert got[1] == pytest.approx(v, abs=1e-12)
     # floor: u along +x, v along +z; wall facing the camera: u to the right (+x), v up (+y)
-    assert surface_uv(G, F, HIT_PLANE, 0, 0.0, 0.0, (0.3, -1.0, 0.7)) == pytest.approx((0.3, 0.7), abs=1e-12)
-    assert surface_uv(G, F, HIT_PLANE, 1, 0.0, 0.0, (0.3, 0.4, 5.0)) == pytest.approx((0.3, 0.4), abs=1e-12)
+    assert uv(G, 1, 0.0, 0.0, (0.3, -1.0, 0.7)) == pytest.approx((0.3, 0.7), abs=1e-12)
+    assert uv(G, 2, 0.0, 0.0, (0.3, 0.4, 5.0)) == pytest.approx((0.3, 0.4), abs=1e-12)
 
 
 def test_texture_errors_name_the_key(tmp_path):
@@ -494,7 +494,7 @@ _FLOATS = st.floats(min_value=-1e6, max_value=1e6, allow_nan=False)
 @settings(max_examples=300, deadline=None)
 @given(u=_FLOATS | st.just(float("nan")), v=_FLOATS, w=st.integers(1, 5), h=st.integers(1, 5))
 def test_texture_lookup_is_a_convex_blend_of_texels(u, v, w, h):
-    from raylume.kernels.shade import texture_lookup
+    from raylume.kernels.textures import texture_lookup
 
     texels = np.random.default_rng(w * 7 + h).random((w * h, 3)).astype(np.float32)
     got = np.array(texture_lookup(texels, 0, w, h, u, v))
@@ -505,7 +505,7 @@ def test_texture_lookup_is_a_convex_blend_of_texels(u, v, w, h):
 @settings(max_examples=300, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1), pixel=st.integers(0, 2**40), n=st.integers(1, 4096), data=st.data())
 def test_samples_stay_in_the_unit_square_and_lens_strata_are_a_permutation(seed, pixel, n, data):
-    from raylume.kernels.sampling import concentric_disk, lens_sample, permute, sample_key, stratified_key
+    from raylume.kernels.sampler import concentric_disk, lens_sample, permute, sample_key, stratified_key
 
     s = data.draw(st.integers(0, n - 1))
     key = np.uint64(sample_key(seed, pixel, s))  # back from Python as an int, which may not fit int64

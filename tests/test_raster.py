@@ -19,9 +19,9 @@ from hypothesis import strategies as st
 from scipy.ndimage import binary_dilation, binary_fill_holes
 
 import raylume
-from raylume.compile import compile_scene
+from raylume.kernels.camera import camera_of
 from raylume.kernels.raster_kernel import coverage_count, view_matrix
-from raylume.raster import sphere_cap
+from raylume.kernels.shape_sphere import sphere_cap
 from raylume.scene.procedural import bumpy_sphere
 
 LIGHTS = [
@@ -117,7 +117,7 @@ def test_aovs_have_the_design_dtypes_and_shapes(meshes):
     np.testing.assert_allclose(np.linalg.norm(a["normal"][hit], axis=1), 1.0, atol=1e-5)
     np.testing.assert_allclose(img.rgb[~hit], np.broadcast_to([0.1, 0.2, 0.3], img.rgb[~hit].shape), atol=1e-7)
     # normals face the camera: against the ray through the pixel centre
-    cam = compile_scene(sc, W, H).camera
+    cam = camera_of(sc.camera, W, H)
     i, j = np.meshgrid(np.arange(W) + 0.5, np.arange(H) + 0.5)
     d = cam[3:6] + cam[6:9] * (i / W * 2 - 1)[..., None] + cam[9:12] * (1 - j / H * 2)[..., None]
     assert (np.einsum("hwc,hwc->hw", a["normal"], d)[hit] < 1e-6).all()
@@ -304,7 +304,7 @@ def test_rendered_triangle_covers_the_pixel_centres_its_projection_contains():
     sc = scene([{"type": "triangle", "vertices": verts}], camera={"position": [0, 0, 0]})
     W, H = 61, 47
     img = raylume.render(sc, mode="raster", width=W, height=H)
-    cam = compile_scene(sc, W, H).camera
+    cam = camera_of(sc.camera, W, H)
     O, F, R, U = (np.asarray(cam[k:k + 3]) for k in (0, 3, 6, 9))
     pts = []
     for v in np.asarray(verts, dtype=np.float32).astype(np.float64):

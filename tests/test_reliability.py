@@ -99,8 +99,8 @@ def test_no_acne_at_any_scene_scale(scale):
 
 
 def test_buffers_that_cannot_fit_are_refused_before_allocating(monkeypatch):
-    render_module = sys.modules["raylume.render"]  # the package's `render` is the function
-    monkeypatch.setattr(render_module, "available_bytes", lambda: 1 << 30)
+    session_module = sys.modules["raylume.session"]
+    monkeypatch.setattr(session_module, "available_bytes", lambda: 1 << 30)
     with pytest.raises(RaylumeError, match="GiB of image buffers"):
         check_memory(16384, 16384, True)
     check_memory(600, 600, True)

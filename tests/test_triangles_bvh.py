@@ -13,8 +13,9 @@ from numba import njit
 
 import raylume
 from raylume.compile import compile_scene
-from raylume.kernels.intersect import INF, intersect_triangle, ray_shear
+from raylume.kernels.shape_triangle import INF, intersect_triangle, ray_shear
 from raylume.kernels.scene import geometry_of
+from raylume.kernels.shapes import PRIM_FACE, PRIM_KIND, TRIANGLE
 from raylume.kernels.traverse import any_hit, closest_hit
 from raylume.scene.procedural import bumpy_sphere
 
@@ -109,9 +110,9 @@ def _closest_all(S, origins, dirs):
     for k in range(n):
         o = (origins[k, 0], origins[k, 1], origins[k, 2])
         d = (dirs[k, 0], dirs[k, 1], dirs[k, 2])
-        t, kind, index, b1, b2 = closest_hit(G, o, d, 0.0, INF, node_stack, t_stack)
+        t, prim, b1, b2 = closest_hit(G, o, d, 0.0, INF, node_stack, t_stack)
         out_t[k] = t
-        out_i[k] = S.triangle_prim[index] if kind == 2 else -1
+        out_i[k] = S.prims[prim, PRIM_FACE] if prim >= 0 and S.prims[prim, PRIM_KIND] == TRIANGLE else -1
     return out_t, out_i
 
 
@@ -167,7 +168,7 @@ def test_bvh_closest_hit_equals_brute_force(tmp_path, kind):
     else:
         v, f = bumpy_sphere(20000)
     scene = _mesh_scene(tmp_path, v, f)
-    compiled = compile_scene(scene, 8, 8)
+    compiled = compile_scene(scene)
     origins, dirs = _random_rays(rng, 3000, np.zeros(3), 1.0)
     t_bvh, i_bvh = _closest_all(compiled.kernel, origins, dirs)
     tris = (v.astype(np.float32)[f]).reshape(-1, 9)
@@ -210,7 +211,7 @@ def test_bvh_on_a_real_mesh_equals_brute_force(shared_models, tmp_path):
 
     mesh = load_mesh(shared_models / "stanford-bunny.obj")
     scene = raylume.scene_from_dict({"objects": [{"type": "mesh", "file": str(shared_models / "stanford-bunny.obj")}]})
-    compiled = compile_scene(scene, 8, 8)
+    compiled = compile_scene(scene)
     center = mesh.vertices.mean(axis=0)
     spread = mesh.vertices.std()
     origins, dirs = _random_rays(np.random.default_rng(3), 1500, center, spread)
@@ -288,7 +289,7 @@ def test_mirrored_mesh_keeps_outward_normals(tmp_path):
             "render": {"width": 16, "height": 16, "mode": "cast"},
             "objects": [{"type": "mesh", "file": str(path), "transform": {"scale": scale, "translate": [0, 0, 4]}}],
         })
-        compiled = compile_scene(scene, 16, 16)
+        compiled = compile_scene(scene)
         tri = compiled.kernel.triangles.reshape(-1, 3, 3).astype(np.float64)
         n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
         outward = np.einsum("ij,ij->i", n, tri.mean(axis=1) - [0, 0, 4])

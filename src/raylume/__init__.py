@@ -5,6 +5,10 @@
     image.rgb          # float32 (H, W, 3), linear RGB
     image.aovs["depth"]
     image.save("seed.png")
+
+    session = raylume.Session(raylume.builtin_scene("seed"))   # compile once ...
+    a = session.render(width=300, height=300)                   # ... render many times
+    b = session.render(camera={"position": [0, 1, -1]}, mode="cast")
 """
 
 from .errors import RaylumeError, SceneError
@@ -13,13 +17,16 @@ from .query import intersect
 from .render import render
 from .scene.builtin import builtin_names, builtin_scene
 from .scene.load import load_scene, scene_from_dict
-from .scene.model import Scene
+from .scene.model import Camera, Scene
+from .session import Session
 
 __all__ = [
+    "Camera",
     "Image",
     "RaylumeError",
     "Scene",
     "SceneError",
+    "Session",
     "builtin_names",
     "builtin_scene",
     "intersect",

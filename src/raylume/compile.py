@@ -1,4 +1,9 @@
-"""Scene model -> flat arrays the kernels read, plus the BVH over spheres and triangles."""
+"""Scene model -> the flat arrays the kernels read (kernels/scene.py), plus the BVH.
+
+The compiled scene holds no camera and no file paths: geometry, materials, textures, lights
+and the BVH only, so one compilation renders through any camera (Session) and can be pickled
+and shipped (a cluster's workers never read the scene's files).
+"""
 
 from __future__ import annotations
 
@@ -10,12 +15,39 @@ import numpy as np
 
 from .accel.bvh import BVH, build_bvh, bvh_depth, bvh_nbytes
 from .errors import SceneError
-from .kernels import layout as L
-from .kernels.camera import camera_frame
+from .kernels import materials as M
+from .kernels import textures as X
+from .kernels.lights import LIGHT_WIDTH, pack_light
 from .kernels.scene import KernelScene
+from .kernels.shapes import (
+    ANALYTIC,
+    PRIM_FACE,
+    PRIM_KIND,
+    PRIM_LIGHT,
+    PRIM_MATERIAL,
+    PRIM_OBJECT,
+    PRIM_ROW,
+    PRIM_WIDTH,
+    SHAPE_WIDTH,
+    Shape,
+    is_bounded,
+)
+from .kernels.shapes import bounds as shape_bounds
+from .kernels.traverse import TRAVERSAL_STACK
 from .scene.mesh import MeshError, load_mesh
-from .scene.model import DEFAULT_MATERIAL, ImageTexture, Material, Mesh, Plane, Scene, Sphere, Triangle
-
+from .scene.model import (
+    DEFAULT_MATERIAL,
+    Cylinder,
+    Disk,
+    ImageTexture,
+    Material,
+    Mesh,
+    Plane,
+    Quad,
+    Scene,
+    Sphere,
+    Triangle,
+)
 
 # BVH shape, measured on the seed scene and the bunny (benchmarks/bench_bvh.py): visiting a node
 # (two box tests) costs about as much as two primitive tests, and scenes of a few primitives
@@ -24,11 +56,21 @@ BVH_MAX_LEAF = 4
 BVH_TRAVERSAL_COST = 2.0
 SMALL_SCENE = 8
 
+# Model classes of the analytic shapes and their kinds (one line per shape).
+ANALYTIC_MODELS = {Sphere: Shape.SPHERE, Plane: Shape.PLANE, Disk: Shape.DISK, Quad: Shape.QUAD,
+                   Cylinder: Shape.CYLINDER}
+
 
 class CompiledScene(NamedTuple):
-    kernel: KernelScene
-    camera: np.ndarray  # float64 (CAM_WIDTH,), see kernels/camera.py and kernels/layout.py
+    kernel: KernelScene  # epsilon_floor left at the geometry's own; see with_camera
+    extent: float  # largest coordinate magnitude of the geometry (for ray offsets)
     stats: dict  # primitives, triangles, bvh_nodes, bvh_bytes, build_seconds, ...
+
+    def for_camera(self, position) -> KernelScene:
+        """The kernel scene with the ray-offset floor for a camera at `position`: a tiny
+        fraction of the extent of the scene and the camera together."""
+        extent = max(self.extent, float(np.abs(np.asarray(position, dtype=np.float64)).max()))
+        return self.kernel._replace(epsilon_floor=float(max(1e-3 * extent, 1e-30)))
 
 
 def unit_vector(v) -> np.ndarray:
@@ -38,53 +80,46 @@ def unit_vector(v) -> np.ndarray:
     return v / np.linalg.norm(v)
 
 
-def material_row(mat: Material, atlas: "TextureAtlas | None" = None, where: str = "material") -> np.ndarray:
-    """The material's row of the materials array; image textures are added to `atlas`."""
-    row = np.zeros(L.MAT_WIDTH, dtype=np.float64)
-    row[L.MAT_COLOR : L.MAT_COLOR + 3] = mat.color
-    row[L.MAT_SPECULAR] = mat.specular if mat.specular is not None else -1.0
-    row[L.MAT_REFLECTIVE] = mat.reflective
-    row[L.MAT_TRANSPARENCY] = mat.transparency
-    row[L.MAT_IOR] = mat.ior
-    row[L.MAT_ABSORPTION : L.MAT_ABSORPTION + 3] = mat.absorption
-    if isinstance(mat.texture, ImageTexture):
-        if atlas is None:
-            raise ValueError("an image texture needs a TextureAtlas")
-        offset, tex_w, tex_h, mean = atlas.add(mat.texture.file, f"{where}.texture.file")
-        row[L.MAT_TEXTURE] = L.TEXTURE_IMAGE
-        row[L.MAT_CHECK_A : L.MAT_CHECK_A + 3] = mean
-        row[L.MAT_TEX_OFFSET] = offset
-        row[L.MAT_TEX_WIDTH] = tex_w
-        row[L.MAT_TEX_HEIGHT] = tex_h
-        row[L.MAT_TEX_SCALE_U] = mat.texture.scale[0]
-        row[L.MAT_TEX_SCALE_V] = mat.texture.scale[1]
-    elif mat.texture is not None:
-        row[L.MAT_TEXTURE] = L.TEXTURE_CHECKER
-        row[L.MAT_CHECK_A : L.MAT_CHECK_A + 3] = mat.texture.colors[0]
-        row[L.MAT_CHECK_B : L.MAT_CHECK_B + 3] = mat.texture.colors[1]
-        row[L.MAT_CHECK_SCALE] = mat.texture.scale
-    return row
-
-
 def srgb_to_linear(x: np.ndarray) -> np.ndarray:
     """The sRGB transfer curve, inverted (x in 0..1)."""
     return np.where(x <= 0.04045, x / 12.92, ((x + 0.055) / 1.055) ** 2.4)
 
 
-class TextureAtlas:
-    """Image textures, decoded to linear float32 RGB and concatenated row by row into one
-    (N, 3) array, so that the kernels get a single array (each material keeps its offset)."""
+class TextureTable:
+    """Rows of the texture table, and image textures decoded to linear float32 RGB and
+    concatenated row by row into one texel atlas (each row keeps its offset)."""
 
     MAX_TEXELS = 1 << 26  # 64 Mi texels (768 MiB): a guard against decompression bombs
 
     def __init__(self, base_dir: Path, source: str):
         self.base_dir = Path(base_dir)
         self.source = source
+        self.rows: list[np.ndarray] = []
         self.parts: list[np.ndarray] = []
         self.size = 0
         self.loaded: dict[Path, tuple] = {}
 
-    def add(self, file: str, where: str) -> tuple[int, int, int, np.ndarray]:
+    def add(self, texture, where: str) -> int:
+        """The row of a model texture (checker or image)."""
+        row = np.zeros(X.TEX_WIDTH, dtype=np.float64)
+        if isinstance(texture, ImageTexture):
+            offset, tex_w, tex_h, mean = self._image(texture.file, f"{where}.texture.file")
+            row[X.TEX_KIND] = X.IMAGE
+            row[X.TEX_COLOR_A : X.TEX_COLOR_A + 3] = mean
+            row[X.TEX_OFFSET] = offset
+            row[X.TEX_WIDTH_PX] = tex_w
+            row[X.TEX_HEIGHT_PX] = tex_h
+            row[X.TEX_SCALE_U] = texture.scale[0]
+            row[X.TEX_SCALE_V] = texture.scale[1]
+        else:
+            row[X.TEX_KIND] = X.CHECKER
+            row[X.TEX_COLOR_A : X.TEX_COLOR_A + 3] = texture.colors[0]
+            row[X.TEX_COLOR_B : X.TEX_COLOR_B + 3] = texture.colors[1]
+            row[X.TEX_CELL] = texture.scale
+        self.rows.append(row)
+        return len(self.rows) - 1
+
+    def _image(self, file: str, where: str) -> tuple[int, int, int, np.ndarray]:
         """(offset, width, height, mean linear colour) of the image, loading it once."""
         path = Path(file)
         if not path.is_absolute():
@@ -119,36 +154,40 @@ class TextureAtlas:
             fail(f"cannot read texture {path} as an image (PNG or JPEG): {exc}")
         return srgb_to_linear(rgb).astype(np.float32)
 
-    def array(self) -> np.ndarray:
+    def table(self) -> np.ndarray:
+        if not self.rows:
+            return np.zeros((1, X.TEX_WIDTH), dtype=np.float64)
+        return np.stack(self.rows)
+
+    def texels(self) -> np.ndarray:
         if not self.parts:
             return np.zeros((1, 3), dtype=np.float32)
         return np.ascontiguousarray(np.concatenate(self.parts), dtype=np.float32)
 
 
-def _lights(scene: Scene):
+def material_row(mat: Material, textures: TextureTable | None = None, where: str = "material") -> np.ndarray:
+    """The material's row of the materials table; its texture is added to `textures`."""
+    row = np.zeros(M.MAT_WIDTH, dtype=np.float64)
+    row[M.MAT_KIND] = M.PHONG
+    row[M.MAT_COLOR : M.MAT_COLOR + 3] = mat.color
+    row[M.MAT_SPECULAR] = mat.specular if mat.specular is not None else -1.0
+    row[M.MAT_REFLECTIVE] = mat.reflective
+    row[M.MAT_TRANSPARENCY] = mat.transparency
+    row[M.MAT_IOR] = mat.ior
+    row[M.MAT_ABSORPTION : M.MAT_ABSORPTION + 3] = mat.absorption
+    row[M.MAT_TEXTURE] = -1
+    if mat.texture is not None:
+        if textures is None:
+            raise ValueError("a textured material needs a TextureTable")
+        row[M.MAT_TEXTURE] = textures.add(mat.texture, where)
+    return row
+
+
+def _lights(scene: Scene) -> tuple[np.ndarray, np.ndarray]:
     kinds = np.zeros(len(scene.lights), dtype=np.int32)
-    data = np.zeros((len(scene.lights), L.LIGHT_WIDTH), dtype=np.float64)
+    data = np.zeros((len(scene.lights), LIGHT_WIDTH), dtype=np.float64)
     for k, light in enumerate(scene.lights):
-        data[k, 3:6] = light.intensity
-        if light.type == "ambient":
-            kinds[k] = L.LIGHT_AMBIENT
-        elif light.type == "point":
-            kinds[k] = L.LIGHT_POINT
-            data[k, 0:3] = light.position
-        elif light.type == "directional":
-            kinds[k] = L.LIGHT_DIRECTIONAL
-            data[k, 0:3] = unit_vector(light.direction)
-        elif light.type == "quad":
-            kinds[k] = L.LIGHT_QUAD
-            data[k, 0:3] = light.position
-            data[k, L.LIGHT_U : L.LIGHT_U + 3] = light.u
-            data[k, L.LIGHT_V : L.LIGHT_V + 3] = light.v
-            data[k, L.LIGHT_SAMPLES] = light.samples
-        else:
-            kinds[k] = L.LIGHT_SPHERE
-            data[k, 0:3] = light.position
-            data[k, L.LIGHT_RADIUS] = light.radius
-            data[k, L.LIGHT_SAMPLES] = light.samples
+        kinds[k], data[k] = pack_light(light)
     return kinds, data
 
 
@@ -187,8 +226,8 @@ class _TriangleSoup:
         smooth = np.concatenate([np.full(n, p[1] is not None) for n, p in zip(counts, self.parts)])
         material = np.concatenate([np.full(n, p[2], np.int32) for n, p in zip(counts, self.parts)])
         obj = np.concatenate([np.full(n, p[3], np.int32) for n, p in zip(counts, self.parts)])
-        prim = np.concatenate([np.arange(n, dtype=np.int32) for n in counts])
-        return verts, normals, smooth, material, obj, prim
+        face = np.concatenate([np.arange(n, dtype=np.int32) for n in counts])
+        return verts, normals, smooth, material, obj, face
 
 
 def _load_mesh_object(scene: Scene, k: int, obj: Mesh, source):
@@ -213,7 +252,40 @@ def single_leaf_bvh(lo: np.ndarray, hi: np.ndarray) -> BVH:
     return BVH(bounds, np.array([[0, n]], dtype=np.int32), np.array([-1], dtype=np.int8), np.arange(n, dtype=np.int32))
 
 
-def compile_scene(scene: Scene, width: int, height: int, source="<scene>", accelerate: bool = True) -> CompiledScene:
+class _Analytic:
+    """Analytic shapes gathered in object order: their rows and their primitive-table columns."""
+
+    def __init__(self):
+        self.rows: list[np.ndarray] = []
+        self.kinds: list[int] = []
+        self.materials: list[int] = []
+        self.objects: list[int] = []
+
+    def add(self, kind: Shape, row, material: int, obj: int) -> None:
+        padded = np.zeros(SHAPE_WIDTH, dtype=np.float64)
+        padded[: len(row)] = row
+        self.rows.append(padded)
+        self.kinds.append(int(kind))
+        self.materials.append(material)
+        self.objects.append(obj)
+
+    def table(self) -> np.ndarray:
+        return np.asarray(self.rows, dtype=np.float64).reshape(-1, SHAPE_WIDTH)
+
+    def bounded(self) -> np.ndarray:
+        return np.array([is_bounded(Shape(k)) for k in self.kinds], dtype=bool)
+
+    def bounds(self, rows: np.ndarray, which: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        lo = np.empty((len(which), 3))
+        hi = np.empty((len(which), 3))
+        kinds = np.asarray(self.kinds, dtype=np.int64)[which]
+        for kind in np.unique(kinds):
+            sel = kinds == kind
+            lo[sel], hi[sel] = shape_bounds(Shape(int(kind)), rows[which[sel]])
+        return lo, hi
+
+
+def compile_scene(scene: Scene, source="<scene>", accelerate: bool = True) -> CompiledScene:
     """Flatten the scene into arrays. `accelerate=False` skips the BVH (the rasterizer needs
     none: at 4M triangles that saves about 9 s)."""
     start = time.perf_counter()
@@ -229,20 +301,13 @@ def compile_scene(scene: Scene, width: int, height: int, source="<scene>", accel
     def needs_uvs(obj) -> bool:
         return isinstance(scene.material_of(obj).texture, ImageTexture)
 
-    spheres, sphere_mat, sphere_obj = [], [], []
-    planes, plane_mat, plane_obj = [], [], []
+    analytic = _Analytic()
     soup = _TriangleSoup()
     for k, obj in enumerate(scene.objects):
         m = material_index(obj, k)
-        if isinstance(obj, Sphere):
-            spheres.append((*obj.center, obj.radius))
-            sphere_mat.append(m)
-            sphere_obj.append(k)
-        elif isinstance(obj, Plane):
-            n = unit_vector(obj.normal)
-            planes.append((*obj.point, *n))
-            plane_mat.append(m)
-            plane_obj.append(k)
+        kind = ANALYTIC_MODELS.get(type(obj))
+        if kind is not None:
+            analytic.add(kind, ANALYTIC[kind].pack(obj), m, k)
         elif isinstance(obj, Triangle):
             uvs = np.array([[0, 0, 1, 0, 0, 1]], dtype=np.float32) if needs_uvs(obj) else None
             soup.add(np.asarray(obj.vertices, dtype=np.float32).reshape(1, 9), None, m, k, uvs)
@@ -259,21 +324,23 @@ def compile_scene(scene: Scene, width: int, height: int, source="<scene>", accel
             soup.add(verts, normals, m, k, uvs)
             soup.degenerate += mesh.degenerate
 
-    sphere_arr = np.asarray(spheres, dtype=np.float64).reshape(-1, 4)
-    tri, tri_n, tri_smooth, tri_mat, tri_obj, tri_prim = soup.arrays()
+    shapes = analytic.table()
+    bounded = analytic.bounded()
+    in_bvh = np.flatnonzero(bounded)  # analytic rows in the BVH, in object order
+    unbounded = np.flatnonzero(~bounded)
+    tri, tri_n, tri_smooth, tri_mat, tri_obj, tri_face = soup.arrays()
     tri_uv = soup.uv_array()
-    n_spheres, n_tris = len(sphere_arr), len(tri)
+    n_analytic, n_tris = len(in_bvh), len(tri)
 
-    # Bounds of every BVH primitive: spheres first, then triangles (of the float32 vertices
-    # the kernels intersect, so the boxes are exact).
-    lo = np.empty((n_spheres + n_tris, 3), dtype=np.float64)
+    # Bounds of every BVH primitive: bounded analytic shapes first, then triangles (of the
+    # float32 vertices the kernels intersect, so the boxes are exact).
+    lo = np.empty((n_analytic + n_tris, 3), dtype=np.float64)
     hi = np.empty_like(lo)
-    lo[:n_spheres] = sphere_arr[:, :3] - sphere_arr[:, 3:4]
-    hi[:n_spheres] = sphere_arr[:, :3] + sphere_arr[:, 3:4]
+    lo[:n_analytic], hi[:n_analytic] = analytic.bounds(shapes, in_bvh)
     if n_tris:
         corners = tri.reshape(-1, 3, 3)
-        lo[n_spheres:] = corners.min(axis=1)
-        hi[n_spheres:] = corners.max(axis=1)
+        lo[n_analytic:] = corners.min(axis=1)
+        hi[n_analytic:] = corners.max(axis=1)
         del corners
     if accelerate and len(lo) > SMALL_SCENE:
         bvh = build_bvh(lo, hi, max_leaf_size=BVH_MAX_LEAF, c_trav=BVH_TRAVERSAL_COST)
@@ -281,66 +348,75 @@ def compile_scene(scene: Scene, width: int, height: int, source="<scene>", accel
     else:
         bvh = single_leaf_bvh(lo, hi)
         depth = 1
-    if depth >= L.TRAVERSAL_STACK - 2:  # traversal stacks are fixed-size (no allocation per ray)
-        raise SceneError(f"{source}: the BVH is {depth} levels deep, more than the {L.TRAVERSAL_STACK - 2} "
+    if depth >= TRAVERSAL_STACK - 2:  # traversal stacks are fixed-size (no allocation per ray)
+        raise SceneError(f"{source}: the BVH is {depth} levels deep, more than the {TRAVERSAL_STACK - 2} "
                          "traversal supports; the scene's primitives are pathologically arranged")
 
     # Reorder so that leaves read consecutive triangles (cache-friendly traversal).
     order = bvh.prim_order.astype(np.int64)
-    is_tri = order >= n_spheres
-    prim_type = np.where(is_tri, L.PRIM_TRIANGLE, L.PRIM_SPHERE).astype(np.int8)
-    prim_id = order.astype(np.int32)
-    tri_perm = order[is_tri] - n_spheres
-    prim_id[is_tri] = np.arange(n_tris, dtype=np.int32)
+    is_tri = order >= n_analytic
+    tri_perm = order[is_tri] - n_analytic
     if n_tris:
-        tri, tri_smooth, tri_mat, tri_obj, tri_prim = (a[tri_perm] for a in (tri, tri_smooth, tri_mat, tri_obj, tri_prim))
+        tri, tri_smooth, tri_mat, tri_obj, tri_face = (a[tri_perm] for a in (tri, tri_smooth, tri_mat, tri_obj, tri_face))
         if len(tri_n) == n_tris:
             tri_n = tri_n[tri_perm]
         if len(tri_uv) == n_tris:
             tri_uv = tri_uv[tri_perm]
 
-    atlas = TextureAtlas(scene.base_dir, source)
-    mat_rows = np.stack([material_row(m, atlas, material_where.get(m, "material")) for m in materials])
-    finite_extent = [np.abs(lo).max() if len(lo) else 0.0, np.abs(hi).max() if len(hi) else 0.0]
-    if planes:
-        finite_extent.append(np.abs(np.asarray(planes)[:, :3]).max())
-    finite_extent.append(np.abs(scene.camera.position).max())
+    # The primitive table: the BVH's primitives in leaf order, then the unbounded shapes.
+    n_bounded = len(order)
+    prims = np.zeros((n_bounded + len(unbounded), PRIM_WIDTH), dtype=np.int32)
+    prims[:, PRIM_LIGHT] = -1  # no primitive emits light yet (path tracing's emitters will)
+    shape_rows = np.concatenate([in_bvh[order[~is_tri]], unbounded])
+    shape_slots = np.concatenate([np.flatnonzero(~is_tri), np.arange(n_bounded, len(prims))])
+    _fill_prims(prims, shape_slots, shape_rows, analytic)
+    tri_slots = np.flatnonzero(is_tri)
+    prims[tri_slots, PRIM_KIND] = Shape.TRIANGLE
+    prims[tri_slots, PRIM_ROW] = np.arange(n_tris, dtype=np.int32)
+    prims[tri_slots, PRIM_MATERIAL] = tri_mat
+    prims[tri_slots, PRIM_OBJECT] = tri_obj
+    prims[tri_slots, PRIM_FACE] = tri_face
+
+    textures = TextureTable(scene.base_dir, source)
+    mat_rows = np.stack([material_row(m, textures, material_where.get(m, "material")) for m in materials])
+    extent = [np.abs(lo).max() if len(lo) else 0.0, np.abs(hi).max() if len(hi) else 0.0]
+    for r in unbounded:  # an unbounded shape's size is that of its defining point
+        extent.append(np.abs(shapes[r, :3]).max())
     kinds, data = _lights(scene)
     kernel = KernelScene(
-        materials=mat_rows,
-        light_kind=kinds,
-        light_data=data,
-        spheres=sphere_arr,
-        sphere_material=np.asarray(sphere_mat, dtype=np.int32),
-        sphere_object=np.asarray(sphere_obj, dtype=np.int32),
-        planes=np.asarray(planes, dtype=np.float64).reshape(-1, 6),
-        plane_material=np.asarray(plane_mat, dtype=np.int32),
-        plane_object=np.asarray(plane_obj, dtype=np.int32),
+        prims=prims,
+        n_bounded=n_bounded,
+        shapes=shapes,
         triangles=np.ascontiguousarray(tri),
         triangle_normals=np.ascontiguousarray(tri_n),
         triangle_smooth=tri_smooth,
-        triangle_material=tri_mat,
-        triangle_object=tri_obj,
-        triangle_prim=tri_prim,
+        triangle_uvs=np.ascontiguousarray(tri_uv),
         node_bounds=bvh.node_bounds,
         node_index=bvh.node_index,
-        prim_type=prim_type,
-        prim_id=prim_id,
-        has_transparency=bool((mat_rows[:, L.MAT_TRANSPARENCY] > 0).any()),
-        epsilon_floor=float(max(1e-3 * max(finite_extent), 1e-30)),
-        triangle_uvs=np.ascontiguousarray(tri_uv),
-        textures=atlas.array(),
+        materials=mat_rows,
+        textures=textures.table(),
+        texels=textures.texels(),
+        light_kind=kinds,
+        light_data=data,
+        has_transparency=bool((mat_rows[:, M.MAT_TRANSPARENCY] > 0).any()),
+        epsilon_floor=1e-30,
     )
-    cam = scene.camera
-    camera = camera_frame(cam.position, cam.look_at, cam.up, cam.fov, width, height,
-                          aperture=cam.aperture, focus_distance=cam.focus, pixel_filter=scene.render.filter)
     stats = {
-        "primitives": n_spheres + n_tris + len(planes),
+        "primitives": len(prims),
         "triangles": n_tris,
         "degenerate_triangles": soup.degenerate,
         "bvh_nodes": int(len(bvh.node_index)),
         "bvh_depth": int(depth),
-        "bvh_bytes": int(bvh_nbytes(bvh) + prim_type.nbytes + prim_id.nbytes),
+        # nodes, and the two columns of the primitive table that traversal reads (kind, row)
+        "bvh_bytes": int(bvh_nbytes(bvh) + 8 * len(prims)),
         "build_seconds": time.perf_counter() - start,
     }
-    return CompiledScene(kernel, camera, stats)
+    return CompiledScene(kernel, float(max(extent)), stats)
+
+
+def _fill_prims(prims: np.ndarray, slots: np.ndarray, rows: np.ndarray, analytic: _Analytic) -> None:
+    """Primitive-table rows `slots` for the analytic shapes of `rows`."""
+    for column, values in ((PRIM_KIND, analytic.kinds), (PRIM_MATERIAL, analytic.materials),
+                           (PRIM_OBJECT, analytic.objects)):
+        prims[slots, column] = np.asarray(values, dtype=np.int32)[rows] if len(rows) else 0
+    prims[slots, PRIM_ROW] = rows  # PRIM_FACE stays 0: an analytic shape is one face

@@ -11,15 +11,19 @@ from .scene.model import Scene
 
 
 def intersect(scene: Scene | CompiledScene, origins: np.ndarray, directions: np.ndarray):
-    """Closest hit of each ray: (t float64 (N,), object int32 (N,), prim int32 (N,)).
+    """Closest hit of each ray: (t float64, object int32, prim int32), each of the rays' leading
+    shape (origins and directions of shape (..., 3)).
 
     Directions are normalised here, so t is a distance. Misses give t = inf and -1 indices.
     Pass a CompiledScene (raylume.compile.compile_scene) to reuse its BVH across calls."""
-    compiled = scene if isinstance(scene, CompiledScene) else compile_scene(scene, 1, 1)
-    origins = np.ascontiguousarray(origins, dtype=np.float64).reshape(-1, 3)
-    directions = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
-    if origins.shape != directions.shape:
-        raise ValueError(f"origins {origins.shape} and directions {directions.shape} differ in shape")
+    compiled = scene if isinstance(scene, CompiledScene) else compile_scene(scene)
+    origins = np.asarray(origins, dtype=np.float64)
+    directions = np.asarray(directions, dtype=np.float64)
+    if origins.shape != directions.shape or origins.shape[-1:] != (3,):
+        raise ValueError(f"origins {origins.shape} and directions {directions.shape} must have one shape (..., 3)")
+    shape = origins.shape[:-1]
+    origins = np.ascontiguousarray(origins.reshape(-1, 3))
+    directions = directions.reshape(-1, 3)
     norms = np.linalg.norm(directions, axis=1, keepdims=True)
     if not np.all(norms > 0) or not np.isfinite(directions).all() or not np.isfinite(origins).all():
         raise ValueError("directions must be finite and non-zero, origins finite")
@@ -28,5 +32,6 @@ def intersect(scene: Scene | CompiledScene, origins: np.ndarray, directions: np.
     t = np.empty(n)
     obj = np.empty(n, dtype=np.int32)
     prim = np.empty(n, dtype=np.int32)
-    intersect_rays(compiled.kernel, origins, directions, t, obj, prim, numba.get_num_threads())
-    return t, obj, prim
+    # the ray offset floor of a camera at the origin: the scene's own extent
+    intersect_rays(compiled.for_camera((0.0, 0.0, 0.0)), origins, directions, t, obj, prim, numba.get_num_threads())
+    return t.reshape(shape), obj.reshape(shape), prim.reshape(shape)

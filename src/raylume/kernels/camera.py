@@ -1,29 +1,31 @@
 """Camera rays as DESIGN.md defines them: pixel (i, j) from the top-left, centres at +0.5;
-optionally through a thin lens for depth of field."""
+optionally through a thin lens for depth of field.
+
+The camera is a float64 (CAM_WIDTH,) array made per render (`camera_frame`): a Session renders
+one compiled scene through any number of cameras."""
 
 import math
 
 import numpy as np
 from numba import njit
 
-from .layout import (
-    CAM_FILTER,
-    CAM_FILTER_NEGATIVE,
-    CAM_FILTER_TABLE,
-    CAM_FOCUS_DISTANCE,
-    CAM_HALF_HEIGHT,
-    CAM_HALF_WIDTH,
-    CAM_LENS_RADIUS,
-    CAM_WIDTH,
-)
-from .sampling import concentric_disk, filter_table
+from .sampler import concentric_disk
 from .vec import KERNEL, madd, normalize, sub
 
+CAM_POSITION = 0  # 3 columns
+CAM_FORWARD = 3  # 3 columns, unit
+CAM_RIGHT = 6  # 3 columns: right * w, w = tan(fov / 2) * W / H
+CAM_UP = 9  # 3 columns: up * h, h = tan(fov / 2)
+CAM_LENS_RADIUS = 12  # aperture / 2; 0 for the pinhole
+CAM_FOCUS_DISTANCE = 13  # distance of the plane in focus, along the forward axis
+CAM_HALF_WIDTH = 14  # w
+CAM_HALF_HEIGHT = 15  # h
+CAM_WIDTH = 16
 
-def camera_frame(position, look_at, up, fov_degrees, width, height, aperture=0.0, focus_distance=1.0,
-                 pixel_filter="box") -> np.ndarray:
-    """float64 (CAM_WIDTH,): origin, forward, right * w, up * h (left-handed: r = up x f), then
-    the lens (radius aperture / 2, focus distance), w, h and the pixel filter's table."""
+
+def camera_frame(position, look_at, up, fov_degrees, width, height, aperture=0.0, focus_distance=1.0) -> np.ndarray:
+    """The camera array: origin, forward, right * w, up * h (left-handed: r = up x f), then the
+    lens (radius aperture / 2, focus distance), w and h."""
     p = np.asarray(position, dtype=np.float64)
     f = np.asarray(look_at, dtype=np.float64) - p
     f /= np.abs(f).max()  # scale first: tiny differences must not underflow
@@ -35,16 +37,21 @@ def camera_frame(position, look_at, up, fov_degrees, width, height, aperture=0.0
     h = math.tan(math.radians(fov_degrees) / 2.0)
     w = h * width / height
     cam = np.zeros(CAM_WIDTH, dtype=np.float64)
-    cam[:12] = np.concatenate([p, f, r * w, u * h])
+    cam[CAM_POSITION : CAM_POSITION + 3] = p
+    cam[CAM_FORWARD : CAM_FORWARD + 3] = f
+    cam[CAM_RIGHT : CAM_RIGHT + 3] = r * w
+    cam[CAM_UP : CAM_UP + 3] = u * h
     cam[CAM_LENS_RADIUS] = 0.5 * aperture
     cam[CAM_FOCUS_DISTANCE] = focus_distance
     cam[CAM_HALF_WIDTH] = w
     cam[CAM_HALF_HEIGHT] = h
-    kind, negative, table = filter_table(pixel_filter)
-    cam[CAM_FILTER] = kind
-    cam[CAM_FILTER_NEGATIVE] = negative
-    cam[CAM_FILTER_TABLE:] = table
     return cam
+
+
+def camera_of(model, width: int, height: int) -> np.ndarray:
+    """The camera array of a scene model's Camera."""
+    return camera_frame(model.position, model.look_at, model.up, model.fov, width, height,
+                        aperture=model.aperture, focus_distance=model.focus)
 
 
 @njit(**KERNEL)
@@ -53,11 +60,11 @@ def camera_ray(cam, x, y, width, height):
     a = x / width * 2.0 - 1.0
     b = 1.0 - y / height * 2.0
     d = (
-        cam[3] + cam[6] * a + cam[9] * b,
-        cam[4] + cam[7] * a + cam[10] * b,
-        cam[5] + cam[8] * a + cam[11] * b,
+        cam[CAM_FORWARD] + cam[CAM_RIGHT] * a + cam[CAM_UP] * b,
+        cam[CAM_FORWARD + 1] + cam[CAM_RIGHT + 1] * a + cam[CAM_UP + 1] * b,
+        cam[CAM_FORWARD + 2] + cam[CAM_RIGHT + 2] * a + cam[CAM_UP + 2] * b,
     )
-    return (cam[0], cam[1], cam[2]), normalize(d)
+    return (cam[CAM_POSITION], cam[CAM_POSITION + 1], cam[CAM_POSITION + 2]), normalize(d)
 
 
 @njit(**KERNEL)
@@ -71,10 +78,10 @@ def thin_lens_ray(cam, o, d, u1, u2):
     sx = lx * radius / cam[CAM_HALF_WIDTH]
     sy = ly * radius / cam[CAM_HALF_HEIGHT]
     lens = (
-        o[0] + cam[6] * sx + cam[9] * sy,
-        o[1] + cam[7] * sx + cam[10] * sy,
-        o[2] + cam[8] * sx + cam[11] * sy,
+        o[0] + cam[CAM_RIGHT] * sx + cam[CAM_UP] * sy,
+        o[1] + cam[CAM_RIGHT + 1] * sx + cam[CAM_UP + 1] * sy,
+        o[2] + cam[CAM_RIGHT + 2] * sx + cam[CAM_UP + 2] * sy,
     )
-    t = cam[CAM_FOCUS_DISTANCE] / (d[0] * cam[3] + d[1] * cam[4] + d[2] * cam[5])
+    t = cam[CAM_FOCUS_DISTANCE] / (d[0] * cam[CAM_FORWARD] + d[1] * cam[CAM_FORWARD + 1] + d[2] * cam[CAM_FORWARD + 2])
     focus = madd(o, d, t)
     return lens, normalize(sub(focus, lens))

@@ -3,10 +3,9 @@ and users who want raylume as a ray-intersection library)."""
 
 from numba import njit, prange
 
-from .intersect import INF
-from .layout import HIT_NONE, HIT_PLANE, HIT_SPHERE
 from .scene import geometry_of
-from .traverse import closest_hit, traversal_stacks
+from .shapes import NO_HIT, PRIM_FACE, PRIM_OBJECT
+from .traverse import INF, closest_hit, traversal_stacks
 from .vec import FAST
 
 
@@ -25,17 +24,11 @@ def intersect_rays(S, origins, directions, t_out, object_out, prim_out, lanes):
             for k in range(c * chunk, min(n, (c + 1) * chunk)):
                 o = (float(origins[k, 0]), float(origins[k, 1]), float(origins[k, 2]))
                 d = (float(directions[k, 0]), float(directions[k, 1]), float(directions[k, 2]))
-                t, kind, index, b1, b2 = closest_hit(G, o, d, 0.0, INF, node_stack, t_stack)
+                t, prim, b1, b2 = closest_hit(G, o, d, 0.0, INF, node_stack, t_stack)
                 t_out[k] = t
-                if kind == HIT_NONE:
+                if prim == NO_HIT:
                     object_out[k] = -1
                     prim_out[k] = -1
-                elif kind == HIT_SPHERE:
-                    object_out[k] = S.sphere_object[index]
-                    prim_out[k] = 0
-                elif kind == HIT_PLANE:
-                    object_out[k] = S.plane_object[index]
-                    prim_out[k] = 0
                 else:
-                    object_out[k] = S.triangle_object[index]
-                    prim_out[k] = S.triangle_prim[index]
+                    object_out[k] = S.prims[prim, PRIM_OBJECT]
+                    prim_out[k] = S.prims[prim, PRIM_FACE]

@@ -47,8 +47,8 @@ triangles are drawn in index order and a fragment replaces the stored one only w
 strictly nearer, so at equal depth the lower triangle index wins: the image does not depend
 on the number of threads. Shading is deferred: the Z-buffer keeps 1/z and the triangle
 index, and a last pass shades each visible pixel once with the ray tracer's own `surface`,
-`surface_albedo` (image textures included) and `lighting` (kernels/shade.py; no shadows,
-reflection or refraction).
+the material's `albedo` (image textures included) and `unshadowed_lighting` (direct.py: no
+shadows, reflection or refraction).
 """
 
 import math
@@ -58,9 +58,13 @@ import numba
 import numpy as np
 from numba import njit, prange
 
-from .layout import HIT_TRIANGLE, MAT_TEXTURE, TEXTURE_IMAGE, TRAVERSAL_STACK
+from .camera import CAM_FORWARD, CAM_POSITION, CAM_RIGHT, CAM_UP
+from .direct import unshadowed_lighting
+from .materials import MAT_TEXTURE, albedo
 from .scene import geometry_of, lights_of, surfaces_of
-from .shade import lighting, offset_epsilon, surface, surface_albedo
+from .shapes import PRIM_MATERIAL, offset_epsilon, surface
+from .textures import IMAGE, TEX_KIND
+from .traverse import TRAVERSAL_STACK
 from .vec import dot, hadamard, madd, mul
 
 # Helpers that take arrays are inlined at the Numba level (inline="always"): a call that passes
@@ -339,8 +343,8 @@ def _draw_bands(view, near, height, tri, extra, n_main, bounds, band_start, entr
 
 
 @njit(parallel=True, fastmath=RFAST, cache=True, error_model="numpy")
-def _shade(S, cam, view, width, height, extra, extra_kind, extra_index, n_main, zbuf, tid, background,
-           want_aovs, rgb, depth, normal, obj_id, prim_id, albedo_out):
+def _shade(S, cam, view, width, height, extra, triangle_prim, extra_prim, extra_part, n_main, zbuf, tid,
+           background, want_aovs, rgb, depth, normal, obj_id, prim_id, albedo_out):
     """Pass 5: shade every pixel once from its nearest triangle, as `trace` lights a surface
     (ambient, diffuse, specular; no shadows, reflection or refraction), and fill the AOVs
     when `want_aovs`."""
@@ -351,17 +355,17 @@ def _shade(S, cam, view, width, height, extra, extra_kind, extra_index, n_main, 
         L = lights_of(S)
         node_stack = np.empty(TRAVERSAL_STACK, dtype=np.int32)
         t_stack = np.empty(TRAVERSAL_STACK, dtype=np.float64)
-        _shade_row(G, F, L, cam, view, width, height, j, extra, extra_kind, extra_index, n_main, zbuf, tid,
-                   background, want_aovs, rgb, depth, normal, obj_id, prim_id, albedo_out, node_stack, t_stack)
+        _shade_row(G, F, L, cam, view, width, height, j, extra, triangle_prim, extra_prim, extra_part, n_main, zbuf,
+                   tid, background, want_aovs, rgb, depth, normal, obj_id, prim_id, albedo_out, node_stack, t_stack)
 
 
 @njit(fastmath=RFAST, error_model="numpy")
-def _shade_row(G, F, L, cam, view, width, height, j, extra, extra_kind, extra_index, n_main, zbuf, tid,
-               background, want_aovs, rgb, depth, normal, obj_id, prim_id, albedo_out, node_stack, t_stack):
+def _shade_row(G, F, L, cam, view, width, height, j, extra, triangle_prim, extra_prim, extra_part, n_main, zbuf,
+               tid, background, want_aovs, rgb, depth, normal, obj_id, prim_id, albedo_out, node_stack, t_stack):
     """Row j of pass 5 (a function of its own: Numba's parallel analysis trips over the
     inlined lighting code inside a parallel loop)."""
     tri = G.triangles
-    o = (cam[0], cam[1], cam[2])
+    o = (cam[CAM_POSITION], cam[CAM_POSITION + 1], cam[CAM_POSITION + 2])
     y = j + 0.5
     b = 1.0 - y / height * 2.0
     for i in range(width):
@@ -377,9 +381,11 @@ def _shade_row(G, F, L, cam, view, width, height, j, extra, extra_kind, extra_in
                 obj_id[j, i] = -1
                 prim_id[j, i] = -1
             continue
-        x = i + 0.5
-        a = x / width * 2.0 - 1.0
-        dv = (cam[3] + cam[6] * a + cam[9] * b, cam[4] + cam[7] * a + cam[10] * b, cam[5] + cam[8] * a + cam[11] * b)
+        x_px = i + 0.5
+        a = x_px / width * 2.0 - 1.0
+        dv = (cam[CAM_FORWARD] + cam[CAM_RIGHT] * a + cam[CAM_UP] * b,
+              cam[CAM_FORWARD + 1] + cam[CAM_RIGHT + 1] * a + cam[CAM_UP + 1] * b,
+              cam[CAM_FORWARD + 2] + cam[CAM_RIGHT + 2] * a + cam[CAM_UP + 2] * b)
         scale = math.sqrt(dv[0] * dv[0] + dv[1] * dv[1] + dv[2] * dv[2])
         d = (dv[0] / scale, dv[1] / scale, dv[2] / scale)
         dist = scale / zbuf[j, i]  # z * |F + R a + U b|: distance along the unit ray
@@ -387,19 +393,19 @@ def _shade_row(G, F, L, cam, view, width, height, j, extra, extra_kind, extra_in
         b1 = 0.0
         b2 = 0.0
         if t < n_main:
-            kind = HIT_TRIANGLE
-            index = t
+            prim = triangle_prim[t]
             # vertex normals and image textures need the point's weights
-            if F.triangle_smooth[t] or F.materials[F.triangle_material[t], MAT_TEXTURE] == TEXTURE_IMAGE:
-                b1, b2 = barycentrics(view, tri, extra, n_main, t, x, y)
+            x = int(F.materials[G.prims[prim, PRIM_MATERIAL], MAT_TEXTURE])
+            if G.triangle_smooth[t] or (x >= 0 and F.textures[x, TEX_KIND] == IMAGE):
+                b1, b2 = barycentrics(view, tri, extra, n_main, t, x_px, y)
         else:
-            kind = extra_kind[t - n_main]
-            index = extra_index[t - n_main]
-        ng, ns, m, obj, prim = surface(G, F, kind, index, b1, b2, p)
+            prim = extra_prim[t - n_main]
+            b1 = extra_part[t - n_main]  # which part of the shape (a cylinder's side or cap)
+        ng, ns, m, obj, face_id = surface(G, prim, b1, b2, p)
         face = ns
         if dot(face, d) > 0.0:
             face = mul(face, -1.0)
-        col = surface_albedo(G, F, kind, index, b1, b2, p, m)
+        col = albedo(G, F, m, prim, b1, b2, p)
         # as trace_ray: normals turned towards the incoming ray, a shading normal bent past
         # the horizon replaced by the geometric one, lit from just outside the surface
         if dot(ng, d) >= 0.0:
@@ -408,7 +414,7 @@ def _shade_row(G, F, L, cam, view, width, height, j, extra, extra_kind, extra_in
         if dot(ns, d) >= 0.0:
             ns = ng
         outside = madd(p, ng, offset_epsilon(F.epsilon_floor, p))
-        light, _ = lighting(G, F, L, outside, ns, mul(d, -1.0), m, False, node_stack, t_stack)
+        light, _ = unshadowed_lighting(G, F, L, outside, ns, mul(d, -1.0), m, node_stack, t_stack)
         shaded = hadamard(col, light)
         for c in range(3):
             rgb[j, i, c] = shaded[c]
@@ -418,16 +424,16 @@ def _shade_row(G, F, L, cam, view, width, height, j, extra, extra_kind, extra_in
                 albedo_out[j, i, c] = col[c]
             depth[j, i] = dist
             obj_id[j, i] = obj
-            prim_id[j, i] = prim
+            prim_id[j, i] = face_id
 
 
 def view_matrix(cam: np.ndarray, width: int, height: int) -> np.ndarray:
     """float64 (4, 3): the camera origin, then the rows mapping v = X - O to (x w, y w, w),
     (x, y) in pixels (columns from the left, rows from the top) and w = dot(v, F)."""
     cam = np.asarray(cam, dtype=np.float64)
-    f, r, u = cam[3:6], cam[6:9], cam[9:12]
+    f, r, u = (cam[k : k + 3] for k in (CAM_FORWARD, CAM_RIGHT, CAM_UP))
     view = np.empty((4, 3), dtype=np.float64)
-    view[0] = cam[0:3]
+    view[0] = cam[CAM_POSITION : CAM_POSITION + 3]
     view[1] = 0.5 * width * (r / np.dot(r, r) + f)
     view[2] = 0.5 * height * (f - u / np.dot(u, u))
     view[3] = f
@@ -458,9 +464,11 @@ def release_scratch() -> None:
             delattr(_scratch, name)
 
 
-def rasterize_arrays(S, cam, width, height, near, extra, extra_kind, extra_index, background, want_aovs,
+def rasterize_arrays(S, cam, width, height, near, triangle_prim, extra, extra_prim, extra_part, background, want_aovs,
                      rgb, depth, normal, obj_id, prim_id, albedo):
-    """Run the passes over the kernel scene's triangles plus `extra` (float64 (E, 9)) and
+    """Run the passes over the kernel scene's triangles (row t is primitive triangle_prim[t])
+    plus `extra` (float64 (E, 9): tessellated analytic shapes, triangle e drawing primitive
+    extra_prim[e], part extra_part[e]) and
     write the image (every pixel) and, when `want_aovs`, the AOVs. Compile by calling it on
     empty input first."""
     tri = S.triangles
@@ -480,8 +488,8 @@ def rasterize_arrays(S, cam, width, height, near, extra, extra_kind, extra_index
         _draw_bands(view, near, height, tri, extra, n_main, bounds, band_start, entries, zbuf, tid)
     finally:
         numba.set_parallel_chunksize(previous)
-    _shade(S, cam, view, width, height, extra, extra_kind, extra_index, n_main, zbuf, tid, background,
-           want_aovs, rgb, depth, normal, obj_id, prim_id, albedo)
+    _shade(S, cam, view, width, height, extra, triangle_prim, extra_prim, extra_part, n_main, zbuf, tid,
+           background, want_aovs, rgb, depth, normal, obj_id, prim_id, albedo)
 
 
 @njit(cache=True, fastmath=RFAST, error_model="numpy")

@@ -11,28 +11,41 @@ import math
 
 from numba import njit
 
-from .intersect import INF
-from .layout import MAT_ABSORPTION, MAT_IOR, MAT_REFLECTIVE, MAT_TRANSPARENCY
+from .direct import direct_lighting
+from .materials import MAT_IOR, MAT_REFLECTIVE, MAT_TRANSPARENCY, albedo, beer_lambert
 from .optics import fresnel_dielectric, reflect, refract
-from .shade import offset_epsilon, sampled_lighting, surface, surface_albedo
+from .shapes import offset_epsilon, surface
 from .traverse import closest_hit
 from .vec import KERNEL, dot, hadamard, madd, mul
 
+INF = math.inf
 # Branches whose weight falls below this cannot change an 8-bit pixel.
 MIN_WEIGHT = 1e-4
+
+# Columns of the stack of rays waiting to be traced (float64 (K, RAY_WIDTH)).
+RAY_ORIGIN = 0  # 3 columns
+RAY_DIRECTION = 3  # 3 columns
+RAY_WEIGHT = 6  # 3 columns, RGB
+RAY_DEPTH = 9  # bounces left
+RAY_WIDTH = 10
+
+
+@njit(**KERNEL)
+def stack_rows(max_depth):
+    """Rows of the ray stack: a reflection waiting beside a refraction at every level, and spare."""
+    return 2 * max_depth + 4
 
 
 # Inlined into the row loop (frame.py): a call per camera ray passed the scene views by value.
 @njit(**KERNEL, inline="always")
 def trace_ray(G, F, L, o, d, max_depth, background, rays, node_stack, t_stack, key):
-    """Colour seen along the ray (o, d). `rays` is a float64 (K, 10) stack of rays waiting to
-    be traced (origin, direction, weight, depth); `key` the camera sample's random key (area
-    lights).
-    Returns (rgb, rays traced)."""
+    """Colour seen along the ray (o, d). `rays` is the stack of rays waiting to be traced;
+    `key` the camera sample's random key (area lights). Returns (rgb, rays traced)."""
     cr = 0.0
     cg = 0.0
     cb = 0.0
     count = 0
+    shaded = 0  # surfaces shaded so far: the sampler's event counter
     top = 0
     # The next ray is kept in (o, d, w, depth) while `pending`; only a second branch (a
     # reflection beside a refraction) waits on the stack.
@@ -44,12 +57,12 @@ def trace_ray(G, F, L, o, d, max_depth, background, rays, node_stack, t_stack, k
             if top == 0:
                 break
             top -= 1
-            o = (rays[top, 0], rays[top, 1], rays[top, 2])
-            d = (rays[top, 3], rays[top, 4], rays[top, 5])
-            w = (rays[top, 6], rays[top, 7], rays[top, 8])
-            depth = int(rays[top, 9])
+            o = (rays[top, RAY_ORIGIN], rays[top, RAY_ORIGIN + 1], rays[top, RAY_ORIGIN + 2])
+            d = (rays[top, RAY_DIRECTION], rays[top, RAY_DIRECTION + 1], rays[top, RAY_DIRECTION + 2])
+            w = (rays[top, RAY_WEIGHT], rays[top, RAY_WEIGHT + 1], rays[top, RAY_WEIGHT + 2])
+            depth = int(rays[top, RAY_DEPTH])
         pending = False
-        t, kind, index, b1, b2 = closest_hit(G, o, d, 0.0, INF, node_stack, t_stack)
+        t, prim, b1, b2 = closest_hit(G, o, d, 0.0, INF, node_stack, t_stack)
         count += 1
         if t == INF:
             cr += w[0] * background[0]
@@ -57,16 +70,12 @@ def trace_ray(G, F, L, o, d, max_depth, background, rays, node_stack, t_stack, k
             cb += w[2] * background[2]
             continue
         p = madd(o, d, t)
-        ng, ns, m, obj, prim = surface(G, F, kind, index, b1, b2, p)
+        ng, ns, m, obj, face = surface(G, prim, b1, b2, p)
         mat = F.materials
         entering = dot(ng, d) < 0.0
         if not entering:
-            # The segment just travelled lay inside this surface's medium: Beer-Lambert.
-            w = (
-                w[0] * math.exp(-mat[m, MAT_ABSORPTION] * t),
-                w[1] * math.exp(-mat[m, MAT_ABSORPTION + 1] * t),
-                w[2] * math.exp(-mat[m, MAT_ABSORPTION + 2] * t),
-            )
+            # The segment just travelled lay inside this surface's medium.
+            w = beer_lambert(mat, m, w, t)
             ng = mul(ng, -1.0)
             ns = mul(ns, -1.0)
         # ng, ns now face the incoming ray; a shading normal bent past the horizon is clamped.
@@ -75,9 +84,10 @@ def trace_ray(G, F, L, o, d, max_depth, background, rays, node_stack, t_stack, k
         eps = offset_epsilon(F.epsilon_floor, p)
         outside = madd(p, ng, eps)
         view = mul(d, -1.0)
-        light, shadow_rays = sampled_lighting(G, F, L, outside, ns, view, m, True, node_stack, t_stack, key, count)
+        light, shadow_rays = direct_lighting(G, F, L, outside, ns, view, m, True, node_stack, t_stack, key, shaded)
+        shaded += 1
         count += shadow_rays
-        local = hadamard(surface_albedo(G, F, kind, index, b1, b2, p, m), light)
+        local = hadamard(albedo(G, F, m, prim, b1, b2, p), light)
         if depth <= 0:
             cr += w[0] * local[0]
             cg += w[1] * local[1]
@@ -115,13 +125,8 @@ def trace_ray(G, F, L, o, d, max_depth, background, rays, node_stack, t_stack, k
 
 @njit(**KERNEL)
 def _push(rays, top, o, d, w, depth):
-    rays[top, 0] = o[0]
-    rays[top, 1] = o[1]
-    rays[top, 2] = o[2]
-    rays[top, 3] = d[0]
-    rays[top, 4] = d[1]
-    rays[top, 5] = d[2]
-    rays[top, 6] = w[0]
-    rays[top, 7] = w[1]
-    rays[top, 8] = w[2]
-    rays[top, 9] = depth
+    for c in range(3):
+        rays[top, RAY_ORIGIN + c] = o[c]
+        rays[top, RAY_DIRECTION + c] = d[c]
+        rays[top, RAY_WEIGHT + c] = w[c]
+    rays[top, RAY_DEPTH] = depth

@@ -1,20 +1,34 @@
 """BVH traversal: closest hit (nearer child first) and any hit (for shadow rays).
 
-Both take the scene's Geometry view. Infinite planes cannot live in a bounding volume
-hierarchy; they are few and tested first. Leaf loops are written inline: a helper call per
-leaf costs more than the intersection tests it makes.
+Both take the scene's Geometry view and test primitives through one leaf loop
+(`intersect_range`) over the primitive table (shapes.py). Unbounded primitives (planes) follow
+the bounded ones in that table and are tested before traversal.
+
+BVH layout (accel/bvh.py): depth-first; inner node m has its left child at m + 1 and its right
+child in node_index[m, 0]; a leaf holds (first, count) into the primitive table.
 """
+
+import math
 
 import numpy as np
 from numba import njit
 
-from .intersect import INF, intersect_box, intersect_plane, intersect_sphere, intersect_triangle, ray_shear, slab_ray
-from .layout import HIT_NONE, HIT_PLANE, HIT_SPHERE, HIT_TRIANGLE, PRIM_SPHERE, SCRATCH_PAD, TRAVERSAL_STACK
-from .vec import KERNEL, row3
+from .shape_triangle import NO_SHEAR, ray_shear
+from .shapes import NO_HIT, intersect
+from .vec import KERNEL
 
-# Shear constants for rays in scenes without triangles, and slab constants for a root leaf
-# (never used, but typed alike).
-_NO_SHEAR = (0, 1, 2, 0.0, 0.0, 1.0)
+INF = math.inf
+
+# Size of per-thread traversal stacks; a BVH deeper than this is rejected at build time.
+TRAVERSAL_STACK = 128
+# Unused elements on either side of each thread's scratch arrays (at least 256 bytes: beyond a
+# cache line and its prefetched neighbour). Small arrays allocated by two threads can lie back
+# to back: without the gap one thread's stack ended in the cache line where another's began,
+# and their writes fought over it (false sharing: the seed scene took 85 instead of 45 ms on
+# 2 threads).
+SCRATCH_PAD = 1024
+
+# Slab constants for a root leaf (never used, but typed alike).
 _NO_SLAB = ((0.0, 0.0, 0.0), (0, 0, 0))
 
 
@@ -27,51 +41,87 @@ def traversal_stacks():
 @njit(cache=True)
 def scratch_array(n, dtype):
     """An array of n elements for one thread's scratch, with SCRATCH_PAD unused elements on
-    either side against false sharing: see layout.py."""
+    either side against false sharing."""
     return np.empty(n + 2 * SCRATCH_PAD, dtype=dtype)[SCRATCH_PAD:SCRATCH_PAD + n]
+
+
+@njit(**KERNEL)
+def intersect_box(bounds, n, o, slab, tmax):
+    """Slab test against node n of bounds (float32 (M, 6)); entry distance or +inf. `slab` is
+    the ray's `slab_ray(d)`: 1/d and, per axis, the column of the near plane. Picking the near
+    and far plane by the direction's sign gives exactly the min/max of the two slab distances
+    (rounding is monotonic) with six fewer comparisons: traversal ~9% faster."""
+    inv, near = slab
+    nx, ny, nz = near
+    tnx = (bounds[n, nx] - o[0]) * inv[0]
+    tfx = (bounds[n, 3 - nx] - o[0]) * inv[0]
+    tny = (bounds[n, 1 + ny] - o[1]) * inv[1]
+    tfy = (bounds[n, 4 - ny] - o[1]) * inv[1]
+    tnz = (bounds[n, 2 + nz] - o[2]) * inv[2]
+    tfz = (bounds[n, 5 - nz] - o[2]) * inv[2]
+    tnear = max(tnx, tny, tnz, 0.0)
+    # Widen the far side by a few ulps so rounding never culls a box the ray touches.
+    tfar = min(tfx, tfy, tfz, tmax) * 1.0000000000000004
+    if tnear <= tfar:
+        return tnear
+    return INF
+
+
+@njit(**KERNEL)
+def slab_ray(d):
+    """Per-ray constants of the slab test: (1/d, near-plane columns), see intersect_box."""
+    inv = safe_inverse(d)
+    return inv, (0 if inv[0] >= 0.0 else 3, 0 if inv[1] >= 0.0 else 3, 0 if inv[2] >= 0.0 else 3)
+
+
+@njit(**KERNEL)
+def safe_inverse(d):
+    """1/d with zero components replaced by a huge finite value (no inf * 0 = NaN in slabs)."""
+    out0 = 1.0 / d[0] if d[0] != 0.0 else 1e200
+    out1 = 1.0 / d[1] if d[1] != 0.0 else 1e200
+    out2 = 1.0 / d[2] if d[2] != 0.0 else 1e200
+    return (out0, out1, out2)
+
+
+@njit(**KERNEL, inline="always")
+def intersect_range(G, first, end, o, d, shear, tmin, best_t, prim, b1, b2, stop_at_first):
+    """The leaf loop: primitives first..end-1 against the ray, nearest hit before best_t.
+    Returns the updated (best_t, prim, b1, b2); with stop_at_first, returns at the first hit
+    (any-hit queries)."""
+    for k in range(first, end):
+        t, u, v = intersect(G, k, o, d, shear, tmin, best_t)
+        if t < best_t:
+            best_t, prim, b1, b2 = t, k, u, v
+            if stop_at_first:
+                break
+    return best_t, prim, b1, b2
 
 
 @njit(**KERNEL, inline="always")
 def closest_hit(G, o, d, tmin, tmax, node_stack, t_stack):
-    """Nearest hit in (tmin, tmax): (t, kind, index, b1, b2); kind HIT_NONE when nothing.
+    """Nearest hit in (tmin, tmax): (t, primitive, b1, b2); primitive NO_HIT when nothing.
     b1, b2 are the barycentric weights of a triangle's second and third vertices."""
-    best_t = tmax
-    kind = HIT_NONE
-    index = -1
-    b1 = 0.0
-    b2 = 0.0
-    for p in range(G.planes.shape[0]):
-        t = intersect_plane(o, d, row3(G.planes, p, 0), row3(G.planes, p, 3), tmin, best_t)
-        if t < best_t:
-            best_t, kind, index = t, HIT_PLANE, p
-
+    shear = ray_shear(d) if G.triangles.shape[0] > 0 else NO_SHEAR
+    best_t, prim, b1, b2 = intersect_range(G, G.n_bounded, G.prims.shape[0], o, d, shear, tmin, tmax,
+                                           NO_HIT, 0.0, 0.0, False)
     nodes = G.node_index
     bounds = G.node_bounds
-    shear = ray_shear(d) if G.triangles.shape[0] > 0 else _NO_SHEAR
     # A root leaf (small scenes) needs neither box tests nor the inverse direction.
     slab = _NO_SLAB
     if nodes[0, 1] == 0:
         if nodes[0, 0] == 0:
-            return best_t, kind, index, b1, b2  # empty scene
+            return best_t, prim, b1, b2  # empty scene
         slab = slab_ray(d)
         if intersect_box(bounds, 0, o, slab, best_t) == INF:
-            return best_t, kind, index, b1, b2
+            return best_t, prim, b1, b2
     node = 0
     top = 0
     while True:
         count = nodes[node, 1]
         if count > 0:
             first = nodes[node, 0]
-            for k in range(first, first + count):
-                pid = G.prim_id[k]
-                if G.prim_type[k] == PRIM_SPHERE:
-                    t = intersect_sphere(o, d, row3(G.spheres, pid, 0), G.spheres[pid, 3], tmin, best_t)
-                    if t < best_t:
-                        best_t, kind, index = t, HIT_SPHERE, pid
-                else:
-                    t, u, v = intersect_triangle(o, shear, G.triangles, pid, tmin, best_t)
-                    if t < best_t:
-                        best_t, kind, index, b1, b2 = t, HIT_TRIANGLE, pid, u, v
+            best_t, prim, b1, b2 = intersect_range(G, first, first + count, o, d, shear, tmin, best_t,
+                                                   prim, b1, b2, False)
         else:
             left = node + 1
             right = nodes[node, 0]
@@ -102,20 +152,19 @@ def closest_hit(G, o, d, tmin, tmax, node_stack, t_stack):
                 break
         if not found:
             break
-    return best_t, kind, index, b1, b2
+    return best_t, prim, b1, b2
 
 
 @njit(**KERNEL, inline="always")
 def any_hit(G, o, d, tmin, tmax, node_stack):
     """True when anything lies in (tmin, tmax): stops at the first blocker found."""
-    for p in range(G.planes.shape[0]):
-        if intersect_plane(o, d, row3(G.planes, p, 0), row3(G.planes, p, 3), tmin, tmax) < INF:
-            return True
+    shear = ray_shear(d) if G.triangles.shape[0] > 0 else NO_SHEAR
+    if intersect_range(G, G.n_bounded, G.prims.shape[0], o, d, shear, tmin, tmax, NO_HIT, 0.0, 0.0, True)[1] >= 0:
+        return True
     nodes = G.node_index
     bounds = G.node_bounds
     if nodes[0, 1] == 0 and nodes[0, 0] == 0:
         return False  # empty scene
-    shear = ray_shear(d) if G.triangles.shape[0] > 0 else _NO_SHEAR
     slab = slab_ray(d) if nodes[0, 1] == 0 else _NO_SLAB
     node_stack[0] = 0
     top = 1
@@ -125,13 +174,8 @@ def any_hit(G, o, d, tmin, tmax, node_stack):
         count = nodes[node, 1]
         if count > 0:
             first = nodes[node, 0]
-            for k in range(first, first + count):
-                pid = G.prim_id[k]
-                if G.prim_type[k] == PRIM_SPHERE:
-                    if intersect_sphere(o, d, row3(G.spheres, pid, 0), G.spheres[pid, 3], tmin, tmax) < INF:
-                        return True
-                elif intersect_triangle(o, shear, G.triangles, pid, tmin, tmax)[0] < INF:
-                    return True
+            if intersect_range(G, first, first + count, o, d, shear, tmin, tmax, NO_HIT, 0.0, 0.0, True)[1] >= 0:
+                return True
         else:
             # test children before pushing them, so the stack holds only boxes the ray enters
             right = nodes[node, 0]

@@ -381,7 +381,82 @@ class Mesh(Strict):
     smooth: bool | None = None  # None: use the file's vertex normals when it has them
 
 
-OBJECT_TYPES = {"sphere": Sphere, "plane": Plane, "triangle": Triangle, "mesh": Mesh}
+def _similarity(transform: Transform, shape: str) -> Transform:
+    s = transform.scale3
+    if not (abs(s[0]) == abs(s[1]) == abs(s[2])):
+        raise ValueError(f"a {shape}'s transform.scale must be uniform (one number): a non-uniform scale "
+                         f"would make it elliptic; got {list(s)}")
+    return transform
+
+
+class Disk(Strict):
+    """A flat disk of `radius` around `center`, facing along `normal` (two-sided)."""
+
+    type: Literal["disk"]
+    center: Vec3 = (0.0, 0.0, 0.0)
+    normal: Vec3 = (0.0, 1.0, 0.0)
+    radius: FiniteFloat = Field(gt=0)
+    material: MaterialRef = "default"
+    transform: Transform = Transform()
+
+    @field_validator("normal")
+    @classmethod
+    def _n(cls, v):
+        return _nonzero(v, "normal")
+
+    @field_validator("transform")
+    @classmethod
+    def _t(cls, v):
+        return _similarity(v, "disk")
+
+
+class Quad(Strict):
+    """A parallelogram centred on `position` with edge vectors `u` and `v`: it spans
+    position +- u/2 +- v/2, like the quad light (two-sided)."""
+
+    type: Literal["quad"]
+    position: Vec3 = (0.0, 0.0, 0.0)
+    u: Vec3
+    v: Vec3
+    material: MaterialRef = "default"
+    transform: Transform = Transform()
+
+    @model_validator(mode="after")
+    def _edges(self):
+        u, v = self.u, self.v
+        n = (u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0])
+        if math.sqrt(sum(c * c for c in n)) <= 1e-12 * math.sqrt(sum(c * c for c in u)) * math.sqrt(sum(c * c for c in v)) \
+                or not any(u) or not any(v):
+            raise ValueError("u and v must be non-zero and not parallel (the quad would have no area)")
+        return self
+
+
+class Cylinder(Strict):
+    """A cylinder from `p0` to `p1` (the centres of its ends) of `radius`; `capped` closes both
+    ends with disks, otherwise it is an open tube."""
+
+    type: Literal["cylinder"]
+    p0: Vec3
+    p1: Vec3
+    radius: FiniteFloat = Field(gt=0)
+    capped: bool = True
+    material: MaterialRef = "default"
+    transform: Transform = Transform()
+
+    @model_validator(mode="after")
+    def _axis(self):
+        if self.p0 == self.p1:
+            raise ValueError("p0 and p1 must differ (the cylinder would have no length)")
+        return self
+
+    @field_validator("transform")
+    @classmethod
+    def _t(cls, v):
+        return _similarity(v, "cylinder")
+
+
+OBJECT_TYPES = {"sphere": Sphere, "plane": Plane, "triangle": Triangle, "mesh": Mesh, "disk": Disk, "quad": Quad,
+                "cylinder": Cylinder}
 SceneObject = tagged_union(OBJECT_TYPES)
 
 DEFAULT_MATERIAL = Material()

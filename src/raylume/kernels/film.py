@@ -1,0 +1,162 @@
+"""The film: where camera samples land, weighted by the pixel filter.
+
+The film keeps, per pixel, running sums (float64 (H, W, FILM_WIDTH): R, G, B and the sum of
+filter weights) and divides only when it is read. A render adds its samples to those sums in
+sample order, continuing from the values already there, so samples that arrive in several
+passes (a progressive viewer, tiles of a cluster) give the same bits as one pass.
+
+Pixel filters are applied by filter importance sampling: a sample's stratified position in the
+unit square is warped through the filter's inverse CDF (a table, `filter_table`), so every
+pixel gathers its own samples, spread over the filter's footprint, and weights them equally
+(with the sign of the filter for Mitchell's negative lobes). No sample is shared between
+pixels: deterministic and free of write races. Box is the plain jittered pixel of DESIGN.md.
+"""
+
+import math
+
+import numpy as np
+from numba import njit
+
+from .vec import KERNEL
+
+FILM_RGB = 0  # 3 columns: sum of weighted colours
+FILM_WEIGHT = 3  # sum of filter weights
+FILM_WIDTH = 4
+
+# The pixel filter array, float64 (FILTER_WIDTH,): kind, |offset| beyond which the filter is
+# negative (inf for none), then FILTER_TABLE_SIZE offsets in pixels: the filter's inverse CDF.
+FILTER_KIND = 0
+FILTER_NEGATIVE = 1
+FILTER_TABLE = 2
+FILTER_TABLE_SIZE = 257
+FILTER_WIDTH = FILTER_TABLE + FILTER_TABLE_SIZE
+FILTER_BOX = 0
+FILTER_WARPED = 1  # any other filter: samples placed by the tabulated inverse CDF
+
+
+@njit(**KERNEL)
+def filter_offset(table, first, u):
+    """Offset in pixels (from the pixel centre) of the unit sample u under the filter whose
+    inverse CDF is tabulated at table[first : first + FILTER_TABLE_SIZE]."""
+    x = u * (FILTER_TABLE_SIZE - 1)
+    k = min(int(x), FILTER_TABLE_SIZE - 2)
+    t = x - k
+    return table[first + k] * (1.0 - t) + table[first + k + 1] * t
+
+
+@njit(**KERNEL, inline="always")
+def filter_sample(filt, i, j, ux, uy):
+    """Image position (x, y) of the unit-square sample (ux, uy) of pixel (i, j), and its
+    weight (+-1)."""
+    if filt[FILTER_KIND] == FILTER_BOX:
+        return i + ux, j + uy, 1.0
+    dx = filter_offset(filt, FILTER_TABLE, ux)
+    dy = filter_offset(filt, FILTER_TABLE, uy)
+    weight = 1.0
+    if abs(dx) > filt[FILTER_NEGATIVE]:
+        weight = -weight
+    if abs(dy) > filt[FILTER_NEGATIVE]:
+        weight = -weight
+    return i + 0.5 + dx, j + 0.5 + dy, weight
+
+
+@njit(**KERNEL, inline="always")
+def pixel_sums(film, j, i):
+    """The pixel's running (r, g, b, weight)."""
+    return (film[j, i, FILM_RGB], film[j, i, FILM_RGB + 1], film[j, i, FILM_RGB + 2], film[j, i, FILM_WEIGHT])
+
+
+@njit(**KERNEL, inline="always")
+def add_sample(total, col, w):
+    """Running (r, g, b, weight) of a pixel plus one sample of filter weight w = +-1."""
+    if w > 0.0:
+        return (total[0] + col[0], total[1] + col[1], total[2] + col[2], total[3] + w)
+    # a negative lobe of the pixel filter
+    return (total[0] - col[0], total[1] - col[1], total[2] - col[2], total[3] + w)
+
+
+@njit(**KERNEL, inline="always")
+def store_sums(film, j, i, total):
+    film[j, i, FILM_RGB] = total[0]
+    film[j, i, FILM_RGB + 1] = total[1]
+    film[j, i, FILM_RGB + 2] = total[2]
+    film[j, i, FILM_WEIGHT] = total[3]
+
+
+class Film:
+    """Sums of samples for a width x height image; `rgb()` reads the image."""
+
+    def __init__(self, width: int, height: int, pixel_filter: str = "box"):
+        self.width = width
+        self.height = height
+        self.filter = filter_array(pixel_filter)
+        self.sums = np.zeros((height, width, FILM_WIDTH), dtype=np.float64)
+        self.spp = 0  # samples per pixel added so far
+
+    def rgb(self) -> np.ndarray:
+        """float32 (H, W, 3): each pixel's weighted mean. Weights are +-1, so a pixel's sum is
+        its sample count when the filter is positive (box, gaussian). A Mitchell pixel whose
+        weights cancel (possible at a few spp) is divided by its sample count instead;
+        negative results of its lobes are clipped to 0."""
+        weights = self.sums[..., FILM_WEIGHT]
+        weights = np.where(weights < 0.5, float(max(self.spp, 1)), weights)
+        inv = 1.0 / weights
+        return np.maximum(self.sums[..., FILM_RGB : FILM_RGB + 3] * inv[..., None], 0.0).astype(np.float32)
+
+    @staticmethod
+    def bytes_per_pixel() -> int:
+        return 8 * FILM_WIDTH
+
+
+# --- pixel filters (Python side: tables the kernels read) ------------------------------------
+
+def _gaussian(x, radius=1.5, sigma=0.5):
+    g = np.exp(-x * x / (2 * sigma * sigma)) - math.exp(-radius * radius / (2 * sigma * sigma))
+    return np.maximum(g, 0.0)
+
+
+def _mitchell(x, radius=2.0, b=1.0 / 3.0, c=1.0 / 3.0):
+    x = np.abs(2.0 * x / radius)  # Mitchell-Netravali on [-2, 2], stretched to the radius
+    near = (12 - 9 * b - 6 * c) * x**3 + (-18 + 12 * b + 6 * c) * x**2 + (6 - 2 * b)
+    far = (-b - 6 * c) * x**3 + (6 * b + 30 * c) * x**2 + (-12 * b - 48 * c) * x + (8 * b + 24 * c)
+    return np.where(x < 1, near, np.where(x < 2, far, 0.0)) / 6.0
+
+
+# name -> (radius in pixels, separable 1D profile on [-radius, radius]); pbrt-v4's defaults.
+PIXEL_FILTERS = {
+    "box": (0.5, None),
+    "gaussian": (1.5, _gaussian),
+    "mitchell": (2.0, _mitchell),
+}
+
+
+def filter_table(name: str) -> tuple[int, float, np.ndarray]:
+    """(kind, negative-from, inverse CDF table) of a pixel filter.
+
+    The separable filter's 1D profile f is sampled in proportion to |f|: table[k] is the offset
+    x with CDF(x) = k / (FILTER_TABLE_SIZE - 1), so warping a stratified u gives stratified
+    offsets distributed like the filter, and each sample weighs sign(f(x)) (normalised by the
+    pixel's sum of weights)."""
+    radius, profile = PIXEL_FILTERS[name]
+    if profile is None:
+        return FILTER_BOX, math.inf, np.linspace(-0.5, 0.5, FILTER_TABLE_SIZE)
+    x = np.linspace(-radius, radius, 20001)
+    signed = profile(x)
+    negative = float(np.abs(x[signed < 0]).min()) if (signed < 0).any() else math.inf
+    f = np.abs(signed)
+    cdf = np.concatenate([[0.0], np.cumsum((f[1:] + f[:-1]) * 0.5)])
+    cdf /= cdf[-1]
+    u = np.linspace(0.0, 1.0, FILTER_TABLE_SIZE)
+    table = np.interp(u, cdf, x)
+    table[0], table[-1] = -radius, radius
+    return FILTER_WARPED, negative, table
+
+
+def filter_array(name: str) -> np.ndarray:
+    """The float64 (FILTER_WIDTH,) array the kernels read for pixel filter `name`."""
+    kind, negative, table = filter_table(name)
+    out = np.empty(FILTER_WIDTH, dtype=np.float64)
+    out[FILTER_KIND] = kind
+    out[FILTER_NEGATIVE] = negative
+    out[FILTER_TABLE:] = table
+    return out

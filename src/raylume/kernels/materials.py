@@ -1,0 +1,64 @@
+"""Materials: a table with a kind tag per row, and each kind's response to light.
+
+Table: float64 (M, MAT_WIDTH). Kind PHONG is the seed's model: colour (or a texture), a Phong
+exponent, mirror reflectivity, transparency with an index of refraction, and Beer-Lambert
+absorption inside. Evaluation (how much of a light's intensity a surface sends towards the
+viewer) is here; choosing points on lights is in lights.py; the loop that joins them, with
+shadow rays, is direct.py.
+"""
+
+import math
+
+from numba import njit
+
+from .textures import texture_at
+from .vec import KERNEL, dot, mul, row3, sub
+
+MAT_KIND = 0
+MAT_COLOR = 1  # 3 columns, linear RGB
+MAT_SPECULAR = 4  # Phong exponent, -1 for a matte surface
+MAT_REFLECTIVE = 5
+MAT_TRANSPARENCY = 6
+MAT_IOR = 7
+MAT_ABSORPTION = 8  # 3 columns, Beer-Lambert coefficient per unit length
+MAT_TEXTURE = 11  # row in the texture table, -1 for none
+MAT_WIDTH = 12
+
+PHONG = 0
+
+
+@njit(**KERNEL, inline="always")
+def phong(n, l, view, specular):
+    """The seed's diffuse + specular factor for the unit direction l towards a light (n and
+    view unit too; specular <= 0 for a matte surface)."""
+    n_dot_l = dot(n, l)
+    scale = max(n_dot_l, 0.0)
+    if specular > 0.0:
+        # the seed adds the highlight whatever the sign of N.L (R and V decide)
+        r = sub(mul(n, 2.0 * n_dot_l), l)
+        cos_rv = dot(r, view)  # the seed divides by |R| |V|: both are 1 here
+        if cos_rv > 0.0:
+            # Below 1 - 50/s the highlight is under e^-50 (about 2e-22): skip the power, whose
+            # result would otherwise often be a slow subnormal number.
+            if cos_rv > 1.0 - 50.0 / specular:
+                scale += cos_rv ** specular
+    return scale
+
+
+@njit(**KERNEL, inline="always")
+def albedo(G, F, m, prim, b1, b2, p):
+    """The material's colour at a hit: its plain colour or its texture's."""
+    x = int(F.materials[m, MAT_TEXTURE])
+    if x < 0:
+        return row3(F.materials, m, MAT_COLOR)
+    return texture_at(G, F, x, prim, b1, b2, p)
+
+
+@njit(**KERNEL, inline="always")
+def beer_lambert(materials, m, w, distance):
+    """w attenuated by the material's absorption over `distance` inside it."""
+    return (
+        w[0] * math.exp(-materials[m, MAT_ABSORPTION] * distance),
+        w[1] * math.exp(-materials[m, MAT_ABSORPTION + 1] * distance),
+        w[2] * math.exp(-materials[m, MAT_ABSORPTION + 2] * distance),
+    )

@@ -1,0 +1,116 @@
+"""Disk: a centre, a unit normal and a radius (two-sided). Row: centre (3), unit normal (3),
+radius, then the unit tangent e1 (3) that UVs measure angles from."""
+
+import math
+
+import numpy as np
+from numba import njit
+
+from .vec import KERNEL, cross, dot, length, madd, row3, sub
+
+INF = math.inf
+CENTER = 0
+NORMAL = 3
+RADIUS = 6
+TANGENT = 7
+BOUNDED = True
+
+
+def pack(obj) -> list[float]:
+    from .shape_sphere import basis
+    from .shape_transform import object_matrix, transform_point, transform_unit_normal, uniform_scale
+
+    m = object_matrix(obj.transform)
+    n = transform_unit_normal(m, obj.normal)
+    e1, _ = basis(n)
+    return [*transform_point(m, obj.center), *n, obj.radius * uniform_scale(m), *e1]
+
+
+def bounds(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Exact boxes: along axis k a disk reaches radius * sqrt(1 - n_k^2) from its centre."""
+    n = rows[:, NORMAL : NORMAL + 3]
+    reach = rows[:, RADIUS : RADIUS + 1] * np.sqrt(np.clip(1.0 - n * n, 0.0, 1.0))
+    c = rows[:, CENTER : CENTER + 3]
+    return c - reach, c + reach
+
+
+@njit(**KERNEL)
+def intersect(rows, i, o, d, tmin, tmax):
+    """The supporting plane's hit, kept when it lies within the radius."""
+    n = row3(rows, i, NORMAL)
+    denom = dot(d, n)
+    if denom == 0.0:
+        return INF
+    c = row3(rows, i, CENTER)
+    t = dot(sub(c, o), n) / denom
+    if not (t > tmin and t < tmax):
+        return INF
+    rel = sub(madd(o, d, t), c)
+    r = rows[i, RADIUS]
+    if dot(rel, rel) > r * r:
+        return INF
+    return t
+
+
+@njit(**KERNEL, inline="always")
+def normal(rows, i, p):
+    return row3(rows, i, NORMAL)
+
+
+@njit(**KERNEL)
+def uv(rows, i, p):
+    """u: the angle around the normal from the tangent, over 2 pi (0..1); v: the distance from
+    the centre over the radius (0 at the centre, 1 on the rim)."""
+    rel = sub(p, row3(rows, i, CENTER))
+    e1 = row3(rows, i, TANGENT)
+    e2 = cross(row3(rows, i, NORMAL), e1)
+    phi = math.atan2(dot(rel, e2), dot(rel, e1))
+    if phi < 0.0:
+        phi += 2.0 * math.pi
+    return phi * (0.5 / math.pi), min(length(rel) / rows[i, RADIUS], 1.0)
+
+
+# --- rasterizer tessellation ------------------------------------------------------------------
+
+TOLERANCE_PX = 0.1
+SEGMENTS = (24, 4096)
+
+
+def circle_segments(radius: float, nearest: float, px_per_rad: float) -> int:
+    """Segments of a polygon whose chords stray less than TOLERANCE_PX from a circle of this
+    radius seen from `nearest` away: the sagitta r (1 - cos(pi / n)) on screen."""
+    radius_px = radius * px_per_rad / max(nearest, 1e-300)
+    sag = TOLERANCE_PX / max(radius_px, 1e-300)
+    if sag >= 2.0:
+        return SEGMENTS[0]
+    return int(np.clip(math.ceil(math.pi / math.acos(1.0 - sag)), *SEGMENTS))
+
+
+def ring(center, e1, e2, radius: float, segments: int) -> np.ndarray:
+    """(segments, 3) points on the circle; polygon vertices lie on the circle, so the polygon
+    is inside it by at most the sagitta."""
+    phi = 2.0 * math.pi * np.arange(segments) / segments
+    return center + radius * (np.cos(phi)[:, None] * e1 + np.sin(phi)[:, None] * e2)
+
+
+def fan(center, points: np.ndarray) -> np.ndarray:
+    """(n, 9) triangles from `center` to consecutive points of a closed ring."""
+    nxt = np.roll(np.arange(len(points)), -1)
+    return np.concatenate([np.broadcast_to(center, points.shape), points, points[nxt]], axis=1)
+
+
+def nearest_distance(center, normal, radius: float, eye) -> float:
+    """Distance from the eye to the nearest point of the disk."""
+    rel = np.asarray(eye, dtype=np.float64) - center
+    height = float(np.dot(rel, normal))
+    radial = float(np.linalg.norm(rel - height * normal))
+    return math.hypot(height, max(radial - radius, 0.0))
+
+
+def tessellate(row: np.ndarray, view) -> np.ndarray:
+    center = np.asarray(row[CENTER : CENTER + 3], dtype=np.float64)
+    n = np.asarray(row[NORMAL : NORMAL + 3], dtype=np.float64)
+    e1 = np.asarray(row[TANGENT : TANGENT + 3], dtype=np.float64)
+    radius = float(row[RADIUS])
+    segments = circle_segments(radius, nearest_distance(center, n, radius, view.eye), view.px_per_rad)
+    return fan(center, ring(center, e1, np.cross(n, e1), radius, segments))

@@ -1,0 +1,164 @@
+"""Every shape behind one switch per question: intersection, the surface at a hit (normals,
+UVs), bounds and rasterizer tessellation.
+
+The compiled scene lists its primitives in one table, `prims` int32 (P, PRIM_WIDTH), in BVH
+leaf order: bounded primitives first (the BVH's leaves index them), then the unbounded ones
+(planes), which traversal tests before descending. Each row names the shape kind, the row in
+that kind's storage (triangles: the float32 triangle table; every other shape: the float64
+`shapes` table of SHAPE_WIDTH columns), the material, the scene object, the face inside that
+object (the `prim` AOV; 0 for analytic shapes) and the light the primitive emits for (-1 for
+none; path tracing's emitters will find their light here).
+
+To add a shape: write `shape_NAME.py` (pack, bounds, intersect, normal, uv, tessellate; see
+shape_disk.py), add its kind below and a line in each switch, and register its model class in
+scene/model.py and compile.py. docs/architecture.md lists the places.
+"""
+
+from enum import IntEnum
+
+import numpy as np
+from numba import njit
+
+from . import shape_cylinder, shape_disk, shape_plane, shape_quad, shape_sphere, shape_triangle
+from .vec import KERNEL, max_abs
+
+
+class Shape(IntEnum):
+    """Shape kinds (the prims table's PRIM_KIND column)."""
+
+    SPHERE = 0
+    TRIANGLE = 1
+    PLANE = 2
+    DISK = 3
+    QUAD = 4
+    CYLINDER = 5
+
+
+# The same values as plain ints, for the kernels.
+SPHERE = int(Shape.SPHERE)
+TRIANGLE = int(Shape.TRIANGLE)
+PLANE = int(Shape.PLANE)
+DISK = int(Shape.DISK)
+QUAD = int(Shape.QUAD)
+CYLINDER = int(Shape.CYLINDER)
+
+# Analytic shapes' modules (triangles are stored apart: float32, with normals and UVs).
+ANALYTIC = {Shape.SPHERE: shape_sphere, Shape.PLANE: shape_plane, Shape.DISK: shape_disk,
+            Shape.QUAD: shape_quad, Shape.CYLINDER: shape_cylinder}
+SHAPE_WIDTH = 16  # columns of the analytic shape table, enough for every shape's row
+
+# Columns of the primitive table.
+PRIM_KIND = 0
+PRIM_ROW = 1
+PRIM_MATERIAL = 2
+PRIM_OBJECT = 3
+PRIM_FACE = 4
+PRIM_LIGHT = 5
+PRIM_WIDTH = 6
+
+NO_HIT = -1  # the primitive index of a ray that hit nothing
+
+
+@njit(**KERNEL, inline="always")
+def intersect(G, k, o, d, shear, tmin, tmax):
+    """Ray against primitive k: (t, b1, b2), t = +inf for no hit in (tmin, tmax). b1, b2 are a
+    triangle's barycentric weights of v1 and v2; shapes that need to remember which part they
+    hit keep it in b1 (the cylinder)."""
+    kind = G.prims[k, PRIM_KIND]
+    row = G.prims[k, PRIM_ROW]
+    if kind == TRIANGLE:
+        return shape_triangle.intersect_triangle(o, shear, G.triangles, row, tmin, tmax)
+    if kind == SPHERE:
+        return shape_sphere.intersect(G.shapes, row, o, d, tmin, tmax), 0.0, 0.0
+    if kind == PLANE:
+        return shape_plane.intersect(G.shapes, row, o, d, tmin, tmax), 0.0, 0.0
+    # rarer shapes: a call each, so that they cost the common leaf loop no code size
+    return _intersect_other(G.shapes, kind, row, o, d, tmin, tmax)
+
+
+@njit(**KERNEL)
+def _intersect_other(shapes, kind, row, o, d, tmin, tmax):
+    if kind == DISK:
+        return shape_disk.intersect(shapes, row, o, d, tmin, tmax), 0.0, 0.0
+    if kind == QUAD:
+        return shape_quad.intersect(shapes, row, o, d, tmin, tmax), 0.0, 0.0
+    t, part = shape_cylinder.intersect(shapes, row, o, d, tmin, tmax)
+    return t, part, 0.0
+
+
+@njit(**KERNEL, inline="always")
+def normals(G, k, b1, b2, p):
+    """(outward geometric normal, outward shading normal) of primitive k at the hit point p."""
+    kind = G.prims[k, PRIM_KIND]
+    row = G.prims[k, PRIM_ROW]
+    if kind == TRIANGLE:
+        return shape_triangle.normals(G, row, b1, b2)
+    if kind == SPHERE:
+        n = shape_sphere.normal(G.shapes, row, p)
+    elif kind == PLANE:
+        n = shape_plane.normal(G.shapes, row, p)
+    else:
+        n = _normal_other(G.shapes, kind, row, b1, p)
+    return n, n
+
+
+@njit(**KERNEL)
+def _normal_other(shapes, kind, row, b1, p):
+    if kind == DISK:
+        return shape_disk.normal(shapes, row, p)
+    if kind == QUAD:
+        return shape_quad.normal(shapes, row, p)
+    return shape_cylinder.normal(shapes, row, p, b1)
+
+
+@njit(**KERNEL)
+def uv(G, k, b1, b2, p):
+    """Texture coordinates of a hit on primitive k (each shape's module documents its own)."""
+    kind = np.int64(G.prims[k, PRIM_KIND])
+    row = np.int64(G.prims[k, PRIM_ROW])
+    if kind == TRIANGLE:
+        return shape_triangle.uv(G, row, b1, b2)
+    if kind == SPHERE:
+        return shape_sphere.uv(G.shapes, row, p)
+    if kind == PLANE:
+        return shape_plane.uv(G.shapes, row, p)
+    if kind == DISK:
+        return shape_disk.uv(G.shapes, row, p)
+    if kind == QUAD:
+        return shape_quad.uv(G.shapes, row, p)
+    return shape_cylinder.uv(G.shapes, row, p, b1)
+
+
+# --- Python side -----------------------------------------------------------------------------
+
+
+def bounds(kind: Shape, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """float64 (N, 3) lower and upper corners of analytic shapes' boxes (+-inf: unbounded)."""
+    return ANALYTIC[kind].bounds(rows)
+
+
+def is_bounded(kind: Shape) -> bool:
+    return kind == Shape.TRIANGLE or ANALYTIC[kind].BOUNDED
+
+
+def tessellate(kind: Shape, row: np.ndarray, view) -> tuple[np.ndarray, np.ndarray]:
+    """Triangles (float64 (N, 9)) drawing an analytic shape for the rasterizer, as seen from
+    view.eye at view.px_per_rad pixels per radian, and the b1 value (part) of each."""
+    result = ANALYTIC[kind].tessellate(row, view)
+    tris, part = result if isinstance(result, tuple) else (result, None)
+    return tris, (np.zeros(len(tris)) if part is None else part)
+
+
+@njit(**KERNEL, inline="always")
+def surface(G, k, b1, b2, p):
+    """The surface at a hit on primitive k at p: (outward geometric normal, outward shading
+    normal, material, object, face)."""
+    ng, ns = normals(G, k, b1, b2, p)
+    return ng, ns, G.prims[k, PRIM_MATERIAL], G.prims[k, PRIM_OBJECT], G.prims[k, PRIM_FACE]
+
+
+@njit(**KERNEL)
+def offset_epsilon(epsilon_floor, p):
+    """Offset for rays leaving a surface at p: scaled to the hit's magnitude, so no acne at any
+    scale (epsilon_floor: a tiny fraction of the scene's extent)."""
+    return 1e-7 * max(max_abs(p), epsilon_floor)

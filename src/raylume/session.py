@@ -1,0 +1,245 @@
+"""A scene compiled once and rendered many times: `Session(scene).render(camera=..., ...)`.
+
+Compiling (model -> arrays, mesh loading, the BVH) happens in the constructor; each render
+only makes a camera array and a film, then runs the mode's kernels. The viewer, the cluster and
+animations render through a Session; `raylume.render` is the one-shot form.
+
+Ray modes run one *lane* per thread over the whole image (kernels/frame.py: lane k renders
+rows k, k + lanes, ...). The calling thread only waits and watches: it polls the lanes' row
+counters for the progress bar, and on Ctrl-C raises a flag that every lane checks before each
+row, so the render stops within a row's time and keeps the rows that are done.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from concurrent.futures import ThreadPoolExecutor, wait
+from typing import Callable
+
+import numba
+import numpy as np
+from pydantic import ValidationError
+
+from .compile import CompiledScene, compile_scene
+from .errors import RaylumeError, SceneError
+from .image import Image
+from .kernels.camera import camera_of
+from .kernels.film import Film
+from .kernels.frame import PROGRESS_STRIDE, aov_lane, cast_lane, trace_lane
+from .scene.model import Camera, Scene
+
+AOV_NAMES = ("depth", "normal", "object", "prim", "albedo")
+POLL_SECONDS = 0.05  # how often the waiting thread updates progress and notices Ctrl-C
+
+
+class RenderInterrupted(KeyboardInterrupt):
+    """Ctrl-C during a render. `image` holds the rows finished so far (the rest is black)."""
+
+    def __init__(self, image: Image, rows_done: int):
+        super().__init__(f"interrupted after {rows_done} of {image.height} rows")
+        self.image = image
+        self.rows_done = rows_done
+
+
+def estimate_bytes(width: int, height: int, aovs: bool) -> int:
+    """Memory a render's buffers need: the film's sums, the RGB image, and the AOVs (depth,
+    normal, object, prim, albedo)."""
+    per_pixel = Film.bytes_per_pixel() + 12 + (4 + 12 + 4 + 4 + 12 if aovs else 0)
+    return width * height * per_pixel
+
+
+def available_bytes() -> int:
+    try:
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):  # not on every platform
+        return 1 << 62
+
+
+def check_memory(width: int, height: int, aovs: bool) -> None:
+    need = estimate_bytes(width, height, aovs)
+    free = available_bytes()
+    if need > 0.8 * free:
+        raise RaylumeError(
+            f"a {width} x {height} render needs about {need / 2**30:.1f} GiB of image buffers"
+            f"{' (with AOVs)' if aovs else ''}, more than the {free / 2**30:.1f} GiB of free memory; "
+            "render smaller, or without AOVs"
+        )
+
+
+def allocate_aovs(H: int, W: int) -> dict:
+    return {
+        "depth": np.full((H, W), np.inf, dtype=np.float32),
+        "normal": np.zeros((H, W, 3), dtype=np.float32),
+        "object": np.full((H, W), -1, dtype=np.int32),
+        "prim": np.full((H, W), -1, dtype=np.int32),
+        "albedo": np.zeros((H, W, 3), dtype=np.float32),
+    }
+
+
+class Session:
+    """A scene compiled once (geometry, materials, lights, BVH) that renders many times.
+
+        session = raylume.Session(raylume.builtin_scene("seed"))
+        a = session.render(width=300, height=300)
+        b = session.render(camera={"position": [0, 1, -2]}, mode="cast", spp=4)
+
+    `accelerate=False` skips the BVH until a ray mode needs it (rasterizing never does)."""
+
+    def __init__(self, scene: Scene, *, source: str = "<scene>", accelerate: bool = True):
+        self.scene = scene
+        self.source = source
+        self.bvh_builds = 0
+        self._compile(accelerate)
+
+    @classmethod
+    def from_compiled(cls, scene: Scene, compiled: CompiledScene) -> Session:
+        """A Session around an already compiled scene (e.g. one unpickled on another machine)."""
+        session = cls.__new__(cls)
+        session.scene = scene
+        session.source = "<compiled>"
+        session.bvh_builds = 0
+        session.compiled = compiled
+        session._accelerated = True
+        session._unreported_build = 0.0
+        return session
+
+    def _compile(self, accelerate: bool) -> None:
+        self.compiled = compile_scene(self.scene, source=self.source, accelerate=accelerate)
+        self._accelerated = accelerate
+        self.bvh_builds += int(accelerate)
+        self._unreported_build = self.compiled.stats["build_seconds"]
+
+    def render(
+        self,
+        camera: Camera | dict | None = None,
+        *,
+        width: int | None = None,
+        height: int | None = None,
+        spp: int | None = None,
+        mode: str | None = None,
+        max_depth: int | None = None,
+        seed: int | None = None,
+        filter: str | None = None,
+        exposure: float | None = None,
+        threads: int | None = None,
+        aovs: bool = True,
+        progress: Callable[[int, int], None] | None = None,
+    ) -> Image:
+        """Render through `camera` (a Camera, a dict of camera keys replacing the scene's, or
+        None for the scene's own); other arguments override the scene's [render] table.
+        Returns an Image: linear float32 RGB, the AOVs of DESIGN.md when `aovs`, and stats."""
+        settings = resolve_settings(self.scene, self.source, width=width, height=height, spp=spp, mode=mode,
+                                    max_depth=max_depth, seed=seed, filter=filter, exposure=exposure)
+        cam_model = self._camera(camera)
+        W, H = settings.width, settings.height
+        lanes = _set_threads(threads)
+        check_memory(W, H, aovs)
+        if settings.mode != "raster" and not self._accelerated:
+            self._compile(True)
+        build_seconds, self._unreported_build = self._unreported_build, 0.0
+        S = self.compiled.for_camera(cam_model.position)
+        cam = camera_of(cam_model, W, H)
+        if settings.mode == "raster":
+            from .raster import rasterize
+
+            rgb, aov_arrays, kernel_seconds, rays = rasterize(S, cam, W, H, settings.background, progress=progress,
+                                                              aovs=aovs)
+            primary = 0
+        else:
+            film = Film(W, H, settings.filter)
+            aov_arrays = allocate_aovs(H, W) if aovs else {}
+            kernel_seconds, rays = _ray_render(S, cam, film, settings, aov_arrays, progress, lanes)
+            rgb = film.rgb()
+            primary = W * H * settings.spp
+        stats = {
+            "width": W,
+            "height": H,
+            "spp": settings.spp,
+            "mode": settings.mode,
+            "threads": lanes,
+            **self.compiled.stats,
+            "build_seconds": build_seconds,
+            "rays": int(rays),
+            "primary_rays": int(primary),
+            "render_seconds": kernel_seconds,
+            "mrays_per_second": float(rays / kernel_seconds / 1e6) if kernel_seconds > 0 else 0.0,
+        }
+        return Image(rgb, aov_arrays if aovs else {}, stats, settings.encoding, exposure=settings.exposure)
+
+    def _camera(self, camera) -> Camera:
+        if camera is None:
+            return self.scene.camera
+        if isinstance(camera, Camera):
+            return camera
+        try:
+            return Camera.model_validate({**self.scene.camera.model_dump(), **dict(camera)})
+        except ValidationError as exc:
+            problems = "; ".join(f"camera.{'.'.join(str(p) for p in e['loc'])}: {e['msg']}" for e in exc.errors())
+            raise SceneError(f"{self.source}: {problems}") from None
+
+
+def resolve_settings(scene: Scene, source: str, **overrides):
+    """The scene's [render] table with the given (non-None) values replaced, validated; a bad
+    value is a SceneError naming the setting."""
+    try:
+        return scene.with_render(**overrides).render
+    except ValidationError as exc:
+        problems = "; ".join(f"{'.'.join(str(p) for p in e['loc'])}: {e['msg']}" for e in exc.errors())
+        raise SceneError(f"{source}: render settings: {problems}") from None
+
+
+def _set_threads(threads: int | None) -> int:
+    if threads is not None:
+        if not 1 <= threads <= numba.config.NUMBA_NUM_THREADS:
+            raise ValueError(f"threads must be between 1 and {numba.config.NUMBA_NUM_THREADS}")
+        numba.set_num_threads(threads)
+    else:
+        numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+    return numba.get_num_threads()
+
+
+def _ray_render(S, cam, film: Film, settings, aov: dict, progress, lanes: int):
+    """Add settings.spp samples per pixel to the film (and fill the AOVs) on `lanes` threads.
+    Returns (kernel seconds, rays traced)."""
+    W, H = film.width, film.height
+    rays_per_row = np.zeros(H, dtype=np.int64)
+    rows_done = np.zeros(lanes * PROGRESS_STRIDE, dtype=np.int64)  # one padded counter per lane
+    stop = np.zeros(1, dtype=np.int64)  # set to 1 to stop every lane before its next row
+    background = np.asarray(settings.background, dtype=np.float64)
+    samples = (film.spp, settings.spp, film.spp + settings.spp)
+
+    def lane_job(lane: int, rows: int) -> None:
+        if aov:
+            aov_lane(S, cam, W, H, 0, rows, lane, lanes, aov["depth"], aov["normal"], aov["object"], aov["prim"],
+                     aov["albedo"], rays_per_row, rows_done, stop)
+        if settings.mode == "cast":
+            cast_lane(S, cam, film.filter, W, H, 0, rows, lane, lanes, samples, settings.seed, background, film.sums,
+                      rays_per_row, rows_done, stop)
+        else:
+            trace_lane(S, cam, film.filter, W, H, 0, rows, lane, lanes, samples, settings.seed, settings.max_depth,
+                       background, film.sums, rays_per_row, rows_done, stop)
+
+    lane_job(0, 0)  # compile (or load from the cache) before any timing starts
+    total = H * (2 if aov else 1)
+    with ThreadPoolExecutor(max_workers=lanes, thread_name_prefix="raylume") as pool:
+        t0 = time.perf_counter()
+        futures = [pool.submit(lane_job, lane, H) for lane in range(lanes)]
+        try:
+            while True:
+                finished, pending = wait(futures, timeout=POLL_SECONDS)
+                if progress is not None:
+                    progress(int(rows_done.sum()), total)
+                if not pending:
+                    break
+        except KeyboardInterrupt:
+            stop[0] = 1
+            wait(futures)
+            partial = Image(film.rgb(), aov, {}, settings.encoding, exposure=settings.exposure)
+            done = int(rows_done.sum()) - (H if aov else 0)
+            raise RenderInterrupted(partial, max(done, 0)) from None
+        kernel_seconds = time.perf_counter() - t0
+    for future in futures:
+        future.result()  # re-raises a lane's exception
+    film.spp += settings.spp
+    return kernel_seconds, rays_per_row.sum()
