@@ -27,8 +27,8 @@ material = { color = [1, 0, 0], specular = 50 }
 """
 
 
-def raylume(*args, cwd):
-    env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+def raylume(*args, cwd, env=None):
+    env = {**os.environ, "PYTHONUNBUFFERED": "1", **(env or {})}
     return subprocess.run(
         [sys.executable, "-m", "raylume.cli", *map(str, args)], cwd=cwd, capture_output=True, text=True, env=env, timeout=300
     )
@@ -123,7 +123,7 @@ def test_bad_scene_exits_2_with_message_and_writes_nothing(tmp_path, name):
         (["--width", "0"], "--width"),
         (["--mode", "photon"], "--mode"),
         (["--spp", "abc"], "spp"),
-        (["-o", "out.jpg"], "unknown output format"),
+        (["-o", "out.gif"], "unknown output format"),
         (["-o", "missing/out.png"], "does not exist"),
         (["--aov", "color=c.npy"], "unknown AOV"),
         (["--aov", "depth"], "NAME=PATH"),
@@ -197,3 +197,166 @@ def test_debug_shows_the_traceback(tmp_path):
     (tmp_path / "bad.toml").write_text("[render]\nwidth = -1\n")
     result = raylume("render", "bad.toml", "--debug", cwd=tmp_path)
     assert result.returncode != 0 and "Traceback" in result.stderr
+
+
+# ---------------------------------------------------------------- help, version, scenes
+
+def test_render_help_shows_flags_as_flags_and_metavars_in_words(tmp_path):
+    result = raylume("render", "--help", cwd=tmp_path, env={"COLUMNS": "200"})
+    assert result.returncode == 0, result.stderr
+    text = result.stdout
+    for noise in ("<bool>", "<list[str]>", "<str>", "<int>"):
+        assert noise not in text, (noise, text)
+    for word in ("--quiet", "--help", "--aov", "NAME=PATH", "--set", "KEY=VALUE", "--bit-depth"):
+        assert word in text, (word, text)
+
+
+def test_version_prints_the_package_version(tmp_path):
+    import raylume as package
+
+    result = raylume("--version", cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.strip() == f"raylume {package.__version__}"
+
+
+def test_bare_command_prints_the_help(tmp_path):
+    result = raylume(cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert "Missing command" not in result.stdout + result.stderr
+    assert "Usage" in result.stdout and "render" in result.stdout and "scenes" in result.stdout
+
+
+def test_scenes_prints_whole_descriptions(tmp_path):
+    from raylume.scene.builtin import builtin_names, builtin_path
+
+    result = raylume("scenes", cwd=tmp_path, env={"COLUMNS": "200"})
+    assert result.returncode == 0, result.stderr
+    flat = " ".join(result.stdout.split())
+    for name in builtin_names():
+        comment = []
+        for line in builtin_path(name).read_text().splitlines():
+            if not line.startswith("#"):
+                break
+            comment.append(line.lstrip("#").strip())
+        assert " ".join(" ".join(comment).split()) in flat, (name, result.stdout)
+
+
+# ---------------------------------------------------------------- outputs checked before rendering
+
+def test_output_that_is_a_folder_says_so(tmp_path):
+    (tmp_path / "adir").mkdir()
+    result = raylume("render", "-o", "adir", cwd=tmp_path)
+    assert_refused(result, "adir", "folder", ".png")
+    assert "(none)" not in result.stderr
+
+
+def _unwritable_folder() -> str:
+    """A folder this process cannot create files in (root can write almost anywhere)."""
+    for folder in ("/sys", "/proc/sys"):
+        if os.path.isdir(folder):
+            try:
+                fd = os.open(os.path.join(folder, ".raylume-probe"), os.O_CREAT | os.O_WRONLY, 0o600)
+            except OSError:
+                return folder
+            os.close(fd)
+            os.unlink(os.path.join(folder, ".raylume-probe"))
+    pytest.skip("no unwritable folder on this machine")
+
+
+@pytest.mark.parametrize("flag, name", [("-o", "o.png"), ("--aov", "depth=d.npy"), ("--stats", "s.json")])
+def test_unwritable_output_is_refused_before_rendering(tmp_path, good, flag, name):
+    folder = _unwritable_folder()
+    value = f"depth={folder}/d.npy" if flag == "--aov" else f"{folder}/{name}"
+    args = ["-o", "out.png"] if flag != "-o" else []
+    result = raylume("render", good, *args, flag, value, "-q", cwd=tmp_path)
+    assert_refused(result, folder, "cannot write")
+    for noise in ("PermissionError", "OSError", ".part", "Errno"):
+        assert noise not in result.stderr, (noise, result.stderr)
+    assert not (tmp_path / "out.png").exists()  # refused before rendering anything
+
+
+# ---------------------------------------------------------------- warnings, summary
+
+def test_ignored_exposure_and_filter_are_warned_about(tmp_path, good):
+    result = raylume("render", good, "-o", "out.npy", "--exposure", 1, "--filter", "gaussian", "--spp", 1, cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    warnings = [line for line in result.stderr.splitlines() if "warning" in line]
+    assert any("--exposure" in line and "out.npy" in line for line in warnings), result.stderr
+    assert any("--filter" in line and "spp" in line for line in warnings), result.stderr
+    quiet = raylume("render", good, "-o", "out.png", "--exposure", 1, "--filter", "gaussian", "--spp", 4, cwd=tmp_path)
+    assert quiet.returncode == 0 and "warning" not in quiet.stderr, quiet.stderr
+
+
+def test_raster_summary_does_not_report_rays(tmp_path, good):
+    result = raylume("render", good, "--mode", "raster", "-o", "r.png", cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert "Mrays" not in result.stderr and "rasterized" in result.stderr, result.stderr
+
+
+# ---------------------------------------------------------------- --set, new formats, EXR layers
+
+def test_set_overrides_scene_keys(tmp_path, good):
+    result = raylume(
+        "render", good, "--set", "render.width=12", "--set", "camera.position=[0, 0, -1]", "--set", "render.mode=cast",
+        "--set", 'objects.0.material.color="#00ff00"', "-o", "out.npy", "-q", cwd=tmp_path,
+    )
+    assert result.returncode == 0, result.stderr
+    rgb = np.load(tmp_path / "out.npy")
+    assert rgb.shape == (16, 12, 3)
+    assert set(np.unique(rgb[..., 1])) == {0.0, 1.0} and rgb[..., 0].max() == 0  # cast, now green
+
+
+def test_set_also_applies_to_builtin_scenes(tmp_path):
+    result = raylume("render", "--set", "render.width=9", "--set", "render.height=7", "--set", "render.mode=cast",
+                     "-o", "out.npy", "-q", cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert np.load(tmp_path / "out.npy").shape == (7, 9, 3)
+
+
+@pytest.mark.parametrize(
+    "assignment, words",
+    [
+        ("objects.5.radius=1", ["objects.5", "out of range"]),
+        ("objects.0.radius=-1", ["objects[0].radius", "--set objects.0.radius=-1"]),
+        ("camera.zoom=2", ["camera.zoom", "unknown key"]),
+        ("render.width.x=3", ["render.width"]),
+        ("nokey", ["KEY=VALUE"]),
+    ],
+)
+def test_bad_set_is_refused_naming_the_key_path(tmp_path, good, assignment, words):
+    result = raylume("render", good, "--set", assignment, "-o", "out.png", cwd=tmp_path)
+    assert_refused(result, *words)
+    assert not (tmp_path / "out.png").exists()
+
+
+def test_jpeg_and_16_bit_png_outputs(tmp_path, good):
+    for args in (["-o", "out.jpg"], ["-o", "out.jpeg"], ["-o", "out16.png", "--bit-depth", 16]):
+        result = raylume("render", good, *args, "-q", cwd=tmp_path)
+        assert result.returncode == 0, result.stderr
+    assert PILImage.open(tmp_path / "out.jpg").format == "JPEG"
+    assert PILImage.open(tmp_path / "out.jpeg").size == (24, 16)
+    assert (tmp_path / "out16.png").read_bytes()[24] == 16  # IHDR bit depth
+    assert_refused(raylume("render", good, "-o", "out.jpg", "--bit-depth", 16, cwd=tmp_path), "--bit-depth", ".png")
+
+
+def test_aovs_as_layers_of_one_exr(tmp_path, good):
+    OpenEXR = pytest.importorskip("OpenEXR")
+    result = raylume("render", good, "-o", "out.exr", *[a for n in ("depth", "normal", "albedo", "object", "prim")
+                                                        for a in ("--aov", n)], "-q", cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    with OpenEXR.File(str(tmp_path / "out.exr"), separate_channels=True) as f:
+        ch = {name: c.pixels for name, c in f.channels().items()}
+    assert set(ch) == {"R", "G", "B", "depth.Z", "normal.X", "normal.Y", "normal.Z", "albedo.R", "albedo.G", "albedo.B",
+                       "object.id", "prim.id"}
+    obj = ch["object.id"].view(np.int32)
+    prim = ch["prim.id"].view(np.int32)
+    hit = obj == 0
+    assert hit.any() and (obj[~hit] == -1).all() and (prim[~hit] == -1).all() and (prim[hit] == 0).all()
+    assert np.isinf(ch["depth.Z"][~hit]).all() and ch["depth.Z"][hit].min() == pytest.approx(2.0, abs=0.02)
+    assert (ch["normal.Z"][hit] < 0).all()
+    assert ch["albedo.R"][hit].max() == pytest.approx(1.0)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.exr", "scene.toml"]
+
+
+def test_aov_without_path_needs_an_exr_output(tmp_path, good):
+    assert_refused(raylume("render", good, "-o", "out.png", "--aov", "depth", cwd=tmp_path), "--aov depth", ".exr", "NAME=PATH")

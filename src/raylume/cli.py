@@ -6,20 +6,45 @@ import json
 import math
 import os
 from pathlib import Path
-from typing import Annotated, Optional
+from typing import Annotated
 
 import typer
+from typer.core import TyperArgument, TyperCommand, TyperGroup
 
 from .errors import OutputError, RaylumeError, SceneError
 
+
+class _CleanHelp:
+    """Shows --help as the flag it is: no `<bool>` type beside it in the help text."""
+
+    def get_help_option(self, ctx):
+        option = super().get_help_option(ctx)
+        if option is not None:
+            option.metavar = ""
+        return option
+
+
+class _Group(_CleanHelp, TyperGroup):
+    pass
+
+
+class _Command(_CleanHelp, TyperCommand):
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        for param in self.params:
+            if isinstance(param, TyperArgument) and param.metavar:
+                param.display_type_rich = lambda ctx: None  # the metavar says it all; no `<str>` beside it
+
+
 app = typer.Typer(
+    cls=_Group,
     add_completion=False,
-    no_args_is_help=False,
     help="Render declarative 3D scenes by ray casting, ray tracing or rasterization.",
     pretty_exceptions_enable=False,
 )
 
 EXIT_BAD_INPUT = 2
+FLAG = ""  # metavar of an on/off flag: nothing follows it on the command line
 
 
 def _fail(message: str) -> None:
@@ -27,30 +52,71 @@ def _fail(message: str) -> None:
     raise typer.Exit(EXIT_BAD_INPUT)
 
 
-def _parse_aovs(specs: list[str]) -> dict[str, Path]:
+def _warn(message: str) -> None:
+    typer.echo(f"raylume: warning: {message}", err=True)
+
+
+def _error_text(exc: Exception) -> str:
+    """An unexpected ValueError or OSError in words: no class name, and for an OSError the
+    file it concerns and its reason (strerror), e.g. 'out.png: No space left on device'."""
+    if isinstance(exc, OSError) and exc.strerror:
+        return f"{exc.filename}: {exc.strerror}" if exc.filename else exc.strerror
+    return str(exc) or "unexpected error"
+
+
+@app.callback(invoke_without_command=True)
+def _main(
+    ctx: typer.Context,
+    version: Annotated[bool, typer.Option("--version", help="Print the version and exit", is_eager=True,
+                                          metavar=FLAG)] = False,
+) -> None:
+    """Render declarative 3D scenes by ray casting, ray tracing or rasterization."""
+    if version:
+        from . import __version__
+
+        typer.echo(f"raylume {__version__}")
+        raise typer.Exit()
+    if ctx.invoked_subcommand is None:  # bare `raylume`: show what it can do
+        typer.echo(ctx.get_help())
+        raise typer.Exit()
+
+
+def _parse_aovs(specs: list[str], output: Path) -> tuple[dict[str, Path], list[str]]:
+    """--aov NAME=PATH (an .npy file) or --aov NAME (a layer of the .exr output) -> the .npy
+    paths by name, and the names to write as EXR layers."""
     from .image import check_output_path
     from .render import AOV_NAMES
 
-    out: dict[str, Path] = {}
+    files: dict[str, Path] = {}
+    layers: list[str] = []
     for spec in specs:
         name, sep, path = spec.partition("=")
-        if not sep or not path:
-            raise OutputError(f"--aov {spec!r}: expected NAME=PATH, e.g. --aov depth=depth.npy")
         if name not in AOV_NAMES:
-            raise OutputError(f"--aov {spec!r}: unknown AOV {name!r}; available: {', '.join(AOV_NAMES)}")
-        out[name] = check_output_path(path, allowed=(".npy",))
-    return out
+            raise OutputError(f"--aov {spec}: unknown AOV {name!r}; available: {', '.join(AOV_NAMES)}")
+        if sep and not path:
+            raise OutputError(f"--aov {spec}: expected NAME=PATH, e.g. --aov {name}={name}.npy")
+        if sep:
+            files[name] = check_output_path(path, allowed=(".npy",))
+        elif output.suffix.lower() != ".exr":
+            raise OutputError(
+                f"--aov {name}: an AOV without =PATH is written as layers of an .exr output, and {output} is not "
+                f".exr; give it a file (--aov NAME=PATH, e.g. --aov {name}={name}.npy) or write -o "
+                f"{output.with_suffix('.exr').name}"
+            )
+        elif name not in layers:
+            layers.append(name)
+    return files, layers
 
 
-def _resolve_scene(scene: str | None):
-    from .scene.builtin import DEFAULT_SCENE, builtin_names, builtin_path
+def _resolve_scene(scene: str | None, overrides: list[str] | None = None):
+    from .scene.builtin import DEFAULT_SCENE, builtin_names, builtin_scene
     from .scene.load import SCENE_SUFFIXES, load_scene
 
     name = scene or DEFAULT_SCENE
     if Path(name).suffix.lower() in SCENE_SUFFIXES or os.sep in name or Path(name).exists():
-        return load_scene(name), name
+        return load_scene(name, overrides=overrides), name
     if name in builtin_names():
-        return load_scene(builtin_path(name)), f"built-in scene {name!r}"
+        return builtin_scene(name, overrides=overrides), f"built-in scene {name!r}"
     raise SceneError(
         f"{name}: not a scene file (.toml or .json) nor a built-in scene; built-ins: {', '.join(builtin_names())}"
     )
@@ -66,42 +132,53 @@ def _check_distinct(out: Path, scene_label: str, others: list[Path]) -> None:
         raise OutputError(f"{scene_label}: an output path is the scene file itself; choose another name")
 
 
-@app.command()
+@app.command(cls=_Command)
 def render(
-    scene: Annotated[Optional[str], typer.Argument(help="Scene file (.toml/.json) or built-in name; default: seed")] = None,
-    output: Annotated[Path, typer.Option("-o", "--output", help="Output image: .png, .npy, .exr or .hdr")] = Path("render.png"),
-    width: Annotated[Optional[int], typer.Option("--width", help="Image width in pixels")] = None,
-    height: Annotated[Optional[int], typer.Option("--height", help="Image height in pixels")] = None,
-    spp: Annotated[Optional[int], typer.Option("--spp", help="Samples per pixel")] = None,
-    mode: Annotated[Optional[str], typer.Option("--mode", help="cast | trace | raster")] = None,
-    max_depth: Annotated[Optional[int], typer.Option("--max-depth", help="Reflection/refraction depth")] = None,
-    seed: Annotated[Optional[int], typer.Option("--seed", help="Random seed for sampling")] = None,
-    threads: Annotated[Optional[int], typer.Option("--threads", help="Worker threads (default: all cores)")] = None,
-    aov: Annotated[Optional[list[str]], typer.Option("--aov", help="NAME=PATH.npy; NAME in depth, normal, object, prim, albedo")] = None,
-    stats: Annotated[Optional[Path], typer.Option("--stats", help="Write render statistics as JSON")] = None,
-    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar or summary")] = False,
-    partial: Annotated[bool, typer.Option("--partial", help="On Ctrl-C, save the rows done as OUT.partial.EXT")] = False,
-    exposure: Annotated[Optional[float], typer.Option("--exposure", help="Exposure in stops for PNG output (2**E times brighter)")] = None,
-    pixel_filter: Annotated[Optional[str], typer.Option("--filter", help="Pixel filter for spp > 1: box | gaussian | mitchell")] = None,
-    debug: Annotated[bool, typer.Option("--debug", help="Show tracebacks of errors")] = False,
+    scene: Annotated[str | None, typer.Argument(metavar="SCENE",
+                                                   help="Scene file (.toml/.json) or built-in name; default: seed")] = None,
+    output: Annotated[Path, typer.Option("-o", "--output", metavar="OUT",
+                                         help="Output image: .png, .jpg, .npy, .exr or .hdr")] = Path("render.png"),
+    width: Annotated[int | None, typer.Option("--width", metavar="W", help="Image width in pixels")] = None,
+    height: Annotated[int | None, typer.Option("--height", metavar="H", help="Image height in pixels")] = None,
+    spp: Annotated[int | None, typer.Option("--spp", metavar="N", help="Samples per pixel")] = None,
+    mode: Annotated[str | None, typer.Option("--mode", metavar="MODE", help="cast | trace | raster")] = None,
+    max_depth: Annotated[int | None, typer.Option("--max-depth", metavar="D",
+                                                     help="Reflection/refraction depth")] = None,
+    seed: Annotated[int | None, typer.Option("--seed", metavar="S", help="Random seed for sampling")] = None,
+    threads: Annotated[int | None, typer.Option("--threads", metavar="T",
+                                                   help="Worker threads (default: all cores)")] = None,
+    aov: Annotated[list[str] | None, typer.Option(
+        "--aov", metavar="NAME[=PATH]",
+        help="Write an AOV: NAME=PATH.npy, or NAME alone for a layer of the .exr output; "
+             "NAME in depth, normal, object, prim, albedo (repeatable)")] = None,
+    overrides: Annotated[list[str] | None, typer.Option(
+        "--set", metavar="KEY=VALUE",
+        help="Set a scene key before validation, e.g. camera.fov=40 or objects.0.radius=0.5; "
+             "VALUE is read as TOML (repeatable)")] = None,
+    stats: Annotated[Path | None, typer.Option("--stats", metavar="PATH",
+                                                  help="Write render statistics as JSON")] = None,
+    bit_depth: Annotated[int, typer.Option("--bit-depth", metavar="8|16",
+                                           help="Bits per channel of a .png output")] = 8,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", metavar=FLAG, help="No progress bar or summary")] = False,
+    partial: Annotated[bool, typer.Option("--partial", metavar=FLAG,
+                                          help="On Ctrl-C, save the rows done as OUT.partial.EXT")] = False,
+    exposure: Annotated[float | None, typer.Option(
+        "--exposure", metavar="STOPS", help="Exposure for .png/.jpg output (2**STOPS times brighter)")] = None,
+    pixel_filter: Annotated[str | None, typer.Option(
+        "--filter", metavar="FILTER", help="Pixel filter for spp > 1: box | gaussian | mitchell")] = None,
+    debug: Annotated[bool, typer.Option("--debug", metavar=FLAG, help="Show tracebacks of errors")] = False,
 ) -> None:
     """Render SCENE to an image (default: the built-in `seed` scene to render.png)."""
     from .render import RenderInterrupted
 
     try:
         _render(scene, output, width, height, spp, mode, max_depth, seed, threads, aov or [], stats, quiet,
-                exposure=exposure, pixel_filter=pixel_filter)
+                exposure=exposure, pixel_filter=pixel_filter, overrides=overrides or [], bit_depth=bit_depth)
     except RenderInterrupted as exc:
-        if partial:
-            path = output.with_name(f"{output.stem}.partial{output.suffix}")
-            exc.image.save(path)
-            typer.echo(f"raylume: interrupted after {exc.rows_done} of {exc.image.height} rows; saved {path}", err=True)
-        else:
-            typer.echo("raylume: interrupted; nothing written", err=True)
-        raise typer.Exit(130)
+        _interrupted(exc, output if partial else None, bit_depth)
     except KeyboardInterrupt:
         typer.echo("raylume: interrupted; nothing written", err=True)
-        raise typer.Exit(130)
+        raise typer.Exit(130) from None
     except RaylumeError as exc:
         if debug:
             raise
@@ -109,54 +186,94 @@ def render(
     except (ValueError, OSError) as exc:
         if debug:
             raise
-        _fail(f"{type(exc).__name__}: {exc}")
+        _fail(_error_text(exc))
+
+
+def _interrupted(exc, output: Path | None, bit_depth: int) -> None:
+    """Ctrl-C: exit 130, after saving the rows done as OUT.partial.EXT when --partial asks."""
+    if output is None:
+        typer.echo("raylume: interrupted; nothing written", err=True)
+        raise typer.Exit(130)
+    path = output.with_name(f"{output.stem}.partial{output.suffix}")
+    try:
+        exc.image.save(path, bit_depth=bit_depth)
+    except RaylumeError as error:
+        typer.echo(f"raylume: interrupted; the partial image was not saved: {error}", err=True)
+        raise typer.Exit(130) from None
+    typer.echo(f"raylume: interrupted after {exc.rows_done} of {exc.image.height} rows; saved {path}", err=True)
+    raise typer.Exit(130)
 
 
 def _render(scene, output, width, height, spp, mode, max_depth, seed, threads, aov_specs, stats_path, quiet,
-            exposure=None, pixel_filter=None):
+            exposure=None, pixel_filter=None, overrides=(), bit_depth=8):
     import numba
-    from pydantic import ValidationError
 
-    from .image import check_output_path, save_npy
+    from .image import check_bit_depth, check_output_path, save_npy, write_atomic
     from .render import render as render_scene
 
+    # Every output is checked before the scene is even read: a render is never lost to a bad path.
     output = check_output_path(output)
-    aov_paths = _parse_aovs(aov_specs)
+    check_bit_depth(output, bit_depth)
+    aov_paths, layers = _parse_aovs(aov_specs, output)
     if stats_path is not None:
         stats_path = check_output_path(stats_path, allowed=(".json",))
-    scene_model, label = _resolve_scene(scene)
+    scene_model, label = _resolve_scene(scene, overrides)
     _check_distinct(output, scene or "", [*aov_paths.values(), *([stats_path] if stats_path else [])])
     if threads is not None and not 1 <= threads <= numba.config.NUMBA_NUM_THREADS:
         raise OutputError(f"--threads {threads}: must be between 1 and {numba.config.NUMBA_NUM_THREADS}")
-    try:
-        scene_model = scene_model.with_render(
-            width=width, height=height, spp=spp, mode=mode, max_depth=max_depth, seed=seed,
-            exposure=exposure, filter=pixel_filter,
-        )
-    except ValidationError as exc:
-        problems = "; ".join(
-            f"--{'-'.join(str(p) for p in e['loc']).replace('_', '-')}: {e['msg']} (got {e.get('input')!r})"
-            for e in exc.errors()
-        )
-        raise SceneError(f"command line: {problems}") from None
+    scene_model = _apply_flags(scene_model, width=width, height=height, spp=spp, mode=mode, max_depth=max_depth,
+                               seed=seed, exposure=exposure, filter=pixel_filter)
+    _warn_ignored(output, scene_model.render, exposure, pixel_filter)
 
     with _progress(quiet) as progress:
-        image = render_scene(scene_model, threads=threads, aovs=bool(aov_paths), progress=progress, source=label)
-    from .image import write_atomic
-
-    image.save(output)
+        image = render_scene(scene_model, threads=threads, aovs=bool(aov_paths or layers), progress=progress,
+                             source=label)
+    image.save(output, bit_depth=bit_depth, layers=layers)
     for name, path in aov_paths.items():
         save_npy(path, image.aovs[name])
     if stats_path is not None:
         text = json.dumps(_json_safe(image.stats), indent=2) + "\n"
         write_atomic(stats_path, lambda fh: fh.write(text.encode()))
     if not quiet:
-        s = image.stats
-        typer.echo(
-            f"{output}: {s['width']}x{s['height']} {s['mode']}, {s['rays'] / 1e6:.2f} Mrays in "
-            f"{s['render_seconds']:.3f} s ({s['mrays_per_second']:.1f} Mrays/s), build {s['build_seconds']:.3f} s",
-            err=True,
+        typer.echo(summary(output, image.stats), err=True)
+
+
+def _apply_flags(scene_model, **flags):
+    """The scene with the command line's [render] values, validated like the file's."""
+    from pydantic import ValidationError
+
+    from .scene.load import describe_error
+
+    try:
+        return scene_model.with_render(**flags)
+    except ValidationError as exc:
+        problems = "; ".join(
+            f"--{'-'.join(str(p) for p in e['loc']).replace('_', '-')}: {describe_error(e)}" for e in exc.errors()
         )
+        raise SceneError(f"command line: {problems}") from None
+
+
+def _warn_ignored(output: Path, settings, exposure: float | None, pixel_filter: str | None) -> None:
+    """Flags given but without effect on this render get a one-line warning, not silence."""
+    from .image import ENCODED_SUFFIXES
+
+    if exposure is not None and output.suffix.lower() not in ENCODED_SUFFIXES:
+        _warn(f"--exposure applies to {', '.join(ENCODED_SUFFIXES)} outputs only; {output} stores the "
+              "linear values as rendered")
+    if pixel_filter is not None and settings.mode == "raster":
+        _warn("--filter has no effect in raster mode: it takes one sample at each pixel centre")
+    elif pixel_filter is not None and settings.spp == 1:
+        _warn("--filter has no effect with spp 1: the one sample is the pixel centre; use --spp 4 or more")
+
+
+def summary(output: Path, s: dict) -> str:
+    """The line printed after a render. A rasterizer traces no rays, so it gets no ray rate."""
+    size = f"{output}: {s['width']}x{s['height']} {s['mode']}"
+    build = f"build {s['build_seconds']:.3f} s"
+    if s["mode"] == "raster":
+        return f"{size}, rasterized in {s['render_seconds']:.3f} s (no rays traced), {build}"
+    rays = f"{s['rays'] / 1e6:.2f} Mrays" if s["rays"] >= 1e6 else f"{s['rays']:,} rays"
+    return f"{size}, {rays} in {s['render_seconds']:.3f} s ({s['mrays_per_second']:.1f} Mrays/s), {build}"
 
 
 def _json_safe(stats: dict) -> dict:
@@ -190,7 +307,12 @@ class _progress:
         if self.bar is None:
             if time.perf_counter() - self.start < 0.5 or done >= total:
                 return
-            from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
+            from rich.progress import (
+                BarColumn,
+                Progress,
+                TextColumn,
+                TimeRemainingColumn,
+            )
 
             self.bar = Progress(TextColumn("rendering"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"),
                                 TimeRemainingColumn(), transient=True, console=_stderr_console())
@@ -210,14 +332,14 @@ def _stderr_console():
     return Console(stderr=True)
 
 
-@app.command()
+@app.command(cls=_Command)
 def scenes() -> None:
     """List the built-in scenes."""
     from .scene.builtin import DEFAULT_SCENE, builtin_description, builtin_names
 
     for name in builtin_names():
-        mark = " (default)" if name == DEFAULT_SCENE else ""
-        typer.echo(f"{name:<12} {builtin_description(name)}{mark}")
+        label = f"{name} (default)" if name == DEFAULT_SCENE else name
+        typer.echo(f"{label:<16} {builtin_description(name)}")
 
 
 def main() -> None:  # pragma: no cover - console entry point

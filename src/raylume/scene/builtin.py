@@ -26,7 +26,7 @@ def builtin_path(name: str) -> Path:
 
 def builtin_scene(name: str = DEFAULT_SCENE, overrides: Overrides | None = None) -> Scene:
     """A built-in scene; `overrides` edit it before validation, as `--set` does."""
-    return load_scene(builtin_path(name), overrides=overrides)
+    return load_scene(builtin_path(name), overrides=overrides, source=f"built-in scene {name!r}")
 
 
 def builtin_description(name: str) -> str:

@@ -22,10 +22,11 @@ SCENE_SUFFIXES = (".toml", ".json")
 SUGGESTION_CUTOFF = 0.8
 
 
-def load_scene(path: str | Path, overrides: Overrides | None = None) -> Scene:
+def load_scene(path: str | Path, overrides: Overrides | None = None, source: str | None = None) -> Scene:
     """Load and validate a scene file; relative paths inside it are resolved against its folder.
     `overrides` ("KEY=VALUE" texts as --set takes them, or a {dotted key: value} mapping) edit
-    the parsed document before validation (see scene/overrides.py)."""
+    the parsed document before validation (see scene/overrides.py). `source` names the scene in
+    validation errors (default: the path)."""
     path = Path(path)
     if path.suffix.lower() not in SCENE_SUFFIXES:
         raise SceneError(f"{path}: scene files must end in .toml or .json (got {path.suffix or 'no extension'!r})")
@@ -38,7 +39,8 @@ def load_scene(path: str | Path, overrides: Overrides | None = None) -> Scene:
     except (OSError, UnicodeDecodeError) as exc:
         raise SceneError(f"{path}: cannot read the scene file ({exc})") from None
     document = apply_overrides(parse_document(text, path), overrides)
-    return scene_from_dict(document, source=path, overrides=overrides).with_base_dir(path.resolve().parent)
+    scene = scene_from_dict(document, source=source or path, overrides=overrides)
+    return scene.with_base_dir(path.resolve().parent)
 
 
 def parse_document(text: str, path: Path) -> dict:
