@@ -1,28 +1,42 @@
 # Everything a fresh machine needs, from Python 3.11 and the package registry.
+# Each target installs only what it needs, with its own stamp file: `make render` installs
+# the package alone, `make test` adds the dev extras, `make bench` the bench extras too.
 PYTHON ?= python3.11
 VENV   ?= .venv
 BIN    := $(VENV)/bin
-STAMP  := $(VENV)/.installed
+STAMP_RENDER := $(VENV)/.installed-render
+STAMP_DEV    := $(VENV)/.installed-dev
+STAMP_BENCH  := $(VENV)/.installed-bench
 
 .PHONY: render test bench clean
 
-$(STAMP): pyproject.toml
+$(BIN)/python:
 	@command -v $(PYTHON) >/dev/null 2>&1 || { echo "need $(PYTHON) on PATH (or: make PYTHON=python3 ...)"; exit 1; }
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
+
+$(STAMP_RENDER): pyproject.toml | $(BIN)/python
+	$(BIN)/python -m pip install --quiet -e .
+	@touch $@
+
+$(STAMP_DEV): pyproject.toml | $(BIN)/python
+	$(BIN)/python -m pip install --quiet -e '.[dev]'
+	@touch $@ $(STAMP_RENDER)
+
+$(STAMP_BENCH): pyproject.toml | $(BIN)/python
 	$(BIN)/python -m pip install --quiet -e '.[dev,bench]'
-	@touch $(STAMP)
+	@touch $@ $(STAMP_DEV) $(STAMP_RENDER)
 
 ## render: render the built-in seed scene to render.png
-render: $(STAMP)
+render: $(STAMP_RENDER)
 	$(BIN)/raylume render
 
 ## test: run the full test suite
-test: $(STAMP)
+test: $(STAMP_DEV)
 	$(BIN)/python -m pytest -q
 
 ## bench: print the benchmark tables (see benchmarks/README.md)
-bench: $(STAMP)
+bench: $(STAMP_BENCH)
 	$(BIN)/python benchmarks/run_all.py
 
 clean:

@@ -1,0 +1,45 @@
+"""The Makefile installs what each target needs: rendering alone, tests (dev), benchmarks (dev, bench)."""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+
+pytestmark = pytest.mark.skipif(shutil.which("make") is None, reason="make is not installed")
+
+
+def dry_run(target: str, venv: Path) -> list[str]:
+    """The pip install lines `make -n TARGET` would run for a venv at `venv`."""
+    result = subprocess.run(["make", "-n", "-C", str(REPO), target, f"VENV={venv}"], capture_output=True, text=True)
+    assert result.returncode == 0, result.stderr
+    return [line for line in result.stdout.splitlines() if "pip install" in line and "--upgrade pip" not in line]
+
+
+def test_render_installs_no_extras(tmp_path):
+    installs = dry_run("render", tmp_path / "venv")
+    assert len(installs) == 1 and installs[0].rstrip().endswith("-e ."), installs
+
+
+def test_test_and_bench_install_their_extras(tmp_path):
+    assert any("'.[dev]'" in line for line in dry_run("test", tmp_path / "venv"))
+    assert any("'.[dev,bench]'" in line for line in dry_run("bench", tmp_path / "venv"))
+
+
+def test_render_then_test_still_installs_dev(tmp_path):
+    venv = tmp_path / "venv"
+    (venv / "bin").mkdir(parents=True)
+    (venv / "bin" / "python").touch()
+    # what `make render` leaves behind: the venv and the render stamp only
+    for stamp in dry_run_stamps("render", venv):
+        Path(stamp).touch()
+    assert any("'.[dev]'" in line for line in dry_run("test", venv))
+
+
+def dry_run_stamps(target: str, venv: Path) -> list[str]:
+    result = subprocess.run(["make", "-n", "-C", str(REPO), target, f"VENV={venv}"], capture_output=True, text=True)
+    return [word for line in result.stdout.splitlines() if line.startswith("touch ") for word in line.split()[1:]]
