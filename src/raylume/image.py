@@ -175,9 +175,8 @@ def exr_channels(rgb: np.ndarray, layers: dict[str, np.ndarray] | None = None) -
     """EXR channel name -> 2D array: R, G, B, then each AOV as `name.X`... (see EXR_LAYERS)."""
     channels = {c: np.ascontiguousarray(rgb[..., k], dtype=np.float32) for k, c in enumerate("RGB")}
     for name, array in (layers or {}).items():
-        suffixes = EXR_LAYERS.get(name)
-        if suffixes is None:
-            raise OutputError(f"no EXR layer for the AOV {name!r}; layers: {', '.join(EXR_LAYERS)}")
+        array = np.asarray(array)
+        suffixes = EXR_LAYERS.get(name) or _layer_suffixes(array)
         if suffixes == ("id",):
             channels[f"{name}.id"] = np.ascontiguousarray(array, dtype=np.int32).view(np.uint32)
         elif len(suffixes) == 1:
@@ -186,6 +185,15 @@ def exr_channels(rgb: np.ndarray, layers: dict[str, np.ndarray] | None = None) -
             for k, suffix in enumerate(suffixes):
                 channels[f"{name}.{suffix}"] = np.ascontiguousarray(array[..., k], dtype=np.float32)
     return channels
+
+
+def _layer_suffixes(array: np.ndarray) -> tuple[str, ...]:
+    """Channel names for an AOV that EXR_LAYERS does not list, from its shape and type."""
+    if array.ndim == 2:
+        return ("id",) if np.issubdtype(array.dtype, np.integer) else ("Y",)
+    components = array.shape[-1]
+    return {2: ("U", "V"), 3: ("R", "G", "B"), 4: ("R", "G", "B", "A")}.get(components) or tuple(
+        str(k) for k in range(components))
 
 
 def _write_exr(fh, rgb: np.ndarray, layers: dict[str, np.ndarray] | None = None) -> None:
