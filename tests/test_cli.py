@@ -30,7 +30,8 @@ material = { color = [1, 0, 0], specular = 50 }
 def raylume(*args, cwd, env=None):
     env = {**os.environ, "PYTHONUNBUFFERED": "1", **(env or {})}
     return subprocess.run(
-        [sys.executable, "-m", "raylume.cli", *map(str, args)], cwd=cwd, capture_output=True, text=True, env=env, timeout=300
+        [sys.executable, "-m", "raylume.cli", *map(str, args)], cwd=cwd, capture_output=True, text=True, env=env, timeout=300,
+        check=False,
     )
 
 
@@ -156,7 +157,7 @@ def test_output_may_not_overwrite_the_scene(tmp_path, good):
 
 
 # Every scene-file entry of the catalogue of bad inputs (docs/errors.md), end to end.
-from test_scene_load import BAD as BAD_DOCUMENTS  # noqa: E402
+from test_scene_load import BAD as BAD_DOCUMENTS
 
 
 @pytest.mark.parametrize("document, key, words", BAD_DOCUMENTS, ids=[b[1] + ":" + b[2][:12] for b in BAD_DOCUMENTS])
@@ -169,8 +170,8 @@ def test_catalogue_of_bad_scene_files_end_to_end(tmp_path, document, key, words)
 
 BAD_MESHES = {
     "empty.obj": ("", "empty"),
-    "points.ply": ("ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\n"
-                   "end_header\n0 0 0\n1 1 1\n", "no triangles"),
+    "points.ply": (("ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\n"
+                    "end_header\n0 0 0\n1 1 1\n"), "no triangles"),
     "range.obj": ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n", ""),
     "nan.obj": ("v 0 0 0\nv 1 0 0\nv nan 1 0\nf 1 2 3\n", ""),
     "notply.ply": ("this is not a ply file at all\n", ""),

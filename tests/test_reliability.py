@@ -35,7 +35,7 @@ def test_sigint_stops_quickly_writes_nothing_and_exits_130(tmp_path):
     assert proc.poll() is None, proc.communicate()
     sent = time.monotonic()
     proc.send_signal(signal.SIGINT)
-    out, err = proc.communicate(timeout=30)
+    _out, err = proc.communicate(timeout=30)
     assert proc.returncode == 130, err
     assert time.monotonic() - sent < 5
     assert "interrupted" in err and "Traceback" not in err
