@@ -32,7 +32,7 @@ def _cast_ray(G, F, o, d, background, node_stack, t_stack):
     return albedo(G, F, m, prim, b1, b2, p)
 
 
-@njit(**KERNEL)
+@njit(**KERNEL, inline="always")
 def camera_sample(cam, filt, seed, i, j, s, total_spp, width, height):
     """Camera sample s (of total_spp per pixel) of pixel (i, j): (origin, direction, filter
     weight, random key)."""

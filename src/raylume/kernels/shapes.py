@@ -65,19 +65,20 @@ def intersect(G, k, o, d, shear, tmin, tmax):
     triangle's barycentric weights of v1 and v2; shapes that need to remember which part they
     hit keep it in b1 (the cylinder)."""
     kind = G.prims[k, PRIM_KIND]
-    row = G.prims[k, PRIM_ROW]
-    if kind == TRIANGLE:
-        return shape_triangle.intersect_triangle(o, shear, G.triangles, row, tmin, tmax)
+    row = np.int64(G.prims[k, PRIM_ROW])
     if kind == SPHERE:
         return shape_sphere.intersect(G.shapes, row, o, d, tmin, tmax), 0.0, 0.0
-    if kind == PLANE:
-        return shape_plane.intersect(G.shapes, row, o, d, tmin, tmax), 0.0, 0.0
-    # rarer shapes: a call each, so that they cost the common leaf loop no code size
+    if kind == TRIANGLE:
+        return shape_triangle.intersect_triangle(o, shear, G.triangles, row, tmin, tmax)
+    # other shapes: a call, so that they cost the leaf loop no code size (planes are tested
+    # once per ray, before traversal)
     return _intersect_other(G.shapes, kind, row, o, d, tmin, tmax)
 
 
 @njit(**KERNEL)
 def _intersect_other(shapes, kind, row, o, d, tmin, tmax):
+    if kind == PLANE:
+        return shape_plane.intersect(shapes, row, o, d, tmin, tmax), 0.0, 0.0
     if kind == DISK:
         return shape_disk.intersect(shapes, row, o, d, tmin, tmax), 0.0, 0.0
     if kind == QUAD:
@@ -90,12 +91,13 @@ def _intersect_other(shapes, kind, row, o, d, tmin, tmax):
 def normals(G, k, b1, b2, p):
     """(outward geometric normal, outward shading normal) of primitive k at the hit point p."""
     kind = G.prims[k, PRIM_KIND]
-    row = G.prims[k, PRIM_ROW]
-    if kind == TRIANGLE:
-        return shape_triangle.normals(G, row, b1, b2)
+    row = np.int64(G.prims[k, PRIM_ROW])
     if kind == SPHERE:
         n = shape_sphere.normal(G.shapes, row, p)
-    elif kind == PLANE:
+        return n, n
+    if kind == TRIANGLE:
+        return shape_triangle.normals(G, row, b1, b2)
+    if kind == PLANE:
         n = shape_plane.normal(G.shapes, row, p)
     else:
         n = _normal_other(G.shapes, kind, row, b1, p)
@@ -154,7 +156,7 @@ def surface(G, k, b1, b2, p):
     """The surface at a hit on primitive k at p: (outward geometric normal, outward shading
     normal, material, object, face)."""
     ng, ns = normals(G, k, b1, b2, p)
-    return ng, ns, G.prims[k, PRIM_MATERIAL], G.prims[k, PRIM_OBJECT], G.prims[k, PRIM_FACE]
+    return ng, ns, np.int64(G.prims[k, PRIM_MATERIAL]), np.int64(G.prims[k, PRIM_OBJECT]), np.int64(G.prims[k, PRIM_FACE])
 
 
 @njit(**KERNEL)

@@ -97,13 +97,22 @@ def intersect_range(G, first, end, o, d, shear, tmin, best_t, prim, b1, b2, stop
     return best_t, prim, b1, b2
 
 
+# A call rather than a third inlined copy of the leaf loop: unbounded shapes are rare, and
+# the inlined copy made every traversal slower (registers, code size).
+@njit(**KERNEL)
+def _unbounded_hit(G, o, d, shear, tmin, tmax, stop_at_first):
+    """The unbounded primitives (after the BVH's) against the ray."""
+    return intersect_range(G, G.n_bounded, G.prims.shape[0], o, d, shear, tmin, tmax, NO_HIT, 0.0, 0.0, stop_at_first)
+
+
 @njit(**KERNEL, inline="always")
 def closest_hit(G, o, d, tmin, tmax, node_stack, t_stack):
     """Nearest hit in (tmin, tmax): (t, primitive, b1, b2); primitive NO_HIT when nothing.
     b1, b2 are the barycentric weights of a triangle's second and third vertices."""
     shear = ray_shear(d) if G.triangles.shape[0] > 0 else NO_SHEAR
-    best_t, prim, b1, b2 = intersect_range(G, G.n_bounded, G.prims.shape[0], o, d, shear, tmin, tmax,
-                                           NO_HIT, 0.0, 0.0, False)
+    best_t, prim, b1, b2 = tmax, NO_HIT, 0.0, 0.0
+    if G.n_bounded < G.prims.shape[0]:
+        best_t, prim, b1, b2 = _unbounded_hit(G, o, d, shear, tmin, tmax, False)
     nodes = G.node_index
     bounds = G.node_bounds
     # A root leaf (small scenes) needs neither box tests nor the inverse direction.
@@ -159,7 +168,7 @@ def closest_hit(G, o, d, tmin, tmax, node_stack, t_stack):
 def any_hit(G, o, d, tmin, tmax, node_stack):
     """True when anything lies in (tmin, tmax): stops at the first blocker found."""
     shear = ray_shear(d) if G.triangles.shape[0] > 0 else NO_SHEAR
-    if intersect_range(G, G.n_bounded, G.prims.shape[0], o, d, shear, tmin, tmax, NO_HIT, 0.0, 0.0, True)[1] >= 0:
+    if G.n_bounded < G.prims.shape[0] and _unbounded_hit(G, o, d, shear, tmin, tmax, True)[1] >= 0:
         return True
     nodes = G.node_index
     bounds = G.node_bounds
