@@ -13,6 +13,7 @@
 
 from .errors import RaylumeError, SceneError
 from .image import Image
+from .kernels.film import Film
 from .query import intersect
 from .render import render
 from .scene.builtin import builtin_names, builtin_scene
@@ -22,6 +23,7 @@ from .session import Session
 
 __all__ = [
     "Camera",
+    "Film",
     "Image",
     "RaylumeError",
     "Scene",

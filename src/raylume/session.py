@@ -147,9 +147,9 @@ class Session:
                                                               aovs=aovs)
             primary = 0
         else:
-            film = Film(W, H, settings.filter)
+            film = Film(W, H, settings.filter, total_spp=settings.spp)
             aov_arrays = allocate_aovs(H, W) if aovs else {}
-            kernel_seconds, rays = _ray_render(S, cam, film, settings, aov_arrays, progress, lanes)
+            kernel_seconds, rays = _ray_render(S, cam, film, settings.spp, settings, aov_arrays, progress, lanes)
             rgb = film.rgb()
             primary = W * H * settings.spp
         stats = {
@@ -166,6 +166,27 @@ class Session:
             "mrays_per_second": float(rays / kernel_seconds / 1e6) if kernel_seconds > 0 else 0.0,
         }
         return Image(rgb, aov_arrays if aovs else {}, stats, settings.encoding, exposure=settings.exposure)
+
+    def add_samples(self, film: Film, spp: int, camera: Camera | dict | None = None, *, mode: str | None = None,
+                    max_depth: int | None = None, seed: int | None = None, threads: int | None = None,
+                    progress: Callable[[int, int], None] | None = None) -> dict:
+        """Add the next `spp` samples per pixel to `film` (cast or trace mode): a progressive
+        pass. Passes that add up to film.total_spp give the film the same bits as one render
+        of total_spp. Returns {"rays", "render_seconds"}."""
+        if film.spp + spp > film.total_spp:
+            raise ValueError(f"the film takes {film.total_spp} samples per pixel; {film.spp} are in and {spp} more "
+                             "would exceed it")
+        settings = resolve_settings(self.scene, self.source, width=film.width, height=film.height, mode=mode,
+                                    max_depth=max_depth, seed=seed)
+        if settings.mode == "raster":
+            raise ValueError("raster mode draws whole images; it adds no samples to a film")
+        if not self._accelerated:
+            self._compile(True)
+        cam_model = self._camera(camera)
+        S = self.compiled.for_camera(cam_model.position)
+        seconds, rays = _ray_render(S, camera_of(cam_model, film.width, film.height), film, spp, settings, {},
+                                    progress, _set_threads(threads))
+        return {"rays": int(rays), "render_seconds": seconds}
 
     def _camera(self, camera) -> Camera:
         if camera is None:
@@ -199,15 +220,15 @@ def _set_threads(threads: int | None) -> int:
     return numba.get_num_threads()
 
 
-def _ray_render(S, cam, film: Film, settings, aov: dict, progress, lanes: int):
-    """Add settings.spp samples per pixel to the film (and fill the AOVs) on `lanes` threads.
+def _ray_render(S, cam, film: Film, spp: int, settings, aov: dict, progress, lanes: int):
+    """Add the film's next `spp` samples per pixel (and fill the AOVs) on `lanes` threads.
     Returns (kernel seconds, rays traced)."""
     W, H = film.width, film.height
     rays_per_row = np.zeros(H, dtype=np.int64)
     rows_done = np.zeros(lanes * PROGRESS_STRIDE, dtype=np.int64)  # one padded counter per lane
     stop = np.zeros(1, dtype=np.int64)  # set to 1 to stop every lane before its next row
     background = np.asarray(settings.background, dtype=np.float64)
-    samples = (film.spp, settings.spp, film.spp + settings.spp)
+    samples = (film.spp, spp, film.total_spp)  # first, count, total
 
     def lane_job(lane: int, rows: int) -> None:
         if aov:
@@ -241,5 +262,5 @@ def _ray_render(S, cam, film: Film, settings, aov: dict, progress, lanes: int):
         kernel_seconds = time.perf_counter() - t0
     for future in futures:
         future.result()  # re-raises a lane's exception
-    film.spp += settings.spp
+    film.spp += spp
     return kernel_seconds, rays_per_row.sum()

@@ -84,11 +84,16 @@ def store_sums(film, j, i, total):
 
 
 class Film:
-    """Sums of samples for a width x height image; `rgb()` reads the image."""
+    """Sums of samples for a width x height image that will receive `total_spp` samples per
+    pixel, in one pass or several (the sampler stratifies over the total: one sample per pixel
+    is the pixel centre); `rgb()` reads the image at any time."""
 
-    def __init__(self, width: int, height: int, pixel_filter: str = "box"):
+    def __init__(self, width: int, height: int, pixel_filter: str = "box", total_spp: int = 1):
+        if total_spp < 1:
+            raise ValueError("total_spp must be at least 1")
         self.width = width
         self.height = height
+        self.total_spp = total_spp
         self.filter = filter_array(pixel_filter)
         self.sums = np.empty((height, width, FILM_WIDTH), dtype=np.float64)
         # Written here rather than left to lazily zeroed pages, so the first pass's kernels do

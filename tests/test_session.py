@@ -1,0 +1,120 @@
+"""raylume.Session: compile once, render many times; the film's passes; the compiled scene
+shipped by pickle. References are one-shot renders (raylume.render), which compile afresh."""
+
+from __future__ import annotations
+
+import pickle
+
+import numpy as np
+import pytest
+
+import raylume
+import raylume.compile
+from raylume.session import Session
+
+SCENE = {
+    "render": {"width": 48, "height": 36},
+    "lights": [{"type": "ambient", "intensity": 0.2}, {"type": "point", "position": [2, 2, -2], "intensity": 0.7},
+               {"type": "quad", "position": [0, 3, 2], "u": [1, 0, 0], "v": [0, 0, 1], "intensity": 0.3,
+                "samples": 4}],
+    "materials": {"glass": {"color": [1, 1, 1], "transparency": 0.8, "reflective": 0.1, "ior": 1.5},
+                  "mirror": {"color": [0.9, 0.9, 0.9], "reflective": 0.6, "specular": 200}},
+    "objects": [
+        {"type": "plane", "point": [0, -1, 0], "normal": [0, 1, 0],
+         "material": {"texture": {"type": "checker", "scale": 0.5}}},
+        {"type": "sphere", "center": [0, 0, 3], "radius": 1, "material": "glass"},
+        {"type": "sphere", "center": [-1.6, -0.4, 4], "radius": 0.6, "material": "mirror"},
+        *[{"type": "sphere", "center": [x, -0.8, 6], "radius": 0.2} for x in (-2, -1, 0, 1, 2)],
+        {"type": "disk", "center": [1.8, 0, 4], "normal": [-1, 0, -1], "radius": 0.5},
+        {"type": "quad", "position": [0, 1.5, 5], "u": [1.5, 0, 0], "v": [0.3, 0.8, 0]},
+        {"type": "cylinder", "p0": [2.2, -1, 6], "p1": [2.2, 0.5, 6], "radius": 0.3},
+    ],
+}
+CAMERA_B = {"position": [1.5, 1.0, -1.5], "look_at": [0, 0, 3]}
+
+
+@pytest.fixture(scope="module")
+def scene():
+    return raylume.scene_from_dict(SCENE)
+
+
+def test_a_session_renders_two_cameras_as_two_one_shot_renders_without_a_second_build(scene, monkeypatch):
+    builds = []
+    real_build = raylume.compile.build_bvh
+    monkeypatch.setattr(raylume.compile, "build_bvh", lambda *a, **k: builds.append(1) or real_build(*a, **k))
+    session = Session(scene)
+    assert len(builds) == 1  # more than 8 primitives: a real BVH
+    a = session.render(spp=2)
+    b = session.render(camera=CAMERA_B, spp=2, mode="cast")
+    assert len(builds) == 1 and session.bvh_builds == 1
+    assert b.stats["build_seconds"] == 0.0
+
+    one_a = raylume.render(scene, spp=2)
+    moved = scene.model_copy(update={"camera": scene.camera.model_copy(update=CAMERA_B)})
+    one_b = raylume.render(moved, spp=2, mode="cast")
+    assert len(builds) == 3
+    assert a.rgb.tobytes() == one_a.rgb.tobytes()
+    assert b.rgb.tobytes() == one_b.rgb.tobytes()
+    for name in ("depth", "normal", "object", "prim", "albedo"):
+        assert a.aovs[name].tobytes() == one_a.aovs[name].tobytes(), name
+        assert b.aovs[name].tobytes() == one_b.aovs[name].tobytes(), name
+    assert not np.array_equal(a.aovs["depth"], b.aovs["depth"])  # the camera did move
+
+
+def test_a_camera_given_as_a_partial_dict_keeps_the_scenes_other_camera_keys(scene):
+    session = Session(scene)
+    wide = session.render(camera={"fov": 80}, mode="cast")
+    model = scene.camera.model_copy(update={"fov": 80.0})
+    assert wide.rgb.tobytes() == session.render(camera=model, mode="cast").rgb.tobytes()
+    with pytest.raises(raylume.SceneError, match="camera.fov"):
+        session.render(camera={"fov": 500})
+
+
+def test_a_rasterizing_session_builds_its_bvh_only_when_a_ray_mode_needs_it(scene):
+    session = Session(scene, accelerate=False)
+    session.render(mode="raster")
+    assert session.bvh_builds == 0
+    traced = session.render(mode="trace")
+    assert session.bvh_builds == 1
+    assert traced.rgb.tobytes() == raylume.render(scene).rgb.tobytes()
+
+
+def test_a_pickled_compiled_scene_renders_the_same_image(scene):
+    session = Session(scene)
+    shipped = pickle.loads(pickle.dumps(session.compiled))
+    assert "Path" not in repr(shipped) and "PosixPath" not in pickle.dumps(session.compiled).decode("latin1")
+    elsewhere = Session.from_compiled(scene, shipped)
+    for mode in ("trace", "cast"):
+        assert elsewhere.render(mode=mode, spp=3).rgb.tobytes() == session.render(mode=mode, spp=3).rgb.tobytes()
+
+
+@pytest.mark.parametrize("mode", ["trace", "cast"])
+@pytest.mark.parametrize("pixel_filter", ["box", "gaussian", "mitchell"])
+def test_the_film_gives_the_same_bits_in_one_pass_or_several(scene, mode, pixel_filter):
+    session = Session(scene)
+    whole = raylume.Film(40, 30, pixel_filter, total_spp=9)
+    session.add_samples(whole, 9, mode=mode, seed=7)
+    passes = raylume.Film(40, 30, pixel_filter, total_spp=9)
+    for count in (1, 3, 5):
+        session.add_samples(passes, count, mode=mode, seed=7)
+    assert passes.spp == 9
+    assert whole.sums.tobytes() == passes.sums.tobytes()
+    assert whole.rgb().tobytes() == passes.rgb().tobytes()
+    # and a one-shot render of 9 spp is that film read out
+    image = session.render(width=40, height=30, spp=9, mode=mode, seed=7, filter=pixel_filter, aovs=False)
+    assert image.rgb.tobytes() == whole.rgb().tobytes()
+
+
+def test_a_film_refuses_more_samples_than_it_was_made_for(scene):
+    session = Session(scene)
+    film = raylume.Film(8, 8, total_spp=2)
+    session.add_samples(film, 2)
+    with pytest.raises(ValueError, match="takes 2 samples"):
+        session.add_samples(film, 1)
+
+
+def test_render_settings_errors_are_scene_errors_naming_the_setting(scene):
+    with pytest.raises(raylume.SceneError, match="mode"):
+        raylume.render(scene, mode="path-tracing")
+    with pytest.raises(raylume.SceneError, match="spp"):
+        Session(scene).render(spp=0)
