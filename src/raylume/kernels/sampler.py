@@ -53,7 +53,9 @@ def sample_key(seed, pixel, sample):
     return mix64(key + np.uint64(sample) * _GOLDEN)
 
 
-@njit(error_model="numpy", _nrt=False)
+# Explicit signatures here and on light_sample: a literal event 0 at one call site would be a
+# second compilation.
+@njit("uint64(uint64, uint64, int64)", cache=True, error_model="numpy", _nrt=False)
 def dimension_key(key, dim, event):
     """The key of dimension `dim` of a camera sample, for its `event`-th use along the path."""
     return mix64((key ^ dim) + np.uint64(event) * _GOLDEN)
@@ -115,7 +117,7 @@ def lens_sample(key, sample, spp):
     return stratum(s, spp, jx, jy)
 
 
-@njit(error_model="numpy", _nrt=False)
+@njit("UniTuple(float64, 2)(uint64, int64, int64, int64, int64)", cache=True, error_model="numpy", _nrt=False)
 def light_sample(key, event, light, s, count):
     """Stratified point s of `count` in [0, 1)^2 on light `light`, at the `event`-th surface the
     camera sample shades (dimension LIGHT)."""

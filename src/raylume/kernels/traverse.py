@@ -98,11 +98,12 @@ def intersect_range(G, first, end, o, d, shear, tmin, best_t, prim, b1, b2, stop
 
 
 # A call rather than a third inlined copy of the leaf loop: unbounded shapes are rare, and
-# the inlined copy made every traversal slower (registers, code size).
+# the inlined copy made every traversal slower (registers, code size). Any-hit queries use it
+# too, without stopping early (a few planes): one compilation instead of two.
 @njit(**KERNEL)
-def _unbounded_hit(G, o, d, shear, tmin, tmax, stop_at_first):
-    """The unbounded primitives (after the BVH's) against the ray."""
-    return intersect_range(G, G.n_bounded, G.prims.shape[0], o, d, shear, tmin, tmax, NO_HIT, 0.0, 0.0, stop_at_first)
+def _unbounded_hit(G, o, d, shear, tmin, tmax):
+    """The nearest of the unbounded primitives (after the BVH's) hit by the ray."""
+    return intersect_range(G, G.n_bounded, G.prims.shape[0], o, d, shear, tmin, tmax, NO_HIT, 0.0, 0.0, False)
 
 
 @njit(**KERNEL, inline="always")
@@ -112,7 +113,7 @@ def closest_hit(G, o, d, tmin, tmax, node_stack, t_stack):
     shear = ray_shear(d) if G.triangles.shape[0] > 0 else NO_SHEAR
     best_t, prim, b1, b2 = tmax, NO_HIT, 0.0, 0.0
     if G.n_bounded < G.prims.shape[0]:
-        best_t, prim, b1, b2 = _unbounded_hit(G, o, d, shear, tmin, tmax, False)
+        best_t, prim, b1, b2 = _unbounded_hit(G, o, d, shear, tmin, tmax)
     nodes = G.node_index
     bounds = G.node_bounds
     # A root leaf (small scenes) needs neither box tests nor the inverse direction.
@@ -168,7 +169,7 @@ def closest_hit(G, o, d, tmin, tmax, node_stack, t_stack):
 def any_hit(G, o, d, tmin, tmax, node_stack):
     """True when anything lies in (tmin, tmax): stops at the first blocker found."""
     shear = ray_shear(d) if G.triangles.shape[0] > 0 else NO_SHEAR
-    if G.n_bounded < G.prims.shape[0] and _unbounded_hit(G, o, d, shear, tmin, tmax, True)[1] >= 0:
+    if G.n_bounded < G.prims.shape[0] and _unbounded_hit(G, o, d, shear, tmin, tmax)[1] >= 0:
         return True
     nodes = G.node_index
     bounds = G.node_bounds
