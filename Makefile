@@ -8,7 +8,7 @@ STAMP_RENDER := $(VENV)/.installed-render
 STAMP_DEV    := $(VENV)/.installed-dev
 STAMP_BENCH  := $(VENV)/.installed-bench
 
-.PHONY: render test bench clean
+.PHONY: render test lint bench clean
 
 $(BIN)/python:
 	@command -v $(PYTHON) >/dev/null 2>&1 || { echo "need $(PYTHON) on PATH (or: make PYTHON=python3 ...)"; exit 1; }
@@ -34,6 +34,11 @@ render: $(STAMP_RENDER)
 ## test: run the full test suite
 test: $(STAMP_DEV)
 	$(BIN)/python -m pytest -q
+
+## lint: ruff's lint rules and formatting (configured in pyproject.toml)
+lint: $(STAMP_DEV)
+	$(BIN)/ruff check src tests benchmarks
+	$(BIN)/ruff format --check src tests benchmarks
 
 ## bench: print the benchmark tables (see benchmarks/README.md)
 bench: $(STAMP_BENCH)

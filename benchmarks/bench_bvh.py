@@ -134,7 +134,9 @@ def main() -> None:
     rows, build_rows, scaling = [], [], []
     for name, v, f in meshes(args.quick):
         compiled = raylume_scene(v, f)
-        o, d = camera_rays(v.mean(axis=0) * 0 + (v.min(0) + v.max(0)) / 2, np.linalg.norm(v.max(0) - v.min(0)) / 2, args.size)
+        o, d = camera_rays(
+            v.mean(axis=0) * 0 + (v.min(0) + v.max(0)) / 2, np.linalg.norm(v.max(0) - v.min(0)) / 2, args.size
+        )
         n = len(o)
         r1, t_ours = time_raylume(compiled, o, d, 1, args.repeats)
         import numba
@@ -153,8 +155,16 @@ def main() -> None:
             row.append("-")
         rows.append(row)
         s = compiled.stats
-        build_rows.append([name, f"{len(f):,}", f"{s['build_seconds']:.2f}", f"{e_build:.2f}",
-                           f"{s['bvh_bytes'] / len(f):.1f}", f"{s['bvh_nodes']:,}"])
+        build_rows.append(
+            [
+                name,
+                f"{len(f):,}",
+                f"{s['build_seconds']:.2f}",
+                f"{e_build:.2f}",
+                f"{s['bvh_bytes'] / len(f):.1f}",
+                f"{s['bvh_nodes']:,}",
+            ]
+        )
         if name.startswith("bumpy"):
             scaling.append((len(f), r1, r2))
         print(" | ".join(row), flush=True)
@@ -165,13 +175,23 @@ def main() -> None:
     headers += ["trimesh Mrays/s"]
     print("\n" + table(headers, rows))
     print("\nBVH build (raylume: compile + binned-SAH build; Embree: scene build on first query)\n")
-    print(table(["mesh", "triangles", "raylume build s", "Embree build s", "raylume BVH bytes/tri", "BVH nodes"], build_rows))
+    print(
+        table(
+            ["mesh", "triangles", "raylume build s", "Embree build s", "raylume BVH bytes/tri", "BVH nodes"], build_rows
+        )
+    )
     # One thread as well: on a shared VM the second core's speed varies most.
     print("\nScaling of primary-ray time with triangle count (1 thread and all threads)\n")
     base = next((row for row in scaling if row[0] == 40_000), scaling[0])
-    print(table(["triangles", "1T time ms", "1T / 1T(40k)", "all time ms", "all / all(40k)"],
-                [[f"{n:,}", f"{t1 * 1000:.1f}", f"{t1 / base[1]:.2f}", f"{t2 * 1000:.1f}", f"{t2 / base[2]:.2f}"]
-                 for n, t1, t2 in scaling]))
+    print(
+        table(
+            ["triangles", "1T time ms", "1T / 1T(40k)", "all time ms", "all / all(40k)"],
+            [
+                [f"{n:,}", f"{t1 * 1000:.1f}", f"{t1 / base[1]:.2f}", f"{t2 * 1000:.1f}", f"{t2 / base[2]:.2f}"]
+                for n, t1, t2 in scaling
+            ],
+        )
+    )
     if args.plot:
         import matplotlib
 

@@ -34,7 +34,15 @@ def main() -> None:
         seconds = median_of([r["render_seconds"] for r in runs])
         rays = runs[0]["rays"]
         base = base or seconds
-        rows.append([name, f"{seconds * 1000:.0f} ms", f"{rays / 1e6:.2f} M", f"{rays / seconds / 1e6:.1f}", f"{seconds / base:.2f}x"])
+        rows.append(
+            [
+                name,
+                f"{seconds * 1000:.0f} ms",
+                f"{rays / 1e6:.2f} M",
+                f"{rays / seconds / 1e6:.1f}",
+                f"{seconds / base:.2f}x",
+            ]
+        )
     print(f"examples/glass.toml, 600 x 450, max_depth 8, {runs[0]['threads']} threads; {machine()}\n")
     print(table(["scene", "kernel time (median)", "rays", "Mrays/s", "time vs opaque"], rows))
 

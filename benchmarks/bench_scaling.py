@@ -35,16 +35,24 @@ QUICK_SIZES = (1_000, 10_000, 70_000, 100_000)
 
 
 def scene_for(mesh_path: str):
-    return raylume.scene_from_dict({
-        "camera": {"position": [0, 0, -3], "look_at": [0, 0, 0], "fov": 53.13},
-        "lights": [
-            {"type": "ambient", "intensity": 0.2},
-            {"type": "point", "position": [2, 2, -3], "intensity": 0.6},
-            {"type": "directional", "direction": [1, 4, -4], "intensity": 0.2},
-        ],
-        "objects": [{"type": "mesh", "file": mesh_path, "smooth": True,
-                     "material": {"color": [0.8, 0.7, 0.5], "specular": 50}}],
-    })
+    return raylume.scene_from_dict(
+        {
+            "camera": {"position": [0, 0, -3], "look_at": [0, 0, 0], "fov": 53.13},
+            "lights": [
+                {"type": "ambient", "intensity": 0.2},
+                {"type": "point", "position": [2, 2, -3], "intensity": 0.6},
+                {"type": "directional", "direction": [1, 4, -4], "intensity": 0.2},
+            ],
+            "objects": [
+                {
+                    "type": "mesh",
+                    "file": mesh_path,
+                    "smooth": True,
+                    "material": {"color": [0.8, 0.7, 0.5], "specular": 50},
+                }
+            ],
+        }
+    )
 
 
 def time_modes(sc, args) -> dict:
@@ -54,8 +62,7 @@ def time_modes(sc, args) -> dict:
     build = []
     for _ in range(args.repeats):
         for mode in times:
-            img = raylume.render(sc, mode=mode, width=args.width, height=args.height, threads=args.threads,
-                                 aovs=False)
+            img = raylume.render(sc, mode=mode, width=args.width, height=args.height, threads=args.threads, aovs=False)
             times[mode].append(img.stats["render_seconds"])
             build.append(img.stats["build_seconds"])
     return times, median_of(build)
@@ -93,8 +100,8 @@ def plot(path: Path, ns, raster, cast, cross, args, threads) -> None:
     ns = np.asarray(ns, float)
     raster_ms, cast_ms = np.asarray(raster) * 1e3, np.asarray(cast) * 1e3
     fig, ax = plt.subplots(figsize=(5.6, 3.8), dpi=100)
-    l1, = ax.loglog(ns, raster_ms, "o-", label="rasterization (Z-buffer)")
-    l2, = ax.loglog(ns, cast_ms, "s-", label="ray casting (BVH)")
+    (l1,) = ax.loglog(ns, raster_ms, "o-", label="rasterization (Z-buffer)")
+    (l2,) = ax.loglog(ns, cast_ms, "s-", label="ray casting (BVH)")
     where, how = cross
     if where is not None:
         if how == "extrapolated":  # the power laws through the two largest sizes, dashed
@@ -102,11 +109,21 @@ def plot(path: Path, ns, raster, cast, cross, args, threads) -> None:
             for ms, line in ((raster_ms, l1), (cast_ms, l2)):
                 slope = math.log(ms[-1] / ms[-2]) / math.log(ns[-1] / ns[-2])
                 ax.loglog(xs, ms[-1] * (xs / ns[-1]) ** slope, "--", color=line.get_color(), lw=1)
-        y = float(np.exp(np.interp(math.log(where), np.log(ns), np.log(raster_ms)))) if how == "measured" else \
-            raster_ms[-1] * (where / ns[-1]) ** (math.log(raster_ms[-1] / raster_ms[-2]) / math.log(ns[-1] / ns[-2]))
+        y = (
+            float(np.exp(np.interp(math.log(where), np.log(ns), np.log(raster_ms))))
+            if how == "measured"
+            else raster_ms[-1]
+            * (where / ns[-1]) ** (math.log(raster_ms[-1] / raster_ms[-2]) / math.log(ns[-1] / ns[-2]))
+        )
         ax.plot([where], [y], "k*", ms=9)
-        ax.annotate(f"crossover ~{where / 1e6:.1f}M\n({how})", (where, y), xytext=(-6, -62),
-                    textcoords="offset points", ha="right", fontsize=8)
+        ax.annotate(
+            f"crossover ~{where / 1e6:.1f}M\n({how})",
+            (where, y),
+            xytext=(-6, -62),
+            textcoords="offset points",
+            ha="right",
+            fontsize=8,
+        )
     ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
     ax.yaxis.set_minor_formatter(FuncFormatter(lambda v, _: f"{v:g}" if str(int(v))[0] in "235" else ""))
     ax.set_xlabel("triangles")
@@ -128,17 +145,23 @@ def main() -> None:
     parser.add_argument("--height", type=int, default=1024)
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--threads", type=int, default=None, help="Numba threads (default: all)")
-    parser.add_argument("--threading-layer", default=None, choices=["workqueue", "omp", "tbb"],
-                        help="Numba threading layer (default: Numba's choice). On a machine shared with "
-                             "other busy processes, OpenMP's spinning barriers can stall a frame by a "
-                             "time slice; 'workqueue' does not")
+    parser.add_argument(
+        "--threading-layer",
+        default=None,
+        choices=["workqueue", "omp", "tbb"],
+        help="Numba threading layer (default: Numba's choice). On a machine shared with "
+        "other busy processes, OpenMP's spinning barriers can stall a frame by a "
+        "time slice; 'workqueue' does not",
+    )
     parser.add_argument("--plot", default=str(REPO / "docs" / "images" / "scaling.png"), help="PNG path")
     args = parser.parse_args()
     if args.threading_layer:
         import numba
 
         numba.config.THREADING_LAYER = args.threading_layer
-    sizes = [int(s) for s in args.sizes.split(",")] if args.sizes else list(QUICK_SIZES if args.quick else DEFAULT_SIZES)
+    sizes = (
+        [int(s) for s in args.sizes.split(",")] if args.sizes else list(QUICK_SIZES if args.quick else DEFAULT_SIZES)
+    )
 
     rows, ns, raster, cast = [], [], [], []
     threads = None
@@ -164,18 +187,45 @@ def main() -> None:
             ns.append(len(f))
             raster.append(r)
             cast.append(c)
-            rows.append([f"{len(f):,}", f"{r * 1e3:.1f}", f"{c * 1e3:.1f}", f"{c / r:.2f}",
-                         f"{min(times['raster']) * 1e3:.1f}", f"{min(times['cast']) * 1e3:.1f}",
-                         f"{len(f) / r / 1e6:.1f}", f"{build:.2f}"])
-            print(f"  {len(f):>9,} triangles: raster {r * 1e3:8.1f} ms, cast {c * 1e3:8.1f} ms "
-                  f"({time.perf_counter() - t0:.0f} s)", flush=True)
+            rows.append(
+                [
+                    f"{len(f):,}",
+                    f"{r * 1e3:.1f}",
+                    f"{c * 1e3:.1f}",
+                    f"{c / r:.2f}",
+                    f"{min(times['raster']) * 1e3:.1f}",
+                    f"{min(times['cast']) * 1e3:.1f}",
+                    f"{len(f) / r / 1e6:.1f}",
+                    f"{build:.2f}",
+                ]
+            )
+            print(
+                f"  {len(f):>9,} triangles: raster {r * 1e3:8.1f} ms, cast {c * 1e3:8.1f} ms "
+                f"({time.perf_counter() - t0:.0f} s)",
+                flush=True,
+            )
             Path(path).unlink()
 
-    print(f"\nPer-frame kernel time (median and best of {args.repeats}), {args.width}x{args.height}, "
-          f"{threads} thread(s) (raster: Z-buffer + local lighting; cast: one BVH ray per pixel, "
-          "material colour)\n")
-    print(table(["triangles", "raster ms", "cast ms", "cast / raster", "raster best", "cast best", "raster Mtri/s",
-                 "scene build s"], rows))
+    print(
+        f"\nPer-frame kernel time (median and best of {args.repeats}), {args.width}x{args.height}, "
+        f"{threads} thread(s) (raster: Z-buffer + local lighting; cast: one BVH ray per pixel, "
+        "material colour)\n"
+    )
+    print(
+        table(
+            [
+                "triangles",
+                "raster ms",
+                "cast ms",
+                "cast / raster",
+                "raster best",
+                "cast best",
+                "raster Mtri/s",
+                "scene build s",
+            ],
+            rows,
+        )
+    )
     cross = crossover(np.asarray(ns, float), raster, cast)
     if cross[0] is None:
         print(f"\nno crossover: {cross[1]}")

@@ -25,20 +25,23 @@ print(img.stats["render_seconds"], time.perf_counter() - t0)
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--repeats", type=int, default=15)
-    parser.add_argument("--python-size", type=int, default=600,
-                        help="render the pure-Python peer at this size and scale to 600 x 600")
+    parser.add_argument(
+        "--python-size", type=int, default=600, help="render the pure-Python peer at this size and scale to 600 x 600"
+    )
     args = parser.parse_args()
 
-    import raylume
     from reference.seed_python import SEED_SCENE, render_reference
+
+    import raylume
 
     scene = raylume.builtin_scene("seed")
     raylume.render(scene, width=8, height=8)  # compile once in this process
     kernels = [raylume.render(scene, aovs=False).stats["render_seconds"] for _ in range(args.repeats)]
     kernel = median_of(kernels)
     stats = raylume.render(scene, aovs=False).stats
-    one_thread = median_of([raylume.render(scene, aovs=False, threads=1).stats["render_seconds"]
-                            for _ in range(args.repeats)])
+    one_thread = median_of(
+        [raylume.render(scene, aovs=False, threads=1).stats["render_seconds"] for _ in range(args.repeats)]
+    )
 
     with tempfile.TemporaryDirectory() as cache:
         cold_wall, _ = run_python(RENDER_CODE, env={"NUMBA_CACHE_DIR": cache})

@@ -44,19 +44,35 @@ def main() -> None:
         k, w = median_of(kernel), median_of(wall)
         per_sample = k / spp
         base = base or per_sample
-        rows.append([
-            spp,
-            f"{stats['rays'] / 1e6:.2f} M",
-            f"{stats['rays'] / (args.width * args.height * spp):.2f}",
-            f"{k:.3f} s",
-            f"{w:.3f} s",
-            f"{stats['rays'] / k / 1e6:.2f}",
-            f"{per_sample * 1e3:.1f} ms ({per_sample / base:.2f}x)",
-        ])
-    print(f"{args.scene} at {args.width} x {args.height}, {stats['threads']} threads, median of {args.repeats}; "
-          f"{machine()}\n")
-    print(table(["spp", "rays", "rays per sample", "kernel time", "wall time (render call)", "Mrays/s",
-                 "kernel time per spp (vs 1 spp)"], rows))
+        rows.append(
+            [
+                spp,
+                f"{stats['rays'] / 1e6:.2f} M",
+                f"{stats['rays'] / (args.width * args.height * spp):.2f}",
+                f"{k:.3f} s",
+                f"{w:.3f} s",
+                f"{stats['rays'] / k / 1e6:.2f}",
+                f"{per_sample * 1e3:.1f} ms ({per_sample / base:.2f}x)",
+            ]
+        )
+    print(
+        f"{args.scene} at {args.width} x {args.height}, {stats['threads']} threads, median of {args.repeats}; "
+        f"{machine()}\n"
+    )
+    print(
+        table(
+            [
+                "spp",
+                "rays",
+                "rays per sample",
+                "kernel time",
+                "wall time (render call)",
+                "Mrays/s",
+                "kernel time per spp (vs 1 spp)",
+            ],
+            rows,
+        )
+    )
 
 
 if __name__ == "__main__":

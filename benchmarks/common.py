@@ -43,8 +43,9 @@ def median_of(values) -> float:
 def run_python(code: str, env: dict | None = None) -> tuple[float, str]:
     """Wall time of `python -c code` in a new process, and its stdout."""
     t0 = time.perf_counter()
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
-                         env={**os.environ, **(env or {})})
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True, env={**os.environ, **(env or {})}
+    )
     return time.perf_counter() - t0, out.stdout
 
 

@@ -1,6 +1,6 @@
 """Run every benchmark in turn (each prints its own markdown table). Takes several minutes.
 
-    python benchmarks/run_all.py [--quick]
+python benchmarks/run_all.py [--quick]
 """
 
 from __future__ import annotations
@@ -16,7 +16,8 @@ BENCHMARKS = [
     ["bench_seed.py"] + (["--python-size", "200"] if QUICK else []),
     ["bench_glass.py"],
     ["bench_spp.py"],
-    ["bench_bvh.py"] + (["--quick", "--size", "512"] if QUICK else ["--plot", str(HERE.parent / "docs/images/bvh_scaling.png")]),
+    ["bench_bvh.py"]
+    + (["--quick", "--size", "512"] if QUICK else ["--plot", str(HERE.parent / "docs/images/bvh_scaling.png")]),
     ["bench_scaling.py"] + (["--quick"] if QUICK else []),
 ]
 

@@ -15,7 +15,6 @@ from hypothesis import strategies as st
 
 from raylume.accel.bvh import BVH, build_bvh, bvh_depth, bvh_nbytes, sah_cost
 
-
 # ---------------------------------------------------------------------------
 # Helpers
 # ---------------------------------------------------------------------------
@@ -83,7 +82,7 @@ def subtree_prims(bvh, m):
     while stack:
         k = stack.pop()
         if na[k] < 0:
-            out.extend(order[ni[k, 0]:ni[k, 0] + ni[k, 1]])
+            out.extend(order[ni[k, 0] : ni[k, 0] + ni[k, 1]])
         else:
             stack += [k + 1, ni[k, 0]]
     return out
@@ -126,7 +125,7 @@ def median_tree_sah(lo, hi, max_leaf):
         c = cen[p]
         axis = np.argmax(c.max(0) - c.min(0))
         p = p[np.argsort(c[:, axis], kind="stable")]
-        stack += [p[: p.size // 2], p[p.size // 2:]]
+        stack += [p[: p.size // 2], p[p.size // 2 :]]
     boxes = np.array(boxes)
     e = boxes[0, 3:] - boxes[0, :3]
     root = 2.0 * (e[0] * e[1] + e[1] * e[2] + e[2] * e[0])
@@ -152,7 +151,7 @@ def traverse(bvh, lo, hi, o, inv_d):
         if not slab_hit(box[m, :3], box[m, 3:], o, inv_d):
             continue
         if na[m] < 0:
-            p = order[ni[m, 0]:ni[m, 0] + ni[m, 1]]
+            p = order[ni[m, 0] : ni[m, 0] + ni[m, 1]]
             hits.update(p[slab_hit(lo[p], hi[p], o, inv_d)].tolist())
         else:
             stack += [m + 1, int(ni[m, 0])]
@@ -285,13 +284,14 @@ _coord = st.one_of(
 @st.composite
 def box_sets(draw):
     n = draw(st.integers(0, 40))
-    a = np.array(draw(st.lists(st.tuples(_coord, _coord, _coord), min_size=n, max_size=n)),
-                 dtype=np.float64).reshape(n, 3)
-    b = np.array(draw(st.lists(st.tuples(_coord, _coord, _coord), min_size=n, max_size=n)),
-                 dtype=np.float64).reshape(n, 3)
+    a = np.array(draw(st.lists(st.tuples(_coord, _coord, _coord), min_size=n, max_size=n)), dtype=np.float64).reshape(
+        n, 3
+    )
+    b = np.array(draw(st.lists(st.tuples(_coord, _coord, _coord), min_size=n, max_size=n)), dtype=np.float64).reshape(
+        n, 3
+    )
     # Some boxes flat or points: copy a into b on random dimensions.
-    flat = np.array(draw(st.lists(st.booleans(), min_size=3 * n, max_size=3 * n)),
-                    dtype=bool).reshape(n, 3)
+    flat = np.array(draw(st.lists(st.booleans(), min_size=3 * n, max_size=3 * n)), dtype=bool).reshape(n, 3)
     b[flat] = a[flat]
     if n and draw(st.booleans()):  # duplicate boxes
         k = draw(st.integers(0, n - 1))
@@ -321,8 +321,7 @@ def test_rays_reach_exactly_the_hit_boxes(seed, n):
         # Origins inside and around the scene, aimed at a random primitive
         # half of the time so that many rays hit something.
         o = rng.uniform(-15, 15, 3)
-        target = 0.5 * (lo[rng.integers(n)] + hi[rng.integers(n)]) if rng.random() < 0.5 \
-            else rng.uniform(-15, 15, 3)
+        target = 0.5 * (lo[rng.integers(n)] + hi[rng.integers(n)]) if rng.random() < 0.5 else rng.uniform(-15, 15, 3)
         d = target - o + rng.normal(scale=1e-3, size=3)
         d[d == 0.0] = 1e-12  # slab test needs non-zero components
         inv_d = 1.0 / d
@@ -360,5 +359,7 @@ def test_large_build_smoke():
     bvh = build_bvh(lo, hi)
     dt = time.perf_counter() - t
     check_bvh(bvh, lo, hi, 4)
-    print(f"N={n}: build {dt:.3f}s, {bvh.node_axis.shape[0]} nodes, depth {bvh_depth(bvh)}, "
-          f"SAH {sah_cost(bvh):.1f}, {bvh_nbytes(bvh) / 1e6:.1f} MB")
+    print(
+        f"N={n}: build {dt:.3f}s, {bvh.node_axis.shape[0]} nodes, depth {bvh_depth(bvh)}, "
+        f"SAH {sah_cost(bvh):.1f}, {bvh_nbytes(bvh) / 1e6:.1f} MB"
+    )

@@ -26,7 +26,12 @@ def test_seed_viewport_corners():
     """The seed: viewport 1 x 1 at distance 1; pixel (0, 0) is the top-left, +x to the right."""
     W = H = 600
     h = math.tan(math.radians(53.13) / 2)
-    for (i, j), (sx, sy) in {(0, 0): (-1, 1), (W - 1, 0): (1, 1), (0, H - 1): (-1, -1), (W - 1, H - 1): (1, -1)}.items():
+    for (i, j), (sx, sy) in {
+        (0, 0): (-1, 1),
+        (W - 1, 0): (1, 1),
+        (0, H - 1): (-1, -1),
+        (W - 1, H - 1): (1, -1),
+    }.items():
         _, d = _ray((0, 0, 0), (0, 0, 1), (0, 1, 0), 53.13, W, H, i, j)
         v = d / d[2]  # back onto the viewport plane z = 1
         expected = (sx * (1 - 1 / W) * h, sy * (1 - 1 / H) * h)

@@ -30,7 +30,12 @@ material = { color = [1, 0, 0], specular = 50 }
 def raylume(*args, cwd, env=None):
     env = {**os.environ, "PYTHONUNBUFFERED": "1", **(env or {})}
     return subprocess.run(
-        [sys.executable, "-m", "raylume.cli", *map(str, args)], cwd=cwd, capture_output=True, text=True, env=env, timeout=300,
+        [sys.executable, "-m", "raylume.cli", *map(str, args)],
+        cwd=cwd,
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=300,
         check=False,
     )
 
@@ -61,8 +66,22 @@ def test_no_arguments_renders_the_seed_scene_to_render_png(tmp_path):
 
 def test_outputs_stats_and_aovs(tmp_path, good):
     result = raylume(
-        "render", good, "-o", "out.npy", "--stats", "stats.json", "--aov", "depth=d.npy", "--aov", "normal=n.npy",
-        "--aov", "object=o.npy", "--aov", "prim=p.npy", "--quiet", cwd=tmp_path,
+        "render",
+        good,
+        "-o",
+        "out.npy",
+        "--stats",
+        "stats.json",
+        "--aov",
+        "depth=d.npy",
+        "--aov",
+        "normal=n.npy",
+        "--aov",
+        "object=o.npy",
+        "--aov",
+        "prim=p.npy",
+        "--quiet",
+        cwd=tmp_path,
     )
     assert result.returncode == 0, result.stderr
     rgb = np.load(tmp_path / "out.npy")
@@ -79,8 +98,22 @@ def test_outputs_stats_and_aovs(tmp_path, good):
     np.testing.assert_allclose(np.linalg.norm(normal[hit], axis=-1), 1, atol=1e-5)
     assert (normal[hit][:, 2] < 0).all()  # faces the camera
     stats = json.loads((tmp_path / "stats.json").read_text())
-    for key in ("width", "height", "spp", "mode", "threads", "primitives", "triangles", "rays", "primary_rays",
-                "build_seconds", "render_seconds", "mrays_per_second", "bvh_nodes", "bvh_bytes"):
+    for key in (
+        "width",
+        "height",
+        "spp",
+        "mode",
+        "threads",
+        "primitives",
+        "triangles",
+        "rays",
+        "primary_rays",
+        "build_seconds",
+        "render_seconds",
+        "mrays_per_second",
+        "bvh_nodes",
+        "bvh_bytes",
+    ):
         assert key in stats, key
     assert stats["primary_rays"] == 16 * 24 and stats["rays"] > stats["primary_rays"]
     assert stats["primitives"] == 1 and stats["triangles"] == 0 and stats["mode"] == "trace"
@@ -103,8 +136,11 @@ def test_scenes_lists_builtins(tmp_path):
 BAD_SCENES = {
     "radius.toml": ('[[objects]]\ntype = "sphere"\ncenter = [0, 0, 3]\nradius = -2\n', "objects[0].radius"),
     "syntax.toml": ("[render\nwidth = 3\n", "line 1"),
-    "unknown.toml": ('[camera]\nfov = 40\nzoom = 2\n', "camera.zoom"),
-    "material.json": ('{"objects": [{"type": "sphere", "center": [0,0,3], "radius": 1, "material": "x"}]}', "objects[0].material"),
+    "unknown.toml": ("[camera]\nfov = 40\nzoom = 2\n", "camera.zoom"),
+    "material.json": (
+        '{"objects": [{"type": "sphere", "center": [0,0,3], "radius": 1, "material": "x"}]}',
+        "objects[0].material",
+    ),
     "mesh.toml": ('[[objects]]\ntype = "mesh"\nfile = "missing.obj"\n', "objects[0].file"),
 }
 
@@ -157,7 +193,7 @@ def test_output_may_not_overwrite_the_scene(tmp_path, good):
 
 
 # Every scene-file entry of the catalogue of bad inputs (docs/errors.md), end to end.
-from test_scene_load import BAD as BAD_DOCUMENTS
+from test_scene_load import BAD as BAD_DOCUMENTS  # noqa: E402
 
 
 @pytest.mark.parametrize("document, key, words", BAD_DOCUMENTS, ids=[b[1] + ":" + b[2][:12] for b in BAD_DOCUMENTS])
@@ -170,8 +206,13 @@ def test_catalogue_of_bad_scene_files_end_to_end(tmp_path, document, key, words)
 
 BAD_MESHES = {
     "empty.obj": ("", "empty"),
-    "points.ply": (("ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\n"
-                    "end_header\n0 0 0\n1 1 1\n"), "no triangles"),
+    "points.ply": (
+        (
+            "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\n"
+            "end_header\n0 0 0\n1 1 1\n"
+        ),
+        "no triangles",
+    ),
     "range.obj": ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n", ""),
     "nan.obj": ("v 0 0 0\nv 1 0 0\nv nan 1 0\nf 1 2 3\n", ""),
     "notply.ply": ("this is not a ply file at all\n", ""),
@@ -201,6 +242,7 @@ def test_debug_shows_the_traceback(tmp_path):
 
 
 # ---------------------------------------------------------------- help, version, scenes
+
 
 def test_render_help_shows_flags_as_flags_and_metavars_in_words(tmp_path):
     result = raylume("render", "--help", cwd=tmp_path, env={"COLUMNS": "200"})
@@ -244,6 +286,7 @@ def test_scenes_prints_whole_descriptions(tmp_path):
 
 # ---------------------------------------------------------------- outputs checked before rendering
 
+
 def test_output_that_is_a_folder_says_so(tmp_path):
     (tmp_path / "adir").mkdir()
     result = raylume("render", "-o", "adir", cwd=tmp_path)
@@ -278,6 +321,7 @@ def test_unwritable_output_is_refused_before_rendering(tmp_path, good, flag, nam
 
 # ---------------------------------------------------------------- warnings, summary
 
+
 def test_ignored_exposure_and_filter_are_warned_about(tmp_path, good):
     result = raylume("render", good, "-o", "out.npy", "--exposure", 1, "--filter", "gaussian", "--spp", 1, cwd=tmp_path)
     assert result.returncode == 0, result.stderr
@@ -296,10 +340,23 @@ def test_raster_summary_does_not_report_rays(tmp_path, good):
 
 # ---------------------------------------------------------------- --set, new formats, EXR layers
 
+
 def test_set_overrides_scene_keys(tmp_path, good):
     result = raylume(
-        "render", good, "--set", "render.width=12", "--set", "camera.position=[0, 0, -1]", "--set", "render.mode=cast",
-        "--set", 'objects.0.material.color="#00ff00"', "-o", "out.npy", "-q", cwd=tmp_path,
+        "render",
+        good,
+        "--set",
+        "render.width=12",
+        "--set",
+        "camera.position=[0, 0, -1]",
+        "--set",
+        "render.mode=cast",
+        "--set",
+        'objects.0.material.color="#00ff00"',
+        "-o",
+        "out.npy",
+        "-q",
+        cwd=tmp_path,
     )
     assert result.returncode == 0, result.stderr
     rgb = np.load(tmp_path / "out.npy")
@@ -308,8 +365,19 @@ def test_set_overrides_scene_keys(tmp_path, good):
 
 
 def test_set_also_applies_to_builtin_scenes(tmp_path):
-    result = raylume("render", "--set", "render.width=9", "--set", "render.height=7", "--set", "render.mode=cast",
-                     "-o", "out.npy", "-q", cwd=tmp_path)
+    result = raylume(
+        "render",
+        "--set",
+        "render.width=9",
+        "--set",
+        "render.height=7",
+        "--set",
+        "render.mode=cast",
+        "-o",
+        "out.npy",
+        "-q",
+        cwd=tmp_path,
+    )
     assert result.returncode == 0, result.stderr
     assert np.load(tmp_path / "out.npy").shape == (7, 9, 3)
 
@@ -342,13 +410,32 @@ def test_jpeg_and_16_bit_png_outputs(tmp_path, good):
 
 def test_aovs_as_layers_of_one_exr(tmp_path, good):
     OpenEXR = pytest.importorskip("OpenEXR")
-    result = raylume("render", good, "-o", "out.exr", *[a for n in ("depth", "normal", "albedo", "object", "prim")
-                                                        for a in ("--aov", n)], "-q", cwd=tmp_path)
+    result = raylume(
+        "render",
+        good,
+        "-o",
+        "out.exr",
+        *[a for n in ("depth", "normal", "albedo", "object", "prim") for a in ("--aov", n)],
+        "-q",
+        cwd=tmp_path,
+    )
     assert result.returncode == 0, result.stderr
     with OpenEXR.File(str(tmp_path / "out.exr"), separate_channels=True) as f:
         ch = {name: c.pixels for name, c in f.channels().items()}
-    assert set(ch) == {"R", "G", "B", "depth.Z", "normal.X", "normal.Y", "normal.Z", "albedo.R", "albedo.G", "albedo.B",
-                       "object.id", "prim.id"}
+    assert set(ch) == {
+        "R",
+        "G",
+        "B",
+        "depth.Z",
+        "normal.X",
+        "normal.Y",
+        "normal.Z",
+        "albedo.R",
+        "albedo.G",
+        "albedo.B",
+        "object.id",
+        "prim.id",
+    }
     obj = ch["object.id"].view(np.int32)
     prim = ch["prim.id"].view(np.int32)
     hit = obj == 0
@@ -360,4 +447,6 @@ def test_aovs_as_layers_of_one_exr(tmp_path, good):
 
 
 def test_aov_without_path_needs_an_exr_output(tmp_path, good):
-    assert_refused(raylume("render", good, "-o", "out.png", "--aov", "depth", cwd=tmp_path), "--aov depth", ".exr", "NAME=PATH")
+    assert_refused(
+        raylume("render", good, "-o", "out.png", "--aov", "depth", cwd=tmp_path), "--aov depth", ".exr", "NAME=PATH"
+    )

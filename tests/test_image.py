@@ -108,8 +108,8 @@ def _png_16_pixels(data: bytes) -> np.ndarray:
 
     pos, idat, (w, h) = 8, b"", (0, 0)
     while pos < len(data):
-        (n,), kind = struct.unpack(">I", data[pos:pos + 4]), data[pos + 4:pos + 8]
-        body = data[pos + 8:pos + 8 + n]
+        (n,), kind = struct.unpack(">I", data[pos : pos + 4]), data[pos + 4 : pos + 8]
+        body = data[pos + 8 : pos + 8 + n]
         if kind == b"IHDR":
             w, h, depth, colour = struct.unpack(">IIBB", body[:10])
             assert (depth, colour) == (16, 2)
@@ -198,8 +198,12 @@ def test_exr_layers_round_trip(tmp_path):
     rgb = _smooth_image()
     ids = np.full(rgb.shape[:2], -1, np.int32)
     ids[2, 3] = 2**31 - 1
-    layers = {"depth": np.full(rgb.shape[:2], np.inf, np.float32), "normal": rgb[..., ::-1].copy(),
-              "object": ids, "prim": np.zeros_like(ids)}
+    layers = {
+        "depth": np.full(rgb.shape[:2], np.inf, np.float32),
+        "normal": rgb[..., ::-1].copy(),
+        "object": ids,
+        "prim": np.zeros_like(ids),
+    }
     Image(rgb, aovs=layers).save(tmp_path / "a.exr", layers=["depth", "normal", "object", "prim"])
     with OpenEXR.File(str(tmp_path / "a.exr"), separate_channels=True) as f:
         ch = {name: c.pixels for name, c in f.channels().items()}

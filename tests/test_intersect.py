@@ -112,8 +112,13 @@ component = st.one_of(st.sampled_from([0.0, -0.0]), st.floats(-1, 1, allow_nan=F
 
 
 @settings(max_examples=500, deadline=None)
-@given(st.tuples(coord, coord, coord), st.tuples(coord, coord, coord), st.tuples(coord, coord, coord),
-       st.tuples(component, component, component).filter(lambda d: any(d)), st.sampled_from([INF, 5.0]))
+@given(
+    st.tuples(coord, coord, coord),
+    st.tuples(coord, coord, coord),
+    st.tuples(coord, coord, coord),
+    st.tuples(component, component, component).filter(lambda d: any(d)),
+    st.sampled_from([INF, 5.0]),
+)
 def test_box_test_agrees_with_the_textbook_slab_test(a, b, o, d, tmax):
     """Near/far planes picked by the direction's sign, against min/max of both slab distances
     with exact division and zero components handled explicitly; zero and negative-zero

@@ -10,12 +10,14 @@ import raylume
 
 
 def centre_pixel(objects, lights, materials=None, max_depth=3, background=(0, 0, 0), mode="trace"):
-    scene = raylume.scene_from_dict({
-        "render": {"width": 1, "height": 1, "max_depth": max_depth, "background": list(background), "mode": mode},
-        "materials": materials or {},
-        "lights": lights,
-        "objects": objects,
-    })
+    scene = raylume.scene_from_dict(
+        {
+            "render": {"width": 1, "height": 1, "max_depth": max_depth, "background": list(background), "mode": mode},
+            "materials": materials or {},
+            "lights": lights,
+            "objects": objects,
+        }
+    )
     return raylume.render(scene).rgb[0, 0].astype(np.float64)
 
 
@@ -90,5 +92,7 @@ def test_reflected_ray_that_misses_sees_background():
 
 
 def test_cast_mode_is_unlit_material_colour():
-    rgb = centre_pixel([SPHERE], [{"type": "ambient", "intensity": 0.1}], {"m": {"color": [0.3, 0.6, 0.9]}}, mode="cast")
+    rgb = centre_pixel(
+        [SPHERE], [{"type": "ambient", "intensity": 0.1}], {"m": {"color": [0.3, 0.6, 0.9]}}, mode="cast"
+    )
     np.testing.assert_allclose(rgb, [0.3, 0.6, 0.9], rtol=1e-6)

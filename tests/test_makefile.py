@@ -15,7 +15,9 @@ pytestmark = pytest.mark.skipif(shutil.which("make") is None, reason="make is no
 
 def dry_run(target: str, venv: Path) -> list[str]:
     """The pip install lines `make -n TARGET` would run for a venv at `venv`."""
-    result = subprocess.run(["make", "-n", "-C", str(REPO), target, f"VENV={venv}"], capture_output=True, text=True, check=False)
+    result = subprocess.run(
+        ["make", "-n", "-C", str(REPO), target, f"VENV={venv}"], capture_output=True, text=True, check=False
+    )
     assert result.returncode == 0, result.stderr
     return [line for line in result.stdout.splitlines() if "pip install" in line and "--upgrade pip" not in line]
 
@@ -41,5 +43,7 @@ def test_render_then_test_still_installs_dev(tmp_path):
 
 
 def dry_run_stamps(target: str, venv: Path) -> list[str]:
-    result = subprocess.run(["make", "-n", "-C", str(REPO), target, f"VENV={venv}"], capture_output=True, text=True, check=False)
+    result = subprocess.run(
+        ["make", "-n", "-C", str(REPO), target, f"VENV={venv}"], capture_output=True, text=True, check=False
+    )
     return [word for line in result.stdout.splitlines() if line.startswith("touch ") for word in line.split()[1:]]

@@ -83,7 +83,9 @@ def test_quads_and_polygons_are_triangulated(tmp_path):
     d = load_mesh(write(tmp_path / "quad.obj", text))
     assert len(d.faces) == 3
     assert area(d) == pytest.approx(1.5)
-    normals = np.cross(d.vertices[d.faces[:, 1]] - d.vertices[d.faces[:, 0]], d.vertices[d.faces[:, 2]] - d.vertices[d.faces[:, 0]])
+    normals = np.cross(
+        d.vertices[d.faces[:, 1]] - d.vertices[d.faces[:, 0]], d.vertices[d.faces[:, 2]] - d.vertices[d.faces[:, 0]]
+    )
     assert np.all(normals[:, 2] > 0)  # counter-clockwise winding of the file is kept
 
 
@@ -118,6 +120,7 @@ def test_gltf_with_external_buffer(tmp_path):
 
 
 # ------------------------------------------------------------------ transforms
+
 
 def test_transform_matrix_convention():
     ry = transform_matrix(rotate=(0, 90, 0))[:3, :3]
@@ -199,6 +202,7 @@ def test_any_transform_matches_matrix_and_keeps_volume_positive(tetra_file, tran
 
 # ------------------------------------------------------------- normals and UVs
 
+
 def test_obj_file_normals(tmp_path):
     # Deliberately non-geometric, non-unit normals: they must come from the file.
     text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 2\nvn 0 3 4\nvn 1 0 0\nf 1//1 2//2 3//3\n"
@@ -232,7 +236,9 @@ def test_obj_per_corner_normals_split_vertices(tmp_path):
     lines += [f"f {a + 1}//{s + 1} {b + 1}//{s + 1} {c + 1}//{s + 1}" for s, (a, b, c) in zip(side_of_face, box.faces)]
     d = load_mesh(write(tmp_path / "cube.obj", "\n".join(lines) + "\n"))
     assert len(d.faces) == 12 and len(d.vertices) == 24  # 8 corners x 3 sides
-    geometric = np.cross(d.vertices[d.faces[:, 1]] - d.vertices[d.faces[:, 0]], d.vertices[d.faces[:, 2]] - d.vertices[d.faces[:, 0]])
+    geometric = np.cross(
+        d.vertices[d.faces[:, 1]] - d.vertices[d.faces[:, 0]], d.vertices[d.faces[:, 2]] - d.vertices[d.faces[:, 0]]
+    )
     geometric /= np.linalg.norm(geometric, axis=1)[:, None]
     for corner in range(3):  # every corner carries its own face's normal: hard edges survive
         assert np.allclose(d.normals[d.faces[:, corner]], geometric)
@@ -293,6 +299,7 @@ def test_degenerate_faces_dropped_and_counted(tmp_path):
 
 
 # ---------------------------------------------------------------------- errors
+
 
 def assert_mesh_error(path, match=None, **kwargs):
     with pytest.raises(MeshError) as info:
@@ -379,6 +386,7 @@ def test_error_bad_transform_names_file(tmp_path):
 
 # ---------------------------------------------------------------------- scale
 
+
 def test_four_million_triangles_load(tmp_path):
     v, f = bumpy_sphere(4_000_000)
     path = tmp_path / "big.ply"
@@ -426,7 +434,10 @@ def test_shared_models_load(name):
         pytest.skip(f"{path} is absent")
     start = time.perf_counter()
     d = load_mesh(path)
-    print(f"{name}: {len(d.vertices)} vertices, {len(d.faces)} faces, {d.degenerate} degenerate, {time.perf_counter() - start:.3f}s")
+    print(
+        f"{name}: {len(d.vertices)} vertices, {len(d.faces)} faces, {d.degenerate} degenerate, "
+        f"{time.perf_counter() - start:.3f}s"
+    )
     assert len(d.faces) == SHARED_FACES[name]
     assert np.isfinite(d.vertices).all() and d.faces.max() < len(d.vertices)
     assert (d.normals is not None) == (name == "suzanne.obj")  # the only one with vn
@@ -446,10 +457,12 @@ STRIP_FACES = [[0, 1, 2], [2, 1, 3], [4, 5, 6], [6, 5, 7], [2, 3, 4], [4, 3, 5]]
 
 
 def strip_ply(fmt: str, count_type: str = "int") -> bytes:
-    header = (f"ply\nformat {fmt} 1.0\ncomment a ribbon made of triangle strips, as igea.ply stores its faces\n"
-              f"element vertex {len(RIBBON)}\nproperty float x\nproperty float y\nproperty float z\n"
-              f"property uchar confidence\nelement tristrips {len(STRIPS)}\n"
-              f"property list {count_type} int vertex_indices\nend_header\n").encode()
+    header = (
+        f"ply\nformat {fmt} 1.0\ncomment a ribbon made of triangle strips, as igea.ply stores its faces\n"
+        f"element vertex {len(RIBBON)}\nproperty float x\nproperty float y\nproperty float z\n"
+        f"property uchar confidence\nelement tristrips {len(STRIPS)}\n"
+        f"property list {count_type} int vertex_indices\nend_header\n"
+    ).encode()
     if fmt == "ascii":
         rows = [f"{x:g} {y:g} {z:g} 7" for x, y, z in RIBBON] + [" ".join(map(str, [len(s), *s])) for s in STRIPS]
         return header + ("\n".join(rows) + "\n").encode()
@@ -461,8 +474,16 @@ def strip_ply(fmt: str, count_type: str = "int") -> bytes:
     return header + vertex.tobytes() + body
 
 
-@pytest.mark.parametrize("fmt, count_type", [("ascii", "int"), ("ascii", "uchar"), ("binary_big_endian", "int"),
-                                             ("binary_little_endian", "uchar"), ("binary_little_endian", "ushort")])
+@pytest.mark.parametrize(
+    "fmt, count_type",
+    [
+        ("ascii", "int"),
+        ("ascii", "uchar"),
+        ("binary_big_endian", "int"),
+        ("binary_little_endian", "uchar"),
+        ("binary_little_endian", "ushort"),
+    ],
+)
 def test_ply_triangle_strips(tmp_path, fmt, count_type):
     path = tmp_path / "strips.ply"
     path.write_bytes(strip_ply(fmt, count_type))

@@ -54,8 +54,13 @@ def _edge_scene(spp, pixel_filter="box", seed=0):
     return scene(
         render={"width": N, "height": N, "spp": spp, "mode": "cast", "filter": pixel_filter, "seed": seed},
         camera={"fov": 90},
-        objects=[{"type": "triangle", "vertices": [[-3, line(-3), 1], [3, line(3), 1], [0, 100, 1]],
-                  "material": {"color": [1, 1, 1]}}],
+        objects=[
+            {
+                "type": "triangle",
+                "vertices": [[-3, line(-3), 1], [3, line(3), 1], [0, 100, 1]],
+                "material": {"color": [1, 1, 1]},
+            }
+        ],
     )
 
 
@@ -90,8 +95,12 @@ def test_one_sample_without_jitter_is_the_pinhole_render():
     """spp = 1 is the ray through the pixel centre whatever the filter, seed or focus distance."""
     cov = _coverage()
     px = 2.0 / N
-    centres = np.array([[1.0 if (1 - (j + 0.5) * px) > EDGE_M * (-1 + (i + 0.5) * px) + EDGE_C else 0.0
-                         for i in range(N)] for j in range(N)])
+    centres = np.array(
+        [
+            [1.0 if (1 - (j + 0.5) * px) > EDGE_M * (-1 + (i + 0.5) * px) + EDGE_C else 0.0 for i in range(N)]
+            for j in range(N)
+        ]
+    )
     for pixel_filter, seed in (("box", 0), ("gaussian", 7), ("mitchell", 123)):
         img = raylume.render(_edge_scene(1, pixel_filter, seed), aovs=False).rgb[..., 0]
         np.testing.assert_array_equal(img, centres)
@@ -105,8 +114,10 @@ def test_one_sample_without_jitter_is_the_pinhole_render():
 
 def test_filters_keep_flat_colour_and_are_deterministic():
     for pixel_filter in ("box", "gaussian", "mitchell"):
-        flat = raylume.render(scene(render={"width": 6, "height": 5, "spp": 9, "filter": pixel_filter,
-                                            "background": [0.25, 0.5, 1.0]}), aovs=False).rgb
+        flat = raylume.render(
+            scene(render={"width": 6, "height": 5, "spp": 9, "filter": pixel_filter, "background": [0.25, 0.5, 1.0]}),
+            aovs=False,
+        ).rgb
         np.testing.assert_allclose(flat, np.broadcast_to([0.25, 0.5, 1.0], flat.shape), rtol=1e-6)
     a = raylume.render(_edge_scene(8, "gaussian", seed=3), aovs=False).rgb
     b = raylume.render(_edge_scene(8, "gaussian", seed=3), aovs=False, threads=1).rgb
@@ -119,7 +130,7 @@ def test_gaussian_filter_table_is_the_truncated_gaussian_inverse_cdf():
     from raylume.kernels.film import filter_table
 
     radius, sigma = 1.5, 0.5
-    edge = math.exp(-radius**2 / (2 * sigma**2))
+    edge = math.exp(-(radius**2) / (2 * sigma**2))
 
     def cdf(x):  # integral of exp(-t^2 / 2 sigma^2) - edge over [-radius, x], normalised
         g = lambda t: sigma * math.sqrt(math.pi / 2) * math.erf(t / (sigma * math.sqrt(2))) - edge * t  # noqa: E731
@@ -152,8 +163,16 @@ def _penumbra_width(size, floor_y=0.0, occluder_y=1.0, light_y=3.0, light_x=-2.0
     base = {
         "render": {"width": W, "height": H, "spp": 4, "max_depth": 0},
         "camera": {"position": [1, height, 0], "look_at": [1, 0, 0], "up": [0, 0, 1], "fov": fov},
-        "lights": [{"type": "quad", "position": [light_x, light_y, 0], "u": [size, 0, 0], "v": [0, 0, size],
-                    "intensity": 1.0, "samples": 64}],
+        "lights": [
+            {
+                "type": "quad",
+                "position": [light_x, light_y, 0],
+                "u": [size, 0, 0],
+                "v": [0, 0, size],
+                "intensity": 1.0,
+                "samples": 64,
+            }
+        ],
         "objects": [{"type": "plane", "point": [0, floor_y, 0], "normal": [0, 1, 0]}],
     }
     occluder = {"type": "triangle", "vertices": [[0, occluder_y, -20], [0, occluder_y, 20], [-20, occluder_y, 0]]}
@@ -179,24 +198,37 @@ def test_soft_shadow_penumbra_grows_with_light_size():
 
 
 def test_tiny_area_lights_match_the_point_light():
-    objects = [{"type": "plane", "normal": [0, 1, 0], "point": [0, -1, 0], "material": {"specular": 20}},
-               {"type": "sphere", "center": [0, 0, 3], "radius": 0.8, "material": {"color": [1, 0.5, 0.2], "specular": 50}}]
+    objects = [
+        {"type": "plane", "normal": [0, 1, 0], "point": [0, -1, 0], "material": {"specular": 20}},
+        {"type": "sphere", "center": [0, 0, 3], "radius": 0.8, "material": {"color": [1, 0.5, 0.2], "specular": 50}},
+    ]
     render = {"width": 32, "height": 24, "spp": 1}
     pos = [1.5, 2.5, 0.5]
-    point = raylume.render(scene(render=render, objects=objects,
-                                 lights=[{"type": "point", "position": pos, "intensity": 0.8}]), aovs=False).rgb
+    point = raylume.render(
+        scene(render=render, objects=objects, lights=[{"type": "point", "position": pos, "intensity": 0.8}]), aovs=False
+    ).rgb
     for light in ({"type": "quad", "u": [1e-5, 0, 0], "v": [0, 0, 1e-5]}, {"type": "sphere", "radius": 1e-5}):
-        area = raylume.render(scene(render=render, objects=objects,
-                                    lights=[{**light, "position": pos, "intensity": 0.8, "samples": 4}]), aovs=False)
+        area = raylume.render(
+            scene(render=render, objects=objects, lights=[{**light, "position": pos, "intensity": 0.8, "samples": 4}]),
+            aovs=False,
+        )
         assert np.abs(area.rgb - point).max() < 1e-3
-        assert area.stats["rays"] > raylume.render(scene(render=render, objects=objects, lights=[]), aovs=False).stats["rays"]
+        assert (
+            area.stats["rays"]
+            > raylume.render(scene(render=render, objects=objects, lights=[]), aovs=False).stats["rays"]
+        )
 
 
 def test_area_light_samples_count_shadow_rays():
     objects = [{"type": "sphere", "center": [0, 0, 3], "radius": 1}]
     light = {"type": "sphere", "position": [0, 0, 0.5], "radius": 0.1}
-    rays = [raylume.render(scene(render={"width": 1, "height": 1, "max_depth": 0}, objects=objects,
-                                 lights=[{**light, "samples": n}]), aovs=False).stats["rays"] for n in (1, 9)]
+    rays = [
+        raylume.render(
+            scene(render={"width": 1, "height": 1, "max_depth": 0}, objects=objects, lights=[{**light, "samples": n}]),
+            aovs=False,
+        ).stats["rays"]
+        for n in (1, 9)
+    ]
     assert rays == [2, 10]  # the camera ray, then one shadow ray per light sample
 
 
@@ -221,17 +253,23 @@ def test_texture_lookup_returns_texels_at_centres_and_blends_between():
             # repeating: a whole number of tiles away is the same texel
             np.testing.assert_allclose(texture_lookup(atlas, 7, w, h, u + 3, v - 2), texels[y, x], atol=1e-5)
     # halfway between two texel centres: their mean; across the right border it wraps to column 0
-    np.testing.assert_allclose(texture_lookup(atlas, 7, w, h, 2.0 / w, 1 - 0.5 / h), texels[0, 1:3].mean(axis=0), atol=1e-6)
-    np.testing.assert_allclose(texture_lookup(atlas, 7, w, h, 1.0, 1 - 0.5 / h), (texels[0, 0] + texels[0, -1]) / 2, atol=1e-6)
+    np.testing.assert_allclose(
+        texture_lookup(atlas, 7, w, h, 2.0 / w, 1 - 0.5 / h), texels[0, 1:3].mean(axis=0), atol=1e-6
+    )
+    np.testing.assert_allclose(
+        texture_lookup(atlas, 7, w, h, 1.0, 1 - 0.5 / h), (texels[0, 0] + texels[0, -1]) / 2, atol=1e-6
+    )
 
 
 def _quad_obj(path: Path):
     """The square [-1, 1]^2 at z = 1 with UVs (x + 1) / 2, (y + 1) / 2, as a fan around an inner
     vertex: no triangle edge passes through a pixel centre of the 4 x 4 test image (a ray
     exactly along an edge shared by two triangles is the traversal's business, not this test's)."""
-    path.write_text("v -1 -1 1\nv 1 -1 1\nv 1 1 1\nv -1 1 1\nv 0.1 0.2 1\n"
-                    "vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nvt 0.55 0.6\n"
-                    "f 1/1 2/2 5/5\nf 2/2 3/3 5/5\nf 3/3 4/4 5/5\nf 4/4 1/1 5/5\n")
+    path.write_text(
+        "v -1 -1 1\nv 1 -1 1\nv 1 1 1\nv -1 1 1\nv 0.1 0.2 1\n"
+        "vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nvt 0.55 0.6\n"
+        "f 1/1 2/2 5/5\nf 2/2 3/3 5/5\nf 3/3 4/4 5/5\nf 4/4 1/1 5/5\n"
+    )
 
 
 def test_image_texture_on_a_mesh_shows_its_texels(tmp_path):
@@ -274,14 +312,24 @@ def test_sphere_and_plane_uvs():
     from raylume.kernels.scene import geometry_of
     from raylume.kernels.shapes import uv
 
-    s = scene(objects=[{"type": "sphere", "center": [1, 2, 3], "radius": 2},
-                       {"type": "plane", "point": [0, -1, 0], "normal": [0, 1, 0]},
-                       {"type": "plane", "point": [0, 0, 5], "normal": [0, 0, -1]}])
+    s = scene(
+        objects=[
+            {"type": "sphere", "center": [1, 2, 3], "radius": 2},
+            {"type": "plane", "point": [0, -1, 0], "normal": [0, 1, 0]},
+            {"type": "plane", "point": [0, 0, 5], "normal": [0, 0, -1]},
+        ]
+    )
     S = compile_scene(s).kernel
     G = geometry_of(S)  # primitives: the sphere (in the BVH), then the two planes
     c = np.array([1.0, 2.0, 3.0])
-    cases = {(0, 0, -1): (0.5, 0.5), (1, 0, 0): (0.75, 0.5), (-1, 0, 0): (0.25, 0.5), (0, 1, 0): (None, 1.0),
-             (0, -1, 0): (None, 0.0), (0, math.sqrt(0.5), -math.sqrt(0.5)): (0.5, 0.75)}
+    cases = {
+        (0, 0, -1): (0.5, 0.5),
+        (1, 0, 0): (0.75, 0.5),
+        (-1, 0, 0): (0.25, 0.5),
+        (0, 1, 0): (None, 1.0),
+        (0, -1, 0): (None, 0.0),
+        (0, math.sqrt(0.5), -math.sqrt(0.5)): (0.5, 0.75),
+    }
     for n, (u, v) in cases.items():
         p = tuple(c + 2 * np.array(n))
         got = uv(G, 0, 0.0, 0.0, p)
@@ -298,15 +346,15 @@ def test_texture_errors_name_the_key(tmp_path):
     (tmp_path / "nouv.obj").write_text("v 0 0 1\nv 1 0 1\nv 0 1 1\nf 1 2 3\n")
     (tmp_path / "bad.png").write_text("not an image")
     cases = [
-        ('materials.wood.texture.file', 'material = "wood"', "missing.png", "quad.obj"),
-        ('materials.wood.texture.file', 'material = "wood"', "bad.png", "quad.obj"),
-        ('objects[0].file', 'material = "wood"', None, "nouv.obj"),
+        ("materials.wood.texture.file", 'material = "wood"', "missing.png", "quad.obj"),
+        ("materials.wood.texture.file", 'material = "wood"', "bad.png", "quad.obj"),
+        ("objects[0].file", 'material = "wood"', None, "nouv.obj"),
     ]
     for key, material, tex, mesh in cases:
         path = tmp_path / "scene.toml"
         path.write_text(f"""
 [materials.wood]
-texture = {{ type = "image", file = "{tex or 'ok.png'}" }}
+texture = {{ type = "image", file = "{tex or "ok.png"}" }}
 [[objects]]
 type = "mesh"
 file = "{mesh}"
@@ -324,9 +372,16 @@ def _wall_scene(wall_z, aperture):
     return scene(
         render={"width": 32, "height": 32, "spp": 16, "mode": "cast", "seed": 5},
         camera={"fov": 40, "aperture": aperture, "focus_distance": 4.0},
-        objects=[{"type": "plane", "point": [0, 0, wall_z], "normal": [0, 0, -1],
-                  "material": {"texture": {"type": "checker", "scale": 0.6 * wall_z / 4,
-                                           "colors": [[1, 1, 1], [0, 0, 0]]}}}],
+        objects=[
+            {
+                "type": "plane",
+                "point": [0, 0, wall_z],
+                "normal": [0, 0, -1],
+                "material": {
+                    "texture": {"type": "checker", "scale": 0.6 * wall_z / 4, "colors": [[1, 1, 1], [0, 0, 0]]}
+                },
+            }
+        ],
     )
 
 
@@ -453,7 +508,9 @@ center = [0, 0, 3]
 radius = 1
 """)
     for out in ("a.exr", "a.hdr", "a.png", "b.png", "c.png", "d.png"):
-        extra = {"b.png": ["--exposure", "-1"], "c.png": ["--filter", "mitchell"], "d.png": ["--seed", "9"]}.get(out, [])
+        extra = {"b.png": ["--exposure", "-1"], "c.png": ["--filter", "mitchell"], "d.png": ["--seed", "9"]}.get(
+            out, []
+        )
         r = _cli(scene_file, "-o", out, "--quiet", "--seed", "1", *extra, cwd=tmp_path)
         assert r.returncode == 0, r.stderr
     with OpenEXR.File(str(tmp_path / "a.exr")) as f:

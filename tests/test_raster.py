@@ -43,7 +43,8 @@ def meshes(tmp_path_factory):
     trimesh.creation.box(extents=(1.2, 0.8, 0.8)).export(folder / "box.ply")
     paths["box"] = str(folder / "box.ply")
     trimesh.creation.torus(major_radius=0.8, minor_radius=0.25, major_sections=48, minor_sections=24).export(
-        folder / "torus.ply")
+        folder / "torus.ply"
+    )
     paths["torus"] = str(folder / "torus.ply")
     return paths
 
@@ -93,10 +94,14 @@ def assert_agrees_with_cast(r, c, *, max_edge_fraction, depth_rtol, pixels_exemp
 
 
 def test_aovs_have_the_design_dtypes_and_shapes(meshes):
-    sc = scene([{"type": "mesh", "file": meshes["torus"], "smooth": True},
-                {"type": "sphere", "center": [1.2, 0.5, 1.0], "radius": 0.5},
-                {"type": "plane", "point": [0, -1, 0], "normal": [0, 1, 0]}],
-               background=[0.1, 0.2, 0.3])
+    sc = scene(
+        [
+            {"type": "mesh", "file": meshes["torus"], "smooth": True},
+            {"type": "sphere", "center": [1.2, 0.5, 1.0], "radius": 0.5},
+            {"type": "plane", "point": [0, -1, 0], "normal": [0, 1, 0]},
+        ],
+        background=[0.1, 0.2, 0.3],
+    )
     progress = []
     img = raylume.render(sc, mode="raster", width=72, height=56, progress=lambda d, t: progress.append((d, t)))
     H, W = 56, 72
@@ -126,8 +131,12 @@ def test_aovs_have_the_design_dtypes_and_shapes(meshes):
 
 
 def test_image_does_not_depend_on_thread_count(meshes):
-    sc = scene([{"type": "mesh", "file": meshes["bumpy"]},
-                {"type": "mesh", "file": meshes["box"], "transform": {"translate": [0.3, 0.2, -0.8]}}])
+    sc = scene(
+        [
+            {"type": "mesh", "file": meshes["bumpy"]},
+            {"type": "mesh", "file": meshes["box"], "transform": {"translate": [0.3, 0.2, -0.8]}},
+        ]
+    )
     one = raylume.render(sc, mode="raster", width=64, height=64, threads=1)
     two = raylume.render(sc, mode="raster", width=64, height=64, threads=2)
     assert np.array_equal(one.rgb, two.rgb)
@@ -139,23 +148,36 @@ def test_image_does_not_depend_on_thread_count(meshes):
 
 
 def test_depth_object_and_prim_agree_with_the_ray_caster_on_meshes(meshes):
-    sc = scene([
-        {"type": "mesh", "file": meshes["bumpy"], "transform": {"translate": [-0.4, 0, 0.5]}},
-        {"type": "mesh", "file": meshes["torus"], "transform": {"translate": [0.7, 0.3, -0.4], "rotate": [60, 20, 0]}},
-        {"type": "mesh", "file": meshes["box"], "transform": {"translate": [0.2, -0.7, -0.2], "rotate": [10, 35, 0]}},
-    ])
+    sc = scene(
+        [
+            {"type": "mesh", "file": meshes["bumpy"], "transform": {"translate": [-0.4, 0, 0.5]}},
+            {
+                "type": "mesh",
+                "file": meshes["torus"],
+                "transform": {"translate": [0.7, 0.3, -0.4], "rotate": [60, 20, 0]},
+            },
+            {
+                "type": "mesh",
+                "file": meshes["box"],
+                "transform": {"translate": [0.2, -0.7, -0.2], "rotate": [10, 35, 0]},
+            },
+        ]
+    )
     r, c = both(sc, 160, 120)
     assert (c.aovs["object"] >= 0).mean() > 0.3
     assert_agrees_with_cast(r, c, max_edge_fraction=0.003, depth_rtol=1e-5)
 
 
 def test_spheres_and_planes_agree_with_the_ray_caster_up_to_tessellation():
-    sc = scene([
-        {"type": "plane", "point": [0, -1, 0], "normal": [0, 1, 0], "material": {"texture": {"type": "checker"}}},
-        {"type": "sphere", "center": [0, 0, 1], "radius": 1},
-        {"type": "sphere", "center": [1.8, 0.3, 3], "radius": 0.7},
-        {"type": "sphere", "center": [0, -5001, 0], "radius": 4999.5},  # just below the plane
-    ], camera={"position": [0, 0.5, -3], "look_at": [0, -0.2, 1]})
+    sc = scene(
+        [
+            {"type": "plane", "point": [0, -1, 0], "normal": [0, 1, 0], "material": {"texture": {"type": "checker"}}},
+            {"type": "sphere", "center": [0, 0, 1], "radius": 1},
+            {"type": "sphere", "center": [1.8, 0.3, 3], "radius": 0.7},
+            {"type": "sphere", "center": [0, -5001, 0], "radius": 4999.5},  # just below the plane
+        ],
+        camera={"position": [0, 0.5, -3], "look_at": [0, -0.2, 1]},
+    )
     r, c = both(sc, 128, 96)
     ro, co = r.aovs["object"], c.aovs["object"]
     # The plane is exact; spheres are polygons within a quarter pixel of their silhouettes,
@@ -188,8 +210,10 @@ def test_lighting_matches_trace_where_nothing_casts_a_shadow(meshes):
 
 @pytest.mark.parametrize("name", ["bumpy", "ico", "torus"])
 def test_closed_mesh_leaves_no_background_pixel_inside_its_silhouette(meshes, name):
-    sc = scene([{"type": "mesh", "file": meshes[name], "transform": {"rotate": [30, 40, 0]}}],
-               camera={"position": [0, 0, -2.6]})
+    sc = scene(
+        [{"type": "mesh", "file": meshes[name], "transform": {"rotate": [30, 40, 0]}}],
+        camera={"position": [0, 0, -2.6]},
+    )
     img = raylume.render(sc, mode="raster", width=150, height=150)
     covered = img.aovs["object"] == 0
     # fill_holes closes background regions not connected to the border: pinholes, cracks;
@@ -222,9 +246,13 @@ def test_triangles_crossing_the_near_plane_and_behind_the_camera(meshes):
         r, c = both(sc, 80, 64)
         assert (c.aovs["object"] >= 0).sum() > 100, objects
         assert_agrees_with_cast(r, c, max_edge_fraction=0.01, depth_rtol=1e-5)
-    behind = scene([{"type": "triangle", "vertices": [[-3, -3, -1], [3, -3, -1], [0, 3, -0.5]]},
-                    {"type": "sphere", "center": [0, 0, -3], "radius": 1}],
-                   camera={"position": [0, 0, 0], "look_at": [0, 0, 1]})
+    behind = scene(
+        [
+            {"type": "triangle", "vertices": [[-3, -3, -1], [3, -3, -1], [0, 3, -0.5]]},
+            {"type": "sphere", "center": [0, 0, -3], "radius": 1},
+        ],
+        camera={"position": [0, 0, 0], "look_at": [0, 0, 1]},
+    )
     img = raylume.render(behind, mode="raster", width=48, height=48)
     assert (img.aovs["object"] == -1).all() and np.isinf(img.aovs["depth"]).all()
 
@@ -281,14 +309,17 @@ def count_exact(triangles9):
     return coverage_count(view, 1e-6, SIZE, SIZE, np.asarray(triangles9, dtype=np.float64).reshape(-1, 9))
 
 
-@pytest.mark.parametrize("tri2d, depths", [
-    # vertices on pixel centres, edges through many centres (slopes 0, 1, 1/2, vertical)
-    ([(3.5, 3.5), (27.5, 3.5), (3.5, 27.5)], (1, 1, 1)),
-    ([(3.5, 3.5), (3.5, 27.5), (27.5, 3.5)], (1, 2, 4)),  # opposite winding, perspective
-    ([(16.5, 2.5), (28.5, 26.5), (4.5, 26.5)], (0.5, 1, 2)),
-    ([(2.0, 5.5), (30.0, 5.5), (16.0, 30.0)], (1, 4, 2)),
-    ([(1.25, 30.75), (29.5, 1.5), (30.5, 29.0)], (2, 1, 0.5)),
-])
+@pytest.mark.parametrize(
+    "tri2d, depths",
+    [
+        # vertices on pixel centres, edges through many centres (slopes 0, 1, 1/2, vertical)
+        ([(3.5, 3.5), (27.5, 3.5), (3.5, 27.5)], (1, 1, 1)),
+        ([(3.5, 3.5), (3.5, 27.5), (27.5, 3.5)], (1, 2, 4)),  # opposite winding, perspective
+        ([(16.5, 2.5), (28.5, 26.5), (4.5, 26.5)], (0.5, 1, 2)),
+        ([(2.0, 5.5), (30.0, 5.5), (16.0, 30.0)], (1, 4, 2)),
+        ([(1.25, 30.75), (29.5, 1.5), (30.5, 29.0)], (2, 1, 0.5)),
+    ],
+)
 def test_single_triangle_covers_exactly_the_analytic_pixel_centres(tri2d, depths):
     expected = top_left_count(tri2d, SIZE)
     got = count_exact(world_from_screen(tri2d, SIZE, depths))
@@ -305,7 +336,7 @@ def test_rendered_triangle_covers_the_pixel_centres_its_projection_contains():
     W, H = 61, 47
     img = raylume.render(sc, mode="raster", width=W, height=H)
     cam = camera_of(sc.camera, W, H)
-    O, F, R, U = (np.asarray(cam[k:k + 3]) for k in (0, 3, 6, 9))
+    O, F, R, U = (np.asarray(cam[k : k + 3]) for k in (0, 3, 6, 9))
     pts = []
     for v in np.asarray(verts, dtype=np.float32).astype(np.float64):
         rel = [Fraction(float(c)) for c in v - O]
@@ -318,8 +349,10 @@ def test_rendered_triangle_covers_the_pixel_centres_its_projection_contains():
     for j in range(H):
         for i in range(W):
             p = (Fraction(2 * i + 1, 2), Fraction(2 * j + 1, 2))
-            e = [(q[0] - p0[0]) * (p[1] - p0[1]) - (q[1] - p0[1]) * (p[0] - p0[0])
-                 for p0, q in zip(pts, pts[1:] + pts[:1])]
+            e = [
+                (q[0] - p0[0]) * (p[1] - p0[1]) - (q[1] - p0[1]) * (p[0] - p0[0])
+                for p0, q in zip(pts, pts[1:] + pts[:1])
+            ]
             lengths = [abs(q[0] - p0[0]) + abs(q[1] - p0[1]) for p0, q in zip(pts, pts[1:] + pts[:1])]
             assert all(abs(ek) > 1e-6 * lk for ek, lk in zip(e, lengths)), "a centre lies on an edge"
             inside[j, i] = all(ek > 0 for ek in e) or all(ek < 0 for ek in e)
@@ -356,8 +389,11 @@ def convex_hull(points):
     def half(seq):
         out = []
         for p in seq:
-            while len(out) >= 2 and (out[-1][0] - out[-2][0]) * (p[1] - out[-2][1]) - (
-                    out[-1][1] - out[-2][1]) * (p[0] - out[-2][0]) <= 0:
+            while (
+                len(out) >= 2
+                and (out[-1][0] - out[-2][0]) * (p[1] - out[-2][1]) - (out[-1][1] - out[-2][1]) * (p[0] - out[-2][0])
+                <= 0
+            ):
                 out.pop()
             out.append(p)
         return out[:-1]
@@ -416,11 +452,14 @@ def test_a_triangle_fan_covers_its_polygon_without_gaps_or_overlaps(points, cent
 # --- sphere tessellation ---------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("center, radius, eye", [
-    ((0, 0, 3), 1.0, (0, 0, 0)),
-    ((0, -5001, 0), 5000.0, (0, 0, 0)),  # the seed's ground: the camera 1 above a huge sphere
-    ((0.2, 0.1, 0.3), 2.0, (0, 0, 0)),  # the camera inside
-])
+@pytest.mark.parametrize(
+    "center, radius, eye",
+    [
+        ((0, 0, 3), 1.0, (0, 0, 0)),
+        ((0, -5001, 0), 5000.0, (0, 0, 0)),  # the seed's ground: the camera 1 above a huge sphere
+        ((0.2, 0.1, 0.3), 2.0, (0, 0, 0)),  # the camera inside
+    ],
+)
 def test_sphere_cap_vertices_lie_on_the_sphere_and_cover_the_visible_part(center, radius, eye):
     tris = sphere_cap(center, radius, eye, px_per_rad=300.0)
     assert tris.dtype == np.float64 and tris.shape[1] == 9 and 100 < len(tris) < 3_000_000

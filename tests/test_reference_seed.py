@@ -41,6 +41,7 @@ def _unit(v):
 
 # ---------------------------------------------------------------- independence
 
+
 def test_reference_does_not_import_raylume():
     src = (Path(__file__).parent / "reference" / "seed_python.py").read_text()
     for node in ast.walk(ast.parse(src)):
@@ -51,6 +52,7 @@ def test_reference_does_not_import_raylume():
 
 
 # ---------------------------------------------------------------- camera
+
 
 def test_camera_centre_and_corner_directions_default_camera():
     scene = _scene([], [])
@@ -96,8 +98,9 @@ def test_image_orientation_row0_top_col0_left():
     W, H = 7, 5
     scene = _scene([], [], background=(0.1, 0.2, 0.3))
     d = camera_ray_direction(scene, W, H, 0, 0)
-    scene["objects"] = [{"type": "sphere", "center": [10 * c for c in d], "radius": 0.05,
-                         "material": {"color": [1.0, 0.5, 0.25]}}]
+    scene["objects"] = [
+        {"type": "sphere", "center": [10 * c for c in d], "radius": 0.05, "material": {"color": [1.0, 0.5, 0.25]}}
+    ]
     img = render_reference(scene, W, H, mode="cast")
     assert img.shape == (H, W, 3) and img.dtype == np.float64
     assert tuple(img[0, 0]) == (1.0, 0.5, 0.25)
@@ -126,8 +129,10 @@ def test_matte_sphere_oblique_light_cosine():
     # Per-channel intensities multiply per channel.
     scene = _scene(
         [{"type": "sphere", "center": [0, 0, 5], "radius": 1, "material": MATTE}],
-        [{"type": "ambient", "intensity": [0.1, 0.2, 0.3]},
-         {"type": "directional", "direction": [0, 3, -4], "intensity": [0.5, 0.25, 1.0]}],
+        [
+            {"type": "ambient", "intensity": [0.1, 0.2, 0.3]},
+            {"type": "directional", "direction": [0, 3, -4], "intensity": [0.5, 0.25, 1.0]},
+        ],
     )
     img = render_reference(scene, 11, 11)
     expect = np.array(MATTE["color"]) * (np.array([0.1, 0.2, 0.3]) + np.array([0.5, 0.25, 1.0]) * 0.8)
@@ -152,8 +157,7 @@ def test_specular_highlight_hand_computed():
     I = 0.6
     color = np.array([0.9, 0.6, 0.3])
     scene = _scene(
-        [{"type": "sphere", "center": [0, 0, 5], "radius": 1,
-          "material": {"color": list(color), "specular": 10}}],
+        [{"type": "sphere", "center": [0, 0, 5], "radius": 1, "material": {"color": list(color), "specular": 10}}],
         [{"type": "ambient", "intensity": 0.2}, {"type": "directional", "direction": [0, 1, -1], "intensity": I}],
     )
     img = render_reference(scene, 11, 11)
@@ -195,12 +199,12 @@ def test_sphere_behind_camera_is_invisible():
 
 # ---------------------------------------------------------------- shadows
 
+
 def _ground_scene(extra_objects, lights):
     # Camera looks exactly at P = (0,-1,5), the top point of a huge ground sphere,
     # so the centre pixel of an odd image hits P with N = (0,1,0).
     return _scene(
-        [{"type": "sphere", "center": [0, -1001, 5], "radius": 1000, "material": {"color": [1, 1, 1]}}]
-        + extra_objects,
+        [{"type": "sphere", "center": [0, -1001, 5], "radius": 1000, "material": {"color": [1, 1, 1]}}] + extra_objects,
         lights,
         camera={"position": [0, 0, 0], "look_at": [0, -1, 5], "up": [0, 1, 0], "fov": 53.13},
     )
@@ -208,7 +212,7 @@ def _ground_scene(extra_objects, lights):
 
 LIGHTS_GROUND = [
     {"type": "ambient", "intensity": 0.2},
-    {"type": "point", "position": [0, 3, 5], "intensity": 0.6},        # straight above P: cos = 1
+    {"type": "point", "position": [0, 3, 5], "intensity": 0.6},  # straight above P: cos = 1
     {"type": "directional", "direction": [1, 1, 0], "intensity": 0.3},  # cos = 1/sqrt2
 ]
 
@@ -245,12 +249,20 @@ def test_directional_light_occluded_anywhere_along_ray():
 
 # ---------------------------------------------------------------- reflections
 
+
 def _mirror_scene(r, back_sphere=True, max_depth=3, background=(0.0, 0.0, 0.0), back_reflective=0.0):
-    objs = [{"type": "sphere", "center": [0, 0, 5], "radius": 1,
-             "material": {"color": [1.0, 0.0, 0.0], "reflective": r}}]
+    objs = [
+        {"type": "sphere", "center": [0, 0, 5], "radius": 1, "material": {"color": [1.0, 0.0, 0.0], "reflective": r}}
+    ]
     if back_sphere:  # behind the camera: invisible to primary rays, seen in the mirror
-        objs.append({"type": "sphere", "center": [0, 0, -5], "radius": 1,
-                     "material": {"color": [0.0, 0.4, 1.0], "reflective": back_reflective}})
+        objs.append(
+            {
+                "type": "sphere",
+                "center": [0, 0, -5],
+                "radius": 1,
+                "material": {"color": [0.0, 0.4, 1.0], "reflective": back_reflective},
+            }
+        )
     return _scene(objs, [{"type": "ambient", "intensity": 0.5}], background=background, max_depth=max_depth)
 
 
@@ -292,6 +304,7 @@ def test_reflection_recursion_depth_between_two_mirrors(depth):
 
 
 # ---------------------------------------------------------------- the lecture's scene
+
 
 def _geometric_closest(D, spheres):
     """Closest sphere along unit D from the origin, by the geometric (not quadratic) method."""
@@ -368,11 +381,19 @@ def test_seed_scene_pixel_through_red_sphere_centre():
 
 def test_seed_scene_is_the_lecture_scene():
     objs = {o["material"]: (tuple(o["center"]), o["radius"]) for o in SEED_SCENE["objects"]}
-    assert objs == {"red": ((0, -1, 3), 1), "blue": ((2, 0, 4), 1), "green": ((-2, 0, 4), 1),
-                    "yellow": ((0, -5001, 0), 5000)}
+    assert objs == {
+        "red": ((0, -1, 3), 1),
+        "blue": ((2, 0, 4), 1),
+        "green": ((-2, 0, 4), 1),
+        "yellow": ((0, -5001, 0), 5000),
+    }
     m = SEED_SCENE["materials"]
     assert [(m[k]["specular"], m[k]["reflective"]) for k in ("red", "blue", "green", "yellow")] == [
-        (500, 0.2), (500, 0.3), (10, 0.4), (1000, 0.5)]
+        (500, 0.2),
+        (500, 0.3),
+        (10, 0.4),
+        (1000, 0.5),
+    ]
     assert SEED_SCENE["render"]["max_depth"] == 3
     assert SEED_SCENE["camera"]["fov"] == 53.13
 

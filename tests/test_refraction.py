@@ -120,16 +120,28 @@ def test_no_nan_for_random_rays_and_indices(d, n, n1, n2):
 def _glass_scene(with_glass: bool, **material):
     objects = [
         {"type": "plane", "point": [0, -1, 0], "normal": [0, 1, 0], "material": "floor"},
-        {"type": "sphere", "center": [0.8, -0.4, 5], "radius": 0.6, "material": {"color": [0.2, 0.5, 0.9], "specular": 30}},
+        {
+            "type": "sphere",
+            "center": [0.8, -0.4, 5],
+            "radius": 0.6,
+            "material": {"color": [0.2, 0.5, 0.9], "specular": 30},
+        },
     ]
     if with_glass:
-        objects.append({"type": "sphere", "center": [0, 0, 3], "radius": 1, "material": {"transparency": 1.0, **material}})
-    return raylume.scene_from_dict({
-        "render": {"width": 48, "height": 36, "max_depth": 6, "background": [0.3, 0.4, 0.5]},
-        "materials": {"floor": {"specular": 10, "texture": {"type": "checker", "scale": 0.5}}},
-        "lights": [{"type": "ambient", "intensity": 0.2}, {"type": "point", "position": [-2, 3, 0], "intensity": 0.8}],
-        "objects": objects,
-    })
+        objects.append(
+            {"type": "sphere", "center": [0, 0, 3], "radius": 1, "material": {"transparency": 1.0, **material}}
+        )
+    return raylume.scene_from_dict(
+        {
+            "render": {"width": 48, "height": 36, "max_depth": 6, "background": [0.3, 0.4, 0.5]},
+            "materials": {"floor": {"specular": 10, "texture": {"type": "checker", "scale": 0.5}}},
+            "lights": [
+                {"type": "ambient", "intensity": 0.2},
+                {"type": "point", "position": [-2, 3, 0], "intensity": 0.8},
+            ],
+            "objects": objects,
+        }
+    )
 
 
 def test_glass_with_ior_one_is_invisible():
@@ -147,16 +159,18 @@ def test_real_glass_changes_the_image_and_stays_finite():
 
 def test_transparent_shadow_is_lighter_than_opaque_and_absorption_tints_it():
     def floor_under(material):
-        scene = raylume.scene_from_dict({
-            "render": {"width": 1, "height": 1, "max_depth": 4},
-            "camera": {"position": [0, 3, 0], "look_at": [0, -1, 0], "up": [0, 0, 1]},
-            "lights": [{"type": "point", "position": [0, 6, 0], "intensity": 1.0}],
-            "objects": [
-                {"type": "plane", "point": [0, -1, 0], "normal": [0, 1, 0]},
-                # a thin tilted slab of two planes would refract the view; use a sphere off the view ray
-                {"type": "sphere", "center": [0, 4.5, 0], "radius": 0.5, "material": material},
-            ],
-        })
+        scene = raylume.scene_from_dict(
+            {
+                "render": {"width": 1, "height": 1, "max_depth": 4},
+                "camera": {"position": [0, 3, 0], "look_at": [0, -1, 0], "up": [0, 0, 1]},
+                "lights": [{"type": "point", "position": [0, 6, 0], "intensity": 1.0}],
+                "objects": [
+                    {"type": "plane", "point": [0, -1, 0], "normal": [0, 1, 0]},
+                    # a thin tilted slab of two planes would refract the view; use a sphere off the view ray
+                    {"type": "sphere", "center": [0, 4.5, 0], "radius": 0.5, "material": material},
+                ],
+            }
+        )
         return raylume.render(scene).rgb[0, 0]
 
     opaque = floor_under({"color": [1, 1, 1]})

@@ -21,15 +21,47 @@ from raylume.render import check_memory
 
 def _warm_kernels(tmp_path):
     """Compile (or load) the kernels first, so the interrupt lands in the render itself."""
-    subprocess.run([sys.executable, "-m", "raylume.cli", "render", "--width", "8", "--height", "8", "--spp", "16",
-                    "-o", str(tmp_path.parent / "warm.png"), "-q"], check=True)
+    subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "raylume.cli",
+            "render",
+            "--width",
+            "8",
+            "--height",
+            "8",
+            "--spp",
+            "16",
+            "-o",
+            str(tmp_path.parent / "warm.png"),
+            "-q",
+        ],
+        check=True,
+    )
 
 
 def test_sigint_stops_quickly_writes_nothing_and_exits_130(tmp_path):
     _warm_kernels(tmp_path)
     proc = subprocess.Popen(
-        [sys.executable, "-m", "raylume.cli", "render", "--width", "4000", "--height", "4000", "--spp", "16", "-o", "big.png"],
-        cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        [
+            sys.executable,
+            "-m",
+            "raylume.cli",
+            "render",
+            "--width",
+            "4000",
+            "--height",
+            "4000",
+            "--spp",
+            "16",
+            "-o",
+            "big.png",
+        ],
+        cwd=tmp_path,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
     )
     time.sleep(5)
     assert proc.poll() is None, proc.communicate()
@@ -46,9 +78,25 @@ def test_sigint_stops_quickly_writes_nothing_and_exits_130(tmp_path):
 def test_sigint_with_partial_saves_the_rows_done(tmp_path):
     _warm_kernels(tmp_path)
     proc = subprocess.Popen(
-        [sys.executable, "-m", "raylume.cli", "render", "--width", "3000", "--height", "3000", "--spp", "16",
-         "-o", "big.npy", "--partial"],
-        cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        [
+            sys.executable,
+            "-m",
+            "raylume.cli",
+            "render",
+            "--width",
+            "3000",
+            "--height",
+            "3000",
+            "--spp",
+            "16",
+            "-o",
+            "big.npy",
+            "--partial",
+        ],
+        cwd=tmp_path,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
     )
     time.sleep(5)
     proc.send_signal(signal.SIGINT)
@@ -121,20 +169,36 @@ material = st.fixed_dictionaries(
         "absorption": st.lists(st.floats(0, 5), min_size=3, max_size=3),
     },
 )
-sphere = st.fixed_dictionaries({"type": st.just("sphere"), "center": vec, "radius": st.floats(0.01, 20), "material": material})
-plane = st.fixed_dictionaries({"type": st.just("plane"), "point": vec, "normal": vec.filter(lambda v: any(v)), "material": material})
-triangle = st.fixed_dictionaries({"type": st.just("triangle"), "vertices": st.lists(vec, min_size=3, max_size=3), "material": material})
+sphere = st.fixed_dictionaries(
+    {"type": st.just("sphere"), "center": vec, "radius": st.floats(0.01, 20), "material": material}
+)
+plane = st.fixed_dictionaries(
+    {"type": st.just("plane"), "point": vec, "normal": vec.filter(lambda v: any(v)), "material": material}
+)
+triangle = st.fixed_dictionaries(
+    {"type": st.just("triangle"), "vertices": st.lists(vec, min_size=3, max_size=3), "material": material}
+)
 light = st.one_of(
     st.fixed_dictionaries({"type": st.just("ambient"), "intensity": st.floats(0, 1)}),
     st.fixed_dictionaries({"type": st.just("point"), "position": vec, "intensity": st.floats(0, 2)}),
-    st.fixed_dictionaries({"type": st.just("directional"), "direction": vec.filter(lambda v: any(v)), "intensity": st.floats(0, 2)}),
+    st.fixed_dictionaries(
+        {"type": st.just("directional"), "direction": vec.filter(lambda v: any(v)), "intensity": st.floats(0, 2)}
+    ),
 )
-scene_doc = st.fixed_dictionaries({
-    "render": st.fixed_dictionaries({"width": st.integers(1, 12), "height": st.integers(1, 12), "max_depth": st.integers(0, 6),
-                                     "mode": st.sampled_from(["cast", "trace"])}),
-    "lights": st.lists(light, max_size=4),
-    "objects": st.lists(st.one_of(sphere, plane, triangle), max_size=6),
-})
+scene_doc = st.fixed_dictionaries(
+    {
+        "render": st.fixed_dictionaries(
+            {
+                "width": st.integers(1, 12),
+                "height": st.integers(1, 12),
+                "max_depth": st.integers(0, 6),
+                "mode": st.sampled_from(["cast", "trace"]),
+            }
+        ),
+        "lights": st.lists(light, max_size=4),
+        "objects": st.lists(st.one_of(sphere, plane, triangle), max_size=6),
+    }
+)
 
 
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -159,7 +223,11 @@ json_value = st.recursive(
 
 
 @settings(max_examples=200, deadline=None)
-@given(st.dictionaries(st.sampled_from(["render", "camera", "materials", "lights", "objects", "extra"]), json_value, max_size=5))
+@given(
+    st.dictionaries(
+        st.sampled_from(["render", "camera", "materials", "lights", "objects", "extra"]), json_value, max_size=5
+    )
+)
 def test_loader_never_crashes_on_arbitrary_documents(doc):
     try:
         raylume.scene_from_dict(doc)

@@ -57,7 +57,11 @@ BAD = [
     ({"objects": [{"type": "sphere", "center": [0, 0, 3], "radus": 1}]}, "objects[0].radus", "did you mean 'radius'"),
     ({"objects": [{"type": "cube"}]}, "objects[0].type", "sphere, plane, triangle, mesh"),
     ({"objects": [{"type": "sphere", "center": [0, 0], "radius": 1}]}, "objects[0].center", ""),
-    ({"objects": [{"type": "sphere", "center": [0, 0, 3], "radius": 1, "material": "gold"}]}, "objects[0].material", "no material named 'gold'"),
+    (
+        {"objects": [{"type": "sphere", "center": [0, 0, 3], "radius": 1, "material": "gold"}]},
+        "objects[0].material",
+        "no material named 'gold'",
+    ),
     ({"lights": [{"type": "directional", "direction": [0, 0, 0]}]}, "lights[0].direction", "zero vector"),
     ({"lights": [{"type": "spot"}]}, "lights[0].type", "ambient, point, directional"),
     ({"camera": {"fov": 180}}, "camera.fov", "less than 180"),
@@ -73,7 +77,11 @@ BAD = [
     ({"render": {"mode": "photon"}}, "render.mode", "'cast', 'trace' or 'raster'"),
     ({"render": {"spp": 1e9}}, "render.spp", ""),
     ({"rendr": {}}, "rendr", "did you mean 'render'"),
-    ({"objects": [{"type": "triangle", "vertices": [[0, 0, 0], [1, 1, 1], [2, 2, 2]]}]}, "objects[0].vertices", "collinear"),
+    (
+        {"objects": [{"type": "triangle", "vertices": [[0, 0, 0], [1, 1, 1], [2, 2, 2]]}]},
+        "objects[0].vertices",
+        "collinear",
+    ),
     ({"objects": [{"type": "plane", "normal": [0, 0, 0]}]}, "objects[0].normal", "zero vector"),
 ]
 
@@ -123,10 +131,12 @@ def test_unknown_builtin():
 def test_tiny_but_nonzero_vectors_are_normalised_without_underflow():
     from raylume.compile import compile_scene
 
-    scene = scene_from_dict({
-        "lights": [{"type": "directional", "direction": [0, 1e-200, 0]}],
-        "objects": [{"type": "plane", "point": [0, -1, 0], "normal": [0, 1e-200, 0]}],
-    })
+    scene = scene_from_dict(
+        {
+            "lights": [{"type": "directional", "direction": [0, 1e-200, 0]}],
+            "objects": [{"type": "plane", "point": [0, -1, 0], "normal": [0, 1e-200, 0]}],
+        }
+    )
     k = compile_scene(scene).kernel
     np.testing.assert_array_equal(k.shapes[0, 3:6], [0, 1, 0])  # the plane's normal
     np.testing.assert_array_equal(k.light_data[0, :3], [0, 1, 0])

@@ -6,9 +6,9 @@ import copy
 
 import numpy as np
 import pytest
+from reference.seed_python import SEED_SCENE, render_reference
 
 import raylume
-from reference.seed_python import SEED_SCENE, render_reference
 
 SIZE = 48
 

@@ -14,14 +14,22 @@ from raylume.session import Session
 
 SCENE = {
     "render": {"width": 48, "height": 36},
-    "lights": [{"type": "ambient", "intensity": 0.2}, {"type": "point", "position": [2, 2, -2], "intensity": 0.7},
-               {"type": "quad", "position": [0, 3, 2], "u": [1, 0, 0], "v": [0, 0, 1], "intensity": 0.3,
-                "samples": 4}],
-    "materials": {"glass": {"color": [1, 1, 1], "transparency": 0.8, "reflective": 0.1, "ior": 1.5},
-                  "mirror": {"color": [0.9, 0.9, 0.9], "reflective": 0.6, "specular": 200}},
+    "lights": [
+        {"type": "ambient", "intensity": 0.2},
+        {"type": "point", "position": [2, 2, -2], "intensity": 0.7},
+        {"type": "quad", "position": [0, 3, 2], "u": [1, 0, 0], "v": [0, 0, 1], "intensity": 0.3, "samples": 4},
+    ],
+    "materials": {
+        "glass": {"color": [1, 1, 1], "transparency": 0.8, "reflective": 0.1, "ior": 1.5},
+        "mirror": {"color": [0.9, 0.9, 0.9], "reflective": 0.6, "specular": 200},
+    },
     "objects": [
-        {"type": "plane", "point": [0, -1, 0], "normal": [0, 1, 0],
-         "material": {"texture": {"type": "checker", "scale": 0.5}}},
+        {
+            "type": "plane",
+            "point": [0, -1, 0],
+            "normal": [0, 1, 0],
+            "material": {"texture": {"type": "checker", "scale": 0.5}},
+        },
         {"type": "sphere", "center": [0, 0, 3], "radius": 1, "material": "glass"},
         {"type": "sphere", "center": [-1.6, -0.4, 4], "radius": 0.6, "material": "mirror"},
         *[{"type": "sphere", "center": [x, -0.8, 6], "radius": 0.2} for x in (-2, -1, 0, 1, 2)],

@@ -117,11 +117,15 @@ def test_cylinder_side_and_caps_against_closed_form_points(capped):
 
 
 def test_normals_and_uvs_of_the_new_shapes():
-    sc = raylume.scene_from_dict({"objects": [
-        {"type": "disk", "center": [0, 1, 5], "normal": [0, 0, -2], "radius": 2},
-        {"type": "quad", "position": [0, 0, 4], "u": [2, 0, 0], "v": [1, 1, 0]},
-        {"type": "cylinder", "p0": [0, 0, 0], "p1": [0, 2, 0], "radius": 0.5},
-    ]})
+    sc = raylume.scene_from_dict(
+        {
+            "objects": [
+                {"type": "disk", "center": [0, 1, 5], "normal": [0, 0, -2], "radius": 2},
+                {"type": "quad", "position": [0, 0, 4], "u": [2, 0, 0], "v": [1, 1, 0]},
+                {"type": "cylinder", "p0": [0, 0, 0], "p1": [0, 2, 0], "radius": 0.5},
+            ]
+        }
+    )
     S = compile_scene(sc).kernel
     G = geometry_of(S)
     prim_of = {int(S.prims[k, 3]): k for k in range(len(S.prims))}
@@ -143,27 +147,28 @@ def test_normals_and_uvs_of_the_new_shapes():
 
 
 def test_bounds_are_tight_boxes_of_the_shapes():
-    for obj, points in [
-        ({"type": "disk", "center": [1, 2, 3], "normal": [1, 2, 2], "radius": 1.5}, "rim"),
-        ({"type": "cylinder", "p0": [0, 0, 0], "p1": [1, 2, -1], "radius": 0.4}, "rims"),
-        ({"type": "quad", "position": [0, 1, 0], "u": [1, 0.5, 0], "v": [0, 0.2, 2]}, "corners"),
+    """Points on the rims (disk, cylinder) or the corners (quad) lie inside the box and reach
+    each of its faces."""
+    from raylume.kernels import shape_cylinder, shape_disk, shape_quad
+    from raylume.kernels.shapes import ANALYTIC, Shape
+
+    for obj in [
+        {"type": "disk", "center": [1, 2, 3], "normal": [1, 2, 2], "radius": 1.5},
+        {"type": "cylinder", "p0": [0, 0, 0], "p1": [1, 2, -1], "radius": 0.4},
+        {"type": "quad", "position": [0, 1, 0], "u": [1, 0.5, 0], "v": [0, 0.2, 2]},
     ]:
         sc = one(obj)
-        lo, hi = [], []
-        from raylume.kernels import shape_cylinder, shape_disk, shape_quad
-        from raylume.kernels.shapes import ANALYTIC, Shape
-
         S = compile_scene(sc).kernel
         kind = Shape(int(S.prims[0, 0]))
         lo, hi = ANALYTIC[kind].bounds(S.shapes[:1])
         row = S.shapes[0]
         phi = np.linspace(0, 2 * math.pi, 20001)
         if kind == Shape.DISK:
-            n = row[shape_disk.NORMAL:shape_disk.NORMAL + 3]
+            n = row[shape_disk.NORMAL : shape_disk.NORMAL + 3]
             e1, e2 = frame(n)
             pts = row[:3] + row[shape_disk.RADIUS] * (np.cos(phi)[:, None] * e1 + np.sin(phi)[:, None] * e2)
         elif kind == Shape.CYLINDER:
-            a = row[shape_cylinder.AXIS:shape_cylinder.AXIS + 3]
+            a = row[shape_cylinder.AXIS : shape_cylinder.AXIS + 3]
             e1, e2 = frame(a)
             ring = row[shape_cylinder.RADIUS] * (np.cos(phi)[:, None] * e1 + np.sin(phi)[:, None] * e2)
             pts = np.concatenate([row[0:3] + ring, row[3:6] + ring])
@@ -175,12 +180,21 @@ def test_bounds_are_tight_boxes_of_the_shapes():
 
 
 def test_transforms_move_and_scale_the_new_shapes():
-    moved = one({"type": "disk", "center": [0, 0, 0], "normal": [0, 0, 1], "radius": 1,
-                 "transform": {"translate": [0, 0, 5], "rotate": [0, 90, 0], "scale": 2}})
+    moved = one(
+        {
+            "type": "disk",
+            "center": [0, 0, 0],
+            "normal": [0, 0, 1],
+            "radius": 1,
+            "transform": {"translate": [0, 0, 5], "rotate": [0, 90, 0], "scale": 2},
+        }
+    )
     # rotated 90 degrees about y the normal is +x; scaled 2, the radius 2; moved to z = 5
     t, obj, _ = raylume.intersect(moved, np.array([[-3.0, 1.9, 5.0], [-3.0, 2.1, 5.0]]), np.array([[1.0, 0, 0]] * 2))
     np.testing.assert_allclose(t[0], 3.0) and np.testing.assert_array_equal(obj, [0, -1])
-    quad = one({"type": "quad", "u": [1, 0, 0], "v": [0, 1, 0], "transform": {"scale": [2, 3, 1], "translate": [0, 0, 4]}})
+    quad = one(
+        {"type": "quad", "u": [1, 0, 0], "v": [0, 1, 0], "transform": {"scale": [2, 3, 1], "translate": [0, 0, 4]}}
+    )
     t, obj, _ = raylume.intersect(quad, np.array([[0.99, 1.49, 0.0], [1.01, 0.0, 0.0]]), np.array([[0, 0, 1.0]] * 2))
     np.testing.assert_allclose(t[0], 4.0) and np.testing.assert_array_equal(obj, [0, -1])
 
@@ -191,15 +205,21 @@ def test_transforms_move_and_scale_the_new_shapes():
 def test_rasterized_new_shapes_agree_with_the_ray_caster_up_to_tessellation():
     from test_raster import assert_agrees_with_cast, boundary_band
 
-    sc = raylume.scene_from_dict({
-        "lights": [{"type": "ambient", "intensity": 0.3}, {"type": "point", "position": [2, 3, -2], "intensity": 0.7}],
-        "camera": {"position": [0.5, 1.2, -3], "look_at": [0, 0, 2]},
-        "objects": [
-            {"type": "disk", "center": [-1.2, 0.2, 2], "normal": [0.3, 0.2, -1], "radius": 0.7},
-            {"type": "quad", "position": [0.9, 0.6, 2.5], "u": [1, 0.2, 0], "v": [0.3, 0.9, 0.4]},
-            {"type": "cylinder", "p0": [0.2, -1, 1.5], "p1": [-0.2, 0.2, 3.5], "radius": 0.45},
-            {"type": "cylinder", "p0": [1.4, -1, 1.2], "p1": [1.4, -0.2, 1.2], "radius": 0.3, "capped": False},
-        ]})
+    sc = raylume.scene_from_dict(
+        {
+            "lights": [
+                {"type": "ambient", "intensity": 0.3},
+                {"type": "point", "position": [2, 3, -2], "intensity": 0.7},
+            ],
+            "camera": {"position": [0.5, 1.2, -3], "look_at": [0, 0, 2]},
+            "objects": [
+                {"type": "disk", "center": [-1.2, 0.2, 2], "normal": [0.3, 0.2, -1], "radius": 0.7},
+                {"type": "quad", "position": [0.9, 0.6, 2.5], "u": [1, 0.2, 0], "v": [0.3, 0.9, 0.4]},
+                {"type": "cylinder", "p0": [0.2, -1, 1.5], "p1": [-0.2, 0.2, 3.5], "radius": 0.45},
+                {"type": "cylinder", "p0": [1.4, -1, 1.2], "p1": [1.4, -0.2, 1.2], "radius": 0.3, "capped": False},
+            ],
+        }
+    )
     r = raylume.render(sc, mode="raster", width=160, height=120)
     c = raylume.render(sc, mode="cast", width=160, height=120)
     assert_agrees_with_cast(r, c, max_edge_fraction=0.02, depth_rtol=0.02)
@@ -218,13 +238,25 @@ def test_rasterized_new_shapes_agree_with_the_ray_caster_up_to_tessellation():
 
 
 def test_new_shapes_render_in_every_mode_without_bad_values():
-    sc = raylume.scene_from_dict({
-        "lights": [{"type": "ambient", "intensity": 0.2}, {"type": "directional", "direction": [1, 2, -1]}],
-        "materials": {"glass": {"transparency": 0.9, "reflective": 0.1},
-                      "tex": {"texture": {"type": "image", "file": str(Path(__file__).parents[1] / "examples/textures/planks.jpg")}}},
-        "objects": [{"type": "disk", "center": [0, 0, 3], "normal": [0, 0, -1], "radius": 1, "material": "tex"},
-                    {"type": "cylinder", "p0": [0.8, -1, 2], "p1": [0.8, 1, 2], "radius": 0.3, "material": "glass"},
-                    {"type": "quad", "position": [0, -1, 3], "u": [4, 0, 0], "v": [0, 0, 4], "material": "tex"}]})
+    sc = raylume.scene_from_dict(
+        {
+            "lights": [{"type": "ambient", "intensity": 0.2}, {"type": "directional", "direction": [1, 2, -1]}],
+            "materials": {
+                "glass": {"transparency": 0.9, "reflective": 0.1},
+                "tex": {
+                    "texture": {
+                        "type": "image",
+                        "file": str(Path(__file__).parents[1] / "examples/textures/planks.jpg"),
+                    }
+                },
+            },
+            "objects": [
+                {"type": "disk", "center": [0, 0, 3], "normal": [0, 0, -1], "radius": 1, "material": "tex"},
+                {"type": "cylinder", "p0": [0.8, -1, 2], "p1": [0.8, 1, 2], "radius": 0.3, "material": "glass"},
+                {"type": "quad", "position": [0, -1, 3], "u": [4, 0, 0], "v": [0, 0, 4], "material": "tex"},
+            ],
+        }
+    )
     for mode in ("cast", "trace", "raster"):
         img = raylume.render(sc, mode=mode, width=40, height=30, spp=2)
         assert np.isfinite(img.rgb).all() and (img.aovs["object"] >= 0).mean() > 0.3, mode
@@ -233,15 +265,18 @@ def test_new_shapes_render_in_every_mode_without_bad_values():
 # --- degenerate shapes are clear errors --------------------------------------------------------
 
 
-@pytest.mark.parametrize("obj, key", [
-    ({"type": "disk", "radius": 0}, "objects[0].radius"),
-    ({"type": "disk", "radius": 1, "normal": [0, 0, 0]}, "objects[0].normal"),
-    ({"type": "disk", "radius": 1, "transform": {"scale": [1, 2, 1]}}, "objects[0].transform"),
-    ({"type": "quad", "u": [1, 0, 0], "v": [2, 0, 0]}, "objects[0]"),
-    ({"type": "quad", "u": [0, 0, 0], "v": [0, 1, 0]}, "objects[0]"),
-    ({"type": "cylinder", "p0": [0, 0, 0], "p1": [0, 1, 0], "radius": -1}, "objects[0].radius"),
-    ({"type": "cylinder", "p0": [1, 1, 1], "p1": [1, 1, 1], "radius": 1}, "objects[0]"),
-])
+@pytest.mark.parametrize(
+    "obj, key",
+    [
+        ({"type": "disk", "radius": 0}, "objects[0].radius"),
+        ({"type": "disk", "radius": 1, "normal": [0, 0, 0]}, "objects[0].normal"),
+        ({"type": "disk", "radius": 1, "transform": {"scale": [1, 2, 1]}}, "objects[0].transform"),
+        ({"type": "quad", "u": [1, 0, 0], "v": [2, 0, 0]}, "objects[0]"),
+        ({"type": "quad", "u": [0, 0, 0], "v": [0, 1, 0]}, "objects[0]"),
+        ({"type": "cylinder", "p0": [0, 0, 0], "p1": [0, 1, 0], "radius": -1}, "objects[0].radius"),
+        ({"type": "cylinder", "p0": [1, 1, 1], "p1": [1, 1, 1], "radius": 1}, "objects[0]"),
+    ],
+)
 def test_degenerate_shapes_are_refused_naming_the_key(obj, key):
     with pytest.raises(raylume.SceneError) as err:
         one(obj)

@@ -13,8 +13,8 @@ from numba import njit
 
 import raylume
 from raylume.compile import compile_scene
-from raylume.kernels.shape_triangle import INF, intersect_triangle, ray_shear
 from raylume.kernels.scene import geometry_of
+from raylume.kernels.shape_triangle import INF, intersect_triangle, ray_shear
 from raylume.kernels.shapes import PRIM_FACE, PRIM_KIND, TRIANGLE
 from raylume.kernels.traverse import any_hit, closest_hit
 from raylume.scene.procedural import bumpy_sphere
@@ -123,7 +123,14 @@ def _any_all(S, origins, dirs, tmax):
     node_stack = np.empty(128, np.int32)
     G = geometry_of(S)
     for k in range(n):
-        out[k] = any_hit(G, (origins[k, 0], origins[k, 1], origins[k, 2]), (dirs[k, 0], dirs[k, 1], dirs[k, 2]), 0.0, tmax[k], node_stack)
+        out[k] = any_hit(
+            G,
+            (origins[k, 0], origins[k, 1], origins[k, 2]),
+            (dirs[k, 0], dirs[k, 1], dirs[k, 2]),
+            0.0,
+            tmax[k],
+            node_stack,
+        )
     return out
 
 
@@ -190,10 +197,14 @@ def test_public_intersect_equals_brute_force_on_all_threads(tmp_path):
     rng = np.random.default_rng(11)
     v, f = bumpy_sphere(5000)
     trimesh.Trimesh(v, f, process=False).export(tmp_path / "m.ply")
-    scene = raylume.scene_from_dict({"objects": [
-        {"type": "sphere", "center": [0, 0, 40], "radius": 0.5},  # object 0: far away, never hit
-        {"type": "mesh", "file": str(tmp_path / "m.ply")},
-    ]})
+    scene = raylume.scene_from_dict(
+        {
+            "objects": [
+                {"type": "sphere", "center": [0, 0, 40], "radius": 0.5},  # object 0: far away, never hit
+                {"type": "mesh", "file": str(tmp_path / "m.ply")},
+            ]
+        }
+    )
     origins, dirs = _random_rays(rng, 5000, np.zeros(3), 1.0)
     t, obj, prim = raylume.intersect(scene, origins, dirs * rng.uniform(0.5, 3.0, size=(len(dirs), 1)))
     t_ref, i_ref = _brute((v.astype(np.float32)[f]).reshape(-1, 9), origins, dirs)
@@ -227,9 +238,14 @@ def test_mesh_sphere_depth_agrees_with_analytic_sphere(tmp_path):
     mesh = trimesh.creation.icosphere(subdivisions=6, radius=1.0)  # 81920 faces
     path = tmp_path / "sphere.ply"
     mesh.export(path)
-    common = {"render": {"width": 64, "height": 64, "mode": "cast"}, "camera": {"position": [0, 0, -4], "look_at": [0, 0, 0]}}
+    common = {
+        "render": {"width": 64, "height": 64, "mode": "cast"},
+        "camera": {"position": [0, 0, -4], "look_at": [0, 0, 0]},
+    }
     mesh_scene = raylume.scene_from_dict({**common, "objects": [{"type": "mesh", "file": str(path)}]})
-    sphere_scene = raylume.scene_from_dict({**common, "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1}]})
+    sphere_scene = raylume.scene_from_dict(
+        {**common, "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1}]}
+    )
     d_mesh = raylume.render(mesh_scene).aovs["depth"]
     d_sphere = raylume.render(sphere_scene).aovs["depth"]
     both = np.isfinite(d_mesh) & np.isfinite(d_sphere)
@@ -245,7 +261,10 @@ def test_mesh_sphere_depth_agrees_with_analytic_sphere(tmp_path):
 
 
 def test_plane_and_two_triangles_agree():
-    common = {"render": {"width": 40, "height": 30, "mode": "cast"}, "camera": {"position": [0, 2, -3], "look_at": [0, 0, 2]}}
+    common = {
+        "render": {"width": 40, "height": 30, "mode": "cast"},
+        "camera": {"position": [0, 2, -3], "look_at": [0, 0, 2]},
+    }
     big = 50.0
     quad = [
         {"type": "triangle", "vertices": [[-big, 0, -big], [big, 0, -big], [big, 0, big]]},
@@ -264,11 +283,19 @@ def test_transformed_mesh_lands_where_the_transform_says(tmp_path):
     box = trimesh.creation.box(extents=(1, 1, 1))  # centred at the origin
     path = tmp_path / "box.ply"
     box.export(path)
-    scene = raylume.scene_from_dict({
-        "render": {"width": 33, "height": 33, "mode": "cast"},
-        "camera": {"position": [0, 0, 0], "look_at": [0, 0, 1], "fov": 40},
-        "objects": [{"type": "mesh", "file": str(path), "transform": {"scale": [2, 2, 0.5], "rotate": [0, 90, 0], "translate": [0, 0, 10]}}],
-    })
+    scene = raylume.scene_from_dict(
+        {
+            "render": {"width": 33, "height": 33, "mode": "cast"},
+            "camera": {"position": [0, 0, 0], "look_at": [0, 0, 1], "fov": 40},
+            "objects": [
+                {
+                    "type": "mesh",
+                    "file": str(path),
+                    "transform": {"scale": [2, 2, 0.5], "rotate": [0, 90, 0], "translate": [0, 0, 10]},
+                }
+            ],
+        }
+    )
     img = raylume.render(scene)
     # rotated 90 degrees about y, the box's x extent (2) now lies along z: the front face is at z = 9
     assert img.aovs["depth"][16, 16] == pytest.approx(9.0, abs=1e-5)
@@ -285,10 +312,12 @@ def test_mirrored_mesh_keeps_outward_normals(tmp_path):
     path = tmp_path / "s.ply"
     mesh.export(path)
     for scale in ([1, 1, 1], [-1, 1, 1]):
-        scene = raylume.scene_from_dict({
-            "render": {"width": 16, "height": 16, "mode": "cast"},
-            "objects": [{"type": "mesh", "file": str(path), "transform": {"scale": scale, "translate": [0, 0, 4]}}],
-        })
+        scene = raylume.scene_from_dict(
+            {
+                "render": {"width": 16, "height": 16, "mode": "cast"},
+                "objects": [{"type": "mesh", "file": str(path), "transform": {"scale": scale, "translate": [0, 0, 4]}}],
+            }
+        )
         compiled = compile_scene(scene)
         tri = compiled.kernel.triangles.reshape(-1, 3, 3).astype(np.float64)
         n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
@@ -312,8 +341,11 @@ def test_rays_through_a_shared_diagonal_hit_inside_the_renderer(tmp_path):
         path = tmp_path / "quad.obj"
         trimesh.Trimesh([[-1, -1, 1], [1, -1, 1], [1, 1, 1], [-1, 1, 1]], faces, process=False).export(path)
         for fov, size in ((90, 4), (60, 4), (90, 64)):
-            scene = raylume.scene_from_dict({
-                "render": {"width": size, "height": size, "mode": "cast"}, "camera": {"fov": fov},
-                "objects": [{"type": "mesh", "file": str(path)}],
-            })
+            scene = raylume.scene_from_dict(
+                {
+                    "render": {"width": size, "height": size, "mode": "cast"},
+                    "camera": {"fov": fov},
+                    "objects": [{"type": "mesh", "file": str(path)}],
+                }
+            )
             assert (raylume.render(scene).aovs["object"] == 0).all(), (faces, fov, size)

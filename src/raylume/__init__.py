@@ -1,14 +1,14 @@
 """raylume: ray casting, Whitted ray tracing and rasterization of declarative 3D scenes.
 
-    import raylume
-    image = raylume.render(raylume.builtin_scene("seed"), width=300, height=300)
-    image.rgb          # float32 (H, W, 3), linear RGB
-    image.aovs["depth"]
-    image.save("seed.png")
+import raylume
+image = raylume.render(raylume.builtin_scene("seed"), width=300, height=300)
+image.rgb          # float32 (H, W, 3), linear RGB
+image.aovs["depth"]
+image.save("seed.png")
 
-    session = raylume.Session(raylume.builtin_scene("seed"))   # compile once ...
-    a = session.render(width=300, height=300)                   # ... render many times
-    b = session.render(camera={"position": [0, 1, -1]}, mode="cast")
+session = raylume.Session(raylume.builtin_scene("seed"))   # compile once ...
+a = session.render(width=300, height=300)                   # ... render many times
+b = session.render(camera={"position": [0, 1, -1]}, mode="cast")
 """
 
 from .errors import RaylumeError, SceneError

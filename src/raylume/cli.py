@@ -67,8 +67,9 @@ def _error_text(exc: Exception) -> str:
 @app.callback(invoke_without_command=True)
 def _main(
     ctx: typer.Context,
-    version: Annotated[bool, typer.Option("--version", help="Print the version and exit", is_eager=True,
-                                          metavar=FLAG)] = False,
+    version: Annotated[
+        bool, typer.Option("--version", help="Print the version and exit", is_eager=True, metavar=FLAG)
+    ] = False,
 ) -> None:
     """Render declarative 3D scenes by ray casting, ray tracing or rasterization."""
     if version:
@@ -134,46 +135,83 @@ def _check_distinct(out: Path, scene_label: str, others: list[Path]) -> None:
 
 @app.command(cls=_Command)
 def render(
-    scene: Annotated[str | None, typer.Argument(metavar="SCENE",
-                                                   help="Scene file (.toml/.json) or built-in name; default: seed")] = None,
-    output: Annotated[Path, typer.Option("-o", "--output", metavar="OUT",
-                                         help="Output image: .png, .jpg, .npy, .exr or .hdr")] = Path("render.png"),
+    scene: Annotated[
+        str | None, typer.Argument(metavar="SCENE", help="Scene file (.toml/.json) or built-in name; default: seed")
+    ] = None,
+    output: Annotated[
+        Path, typer.Option("-o", "--output", metavar="OUT", help="Output image: .png, .jpg, .npy, .exr or .hdr")
+    ] = Path("render.png"),
     width: Annotated[int | None, typer.Option("--width", metavar="W", help="Image width in pixels")] = None,
     height: Annotated[int | None, typer.Option("--height", metavar="H", help="Image height in pixels")] = None,
     spp: Annotated[int | None, typer.Option("--spp", metavar="N", help="Samples per pixel")] = None,
     mode: Annotated[str | None, typer.Option("--mode", metavar="MODE", help="cast | trace | raster")] = None,
-    max_depth: Annotated[int | None, typer.Option("--max-depth", metavar="D",
-                                                     help="Reflection/refraction depth")] = None,
+    max_depth: Annotated[
+        int | None, typer.Option("--max-depth", metavar="D", help="Reflection/refraction depth")
+    ] = None,
     seed: Annotated[int | None, typer.Option("--seed", metavar="S", help="Random seed for sampling")] = None,
-    threads: Annotated[int | None, typer.Option("--threads", metavar="T",
-                                                   help="Worker threads (default: all cores)")] = None,
-    aov: Annotated[list[str] | None, typer.Option(
-        "--aov", metavar="NAME[=PATH]",
-        help="Write an AOV: NAME=PATH.npy, or NAME alone for a layer of the .exr output; "
-             "NAME in depth, normal, object, prim, albedo (repeatable)")] = None,
-    overrides: Annotated[list[str] | None, typer.Option(
-        "--set", metavar="KEY=VALUE",
-        help="Set a scene key before validation, e.g. camera.fov=40 or objects.0.radius=0.5; "
-             "VALUE is read as TOML (repeatable)")] = None,
-    stats: Annotated[Path | None, typer.Option("--stats", metavar="PATH",
-                                                  help="Write render statistics as JSON")] = None,
-    bit_depth: Annotated[int, typer.Option("--bit-depth", metavar="8|16",
-                                           help="Bits per channel of a .png output")] = 8,
+    threads: Annotated[
+        int | None, typer.Option("--threads", metavar="T", help="Worker threads (default: all cores)")
+    ] = None,
+    aov: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--aov",
+            metavar="NAME[=PATH]",
+            help="Write an AOV: NAME=PATH.npy, or NAME alone for a layer of the .exr output; "
+            "NAME in depth, normal, object, prim, albedo (repeatable)",
+        ),
+    ] = None,
+    overrides: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--set",
+            metavar="KEY=VALUE",
+            help="Set a scene key before validation, e.g. camera.fov=40 or objects.0.radius=0.5; "
+            "VALUE is read as TOML (repeatable)",
+        ),
+    ] = None,
+    stats: Annotated[
+        Path | None, typer.Option("--stats", metavar="PATH", help="Write render statistics as JSON")
+    ] = None,
+    bit_depth: Annotated[
+        int, typer.Option("--bit-depth", metavar="8|16", help="Bits per channel of a .png output")
+    ] = 8,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", metavar=FLAG, help="No progress bar or summary")] = False,
-    partial: Annotated[bool, typer.Option("--partial", metavar=FLAG,
-                                          help="On Ctrl-C, save the rows done as OUT.partial.EXT")] = False,
-    exposure: Annotated[float | None, typer.Option(
-        "--exposure", metavar="STOPS", help="Exposure for .png/.jpg output (2**STOPS times brighter)")] = None,
-    pixel_filter: Annotated[str | None, typer.Option(
-        "--filter", metavar="FILTER", help="Pixel filter for spp > 1: box | gaussian | mitchell")] = None,
+    partial: Annotated[
+        bool, typer.Option("--partial", metavar=FLAG, help="On Ctrl-C, save the rows done as OUT.partial.EXT")
+    ] = False,
+    exposure: Annotated[
+        float | None,
+        typer.Option("--exposure", metavar="STOPS", help="Exposure for .png/.jpg output (2**STOPS times brighter)"),
+    ] = None,
+    pixel_filter: Annotated[
+        str | None,
+        typer.Option("--filter", metavar="FILTER", help="Pixel filter for spp > 1: box | gaussian | mitchell"),
+    ] = None,
     debug: Annotated[bool, typer.Option("--debug", metavar=FLAG, help="Show tracebacks of errors")] = False,
 ) -> None:
     """Render SCENE to an image (default: the built-in `seed` scene to render.png)."""
     from .render import RenderInterrupted
 
     try:
-        _render(scene, output, width, height, spp, mode, max_depth, seed, threads, aov or [], stats, quiet,
-                exposure=exposure, pixel_filter=pixel_filter, overrides=overrides or [], bit_depth=bit_depth)
+        _render(
+            scene,
+            output,
+            width,
+            height,
+            spp,
+            mode,
+            max_depth,
+            seed,
+            threads,
+            aov or [],
+            stats,
+            quiet,
+            exposure=exposure,
+            pixel_filter=pixel_filter,
+            overrides=overrides or [],
+            bit_depth=bit_depth,
+        )
     except RenderInterrupted as exc:
         _interrupted(exc, output if partial else None, bit_depth)
     except KeyboardInterrupt:
@@ -204,8 +242,24 @@ def _interrupted(exc, output: Path | None, bit_depth: int) -> None:
     raise typer.Exit(130)
 
 
-def _render(scene, output, width, height, spp, mode, max_depth, seed, threads, aov_specs, stats_path, quiet,
-            exposure=None, pixel_filter=None, overrides=(), bit_depth=8):
+def _render(
+    scene,
+    output,
+    width,
+    height,
+    spp,
+    mode,
+    max_depth,
+    seed,
+    threads,
+    aov_specs,
+    stats_path,
+    quiet,
+    exposure=None,
+    pixel_filter=None,
+    overrides=(),
+    bit_depth=8,
+):
     import numba
 
     from .image import check_bit_depth, check_output_path, save_npy, write_atomic
@@ -221,13 +275,23 @@ def _render(scene, output, width, height, spp, mode, max_depth, seed, threads, a
     _check_distinct(output, scene or "", [*aov_paths.values(), *([stats_path] if stats_path else [])])
     if threads is not None and not 1 <= threads <= numba.config.NUMBA_NUM_THREADS:
         raise OutputError(f"--threads {threads}: must be between 1 and {numba.config.NUMBA_NUM_THREADS}")
-    scene_model = _apply_flags(scene_model, width=width, height=height, spp=spp, mode=mode, max_depth=max_depth,
-                               seed=seed, exposure=exposure, filter=pixel_filter)
+    scene_model = _apply_flags(
+        scene_model,
+        width=width,
+        height=height,
+        spp=spp,
+        mode=mode,
+        max_depth=max_depth,
+        seed=seed,
+        exposure=exposure,
+        filter=pixel_filter,
+    )
     _warn_ignored(output, scene_model.render, exposure, pixel_filter)
 
     with _progress(quiet) as progress:
-        image = render_scene(scene_model, threads=threads, aovs=bool(aov_paths or layers), progress=progress,
-                             source=label)
+        image = render_scene(
+            scene_model, threads=threads, aovs=bool(aov_paths or layers), progress=progress, source=label
+        )
     image.save(output, bit_depth=bit_depth, layers=layers)
     for name, path in aov_paths.items():
         save_npy(path, image.aovs[name])
@@ -258,8 +322,10 @@ def _warn_ignored(output: Path, settings, exposure: float | None, pixel_filter: 
     from .image import ENCODED_SUFFIXES
 
     if exposure is not None and output.suffix.lower() not in ENCODED_SUFFIXES:
-        _warn(f"--exposure applies to {', '.join(ENCODED_SUFFIXES)} outputs only; {output} stores the "
-              "linear values as rendered")
+        _warn(
+            f"--exposure applies to {', '.join(ENCODED_SUFFIXES)} outputs only; {output} stores the "
+            "linear values as rendered"
+        )
     if pixel_filter is not None and settings.mode == "raster":
         _warn("--filter has no effect in raster mode: it takes one sample at each pixel centre")
     elif pixel_filter is not None and settings.spp == 1:
@@ -314,8 +380,14 @@ class _progress:
                 TimeRemainingColumn,
             )
 
-            self.bar = Progress(TextColumn("rendering"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"),
-                                TimeRemainingColumn(), transient=True, console=_stderr_console())
+            self.bar = Progress(
+                TextColumn("rendering"),
+                BarColumn(),
+                TextColumn("{task.percentage:>3.0f}%"),
+                TimeRemainingColumn(),
+                transient=True,
+                console=_stderr_console(),
+            )
             self.bar.start()
             self.task = self.bar.add_task("render", total=total)
         self.bar.update(self.task, completed=done)

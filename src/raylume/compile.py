@@ -57,8 +57,13 @@ BVH_TRAVERSAL_COST = 2.0
 SMALL_SCENE = 8
 
 # Model classes of the analytic shapes and their kinds (one line per shape).
-ANALYTIC_MODELS = {Sphere: Shape.SPHERE, Plane: Shape.PLANE, Disk: Shape.DISK, Quad: Shape.QUAD,
-                   Cylinder: Shape.CYLINDER}
+ANALYTIC_MODELS = {
+    Sphere: Shape.SPHERE,
+    Plane: Shape.PLANE,
+    Disk: Shape.DISK,
+    Quad: Shape.QUAD,
+    Cylinder: Shape.CYLINDER,
+}
 
 
 class CompiledScene(NamedTuple):
@@ -199,8 +204,14 @@ class _TriangleSoup:
         self.uvs: list[np.ndarray | None] = []  # per part: (F, 6) f32 UVs, None when not needed
         self.degenerate = 0
 
-    def add(self, vertices9: np.ndarray, normals9: np.ndarray | None, material: int, obj: int,
-            uvs6: np.ndarray | None = None):
+    def add(
+        self,
+        vertices9: np.ndarray,
+        normals9: np.ndarray | None,
+        material: int,
+        obj: int,
+        uvs6: np.ndarray | None = None,
+    ):
         self.parts.append((vertices9, normals9, material, obj))
         self.uvs.append(uvs6)
 
@@ -209,8 +220,9 @@ class _TriangleSoup:
         when no triangle needs UVs (no image texture on a triangle)."""
         if not any(uv is not None for uv in self.uvs):
             return np.zeros((1, 6), dtype=np.float32)
-        return np.concatenate([uv if uv is not None else np.zeros((len(p[0]), 6), np.float32)
-                               for uv, p in zip(self.uvs, self.parts)]).astype(np.float32)
+        return np.concatenate(
+            [uv if uv is not None else np.zeros((len(p[0]), 6), np.float32) for uv, p in zip(self.uvs, self.parts)]
+        ).astype(np.float32)
 
     def arrays(self):
         if not self.parts:
@@ -318,8 +330,10 @@ def compile_scene(scene: Scene, source="<scene>", accelerate: bool = True) -> Co
             uvs = None
             if needs_uvs(obj):
                 if mesh.uvs is None:
-                    raise SceneError(f"{source}: objects[{k}].file: the mesh has no texture coordinates (UVs), "
-                                     "which its material's image texture needs")
+                    raise SceneError(
+                        f"{source}: objects[{k}].file: the mesh has no texture coordinates (UVs), "
+                        "which its material's image texture needs"
+                    )
                 uvs = mesh.uvs.astype(np.float32)[mesh.faces].reshape(-1, 6)
             soup.add(verts, normals, m, k, uvs)
             soup.degenerate += mesh.degenerate
@@ -349,15 +363,19 @@ def compile_scene(scene: Scene, source="<scene>", accelerate: bool = True) -> Co
         bvh = single_leaf_bvh(lo, hi)
         depth = 1
     if depth >= TRAVERSAL_STACK - 2:  # traversal stacks are fixed-size (no allocation per ray)
-        raise SceneError(f"{source}: the BVH is {depth} levels deep, more than the {TRAVERSAL_STACK - 2} "
-                         "traversal supports; the scene's primitives are pathologically arranged")
+        raise SceneError(
+            f"{source}: the BVH is {depth} levels deep, more than the {TRAVERSAL_STACK - 2} "
+            "traversal supports; the scene's primitives are pathologically arranged"
+        )
 
     # Reorder so that leaves read consecutive triangles (cache-friendly traversal).
     order = bvh.prim_order.astype(np.int64)
     is_tri = order >= n_analytic
     tri_perm = order[is_tri] - n_analytic
     if n_tris:
-        tri, tri_smooth, tri_mat, tri_obj, tri_face = (a[tri_perm] for a in (tri, tri_smooth, tri_mat, tri_obj, tri_face))
+        tri, tri_smooth, tri_mat, tri_obj, tri_face = (
+            a[tri_perm] for a in (tri, tri_smooth, tri_mat, tri_obj, tri_face)
+        )
         if len(tri_n) == n_tris:
             tri_n = tri_n[tri_perm]
         if len(tri_uv) == n_tris:
@@ -416,7 +434,10 @@ def compile_scene(scene: Scene, source="<scene>", accelerate: bool = True) -> Co
 
 def _fill_prims(prims: np.ndarray, slots: np.ndarray, rows: np.ndarray, analytic: _Analytic) -> None:
     """Primitive-table rows `slots` for the analytic shapes of `rows`."""
-    for column, values in ((PRIM_KIND, analytic.kinds), (PRIM_MATERIAL, analytic.materials),
-                           (PRIM_OBJECT, analytic.objects)):
+    for column, values in (
+        (PRIM_KIND, analytic.kinds),
+        (PRIM_MATERIAL, analytic.materials),
+        (PRIM_OBJECT, analytic.objects),
+    ):
         prims[slots, column] = np.asarray(values, dtype=np.int32)[rows] if len(rows) else 0
     prims[slots, PRIM_ROW] = rows  # PRIM_FACE stays 0: an analytic shape is one face

@@ -62,8 +62,10 @@ def check_output_path(path: str | Path, allowed=IMAGE_SUFFIXES) -> Path:
     missing, not a folder or not writable."""
     path = Path(path)
     if path.is_dir():
-        raise OutputError(f"{path}: is a folder; the output must be a file name ending in {_one_of(allowed)}, "
-                          f"e.g. {path / ('render' + allowed[0])}")
+        raise OutputError(
+            f"{path}: is a folder; the output must be a file name ending in {_one_of(allowed)}, "
+            f"e.g. {path / ('render' + allowed[0])}"
+        )
     if path.suffix.lower() not in allowed:
         raise OutputError(f"{path}: unknown output format {path.suffix or '(none)'!r}; use {_one_of(allowed)}")
     check_writable_folder(path)
@@ -167,8 +169,12 @@ def _png16_bytes(rgb16: np.ndarray) -> bytes:
         return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
 
     header = struct.pack(">IIBBBBB", w, h, 16, 2, 0, 0, 0)
-    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(scanlines.tobytes(), 6))
-            + chunk(b"IEND", b""))
+    return (
+        b"\x89PNG\r\n\x1a\n"
+        + chunk(b"IHDR", header)
+        + chunk(b"IDAT", zlib.compress(scanlines.tobytes(), 6))
+        + chunk(b"IEND", b"")
+    )
 
 
 def exr_channels(rgb: np.ndarray, layers: dict[str, np.ndarray] | None = None) -> dict[str, np.ndarray]:
@@ -193,7 +199,8 @@ def _layer_suffixes(array: np.ndarray) -> tuple[str, ...]:
         return ("id",) if np.issubdtype(array.dtype, np.integer) else ("Y",)
     components = array.shape[-1]
     return {2: ("U", "V"), 3: ("R", "G", "B"), 4: ("R", "G", "B", "A")}.get(components) or tuple(
-        str(k) for k in range(components))
+        str(k) for k in range(components)
+    )
 
 
 def _write_exr(fh, rgb: np.ndarray, layers: dict[str, np.ndarray] | None = None) -> None:
@@ -265,12 +272,20 @@ def check_bit_depth(path: str | Path, bit_depth: int) -> None:
     if bit_depth != 16:
         raise OutputError(f"--bit-depth {bit_depth}: use 8 or 16")
     if Path(path).suffix.lower() != ".png":
-        raise OutputError(f"{path}: --bit-depth 16 is for .png outputs only (JPEG is 8-bit; .exr, .hdr and .npy "
-                          "store floats); write a .png, or drop --bit-depth")
+        raise OutputError(
+            f"{path}: --bit-depth 16 is for .png outputs only (JPEG is 8-bit; .exr, .hdr and .npy "
+            "store floats); write a .png, or drop --bit-depth"
+        )
 
 
-def save_array(path: str | Path, rgb: np.ndarray, encoding: str = "clamp", exposure: float = 0.0,
-               bit_depth: int = 8, layers: dict[str, np.ndarray] | None = None) -> Path:
+def save_array(
+    path: str | Path,
+    rgb: np.ndarray,
+    encoding: str = "clamp",
+    exposure: float = 0.0,
+    bit_depth: int = 8,
+    layers: dict[str, np.ndarray] | None = None,
+) -> Path:
     """Write rgb by the path's extension: .png (8 or 16 bits) and .jpg/.jpeg (8 bits, quality
     95), exposure and encoding applied; .npy, .exr and .hdr (linear floats as rendered).
     `layers` (AOV name -> array) go into an .exr beside R, G, B."""
@@ -308,8 +323,14 @@ class Image:
 
     Shows itself in Jupyter (``_repr_png_``) and converts to numpy (``np.asarray(image)``)."""
 
-    def __init__(self, rgb: np.ndarray, aovs: dict | None = None, stats: dict | None = None, encoding: str = "clamp",
-                 exposure: float = 0.0):
+    def __init__(
+        self,
+        rgb: np.ndarray,
+        aovs: dict | None = None,
+        stats: dict | None = None,
+        encoding: str = "clamp",
+        exposure: float = 0.0,
+    ):
         self.rgb = rgb
         self.aovs = aovs or {}
         self.stats = stats or {}
@@ -327,16 +348,29 @@ class Image:
     def to_uint8(self, encoding: str | None = None, exposure: float | None = None) -> np.ndarray:
         return encode_8bit(self.rgb, encoding or self.encoding, self.exposure if exposure is None else exposure)
 
-    def save(self, path: str | Path, encoding: str | None = None, exposure: float | None = None, *,
-             bit_depth: int = 8, layers: list[str] | tuple[str, ...] = ()) -> Path:
+    def save(
+        self,
+        path: str | Path,
+        encoding: str | None = None,
+        exposure: float | None = None,
+        *,
+        bit_depth: int = 8,
+        layers: list[str] | tuple[str, ...] = (),
+    ) -> Path:
         """Write .png (8 or 16 bits) or .jpg/.jpeg (8 bits): exposure, then encoding; .npy
         (float32 linear), .exr (float linear; `layers` names AOVs to add as layers, see
         EXR_LAYERS) or .hdr (Radiance RGBE, linear), atomically."""
         missing = [name for name in layers if name not in self.aovs]
         if missing:
             raise OutputError(f"{path}: the image has no {', '.join(missing)} AOV to write as a layer")
-        return save_array(path, self.rgb, encoding or self.encoding, self.exposure if exposure is None else exposure,
-                          bit_depth=bit_depth, layers={name: self.aovs[name] for name in layers})
+        return save_array(
+            path,
+            self.rgb,
+            encoding or self.encoding,
+            self.exposure if exposure is None else exposure,
+            bit_depth=bit_depth,
+            layers={name: self.aovs[name] for name in layers},
+        )
 
     def _repr_png_(self) -> bytes:
         return _png_bytes(self.to_uint8())

@@ -19,13 +19,11 @@ object and prim 0, as the ray caster does.
 
 from __future__ import annotations
 
-import math
 import time
-from typing import Callable
+from collections.abc import Callable
+from typing import NamedTuple
 
 import numpy as np
-
-from typing import NamedTuple
 
 from .kernels.camera import CAM_POSITION, CAM_UP
 from .kernels.raster_kernel import rasterize_arrays
@@ -43,8 +41,15 @@ class RasterView(NamedTuple):
     scale: float  # the scene's size
 
 
-def rasterize(S, cam: np.ndarray, width: int, height: int, background, progress: Callable[[int, int], None] | None = None,
-              aovs: bool = True):
+def rasterize(
+    S,
+    cam: np.ndarray,
+    width: int,
+    height: int,
+    background,
+    progress: Callable[[int, int], None] | None = None,
+    aovs: bool = True,
+):
     """Render the kernel scene S through the camera array by rasterization, one sample at each
     pixel centre (spp does not apply). Returns (rgb, aovs, kernel_seconds, rays=0); `aovs` is
     empty when not wanted."""
@@ -67,8 +72,25 @@ def rasterize(S, cam: np.ndarray, width: int, height: int, background, progress:
     }
     _warm_up(S, cam, near, background)
     start = time.perf_counter()
-    rasterize_arrays(S, cam, W, H, near, triangle_prim, extra, extra_prim, extra_part, background, aovs,
-                     rgb, arrays["depth"], arrays["normal"], arrays["object"], arrays["prim"], arrays["albedo"])
+    rasterize_arrays(
+        S,
+        cam,
+        W,
+        H,
+        near,
+        triangle_prim,
+        extra,
+        extra_prim,
+        extra_part,
+        background,
+        aovs,
+        rgb,
+        arrays["depth"],
+        arrays["normal"],
+        arrays["object"],
+        arrays["prim"],
+        arrays["albedo"],
+    )
     kernel_seconds = time.perf_counter() - start
     if progress is not None:
         progress(H, H)
@@ -80,9 +102,25 @@ def _warm_up(S, cam, near, background):
     empty = S._replace(triangles=S.triangles[:0])
     rgb = np.zeros((1, 1, 3), np.float32)
     none = np.zeros(0, np.int32)
-    rasterize_arrays(empty, cam, 1, 1, near, none, np.zeros((0, 9)), none, np.zeros(0), background, True, rgb,
-                     np.zeros((1, 1), np.float32), np.zeros((1, 1, 3), np.float32), np.zeros((1, 1), np.int32),
-                     np.zeros((1, 1), np.int32), np.zeros((1, 1, 3), np.float32))
+    rasterize_arrays(
+        empty,
+        cam,
+        1,
+        1,
+        near,
+        none,
+        np.zeros((0, 9)),
+        none,
+        np.zeros(0),
+        background,
+        True,
+        rgb,
+        np.zeros((1, 1), np.float32),
+        np.zeros((1, 1, 3), np.float32),
+        np.zeros((1, 1), np.int32),
+        np.zeros((1, 1), np.int32),
+        np.zeros((1, 1, 3), np.float32),
+    )
 
 
 def scene_scale(S) -> float:
@@ -107,8 +145,9 @@ def tessellate(S, cam: np.ndarray, width: int, height: int):
     part (E,), see shapes.tessellate)."""
     # pixels per radian at the image centre (the same horizontally and vertically)
     up = cam[CAM_UP : CAM_UP + 3]
-    view = RasterView(cam[CAM_POSITION : CAM_POSITION + 3], 0.5 * height / max(float(np.linalg.norm(up)), 1e-300),
-                      scene_scale(S))
+    view = RasterView(
+        cam[CAM_POSITION : CAM_POSITION + 3], 0.5 * height / max(float(np.linalg.norm(up)), 1e-300), scene_scale(S)
+    )
     parts, prims, which = [], [], []
     for k in np.flatnonzero(S.prims[:, PRIM_KIND] != Shape.TRIANGLE):
         kind = Shape(int(S.prims[k, PRIM_KIND]))

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
 
 from .image import Image
 from .scene.model import Scene
@@ -38,8 +38,29 @@ def render(
     """Render `scene` (arguments override its [render] table). Returns an Image with linear
     float32 RGB, the AOVs of DESIGN.md when `aovs` is true, and the stats dictionary. To render
     one scene several times (other cameras, sizes, modes), use a Session: it compiles once."""
-    settings = resolve_settings(scene, source, width=width, height=height, spp=spp, mode=mode, max_depth=max_depth,
-                                seed=seed, filter=filter, exposure=exposure)  # fail before compiling
+    settings = resolve_settings(
+        scene,
+        source,
+        width=width,
+        height=height,
+        spp=spp,
+        mode=mode,
+        max_depth=max_depth,
+        seed=seed,
+        filter=filter,
+        exposure=exposure,
+    )  # fail before compiling
     session = Session(scene, source=source, accelerate=settings.mode != "raster")
-    return session.render(width=width, height=height, spp=spp, mode=mode, max_depth=max_depth, seed=seed,
-                          filter=filter, exposure=exposure, threads=threads, aovs=aovs, progress=progress)
+    return session.render(
+        width=width,
+        height=height,
+        spp=spp,
+        mode=mode,
+        max_depth=max_depth,
+        seed=seed,
+        filter=filter,
+        exposure=exposure,
+        threads=threads,
+        aovs=aovs,
+        progress=progress,
+    )

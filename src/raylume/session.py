@@ -14,8 +14,8 @@ from __future__ import annotations
 
 import os
 import time
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor, wait
-from typing import Callable
 
 import numba
 import numpy as np
@@ -129,8 +129,18 @@ class Session:
         """Render through `camera` (a Camera, a dict of camera keys replacing the scene's, or
         None for the scene's own); other arguments override the scene's [render] table.
         Returns an Image: linear float32 RGB, the AOVs of DESIGN.md when `aovs`, and stats."""
-        settings = resolve_settings(self.scene, self.source, width=width, height=height, spp=spp, mode=mode,
-                                    max_depth=max_depth, seed=seed, filter=filter, exposure=exposure)
+        settings = resolve_settings(
+            self.scene,
+            self.source,
+            width=width,
+            height=height,
+            spp=spp,
+            mode=mode,
+            max_depth=max_depth,
+            seed=seed,
+            filter=filter,
+            exposure=exposure,
+        )
         cam_model = self._camera(camera)
         W, H = settings.width, settings.height
         lanes = _set_threads(threads)
@@ -143,8 +153,9 @@ class Session:
         if settings.mode == "raster":
             from .raster import rasterize
 
-            rgb, aov_arrays, kernel_seconds, rays = rasterize(S, cam, W, H, settings.background, progress=progress,
-                                                              aovs=aovs)
+            rgb, aov_arrays, kernel_seconds, rays = rasterize(
+                S, cam, W, H, settings.background, progress=progress, aovs=aovs
+            )
             primary = 0
         else:
             film = Film(W, H, settings.filter, total_spp=settings.spp)
@@ -167,25 +178,37 @@ class Session:
         }
         return Image(rgb, aov_arrays if aovs else {}, stats, settings.encoding, exposure=settings.exposure)
 
-    def add_samples(self, film: Film, spp: int, camera: Camera | dict | None = None, *, mode: str | None = None,
-                    max_depth: int | None = None, seed: int | None = None, threads: int | None = None,
-                    progress: Callable[[int, int], None] | None = None) -> dict:
+    def add_samples(
+        self,
+        film: Film,
+        spp: int,
+        camera: Camera | dict | None = None,
+        *,
+        mode: str | None = None,
+        max_depth: int | None = None,
+        seed: int | None = None,
+        threads: int | None = None,
+        progress: Callable[[int, int], None] | None = None,
+    ) -> dict:
         """Add the next `spp` samples per pixel to `film` (cast or trace mode): a progressive
         pass. Passes that add up to film.total_spp give the film the same bits as one render
         of total_spp. Returns {"rays", "render_seconds"}."""
         if film.spp + spp > film.total_spp:
-            raise ValueError(f"the film takes {film.total_spp} samples per pixel; {film.spp} are in and {spp} more "
-                             "would exceed it")
-        settings = resolve_settings(self.scene, self.source, width=film.width, height=film.height, mode=mode,
-                                    max_depth=max_depth, seed=seed)
+            raise ValueError(
+                f"the film takes {film.total_spp} samples per pixel; {film.spp} are in and {spp} more would exceed it"
+            )
+        settings = resolve_settings(
+            self.scene, self.source, width=film.width, height=film.height, mode=mode, max_depth=max_depth, seed=seed
+        )
         if settings.mode == "raster":
             raise ValueError("raster mode draws whole images; it adds no samples to a film")
         if not self._accelerated:
             self._compile(True)
         cam_model = self._camera(camera)
         S = self.compiled.for_camera(cam_model.position)
-        seconds, rays = _ray_render(S, camera_of(cam_model, film.width, film.height), film, spp, settings, {},
-                                    progress, _set_threads(threads))
+        seconds, rays = _ray_render(
+            S, camera_of(cam_model, film.width, film.height), film, spp, settings, {}, progress, _set_threads(threads)
+        )
         return {"rays": int(rays), "render_seconds": seconds}
 
     def _camera(self, camera) -> Camera:
@@ -232,14 +255,63 @@ def _ray_render(S, cam, film: Film, spp: int, settings, aov: dict, progress, lan
 
     def lane_job(lane: int, rows: int) -> None:
         if aov:
-            aov_lane(S, cam, W, H, 0, rows, lane, lanes, aov["depth"], aov["normal"], aov["object"], aov["prim"],
-                     aov["albedo"], rays_per_row, rows_done, stop)
+            aov_lane(
+                S,
+                cam,
+                W,
+                H,
+                0,
+                rows,
+                lane,
+                lanes,
+                aov["depth"],
+                aov["normal"],
+                aov["object"],
+                aov["prim"],
+                aov["albedo"],
+                rays_per_row,
+                rows_done,
+                stop,
+            )
         if settings.mode == "cast":
-            cast_lane(S, cam, film.filter, W, H, 0, rows, lane, lanes, samples, settings.seed, background, film.sums,
-                      rays_per_row, rows_done, stop)
+            cast_lane(
+                S,
+                cam,
+                film.filter,
+                W,
+                H,
+                0,
+                rows,
+                lane,
+                lanes,
+                samples,
+                settings.seed,
+                background,
+                film.sums,
+                rays_per_row,
+                rows_done,
+                stop,
+            )
         else:
-            trace_lane(S, cam, film.filter, W, H, 0, rows, lane, lanes, samples, settings.seed, settings.max_depth,
-                       background, film.sums, rays_per_row, rows_done, stop)
+            trace_lane(
+                S,
+                cam,
+                film.filter,
+                W,
+                H,
+                0,
+                rows,
+                lane,
+                lanes,
+                samples,
+                settings.seed,
+                settings.max_depth,
+                background,
+                film.sums,
+                rays_per_row,
+                rows_done,
+                stop,
+            )
 
     lane_job(0, 0)  # compile (or load from the cache) before any timing starts
     total = H * (2 if aov else 1)

@@ -31,7 +31,7 @@ import numpy as np
 __all__ = ["render_reference", "camera_ray_direction", "SEED_SCENE"]
 
 INF = math.inf
-PRIMARY_T_MIN = 1e-9   # camera origin is the eye: accept anything in front of it
+PRIMARY_T_MIN = 1e-9  # camera origin is the eye: accept anything in front of it
 SECONDARY_T_MIN = 0.001  # shadow and reflection rays, as in the lecture
 DEFAULT_FOV = 53.13
 DEFAULT_MAX_DEPTH = 3
@@ -68,6 +68,7 @@ SEED_SCENE: dict = {
 # --------------------------------------------------------------------------
 # Small vector helpers on 3-tuples
 # --------------------------------------------------------------------------
+
 
 def _vec(v) -> tuple[float, float, float]:
     x, y, z = v
@@ -108,6 +109,7 @@ def _rgb(value) -> tuple[float, float, float]:
 # --------------------------------------------------------------------------
 # Scene preparation
 # --------------------------------------------------------------------------
+
 
 def _material(spec, materials: dict) -> tuple:
     """(color, specular_or_None, reflective) from a material name or inline dict."""
@@ -173,16 +175,19 @@ def camera_ray_direction(scene: dict, width: int, height: int, i: int, j: int):
     b = 1.0 - (j + 0.5) / height * 2.0
     aw = a * w
     bh = b * h
-    return _normalize((
-        f[0] + r[0] * aw + u[0] * bh,
-        f[1] + r[1] * aw + u[1] * bh,
-        f[2] + r[2] * aw + u[2] * bh,
-    ))
+    return _normalize(
+        (
+            f[0] + r[0] * aw + u[0] * bh,
+            f[1] + r[1] * aw + u[1] * bh,
+            f[2] + r[2] * aw + u[2] * bh,
+        )
+    )
 
 
 # --------------------------------------------------------------------------
 # The lecture's algorithm
 # --------------------------------------------------------------------------
+
 
 def _intersect_ray_sphere(O, D, center, radius):
     """Both roots of |O + tD - C|^2 = r^2 (lecture form), or (inf, inf) on a miss."""
@@ -245,9 +250,7 @@ def _compute_lighting(spheres, lights, P, N, V, s):
 
         # Specular
         if s is not None:
-            R = (2.0 * N[0] * n_dot_l - L[0],
-                 2.0 * N[1] * n_dot_l - L[1],
-                 2.0 * N[2] * n_dot_l - L[2])
+            R = (2.0 * N[0] * n_dot_l - L[0], 2.0 * N[1] * n_dot_l - L[1], 2.0 * N[2] * n_dot_l - L[2])
             r_dot_v = _dot(R, V)
             if r_dot_v > 0.0:
                 k = (r_dot_v / (math.sqrt(_dot(R, R)) * v_len)) ** s
@@ -277,14 +280,10 @@ def _trace_ray(spheres, lights, background, cast, O, D, t_min, t_max, depth):
 
     # ReflectRay(-D, N) = 2 N dot(N, -D) - (-D)
     n_dot_v = _dot(N, V)
-    R = (2.0 * N[0] * n_dot_v - V[0],
-         2.0 * N[1] * n_dot_v - V[1],
-         2.0 * N[2] * n_dot_v - V[2])
+    R = (2.0 * N[0] * n_dot_v - V[0], 2.0 * N[1] * n_dot_v - V[1], 2.0 * N[2] * n_dot_v - V[2])
     refl = _trace_ray(spheres, lights, background, cast, P, R, SECONDARY_T_MIN, INF, depth - 1)
     q = 1.0 - r
-    return (local[0] * q + refl[0] * r,
-            local[1] * q + refl[1] * r,
-            local[2] * q + refl[2] * r)
+    return (local[0] * q + refl[0] * r, local[1] * q + refl[1] * r, local[2] * q + refl[2] * r)
 
 
 def render_reference(scene: dict, width: int, height: int, mode: str = "trace") -> np.ndarray:
@@ -319,7 +318,6 @@ def render_reference(scene: dict, width: int, height: int, mode: str = "trace") 
             dz = f[2] + r[2] * aw + u[2] * bh
             n = sqrt(dx * dx + dy * dy + dz * dz)
             D = (dx / n, dy / n, dz / n)
-            row.append(_trace_ray(spheres, lights, background, cast,
-                                  O, D, PRIMARY_T_MIN, INF, max_depth))
+            row.append(_trace_ray(spheres, lights, background, cast, O, D, PRIMARY_T_MIN, INF, max_depth))
         rows.append(row)
     return np.array(rows, dtype=np.float64).reshape(height, width, 3)

@@ -295,11 +295,9 @@ def _build(box, ids, root_cb, max_leaf, n_bins, c_trav, c_isect):
             if e > size:
                 size = e
         inv = 1.0 / size if size > 0.0 else 1.0
-        node_area = _half_area(nodebox[0], nodebox[1], nodebox[2],
-                               nodebox[3], nodebox[4], nodebox[5], inv)
+        node_area = _half_area(nodebox[0], nodebox[1], nodebox[2], nodebox[3], nodebox[4], nodebox[5], inv)
 
-        cost, axis, plane = _best_split(bcnt, bbox, nbe, scale, inv, node_area,
-                                        c_trav, c_isect, r_area, r_cnt, acc)
+        cost, axis, plane = _best_split(bcnt, bbox, nbe, scale, inv, node_area, c_trav, c_isect, r_area, r_cnt, acc)
         if count <= max_leaf and (axis < 0 or c_isect * count * node_area <= cost):
             nindex[m, 0] = start
             nindex[m, 1] = count
@@ -309,8 +307,7 @@ def _build(box, ids, root_cb, max_leaf, n_bins, c_trav, c_isect):
         _set_empty(cb_l)
         _set_empty(cb_r)
         if axis >= 0:
-            mid = _partition(box, ids, start, end, axis, cb[axis], scale[axis],
-                             plane, nbe, cb_l, cb_r)
+            mid = _partition(box, ids, start, end, axis, cb[axis], scale[axis], plane, nbe, cb_l, cb_r)
         else:
             # All centroids coincide: nothing to bin, so halve the range to
             # keep leaves within max_leaf.
@@ -350,8 +347,7 @@ def _build(box, ids, root_cb, max_leaf, n_bins, c_trav, c_isect):
 # ---------------------------------------------------------------------------
 
 
-def build_bvh(lo, hi, max_leaf_size: int = 4, n_bins: int = 16, *,
-              c_trav: float = 1.0, c_isect: float = 1.0) -> BVH:
+def build_bvh(lo, hi, max_leaf_size: int = 4, n_bins: int = 16, *, c_trav: float = 1.0, c_isect: float = 1.0) -> BVH:
     """Build a binned-SAH BVH over N primitive boxes ``lo``/``hi`` (N, 3).
 
     ``c_trav`` / ``c_isect`` are the relative costs of a node traversal and
@@ -371,18 +367,17 @@ def build_bvh(lo, hi, max_leaf_size: int = 4, n_bins: int = 16, *,
 
     if n == 0:
         bounds = np.array([[np.inf] * 3 + [-np.inf] * 3], dtype=np.float32)
-        return BVH(bounds, np.zeros((1, 2), np.int32), np.full(1, -1, np.int8),
-                   np.zeros(0, np.int32))
+        return BVH(bounds, np.zeros((1, 2), np.int32), np.full(1, -1, np.int8), np.zeros(0, np.int32))
 
     box = np.empty((n, 6), np.float32)
     root_cb = np.empty(6, np.float64)
     bad = _prepare(lo, hi, box, root_cb)
     if bad >= 0:
-        raise ValueError(f"primitive {bad} has an invalid box (NaN or lo > hi): "
-                         f"lo={lo[bad]}, hi={hi[bad]}")
+        raise ValueError(f"primitive {bad} has an invalid box (NaN or lo > hi): lo={lo[bad]}, hi={hi[bad]}")
     ids = np.arange(n, dtype=np.int32)
-    nbounds, nindex, naxis, m = _build(box, ids, root_cb, int(max_leaf_size), int(n_bins),
-                                       float(c_trav), float(c_isect))
+    nbounds, nindex, naxis, m = _build(
+        box, ids, root_cb, int(max_leaf_size), int(n_bins), float(c_trav), float(c_isect)
+    )
     del box
     # Copy so the (up to 2N-1) preallocation is released.
     return BVH(nbounds[:m].copy(), nindex[:m].copy(), naxis[:m].copy(), ids)

@@ -50,8 +50,16 @@ def camera_frame(position, look_at, up, fov_degrees, width, height, aperture=0.0
 
 def camera_of(model, width: int, height: int) -> np.ndarray:
     """The camera array of a scene model's Camera."""
-    return camera_frame(model.position, model.look_at, model.up, model.fov, width, height,
-                        aperture=model.aperture, focus_distance=model.focus)
+    return camera_frame(
+        model.position,
+        model.look_at,
+        model.up,
+        model.fov,
+        width,
+        height,
+        aperture=model.aperture,
+        focus_distance=model.focus,
+    )
 
 
 @njit(**KERNEL)

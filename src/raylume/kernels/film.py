@@ -118,6 +118,7 @@ class Film:
 
 # --- pixel filters (Python side: tables the kernels read) ------------------------------------
 
+
 def _gaussian(x, radius=1.5, sigma=0.5):
     g = np.exp(-x * x / (2 * sigma * sigma)) - math.exp(-radius * radius / (2 * sigma * sigma))
     return np.maximum(g, 0.0)

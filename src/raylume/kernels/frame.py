@@ -65,8 +65,25 @@ PROGRESS_STRIDE = 16
 
 
 @njit(**LANE)
-def trace_lane(S, cam, filt, width, height, row_begin, row_end, lane, lanes, samples, seed, max_depth, background,
-               film, rays_per_row, rows_done, stop):
+def trace_lane(
+    S,
+    cam,
+    filt,
+    width,
+    height,
+    row_begin,
+    row_end,
+    lane,
+    lanes,
+    samples,
+    seed,
+    max_depth,
+    background,
+    film,
+    rays_per_row,
+    rows_done,
+    stop,
+):
     """Whitted-traced samples of the lane's rows into the film; rays traced per row into rays_per_row."""
     node_stack, t_stack = traversal_stacks()
     slots = stack_rows(max_depth)
@@ -76,14 +93,31 @@ def trace_lane(S, cam, filt, width, height, row_begin, row_end, lane, lanes, sam
     for j in range(row_begin + lane, row_end, lanes):
         if stop[0] != 0:
             break
-        rays_per_row[j] += _trace_row(G, F, L, cam, filt, j, width, height, samples, seed, max_depth, bg, film,
-                                      work, node_stack, t_stack)
+        rays_per_row[j] += _trace_row(
+            G, F, L, cam, filt, j, width, height, samples, seed, max_depth, bg, film, work, node_stack, t_stack
+        )
         rows_done[lane * PROGRESS_STRIDE] += 1
 
 
 @njit(**LANE)
-def cast_lane(S, cam, filt, width, height, row_begin, row_end, lane, lanes, samples, seed, background, film,
-              rays_per_row, rows_done, stop):
+def cast_lane(
+    S,
+    cam,
+    filt,
+    width,
+    height,
+    row_begin,
+    row_end,
+    lane,
+    lanes,
+    samples,
+    seed,
+    background,
+    film,
+    rays_per_row,
+    rows_done,
+    stop,
+):
     """Ray-cast samples (the closest hit's albedo) of the lane's rows into the film."""
     node_stack, t_stack = traversal_stacks()
     bg = (background[0], background[1], background[2])
@@ -96,16 +130,33 @@ def cast_lane(S, cam, filt, width, height, row_begin, row_end, lane, lanes, samp
 
 
 @njit(**LANE)
-def aov_lane(S, cam, width, height, row_begin, row_end, lane, lanes, depth, normal, obj_id, prim_id, albedo_out,
-             rays_per_row, rows_done, stop):
+def aov_lane(
+    S,
+    cam,
+    width,
+    height,
+    row_begin,
+    row_end,
+    lane,
+    lanes,
+    depth,
+    normal,
+    obj_id,
+    prim_id,
+    albedo_out,
+    rays_per_row,
+    rows_done,
+    stop,
+):
     """Primary-hit AOVs (depth, normal, object, prim, albedo) of the lane's rows."""
     node_stack, t_stack = traversal_stacks()
     G, F = geometry_of(S), surfaces_of(S)
     for j in range(row_begin + lane, row_end, lanes):
         if stop[0] != 0:
             break
-        rays_per_row[j] += _primary_aovs_row(G, F, cam, j, width, height, node_stack, t_stack,
-                                             depth, normal, obj_id, prim_id, albedo_out)
+        rays_per_row[j] += _primary_aovs_row(
+            G, F, cam, j, width, height, node_stack, t_stack, depth, normal, obj_id, prim_id, albedo_out
+        )
         rows_done[lane * PROGRESS_STRIDE] += 1
 
 

@@ -41,7 +41,7 @@ def phong(n, l, view, specular):
             # Below 1 - 50/s the highlight is under e^-50 (about 2e-22): skip the power, whose
             # result would otherwise often be a slow subnormal number.
             if cos_rv > 1.0 - 50.0 / specular:
-                scale += cos_rv ** specular
+                scale += cos_rv**specular
     return scale
 
 

@@ -174,8 +174,12 @@ def _screen_box(h0, h1, h2, near):
         r2 = 1.0 / h2[2]
         x0, x1, x2 = h0[0] * r0, h1[0] * r1, h2[0] * r2
         y0, y1, y2 = h0[1] * r0, h1[1] * r1, h2[1] * r2
-        return (max(min(x0, x1, x2), -1e30), min(max(x0, x1, x2), 1e30),
-                max(min(y0, y1, y2), -1e30), min(max(y0, y1, y2), 1e30))
+        return (
+            max(min(x0, x1, x2), -1e30),
+            min(max(x0, x1, x2), 1e30),
+            max(min(y0, y1, y2), -1e30),
+            min(max(y0, y1, y2), 1e30),
+        )
     box = (math.inf, -math.inf, math.inf, -math.inf)
     for k in range(3):
         if k == 0:
@@ -336,15 +340,47 @@ def _draw_bands(view, near, height, tri, extra, n_main, bounds, band_start, entr
                 tid[j, i] = -1
         for k in range(band_start[b], band_start[b + 1]):
             t = entries[k]
-            _draw(view, near, tri, extra, n_main, t,
-                  int(bounds[t, 0]), int(bounds[t, 1]), max(int(bounds[t, 2]), row_lo),
-                  min(int(bounds[t, 3]), row_hi),
-                  zbuf, tid, dummy, False)
+            _draw(
+                view,
+                near,
+                tri,
+                extra,
+                n_main,
+                t,
+                int(bounds[t, 0]),
+                int(bounds[t, 1]),
+                max(int(bounds[t, 2]), row_lo),
+                min(int(bounds[t, 3]), row_hi),
+                zbuf,
+                tid,
+                dummy,
+                False,
+            )
 
 
 @njit(parallel=True, fastmath=RFAST, cache=True, error_model="numpy")
-def _shade(S, cam, view, width, height, extra, triangle_prim, extra_prim, extra_part, n_main, zbuf, tid,
-           background, want_aovs, rgb, depth, normal, obj_id, prim_id, albedo_out):
+def _shade(
+    S,
+    cam,
+    view,
+    width,
+    height,
+    extra,
+    triangle_prim,
+    extra_prim,
+    extra_part,
+    n_main,
+    zbuf,
+    tid,
+    background,
+    want_aovs,
+    rgb,
+    depth,
+    normal,
+    obj_id,
+    prim_id,
+    albedo_out,
+):
     """Pass 5: shade every pixel once from its nearest triangle, as `trace` lights a surface
     (ambient, diffuse, specular; no shadows, reflection or refraction), and fill the AOVs
     when `want_aovs`."""
@@ -355,13 +391,63 @@ def _shade(S, cam, view, width, height, extra, triangle_prim, extra_prim, extra_
         L = lights_of(S)
         node_stack = np.empty(TRAVERSAL_STACK, dtype=np.int32)
         t_stack = np.empty(TRAVERSAL_STACK, dtype=np.float64)
-        _shade_row(G, F, L, cam, view, width, height, j, extra, triangle_prim, extra_prim, extra_part, n_main, zbuf,
-                   tid, background, want_aovs, rgb, depth, normal, obj_id, prim_id, albedo_out, node_stack, t_stack)
+        _shade_row(
+            G,
+            F,
+            L,
+            cam,
+            view,
+            width,
+            height,
+            j,
+            extra,
+            triangle_prim,
+            extra_prim,
+            extra_part,
+            n_main,
+            zbuf,
+            tid,
+            background,
+            want_aovs,
+            rgb,
+            depth,
+            normal,
+            obj_id,
+            prim_id,
+            albedo_out,
+            node_stack,
+            t_stack,
+        )
 
 
 @njit(fastmath=RFAST, error_model="numpy")
-def _shade_row(G, F, L, cam, view, width, height, j, extra, triangle_prim, extra_prim, extra_part, n_main, zbuf,
-               tid, background, want_aovs, rgb, depth, normal, obj_id, prim_id, albedo_out, node_stack, t_stack):
+def _shade_row(
+    G,
+    F,
+    L,
+    cam,
+    view,
+    width,
+    height,
+    j,
+    extra,
+    triangle_prim,
+    extra_prim,
+    extra_part,
+    n_main,
+    zbuf,
+    tid,
+    background,
+    want_aovs,
+    rgb,
+    depth,
+    normal,
+    obj_id,
+    prim_id,
+    albedo_out,
+    node_stack,
+    t_stack,
+):
     """Row j of pass 5 (a function of its own: Numba's parallel analysis trips over the
     inlined lighting code inside a parallel loop)."""
     tri = G.triangles
@@ -383,9 +469,11 @@ def _shade_row(G, F, L, cam, view, width, height, j, extra, triangle_prim, extra
             continue
         x_px = i + 0.5
         a = x_px / width * 2.0 - 1.0
-        dv = (cam[CAM_FORWARD] + cam[CAM_RIGHT] * a + cam[CAM_UP] * b,
-              cam[CAM_FORWARD + 1] + cam[CAM_RIGHT + 1] * a + cam[CAM_UP + 1] * b,
-              cam[CAM_FORWARD + 2] + cam[CAM_RIGHT + 2] * a + cam[CAM_UP + 2] * b)
+        dv = (
+            cam[CAM_FORWARD] + cam[CAM_RIGHT] * a + cam[CAM_UP] * b,
+            cam[CAM_FORWARD + 1] + cam[CAM_RIGHT + 1] * a + cam[CAM_UP + 1] * b,
+            cam[CAM_FORWARD + 2] + cam[CAM_RIGHT + 2] * a + cam[CAM_UP + 2] * b,
+        )
         scale = math.sqrt(dv[0] * dv[0] + dv[1] * dv[1] + dv[2] * dv[2])
         d = (dv[0] / scale, dv[1] / scale, dv[2] / scale)
         dist = scale / zbuf[j, i]  # z * |F + R a + U b|: distance along the unit ray
@@ -464,8 +552,25 @@ def release_scratch() -> None:
             delattr(_scratch, name)
 
 
-def rasterize_arrays(S, cam, width, height, near, triangle_prim, extra, extra_prim, extra_part, background, want_aovs,
-                     rgb, depth, normal, obj_id, prim_id, albedo):
+def rasterize_arrays(
+    S,
+    cam,
+    width,
+    height,
+    near,
+    triangle_prim,
+    extra,
+    extra_prim,
+    extra_part,
+    background,
+    want_aovs,
+    rgb,
+    depth,
+    normal,
+    obj_id,
+    prim_id,
+    albedo,
+):
     """Run the passes over the kernel scene's triangles (row t is primitive triangle_prim[t])
     plus `extra` (float64 (E, 9): tessellated analytic shapes, triangle e drawing primitive
     extra_prim[e], part extra_part[e]) and
@@ -488,8 +593,28 @@ def rasterize_arrays(S, cam, width, height, near, triangle_prim, extra, extra_pr
         _draw_bands(view, near, height, tri, extra, n_main, bounds, band_start, entries, zbuf, tid)
     finally:
         numba.set_parallel_chunksize(previous)
-    _shade(S, cam, view, width, height, extra, triangle_prim, extra_prim, extra_part, n_main, zbuf, tid,
-           background, want_aovs, rgb, depth, normal, obj_id, prim_id, albedo)
+    _shade(
+        S,
+        cam,
+        view,
+        width,
+        height,
+        extra,
+        triangle_prim,
+        extra_prim,
+        extra_part,
+        n_main,
+        zbuf,
+        tid,
+        background,
+        want_aovs,
+        rgb,
+        depth,
+        normal,
+        obj_id,
+        prim_id,
+        albedo,
+    )
 
 
 @njit(cache=True, fastmath=RFAST, error_model="numpy")

@@ -64,8 +64,17 @@ class Lights(NamedTuple):
 
 @njit
 def geometry_of(S):
-    return Geometry(S.prims, S.n_bounded, S.shapes, S.triangles, S.triangle_normals, S.triangle_smooth,
-                    S.triangle_uvs, S.node_bounds, S.node_index)
+    return Geometry(
+        S.prims,
+        S.n_bounded,
+        S.shapes,
+        S.triangles,
+        S.triangle_normals,
+        S.triangle_smooth,
+        S.triangle_uvs,
+        S.node_bounds,
+        S.node_index,
+    )
 
 
 @njit

@@ -135,13 +135,17 @@ def tessellate(row: np.ndarray, view) -> tuple[np.ndarray, np.ndarray]:
     a, e1 = row[AXIS : AXIS + 3], row[TANGENT : TANGENT + 3]
     e2 = np.cross(a, e1)
     r = float(row[RADIUS])
-    nearest = min(nearest_distance(p0, a, r, view.eye), nearest_distance(p1, a, r, view.eye),
-                  _side_distance(p0, a, float(row[HEIGHT]), r, view.eye))
+    nearest = min(
+        nearest_distance(p0, a, r, view.eye),
+        nearest_distance(p1, a, r, view.eye),
+        _side_distance(p0, a, float(row[HEIGHT]), r, view.eye),
+    )
     segments = circle_segments(r, nearest, view.px_per_rad)
     bottom, top = ring(p0, e1, e2, r, segments), ring(p1, e1, e2, r, segments)
     nxt = np.roll(np.arange(segments), -1)
-    side = np.concatenate([np.concatenate([bottom, top, top[nxt]], axis=1),
-                           np.concatenate([bottom, top[nxt], bottom[nxt]], axis=1)])
+    side = np.concatenate(
+        [np.concatenate([bottom, top, top[nxt]], axis=1), np.concatenate([bottom, top[nxt], bottom[nxt]], axis=1)]
+    )
     parts = [np.full(len(side), PART_SIDE)]
     if row[CAPPED] > 0.0:
         side = np.concatenate([side, fan(p0, bottom), fan(p1, top)])

@@ -18,7 +18,9 @@ def pack(obj) -> list[float]:
 
 
 def bounds(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    return rows[:, CENTER : CENTER + 3] - rows[:, RADIUS : RADIUS + 1], rows[:, CENTER : CENTER + 3] + rows[:, RADIUS : RADIUS + 1]
+    return rows[:, CENTER : CENTER + 3] - rows[:, RADIUS : RADIUS + 1], rows[:, CENTER : CENTER + 3] + rows[
+        :, RADIUS : RADIUS + 1
+    ]
 
 
 @njit(**KERNEL)

@@ -43,8 +43,13 @@ QUAD = int(Shape.QUAD)
 CYLINDER = int(Shape.CYLINDER)
 
 # Analytic shapes' modules (triangles are stored apart: float32, with normals and UVs).
-ANALYTIC = {Shape.SPHERE: shape_sphere, Shape.PLANE: shape_plane, Shape.DISK: shape_disk,
-            Shape.QUAD: shape_quad, Shape.CYLINDER: shape_cylinder}
+ANALYTIC = {
+    Shape.SPHERE: shape_sphere,
+    Shape.PLANE: shape_plane,
+    Shape.DISK: shape_disk,
+    Shape.QUAD: shape_quad,
+    Shape.CYLINDER: shape_cylinder,
+}
 SHAPE_WIDTH = 16  # columns of the analytic shape table, enough for every shape's row
 
 # Columns of the primitive table.
@@ -156,7 +161,13 @@ def surface(G, k, b1, b2, p):
     """The surface at a hit on primitive k at p: (outward geometric normal, outward shading
     normal, material, object, face)."""
     ng, ns = normals(G, k, b1, b2, p)
-    return ng, ns, np.int64(G.prims[k, PRIM_MATERIAL]), np.int64(G.prims[k, PRIM_OBJECT]), np.int64(G.prims[k, PRIM_FACE])
+    return (
+        ng,
+        ns,
+        np.int64(G.prims[k, PRIM_MATERIAL]),
+        np.int64(G.prims[k, PRIM_OBJECT]),
+        np.int64(G.prims[k, PRIM_FACE]),
+    )
 
 
 @njit(**KERNEL)

@@ -48,8 +48,14 @@ def texture_at(G, F, x, prim, b1, b2, p):
     # explicit int64: call sites after inlined traversal may type the primitive as a literal,
     # which would compile shapes.uv once per literal
     u, v = uv(G, np.int64(prim), b1, b2, p)
-    return texture_lookup(F.texels, int(tex[x, TEX_OFFSET]), int(tex[x, TEX_WIDTH_PX]), int(tex[x, TEX_HEIGHT_PX]),
-                          u * tex[x, TEX_SCALE_U], v * tex[x, TEX_SCALE_V])
+    return texture_lookup(
+        F.texels,
+        int(tex[x, TEX_OFFSET]),
+        int(tex[x, TEX_WIDTH_PX]),
+        int(tex[x, TEX_HEIGHT_PX]),
+        u * tex[x, TEX_SCALE_U],
+        v * tex[x, TEX_SCALE_V],
+    )
 
 
 @njit(**KERNEL)

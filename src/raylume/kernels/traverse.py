@@ -42,7 +42,7 @@ def traversal_stacks():
 def scratch_array(n, dtype):
     """An array of n elements for one thread's scratch, with SCRATCH_PAD unused elements on
     either side against false sharing."""
-    return np.empty(n + 2 * SCRATCH_PAD, dtype=dtype)[SCRATCH_PAD:SCRATCH_PAD + n]
+    return np.empty(n + 2 * SCRATCH_PAD, dtype=dtype)[SCRATCH_PAD : SCRATCH_PAD + n]
 
 
 @njit(**KERNEL)
@@ -130,8 +130,9 @@ def closest_hit(G, o, d, tmin, tmax, node_stack, t_stack):
         count = nodes[node, 1]
         if count > 0:
             first = nodes[node, 0]
-            best_t, prim, b1, b2 = intersect_range(G, first, first + count, o, d, shear, tmin, best_t,
-                                                   prim, b1, b2, False)
+            best_t, prim, b1, b2 = intersect_range(
+                G, first, first + count, o, d, shear, tmin, best_t, prim, b1, b2, False
+            )
         else:
             left = node + 1
             right = nodes[node, 0]

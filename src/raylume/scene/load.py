@@ -54,7 +54,9 @@ def parse_document(text: str, path: Path) -> dict:
     except json.JSONDecodeError as exc:
         raise SceneError(f"{path}: invalid JSON: {exc.msg} (at line {exc.lineno}, column {exc.colno})") from None
     if not isinstance(document, dict):
-        raise SceneError(f"{path}: a JSON scene must be an object with render, camera, materials, lights and objects keys")
+        raise SceneError(
+            f"{path}: a JSON scene must be an object with render, camera, materials, lights and objects keys"
+        )
     return document
 
 
@@ -118,8 +120,9 @@ def _unwrap(node, tag: str | None):
             elif len(members) == 1:
                 node = members[0]
             else:
-                models = [a for a in members if isinstance(_unwrap(a, None), type)
-                          and issubclass(_unwrap(a, None), BaseModel)]
+                models = [
+                    a for a in members if isinstance(_unwrap(a, None), type) and issubclass(_unwrap(a, None), BaseModel)
+                ]
                 return models[0] if len(models) == 1 else node
         else:
             return node
@@ -136,8 +139,9 @@ def _tag_of(annotated) -> str | None:
 def suggest(bad: str, loc: tuple) -> str | None:
     """A close match for an unknown key, from the keys valid where it was found."""
     candidates = keys_at(loc)
-    close = difflib.get_close_matches(bad, candidates if candidates is not None else _known_keys(), n=1,
-                                      cutoff=SUGGESTION_CUTOFF)
+    close = difflib.get_close_matches(
+        bad, candidates if candidates is not None else _known_keys(), n=1, cutoff=SUGGESTION_CUTOFF
+    )
     return close[0] if close else None
 
 

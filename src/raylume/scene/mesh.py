@@ -197,9 +197,22 @@ def _read_parts(path: Path, file_type: str):
 # ---------------------------------------------------------------- PLY triangle strips
 
 _PLY_TYPES = {
-    "char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short": "i2", "int16": "i2",
-    "ushort": "u2", "uint16": "u2", "int": "i4", "int32": "i4", "uint": "u4", "uint32": "u4",
-    "float": "f4", "float32": "f4", "double": "f8", "float64": "f8",
+    "char": "i1",
+    "int8": "i1",
+    "uchar": "u1",
+    "uint8": "u1",
+    "short": "i2",
+    "int16": "i2",
+    "ushort": "u2",
+    "uint16": "u2",
+    "int": "i4",
+    "int32": "i4",
+    "uint": "u4",
+    "uint32": "u4",
+    "float": "f4",
+    "float32": "f4",
+    "double": "f8",
+    "float64": "f8",
 }
 _PLY_FORMATS = {"ascii": "", "binary_little_endian": "<", "binary_big_endian": ">"}
 
@@ -226,8 +239,14 @@ def _ply_header(data: bytes):
             fmt = words[1]
         elif words[0] == "element" and len(words) == 3 and words[2].isdigit():
             elements.append(_PlyElement(words[1], int(words[2]), []))
-        elif words[0] == "property" and elements and len(words) == 5 and words[1] == "list" \
-                and words[2] in _PLY_TYPES and words[3] in _PLY_TYPES:
+        elif (
+            words[0] == "property"
+            and elements
+            and len(words) == 5
+            and words[1] == "list"
+            and words[2] in _PLY_TYPES
+            and words[3] in _PLY_TYPES
+        ):
             elements[-1].properties.append((words[4], (_PLY_TYPES[words[2]], _PLY_TYPES[words[3]])))
         elif words[0] == "property" and elements and len(words) == 3 and words[1] in _PLY_TYPES:
             elements[-1].properties.append((words[2], _PLY_TYPES[words[1]]))
@@ -261,7 +280,7 @@ class _PlyBody:
             n = element.count * len(element.properties)
             if self.pos + n > len(self.tokens):
                 raise ValueError(f"its {element.name} element ends early")
-            values = np.array(self.tokens[self.pos:self.pos + n], dtype=np.float64).reshape(element.count, -1)
+            values = np.array(self.tokens[self.pos : self.pos + n], dtype=np.float64).reshape(element.count, -1)
             self.pos += n
             out = np.empty(element.count, dtype=dtype)
             for k, (name, _) in enumerate(element.properties):
@@ -289,7 +308,7 @@ class _PlyBody:
         if self.ascii:
             if self.pos + n > len(self.tokens):
                 raise ValueError("its data ends early")
-            out = np.array(self.tokens[self.pos:self.pos + n], dtype=np.float64).astype(kind)
+            out = np.array(self.tokens[self.pos : self.pos + n], dtype=np.float64).astype(kind)
             self.pos += n
             return out
         dtype = np.dtype(self.endian + kind)
@@ -368,8 +387,11 @@ def _read_strip_ply(path: Path):
     if f.min() < 0 or f.max() >= len(v):
         raise MeshError(f"Mesh file {path} has a face index outside the range of its {len(v)} vertices.")
     names = set(vertex.dtype.names)
-    n = np.column_stack([vertex[c] for c in ("nx", "ny", "nz")]).astype(np.float64) if {"nx", "ny", "nz"} <= names \
+    n = (
+        np.column_stack([vertex[c] for c in ("nx", "ny", "nz")]).astype(np.float64)
+        if {"nx", "ny", "nz"} <= names
         else None
+    )
     return v, f, n, None
 
 

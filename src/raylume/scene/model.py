@@ -314,8 +314,13 @@ class SphereLight(_LightBase):
     samples: int = Field(16, ge=1, le=MAX_LIGHT_SAMPLES)
 
 
-LIGHT_TYPES = {"ambient": AmbientLight, "point": PointLight, "directional": DirectionalLight,
-               "quad": QuadLight, "sphere": SphereLight}
+LIGHT_TYPES = {
+    "ambient": AmbientLight,
+    "point": PointLight,
+    "directional": DirectionalLight,
+    "quad": QuadLight,
+    "sphere": SphereLight,
+}
 Light = tagged_union(LIGHT_TYPES)
 
 
@@ -384,8 +389,10 @@ class Mesh(Strict):
 def _similarity(transform: Transform, shape: str) -> Transform:
     s = transform.scale3
     if not (abs(s[0]) == abs(s[1]) == abs(s[2])):
-        raise ValueError(f"a {shape}'s transform.scale must be uniform (one number): a non-uniform scale "
-                         f"would make it elliptic; got {list(s)}")
+        raise ValueError(
+            f"a {shape}'s transform.scale must be uniform (one number): a non-uniform scale "
+            f"would make it elliptic; got {list(s)}"
+        )
     return transform
 
 
@@ -425,8 +432,12 @@ class Quad(Strict):
     def _edges(self):
         u, v = self.u, self.v
         n = (u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0])
-        if math.sqrt(sum(c * c for c in n)) <= 1e-12 * math.sqrt(sum(c * c for c in u)) * math.sqrt(sum(c * c for c in v)) \
-                or not any(u) or not any(v):
+        if (
+            math.sqrt(sum(c * c for c in n))
+            <= 1e-12 * math.sqrt(sum(c * c for c in u)) * math.sqrt(sum(c * c for c in v))
+            or not any(u)
+            or not any(v)
+        ):
             raise ValueError("u and v must be non-zero and not parallel (the quad would have no area)")
         return self
 
@@ -455,8 +466,15 @@ class Cylinder(Strict):
         return _similarity(v, "cylinder")
 
 
-OBJECT_TYPES = {"sphere": Sphere, "plane": Plane, "triangle": Triangle, "mesh": Mesh, "disk": Disk, "quad": Quad,
-                "cylinder": Cylinder}
+OBJECT_TYPES = {
+    "sphere": Sphere,
+    "plane": Plane,
+    "triangle": Triangle,
+    "mesh": Mesh,
+    "disk": Disk,
+    "quad": Quad,
+    "cylinder": Cylinder,
+}
 SceneObject = tagged_union(OBJECT_TYPES)
 
 DEFAULT_MATERIAL = Material()
@@ -478,16 +496,14 @@ class Scene(Strict):
             ref = obj.material
             if isinstance(ref, str) and ref != "default" and ref not in self.materials:
                 known = ", ".join(sorted(self.materials)) or "none are defined"
-                raise ValueError(
-                    f"objects[{k}].material: no material named {ref!r} in [materials] ({known})"
-                )
+                raise ValueError(f"objects[{k}].material: no material named {ref!r} in [materials] ({known})")
         return self
 
     @property
     def base_dir(self) -> Path:
         return self._base_dir
 
-    def with_base_dir(self, base_dir: Path) -> "Scene":
+    def with_base_dir(self, base_dir: Path) -> Scene:
         self._base_dir = Path(base_dir)
         return self
 
@@ -497,7 +513,7 @@ class Scene(Strict):
             return ref
         return self.materials.get(ref, DEFAULT_MATERIAL)
 
-    def with_render(self, **overrides) -> "Scene":
+    def with_render(self, **overrides) -> Scene:
         """A copy whose [render] table has the given (non-None) values replaced, re-validated."""
         values = {k: v for k, v in overrides.items() if v is not None}
         if not values:

@@ -77,8 +77,10 @@ def _assign(document: dict, path: list[str], value: Any, text: str) -> None:
                 node[part] = value
             elif part not in node:
                 if path[depth + 1].lstrip("-").isdigit():
-                    raise SceneError(f"--set {text}: {where} is not in the scene, so there is no list to index "
-                                     f"with {path[depth + 1]}")
+                    raise SceneError(
+                        f"--set {text}: {where} is not in the scene, so there is no list to index "
+                        f"with {path[depth + 1]}"
+                    )
                 node[part] = {}  # a path into a missing table creates it
             node = node[part]
         elif isinstance(node, list):
@@ -88,8 +90,9 @@ def _assign(document: dict, path: list[str], value: Any, text: str) -> None:
             node = node[index]
         else:
             parent = ".".join(path[:depth])
-            raise SceneError(f"--set {text}: {parent} is not a table or a list (it is {node!r}), "
-                             f"so it has no key {part!r}")
+            raise SceneError(
+                f"--set {text}: {parent} is not a table or a list (it is {node!r}), so it has no key {part!r}"
+            )
 
 
 def _index(part: str, length: int, where: str, text: str) -> int:
@@ -97,8 +100,10 @@ def _index(part: str, length: int, where: str, text: str) -> int:
         raise SceneError(f"--set {text}: {where}: a list is indexed by a number from 0, not {part!r}")
     index = int(part)
     if index >= length:
-        raise SceneError(f"--set {text}: {where}: index {index} is out of range; the list has {length} "
-                         f"item{'s' if length != 1 else ''}")
+        raise SceneError(
+            f"--set {text}: {where}: index {index} is out of range; the list has {length} "
+            f"item{'s' if length != 1 else ''}"
+        )
     return index
 
 
