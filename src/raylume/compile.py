@@ -34,7 +34,7 @@ from .kernels.shapes import (
 )
 from .kernels.shapes import bounds as shape_bounds
 from .kernels.traverse import TRAVERSAL_STACK
-from .scene.mesh import MeshError, load_mesh
+from .scene.mesh import MeshError
 from .scene.model import (
     DEFAULT_MATERIAL,
     Cylinder,
@@ -48,6 +48,7 @@ from .scene.model import (
     Sphere,
     Triangle,
 )
+from .scene.placement import load_mesh_object
 
 # BVH shape, measured on the seed scene and the bunny (benchmarks/bench_bvh.py): visiting a node
 # (two box tests) costs about as much as two primitive tests, and scenes of a few primitives
@@ -243,12 +244,9 @@ class _TriangleSoup:
 
 
 def _load_mesh_object(scene: Scene, k: int, obj: Mesh, source):
-    path = Path(obj.file)
-    if not path.is_absolute():
-        path = scene.base_dir / path
-    t = obj.transform
+    """The object's mesh in world space (handedness, transform, fit: scene/placement.py)."""
     try:
-        return load_mesh(path, translate=t.translate, rotate=t.rotate, scale=t.scale3, smooth=obj.smooth)
+        return load_mesh_object(obj, scene.base_dir)
     except MeshError as exc:
         raise SceneError(f"{source}: objects[{k}].file: {exc}") from None
 
@@ -315,6 +313,7 @@ def compile_scene(scene: Scene, source="<scene>", accelerate: bool = True) -> Co
 
     analytic = _Analytic()
     soup = _TriangleSoup()
+    mesh_seconds = 0.0  # reading mesh files: part of the build, reported apart
     for k, obj in enumerate(scene.objects):
         m = material_index(obj, k)
         kind = ANALYTIC_MODELS.get(type(obj))
@@ -324,7 +323,9 @@ def compile_scene(scene: Scene, source="<scene>", accelerate: bool = True) -> Co
             uvs = np.array([[0, 0, 1, 0, 0, 1]], dtype=np.float32) if needs_uvs(obj) else None
             soup.add(np.asarray(obj.vertices, dtype=np.float32).reshape(1, 9), None, m, k, uvs)
         else:
+            loading = time.perf_counter()
             mesh = _load_mesh_object(scene, k, obj, source)
+            mesh_seconds += time.perf_counter() - loading
             verts = mesh.vertices.astype(np.float32)[mesh.faces].reshape(-1, 9)
             normals = None if mesh.normals is None else mesh.normals.astype(np.float32)[mesh.faces].reshape(-1, 9)
             uvs = None
@@ -428,6 +429,7 @@ def compile_scene(scene: Scene, source="<scene>", accelerate: bool = True) -> Co
         # nodes, and the two columns of the primitive table that traversal reads (kind, row)
         "bvh_bytes": int(bvh_nbytes(bvh) + 8 * len(prims)),
         "build_seconds": time.perf_counter() - start,
+        "mesh_load_seconds": mesh_seconds,
     }
     return CompiledScene(kernel, float(max(extent)), stats)
 

@@ -18,6 +18,7 @@ from pydantic import (
     Field,
     PrivateAttr,
     Tag,
+    ValidationError,
     field_validator,
     model_validator,
 )
@@ -378,12 +379,39 @@ class Transform(Strict):
         return (self.scale,) * 3 if isinstance(self.scale, float) else self.scale
 
 
+class Fit(Strict):
+    """Place a mesh in a box: scaled uniformly so that the largest side of its bounding box is
+    `size`, and moved so that the box's centre is `center`."""
+
+    center: Vec3 = (0.0, 0.0, 0.0)
+    size: FiniteFloat = Field(gt=0)
+
+
+class MeshTransform(Transform):
+    """A mesh's transform: scale, rotate, translate as for every shape, or `fit` instead of
+    scale and translate (the mesh is rotated, then fitted into the box)."""
+
+    fit: Fit | None = None
+
+    @model_validator(mode="after")
+    def _fit_alone(self):
+        # fit sets the size and the position: a scale or translate beside it would be ambiguous
+        if self.fit is not None and (self.translate != (0.0, 0.0, 0.0) or self.scale3 != (1.0, 1.0, 1.0)):
+            raise ValueError(
+                "fit sets the mesh's size and position, so it cannot be combined with translate or scale; "
+                "keep rotate and fit, or drop fit"
+            )
+        return self
+
+
 class Mesh(Strict):
     type: Literal["mesh"]
     file: str
     material: MaterialRef = "default"
-    transform: Transform = Transform()
+    transform: MeshTransform = MeshTransform()
     smooth: bool | None = None  # None: use the file's vertex normals when it has them
+    # "right": the file is right-handed (most OBJ and glTF): mirror x before the transform
+    handedness: Literal["left", "right"] = "left"
 
 
 def _similarity(transform: Transform, shape: str) -> Transform:
@@ -520,3 +548,43 @@ class Scene(Strict):
             return self
         render = RenderSettings.model_validate({**self.render.model_dump(), **values})
         return self.model_copy(update={"render": render}).with_base_dir(self.base_dir)
+
+    def replace(self, **changes) -> Scene:
+        """A validated copy with some tables changed, e.g. `scene.replace(camera={"fov": 40},
+        render={"width": 64})`. A dict is merged into the table it names, nested tables too
+        (`materials={"glass": {"ior": 1.33}}` changes one key of one material); anything else (a
+        list of lights or objects, a Camera) replaces the table. Errors are SceneErrors naming
+        the key path."""
+        from ..errors import SceneError
+        from .load import format_validation_error
+
+        for key in changes:
+            if key not in type(self).model_fields:
+                raise SceneError(
+                    f"Scene.replace: unknown key {key!r}; a scene has {', '.join(type(self).model_fields)}"
+                )
+        document = self.model_dump(exclude_unset=True)
+        for key, value in changes.items():
+            if isinstance(value, BaseModel):
+                value = value.model_dump()  # a whole table: every key of the old one is replaced
+                document[key] = value
+            else:
+                document[key] = _merged(document.get(key), value)
+        try:
+            scene = type(self).model_validate(document)
+        except ValidationError as exc:
+            raise SceneError(format_validation_error(exc, "Scene.replace")) from None
+        return scene.with_base_dir(self.base_dir)
+
+    def with_camera(self, camera: Camera | dict | None = None, **keys) -> Scene:
+        """A copy with another camera: a Camera, or camera keys changing the current one
+        (`scene.with_camera(fov=40)`, `scene.with_camera({"position": [0, 1, -3]})`)."""
+        table = camera.model_dump() if isinstance(camera, Camera) else dict(camera or {})
+        return self.replace(camera={**table, **keys})
+
+
+def _merged(old, new):
+    """`new` merged into `old` where both are tables (recursively); otherwise `new`."""
+    if isinstance(old, dict) and isinstance(new, dict):
+        return {**old, **{key: _merged(old.get(key), value) for key, value in new.items()}}
+    return new
