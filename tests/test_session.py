@@ -126,3 +126,38 @@ def test_render_settings_errors_are_scene_errors_naming_the_setting(scene):
         raylume.render(scene, mode="path-tracing")
     with pytest.raises(raylume.SceneError, match="spp"):
         Session(scene).render(spp=0)
+
+
+@pytest.mark.parametrize("mode", ["trace", "cast", "raster"])
+def test_a_crop_equals_that_window_of_the_full_render_bit_for_bit(scene, mode):
+    session = Session(scene)
+    full = session.render(mode=mode, spp=1 if mode == "raster" else 3, filter="gaussian")
+    x0, x1, y0, y1 = 7, 31, 5, 22
+    part = session.render(mode=mode, spp=1 if mode == "raster" else 3, filter="gaussian", crop=(x0, x1, y0, y1))
+    assert part.rgb.shape == (y1 - y0, x1 - x0, 3)
+    assert part.rgb.tobytes() == np.ascontiguousarray(full.rgb[y0:y1, x0:x1]).tobytes()
+    for name in ("depth", "normal", "object", "prim", "albedo"):
+        want = np.ascontiguousarray(full.aovs[name][y0:y1, x0:x1])
+        assert part.aovs[name].tobytes() == want.tobytes(), name
+    if mode != "raster":
+        assert part.stats["primary_rays"] == (x1 - x0) * (y1 - y0) * 3
+
+
+@pytest.mark.parametrize("crop", [(0, 0, 0, 5), (5, 3, 0, 5), (0, 49, 0, 5), (0, 5, -1, 5)])
+def test_a_crop_outside_the_image_is_refused(scene, crop):
+    with pytest.raises(raylume.RaylumeError, match="crop"):
+        raylume.render(scene, crop=crop)
+
+
+@pytest.mark.parametrize("pixel_filter", ["box", "gaussian", "mitchell"])
+def test_a_constant_image_stays_constant_under_every_filter_and_spp(pixel_filter):
+    """Nothing to hit: every sample sees the background, so every pixel must show it exactly,
+    whatever the filter's negative lobes do to the weights (Mitchell at a few spp used to leave
+    pixels whose weights cancelled black)."""
+    grey = raylume.scene_from_dict({"render": {"width": 24, "height": 16, "background": [0.3, 0.5, 0.7]},
+                                    "lights": [{"type": "ambient"}]})  # fmt: skip
+    want = np.broadcast_to(np.float32([0.3, 0.5, 0.7]), (16, 24, 3))
+    for spp in range(1, 17):
+        for mode in ("cast", "trace"):
+            img = raylume.render(grey, spp=spp, filter=pixel_filter, mode=mode, aovs=False, seed=spp)
+            np.testing.assert_allclose(img.rgb, want, rtol=1e-6, err_msg=f"{pixel_filter} spp {spp} {mode}")

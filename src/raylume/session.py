@@ -45,7 +45,7 @@ class RenderInterrupted(KeyboardInterrupt):
 def estimate_bytes(width: int, height: int, aovs: bool) -> int:
     """Memory a render's buffers need: the film's sums, the RGB image, and the AOVs (depth,
     normal, object, prim, albedo)."""
-    per_pixel = Film.bytes_per_pixel() + 12 + (4 + 12 + 4 + 4 + 12 if aovs else 0)
+    per_pixel = Film.max_bytes_per_pixel() + 12 + (4 + 12 + 4 + 4 + 12 if aovs else 0)
     return width * height * per_pixel
 
 
@@ -125,6 +125,7 @@ class Session:
         threads: int | None = None,
         aovs: bool = True,
         progress: Callable[[int, int], None] | None = None,
+        crop: tuple[int, int, int, int] | None = None,
     ) -> Image:
         """Render through `camera` (a Camera, a dict of camera keys replacing the scene's, or
         None for the scene's own); other arguments override the scene's [render] table.
@@ -143,8 +144,10 @@ class Session:
         )
         cam_model = self._camera(camera)
         W, H = settings.width, settings.height
+        window = check_crop(crop, W, H, self.source)
+        x0, x1, y0, y1 = window
         lanes = _set_threads(threads)
-        check_memory(W, H, aovs)
+        check_memory(x1 - x0, y1 - y0, aovs)
         if settings.mode != "raster" and not self._accelerated:
             self._compile(True)
         build_seconds, self._unreported_build = self._unreported_build, 0.0
@@ -156,16 +159,20 @@ class Session:
             rgb, aov_arrays, kernel_seconds, rays = rasterize(
                 S, cam, W, H, settings.background, progress=progress, aovs=aovs
             )
+            # the rasterizer draws whole frames (it is fast): a crop is that window of one
+            rgb = np.ascontiguousarray(rgb[y0:y1, x0:x1])
+            aov_arrays = {k: np.ascontiguousarray(v[y0:y1, x0:x1]) for k, v in aov_arrays.items()}
             primary = 0
         else:
-            film = Film(W, H, settings.filter, total_spp=settings.spp)
-            aov_arrays = allocate_aovs(H, W) if aovs else {}
+            film = Film(W, H, settings.filter, total_spp=settings.spp, window=window)
+            aov_arrays = allocate_aovs(y1 - y0, x1 - x0) if aovs else {}
             kernel_seconds, rays = _ray_render(S, cam, film, settings.spp, settings, aov_arrays, progress, lanes)
             rgb = film.rgb()
-            primary = W * H * settings.spp
+            primary = (x1 - x0) * (y1 - y0) * settings.spp
         stats = {
             "width": W,
             "height": H,
+            "crop": list(window) if crop is not None else None,
             "spp": settings.spp,
             "mode": settings.mode,
             "threads": lanes,
@@ -233,6 +240,20 @@ def resolve_settings(scene: Scene, source: str, **overrides):
         raise SceneError(f"{source}: render settings: {problems}") from None
 
 
+def check_crop(crop, width: int, height: int, source: str = "<scene>") -> tuple[int, int, int, int]:
+    """The window (x0, x1, y0, y1) of a crop (columns x0..x1-1, rows y0..y1-1), the whole image
+    for None; a window outside the image or empty is a RaylumeError."""
+    if crop is None:
+        return 0, width, 0, height
+    x0, x1, y0, y1 = (int(c) for c in crop)
+    if not (0 <= x0 < x1 <= width and 0 <= y0 < y1 <= height):
+        raise RaylumeError(
+            f"{source}: crop {x0}:{x1},{y0}:{y1} must be a non-empty window of the {width} x {height} image "
+            f"(0 <= X0 < X1 <= {width}, 0 <= Y0 < Y1 <= {height})"
+        )
+    return x0, x1, y0, y1
+
+
 def _set_threads(threads: int | None) -> int:
     if threads is not None:
         if not 1 <= threads <= numba.config.NUMBA_NUM_THREADS:
@@ -244,80 +265,33 @@ def _set_threads(threads: int | None) -> int:
 
 
 def _ray_render(S, cam, film: Film, spp: int, settings, aov: dict, progress, lanes: int):
-    """Add the film's next `spp` samples per pixel (and fill the AOVs) on `lanes` threads.
-    Returns (kernel seconds, rays traced)."""
+    """Add the film's next `spp` samples per pixel (and fill the AOVs, of the film's window) on
+    `lanes` threads. Returns (kernel seconds, rays traced)."""
     W, H = film.width, film.height
-    rays_per_row = np.zeros(H, dtype=np.int64)
+    window = film.kernel_window
+    rows = window[3] - window[1]
+    rays_per_row = np.zeros(rows, dtype=np.int64)
     rows_done = np.zeros(lanes * PROGRESS_STRIDE, dtype=np.int64)  # one padded counter per lane
     stop = np.zeros(1, dtype=np.int64)  # set to 1 to stop every lane before its next row
     background = np.asarray(settings.background, dtype=np.float64)
     samples = (film.spp, spp, film.total_spp)  # first, count, total
 
-    def lane_job(lane: int, rows: int) -> None:
+    def lane_job(lane: int, window) -> None:
         if aov:
-            aov_lane(
-                S,
-                cam,
-                W,
-                H,
-                0,
-                rows,
-                lane,
-                lanes,
-                aov["depth"],
-                aov["normal"],
-                aov["object"],
-                aov["prim"],
-                aov["albedo"],
-                rays_per_row,
-                rows_done,
-                stop,
-            )
+            depth, normal, obj, prim, albedo = (aov[k] for k in AOV_NAMES)
+            aov_lane(S, cam, W, H, window, lane, lanes, depth, normal, obj, prim, albedo, rays_per_row, rows_done, stop)
         if settings.mode == "cast":
-            cast_lane(
-                S,
-                cam,
-                film.filter,
-                W,
-                H,
-                0,
-                rows,
-                lane,
-                lanes,
-                samples,
-                settings.seed,
-                background,
-                film.sums,
-                rays_per_row,
-                rows_done,
-                stop,
-            )
+            cast_lane(S, cam, film.filter, W, H, window, lane, lanes, samples, settings.seed, background, film.sums,
+                      rays_per_row, rows_done, stop)  # fmt: skip
         else:
-            trace_lane(
-                S,
-                cam,
-                film.filter,
-                W,
-                H,
-                0,
-                rows,
-                lane,
-                lanes,
-                samples,
-                settings.seed,
-                settings.max_depth,
-                background,
-                film.sums,
-                rays_per_row,
-                rows_done,
-                stop,
-            )
+            trace_lane(S, cam, film.filter, W, H, window, lane, lanes, samples, settings.seed, settings.max_depth,
+                       background, film.sums, rays_per_row, rows_done, stop)  # fmt: skip
 
-    lane_job(0, 0)  # compile (or load from the cache) before any timing starts
-    total = H * (2 if aov else 1)
+    lane_job(0, (window[0], window[1], window[2], window[1]))  # compile (or load from the cache): no rows
+    total = rows * (2 if aov else 1)
     with ThreadPoolExecutor(max_workers=lanes, thread_name_prefix="raylume") as pool:
         t0 = time.perf_counter()
-        futures = [pool.submit(lane_job, lane, H) for lane in range(lanes)]
+        futures = [pool.submit(lane_job, lane, window) for lane in range(lanes)]
         try:
             while True:
                 finished, pending = wait(futures, timeout=POLL_SECONDS)
@@ -329,7 +303,7 @@ def _ray_render(S, cam, film: Film, spp: int, settings, aov: dict, progress, lan
             stop[0] = 1
             wait(futures)
             partial = Image(film.rgb(), aov, {}, settings.encoding, exposure=settings.exposure)
-            done = int(rows_done.sum()) - (H if aov else 0)
+            done = int(rows_done.sum()) - (rows if aov else 0)
             raise RenderInterrupted(partial, max(done, 0)) from None
         kernel_seconds = time.perf_counter() - t0
     for future in futures:

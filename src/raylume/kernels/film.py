@@ -22,6 +22,11 @@ from .vec import KERNEL
 FILM_RGB = 0  # 3 columns: sum of weighted colours
 FILM_WEIGHT = 3  # sum of filter weights
 FILM_WIDTH = 4
+# Films of filters with negative lobes (Mitchell) also keep the unsigned sums: the sum of the
+# colours whatever their weight's sign, and the sample count (see Film.rgb).
+FILM_ABS_RGB = 4  # 3 columns
+FILM_COUNT = 7
+FILM_SIGNED_WIDTH = 8
 
 # The pixel filter array, float64 (FILTER_WIDTH,): kind, |offset| beyond which the filter is
 # negative (inf for none), then FILTER_TABLE_SIZE offsets in pixels: the filter's inverse CDF.
@@ -62,58 +67,104 @@ def filter_sample(filt, i, j, ux, uy):
 
 @njit(**KERNEL, inline="always")
 def pixel_sums(film, j, i):
-    """The pixel's running (r, g, b, weight)."""
-    return (film[j, i, FILM_RGB], film[j, i, FILM_RGB + 1], film[j, i, FILM_RGB + 2], film[j, i, FILM_WEIGHT])
+    """The pixel's running sums: ((r, g, b, weight), (|r|, |g|, |b|, count)); the unsigned half
+    is kept only by films of filters with negative lobes (zeros otherwise)."""
+    signed = (film[j, i, FILM_RGB], film[j, i, FILM_RGB + 1], film[j, i, FILM_RGB + 2], film[j, i, FILM_WEIGHT])
+    if film.shape[2] == FILM_WIDTH:
+        return signed, (0.0, 0.0, 0.0, 0.0)
+    return signed, (film[j, i, FILM_ABS_RGB], film[j, i, FILM_ABS_RGB + 1], film[j, i, FILM_ABS_RGB + 2],
+                    film[j, i, FILM_COUNT])  # fmt: skip
 
 
 @njit(**KERNEL, inline="always")
 def add_sample(total, col, w):
-    """Running (r, g, b, weight) of a pixel plus one sample of filter weight w = +-1."""
+    """A pixel's running sums plus one sample of filter weight w = +-1."""
+    signed, unsigned = total
+    unsigned = (unsigned[0] + col[0], unsigned[1] + col[1], unsigned[2] + col[2], unsigned[3] + 1.0)
     if w > 0.0:
-        return (total[0] + col[0], total[1] + col[1], total[2] + col[2], total[3] + w)
+        return (signed[0] + col[0], signed[1] + col[1], signed[2] + col[2], signed[3] + w), unsigned
     # a negative lobe of the pixel filter
-    return (total[0] - col[0], total[1] - col[1], total[2] - col[2], total[3] + w)
+    return (signed[0] - col[0], signed[1] - col[1], signed[2] - col[2], signed[3] + w), unsigned
 
 
 @njit(**KERNEL, inline="always")
 def store_sums(film, j, i, total):
-    film[j, i, FILM_RGB] = total[0]
-    film[j, i, FILM_RGB + 1] = total[1]
-    film[j, i, FILM_RGB + 2] = total[2]
-    film[j, i, FILM_WEIGHT] = total[3]
+    signed, unsigned = total
+    film[j, i, FILM_RGB] = signed[0]
+    film[j, i, FILM_RGB + 1] = signed[1]
+    film[j, i, FILM_RGB + 2] = signed[2]
+    film[j, i, FILM_WEIGHT] = signed[3]
+    if film.shape[2] > FILM_WIDTH:
+        film[j, i, FILM_ABS_RGB] = unsigned[0]
+        film[j, i, FILM_ABS_RGB + 1] = unsigned[1]
+        film[j, i, FILM_ABS_RGB + 2] = unsigned[2]
+        film[j, i, FILM_COUNT] = unsigned[3]
 
 
 class Film:
-    """Sums of samples for a width x height image that will receive `total_spp` samples per
-    pixel, in one pass or several (the sampler stratifies over the total: one sample per pixel
-    is the pixel centre); `rgb()` reads the image at any time."""
+    """Sums of samples for (a window of) a width x height image that will receive `total_spp`
+    samples per pixel, in one pass or several (the sampler stratifies over the total: one
+    sample per pixel is the pixel centre); `rgb()` reads the image at any time.
 
-    def __init__(self, width: int, height: int, pixel_filter: str = "box", total_spp: int = 1):
+    `window` = (x0, x1, y0, y1): the film holds columns x0..x1-1 and rows y0..y1-1 only (a
+    crop; pbrt's --pixelbounds); its pixels equal that part of the whole image's film."""
+
+    def __init__(
+        self,
+        width: int,
+        height: int,
+        pixel_filter: str = "box",
+        total_spp: int = 1,
+        window: tuple[int, int, int, int] | None = None,
+    ):
         if total_spp < 1:
             raise ValueError("total_spp must be at least 1")
+        x0, x1, y0, y1 = window if window is not None else (0, width, 0, height)
+        if not (0 <= x0 < x1 <= width and 0 <= y0 < y1 <= height):
+            raise ValueError(f"window {window} must lie inside the {width} x {height} image and be non-empty")
         self.width = width
         self.height = height
+        self.window = (x0, x1, y0, y1)
         self.total_spp = total_spp
         self.filter = filter_array(pixel_filter)
-        self.sums = np.empty((height, width, FILM_WIDTH), dtype=np.float64)
+        signed = np.isfinite(self.filter[FILTER_NEGATIVE])
+        shape = (y1 - y0, x1 - x0, FILM_SIGNED_WIDTH if signed else FILM_WIDTH)
+        self.sums = np.empty(shape, dtype=np.float64)
         # Written here rather than left to lazily zeroed pages, so the first pass's kernels do
         # not stall on page faults (a third of a cast frame's time at 600 x 600).
         self.sums.fill(0.0)
         self.spp = 0  # samples per pixel added so far
 
+    @property
+    def kernel_window(self) -> tuple[int, int, int, int]:
+        """(x0, y0, x1, y1), as the lane kernels take it."""
+        x0, x1, y0, y1 = self.window
+        return x0, y0, x1, y1
+
     def rgb(self) -> np.ndarray:
-        """float32 (H, W, 3): each pixel's weighted mean. Weights are +-1, so a pixel's sum is
-        its sample count when the filter is positive (box, gaussian). A Mitchell pixel whose
-        weights cancel (possible at a few spp) is divided by its sample count instead;
-        negative results of its lobes are clipped to 0."""
+        """float32 (H, W, 3): each pixel's filter-weighted mean. Weights are +-1, so a pixel's
+        sum of weights is its sample count when the filter is positive (box, gaussian).
+
+        With negative lobes (Mitchell) the signed sums can cancel: at a few samples a pixel may
+        have as many negative samples as positive ones, and the weighted mean divides by
+        nearly nothing. Where more than a quarter of a pixel's samples are negative (weight
+        sum below half the count), it takes the plain mean of its samples instead, so a
+        constant image stays constant; negative results of the lobes are clipped to 0."""
         weights = self.sums[..., FILM_WEIGHT]
-        weights = np.where(weights < 0.5, float(max(self.spp, 1)), weights)
-        inv = 1.0 / weights
-        return np.maximum(self.sums[..., FILM_RGB : FILM_RGB + 3] * inv[..., None], 0.0).astype(np.float32)
+        rgb = self.sums[..., FILM_RGB : FILM_RGB + 3] * (1.0 / np.where(weights < 0.5, 1.0, weights))[..., None]
+        if self.sums.shape[2] > FILM_WIDTH:
+            count = self.sums[..., FILM_COUNT]
+            cancelled = (weights < 0.5 * count) & (count > 0)
+            plain = self.sums[..., FILM_ABS_RGB : FILM_ABS_RGB + 3] / np.maximum(count, 1.0)[..., None]
+            rgb = np.where(cancelled[..., None], plain, rgb)
+        return np.maximum(rgb, 0.0).astype(np.float32)
+
+    def bytes_per_pixel(self) -> int:
+        return 8 * self.sums.shape[2]
 
     @staticmethod
-    def bytes_per_pixel() -> int:
-        return 8 * FILM_WIDTH
+    def max_bytes_per_pixel() -> int:
+        return 8 * FILM_SIGNED_WIDTH
 
 
 # --- pixel filters (Python side: tables the kernels read) ------------------------------------

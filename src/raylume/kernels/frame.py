@@ -52,10 +52,14 @@ def camera_sample(cam, filt, seed, i, j, s, total_spp, width, height):
 
 
 # Entry points, one per kind of work, so a render compiles only what it runs. Each renders one
-# lane: every lanes-th row of [row_begin, row_end), starting at row_begin + lane. The Session
-# runs the lanes on threads (the kernels release the GIL). Rows differ widely in cost (sky
-# against floor); interleaving them balances the threads, where contiguous blocks of rows left
-# one thread the sky and two threads were only 1.4x faster than one on the seed scene.
+# lane of a window of the image: window = (x0, y0, x1, y1) holds columns x0..x1-1 and rows
+# y0..y1-1 of the width x height image (the whole image, or a --crop); lane k of `lanes` takes
+# every lanes-th row, from y0 + k. The Session runs the lanes on threads (the kernels release
+# the GIL). Rows differ widely in cost (sky against floor); interleaving them balances the
+# threads, where contiguous blocks of rows left one thread the sky and two threads were only
+# 1.4x faster than one on the seed scene. The film, the AOVs and rays_per_row cover the window:
+# pixel (i, j) of the image is their element (j - y0, i - x0), and its samples are those of
+# the full image (the same keys), so a window equals that part of the full render.
 # `samples` is (first, count, total): this pass adds samples first..first+count-1 of total.
 # Every lane counts the rows it finished in rows_done[lane * PROGRESS_STRIDE] (counters a cache
 # line apart, against false sharing) and checks stop[0] before each row: the waiting thread
@@ -66,96 +70,58 @@ PROGRESS_STRIDE = 16
 
 @njit(**LANE)
 def trace_lane(
-    S,
-    cam,
-    filt,
-    width,
-    height,
-    row_begin,
-    row_end,
-    lane,
-    lanes,
-    samples,
-    seed,
-    max_depth,
-    background,
-    film,
-    rays_per_row,
-    rows_done,
-    stop,
-):
+    S, cam, filt, width, height, window, lane, lanes, samples, seed, max_depth, background, film, rays_per_row,
+    rows_done, stop,
+):  # fmt: skip
     """Whitted-traced samples of the lane's rows into the film; rays traced per row into rays_per_row."""
     node_stack, t_stack = traversal_stacks()
     slots = stack_rows(max_depth)
     work = scratch_array(slots * RAY_WIDTH, np.float64).reshape((slots, RAY_WIDTH))
     bg = (background[0], background[1], background[2])
     G, F, L = geometry_of(S), surfaces_of(S), lights_of(S)
-    for j in range(row_begin + lane, row_end, lanes):
+    x0, y0, x1, y1 = window
+    for j in range(y0 + lane, y1, lanes):
         if stop[0] != 0:
             break
-        rays_per_row[j] += _trace_row(
-            G, F, L, cam, filt, j, width, height, samples, seed, max_depth, bg, film, work, node_stack, t_stack
-        )
+        rays_per_row[j - y0] += _trace_row(
+            G, F, L, cam, filt, j, window, width, height, samples, seed, max_depth, bg, film, work, node_stack,
+            t_stack,
+        )  # fmt: skip
         rows_done[lane * PROGRESS_STRIDE] += 1
 
 
 @njit(**LANE)
 def cast_lane(
-    S,
-    cam,
-    filt,
-    width,
-    height,
-    row_begin,
-    row_end,
-    lane,
-    lanes,
-    samples,
-    seed,
-    background,
-    film,
-    rays_per_row,
-    rows_done,
-    stop,
+    S, cam, filt, width, height, window, lane, lanes, samples, seed, background, film, rays_per_row, rows_done, stop
 ):
     """Ray-cast samples (the closest hit's albedo) of the lane's rows into the film."""
     node_stack, t_stack = traversal_stacks()
     bg = (background[0], background[1], background[2])
     G, F = geometry_of(S), surfaces_of(S)
-    for j in range(row_begin + lane, row_end, lanes):
+    x0, y0, x1, y1 = window
+    for j in range(y0 + lane, y1, lanes):
         if stop[0] != 0:
             break
-        rays_per_row[j] += _cast_row(G, F, cam, filt, j, width, height, samples, seed, bg, film, node_stack, t_stack)
+        rays_per_row[j - y0] += _cast_row(
+            G, F, cam, filt, j, window, width, height, samples, seed, bg, film, node_stack, t_stack
+        )
         rows_done[lane * PROGRESS_STRIDE] += 1
 
 
 @njit(**LANE)
 def aov_lane(
-    S,
-    cam,
-    width,
-    height,
-    row_begin,
-    row_end,
-    lane,
-    lanes,
-    depth,
-    normal,
-    obj_id,
-    prim_id,
-    albedo_out,
-    rays_per_row,
-    rows_done,
-    stop,
-):
+    S, cam, width, height, window, lane, lanes, depth, normal, obj_id, prim_id, albedo_out, rays_per_row,
+    rows_done, stop,
+):  # fmt: skip
     """Primary-hit AOVs (depth, normal, object, prim, albedo) of the lane's rows."""
     node_stack, t_stack = traversal_stacks()
     G, F = geometry_of(S), surfaces_of(S)
-    for j in range(row_begin + lane, row_end, lanes):
+    x0, y0, x1, y1 = window
+    for j in range(y0 + lane, y1, lanes):
         if stop[0] != 0:
             break
-        rays_per_row[j] += _primary_aovs_row(
-            G, F, cam, j, width, height, node_stack, t_stack, depth, normal, obj_id, prim_id, albedo_out
+        rays_per_row[j - y0] += _primary_aovs_row(
+            G, F, cam, j, window, width, height, node_stack, t_stack, depth, normal, obj_id, prim_id, albedo_out
         )
         rows_done[lane * PROGRESS_STRIDE] += 1
 
@@ -166,56 +132,65 @@ def aov_lane(
 
 
 @njit(**KERNEL)
-def _cast_row(G, F, cam, filt, j, width, height, samples, seed, bg, film, node_stack, t_stack):
+def _cast_row(G, F, cam, filt, j, window, width, height, samples, seed, bg, film, node_stack, t_stack):
     first, count, total_spp = samples
-    for i in range(width):
-        total = pixel_sums(film, j, i)
+    x0, y0, x1, y1 = window
+    for i in range(x0, x1):
+        total = pixel_sums(film, j - y0, i - x0)
         for s in range(first, first + count):
             o, d, w, key = camera_sample(cam, filt, seed, i, j, s, total_spp, width, height)
             total = add_sample(total, _cast_ray(G, F, o, d, bg, node_stack, t_stack), w)
-        store_sums(film, j, i, total)
-    return width * count
+        store_sums(film, j - y0, i - x0, total)
+    return (x1 - x0) * count
 
 
 @njit(**KERNEL)
-def _trace_row(G, F, L, cam, filt, j, width, height, samples, seed, max_depth, bg, film, work, node_stack, t_stack):
+def _trace_row(
+    G, F, L, cam, filt, j, window, width, height, samples, seed, max_depth, bg, film, work, node_stack, t_stack
+):
     first, count, total_spp = samples
+    x0, y0, x1, y1 = window
     rays = 0
-    for i in range(width):
-        total = pixel_sums(film, j, i)
+    for i in range(x0, x1):
+        total = pixel_sums(film, j - y0, i - x0)
         for s in range(first, first + count):
             o, d, w, key = camera_sample(cam, filt, seed, i, j, s, total_spp, width, height)
             col, used = trace_ray(G, F, L, o, d, max_depth, bg, work, node_stack, t_stack, key)
             rays += used
             total = add_sample(total, col, w)
-        store_sums(film, j, i, total)
+        store_sums(film, j - y0, i - x0, total)
     return rays
 
 
 @njit(**KERNEL)
-def _primary_aovs_row(G, F, cam, j, width, height, node_stack, t_stack, depth, normal, obj_id, prim_id, albedo_out):
+def _primary_aovs_row(
+    G, F, cam, j, window, width, height, node_stack, t_stack, depth, normal, obj_id, prim_id, albedo_out
+):
     """Depth, normal, object, prim and albedo of the (pinhole) rays through the row's pixel
     centres. Returns rays traced."""
-    for i in range(width):
+    x0, y0, x1, y1 = window
+    r = j - y0
+    for i in range(x0, x1):
         o, d = camera_ray(cam, i + 0.5, j + 0.5, width, height)
+        c0 = i - x0
         t, prim, b1, b2 = closest_hit(G, o, d, 0.0, INF, node_stack, t_stack)
         if prim == NO_HIT:
-            depth[j, i] = INF
-            obj_id[j, i] = -1
-            prim_id[j, i] = -1
+            depth[r, c0] = INF
+            obj_id[r, c0] = -1
+            prim_id[r, c0] = -1
             for c in range(3):
-                normal[j, i, c] = 0.0
-                albedo_out[j, i, c] = 0.0
+                normal[r, c0, c] = 0.0
+                albedo_out[r, c0, c] = 0.0
         else:
             p = madd(o, d, t)
             ng, ns, m, obj, face = surface(G, prim, b1, b2, p)
             if dot(ns, d) > 0.0:
                 ns = mul(ns, -1.0)
             a = albedo(G, F, m, prim, b1, b2, p)
-            depth[j, i] = t
-            obj_id[j, i] = obj
-            prim_id[j, i] = face
+            depth[r, c0] = t
+            obj_id[r, c0] = obj
+            prim_id[r, c0] = face
             for c in range(3):
-                normal[j, i, c] = ns[c]
-                albedo_out[j, i, c] = a[c]
-    return width
+                normal[r, c0, c] = ns[c]
+                albedo_out[r, c0, c] = a[c]
+    return x1 - x0
