@@ -35,12 +35,15 @@ def render(
     progress: Callable[[int, int], None] | None = None,
     source: str = "<scene>",
     crop: tuple[int, int, int, int] | None = None,
+    status: Callable[[str], None] | None = None,
 ) -> Image:
     """Render `scene` (arguments override its [render] table). Returns an Image with linear
-    float32 RGB, the AOVs of DESIGN.md when `aovs` is true, and the stats dictionary. To render
-    one scene several times (other cameras, sizes, modes), use a Session: it compiles once.
-    `crop` = (x0, x1, y0, y1) renders only columns x0..x1-1 and rows y0..y1-1: the image is
-    that window, equal to the same window of the full render."""
+    float32 RGB, the AOVs (depth, normal, object, prim, albedo) when `aovs` is true, and the
+    stats dictionary. To render one scene several times (other cameras, sizes, modes), use a
+    Session: it compiles once. `crop` = (x0, x1, y0, y1) renders only columns x0..x1-1 and
+    rows y0..y1-1: the image is that window, equal to the same window of the full render.
+    `status` is called with "compiling" before the kernels' first call and "rendering" after
+    it (see Session.render)."""
     settings = resolve_settings(
         scene,
         source,
@@ -67,4 +70,5 @@ def render(
         aovs=aovs,
         progress=progress,
         crop=crop,
+        status=status,
     )

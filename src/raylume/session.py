@@ -27,6 +27,7 @@ from .image import Image
 from .kernels.camera import camera_of
 from .kernels.film import Film
 from .kernels.frame import PROGRESS_STRIDE, aov_lane, cast_lane, trace_lane
+from .scene.checks import warn_about
 from .scene.model import Camera, Scene
 
 AOV_NAMES = ("depth", "normal", "object", "prim", "albedo")
@@ -126,10 +127,14 @@ class Session:
         aovs: bool = True,
         progress: Callable[[int, int], None] | None = None,
         crop: tuple[int, int, int, int] | None = None,
+        status: Callable[[str], None] | None = None,
     ) -> Image:
         """Render through `camera` (a Camera, a dict of camera keys replacing the scene's, or
         None for the scene's own); other arguments override the scene's [render] table.
-        Returns an Image: linear float32 RGB, the AOVs of DESIGN.md when `aovs`, and stats."""
+        Returns an Image: linear float32 RGB, the AOVs (depth, normal, object, prim, albedo)
+        when `aovs`, and stats. `status` is called with "compiling" before the kernels' first
+        call (JIT compilation, or loading from the cache) and "rendering" after it. A scene
+        without objects, or without lights in a lit mode, gives a SceneWarning."""
         settings = resolve_settings(
             self.scene,
             self.source,
@@ -142,6 +147,7 @@ class Session:
             filter=filter,
             exposure=exposure,
         )
+        warn_about(self.scene, settings.mode)
         cam_model = self._camera(camera)
         W, H = settings.width, settings.height
         window = check_crop(crop, W, H, self.source)
@@ -151,14 +157,17 @@ class Session:
         if settings.mode != "raster" and not self._accelerated:
             self._compile(True)
         build_seconds, self._unreported_build = self._unreported_build, 0.0
+        clock = _CompileClock(status)
         S = self.compiled.for_camera(cam_model.position)
         cam = camera_of(cam_model, W, H)
         if settings.mode == "raster":
             from .raster import rasterize
 
+            clock("compiling")  # rasterize compiles its kernels first, outside its own timing
             rgb, aov_arrays, kernel_seconds, rays = rasterize(
                 S, cam, W, H, settings.background, progress=progress, aovs=aovs
             )
+            clock("rendering", kernel_seconds)
             # the rasterizer draws whole frames (it is fast): a crop is that window of one
             rgb = np.ascontiguousarray(rgb[y0:y1, x0:x1])
             aov_arrays = {k: np.ascontiguousarray(v[y0:y1, x0:x1]) for k, v in aov_arrays.items()}
@@ -166,7 +175,9 @@ class Session:
         else:
             film = Film(W, H, settings.filter, total_spp=settings.spp, window=window)
             aov_arrays = allocate_aovs(y1 - y0, x1 - x0) if aovs else {}
-            kernel_seconds, rays = _ray_render(S, cam, film, settings.spp, settings, aov_arrays, progress, lanes)
+            kernel_seconds, rays = _ray_render(
+                S, cam, film, settings.spp, settings, aov_arrays, progress, lanes, status=clock
+            )
             rgb = film.rgb()
             primary = (x1 - x0) * (y1 - y0) * settings.spp
         stats = {
@@ -181,6 +192,7 @@ class Session:
             "rays": int(rays),
             "primary_rays": int(primary),
             "render_seconds": kernel_seconds,
+            "compile_seconds": clock.seconds,
             "mrays_per_second": float(rays / kernel_seconds / 1e6) if kernel_seconds > 0 else 0.0,
         }
         return Image(rgb, aov_arrays if aovs else {}, stats, settings.encoding, exposure=settings.exposure)
@@ -230,6 +242,24 @@ class Session:
             raise SceneError(f"{self.source}: {problems}") from None
 
 
+class _CompileClock:
+    """Passes status messages on, and times the kernels' warm-up: from status("compiling") to
+    the next status, less the kernel time given with it (the rasterizer times its own)."""
+
+    def __init__(self, status: Callable[[str], None] | None):
+        self.status = status
+        self.seconds = 0.0
+        self._since: float | None = None
+
+    def __call__(self, what: str, kernel_seconds: float = 0.0) -> None:
+        now = time.perf_counter()
+        if self._since is not None:
+            self.seconds += max(now - self._since - kernel_seconds, 0.0)
+        self._since = now if what == "compiling" else None
+        if self.status is not None:
+            self.status(what)
+
+
 def resolve_settings(scene: Scene, source: str, **overrides):
     """The scene's [render] table with the given (non-None) values replaced, validated; a bad
     value is a SceneError naming the setting."""
@@ -264,7 +294,7 @@ def _set_threads(threads: int | None) -> int:
     return numba.get_num_threads()
 
 
-def _ray_render(S, cam, film: Film, spp: int, settings, aov: dict, progress, lanes: int):
+def _ray_render(S, cam, film: Film, spp: int, settings, aov: dict, progress, lanes: int, status=None):
     """Add the film's next `spp` samples per pixel (and fill the AOVs, of the film's window) on
     `lanes` threads. Returns (kernel seconds, rays traced)."""
     W, H = film.width, film.height
@@ -287,7 +317,10 @@ def _ray_render(S, cam, film: Film, spp: int, settings, aov: dict, progress, lan
             trace_lane(S, cam, film.filter, W, H, window, lane, lanes, samples, settings.seed, settings.max_depth,
                        background, film.sums, rays_per_row, rows_done, stop)  # fmt: skip
 
+    status = status or (lambda what: None)
+    status("compiling")
     lane_job(0, (window[0], window[1], window[2], window[1]))  # compile (or load from the cache): no rows
+    status("rendering")
     total = rows * (2 if aov else 1)
     with ThreadPoolExecutor(max_workers=lanes, thread_name_prefix="raylume") as pool:
         t0 = time.perf_counter()
