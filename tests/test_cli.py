@@ -113,8 +113,12 @@ def test_outputs_stats_and_aovs(tmp_path, good):
         "mrays_per_second",
         "bvh_nodes",
         "bvh_bytes",
+        "parse_seconds",
+        "mesh_load_seconds",
+        "compile_seconds",
     ):
         assert key in stats, key
+    assert stats["compile_seconds"] >= 0 and stats["mesh_load_seconds"] == 0 and stats["parse_seconds"] > 0
     assert stats["primary_rays"] == 16 * 24 and stats["rays"] > stats["primary_rays"]
     assert stats["primitives"] == 1 and stats["triangles"] == 0 and stats["mode"] == "trace"
 
@@ -336,6 +340,57 @@ def test_raster_summary_does_not_report_rays(tmp_path, good):
     result = raylume("render", good, "--mode", "raster", "-o", "r.png", cwd=tmp_path)
     assert result.returncode == 0, result.stderr
     assert "Mrays" not in result.stderr and "rasterized" in result.stderr, result.stderr
+
+
+def test_summary_reports_compilation_apart_from_the_build(tmp_path, good):
+    result = raylume("render", good, "-o", "r.png", cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    summary = result.stderr.strip().splitlines()[-1]
+    assert ", build " in summary and ", compile " in summary, result.stderr
+
+
+def _notice(terminal: bool):
+    import io
+
+    from rich.console import Console
+
+    from raylume.cli import _compile_notice
+
+    out = io.StringIO()
+    return _compile_notice(False, Console(file=out, force_terminal=terminal, width=80)), out
+
+
+@pytest.mark.parametrize("terminal", [True, False])
+def test_compile_notice_shows_only_when_the_warm_up_is_slow(terminal):
+    import time
+
+    from raylume.cli import COMPILING, NOTICE_AFTER
+
+    notice, out = _notice(terminal)
+    with notice as status:
+        status("compiling")
+        status("rendering")  # loaded from the cache: well under NOTICE_AFTER
+        time.sleep(NOTICE_AFTER + 0.3)
+    assert out.getvalue() == ""
+    notice, out = _notice(terminal)
+    with notice as status:
+        status("compiling")
+        time.sleep(NOTICE_AFTER + 0.5)  # compiling
+        status("rendering")
+    assert COMPILING in out.getvalue()
+    assert notice.spinner is None and notice.timer is None  # stopped once the kernels are ready
+    notice, out = _notice(terminal)
+    with notice as status:
+        status("compiling")
+    time.sleep(NOTICE_AFTER + 0.3)  # Ctrl-C during compilation: the context ends, so does the timer
+    assert out.getvalue() == ""
+
+
+def test_quiet_shows_no_compile_notice():
+    from raylume.cli import _compile_notice
+
+    with _compile_notice(True) as status:
+        assert status is None
 
 
 # ---------------------------------------------------------------- --set, new formats, EXR layers

@@ -1,10 +1,13 @@
-"""The `raylume` command: render, scenes (and bench, in benchmarks/)."""
+"""The `raylume` command: render a scene, a mesh file or a built-in scene; list the built-in scenes."""
 
 from __future__ import annotations
 
 import json
 import math
 import os
+import threading
+import time
+import warnings
 from pathlib import Path
 from typing import Annotated
 
@@ -45,6 +48,9 @@ app = typer.Typer(
 
 EXIT_BAD_INPUT = 2
 FLAG = ""  # metavar of an on/off flag: nothing follows it on the command line
+# Loading compiled kernels from Numba's cache takes a fraction of this; compiling them, ~20-40 s.
+NOTICE_AFTER = 0.5
+COMPILING = "compiling kernels (first run only)..."
 
 
 def _fail(message: str) -> None:
@@ -109,17 +115,23 @@ def _parse_aovs(specs: list[str], output: Path) -> tuple[dict[str, Path], list[s
     return files, layers
 
 
-def _resolve_scene(scene: str | None, overrides: list[str] | None = None):
+def _resolve_scene(scene: str | None, overrides: list[str] | None = None, width=None, height=None):
+    """(the scene, its label) for SCENE: a scene file, a mesh file (framed for the image size
+    the flags give, scene/autoframe.py) or a built-in name."""
+    from .scene.autoframe import MESH_SUFFIXES, is_mesh_file, mesh_scene
     from .scene.builtin import DEFAULT_SCENE, builtin_names, builtin_scene
     from .scene.load import SCENE_SUFFIXES, load_scene
 
     name = scene or DEFAULT_SCENE
+    if is_mesh_file(name):
+        return mesh_scene(name, overrides, width=width, height=height), name
     if Path(name).suffix.lower() in SCENE_SUFFIXES or os.sep in name or Path(name).exists():
         return load_scene(name, overrides=overrides), name
     if name in builtin_names():
         return builtin_scene(name, overrides=overrides), f"built-in scene {name!r}"
     raise SceneError(
-        f"{name}: not a scene file (.toml or .json) nor a built-in scene; built-ins: {', '.join(builtin_names())}"
+        f"{name}: not a scene file (.toml or .json), a mesh file ({', '.join(MESH_SUFFIXES)}) nor a built-in "
+        f"scene; built-ins: {', '.join(builtin_names())}"
     )
 
 
@@ -136,7 +148,12 @@ def _check_distinct(out: Path, scene_label: str, others: list[Path]) -> None:
 @app.command(cls=_Command)
 def render(
     scene: Annotated[
-        str | None, typer.Argument(metavar="SCENE", help="Scene file (.toml/.json) or built-in name; default: seed")
+        str | None,
+        typer.Argument(
+            metavar="SCENE",
+            help="Scene file (.toml/.json), mesh file (.obj .ply .stl .off .gltf .glb: framed and lit "
+            "automatically) or built-in name; default: seed",
+        ),
     ] = None,
     output: Annotated[
         Path, typer.Option("-o", "--output", metavar="OUT", help="Output image: .png, .jpg, .npy, .exr or .hdr")
@@ -194,24 +211,25 @@ def render(
     from .render import RenderInterrupted
 
     try:
-        _render(
-            scene,
-            output,
-            width,
-            height,
-            spp,
-            mode,
-            max_depth,
-            seed,
-            threads,
-            aov or [],
-            stats,
-            quiet,
-            exposure=exposure,
-            pixel_filter=pixel_filter,
-            overrides=overrides or [],
-            bit_depth=bit_depth,
-        )
+        with _echo_warnings():
+            _render(
+                scene,
+                output,
+                width,
+                height,
+                spp,
+                mode,
+                max_depth,
+                seed,
+                threads,
+                aov or [],
+                stats,
+                quiet,
+                exposure=exposure,
+                pixel_filter=pixel_filter,
+                overrides=overrides or [],
+                bit_depth=bit_depth,
+            )
     except RenderInterrupted as exc:
         _interrupted(exc, output if partial else None, bit_depth)
     except KeyboardInterrupt:
@@ -271,7 +289,8 @@ def _render(
     aov_paths, layers = _parse_aovs(aov_specs, output)
     if stats_path is not None:
         stats_path = check_output_path(stats_path, allowed=(".json",))
-    scene_model, label = _resolve_scene(scene, overrides)
+    started = time.perf_counter()
+    scene_model, label = _resolve_scene(scene, overrides, width, height)
     _check_distinct(output, scene or "", [*aov_paths.values(), *([stats_path] if stats_path else [])])
     if threads is not None and not 1 <= threads <= numba.config.NUMBA_NUM_THREADS:
         raise OutputError(f"--threads {threads}: must be between 1 and {numba.config.NUMBA_NUM_THREADS}")
@@ -286,12 +305,19 @@ def _render(
         exposure=exposure,
         filter=pixel_filter,
     )
+    parse_seconds = time.perf_counter() - started
     _warn_ignored(output, scene_model.render, exposure, pixel_filter)
 
-    with _progress(quiet) as progress:
+    with _progress(quiet) as progress, _compile_notice(quiet) as status:
         image = render_scene(
-            scene_model, threads=threads, aovs=bool(aov_paths or layers), progress=progress, source=label
+            scene_model,
+            threads=threads,
+            aovs=bool(aov_paths or layers),
+            progress=progress,
+            source=label,
+            status=status,
         )
+    image.stats["parse_seconds"] = parse_seconds
     image.save(output, bit_depth=bit_depth, layers=layers)
     for name, path in aov_paths.items():
         save_npy(path, image.aovs[name])
@@ -333,9 +359,12 @@ def _warn_ignored(output: Path, settings, exposure: float | None, pixel_filter: 
 
 
 def summary(output: Path, s: dict) -> str:
-    """The line printed after a render. A rasterizer traces no rays, so it gets no ray rate."""
+    """The line printed after a render. A rasterizer traces no rays, so it gets no ray rate.
+    Compilation (JIT, or loading the kernels from the cache) is reported apart from the build."""
     size = f"{output}: {s['width']}x{s['height']} {s['mode']}"
     build = f"build {s['build_seconds']:.3f} s"
+    if "compile_seconds" in s:
+        build += f", compile {s['compile_seconds']:.2f} s"
     if s["mode"] == "raster":
         return f"{size}, rasterized in {s['render_seconds']:.3f} s (no rays traced), {build}"
     rays = f"{s['rays'] / 1e6:.2f} Mrays" if s["rays"] >= 1e6 else f"{s['rays']:,} rays"
@@ -402,6 +431,80 @@ def _stderr_console():
     from rich.console import Console
 
     return Console(stderr=True)
+
+
+class _compile_notice:
+    """A spinner on stderr while the kernels compile (between status("compiling") and the next
+    status), shown only when that outlasts NOTICE_AFTER seconds: loading compiled kernels from
+    the cache is quicker. Where stderr is no terminal, one plain line instead."""
+
+    def __init__(self, quiet: bool, console=None):
+        self.quiet = quiet
+        self.console = console
+        self.lock = threading.Lock()
+        self.timer: threading.Timer | None = None
+        self.spinner = None
+
+    def __enter__(self):
+        return None if self.quiet else self.status
+
+    def status(self, what: str) -> None:
+        with self.lock:
+            self._stop()
+            if what == "compiling":
+                self.timer = threading.Timer(NOTICE_AFTER, self._show)
+                self.timer.daemon = True
+                self.timer.start()
+
+    def _show(self) -> None:
+        with self.lock:
+            if self.timer is not threading.current_thread():
+                return  # the compilation ended while this timer fired
+            self.timer = None
+            console = self.console or _stderr_console()
+            if console.is_terminal:
+                self.spinner = console.status(COMPILING)
+                self.spinner.start()
+            else:
+                console.print(f"raylume: {COMPILING}", markup=False, highlight=False)
+
+    def _stop(self) -> None:
+        if self.timer is not None:
+            self.timer.cancel()
+            self.timer = None
+        if self.spinner is not None:
+            self.spinner.stop()
+            self.spinner = None
+
+    def __exit__(self, *exc):
+        with self.lock:
+            self._stop()
+        return False
+
+
+class _echo_warnings:
+    """Scene warnings (raylume.scene.checks) as one line each on stderr, as they happen; other
+    warnings go where they would have gone."""
+
+    def __enter__(self):
+        from .scene.checks import SceneWarning
+
+        self.context = warnings.catch_warnings()
+        self.context.__enter__()
+        warnings.simplefilter("always", SceneWarning)  # every render's, not only the first
+        shown = warnings.showwarning
+
+        def show(message, category, filename, lineno, file=None, line=None):
+            if issubclass(category, SceneWarning):
+                _warn(str(message))
+            else:
+                shown(message, category, filename, lineno, file, line)
+
+        warnings.showwarning = show
+        return self
+
+    def __exit__(self, *exc):
+        return self.context.__exit__(*exc)
 
 
 @app.command(cls=_Command)

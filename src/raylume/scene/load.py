@@ -13,6 +13,7 @@ from pydantic import BaseModel, ValidationError
 
 from ..errors import SceneError
 from . import model as m
+from .mesh import SUPPORTED_EXTENSIONS
 from .model import Scene
 from .overrides import Overrides, apply_overrides, assignments, touches
 
@@ -24,12 +25,21 @@ SUGGESTION_CUTOFF = 0.8
 
 def load_scene(path: str | Path, overrides: Overrides | None = None, source: str | None = None) -> Scene:
     """Load and validate a scene file; relative paths inside it are resolved against its folder.
-    `overrides` ("KEY=VALUE" texts as --set takes them, or a {dotted key: value} mapping) edit
-    the parsed document before validation (see scene/overrides.py). `source` names the scene in
-    validation errors (default: the path)."""
+    A mesh file (.obj, .ply, .stl, .off, .gltf, .glb) is a scene by itself: the mesh framed by
+    the camera, lit by a default rig (scene/autoframe.py). `overrides` ("KEY=VALUE" texts as
+    --set takes them, or a {dotted key: value} mapping) edit the parsed document before
+    validation (see scene/overrides.py). `source` names the scene in validation errors
+    (default: the path)."""
     path = Path(path)
+    if path.suffix.lower() in SUPPORTED_EXTENSIONS:
+        from .autoframe import mesh_scene
+
+        return mesh_scene(path, overrides, source=source)
     if path.suffix.lower() not in SCENE_SUFFIXES:
-        raise SceneError(f"{path}: scene files must end in .toml or .json (got {path.suffix or 'no extension'!r})")
+        raise SceneError(
+            f"{path}: scene files end in .toml or .json, mesh files in {', '.join(SUPPORTED_EXTENSIONS)} "
+            f"(got {path.suffix or 'no extension'!r})"
+        )
     if path.is_dir():
         raise SceneError(f"{path}: is a folder, not a scene file")
     try:

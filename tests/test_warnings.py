@@ -1,0 +1,61 @@
+"""Scenes that render, but not as their author expects: a SceneWarning from Python, one line on
+stderr from the command line."""
+
+from __future__ import annotations
+
+import warnings
+
+import pytest
+from test_cli import raylume as run_cli
+
+import raylume
+from raylume.scene.checks import SceneWarning, scene_warnings
+
+SPHERE = {"type": "sphere", "center": [0, 0, 3], "radius": 1}
+DARK = raylume.scene_from_dict({"objects": [SPHERE]})
+EMPTY = raylume.scene_from_dict({"lights": [{"type": "ambient"}]})
+DARK_TOML = """
+[render]
+width = 8
+height = 8
+[[objects]]
+type = "sphere"
+center = [0, 0, 3]
+radius = 1
+"""
+
+
+@pytest.mark.parametrize("mode", ["trace", "raster"])
+def test_no_lights_in_a_lit_mode_warns(mode):
+    with pytest.warns(SceneWarning, match="no lights"):
+        raylume.render(DARK, width=8, height=8, mode=mode)
+    session = raylume.Session(DARK)
+    with pytest.warns(SceneWarning, match="no lights"):
+        session.render(width=8, height=8, mode=mode)
+
+
+def test_no_objects_warns_in_every_mode():
+    for mode in ("cast", "trace", "raster"):
+        with pytest.warns(SceneWarning, match="nothing to render"):
+            raylume.render(EMPTY, width=8, height=8, mode=mode)
+
+
+def test_lit_or_cast_scenes_do_not_warn():
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        raylume.render(DARK, width=8, height=8, mode="cast")  # cast shows colours, unlit
+        raylume.render(raylume.builtin_scene("seed"), width=8, height=8)
+    assert scene_warnings(DARK, "cast") == [] and len(scene_warnings(DARK, "trace")) == 1
+    assert issubclass(SceneWarning, UserWarning)
+
+
+def test_the_command_line_prints_each_warning_once_on_stderr(tmp_path):
+    (tmp_path / "dark.toml").write_text(DARK_TOML)
+    result = run_cli("render", "dark.toml", "-o", "dark.png", "-q", cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    lines = [line for line in result.stderr.splitlines() if "no lights" in line]
+    assert len(lines) == 1 and lines[0].startswith("raylume: warning: "), result.stderr
+    assert "Traceback" not in result.stderr and "SceneWarning" not in result.stderr
+    assert (tmp_path / "dark.png").exists()
+    cast = run_cli("render", "dark.toml", "--mode", "cast", "-o", "c.png", "-q", cwd=tmp_path)
+    assert cast.returncode == 0 and "warning" not in cast.stderr, cast.stderr
