@@ -499,3 +499,75 @@ def test_ply_triangle_strips(tmp_path, fmt, count_type):
 def test_ply_strip_index_out_of_range(tmp_path):
     text = strip_ply("ascii").decode().replace("6 7\n", "6 70\n")
     assert_mesh_error(write(tmp_path / "bad.ply", text), match="outside the range")
+
+
+# ---------------------------------------------------------------- fit and handedness (mesh objects)
+
+
+def _mesh_scene(path, **keys):
+    import raylume
+
+    return raylume.scene_from_dict({"objects": [{"type": "mesh", "file": str(path), **keys}]})
+
+
+def test_fit_scales_the_largest_side_to_size_and_centres_the_box(tmp_path):
+    from raylume.scene.placement import bounds, load_mesh_object
+
+    trimesh.creation.box(extents=(1.0, 2.0, 4.0)).export(tmp_path / "box.ply")
+    fit = {"center": [1, 2, 3], "size": 2}
+    scene = _mesh_scene(tmp_path / "box.ply", transform={"rotate": [0, 90, 0], "fit": fit})
+    lo, hi = bounds(load_mesh_object(scene.objects[0], tmp_path))
+    # rotated 90 degrees about y: the 4-long side lies along x, then halved to 2
+    np.testing.assert_allclose(lo, [0.0, 1.5, 2.75], atol=1e-12)
+    np.testing.assert_allclose(hi, [2.0, 2.5, 3.25], atol=1e-12)
+    mirrored = _mesh_scene(tmp_path / "box.ply", handedness="right", transform={"fit": fit})
+    d = load_mesh_object(mirrored.objects[0], tmp_path)
+    assert signed_volume(d) > 0
+    np.testing.assert_allclose(bounds(d)[1] - bounds(d)[0], [0.5, 1.0, 2.0], atol=1e-12)
+
+
+@pytest.mark.parametrize("extra", [{"translate": [0, 1, 0]}, {"scale": 2}, {"scale": [1, 1, 2]}])
+def test_fit_beside_translate_or_scale_is_refused_naming_the_key(extra):
+    from raylume.errors import SceneError
+
+    with pytest.raises(SceneError, match=r"objects\[0\]\.transform: fit sets the mesh's size and position"):
+        _mesh_scene("m.obj", transform={"fit": {"size": 1}, **extra})
+    with pytest.raises(SceneError, match=r"objects\[0\]\.transform\.fit\.size"):
+        _mesh_scene("m.obj", transform={"fit": {"size": 0}})
+
+
+def test_right_handed_meshes_are_mirrored_across_x_with_normals_outward(tmp_path):
+    from raylume.scene.placement import load_mesh_object
+
+    sphere = trimesh.creation.icosphere(subdivisions=2)
+    sphere.apply_translation((2, 0, 0))
+    sphere.export(tmp_path / "sphere.obj", include_normals=True)
+    left = load_mesh_object(_mesh_scene(tmp_path / "sphere.obj").objects[0], tmp_path)
+    right = load_mesh_object(_mesh_scene(tmp_path / "sphere.obj", handedness="right").objects[0], tmp_path)
+    np.testing.assert_allclose(right.vertices, left.vertices * [-1, 1, 1])
+    assert signed_volume(right) > 0  # winding reversed with the mirror: still counter-clockwise outside
+    radial = right.vertices - (-2, 0, 0)
+    assert np.einsum("ij,ij->i", right.normals, radial).min() > 0
+    assert right.normals[right.vertices[:, 0].argmin(), 0] < -0.9  # the far left points left
+
+
+@pytest.mark.parametrize("handedness, side", [("left", "right"), ("right", "left")])
+def test_a_plus_x_feature_appears_on_the_side_the_handedness_says(tmp_path, handedness, side):
+    """The default camera looks along +z with +x on the image's right (DESIGN.md): a file's +x
+    feature shows on the right as authored, and on the left once mirrored as right-handed."""
+    import raylume
+
+    body = trimesh.creation.box(extents=(1, 1, 1))
+    arm = trimesh.creation.box(extents=(1, 0.2, 0.2))
+    arm.apply_translation((1, 0, 0))
+    trimesh.util.concatenate([body, arm]).export(tmp_path / "arm.obj")
+    scene = raylume.scene_from_dict(
+        {
+            "camera": {"position": [0, 0, -6], "look_at": [0, 0, 0]},
+            "objects": [{"type": "mesh", "file": str(tmp_path / "arm.obj"), "handedness": handedness}],
+        }
+    )
+    hit = raylume.render(scene, width=64, height=64, mode="cast").aovs["object"] == 0
+    cols = np.nonzero(hit)[1]
+    arm_side = "right" if cols.max() - 32 > 32 - cols.min() else "left"
+    assert arm_side == side

@@ -4,10 +4,13 @@ images for random scenes, loader fuzzing, memory checks."""
 from __future__ import annotations
 
 import json
+import os
 import signal
 import subprocess
 import sys
+import threading
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -17,6 +20,8 @@ from hypothesis import strategies as st
 import raylume
 from raylume.errors import RaylumeError, SceneError
 from raylume.render import check_memory
+
+QUALITY = Path(__file__).resolve().parents[1] / "examples" / "quality.toml"
 
 
 def _warm_kernels(tmp_path):
@@ -106,6 +111,56 @@ def test_sigint_with_partial_saves_the_rows_done(tmp_path):
     partial = np.load(tmp_path / "big.partial.npy")
     assert partial.shape == (3000, 3000, 3)
     assert partial[-1].max() == 0.0  # the bottom rows (ground) were not reached
+
+
+def _watch(stream, text: bytes) -> tuple[threading.Event, list]:
+    """Read `stream` in a thread; the event is set once `text` has appeared in it."""
+    seen, chunks = threading.Event(), []
+
+    def read():
+        while chunk := os.read(stream.fileno(), 4096):
+            chunks.append(chunk)
+            if text in b"".join(chunks):
+                seen.set()
+
+    threading.Thread(target=read, daemon=True).start()
+    return seen, chunks
+
+
+def test_sigint_during_a_long_render_exits_130_within_two_seconds(tmp_path):
+    """Ctrl-C once the progress bar shows, on a render of several seconds (quality.toml, 16 spp,
+    one thread): the lanes check a stop flag before every row, so the command ends at once."""
+    command = [sys.executable, "-m", "raylume.cli", "render", str(QUALITY), "--threads", "1"]
+    (tmp_path / "warm").mkdir()
+    subprocess.run(
+        [*command, "--width", "16", "--height", "10", "-o", "warm.png", "-q"], cwd=tmp_path / "warm", check=True
+    )
+    (tmp_path / "run").mkdir()
+    env = {**os.environ, "TTY_COMPATIBLE": "1", "TTY_INTERACTIVE": "1"}  # Rich draws its bar into the pipe
+    proc = subprocess.Popen(
+        [*command, "--spp", "16", "-o", "q.png"],
+        cwd=tmp_path / "run",
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        env=env,
+    )
+    try:
+        seen, chunks = _watch(proc.stderr, b"rendering")
+        assert seen.wait(timeout=120), b"".join(chunks).decode(errors="replace")
+        time.sleep(0.3)  # well inside the render's rows
+        assert proc.poll() is None, "the render ended before the interrupt"
+        sent = time.monotonic()
+        proc.send_signal(signal.SIGINT)
+        proc.wait(timeout=30)
+        elapsed = time.monotonic() - sent
+    finally:
+        proc.kill()
+    err = b"".join(chunks).decode(errors="replace")
+    print(f"Ctrl-C to exit: {elapsed:.3f} s")
+    assert proc.returncode == 130, err
+    assert elapsed < 2.0, elapsed
+    assert "interrupted; nothing written" in err and "Traceback" not in err
+    assert list((tmp_path / "run").iterdir()) == []
 
 
 @pytest.mark.parametrize("mode", ["trace", "cast"])
@@ -201,6 +256,7 @@ scene_doc = st.fixed_dictionaries(
 )
 
 
+@pytest.mark.filterwarnings("ignore::raylume.scene.checks.SceneWarning")  # random scenes may lack lights
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(scene_doc)
 def test_random_scenes_render_without_nan(doc):

@@ -178,3 +178,46 @@ def test_suggestions_come_from_the_keys_valid_at_that_path():
 def test_messages_name_the_bad_value_once(document, value):
     message = _message(document)
     assert message.count(value) == 1, message
+
+
+# ---------------------------------------------------------------- Scene.replace, Scene.with_camera
+
+
+def test_replace_merges_tables_and_validates_a_copy(tmp_path):
+    seed = raylume.builtin_scene("seed")
+    scene = seed.replace(camera={"fov": 40}, render={"width": 64}, materials={"red": {"reflective": 0.5}})
+    assert scene.camera.fov == 40 and scene.camera.position == seed.camera.position
+    assert scene.render.width == 64 and scene.render.height == seed.render.height
+    assert scene.materials["red"].reflective == 0.5 and scene.materials["red"].specular == 500
+    assert seed.camera.fov == pytest.approx(53.13) and seed.render.width == 600  # the original is unchanged
+    lights = scene.replace(lights=[{"type": "ambient", "intensity": 1}]).lights
+    assert len(lights) == 1 and lights[0].type == "ambient"  # a list replaces the list
+    moved = load_scene(EXAMPLES / "meshes.toml").replace(render={"width": 8})
+    assert moved.base_dir == EXAMPLES  # mesh files still found beside the scene file
+
+
+@pytest.mark.parametrize(
+    "changes, words",
+    [
+        ({"camera": {"fov": 200}}, "camera.fov"),
+        ({"camera": {"fovv": 40}}, "did you mean 'fov'"),
+        ({"render": {"mode": "paint"}}, "render.mode"),
+        ({"objects": [{"type": "sphere", "center": [0, 0, 1]}]}, "objects[0].radius"),
+        ({"cameras": {}}, "unknown key 'cameras'"),
+    ],
+)
+def test_replace_errors_name_the_key(changes, words):
+    with pytest.raises(SceneError) as info:
+        raylume.builtin_scene("seed").replace(**changes)
+    assert words in str(info.value)
+
+
+def test_with_camera_takes_keys_or_a_camera():
+    seed = raylume.builtin_scene("seed")
+    assert seed.with_camera(fov=30).camera.fov == 30
+    moved = seed.with_camera({"position": [0, 1, -3]}, look_at=[0, 0, 3])
+    assert moved.camera.position == (0, 1, -3) and moved.camera.look_at == (0, 0, 3)
+    camera = raylume.Camera(position=(1, 2, 3), fov=20)
+    assert seed.with_camera(camera).camera == camera
+    with pytest.raises(SceneError, match="camera"):
+        seed.with_camera(up=[0, 0, 1])  # parallel to the view direction
