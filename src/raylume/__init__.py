@@ -17,6 +17,7 @@ from .kernels.film import Film
 from .query import intersect
 from .render import render
 from .scene.builtin import builtin_names, builtin_scene
+from .scene.checks import SceneWarning
 from .scene.load import load_scene, scene_from_dict
 from .scene.model import Camera, Scene
 from .session import Session
@@ -28,6 +29,7 @@ __all__ = [
     "RaylumeError",
     "Scene",
     "SceneError",
+    "SceneWarning",
     "Session",
     "builtin_names",
     "builtin_scene",

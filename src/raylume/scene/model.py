@@ -1,6 +1,6 @@
 """The user-facing scene model: validated pydantic objects mirroring the scene-file schema.
 
-Every table is optional and unknown keys are errors (DESIGN.md section 3). Tagged unions use
+Every table is optional and unknown keys are errors (README: Scene files). Tagged unions use
 callable discriminators whose tags are written ``<name>`` so that error paths can drop them
 (``objects[2].radius``, not ``objects.2.sphere.radius``).
 """
@@ -115,7 +115,7 @@ class Camera(Strict):
     look_at: Vec3 = (0.0, 0.0, 1.0)
     up: Vec3 = (0.0, 1.0, 0.0)
     fov: FiniteFloat = Field(53.13, gt=0, lt=180)
-    # Thin lens: the lens diameter (0: the pinhole camera of DESIGN.md) and the distance, along
+    # Thin lens: the lens diameter (0: a pinhole camera, rays from one point) and the distance, along
     # the viewing direction, of the plane in focus (default: the distance to look_at).
     aperture: FiniteFloat = Field(0.0, ge=0)
     focus_distance: FiniteFloat | None = Field(None, gt=0)

@@ -1,4 +1,4 @@
-"""`--set KEY=VALUE`: edit a parsed scene document before it is validated (DESIGN.md section 6).
+"""`--set KEY=VALUE`: edit a parsed scene document before it is validated (README: Command line).
 
 KEY is a dotted path into the document (`camera.fov`, `materials.glass.ior`, `objects.2.radius`):
 names step into tables, integers into lists. VALUE is read as a TOML value (`40`, `[0, 1, -3]`,
