@@ -48,7 +48,7 @@ app = typer.Typer(
 
 EXIT_BAD_INPUT = 2
 FLAG = ""  # metavar of an on/off flag: nothing follows it on the command line
-# Loading compiled kernels from Numba's cache takes a fraction of this; compiling them, ~20-40 s.
+# Loading compiled kernels from Numba's cache takes a fraction of this; compiling them, tens of seconds.
 NOTICE_AFTER = 0.5
 COMPILING = "compiling kernels (first run only)..."
 
