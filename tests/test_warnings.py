@@ -27,11 +27,12 @@ radius = 1
 
 @pytest.mark.parametrize("mode", ["trace", "raster"])
 def test_no_lights_in_a_lit_mode_warns(mode):
-    with pytest.warns(SceneWarning, match="no lights"):
+    with pytest.warns(SceneWarning, match="no lights") as caught:
         raylume.render(DARK, width=8, height=8, mode=mode)
     session = raylume.Session(DARK)
-    with pytest.warns(SceneWarning, match="no lights"):
+    with pytest.warns(SceneWarning, match="no lights") as more:
         session.render(width=8, height=8, mode=mode)
+    assert {w.filename for w in [*caught, *more]} == {__file__}  # the user's line, not raylume's
 
 
 def test_no_objects_warns_in_every_mode():

@@ -6,9 +6,13 @@ them through the warnings module, and the command line prints each as one line o
 
 from __future__ import annotations
 
+import sys
 import warnings
+from pathlib import Path
 
 from .model import Scene
+
+_PACKAGE = str(Path(__file__).resolve().parents[1])  # the raylume package's folder
 
 LIT_MODES = ("trace", "raster")  # the modes that shade with the scene's lights
 
@@ -30,7 +34,16 @@ def scene_warnings(scene: Scene, mode: str) -> list[str]:
     return found
 
 
-def warn_about(scene: Scene, mode: str, stacklevel: int = 3) -> None:
-    """Issue scene_warnings as SceneWarnings (by default pointing at the caller's caller)."""
+def warn_about(scene: Scene, mode: str) -> None:
+    """Issue scene_warnings as SceneWarnings, attributed to the first caller outside raylume
+    (the user's render call, whether through raylume.render or a Session)."""
     for message in scene_warnings(scene, mode):
-        warnings.warn(message, SceneWarning, stacklevel=stacklevel)
+        warnings.warn(message, SceneWarning, stacklevel=_outside_level())
+
+
+def _outside_level() -> int:
+    """The warnings.warn stacklevel, as seen from warn_about, of the nearest frame outside the package."""
+    frame, level = sys._getframe(2), 2  # level 1 is warn_about, 2 its caller
+    while frame is not None and frame.f_code.co_filename.startswith(_PACKAGE):
+        frame, level = frame.f_back, level + 1
+    return level
