@@ -17,6 +17,7 @@ from common import SHARED_MODELS, machine, median_of, table
 import raylume
 from raylume.compile import compile_scene
 from raylume.kernels.query import intersect_rays
+from raylume.kernels.shapes import features
 from raylume.scene.mesh import load_mesh
 from raylume.scene.procedural import bumpy_sphere
 
@@ -74,11 +75,11 @@ def time_raylume(compiled, o, d, threads, repeats):
     t = np.empty(n)
     obj = np.empty(n, np.int32)
     prim = np.empty(n, np.int32)
-    intersect_rays(compiled.kernel, o, d, t, obj, prim, threads)  # compile / warm
+    intersect_rays(compiled.kernel, features(compiled.kernel), o, d, t, obj, prim, threads)  # compile / warm
     times = []
     for _ in range(repeats):
         t0 = time.perf_counter()
-        intersect_rays(compiled.kernel, o, d, t, obj, prim, threads)
+        intersect_rays(compiled.kernel, features(compiled.kernel), o, d, t, obj, prim, threads)
         times.append(time.perf_counter() - t0)
     return median_of(times), t
 

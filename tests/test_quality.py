@@ -310,7 +310,7 @@ material = { texture = { type = "image", file = "tex.png" } }
 def test_sphere_and_plane_uvs():
     from raylume.compile import compile_scene
     from raylume.kernels.scene import geometry_of
-    from raylume.kernels.shapes import uv
+    from raylume.kernels.shapes import features, uv
 
     s = scene(
         objects=[
@@ -321,6 +321,7 @@ def test_sphere_and_plane_uvs():
     )
     S = compile_scene(s).kernel
     G = geometry_of(S)  # primitives: the sphere (in the BVH), then the two planes
+    X = features(S)
     c = np.array([1.0, 2.0, 3.0])
     cases = {
         (0, 0, -1): (0.5, 0.5),
@@ -332,13 +333,13 @@ def test_sphere_and_plane_uvs():
     }
     for n, (u, v) in cases.items():
         p = tuple(c + 2 * np.array(n))
-        got = uv(G, 0, 0.0, 0.0, p)
+        got = uv(G, X, 0, 0.0, 0.0, p)
         if u is not None:
             assert got[0] == pytest.approx(u, abs=1e-12)
         assert got[1] == pytest.approx(v, abs=1e-12)
     # floor: u along +x, v along +z; wall facing the camera: u to the right (+x), v up (+y)
-    assert uv(G, 1, 0.0, 0.0, (0.3, -1.0, 0.7)) == pytest.approx((0.3, 0.7), abs=1e-12)
-    assert uv(G, 2, 0.0, 0.0, (0.3, 0.4, 5.0)) == pytest.approx((0.3, 0.4), abs=1e-12)
+    assert uv(G, X, 1, 0.0, 0.0, (0.3, -1.0, 0.7)) == pytest.approx((0.3, 0.7), abs=1e-12)
+    assert uv(G, X, 2, 0.0, 0.0, (0.3, 0.4, 5.0)) == pytest.approx((0.3, 0.4), abs=1e-12)
 
 
 def test_texture_errors_name_the_key(tmp_path):

@@ -14,7 +14,7 @@ import pytest
 import raylume
 from raylume.compile import compile_scene
 from raylume.kernels.scene import geometry_of
-from raylume.kernels.shapes import normals, uv
+from raylume.kernels.shapes import features, normals, uv
 
 RNG = np.random.default_rng(20261128)
 
@@ -128,22 +128,23 @@ def test_normals_and_uvs_of_the_new_shapes():
     )
     S = compile_scene(sc).kernel
     G = geometry_of(S)
+    X = features(S)
     prim_of = {int(S.prims[k, 3]): k for k in range(len(S.prims))}
     # disk: the given normal; v is the distance from the centre over the radius
-    ng, ns = normals(G, prim_of[0], 0.0, 0.0, (1.0, 1.0, 5.0))
+    ng, ns = normals(G, X, prim_of[0], 0.0, 0.0, (1.0, 1.0, 5.0))
     np.testing.assert_allclose(ng, (0, 0, -1)) and np.testing.assert_allclose(ns, ng)
-    assert uv(G, prim_of[0], 0.0, 0.0, (1.0, 1.0, 5.0))[1] == pytest.approx(0.5)
+    assert uv(G, X, prim_of[0], 0.0, 0.0, (1.0, 1.0, 5.0))[1] == pytest.approx(0.5)
     # quad: u x v normalised; (0, 0) at centre - u/2 - v/2, (1, 1) at centre + u/2 + v/2
-    ng, _ = normals(G, prim_of[1], 0.0, 0.0, (0.0, 0.0, 4.0))
+    ng, _ = normals(G, X, prim_of[1], 0.0, 0.0, (0.0, 0.0, 4.0))
     np.testing.assert_allclose(ng, (0, 0, 1))
-    assert uv(G, prim_of[1], 0.0, 0.0, (-1.5, -0.5, 4.0)) == pytest.approx((0.0, 0.0), abs=1e-12)
-    assert uv(G, prim_of[1], 0.0, 0.0, (1.5, 0.5, 4.0)) == pytest.approx((1.0, 1.0), abs=1e-12)
-    assert uv(G, prim_of[1], 0.0, 0.0, (0.5, -0.5, 4.0)) == pytest.approx((1.0, 0.0), abs=1e-12)
+    assert uv(G, X, prim_of[1], 0.0, 0.0, (-1.5, -0.5, 4.0)) == pytest.approx((0.0, 0.0), abs=1e-12)
+    assert uv(G, X, prim_of[1], 0.0, 0.0, (1.5, 0.5, 4.0)) == pytest.approx((1.0, 1.0), abs=1e-12)
+    assert uv(G, X, prim_of[1], 0.0, 0.0, (0.5, -0.5, 4.0)) == pytest.approx((1.0, 0.0), abs=1e-12)
     # cylinder: radial on the side (part 0), the axis on the caps (part 1 at p0, 2 at p1)
-    np.testing.assert_allclose(normals(G, prim_of[2], 0.0, 0.0, (0.5, 1.3, 0.0))[0], (1, 0, 0), atol=1e-12)
-    np.testing.assert_allclose(normals(G, prim_of[2], 1.0, 0.0, (0.1, 0.0, 0.1))[0], (0, -1, 0))
-    np.testing.assert_allclose(normals(G, prim_of[2], 2.0, 0.0, (0.1, 2.0, 0.1))[0], (0, 1, 0))
-    assert uv(G, prim_of[2], 0.0, 0.0, (0.5, 1.5, 0.0))[1] == pytest.approx(0.75)
+    np.testing.assert_allclose(normals(G, X, prim_of[2], 0.0, 0.0, (0.5, 1.3, 0.0))[0], (1, 0, 0), atol=1e-12)
+    np.testing.assert_allclose(normals(G, X, prim_of[2], 1.0, 0.0, (0.1, 0.0, 0.1))[0], (0, -1, 0))
+    np.testing.assert_allclose(normals(G, X, prim_of[2], 2.0, 0.0, (0.1, 2.0, 0.1))[0], (0, 1, 0))
+    assert uv(G, X, prim_of[2], 0.0, 0.0, (0.5, 1.5, 0.0))[1] == pytest.approx(0.75)
 
 
 def test_bounds_are_tight_boxes_of_the_shapes():

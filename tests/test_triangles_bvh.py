@@ -100,7 +100,7 @@ def test_random_rays_never_nan_and_hits_lie_in_the_triangle(verts, o, d):
 
 
 @njit
-def _closest_all(S, origins, dirs):
+def _closest_all(S, origins, dirs, X=None):
     n = origins.shape[0]
     out_t = np.empty(n)
     out_i = np.empty(n, np.int64)
@@ -110,14 +110,14 @@ def _closest_all(S, origins, dirs):
     for k in range(n):
         o = (origins[k, 0], origins[k, 1], origins[k, 2])
         d = (dirs[k, 0], dirs[k, 1], dirs[k, 2])
-        t, prim, b1, b2 = closest_hit(G, o, d, 0.0, INF, node_stack, t_stack)
+        t, prim, b1, b2 = closest_hit(G, X, o, d, 0.0, INF, node_stack, t_stack)
         out_t[k] = t
         out_i[k] = S.prims[prim, PRIM_FACE] if prim >= 0 and S.prims[prim, PRIM_KIND] == TRIANGLE else -1
     return out_t, out_i
 
 
 @njit
-def _any_all(S, origins, dirs, tmax):
+def _any_all(S, origins, dirs, tmax, X=None):
     n = origins.shape[0]
     out = np.empty(n, np.bool_)
     node_stack = np.empty(128, np.int32)
@@ -125,6 +125,7 @@ def _any_all(S, origins, dirs, tmax):
     for k in range(n):
         out[k] = any_hit(
             G,
+            X,
             (origins[k, 0], origins[k, 1], origins[k, 2]),
             (dirs[k, 0], dirs[k, 1], dirs[k, 2]),
             0.0,

@@ -7,6 +7,7 @@ import numpy as np
 
 from .compile import CompiledScene, compile_scene
 from .kernels.query import intersect_rays
+from .kernels.shapes import features
 from .scene.model import Scene
 
 
@@ -33,5 +34,6 @@ def intersect(scene: Scene | CompiledScene, origins: np.ndarray, directions: np.
     obj = np.empty(n, dtype=np.int32)
     prim = np.empty(n, dtype=np.int32)
     # the ray offset floor of a camera at the origin: the scene's own extent
-    intersect_rays(compiled.for_camera((0.0, 0.0, 0.0)), origins, directions, t, obj, prim, numba.get_num_threads())
+    S = compiled.for_camera((0.0, 0.0, 0.0))
+    intersect_rays(S, features(S), origins, directions, t, obj, prim, numba.get_num_threads())
     return t.reshape(shape), obj.reshape(shape), prim.reshape(shape)

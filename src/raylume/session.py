@@ -27,6 +27,7 @@ from .image import Image
 from .kernels.camera import camera_of
 from .kernels.film import Film
 from .kernels.frame import PROGRESS_STRIDE, aov_lane, cast_lane, trace_lane
+from .kernels.shapes import features
 from .scene.checks import warn_about
 from .scene.model import Camera, Scene
 
@@ -305,16 +306,19 @@ def _ray_render(S, cam, film: Film, spp: int, settings, aov: dict, progress, lan
     stop = np.zeros(1, dtype=np.int64)  # set to 1 to stop every lane before its next row
     background = np.asarray(settings.background, dtype=np.float64)
     samples = (film.spp, spp, film.total_spp)  # first, count, total
+    X = features(S)  # None: the kernels' variant for spheres and opaque triangles only
 
     def lane_job(lane: int, window) -> None:
         if aov:
             depth, normal, obj, prim, albedo = (aov[k] for k in AOV_NAMES)
-            aov_lane(S, cam, W, H, window, lane, lanes, depth, normal, obj, prim, albedo, rays_per_row, rows_done, stop)
+            aov_lane(
+                S, X, cam, W, H, window, lane, lanes, depth, normal, obj, prim, albedo, rays_per_row, rows_done, stop
+            )
         if settings.mode == "cast":
-            cast_lane(S, cam, film.filter, W, H, window, lane, lanes, samples, settings.seed, background, film.sums,
+            cast_lane(S, X, cam, film.filter, W, H, window, lane, lanes, samples, settings.seed, background, film.sums,
                       rays_per_row, rows_done, stop)  # fmt: skip
         else:
-            trace_lane(S, cam, film.filter, W, H, window, lane, lanes, samples, settings.seed, settings.max_depth,
+            trace_lane(S, X, cam, film.filter, W, H, window, lane, lanes, samples, settings.seed, settings.max_depth,
                        background, film.sums, rays_per_row, rows_done, stop)  # fmt: skip
 
     status = status or (lambda what: None)

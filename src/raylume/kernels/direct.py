@@ -22,7 +22,7 @@ INF = math.inf
 
 
 @njit(**KERNEL, inline="always")
-def direct_lighting(G, F, L, p, n, view, m, shadows, node_stack, t_stack, key, event):
+def direct_lighting(G, F, L, X, p, n, view, m, shadows, node_stack, t_stack, key, event):
     """Ambient + diffuse + specular intensity (RGB) at p from every light, and the shadow rays
     traced. n faces the viewer; p is already offset off the surface. Area lights take their
     `samples` stratified points from the camera sample's `key` at its `event`-th shaded surface
@@ -51,15 +51,17 @@ def direct_lighting(G, F, L, p, n, view, m, shadows, node_stack, t_stack, key, e
             remaining -= 1
             if delta:
                 to_light, tmax = sample_delta(L, k, p)
-            else:
+            elif X is not None:  # area lights (none in scenes whose X is None)
                 u1, u2 = light_sample(key, event, k, remaining, count)
                 to_light, tmax = sample_area(L, k, p, u1, u2)
+            else:
+                to_light, tmax = (0.0, 0.0, 1.0), 0.0
             l = normalize(to_light)
             scale = phong(n, l, view, specular)
             if scale <= 0.0:
                 continue  # nothing to add: skip the shadow ray
             if shadows:
-                tr, used = shadow_transmittance(G, F, p, l, tmax, node_stack, t_stack)
+                tr, used = shadow_transmittance(G, F, X, p, l, tmax, node_stack, t_stack)
                 rays += used
             else:
                 tr = (1.0, 1.0, 1.0)
@@ -72,30 +74,31 @@ def direct_lighting(G, F, L, p, n, view, m, shadows, node_stack, t_stack, key, e
 
 
 @njit(**KERNEL, inline="always")
-def shadow_transmittance(G, F, o, d, tmax, node_stack, t_stack):
+def shadow_transmittance(G, F, X, o, d, tmax, node_stack, t_stack):
     """Fraction (RGB) of light reaching o from distance tmax along d, and the rays used."""
-    if not F.has_transparency:
-        if any_hit(G, o, d, 0.0, tmax, node_stack):
-            return (0.0, 0.0, 0.0), 1
-        return (1.0, 1.0, 1.0), 1
-    return _transparent_shadow(G, F, o, d, tmax, node_stack, t_stack)
+    if X is not None:
+        if F.has_transparency:
+            return _transparent_shadow(G, F, X, o, d, tmax, node_stack, t_stack)
+    if any_hit(G, X, o, d, 0.0, tmax, node_stack):
+        return (0.0, 0.0, 0.0), 1
+    return (1.0, 1.0, 1.0), 1
 
 
 # A call, not inlined: a walk through transparent surfaces costs several traversals anyway, and
 # one more inlined copy of the traversal costs seconds of compile time in every trace kernel.
 @njit(**KERNEL)
-def _transparent_shadow(G, F, o, d, tmax, node_stack, t_stack):
+def _transparent_shadow(G, F, X, o, d, tmax, node_stack, t_stack):
     tr = (1.0, 1.0, 1.0)
     origin = o
     remaining = tmax
     rays = 0
     for _ in range(32):
-        t, prim, b1, b2 = closest_hit(G, origin, d, 0.0, remaining, node_stack, t_stack)
+        t, prim, b1, b2 = closest_hit(G, X, origin, d, 0.0, remaining, node_stack, t_stack)
         rays += 1
         if t == INF or t >= remaining:
             return tr, rays
         p = madd(origin, d, t)
-        ng, ns, m, obj, face = surface(G, prim, b1, b2, p)
+        ng, ns, m, obj, face = surface(G, X, prim, b1, b2, p)
         transparency = F.materials[m, MAT_TRANSPARENCY]
         if transparency <= 0.0:
             return (0.0, 0.0, 0.0), rays
@@ -112,7 +115,7 @@ def _transparent_shadow(G, F, o, d, tmax, node_stack, t_stack):
 
 
 @njit(**KERNEL, inline="always")
-def unshadowed_lighting(G, F, L, p, n, view, m, node_stack, t_stack):
+def unshadowed_lighting(G, F, L, X, p, n, view, m, node_stack, t_stack):
     """direct_lighting without shadow rays and with the fixed area-light pattern (the
     rasterizer's lighting)."""
-    return direct_lighting(G, F, L, p, n, view, m, False, node_stack, t_stack, np.uint64(0), 0)
+    return direct_lighting(G, F, L, X, p, n, view, m, False, node_stack, t_stack, np.uint64(0), 0)

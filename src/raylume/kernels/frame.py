@@ -23,13 +23,13 @@ INF = np.inf
 
 
 @njit(**KERNEL, inline="always")
-def _cast_ray(G, F, o, d, background, node_stack, t_stack):
-    t, prim, b1, b2 = closest_hit(G, o, d, 0.0, INF, node_stack, t_stack)
+def _cast_ray(G, F, X, o, d, background, node_stack, t_stack):
+    t, prim, b1, b2 = closest_hit(G, X, o, d, 0.0, INF, node_stack, t_stack)
     if prim == NO_HIT:
         return background
     p = madd(o, d, t)
-    ng, ns, m, obj, face = surface(G, prim, b1, b2, p)
-    return albedo(G, F, m, prim, b1, b2, p)
+    ng, ns, m, obj, face = surface(G, X, prim, b1, b2, p)
+    return albedo(G, F, X, m, prim, b1, b2, p)
 
 
 @njit(**KERNEL, inline="always")
@@ -61,6 +61,9 @@ def camera_sample(cam, filt, seed, i, j, s, total_spp, width, height):
 # pixel (i, j) of the image is their element (j - y0, i - x0), and its samples are those of
 # the full image (the same keys), so a window equals that part of the full render.
 # `samples` is (first, count, total): this pass adds samples first..first+count-1 of total.
+# X is None for scenes of spheres and opaque triangles only, and an array otherwise (see
+# shapes.py, "features"): with None, Numba compiles no code for the other shapes, planes or
+# transparent shadows.
 # Every lane counts the rows it finished in rows_done[lane * PROGRESS_STRIDE] (counters a cache
 # line apart, against false sharing) and checks stop[0] before each row: the waiting thread
 # shows progress from the counters and stops a render within a row's time.
@@ -70,7 +73,7 @@ PROGRESS_STRIDE = 16
 
 @njit(**LANE)
 def trace_lane(
-    S, cam, filt, width, height, window, lane, lanes, samples, seed, max_depth, background, film, rays_per_row,
+    S, X, cam, filt, width, height, window, lane, lanes, samples, seed, max_depth, background, film, rays_per_row,
     rows_done, stop,
 ):  # fmt: skip
     """Whitted-traced samples of the lane's rows into the film; rays traced per row into rays_per_row."""
@@ -84,7 +87,7 @@ def trace_lane(
         if stop[0] != 0:
             break
         rays_per_row[j - y0] += _trace_row(
-            G, F, L, cam, filt, j, window, width, height, samples, seed, max_depth, bg, film, work, node_stack,
+            G, F, L, X, cam, filt, j, window, width, height, samples, seed, max_depth, bg, film, work, node_stack,
             t_stack,
         )  # fmt: skip
         rows_done[lane * PROGRESS_STRIDE] += 1
@@ -92,7 +95,7 @@ def trace_lane(
 
 @njit(**LANE)
 def cast_lane(
-    S, cam, filt, width, height, window, lane, lanes, samples, seed, background, film, rays_per_row, rows_done, stop
+    S, X, cam, filt, width, height, window, lane, lanes, samples, seed, background, film, rays_per_row, rows_done, stop
 ):
     """Ray-cast samples (the closest hit's albedo) of the lane's rows into the film."""
     node_stack, t_stack = traversal_stacks()
@@ -103,14 +106,14 @@ def cast_lane(
         if stop[0] != 0:
             break
         rays_per_row[j - y0] += _cast_row(
-            G, F, cam, filt, j, window, width, height, samples, seed, bg, film, node_stack, t_stack
+            G, F, X, cam, filt, j, window, width, height, samples, seed, bg, film, node_stack, t_stack
         )
         rows_done[lane * PROGRESS_STRIDE] += 1
 
 
 @njit(**LANE)
 def aov_lane(
-    S, cam, width, height, window, lane, lanes, depth, normal, obj_id, prim_id, albedo_out, rays_per_row,
+    S, X, cam, width, height, window, lane, lanes, depth, normal, obj_id, prim_id, albedo_out, rays_per_row,
     rows_done, stop,
 ):  # fmt: skip
     """Primary-hit AOVs (depth, normal, object, prim, albedo) of the lane's rows."""
@@ -121,7 +124,7 @@ def aov_lane(
         if stop[0] != 0:
             break
         rays_per_row[j - y0] += _primary_aovs_row(
-            G, F, cam, j, window, width, height, node_stack, t_stack, depth, normal, obj_id, prim_id, albedo_out
+            G, F, X, cam, j, window, width, height, node_stack, t_stack, depth, normal, obj_id, prim_id, albedo_out
         )
         rows_done[lane * PROGRESS_STRIDE] += 1
 
@@ -132,21 +135,21 @@ def aov_lane(
 
 
 @njit(**KERNEL)
-def _cast_row(G, F, cam, filt, j, window, width, height, samples, seed, bg, film, node_stack, t_stack):
+def _cast_row(G, F, X, cam, filt, j, window, width, height, samples, seed, bg, film, node_stack, t_stack):
     first, count, total_spp = samples
     x0, y0, x1, y1 = window
     for i in range(x0, x1):
         total = pixel_sums(film, j - y0, i - x0)
         for s in range(first, first + count):
             o, d, w, key = camera_sample(cam, filt, seed, i, j, s, total_spp, width, height)
-            total = add_sample(total, _cast_ray(G, F, o, d, bg, node_stack, t_stack), w)
+            total = add_sample(total, _cast_ray(G, F, X, o, d, bg, node_stack, t_stack), w)
         store_sums(film, j - y0, i - x0, total)
     return (x1 - x0) * count
 
 
 @njit(**KERNEL)
 def _trace_row(
-    G, F, L, cam, filt, j, window, width, height, samples, seed, max_depth, bg, film, work, node_stack, t_stack
+    G, F, L, X, cam, filt, j, window, width, height, samples, seed, max_depth, bg, film, work, node_stack, t_stack
 ):
     first, count, total_spp = samples
     x0, y0, x1, y1 = window
@@ -155,7 +158,7 @@ def _trace_row(
         total = pixel_sums(film, j - y0, i - x0)
         for s in range(first, first + count):
             o, d, w, key = camera_sample(cam, filt, seed, i, j, s, total_spp, width, height)
-            col, used = trace_ray(G, F, L, o, d, max_depth, bg, work, node_stack, t_stack, key)
+            col, used = trace_ray(G, F, L, X, o, d, max_depth, bg, work, node_stack, t_stack, key)
             rays += used
             total = add_sample(total, col, w)
         store_sums(film, j - y0, i - x0, total)
@@ -164,7 +167,7 @@ def _trace_row(
 
 @njit(**KERNEL)
 def _primary_aovs_row(
-    G, F, cam, j, window, width, height, node_stack, t_stack, depth, normal, obj_id, prim_id, albedo_out
+    G, F, X, cam, j, window, width, height, node_stack, t_stack, depth, normal, obj_id, prim_id, albedo_out
 ):
     """Depth, normal, object, prim and albedo of the (pinhole) rays through the row's pixel
     centres. Returns rays traced."""
@@ -173,7 +176,7 @@ def _primary_aovs_row(
     for i in range(x0, x1):
         o, d = camera_ray(cam, i + 0.5, j + 0.5, width, height)
         c0 = i - x0
-        t, prim, b1, b2 = closest_hit(G, o, d, 0.0, INF, node_stack, t_stack)
+        t, prim, b1, b2 = closest_hit(G, X, o, d, 0.0, INF, node_stack, t_stack)
         if prim == NO_HIT:
             depth[r, c0] = INF
             obj_id[r, c0] = -1
@@ -183,10 +186,10 @@ def _primary_aovs_row(
                 albedo_out[r, c0, c] = 0.0
         else:
             p = madd(o, d, t)
-            ng, ns, m, obj, face = surface(G, prim, b1, b2, p)
+            ng, ns, m, obj, face = surface(G, X, prim, b1, b2, p)
             if dot(ns, d) > 0.0:
                 ns = mul(ns, -1.0)
-            a = albedo(G, F, m, prim, b1, b2, p)
+            a = albedo(G, F, X, m, prim, b1, b2, p)
             depth[r, c0] = t
             obj_id[r, c0] = obj
             prim_id[r, c0] = face

@@ -46,12 +46,12 @@ def phong(n, l, view, specular):
 
 
 @njit(**KERNEL, inline="always")
-def albedo(G, F, m, prim, b1, b2, p):
+def albedo(G, F, X, m, prim, b1, b2, p):
     """The material's colour at a hit: its plain colour or its texture's."""
     x = int(F.materials[m, MAT_TEXTURE])
     if x < 0:
         return row3(F.materials, m, MAT_COLOR)
-    return texture_at(G, F, x, prim, b1, b2, p)
+    return texture_at(G, F, X, x, prim, b1, b2, p)
 
 
 @njit(**KERNEL, inline="always")

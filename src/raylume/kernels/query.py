@@ -10,8 +10,9 @@ from .vec import FAST
 
 
 @njit(parallel=True, fastmath=FAST, cache=True, error_model="numpy")
-def intersect_rays(S, origins, directions, t_out, object_out, prim_out, lanes):
+def intersect_rays(S, X, origins, directions, t_out, object_out, prim_out, lanes):
     """Closest hit of each ray (unit directions). t = inf, object = prim = -1 for misses.
+    X: the scene's `features(S)` (shapes.py).
     `lanes`: parallel iterations, one per thread (numba.get_num_threads(); passed in because
     calling it here would keep Numba from caching the function)."""
     n = origins.shape[0]
@@ -24,7 +25,7 @@ def intersect_rays(S, origins, directions, t_out, object_out, prim_out, lanes):
             for k in range(c * chunk, min(n, (c + 1) * chunk)):
                 o = (float(origins[k, 0]), float(origins[k, 1]), float(origins[k, 2]))
                 d = (float(directions[k, 0]), float(directions[k, 1]), float(directions[k, 2]))
-                t, prim, b1, b2 = closest_hit(G, o, d, 0.0, INF, node_stack, t_stack)
+                t, prim, b1, b2 = closest_hit(G, X, o, d, 0.0, INF, node_stack, t_stack)
                 t_out[k] = t
                 if prim == NO_HIT:
                     object_out[k] = -1

@@ -62,7 +62,7 @@ from .camera import CAM_FORWARD, CAM_POSITION, CAM_RIGHT, CAM_UP
 from .direct import unshadowed_lighting
 from .materials import MAT_TEXTURE, albedo
 from .scene import geometry_of, lights_of, surfaces_of
-from .shapes import PRIM_MATERIAL, offset_epsilon, surface
+from .shapes import PRIM_MATERIAL, features, offset_epsilon, surface
 from .textures import IMAGE, TEX_KIND
 from .traverse import TRAVERSAL_STACK
 from .vec import dot, hadamard, madd, mul
@@ -361,6 +361,7 @@ def _draw_bands(view, near, height, tri, extra, n_main, bounds, band_start, entr
 @njit(parallel=True, fastmath=RFAST, cache=True, error_model="numpy")
 def _shade(
     S,
+    X,
     cam,
     view,
     width,
@@ -395,6 +396,7 @@ def _shade(
             G,
             F,
             L,
+            X,
             cam,
             view,
             width,
@@ -425,6 +427,7 @@ def _shade_row(
     G,
     F,
     L,
+    X,
     cam,
     view,
     width,
@@ -489,11 +492,11 @@ def _shade_row(
         else:
             prim = extra_prim[t - n_main]
             b1 = extra_part[t - n_main]  # which part of the shape (a cylinder's side or cap)
-        ng, ns, m, obj, face_id = surface(G, prim, b1, b2, p)
+        ng, ns, m, obj, face_id = surface(G, X, prim, b1, b2, p)
         face = ns
         if dot(face, d) > 0.0:
             face = mul(face, -1.0)
-        col = albedo(G, F, m, prim, b1, b2, p)
+        col = albedo(G, F, X, m, prim, b1, b2, p)
         # as trace_ray: normals turned towards the incoming ray, a shading normal bent past
         # the horizon replaced by the geometric one, lit from just outside the surface
         if dot(ng, d) >= 0.0:
@@ -502,7 +505,7 @@ def _shade_row(
         if dot(ns, d) >= 0.0:
             ns = ng
         outside = madd(p, ng, offset_epsilon(F.epsilon_floor, p))
-        light, _ = unshadowed_lighting(G, F, L, outside, ns, mul(d, -1.0), m, node_stack, t_stack)
+        light, _ = unshadowed_lighting(G, F, L, X, outside, ns, mul(d, -1.0), m, node_stack, t_stack)
         shaded = hadamard(col, light)
         for c in range(3):
             rgb[j, i, c] = shaded[c]
@@ -595,6 +598,7 @@ def rasterize_arrays(
         numba.set_parallel_chunksize(previous)
     _shade(
         S,
+        features(S),
         cam,
         view,
         width,

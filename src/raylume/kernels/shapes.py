@@ -14,6 +14,7 @@ shape_disk.py), add its kind below and a line in each switch, and register its m
 scene/model.py and compile.py. docs/architecture.md lists the places.
 """
 
+import math
 from enum import IntEnum
 
 import numpy as np
@@ -62,10 +63,33 @@ PRIM_LIGHT = 5
 PRIM_WIDTH = 6
 
 NO_HIT = -1  # the primitive index of a ray that hit nothing
+INF = math.inf
+
+# Basic scenes (spheres and opaque triangles, no image textures, no area lights: the seed scene,
+# most meshes) compile without the code for the other shapes, planes, transparent shadows,
+# image textures and area lights: kernels take X = features(S), None for a basic scene, and
+# test `X is not None` before that code; Numba drops a branch on a None argument before
+# compiling it (about 9 s of a 45 s cold start). Other scenes get an array and all the code.
+_ALL_FEATURES = np.zeros(1, dtype=np.int8)
+
+
+def features(S):
+    """None for a basic kernel scene (see above); an array otherwise."""
+    from .lights import QUAD
+    from .lights import SPHERE as SPHERE_LIGHT
+    from .textures import IMAGE, TEX_KIND
+
+    basic = (
+        bool(np.isin(S.prims[:, PRIM_KIND], (SPHERE, TRIANGLE)).all())
+        and not S.has_transparency
+        and not (S.textures[:, TEX_KIND] == IMAGE).any()
+        and not np.isin(S.light_kind, (QUAD, SPHERE_LIGHT)).any()
+    )
+    return None if basic else _ALL_FEATURES
 
 
 @njit(**KERNEL, inline="always")
-def intersect(G, k, o, d, shear, tmin, tmax):
+def intersect(G, X, k, o, d, shear, tmin, tmax):
     """Ray against primitive k: (t, b1, b2), t = +inf for no hit in (tmin, tmax). b1, b2 are a
     triangle's barycentric weights of v1 and v2; shapes that need to remember which part they
     hit keep it in b1 (the cylinder)."""
@@ -76,8 +100,10 @@ def intersect(G, k, o, d, shear, tmin, tmax):
     if kind == TRIANGLE:
         return shape_triangle.intersect_triangle(o, shear, G.triangles, row, tmin, tmax)
     # other shapes: a call, so that they cost the leaf loop no code size (planes are tested
-    # once per ray, before traversal)
-    return _intersect_other(G.shapes, kind, row, o, d, tmin, tmax)
+    # once per ray, before traversal); no code at all for scenes without them (X is None)
+    if X is not None:
+        return _intersect_other(G.shapes, kind, row, o, d, tmin, tmax)
+    return INF, 0.0, 0.0
 
 
 @njit(**KERNEL)
@@ -93,7 +119,7 @@ def _intersect_other(shapes, kind, row, o, d, tmin, tmax):
 
 
 @njit(**KERNEL, inline="always")
-def normals(G, k, b1, b2, p):
+def normals(G, X, k, b1, b2, p):
     """(outward geometric normal, outward shading normal) of primitive k at the hit point p."""
     kind = G.prims[k, PRIM_KIND]
     row = np.int64(G.prims[k, PRIM_ROW])
@@ -102,15 +128,16 @@ def normals(G, k, b1, b2, p):
         return n, n
     if kind == TRIANGLE:
         return shape_triangle.normals(G, row, b1, b2)
-    if kind == PLANE:
-        n = shape_plane.normal(G.shapes, row, p)
-    else:
+    n = (0.0, 0.0, 1.0)
+    if X is not None:
         n = _normal_other(G.shapes, kind, row, b1, p)
     return n, n
 
 
 @njit(**KERNEL)
 def _normal_other(shapes, kind, row, b1, p):
+    if kind == PLANE:
+        return shape_plane.normal(shapes, row, p)
     if kind == DISK:
         return shape_disk.normal(shapes, row, p)
     if kind == QUAD:
@@ -119,7 +146,7 @@ def _normal_other(shapes, kind, row, b1, p):
 
 
 @njit(**KERNEL)
-def uv(G, k, b1, b2, p):
+def uv(G, X, k, b1, b2, p):
     """Texture coordinates of a hit on primitive k (each shape's module documents its own)."""
     kind = np.int64(G.prims[k, PRIM_KIND])
     row = np.int64(G.prims[k, PRIM_ROW])
@@ -127,6 +154,8 @@ def uv(G, k, b1, b2, p):
         return shape_triangle.uv(G, row, b1, b2)
     if kind == SPHERE:
         return shape_sphere.uv(G.shapes, row, p)
+    if X is None:
+        return 0.0, 0.0
     if kind == PLANE:
         return shape_plane.uv(G.shapes, row, p)
     if kind == DISK:
@@ -157,10 +186,10 @@ def tessellate(kind: Shape, row: np.ndarray, view) -> tuple[np.ndarray, np.ndarr
 
 
 @njit(**KERNEL, inline="always")
-def surface(G, k, b1, b2, p):
+def surface(G, X, k, b1, b2, p):
     """The surface at a hit on primitive k at p: (outward geometric normal, outward shading
     normal, material, object, face)."""
-    ng, ns = normals(G, k, b1, b2, p)
+    ng, ns = normals(G, X, k, b1, b2, p)
     return (
         ng,
         ns,

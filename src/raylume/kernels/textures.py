@@ -40,14 +40,16 @@ def checker(textures, x, p):
 
 
 @njit(**KERNEL, inline="always")
-def texture_at(G, F, x, prim, b1, b2, p):
+def texture_at(G, F, X, x, prim, b1, b2, p):
     """Colour of texture x at a hit on primitive `prim` at p."""
     tex = F.textures
     if tex[x, TEX_KIND] == CHECKER:
         return checker(tex, x, p)
+    if X is None:  # never: such scenes have no image textures (shapes.features)
+        return row3(tex, x, TEX_COLOR_A)
     # explicit int64: call sites after inlined traversal may type the primitive as a literal,
     # which would compile shapes.uv once per literal
-    u, v = uv(G, np.int64(prim), b1, b2, p)
+    u, v = uv(G, X, np.int64(prim), b1, b2, p)
     return texture_lookup(
         F.texels,
         int(tex[x, TEX_OFFSET]),

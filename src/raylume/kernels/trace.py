@@ -38,7 +38,7 @@ def stack_rows(max_depth):
 
 # Inlined into the row loop (frame.py): a call per camera ray passed the scene views by value.
 @njit(**KERNEL, inline="always")
-def trace_ray(G, F, L, o, d, max_depth, background, rays, node_stack, t_stack, key):
+def trace_ray(G, F, L, X, o, d, max_depth, background, rays, node_stack, t_stack, key):
     """Colour seen along the ray (o, d). `rays` is the stack of rays waiting to be traced;
     `key` the camera sample's random key (area lights). Returns (rgb, rays traced)."""
     cr = 0.0
@@ -62,7 +62,7 @@ def trace_ray(G, F, L, o, d, max_depth, background, rays, node_stack, t_stack, k
             w = (rays[top, RAY_WEIGHT], rays[top, RAY_WEIGHT + 1], rays[top, RAY_WEIGHT + 2])
             depth = int(rays[top, RAY_DEPTH])
         pending = False
-        t, prim, b1, b2 = closest_hit(G, o, d, 0.0, INF, node_stack, t_stack)
+        t, prim, b1, b2 = closest_hit(G, X, o, d, 0.0, INF, node_stack, t_stack)
         count += 1
         if t == INF:
             cr += w[0] * background[0]
@@ -70,7 +70,7 @@ def trace_ray(G, F, L, o, d, max_depth, background, rays, node_stack, t_stack, k
             cb += w[2] * background[2]
             continue
         p = madd(o, d, t)
-        ng, ns, m, obj, face = surface(G, prim, b1, b2, p)
+        ng, ns, m, obj, face = surface(G, X, prim, b1, b2, p)
         mat = F.materials
         entering = dot(ng, d) < 0.0
         if not entering:
@@ -84,10 +84,10 @@ def trace_ray(G, F, L, o, d, max_depth, background, rays, node_stack, t_stack, k
         eps = offset_epsilon(F.epsilon_floor, p)
         outside = madd(p, ng, eps)
         view = mul(d, -1.0)
-        light, shadow_rays = direct_lighting(G, F, L, outside, ns, view, m, True, node_stack, t_stack, key, shaded)
+        light, shadow_rays = direct_lighting(G, F, L, X, outside, ns, view, m, True, node_stack, t_stack, key, shaded)
         shaded += 1
         count += shadow_rays
-        local = hadamard(albedo(G, F, m, prim, b1, b2, p), light)
+        local = hadamard(albedo(G, F, X, m, prim, b1, b2, p), light)
         if depth <= 0:
             cr += w[0] * local[0]
             cg += w[1] * local[1]

@@ -84,12 +84,12 @@ def safe_inverse(d):
 
 
 @njit(**KERNEL, inline="always")
-def intersect_range(G, first, end, o, d, shear, tmin, best_t, prim, b1, b2, stop_at_first):
+def intersect_range(G, X, first, end, o, d, shear, tmin, best_t, prim, b1, b2, stop_at_first):
     """The leaf loop: primitives first..end-1 against the ray, nearest hit before best_t.
     Returns the updated (best_t, prim, b1, b2); with stop_at_first, returns at the first hit
     (any-hit queries)."""
     for k in range(first, end):
-        t, u, v = intersect(G, k, o, d, shear, tmin, best_t)
+        t, u, v = intersect(G, X, k, o, d, shear, tmin, best_t)
         if t < best_t:
             best_t, prim, b1, b2 = t, k, u, v
             if stop_at_first:
@@ -101,19 +101,20 @@ def intersect_range(G, first, end, o, d, shear, tmin, best_t, prim, b1, b2, stop
 # the inlined copy made every traversal slower (registers, code size). Any-hit queries use it
 # too, without stopping early (a few planes): one compilation instead of two.
 @njit(**KERNEL)
-def _unbounded_hit(G, o, d, shear, tmin, tmax):
+def _unbounded_hit(G, X, o, d, shear, tmin, tmax):
     """The nearest of the unbounded primitives (after the BVH's) hit by the ray."""
-    return intersect_range(G, G.n_bounded, G.prims.shape[0], o, d, shear, tmin, tmax, NO_HIT, 0.0, 0.0, False)
+    return intersect_range(G, X, G.n_bounded, G.prims.shape[0], o, d, shear, tmin, tmax, NO_HIT, 0.0, 0.0, False)
 
 
 @njit(**KERNEL, inline="always")
-def closest_hit(G, o, d, tmin, tmax, node_stack, t_stack):
+def closest_hit(G, X, o, d, tmin, tmax, node_stack, t_stack):
     """Nearest hit in (tmin, tmax): (t, primitive, b1, b2); primitive NO_HIT when nothing.
     b1, b2 are the barycentric weights of a triangle's second and third vertices."""
     shear = ray_shear(d) if G.triangles.shape[0] > 0 else NO_SHEAR
     best_t, prim, b1, b2 = tmax, NO_HIT, 0.0, 0.0
-    if G.n_bounded < G.prims.shape[0]:
-        best_t, prim, b1, b2 = _unbounded_hit(G, o, d, shear, tmin, tmax)
+    if X is not None:
+        if G.n_bounded < G.prims.shape[0]:
+            best_t, prim, b1, b2 = _unbounded_hit(G, X, o, d, shear, tmin, tmax)
     nodes = G.node_index
     bounds = G.node_bounds
     # A root leaf (small scenes) needs neither box tests nor the inverse direction.
@@ -131,7 +132,7 @@ def closest_hit(G, o, d, tmin, tmax, node_stack, t_stack):
         if count > 0:
             first = nodes[node, 0]
             best_t, prim, b1, b2 = intersect_range(
-                G, first, first + count, o, d, shear, tmin, best_t, prim, b1, b2, False
+                G, X, first, first + count, o, d, shear, tmin, best_t, prim, b1, b2, False
             )
         else:
             left = node + 1
@@ -167,11 +168,12 @@ def closest_hit(G, o, d, tmin, tmax, node_stack, t_stack):
 
 
 @njit(**KERNEL, inline="always")
-def any_hit(G, o, d, tmin, tmax, node_stack):
+def any_hit(G, X, o, d, tmin, tmax, node_stack):
     """True when anything lies in (tmin, tmax): stops at the first blocker found."""
     shear = ray_shear(d) if G.triangles.shape[0] > 0 else NO_SHEAR
-    if G.n_bounded < G.prims.shape[0] and _unbounded_hit(G, o, d, shear, tmin, tmax)[1] >= 0:
-        return True
+    if X is not None:
+        if G.n_bounded < G.prims.shape[0] and _unbounded_hit(G, X, o, d, shear, tmin, tmax)[1] >= 0:
+            return True
     nodes = G.node_index
     bounds = G.node_bounds
     if nodes[0, 1] == 0 and nodes[0, 0] == 0:
@@ -185,7 +187,7 @@ def any_hit(G, o, d, tmin, tmax, node_stack):
         count = nodes[node, 1]
         if count > 0:
             first = nodes[node, 0]
-            if intersect_range(G, first, first + count, o, d, shear, tmin, tmax, NO_HIT, 0.0, 0.0, True)[1] >= 0:
+            if intersect_range(G, X, first, first + count, o, d, shear, tmin, tmax, NO_HIT, 0.0, 0.0, True)[1] >= 0:
                 return True
         else:
             # test children before pushing them, so the stack holds only boxes the ray enters
