@@ -505,3 +505,23 @@ def test_aov_without_path_needs_an_exr_output(tmp_path, good):
     assert_refused(
         raylume("render", good, "-o", "out.png", "--aov", "depth", cwd=tmp_path), "--aov depth", ".exr", "NAME=PATH"
     )
+
+
+def test_crop_writes_that_window_of_the_full_render(tmp_path):
+    full = raylume("render", "--width", 60, "--height", 40, "--spp", 2, "-o", "full.npy", "--aov", "depth=fd.npy",
+                   cwd=tmp_path)  # fmt: skip
+    assert full.returncode == 0, full.stderr
+    part = raylume("render", "--width", 60, "--height", 40, "--spp", 2, "--crop", "10:35,5:30", "-o", "part.npy",
+                   "--aov", "depth=pd.npy", cwd=tmp_path)  # fmt: skip
+    assert part.returncode == 0, part.stderr
+    want = np.load(tmp_path / "full.npy")[5:30, 10:35]
+    got = np.load(tmp_path / "part.npy")
+    assert got.shape == (25, 25, 3) and got.tobytes() == np.ascontiguousarray(want).tobytes()
+    assert np.array_equal(np.load(tmp_path / "pd.npy"), np.load(tmp_path / "fd.npy")[5:30, 10:35])
+
+
+@pytest.mark.parametrize("crop", ["10:5,0:10", "0:61,0:10", "a:b,c:d", "0:10"])
+def test_bad_crops_are_refused_before_rendering(tmp_path, crop):
+    result = raylume("render", "--width", 60, "--height", 40, "--crop", crop, cwd=tmp_path)
+    assert_refused(result, "crop")
+    assert not (tmp_path / "render.png").exists()

@@ -205,6 +205,14 @@ def render(
         str | None,
         typer.Option("--filter", metavar="FILTER", help="Pixel filter for spp > 1: box | gaussian | mitchell"),
     ] = None,
+    crop: Annotated[
+        str | None,
+        typer.Option(
+            "--crop",
+            metavar="X0:X1,Y0:Y1",
+            help="Render only pixel columns X0..X1-1 and rows Y0..Y1-1; the output is that window of the full image",
+        ),
+    ] = None,
     debug: Annotated[bool, typer.Option("--debug", metavar=FLAG, help="Show tracebacks of errors")] = False,
 ) -> None:
     """Render SCENE to an image (default: the built-in `seed` scene to render.png)."""
@@ -229,6 +237,7 @@ def render(
                 pixel_filter=pixel_filter,
                 overrides=overrides or [],
                 bit_depth=bit_depth,
+                crop=crop,
             )
     except RenderInterrupted as exc:
         _interrupted(exc, output if partial else None, bit_depth)
@@ -277,6 +286,7 @@ def _render(
     pixel_filter=None,
     overrides=(),
     bit_depth=8,
+    crop=None,
 ):
     import numba
 
@@ -307,6 +317,7 @@ def _render(
     )
     parse_seconds = time.perf_counter() - started
     _warn_ignored(output, scene_model.render, exposure, pixel_filter)
+    window = _parse_crop(crop, scene_model.render.width, scene_model.render.height)
 
     with _progress(quiet) as progress, _compile_notice(quiet) as status:
         image = render_scene(
@@ -316,6 +327,7 @@ def _render(
             progress=progress,
             source=label,
             status=status,
+            crop=window,
         )
     image.stats["parse_seconds"] = parse_seconds
     image.save(output, bit_depth=bit_depth, layers=layers)
@@ -326,6 +338,21 @@ def _render(
         write_atomic(stats_path, lambda fh: fh.write(text.encode()))
     if not quiet:
         typer.echo(summary(output, image.stats), err=True)
+
+
+def _parse_crop(text: str | None, width: int, height: int) -> tuple[int, int, int, int] | None:
+    """(x0, x1, y0, y1) of `--crop X0:X1,Y0:Y1`, checked against the image size."""
+    if text is None:
+        return None
+    from .session import check_crop
+
+    try:
+        columns, rows = text.split(",")
+        x0, x1 = (int(v) for v in columns.split(":"))
+        y0, y1 = (int(v) for v in rows.split(":"))
+    except ValueError:
+        raise OutputError(f"--crop {text}: expected X0:X1,Y0:Y1 in pixels, e.g. --crop 100:300,50:250") from None
+    return check_crop((x0, x1, y0, y1), width, height, "command line (--crop)")
 
 
 def _apply_flags(scene_model, **flags):
