@@ -161,3 +161,13 @@ def test_a_constant_image_stays_constant_under_every_filter_and_spp(pixel_filter
         for mode in ("cast", "trace"):
             img = raylume.render(grey, spp=spp, filter=pixel_filter, mode=mode, aovs=False, seed=spp)
             np.testing.assert_allclose(img.rgb, want, rtol=1e-6, err_msg=f"{pixel_filter} spp {spp} {mode}")
+
+
+def test_intersect_keeps_the_rays_leading_shape(scene):
+    origins = np.zeros((2, 3, 3))
+    directions = np.broadcast_to([0.0, 0.0, 1.0], (2, 3, 3)).copy()
+    directions[1, 2] = [0.0, 1.0, 0.0]  # up: misses everything
+    t, obj, prim = raylume.intersect(scene, origins, directions)
+    assert t.shape == obj.shape == prim.shape == (2, 3)
+    assert obj[0, 0] == 1 and np.isclose(t[0, 0], 2.0)  # the glass sphere at z = 3, radius 1
+    assert obj[1, 2] == -1 and np.isinf(t[1, 2])
