@@ -18,7 +18,8 @@ import math
 from enum import IntEnum
 
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.extending import overload
 
 from . import shape_cylinder, shape_disk, shape_plane, shape_quad, shape_sphere, shape_triangle
 from .vec import KERNEL, max_abs
@@ -69,23 +70,26 @@ INF = math.inf
 # most meshes) compile without the code for the other shapes, planes, transparent shadows,
 # image textures and area lights: kernels take X = features(S), None for a basic scene, and
 # test `X is not None` before that code; Numba drops a branch on a None argument before
-# compiling it (about 9 s of a 45 s cold start). Other scenes get an array and all the code.
-_ALL_FEATURES = np.zeros(1, dtype=np.int8)
+# compiling it (about 9 s of a 45 s cold start). Other scenes get an array: int8 when planes
+# are their only other shape, float64 when they have disks, quads or cylinders (see below).
+_WITH_PLANES = np.zeros(1, dtype=np.int8)  # and nothing but spheres and triangles beside
+_WITH_ALL_SHAPES = np.zeros(1, dtype=np.float64)
 
 
 def features(S):
     """None for a basic kernel scene (see above); an array otherwise."""
-    from .lights import QUAD
-    from .lights import SPHERE as SPHERE_LIGHT
-    from .textures import IMAGE, TEX_KIND
+    from . import lights, textures
 
     basic = (
         bool(np.isin(S.prims[:, PRIM_KIND], (SPHERE, TRIANGLE)).all())
         and not S.has_transparency
-        and not (S.textures[:, TEX_KIND] == IMAGE).any()
-        and not np.isin(S.light_kind, (QUAD, SPHERE_LIGHT)).any()
+        and not (S.textures[:, textures.TEX_KIND] == textures.IMAGE).any()
+        and not np.isin(S.light_kind, (lights.QUAD, lights.SPHERE)).any()
     )
-    return None if basic else _ALL_FEATURES
+    if basic:
+        return None
+    unusual = np.isin(S.prims[:, PRIM_KIND], (DISK, QUAD, CYLINDER)).any()
+    return _WITH_ALL_SHAPES if unusual else _WITH_PLANES
 
 
 @njit(**KERNEL, inline="always")
@@ -102,7 +106,7 @@ def intersect(G, X, k, o, d, shear, tmin, tmax):
     # other shapes: a call, so that they cost the leaf loop no code size (planes are tested
     # once per ray, before traversal); no code at all for scenes without them (X is None)
     if X is not None:
-        return _intersect_other(G.shapes, kind, row, o, d, tmin, tmax)
+        return _intersect_unusual(X, G.shapes, kind, row, o, d, tmin, tmax)
     return INF, 0.0, 0.0
 
 
@@ -130,7 +134,7 @@ def normals(G, X, k, b1, b2, p):
         return shape_triangle.normals(G, row, b1, b2)
     n = (0.0, 0.0, 1.0)
     if X is not None:
-        n = _normal_other(G.shapes, kind, row, b1, p)
+        n = _normal_unusual(X, G.shapes, kind, row, b1, p)
     return n, n
 
 
@@ -156,13 +160,64 @@ def uv(G, X, k, b1, b2, p):
         return shape_sphere.uv(G.shapes, row, p)
     if X is None:
         return 0.0, 0.0
+    return _uv_unusual(X, G.shapes, kind, row, b1, p)
+
+
+@njit(**KERNEL)
+def _uv_other(shapes, kind, row, b1, p):
     if kind == PLANE:
-        return shape_plane.uv(G.shapes, row, p)
+        return shape_plane.uv(shapes, row, p)
     if kind == DISK:
-        return shape_disk.uv(G.shapes, row, p)
+        return shape_disk.uv(shapes, row, p)
     if kind == QUAD:
-        return shape_quad.uv(G.shapes, row, p)
-    return shape_cylinder.uv(G.shapes, row, p, b1)
+        return shape_quad.uv(shapes, row, p)
+    return shape_cylinder.uv(shapes, row, p, b1)
+
+
+# Shapes beyond spheres and triangles go through these three functions, chosen by X's type at
+# compile time: scenes whose only other shape is the plane (X int8) compile the plane's code
+# alone; scenes with disks, quads or cylinders (X float64) compile every shape's.
+
+
+def _intersect_unusual(X, shapes, kind, row, o, d, tmin, tmax):
+    raise NotImplementedError("a Numba overload")
+
+
+def _normal_unusual(X, shapes, kind, row, b1, p):
+    raise NotImplementedError("a Numba overload")
+
+
+def _uv_unusual(X, shapes, kind, row, b1, p):
+    raise NotImplementedError("a Numba overload")
+
+
+def _all_shapes(X) -> bool:
+    return isinstance(X, types.Array) and X.dtype == types.float64
+
+
+@overload(_intersect_unusual, jit_options=KERNEL, inline="always")
+def _intersect_unusual_impl(X, shapes, kind, row, o, d, tmin, tmax):
+    if _all_shapes(X):
+        return lambda X, shapes, kind, row, o, d, tmin, tmax: _intersect_other(shapes, kind, row, o, d, tmin, tmax)
+    return lambda X, shapes, kind, row, o, d, tmin, tmax: (
+        shape_plane.intersect(shapes, row, o, d, tmin, tmax),
+        0.0,
+        0.0,
+    )
+
+
+@overload(_normal_unusual, jit_options=KERNEL, inline="always")
+def _normal_unusual_impl(X, shapes, kind, row, b1, p):
+    if _all_shapes(X):
+        return lambda X, shapes, kind, row, b1, p: _normal_other(shapes, kind, row, b1, p)
+    return lambda X, shapes, kind, row, b1, p: shape_plane.normal(shapes, row, p)
+
+
+@overload(_uv_unusual, jit_options=KERNEL, inline="always")
+def _uv_unusual_impl(X, shapes, kind, row, b1, p):
+    if _all_shapes(X):
+        return lambda X, shapes, kind, row, b1, p: _uv_other(shapes, kind, row, b1, p)
+    return lambda X, shapes, kind, row, b1, p: shape_plane.uv(shapes, row, p)
 
 
 # --- Python side -----------------------------------------------------------------------------
