@@ -6,6 +6,7 @@ import math
 import numpy as np
 from numba import njit
 
+from .shape_plane import intersect_plane
 from .vec import KERNEL, cross, dot, length, madd, row3, sub
 
 INF = math.inf
@@ -37,13 +38,9 @@ def bounds(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 @njit(**KERNEL)
 def intersect(rows, i, o, d, tmin, tmax):
     """The supporting plane's hit, kept when it lies within the radius."""
-    n = row3(rows, i, NORMAL)
-    denom = dot(d, n)
-    if denom == 0.0:
-        return INF
     c = row3(rows, i, CENTER)
-    t = dot(sub(c, o), n) / denom
-    if not (t > tmin and t < tmax):
+    t = intersect_plane(o, d, c, row3(rows, i, NORMAL), tmin, tmax)
+    if t == INF:
         return INF
     rel = sub(madd(o, d, t), c)
     r = rows[i, RADIUS]

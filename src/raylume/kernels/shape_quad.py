@@ -8,6 +8,7 @@ import math
 import numpy as np
 from numba import njit
 
+from .shape_plane import intersect_plane
 from .vec import KERNEL, cross, dot, madd, row3, sub
 
 INF = math.inf
@@ -53,12 +54,9 @@ def local(rows, i, p):
 
 @njit(**KERNEL)
 def intersect(rows, i, o, d, tmin, tmax):
-    n = row3(rows, i, NORMAL)
-    denom = dot(d, n)
-    if denom == 0.0:
-        return INF
-    t = dot(sub(row3(rows, i, CENTER), o), n) / denom
-    if not (t > tmin and t < tmax):
+    """The supporting plane's hit, kept when it lies within the parallelogram."""
+    t = intersect_plane(o, d, row3(rows, i, CENTER), row3(rows, i, NORMAL), tmin, tmax)
+    if t == INF:
         return INF
     a, b = local(rows, i, madd(o, d, t))
     if abs(a) > 0.5 or abs(b) > 0.5:
