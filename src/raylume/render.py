@@ -44,31 +44,8 @@ def render(
     rows y0..y1-1: the image is that window, equal to the same window of the full render.
     `status` is called with "compiling" before the kernels' first call and "rendering" after
     it (see Session.render)."""
-    settings = resolve_settings(
-        scene,
-        source,
-        width=width,
-        height=height,
-        spp=spp,
-        mode=mode,
-        max_depth=max_depth,
-        seed=seed,
-        filter=filter,
-        exposure=exposure,
-    )  # fail before compiling
+    overrides = dict(width=width, height=height, spp=spp, mode=mode, max_depth=max_depth, seed=seed,
+                     filter=filter, exposure=exposure)  # fmt: skip
+    settings = resolve_settings(scene, source, **overrides)  # fail before compiling
     session = Session(scene, source=source, accelerate=settings.mode != "raster")
-    return session.render(
-        width=width,
-        height=height,
-        spp=spp,
-        mode=mode,
-        max_depth=max_depth,
-        seed=seed,
-        filter=filter,
-        exposure=exposure,
-        threads=threads,
-        aovs=aovs,
-        progress=progress,
-        crop=crop,
-        status=status,
-    )
+    return session.render(**overrides, threads=threads, aovs=aovs, progress=progress, crop=crop, status=status)

@@ -159,9 +159,6 @@ class Film:
             rgb = np.where(cancelled[..., None], plain, rgb)
         return np.maximum(rgb, 0.0).astype(np.float32)
 
-    def bytes_per_pixel(self) -> int:
-        return 8 * self.sums.shape[2]
-
     @staticmethod
     def max_bytes_per_pixel() -> int:
         return 8 * FILM_SIGNED_WIDTH
