@@ -1,0 +1,469 @@
+"""The environment light (kernels/environment.py): its direction convention, its sampling (pdf
+normalisation, consistency, a chi-square test, an importance-sampling estimate against an exact
+integral) and its image loaders (.hdr with and without run-length encoding, .exr), with the
+errors bad input gives. Fixed seeds; tolerances from standard errors."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numba
+import numpy as np
+import pytest
+from numba import njit
+from scipy import stats
+
+from raylume.errors import SceneError
+from raylume.image import rgbe_encode, save_array
+from raylume.kernels.environment import (
+    MAX_TEXELS,
+    build_environment,
+    environment_pdf,
+    environment_radiance,
+    load_environment_image,
+    no_environment,
+    rgbe_decode,
+    sample_environment,
+)
+from raylume.scene.mesh import transform_matrix
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+
+# ---------------------------------------------------------------------------------------------
+# Batch helpers (one compilation each: every Environment has the same Numba type)
+
+
+@njit(cache=False)
+def _radiance_many(E, dirs):
+    out = np.empty((dirs.shape[0], 3))
+    for k in range(dirs.shape[0]):
+        r = environment_radiance(E, (dirs[k, 0], dirs[k, 1], dirs[k, 2]))
+        out[k, 0], out[k, 1], out[k, 2] = r
+    return out
+
+
+@njit(cache=False)
+def _pdf_many(E, dirs):
+    out = np.empty(dirs.shape[0])
+    for k in range(dirs.shape[0]):
+        out[k] = environment_pdf(E, (dirs[k, 0], dirs[k, 1], dirs[k, 2]))
+    return out
+
+
+@njit(cache=False)
+def _sample_many(E, u):
+    n = u.shape[0]
+    dirs = np.empty((n, 3))
+    rgb = np.empty((n, 3))
+    pdf = np.empty(n)
+    for k in range(n):
+        d, c, p = sample_environment(E, u[k, 0], u[k, 1])
+        dirs[k, 0], dirs[k, 1], dirs[k, 2] = d
+        rgb[k, 0], rgb[k, 1], rgb[k, 2] = c
+        pdf[k] = p
+    return dirs, rgb, pdf
+
+
+def formula_direction(u, v):
+    """The documented convention: image coordinates -> environment-frame direction."""
+    phi = 2 * np.pi * (np.asarray(u) - 0.5)
+    theta = np.pi * np.asarray(v)
+    return np.stack([np.sin(phi) * np.sin(theta), np.cos(theta), np.cos(phi) * np.sin(theta)], axis=-1)
+
+
+def sphere_grid(n_theta: int, n_phi: int):
+    """Midpoints of an equal-area grid (uniform in cos theta and phi): (directions, weight of
+    each, the cell's solid angle, all equal)."""
+    z = 1 - (np.arange(n_theta) + 0.5) * 2 / n_theta
+    phi = (np.arange(n_phi) + 0.5) * 2 * np.pi / n_phi
+    s = np.sqrt(1 - z * z)
+    d = np.stack(
+        [
+            s[:, None] * np.sin(phi)[None, :],
+            np.broadcast_to(z[:, None], (n_theta, n_phi)),
+            s[:, None] * np.cos(phi)[None, :],
+        ],
+        axis=-1,
+    )
+    return np.ascontiguousarray(d.reshape(-1, 3)), 4 * np.pi / (n_theta * n_phi)
+
+
+def make_image(seed=1, h=16, w=32) -> np.ndarray:
+    """A non-uniform colour image: a gradient, noise, a bright spot and a black band."""
+    rng = np.random.default_rng(seed)
+    img = 0.2 + rng.random((h, w, 3)) * np.linspace(0.1, 1.0, w)[None, :, None]
+    img[h // 4, (3 * w) // 4] = (40.0, 30.0, 10.0)
+    img[h - 2] = 0.0
+    return img.astype(np.float32)
+
+
+def env_from(img, tmp_path, rotate=(0, 0, 0), name="env.exr", **kw):
+    save_array(tmp_path / name, img)
+    return build_environment(file=name, base_dir=tmp_path, rotate=rotate, **kw)
+
+
+# ---------------------------------------------------------------------------------------------
+# Conventions
+
+
+@pytest.mark.parametrize("texel", [(0, 7), (2, 11), (4, 3), (8, 14), (5, 7)])
+def test_single_texel_is_seen_in_the_documented_direction(tmp_path, texel):
+    h, w = 9, 15  # odd sizes: the centre column and the middle row are texels
+    img = np.zeros((h, w, 3), np.float32)
+    i, j = texel
+    img[i, j] = (5.0, 6.0, 7.0)
+    E = env_from(img, tmp_path)
+    centre = formula_direction((j + 0.5) / w, (i + 0.5) / h)
+    assert environment_radiance(E, tuple(centre)) == (5.0, 6.0, 7.0)
+    # every other texel centre is black
+    v, u = np.meshgrid((np.arange(h) + 0.5) / h, (np.arange(w) + 0.5) / w, indexing="ij")
+    seen = _radiance_many(E, np.ascontiguousarray(formula_direction(u, v).reshape(-1, 3))).reshape(h, w, 3)
+    np.testing.assert_array_equal(seen, img)
+
+
+def test_centre_column_looks_along_z_top_row_along_y_and_right_is_x(tmp_path):
+    h, w = 9, 15
+    img = np.zeros((h, w, 3), np.float32)
+    img[h // 2, w // 2] = (1, 0, 0)  # the centre of the image
+    img[0, :] = (0, 1, 0)  # the top row
+    img[h - 1, :] = (0, 0, 1)  # the bottom row
+    img[h // 2, (3 * w) // 4] = (1, 1, 0)  # right of the centre: +x
+    img[h // 2, w // 4] = (0, 1, 1)  # left of the centre: -x
+    E = env_from(img, tmp_path)
+    assert environment_radiance(E, (0.0, 0.0, 1.0)) == (1, 0, 0)
+    assert environment_radiance(E, (0.0, 1.0, 0.0)) == (0, 1, 0)
+    assert environment_radiance(E, (0.3, 0.9, -0.1)) == (0, 1, 0)
+    assert environment_radiance(E, (0.0, -1.0, 0.0)) == (0, 0, 1)
+    assert environment_radiance(E, (1.0, 0.0, 0.0)) == (1, 1, 0)
+    assert environment_radiance(E, (-1.0, 0.0, 0.0)) == (0, 1, 1)
+
+
+def test_rotate_turns_the_image_as_object_transforms_do(tmp_path):
+    h, w = 9, 15
+    img = np.zeros((h, w, 3), np.float32)
+    img[h // 2, w // 2] = (1, 0, 0)  # +z in the environment's frame
+    img[2, 11] = (0, 2, 0)
+    E = env_from(img, tmp_path, rotate=(0, 90, 0))
+    # transform_matrix: rotating 90 degrees about y maps +z to +x
+    assert environment_radiance(E, (1.0, 0.0, 0.0)) == (1, 0, 0)
+    assert environment_radiance(E, (0.0, 0.0, 1.0)) == (0, 0, 0)
+    for rotate in [(0, 90, 0), (30, -50, 70)]:
+        E = env_from(img, tmp_path, rotate=rotate)
+        m = transform_matrix(rotate=rotate)[:3, :3]
+        np.testing.assert_allclose(E.rotation, m)
+        d = m @ formula_direction(11.5 / w, 2.5 / h)
+        assert environment_radiance(E, tuple(d)) == (0, 2, 0)
+
+
+def test_constant_colour_is_sampled_uniformly():
+    E = build_environment(color=(0.5, 1.0, 2.0), intensity=3.0)
+    assert E.image.shape == (1, 1, 3)
+    rng = np.random.default_rng(2)
+    dirs, rgb, pdf = _sample_many(E, rng.random((20000, 2)))
+    np.testing.assert_allclose(pdf, 1 / (4 * np.pi), rtol=1e-12)
+    np.testing.assert_array_equal(rgb, np.broadcast_to([1.5, 3.0, 6.0], rgb.shape))
+    np.testing.assert_allclose(np.linalg.norm(dirs, axis=1), 1, atol=1e-12)
+    # uniform over the sphere: each coordinate's mean is 0 and its mean square 1/3
+    se = np.sqrt(1 / 3 / len(dirs))
+    assert np.all(np.abs(dirs.mean(axis=0)) < 4 * se)
+    assert np.all(np.abs((dirs**2).mean(axis=0) - 1 / 3) < 4 * np.sqrt(4 / 45 / len(dirs)))
+    assert environment_pdf(E, (0.0, 0.0, 1.0)) == pytest.approx(1 / (4 * np.pi))
+
+
+def test_no_environment_is_black_has_pdf_zero_and_the_same_numba_type():
+    none = no_environment()
+    assert not none.present
+    assert environment_radiance(none, (0.0, 0.0, 1.0)) == (0.0, 0.0, 0.0)
+    assert environment_pdf(none, (0.0, 0.0, 1.0)) == 0.0
+    assert sample_environment(none, 0.5, 0.5)[2] == 0.0
+    assert numba.typeof(none) == numba.typeof(build_environment(color=(1, 1, 1)))
+    assert numba.typeof(none) == numba.typeof(build_environment(file="sky.hdr", base_dir=EXAMPLES))
+
+
+# ---------------------------------------------------------------------------------------------
+# Sampling
+
+
+@pytest.mark.parametrize("rotate", [(0, 0, 0), (25, -40, 110)])
+def test_pdf_integrates_to_one(tmp_path, rotate):
+    E = env_from(make_image(), tmp_path, rotate=rotate)
+    dirs, cell = sphere_grid(1024, 2048)
+    total = _pdf_many(E, dirs).sum() * cell
+    # midpoint rule over a grid not aligned with the texels: error ~ 1 / (cells per texel edge)
+    assert total == pytest.approx(1.0, abs=2e-3)
+
+
+@pytest.mark.parametrize("rotate", [(0, 0, 0), (25, -40, 110)])
+def test_samples_carry_their_pdf_and_radiance(tmp_path, rotate):
+    E = env_from(make_image(), tmp_path, rotate=rotate)
+    rng = np.random.default_rng(3)
+    dirs, rgb, pdf = _sample_many(E, rng.random((50000, 2)))
+    assert np.all(pdf > 0)
+    np.testing.assert_allclose(np.linalg.norm(dirs, axis=1), 1, atol=1e-12)
+    np.testing.assert_allclose(pdf, _pdf_many(E, dirs), rtol=1e-9)
+    np.testing.assert_array_equal(rgb, _radiance_many(E, dirs))
+    # the black band (second row from the bottom) is never sampled
+    assert np.all(rgb.max(axis=1) > 0)
+
+
+def test_sampled_directions_follow_the_pdf_chi_square(tmp_path):
+    rotate = (10, 35, -20)
+    E = env_from(make_image(seed=4), tmp_path, rotate=rotate)
+    n = 200_000
+    rng = np.random.default_rng(5)
+    dirs, _, _ = _sample_many(E, rng.random((n, 2)))
+    # bins: 24 x 48 in world (cos theta, phi), equal solid angle
+    nt, nphi = 24, 48
+    ti = np.minimum(((1 - dirs[:, 1]) / 2 * nt).astype(int), nt - 1)
+    pj = np.minimum((np.mod(np.arctan2(dirs[:, 0], dirs[:, 2]), 2 * np.pi) / (2 * np.pi) * nphi).astype(int), nphi - 1)
+    observed = np.bincount(ti * nphi + pj, minlength=nt * nphi).astype(float)
+    # expected: the pdf integrated over each bin on a 32 x 32 sub-grid
+    sub = 32
+    fine, cell = sphere_grid(nt * sub, nphi * sub)
+    p = _pdf_many(E, fine).reshape(nt, sub, nphi, sub).sum(axis=(1, 3)).reshape(-1) * cell
+    expected = p / p.sum() * n
+    small = expected < 20  # pooled into one bin
+    assert small.sum() < 0.2 * len(small)
+    obs, exp = observed[~small], expected[~small]
+    if expected[small].sum() >= 20:
+        obs, exp = np.append(obs, observed[small].sum()), np.append(exp, expected[small].sum())
+    else:
+        assert observed[small].sum() <= 40
+    exp = exp * obs.sum() / exp.sum()
+    result = stats.chisquare(obs, exp)
+    assert result.pvalue > 1e-3, result
+
+
+@pytest.mark.parametrize("rotate", [(0, 0, 0), (0, 37, 0)])
+def test_importance_sampled_irradiance_matches_the_exact_integral(tmp_path, rotate):
+    """E(+y) = integral of L(w) max(0, w.y) dw: texel by texel, exactly, against the mean of
+    L cos / pdf over sampled directions (a rotation about y keeps +y)."""
+    img = make_image(seed=6)
+    E = env_from(img, tmp_path, rotate=rotate)
+    h, w = img.shape[:2]
+    z = np.cos(np.pi * np.arange(h + 1) / h)
+    # per texel of the upper hemisphere (h is even, so no row straddles the horizon):
+    # integral of cos(theta) over it = (2 pi / w) (z0^2 - z1^2) / 2
+    cos_weight = np.where(z[1:] >= 0, (z[:-1] ** 2 - z[1:] ** 2) / 2, 0.0) * 2 * np.pi / w
+    exact = (img.astype(np.float64) * cos_weight[:, None, None]).sum(axis=(0, 1))
+    rng = np.random.default_rng(7)
+    n = 100_000
+    dirs, rgb, pdf = _sample_many(E, rng.random((n, 2)))
+    f = rgb * np.maximum(dirs[:, 1], 0)[:, None] / pdf[:, None]
+    mean = f.mean(axis=0)
+    se = f.std(axis=0, ddof=1) / np.sqrt(n)
+    assert np.all(se > 0)
+    assert np.all(np.abs(mean - exact) < 4 * se), (mean, exact, se)
+
+
+def test_importance_sampling_has_lower_variance_than_uniform_on_a_sunny_sky():
+    """The shipped sky: the sun carries most of the light, and sampling finds it."""
+    E = build_environment(file="sky.hdr", base_dir=EXAMPLES)
+    rng = np.random.default_rng(8)
+    n = 20000
+    dirs, rgb, pdf = _sample_many(E, rng.random((n, 2)))
+    f_is = rgb.mean(axis=1) / pdf
+    v = rng.normal(size=(n, 3))
+    v = np.ascontiguousarray(v / np.linalg.norm(v, axis=1, keepdims=True))
+    f_uniform = _radiance_many(E, v).mean(axis=1) * 4 * np.pi
+    assert f_is.std() < 0.1 * f_uniform.std()
+    assert abs(f_is.mean() - f_uniform.mean()) < 4 * f_uniform.std() / np.sqrt(n)
+
+
+# ---------------------------------------------------------------------------------------------
+# Loading
+
+
+@pytest.mark.parametrize("shape", [(13, 37), (5, 6), (2, 300)])
+def test_hdr_written_by_raylume_reads_back(tmp_path, shape):
+    rng = np.random.default_rng(9)
+    img = (rng.random(shape + (3,)) * np.exp(rng.normal(0, 4, shape + (1,)))).astype(np.float32)
+    img[0, 0] = 0.0
+    save_array(tmp_path / "a.hdr", img)
+    back = load_environment_image(tmp_path / "a.hdr")
+    assert back.dtype == np.float32 and back.shape == img.shape
+    np.testing.assert_array_equal(back, rgbe_decode(rgbe_encode(img)))
+    # RGBE precision: within 1/128 of each texel's largest channel
+    assert np.all(np.abs(back - img) <= img.max(axis=2, keepdims=True) / 128 + 1e-30)
+
+
+def test_exr_written_by_raylume_reads_back_exactly(tmp_path):
+    rng = np.random.default_rng(10)
+    img = (rng.random((11, 23, 3)) * 100).astype(np.float32)
+    save_array(tmp_path / "a.exr", img)
+    np.testing.assert_array_equal(load_environment_image(tmp_path / "a.exr"), img)
+
+
+def _rle_channel(values: bytes) -> bytes:
+    """New-style RLE of one channel: runs (count + 128, byte) of 3 or more equal bytes,
+    literals (count, bytes...) otherwise."""
+    out = bytearray()
+    k = 0
+    literal = bytearray()
+    while k < len(values):
+        run = 1
+        while k + run < len(values) and values[k + run] == values[k] and run < 127:
+            run += 1
+        if run >= 3:
+            if literal:
+                out += bytes([len(literal)]) + literal
+                literal = bytearray()
+            out += bytes([128 + run, values[k]])
+            k += run
+        else:
+            literal.append(values[k])
+            k += 1
+            if len(literal) == 128:
+                out += bytes([128]) + literal
+                literal = bytearray()
+    if literal:
+        out += bytes([len(literal)]) + literal
+    return bytes(out)
+
+
+def test_run_length_encoded_hdr_reads_right(tmp_path):
+    h, w = 4, 150  # more than 127 equal bytes in a row: several runs per channel
+    rgbe = np.zeros((h, w, 4), np.uint8)
+    rgbe[..., 3] = 130  # one exponent everywhere: long runs
+    rgbe[0, :, 0] = 200
+    rgbe[1, :, 1] = np.arange(w) % 256  # literals
+    rgbe[2, 10:20] = (128, 64, 32, 129)
+    rgbe[3] = (255, 255, 255, 140)
+    body = bytearray()
+    for y in range(h):
+        body += bytes([2, 2, w >> 8, w & 0xFF])
+        for c in range(4):
+            body += _rle_channel(rgbe[y, :, c].tobytes())
+    header = f"#?RADIANCE\nGAMMA=1\nFORMAT=32-bit_rle_rgbe\n\n-Y {h} +X {w}\n".encode()
+    assert len(body) < h * w * 4 / 2  # runs really were used
+    (tmp_path / "rle.hdr").write_bytes(header + body)
+    got = load_environment_image(tmp_path / "rle.hdr")
+    np.testing.assert_array_equal(got, rgbe_decode(rgbe))
+    # a value check independent of rgbe_decode: (m + 0.5) / 256 * 2^(e - 128)
+    assert got[2, 15, 0] == pytest.approx((128.5 / 256) * 2, rel=1e-7)
+    assert got[0, 0, 1] == pytest.approx((0.5 / 256) * 4, rel=1e-7)
+
+
+def test_flat_and_old_style_run_length_hdr_read_right(tmp_path):
+    # width 5: too narrow for the new format; (1, 1, 1, n) repeats the previous pixel n times
+    pixels = [(100, 50, 25, 129), (1, 1, 1, 3), (10, 20, 200, 127)]
+    body = b"".join(bytes(p) for p in pixels)
+    (tmp_path / "old.hdr").write_bytes(b"#?RGBE\n\n+Y 2 +X 5\n" + body + bytes((7, 8, 9, 128)) * 5)
+    got = load_environment_image(tmp_path / "old.hdr")
+    want = np.array([[pixels[0]] * 4 + [pixels[2]], [(7, 8, 9, 128)] * 5], np.uint8)[::-1]  # +Y: bottom-up
+    np.testing.assert_array_equal(got, rgbe_decode(want))
+
+
+def test_the_shipped_sky():
+    E = build_environment(file="sky.hdr", base_dir=EXAMPLES)
+    h, w = E.image.shape[:2]
+    assert (h, w) == (128, 256)
+    # above the horizon: blue sky; below: darker ground; the sun is far brighter than either
+    upper, lower = E.image[: h // 2].reshape(-1, 3), E.image[h // 2 :].reshape(-1, 3)
+    sun = upper.mean(axis=1) > 5
+    assert 0 < sun.sum() < 100
+    sky = upper[~sun].mean(axis=0)
+    assert sky[2] > sky[0] and lower.mean() < 0.5 * sky.mean()
+    assert upper.max() > 500 * upper[~sun].max()
+
+
+# ---------------------------------------------------------------------------------------------
+# Errors
+
+
+def _check_error(exc, path_text: str, key: str = "environment.file"):
+    message = str(exc.value)
+    assert message.startswith(f"scene.toml: {key}:"), message
+    assert path_text in message, message
+    assert "\n" not in message and "Traceback" not in message
+
+
+def _good_hdr(tmp_path):
+    save_array(tmp_path / "good.hdr", make_image())
+    return (tmp_path / "good.hdr").read_bytes()
+
+
+def _bad_files(tmp_path):
+    good = _good_hdr(tmp_path)
+    save_array(tmp_path / "good.exr", make_image(h=64, w=64))
+    exr = (tmp_path / "good.exr").read_bytes()
+    nan = make_image()
+    nan[3, 4, 1] = np.nan
+    save_array(tmp_path / "nan.exr", nan)
+    inf = make_image()
+    inf[0, 0, 0] = np.inf
+    save_array(tmp_path / "inf.exr", inf)
+    neg = make_image()
+    neg[5, 5, 2] = -1.0
+    save_array(tmp_path / "negative.exr", neg)
+    (tmp_path / "folder.hdr").mkdir()
+    (tmp_path / "truncated.hdr").write_bytes(good[: len(good) * 2 // 3])
+    (tmp_path / "header_only.hdr").write_bytes(good[:40])
+    (tmp_path / "garbage.hdr").write_bytes(b"hello, world")
+    (tmp_path / "garbage.exr").write_bytes(b"hello, world" * 10)
+    (tmp_path / "truncated.exr").write_bytes(exr[: len(exr) * 4 // 5])
+    (tmp_path / "bomb.hdr").write_bytes(b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 100000 +X 100000\n" + b"\0" * 100)
+    (tmp_path / "sky.png").write_bytes(b"\x89PNG")
+
+
+@pytest.mark.parametrize(
+    "name, words",
+    [
+        ("missing.hdr", "does not exist"),
+        ("folder.hdr", "folder"),
+        ("sky.png", "unsupported"),
+        ("truncated.hdr", "truncated"),
+        ("header_only.hdr", "cannot read"),
+        ("garbage.hdr", "not a Radiance"),
+        ("garbage.exr", "not a readable OpenEXR"),
+        ("truncated.exr", "not a readable OpenEXR"),
+        ("bomb.hdr", f"more than {MAX_TEXELS} texels"),
+        ("nan.exr", "NaN or infinite"),
+        ("inf.exr", "NaN or infinite"),
+        ("negative.exr", "negative"),
+    ],
+)
+def test_bad_files_raise_scene_errors_naming_file_and_key(tmp_path, name, words):
+    _bad_files(tmp_path)
+    with pytest.raises(SceneError) as exc:
+        build_environment(file=name, base_dir=tmp_path, source="scene.toml")
+    _check_error(exc, str(tmp_path / name))
+    assert words in str(exc.value)
+
+
+@pytest.mark.parametrize(
+    "kwargs, key",
+    [
+        ({"intensity": float("nan")}, "environment.intensity"),
+        ({"intensity": float("inf")}, "environment.intensity"),
+        ({"intensity": -1.0}, "environment.intensity"),
+        ({"intensity": 1e38}, "environment.intensity"),
+        ({"rotate": (0, float("nan"), 0)}, "environment.rotate"),
+        ({"color": (1, -1, 0)}, "environment.color"),
+        ({"color": (1, 2)}, "environment.color"),
+        ({"color": (1, 1, 1), "file": "good.hdr"}, "environment"),
+    ],
+)
+def test_bad_values_raise_scene_errors_naming_the_key(tmp_path, kwargs, key):
+    _good_hdr(tmp_path)
+    args = {"file": "good.hdr"} if "color" not in kwargs else {}
+    args.update(kwargs)
+    with pytest.raises(SceneError) as exc:
+        build_environment(**args, base_dir=tmp_path, source="scene.toml")
+    _check_error(exc, "", key)
+
+
+def test_errors_name_the_key_path_given(tmp_path):
+    with pytest.raises(SceneError) as exc:
+        build_environment(file="nope.exr", base_dir=tmp_path, source="a.toml", where="scenes[1].environment")
+    assert str(exc.value).startswith("a.toml: scenes[1].environment.file: ")
+    assert "nope.exr" in str(exc.value)
+
+
+def test_rgbe_decode_inverts_rgbe_encode_within_its_precision():
+    rng = np.random.default_rng(11)
+    x = rng.random((50, 3)) * 10.0 ** rng.integers(-10, 10, (50, 1))
+    back = rgbe_decode(rgbe_encode(x[None]))[0]
+    assert np.all(np.abs(back - x) <= x.max(axis=1, keepdims=True) / 128)
+    assert math.isclose(float(rgbe_decode(np.array([128, 0, 0, 129], np.uint8))[0]), 128.5 / 256 * 2)
