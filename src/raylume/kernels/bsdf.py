@@ -299,7 +299,7 @@ def coat_terms(alpha, eta, mu):
     return 1.0 - r, r_int
 
 
-# --- Evaluation, per kind (inlined into bsdf_eval) --------------------------------------------
+# --- Evaluation, per kind -------------------------------------------------------------------
 
 
 @njit(**KERNEL)
@@ -454,7 +454,7 @@ def bsdf_eval(mat, m, color, wo, wi):
     return _phong_eval(mat, m, color, wo, wi)
 
 
-# --- Sampling, per kind (inlined into bsdf_sample) --------------------------------------------
+# --- Sampling, per kind ---------------------------------------------------------------------
 # Each returns (wi, weight, pdf, delta) for a delta lobe or a failure, and pdf = _EVALUATE for
 # a non-delta direction (on the +z side for the two-sided kinds, flipped back by the caller),
 # which bsdf_sample weighs with bsdf_eval (all lobes' f and pdf).
@@ -539,8 +539,8 @@ def _phong_sample(mat, m, color, wo, up, u0, u1, u2):
     if x < wm or not (wt > 0.0):
         if not (wm > 0.0):
             return _FAILED
-        k = total / wm * (1.0 - mat[m, MAT_TRANSPARENCY]) * mat[m, MAT_REFLECTIVE]
-        return _mirror(wo), (k, k, k), wm / total, True
+        # reflectance (1 - T) r = wm over the probability wm / total
+        return _mirror(wo), (total, total, total), wm / total, True
     # the dielectric lobe, weight T, chosen with probability wt / total = T / total
     wi, w, p, delta = _smooth_dielectric(mat[m, MAT_IOR], _ONE, wo, min((x - wm) / wt, 1.0))
     return wi, mul(w, total), p * wt / total, delta
