@@ -39,8 +39,9 @@ plugin, anything else is clamped to >= 1e-4 as Mitsuba does.
   f = coating lobe + color / (1 - Fdr) / eta^2 * T(wo) T(wi) / pi, where smooth: the coating
   is a mirror of Fresnel reflectance (delta), T = 1 - Fresnel, Fdr = Mitsuba's fit of the
   diffuse Fresnel reflectance at 1 / eta; rough: the coating is GGX reflection F D G /
-  (4 cos cos), T = 1 - that lobe's albedo and Fdr its hemispherical reflectance from inside
-  (Mitsuba precomputes both per material; here they are tables over alpha, eta and cos). The
+  (4 cos cos), T = the energy its rough interface transmits (the transmission lobe's albedo)
+  and Fdr its hemispherical reflectance from inside (Mitsuba precomputes both per material;
+  here they are tables over alpha, eta and cos). The
   coating lobe is chosen with probability (1 - T(wo)) w / ((1 - T(wo)) w + T(wo) (1 - w)),
   w = 1 / (1 + mean(color)) (Mitsuba's specular_sampling_weight, from the colour at the hit).
 - PHONG, the seed's material, as an energy-conserving BSDF. With T = MAT_TRANSPARENCY,
@@ -214,12 +215,14 @@ def sample_vndf(v, alpha, u1, u2):
 
 
 # --- Rough plastic's coating tables ----------------------------------------------------------
-# R(alpha, eta, mu): the albedo of the GGX coating's reflection lobe lit at cos mu from
-# outside, and R_int(alpha, eta): its reflectance for diffuse light from inside (Mitsuba's
-# roughplastic computes both per material with eval_reflectance). Tabulated over sqrt(alpha),
+# T(alpha, eta, mu): the energy that the GGX coating transmits (its transmission lobe's
+# albedo, masking included) of light arriving at cos mu from outside, and R_int(alpha, eta):
+# its reflectance for diffuse light from inside (Mitsuba's roughplastic computes both per
+# material, with eval_transmittance and eval_reflectance; R_int is stored divided by the smooth
+# interface's, which varies less with eta). Tabulated over sqrt(alpha),
 # sqrt((eta - 1) / (PLASTIC_ETA_MAX - 1)) and mu (the square roots put nodes where the functions
 # change fastest), read with linear interpolation. The tables are built on first access of
-# COAT_REFLECTANCE / COAT_INTERNAL (module __getattr__, under a second): the kernels read
+# COAT_TRANSMITTANCE / COAT_INTERNAL (module __getattr__, under a second): the kernels read
 # them through `_tables`, the module itself, so the build runs when a kernel that needs them
 # is compiled, and Numba freezes them into its machine code (cached kernels never rebuild).
 
@@ -228,26 +231,36 @@ _tables = sys.modules[__name__]
 
 
 @njit(**KERNEL)
-def coat_reflectance_quadrature(alpha, eta_ratio, mu, r_nodes, r_weights, n_phi):
-    """Albedo of a GGX dielectric's reflection lobe lit at cos mu from the side of relative
-    index eta_ratio = n_incident / n_transmitted: E[F(wo.m) G1(wi, m)] over the normals
-    visible from wo (Mitsuba's eval_reflectance). Gauss-Legendre in the radius of sample_vndf's
-    disk point, the midpoint rule in its angle, over the half disk p1 < 0 (the lobe is
-    symmetric about the plane of incidence, and p1 -> -p1 mirrors the normal across it)."""
+def coat_quadrature(alpha, eta_ratio, mu, transmitted, r_nodes, r_weights):
+    """Albedo of a GGX dielectric's reflection lobe (E[F(wo.m) G1(wi, m)] over the normals m
+    visible from wo, Mitsuba's eval_reflectance) or transmission lobe (E[(1 - F) G1(wt, m)],
+    eval_transmittance, energy: no radiance factor) for light arriving at cos mu from the side
+    of relative index eta_ratio = n_incident / n_transmitted. Gauss-Legendre in the radius of
+    sample_vndf's disk point, the midpoint rule in its angle, over the half disk p1 < 0 (the
+    lobes are symmetric about the plane of incidence; p1 -> -p1 mirrors m across it), as many
+    angles as radii."""
     wo = (math.sqrt(max(0.0, 1.0 - mu * mu)), 0.0, mu)
+    n_phi = r_nodes.shape[0]
     total = 0.0
     for i in range(r_nodes.shape[0]):
         u1 = r_nodes[i] * r_nodes[i]
         for j in range(n_phi):
             m = sample_vndf(wo, alpha, u1, 0.25 + 0.5 * (j + 0.5) / n_phi)
-            wi = _reflect(wo, m)
-            if wi[2] > 0.0:
-                total += r_weights[i] * fresnel_dielectric(abs(dot(wo, m)), eta_ratio)[0] * smith_g1(wi, m, alpha)
+            dwo = dot(wo, m)
+            fr, cos_t = fresnel_dielectric(abs(dwo), eta_ratio)
+            if transmitted:
+                wi = madd(mul(wo, -eta_ratio), m, eta_ratio * dwo - cos_t)
+                if wi[2] < 0.0:
+                    total += r_weights[i] * (1.0 - fr) * smith_g1(wi, m, alpha)
+            else:
+                wi = _reflect(wo, m)
+                if wi[2] > 0.0:
+                    total += r_weights[i] * fr * smith_g1(wi, m, alpha)
     return total / n_phi
 
 
 @njit(cache=True, _nrt=False)
-def _fill_coat_tables(reflectance, internal, r_nodes, r_weights, n_phi, mu_nodes, mu_weights):
+def _fill_coat_tables(transmittance, internal, t_rule, r_rule, mu_rule):
     # (no allocation in here: the build may run inside the compilation of a kernel, whose
     # flags say no reference counting)
     for i in range(_NA):
@@ -256,47 +269,60 @@ def _fill_coat_tables(reflectance, internal, r_nodes, r_weights, n_phi, mu_nodes
             eta = 1.0 + (PLASTIC_ETA_MAX - 1.0) * (j / (_NE - 1)) ** 2
             for k in range(_NM):
                 mu = max(k / (_NM - 1), 1e-6)
-                reflectance[i, j, k] = coat_reflectance_quadrature(alpha, 1.0 / eta, mu, r_nodes, r_weights, n_phi)
-            # integral of R_inside(mu) 2 mu dmu, in two parts split at the critical angle's
-            # cosine (total internal reflection below it: a kink the quadrature must not straddle)
-            mu_c = math.sqrt(max(0.0, 1.0 - 1.0 / (eta * eta)))
+                transmittance[i, j, k] = coat_quadrature(alpha, 1.0 / eta, mu, True, t_rule[0], t_rule[1])
+            # the integral of R_inside(mu) 2 mu dmu, by Gauss-Legendre on either side of the
+            # critical angle's cosine (total internal reflection below it: a kink) ...
+            mu_c = math.sqrt(1.0 - 1.0 / (eta * eta))
             acc = 0.0
             for lo, hi in ((0.0, mu_c), (mu_c, 1.0)):
-                for k in range(mu_nodes.shape[0]):
-                    mu = lo + (hi - lo) * mu_nodes[k]
-                    r = coat_reflectance_quadrature(alpha, eta, mu, r_nodes, r_weights, n_phi)
-                    acc += (hi - lo) * mu_weights[k] * 2.0 * mu * r
-            internal[i, j] = acc
+                for k in range(mu_rule[0].shape[0]):
+                    mu = lo + (hi - lo) * mu_rule[0][k]
+                    r = coat_quadrature(alpha, eta, mu, False, r_rule[0], r_rule[1])
+                    acc += (hi - lo) * mu_rule[1][k] * 2.0 * mu * r
+            # ... made like Mitsuba's value, the mean of 2 mu R(mu) over 64 equally spaced mu
+            # from 0 to 1: 63/64 of its trapezoid rule plus 2 R(1) / 128 (~1.5 % less than the
+            # integral). Not that mean itself: it jumps as the kink crosses its points, so it
+            # cannot be interpolated in eta (Mitsuba computes it for each material's eta) ...
+            r1 = coat_quadrature(alpha, eta, 1.0, False, r_rule[0], r_rule[1])
+            # ... and stored over the smooth interface's (Mitsuba's fit): a ratio that changes
+            # slowly with eta, so that interpolation between the nodes stays accurate
+            internal[i, j] = (63.0 / 64.0 * acc + r1 / 64.0) / fresnel_diffuse_reflectance(1.0 / eta)
+        internal[i, 0] = internal[i, 1]  # (eta = 1: both are 0)
+
+
+def _gauss_radii(n):
+    """Gauss-Legendre nodes and weights for the disk radius r in [0, 1], u1 = r^2 (du1 = 2r dr)."""
+    x, w = np.polynomial.legendre.leggauss(n)
+    r = 0.5 * (x + 1.0)
+    return r, w * r
 
 
 def __getattr__(name):
-    if name not in ("COAT_REFLECTANCE", "COAT_INTERNAL"):
+    if name not in ("COAT_TRANSMITTANCE", "COAT_INTERNAL"):
         raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    x, w = np.polynomial.legendre.leggauss(16)
-    r = 0.5 * (x + 1.0)  # the disk radius on [0, 1]; u1 = r^2, du1 = 2 r dr
-    y, v = np.polynomial.legendre.leggauss(10)
-    reflectance, internal = np.empty((_NA, _NE, _NM)), np.empty((_NA, _NE))
-    _fill_coat_tables(reflectance, internal, r, w * r, 16, 0.5 * (y + 1.0), 0.5 * v)
-    globals().update(COAT_REFLECTANCE=reflectance, COAT_INTERNAL=internal)
+    transmittance, internal = np.empty((_NA, _NE, _NM)), np.empty((_NA, _NE))
+    x, w = np.polynomial.legendre.leggauss(8)
+    _fill_coat_tables(transmittance, internal, _gauss_radii(12), _gauss_radii(24), (0.5 * (x + 1.0), 0.5 * w))
+    globals().update(COAT_TRANSMITTANCE=transmittance, COAT_INTERNAL=internal)
     return globals()[name]
 
 
 @njit(**KERNEL)
 def coat_terms(alpha, eta, mu):
-    """(T(mu) = 1 - R(alpha, eta, mu), R_int(alpha, eta)), interpolated in the tables."""
+    """(T(alpha, eta, mu), R_int(alpha, eta)), interpolated in the tables."""
     i, a = _grid(math.sqrt(alpha), float(_NA))
     j, b = _grid(math.sqrt((eta - 1.0) / (PLASTIC_ETA_MAX - 1.0)), float(_NE))
     k, c = _grid(mu, float(_NM))
-    reflectance = _tables.COAT_REFLECTANCE
+    transmittance = _tables.COAT_TRANSMITTANCE
     internal = _tables.COAT_INTERNAL
-    r = 0.0
+    t = 0.0
     r_int = 0.0
     for di in range(2):
         for dj in range(2):
             w = (a if di else 1.0 - a) * (b if dj else 1.0 - b)
             r_int += w * internal[i + di, j + dj]
-            r += w * ((1.0 - c) * reflectance[i + di, j + dj, k] + c * reflectance[i + di, j + dj, k + 1])
-    return 1.0 - r, r_int
+            t += w * ((1.0 - c) * transmittance[i + di, j + dj, k] + c * transmittance[i + di, j + dj, k + 1])
+    return t, r_int * fresnel_diffuse_reflectance(1.0 / eta)
 
 
 # --- Evaluation, per kind -------------------------------------------------------------------
