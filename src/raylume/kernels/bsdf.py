@@ -298,9 +298,12 @@ def _gauss_radii(n):
 
 
 def __getattr__(name):
+    """Builds the coating tables on first access (see above)."""
     if name not in ("COAT_TRANSMITTANCE", "COAT_INTERNAL"):
         raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
     transmittance, internal = np.empty((_NA, _NE, _NM)), np.empty((_NA, _NE))
+    # T: 12 x 12 points per value (within 0.15 %); R_int: 24 x 24 (total internal reflection
+    # puts a kink in its integrand) at 2 x 8 + 1 cosines
     x, w = np.polynomial.legendre.leggauss(8)
     _fill_coat_tables(transmittance, internal, _gauss_radii(12), _gauss_radii(24), (0.5 * (x + 1.0), 0.5 * w))
     globals().update(COAT_TRANSMITTANCE=transmittance, COAT_INTERNAL=internal)
