@@ -337,9 +337,12 @@ def test_ignored_exposure_and_filter_are_warned_about(tmp_path, good):
 
 
 def test_raster_summary_does_not_report_rays(tmp_path, good):
-    result = raylume("render", good, "--mode", "raster", "-o", "r.png", cwd=tmp_path)
+    result = raylume("render", good, "--mode", "raster", "-o", "r.png", "--stats", "s.json", cwd=tmp_path)
     assert result.returncode == 0, result.stderr
     assert "Mrays" not in result.stderr and "rasterized" in result.stderr, result.stderr
+    # the rasterizer builds no BVH, and its stats say so
+    stats = json.loads((tmp_path / "s.json").read_text())
+    assert (stats["bvh_nodes"], stats["bvh_bytes"], stats["rays"]) == (0, 0, 0), stats
 
 
 def test_summary_reports_compilation_apart_from_the_build(tmp_path, good):

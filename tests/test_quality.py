@@ -274,7 +274,8 @@ def _quad_obj(path: Path):
 
 def test_image_texture_on_a_mesh_shows_its_texels(tmp_path):
     """A 4 x 4 texture on a UV-mapped quad filling a 4 x 4 image (fov 90 at distance 1): each
-    pixel centre is a texel centre, so the cast image is the texture, sRGB-decoded."""
+    pixel centre is a texel centre, so the cast image is the texture, sRGB-decoded (point
+    lookups: texture_filter off; filtering is tested in test_texture_filtering.py)."""
     rng = np.random.default_rng(2)
     texels = rng.integers(0, 256, size=(4, 4, 3), dtype=np.uint8)
     PILImage.fromarray(texels).save(tmp_path / "tex.png")
@@ -285,6 +286,7 @@ def test_image_texture_on_a_mesh_shows_its_texels(tmp_path):
 width = 4
 height = 4
 mode = "cast"
+texture_filter = false
 [camera]
 fov = 90
 [[objects]]
@@ -370,8 +372,10 @@ file = "{mesh}"
 
 
 def _wall_scene(wall_z, aperture):
+    # point texture lookups: the test is about the rays' geometry (a lens ray's footprint is
+    # not the pinhole ray's, so filtered lookups would differ on the focus plane too)
     return scene(
-        render={"width": 32, "height": 32, "spp": 16, "mode": "cast", "seed": 5},
+        render={"width": 32, "height": 32, "spp": 16, "mode": "cast", "seed": 5, "texture_filter": False},
         camera={"fov": 40, "aperture": aperture, "focus_distance": 4.0},
         objects=[
             {

@@ -63,7 +63,7 @@ BAD = [
         "no material named 'gold'",
     ),
     ({"lights": [{"type": "directional", "direction": [0, 0, 0]}]}, "lights[0].direction", "zero vector"),
-    ({"lights": [{"type": "spot"}]}, "lights[0].type", "ambient, point, directional"),
+    ({"lights": [{"type": "laser"}]}, "lights[0].type", "ambient, point, directional"),
     ({"camera": {"fov": 180}}, "camera.fov", "less than 180"),
     ({"camera": {"fov": 0}}, "camera.fov", "greater than 0"),
     ({"camera": {"look_at": [0, 0, 0]}}, "camera", "look_at must differ"),
@@ -74,7 +74,7 @@ BAD = [
     ({"materials": {"m": {"reflective": 1.5}}}, "materials.m.reflective", "less than or equal to 1"),
     ({"materials": {"m": {"ior": 0}}}, "materials.m.ior", "greater than 0"),
     ({"render": {"width": 0}}, "render.width", "greater than or equal to 1"),
-    ({"render": {"mode": "photon"}}, "render.mode", "'cast', 'trace' or 'raster'"),
+    ({"render": {"mode": "photon"}}, "render.mode", "'cast', 'trace', 'path' or 'raster'"),
     ({"render": {"spp": 1e9}}, "render.spp", ""),
     ({"rendr": {}}, "rendr", "did you mean 'render'"),
     (

@@ -98,8 +98,8 @@ def _parse_aovs(specs: list[str], output: Path) -> tuple[dict[str, Path], list[s
     layers: list[str] = []
     for spec in specs:
         name, sep, path = spec.partition("=")
-        if name not in AOV_NAMES:
-            raise OutputError(f"--aov {spec}: unknown AOV {name!r}; available: {', '.join(AOV_NAMES)}")
+        if name not in (*AOV_NAMES, "noisy"):
+            raise OutputError(f"--aov {spec}: unknown AOV {name!r}; available: {', '.join(AOV_NAMES)}, noisy")
         if sep and not path:
             raise OutputError(f"--aov {spec}: expected NAME=PATH, e.g. --aov {name}={name}.npy")
         if sep:
@@ -161,7 +161,7 @@ def render(
     width: Annotated[int | None, typer.Option("--width", metavar="W", help="Image width in pixels")] = None,
     height: Annotated[int | None, typer.Option("--height", metavar="H", help="Image height in pixels")] = None,
     spp: Annotated[int | None, typer.Option("--spp", metavar="N", help="Samples per pixel")] = None,
-    mode: Annotated[str | None, typer.Option("--mode", metavar="MODE", help="cast | trace | raster")] = None,
+    mode: Annotated[str | None, typer.Option("--mode", metavar="MODE", help="cast | trace | path | raster")] = None,
     max_depth: Annotated[
         int | None, typer.Option("--max-depth", metavar="D", help="Reflection/refraction depth")
     ] = None,
@@ -175,7 +175,7 @@ def render(
             "--aov",
             metavar="NAME[=PATH]",
             help="Write an AOV: NAME=PATH.npy, or NAME alone for a layer of the .exr output; "
-            "NAME in depth, normal, object, prim, albedo (repeatable)",
+            "NAME in depth, normal, object, prim, albedo, noisy (the image before --denoise) (repeatable)",
         ),
     ] = None,
     overrides: Annotated[
@@ -204,6 +204,14 @@ def render(
     pixel_filter: Annotated[
         str | None,
         typer.Option("--filter", metavar="FILTER", help="Pixel filter for spp > 1: box | gaussian | mitchell"),
+    ] = None,
+    denoise: Annotated[
+        bool | None,
+        typer.Option(
+            "--denoise",
+            metavar=FLAG,
+            help="Path mode: denoise with Intel Open Image Denoise (guided by the albedo and normal AOVs)",
+        ),
     ] = None,
     crop: Annotated[
         str | None,
@@ -238,6 +246,7 @@ def render(
                 overrides=overrides or [],
                 bit_depth=bit_depth,
                 crop=crop,
+                denoise=denoise,
             )
     except RenderInterrupted as exc:
         _interrupted(exc, output if partial else None, bit_depth)
@@ -287,6 +296,7 @@ def _render(
     overrides=(),
     bit_depth=8,
     crop=None,
+    denoise=None,
 ):
     import numba
 
@@ -314,8 +324,16 @@ def _render(
         seed=seed,
         exposure=exposure,
         filter=pixel_filter,
+        denoise=denoise,
     )
     parse_seconds = time.perf_counter() - started
+    denoised = scene_model.render.denoise and scene_model.render.mode == "path"
+    if "noisy" in (*aov_paths, *layers) and not denoised:
+        raise OutputError("--aov noisy is the image before denoising: it needs --denoise and path mode (--mode path)")
+    if denoised:
+        from .denoise import require_denoiser
+
+        require_denoiser()  # a missing package fails now, not after the render
     _warn_ignored(output, scene_model.render, exposure, pixel_filter)
     window = _parse_crop(crop, scene_model.render.width, scene_model.render.height)
 
@@ -323,7 +341,7 @@ def _render(
         image = render_scene(
             scene_model,
             threads=threads,
-            aovs=bool(aov_paths or layers),
+            aovs=bool(set(aov_paths) - {"noisy"} or set(layers) - {"noisy"}),
             progress=progress,
             source=label,
             status=status,

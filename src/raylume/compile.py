@@ -14,6 +14,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .accel.bvh import BVH, build_bvh, bvh_depth, bvh_nbytes
+from .emitters_table import build_emitters, scene_environment
 from .errors import SceneError
 from .kernels import materials as M
 from .kernels import textures as X
@@ -91,9 +92,29 @@ def srgb_to_linear(x: np.ndarray) -> np.ndarray:
     return np.where(x <= 0.04045, x / 12.92, ((x + 0.055) / 1.055) ** 2.4)
 
 
+def mip_levels(texels: np.ndarray) -> list[np.ndarray]:
+    """The image (float32 (H, W, 3)) and its mip-map: each level the area average of the one
+    before at half its size (rounded down, at least 1), down to 1 x 1."""
+    from PIL import Image as PILImage
+
+    levels = [texels]
+    while levels[-1].shape[0] > 1 or levels[-1].shape[1] > 1:
+        h, w = levels[-1].shape[:2]
+        size = (max(1, w // 2), max(1, h // 2))
+        channels = [
+            np.asarray(
+                PILImage.fromarray(np.ascontiguousarray(levels[-1][:, :, c]), mode="F").resize(size, PILImage.BOX)
+            )
+            for c in range(3)
+        ]
+        levels.append(np.stack(channels, axis=-1).astype(np.float32))
+    return levels
+
+
 class TextureTable:
     """Rows of the texture table, and image textures decoded to linear float32 RGB and
-    concatenated row by row into one texel atlas (each row keeps its offset)."""
+    concatenated row by row into one texel atlas (each row keeps its offset), each followed by
+    its mip-map levels (textures.py)."""
 
     MAX_TEXELS = 1 << 26  # 64 Mi texels (768 MiB): a guard against decompression bombs
 
@@ -109,12 +130,13 @@ class TextureTable:
         """The row of a model texture (checker or image)."""
         row = np.zeros(X.TEX_WIDTH, dtype=np.float64)
         if isinstance(texture, ImageTexture):
-            offset, tex_w, tex_h, mean = self._image(texture.file, f"{where}.texture.file")
+            offset, tex_w, tex_h, levels, mean = self._image(texture.file, f"{where}.texture.file")
             row[X.TEX_KIND] = X.IMAGE
             row[X.TEX_COLOR_A : X.TEX_COLOR_A + 3] = mean
             row[X.TEX_OFFSET] = offset
             row[X.TEX_WIDTH_PX] = tex_w
             row[X.TEX_HEIGHT_PX] = tex_h
+            row[X.TEX_LEVELS] = levels
             row[X.TEX_SCALE_U] = texture.scale[0]
             row[X.TEX_SCALE_V] = texture.scale[1]
         else:
@@ -125,8 +147,8 @@ class TextureTable:
         self.rows.append(row)
         return len(self.rows) - 1
 
-    def _image(self, file: str, where: str) -> tuple[int, int, int, np.ndarray]:
-        """(offset, width, height, mean linear colour) of the image, loading it once."""
+    def _image(self, file: str, where: str) -> tuple[int, int, int, int, np.ndarray]:
+        """(offset, width, height, mip levels, mean linear colour) of the image, loading it once."""
         path = Path(file)
         if not path.is_absolute():
             path = self.base_dir / path
@@ -134,9 +156,11 @@ class TextureTable:
         if key not in self.loaded:
             texels = self._load(path, where)
             h, w = texels.shape[:2]
-            self.loaded[key] = (self.size, w, h, texels.reshape(-1, 3).mean(axis=0, dtype=np.float64))
-            self.parts.append(texels.reshape(-1, 3))
-            self.size += w * h
+            levels = mip_levels(texels)
+            self.loaded[key] = (self.size, w, h, len(levels), texels.reshape(-1, 3).mean(axis=0, dtype=np.float64))
+            for level in levels:
+                self.parts.append(level.reshape(-1, 3))
+                self.size += level.shape[0] * level.shape[1]
         return self.loaded[key]
 
     def _load(self, path: Path, where: str) -> np.ndarray:
@@ -171,16 +195,53 @@ class TextureTable:
         return np.ascontiguousarray(np.concatenate(self.parts), dtype=np.float32)
 
 
+MATERIAL_KINDS = {
+    "phong": M.PHONG,
+    "diffuse": M.DIFFUSE,
+    "conductor": M.CONDUCTOR,
+    "dielectric": M.DIELECTRIC,
+    "plastic": M.PLASTIC,
+}
+
+
+def phong_exponent(roughness: float) -> float:
+    """The Phong exponent whose lobe is about as wide as GGX of this alpha (2 / alpha^2 - 2,
+    Walter et al. 2007), a sharp 1000 for smooth surfaces."""
+    return 1000.0 if roughness < 0.0447 else max(2.0 / roughness**2 - 2.0, 1.0)
+
+
+def trace_approximation(mat: Material) -> tuple[float, float, float]:
+    """(specular exponent or -1, reflective, transparency) under which trace mode (the seed's
+    model) shows a path-mode material: diffuse is matte; a conductor a tinted mirror (reflective
+    1 - alpha, its colour on the rest); a dielectric fully transparent with Fresnel; plastic
+    matte with a highlight and the coating's normal-incidence reflectance as a mirror."""
+    if mat.type == "phong":
+        return (mat.specular if mat.specular is not None else -1.0), mat.reflective, mat.transparency
+    if mat.type == "diffuse":
+        return -1.0, 0.0, 0.0
+    if mat.type == "conductor":
+        return phong_exponent(mat.roughness), max(0.0, 1.0 - mat.roughness), 0.0
+    if mat.type == "dielectric":
+        return phong_exponent(mat.roughness), 0.0, 1.0
+    f0 = ((mat.ior - 1.0) / (mat.ior + 1.0)) ** 2
+    return phong_exponent(mat.roughness), f0 if mat.roughness < 0.0447 else 0.0, 0.0
+
+
 def material_row(mat: Material, textures: TextureTable | None = None, where: str = "material") -> np.ndarray:
-    """The material's row of the materials table; its texture is added to `textures`."""
+    """The material's row of the materials table; its texture is added to `textures`. The
+    phong columns hold the trace-mode approximation of the other types (trace_approximation)."""
     row = np.zeros(M.MAT_WIDTH, dtype=np.float64)
-    row[M.MAT_KIND] = M.PHONG
+    row[M.MAT_KIND] = MATERIAL_KINDS[mat.type]
     row[M.MAT_COLOR : M.MAT_COLOR + 3] = mat.color
-    row[M.MAT_SPECULAR] = mat.specular if mat.specular is not None else -1.0
-    row[M.MAT_REFLECTIVE] = mat.reflective
-    row[M.MAT_TRANSPARENCY] = mat.transparency
+    row[M.MAT_SPECULAR], row[M.MAT_REFLECTIVE], row[M.MAT_TRANSPARENCY] = trace_approximation(mat)
     row[M.MAT_IOR] = mat.ior
     row[M.MAT_ABSORPTION : M.MAT_ABSORPTION + 3] = mat.absorption
+    row[M.MAT_ROUGHNESS] = mat.roughness
+    if mat.eta is not None and mat.k is not None:
+        row[M.MAT_ETA : M.MAT_ETA + 3] = mat.eta
+        row[M.MAT_K : M.MAT_K + 3] = mat.k
+        row[M.MAT_HAS_ETA] = 1.0
+    row[M.MAT_EMISSION : M.MAT_EMISSION + 3] = mat.emission
     row[M.MAT_TEXTURE] = -1
     if mat.texture is not None:
         if textures is None:
@@ -402,6 +463,10 @@ def compile_scene(scene: Scene, source="<scene>", accelerate: bool = True) -> Co
     for r in unbounded:  # an unbounded shape's size is that of its defining point
         extent.append(np.abs(shapes[r, :3]).max())
     kinds, data = _lights(scene)
+    environment = scene_environment(scene, source)
+    emit_kind, emit_data, emit_cdf, n_area, env_row, ambient_row = build_emitters(
+        scene, prims, shapes, tri, mat_rows, environment, float(max(extent))
+    )
     kernel = KernelScene(
         prims=prims,
         n_bounded=n_bounded,
@@ -417,6 +482,17 @@ def compile_scene(scene: Scene, source="<scene>", accelerate: bool = True) -> Co
         texels=textures.texels(),
         light_kind=kinds,
         light_data=data,
+        emitter_kind=emit_kind,
+        emitter_data=emit_data,
+        emitter_cdf=emit_cdf,
+        n_area_emitters=n_area,
+        environment_row=env_row,
+        ambient_row=ambient_row,
+        env_image=environment.image,
+        env_marginal_cdf=environment.marginal_cdf,
+        env_conditional_cdf=environment.conditional_cdf,
+        env_rotation=environment.rotation,
+        env_present=environment.present,
         has_transparency=bool((mat_rows[:, M.MAT_TRANSPARENCY] > 0).any()),
         epsilon_floor=1e-30,
     )
@@ -424,10 +500,12 @@ def compile_scene(scene: Scene, source="<scene>", accelerate: bool = True) -> Co
         "primitives": len(prims),
         "triangles": n_tris,
         "degenerate_triangles": soup.degenerate,
-        "bvh_nodes": int(len(bvh.node_index)),
-        "bvh_depth": int(depth),
+        # without acceleration (the rasterizer's scenes) there is no BVH to report, only the
+        # placeholder leaf that keeps the kernels' arrays typed alike
+        "bvh_nodes": int(len(bvh.node_index)) if accelerate else 0,
+        "bvh_depth": int(depth) if accelerate else 0,
         # nodes, and the two columns of the primitive table that traversal reads (kind, row)
-        "bvh_bytes": int(bvh_nbytes(bvh) + 8 * len(prims)),
+        "bvh_bytes": int(bvh_nbytes(bvh) + 8 * len(prims)) if accelerate else 0,
         "build_seconds": time.perf_counter() - start,
         "mesh_load_seconds": mesh_seconds,
     }

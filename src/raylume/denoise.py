@@ -25,7 +25,7 @@ import numpy as np
 
 from raylume.errors import RaylumeError
 
-__all__ = ["denoise", "is_available"]
+__all__ = ["denoise", "is_available", "require_denoiser"]
 
 _INSTALL = "pip install 'raylume[denoise]'"
 
@@ -50,6 +50,11 @@ def _pyoidn():
     if not supported:
         raise RaylumeError("Intel Open Image Denoise does not support this CPU, so the image cannot be denoised.")
     return pyoidn
+
+
+def require_denoiser() -> None:
+    """Raise the RaylumeError `denoise` would raise when it cannot run (check before a render)."""
+    _pyoidn()
 
 
 def is_available() -> bool:

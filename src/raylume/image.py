@@ -27,6 +27,7 @@ EXR_LAYERS = {
     "depth": ("Z",),
     "normal": ("X", "Y", "Z"),
     "albedo": ("R", "G", "B"),
+    "noisy": ("R", "G", "B"),
     "object": ("id",),
     "prim": ("id",),
     "instance": ("id",),

@@ -30,6 +30,7 @@ def render(
     seed: int | None = None,
     filter: str | None = None,
     exposure: float | None = None,
+    denoise: bool | None = None,
     threads: int | None = None,
     aovs: bool = True,
     progress: Callable[[int, int], None] | None = None,
@@ -45,7 +46,7 @@ def render(
     `status` is called with "compiling" before the kernels' first call and "rendering" after
     it (see Session.render)."""
     overrides = dict(width=width, height=height, spp=spp, mode=mode, max_depth=max_depth, seed=seed,
-                     filter=filter, exposure=exposure)  # fmt: skip
+                     filter=filter, exposure=exposure, denoise=denoise)  # fmt: skip
     settings = resolve_settings(scene, source, **overrides)  # fail before compiling
     session = Session(scene, source=source, accelerate=settings.mode != "raster")
     return session.render(**overrides, threads=threads, aovs=aovs, progress=progress, crop=crop, status=status)

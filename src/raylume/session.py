@@ -24,10 +24,10 @@ from pydantic import ValidationError
 from .compile import CompiledScene, compile_scene
 from .errors import RaylumeError, SceneError
 from .image import Image
-from .kernels.camera import camera_of
+from .kernels.camera import camera_of, set_cone_spread
 from .kernels.film import Film
-from .kernels.frame import PROGRESS_STRIDE, aov_lane, cast_lane, trace_lane
-from .kernels.shapes import features
+from .kernels.frame import PROGRESS_STRIDE, aov_lane, cast_lane, path_lane, trace_lane
+from .kernels.shapes import ALL_FEATURES, features
 from .scene.checks import warn_about
 from .scene.model import Camera, Scene
 
@@ -124,6 +124,7 @@ class Session:
         seed: int | None = None,
         filter: str | None = None,
         exposure: float | None = None,
+        denoise: bool | None = None,
         threads: int | None = None,
         aovs: bool = True,
         progress: Callable[[int, int], None] | None = None,
@@ -133,7 +134,8 @@ class Session:
         """Render through `camera` (a Camera, a dict of camera keys replacing the scene's, or
         None for the scene's own); other arguments override the scene's [render] table.
         Returns an Image: linear float32 RGB, the AOVs (depth, normal, object, prim, albedo)
-        when `aovs`, and stats. `status` is called with "compiling" before the kernels' first
+        when `aovs` (and `noisy`, the image before denoising, when `denoise`: path mode), and
+        stats. `status` is called with "compiling" before the kernels' first
         call (JIT compilation, or loading from the cache) and "rendering" after it. A scene
         without objects, or without lights in a lit mode, gives a SceneWarning."""
         settings = resolve_settings(
@@ -147,6 +149,7 @@ class Session:
             seed=seed,
             filter=filter,
             exposure=exposure,
+            denoise=denoise,
         )
         warn_about(self.scene, settings.mode)
         cam_model = self._camera(camera)
@@ -159,8 +162,10 @@ class Session:
             self._compile(True)
         build_seconds, self._unreported_build = self._unreported_build, 0.0
         clock = _CompileClock(status)
+        extra: dict = {}  # mode-specific statistics
         S = self.compiled.for_camera(cam_model.position)
         cam = camera_of(cam_model, W, H)
+        set_cone_spread(cam, H, 1 if settings.mode == "raster" else settings.spp, settings.texture_filter)
         if settings.mode == "raster":
             from .raster import rasterize
 
@@ -175,12 +180,24 @@ class Session:
             primary = 0
         else:
             film = Film(W, H, settings.filter, total_spp=settings.spp, window=window)
-            aov_arrays = allocate_aovs(y1 - y0, x1 - x0) if aovs else {}
+            denoising = settings.denoise and settings.mode == "path"
+            aov_arrays = allocate_aovs(y1 - y0, x1 - x0) if aovs or denoising else {}
             kernel_seconds, rays = _ray_render(
                 S, cam, film, settings.spp, settings, aov_arrays, progress, lanes, status=clock
             )
             rgb = film.rgb()
             primary = (x1 - x0) * (y1 - y0) * settings.spp
+            extra["rejected_samples"] = film.rejected
+            if denoising:
+                from .denoise import denoise as oidn
+
+                started = time.perf_counter()
+                noisy = rgb
+                rgb = oidn(noisy, aov_arrays["albedo"], aov_arrays["normal"])
+                extra["denoise_seconds"] = time.perf_counter() - started
+                if not aovs:
+                    aov_arrays = {}
+                aov_arrays["noisy"] = noisy
         stats = {
             "width": W,
             "height": H,
@@ -195,8 +212,11 @@ class Session:
             "render_seconds": kernel_seconds,
             "compile_seconds": clock.seconds,
             "mrays_per_second": float(rays / kernel_seconds / 1e6) if kernel_seconds > 0 else 0.0,
+            **extra,
         }
-        return Image(rgb, aov_arrays if aovs else {}, stats, settings.encoding, exposure=settings.exposure)
+        if not aovs:
+            aov_arrays = {k: v for k, v in aov_arrays.items() if k == "noisy"}
+        return Image(rgb, aov_arrays, stats, settings.encoding, exposure=settings.exposure)
 
     def add_samples(
         self,
@@ -226,9 +246,10 @@ class Session:
             self._compile(True)
         cam_model = self._camera(camera)
         S = self.compiled.for_camera(cam_model.position)
-        seconds, rays = _ray_render(
-            S, camera_of(cam_model, film.width, film.height), film, spp, settings, {}, progress, _set_threads(threads)
+        cam = set_cone_spread(
+            camera_of(cam_model, film.width, film.height), film.height, film.total_spp, settings.texture_filter
         )
+        seconds, rays = _ray_render(S, cam, film, spp, settings, {}, progress, _set_threads(threads))
         return {"rays": int(rays), "render_seconds": seconds}
 
     def _camera(self, camera) -> Camera:
@@ -295,6 +316,19 @@ def _set_threads(threads: int | None) -> int:
     return numba.get_num_threads()
 
 
+PATH_STRATEGIES = {"mis": 0, "light": 1, "bsdf": 2}  # kernels/path.py
+
+
+def path_strategy() -> int:
+    """Path mode's sampling strategy: MIS, unless the environment variable RAYLUME_PATH_STRATEGY
+    asks for light sampling or BSDF sampling alone (for tests and debugging: each alone is
+    unbiased too, only noisier)."""
+    name = os.environ.get("RAYLUME_PATH_STRATEGY", "mis")
+    if name not in PATH_STRATEGIES:
+        raise RaylumeError(f"RAYLUME_PATH_STRATEGY={name!r}: expected one of {', '.join(PATH_STRATEGIES)}")
+    return PATH_STRATEGIES[name]
+
+
 def _ray_render(S, cam, film: Film, spp: int, settings, aov: dict, progress, lanes: int, status=None):
     """Add the film's next `spp` samples per pixel (and fill the AOVs, of the film's window) on
     `lanes` threads. Returns (kernel seconds, rays traced)."""
@@ -307,6 +341,10 @@ def _ray_render(S, cam, film: Film, spp: int, settings, aov: dict, progress, lan
     background = np.asarray(settings.background, dtype=np.float64)
     samples = (film.spp, spp, film.total_spp)  # first, count, total
     X = features(S)  # None: the kernels' variant for spheres and opaque triangles only
+    if settings.mode == "path":
+        X = ALL_FEATURES  # one variant of the path kernels for every scene (compiled once)
+    rejected = np.zeros(lanes * PROGRESS_STRIDE, dtype=np.int64)
+    strategy = path_strategy()
 
     def lane_job(lane: int, window) -> None:
         if aov:
@@ -317,8 +355,11 @@ def _ray_render(S, cam, film: Film, spp: int, settings, aov: dict, progress, lan
         if settings.mode == "cast":
             cast_lane(S, X, cam, film.filter, W, H, window, lane, lanes, samples, settings.seed, background, film.sums,
                       rays_per_row, rows_done, stop)  # fmt: skip
+        elif settings.mode == "path":
+            path_lane(S, X, cam, film.filter, W, H, window, lane, lanes, samples, settings.seed, settings.depth,
+                      background, film.sums, rays_per_row, rows_done, stop, rejected, strategy)  # fmt: skip
         else:
-            trace_lane(S, X, cam, film.filter, W, H, window, lane, lanes, samples, settings.seed, settings.max_depth,
+            trace_lane(S, X, cam, film.filter, W, H, window, lane, lanes, samples, settings.seed, settings.depth,
                        background, film.sums, rays_per_row, rows_done, stop)  # fmt: skip
 
     status = status or (lambda what: None)
@@ -346,4 +387,5 @@ def _ray_render(S, cam, film: Film, spp: int, settings, aov: dict, progress, lan
     for future in futures:
         future.result()  # re-raises a lane's exception
     film.spp += spp
+    film.rejected += int(rejected.sum())
     return kernel_seconds, rays_per_row.sum()

@@ -20,7 +20,8 @@ CAM_LENS_RADIUS = 12  # aperture / 2; 0 for the pinhole
 CAM_FOCUS_DISTANCE = 13  # distance of the plane in focus, along the forward axis
 CAM_HALF_WIDTH = 14  # w
 CAM_HALF_HEIGHT = 15  # h
-CAM_WIDTH = 16
+CAM_CONE_SPREAD = 16  # a pixel's ray cone: its radius per unit distance (0: textures unfiltered)
+CAM_WIDTH = 17
 
 
 def camera_frame(position, look_at, up, fov_degrees, width, height, aperture=0.0, focus_distance=1.0) -> np.ndarray:
@@ -45,6 +46,15 @@ def camera_frame(position, look_at, up, fov_degrees, width, height, aperture=0.0
     cam[CAM_FOCUS_DISTANCE] = focus_distance
     cam[CAM_HALF_WIDTH] = w
     cam[CAM_HALF_HEIGHT] = h
+    return cam
+
+
+def set_cone_spread(cam: np.ndarray, height: int, spp: int, texture_filter: bool = True) -> np.ndarray:
+    """Give the camera array the ray cone its texture lookups filter over: half a pixel's
+    height per unit distance, narrowed as pbrt narrows its ray differentials when a pixel takes
+    several samples (1 / sqrt(spp), at least 1/8 of the pixel); 0 without filtering."""
+    spread = cam[CAM_HALF_HEIGHT] / height * max(0.125, 1.0 / math.sqrt(spp))
+    cam[CAM_CONE_SPREAD] = spread if texture_filter else 0.0
     return cam
 
 

@@ -11,7 +11,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .lights import AMBIENT, LIGHT_INTENSITY, LIGHT_SAMPLES, is_delta, sample_area, sample_delta
+from .lights import AMBIENT, LIGHT_INTENSITY, LIGHT_SAMPLES, SPOT, is_delta, sample_area, sample_delta, spot_falloff
 from .materials import MAT_SPECULAR, MAT_TRANSPARENCY, beer_lambert, phong
 from .sampler import light_sample
 from .shapes import offset_epsilon, surface
@@ -58,6 +58,8 @@ def direct_lighting(G, F, L, X, p, n, view, m, shadows, node_stack, t_stack, key
                 to_light, tmax = (0.0, 0.0, 1.0), 0.0
             l = normalize(to_light)
             scale = phong(n, l, view, specular)
+            if kind == SPOT:
+                scale *= spot_falloff(L.data, k, l)
             if scale <= 0.0:
                 continue  # nothing to add: skip the shadow ray
             if shadows:

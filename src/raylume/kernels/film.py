@@ -134,6 +134,7 @@ class Film:
         # not stall on page faults (a third of a cast frame's time at 600 x 600).
         self.sums.fill(0.0)
         self.spp = 0  # samples per pixel added so far
+        self.rejected = 0  # samples dropped as NaN, infinite or negative (path mode)
 
     @property
     def kernel_window(self) -> tuple[int, int, int, int]:

@@ -9,11 +9,13 @@ continue from whatever earlier passes left there."""
 import numpy as np
 from numba import njit
 
-from .camera import CAM_LENS_RADIUS, camera_ray, thin_lens_ray
+from .camera import CAM_CONE_SPREAD, CAM_FORWARD, CAM_LENS_RADIUS, camera_ray, thin_lens_ray
+from .environment import environment_radiance
 from .film import add_sample, filter_sample, pixel_sums, store_sums
 from .materials import albedo
+from .path import finite_sample, path_ray
 from .sampler import lens_sample, pixel_sample, sample_key
-from .scene import geometry_of, lights_of, surfaces_of
+from .scene import emitters_of, environment_of, geometry_of, lights_of, surfaces_of
 from .shapes import NO_HIT, surface
 from .trace import RAY_WIDTH, stack_rows, trace_ray
 from .traverse import closest_hit, scratch_array, traversal_stacks
@@ -23,13 +25,22 @@ INF = np.inf
 
 
 @njit(**KERNEL, inline="always")
-def _cast_ray(G, F, X, o, d, background, node_stack, t_stack):
+def _cast_ray(G, F, X, Env, o, d, spread, background, node_stack, t_stack):
     t, prim, b1, b2 = closest_hit(G, X, o, d, 0.0, INF, node_stack, t_stack)
     if prim == NO_HIT:
+        if Env.present:
+            return environment_radiance(Env, d)
         return background
     p = madd(o, d, t)
     ng, ns, m, obj, face = surface(G, X, prim, b1, b2, p)
-    return albedo(G, F, X, m, prim, b1, b2, p)
+    return albedo(G, F, X, m, prim, b1, b2, p, d, ng, spread * t)
+
+
+@njit(**KERNEL, inline="always")
+def _obliquity(cam, d):
+    """cos of the angle between d and the viewing axis: a pixel away from the image's centre
+    subtends a smaller angle (by this factor across the ray), so its ray cone is narrower."""
+    return abs(d[0] * cam[CAM_FORWARD] + d[1] * cam[CAM_FORWARD + 1] + d[2] * cam[CAM_FORWARD + 2])
 
 
 @njit(**KERNEL, inline="always")
@@ -82,14 +93,39 @@ def trace_lane(
     work = scratch_array(slots * RAY_WIDTH, np.float64).reshape((slots, RAY_WIDTH))
     bg = (background[0], background[1], background[2])
     G, F, L = geometry_of(S), surfaces_of(S), lights_of(S)
+    Env = environment_of(S)
     x0, y0, x1, y1 = window
     for j in range(y0 + lane, y1, lanes):
         if stop[0] != 0:
             break
         rays_per_row[j - y0] += _trace_row(
-            G, F, L, X, cam, filt, j, window, width, height, samples, seed, max_depth, bg, film, work, node_stack,
-            t_stack,
+            G, F, L, X, Env, cam, filt, j, window, width, height, samples, seed, max_depth, bg, film, work,
+            node_stack, t_stack,
         )  # fmt: skip
+        rows_done[lane * PROGRESS_STRIDE] += 1
+
+
+@njit(**LANE)
+def path_lane(
+    S, X, cam, filt, width, height, window, lane, lanes, samples, seed, max_depth, background, film, rays_per_row,
+    rows_done, stop, rejected, strategy,
+):  # fmt: skip
+    """Path-traced samples of the lane's rows into the film; rays per row into rays_per_row, and
+    samples rejected as NaN, infinite or negative into rejected[lane * PROGRESS_STRIDE]."""
+    node_stack, t_stack = traversal_stacks()
+    bg = (background[0], background[1], background[2])
+    G, F, Em = geometry_of(S), surfaces_of(S), emitters_of(S)
+    Env = environment_of(S)
+    x0, y0, x1, y1 = window
+    for j in range(y0 + lane, y1, lanes):
+        if stop[0] != 0:
+            break
+        rays, bad = _path_row(
+            G, F, Em, Env, X, cam, filt, j, window, width, height, samples, seed, max_depth, bg, film, node_stack,
+            t_stack, strategy,
+        )  # fmt: skip
+        rays_per_row[j - y0] += rays
+        rejected[lane * PROGRESS_STRIDE] += bad
         rows_done[lane * PROGRESS_STRIDE] += 1
 
 
@@ -106,7 +142,22 @@ def cast_lane(
         if stop[0] != 0:
             break
         rays_per_row[j - y0] += _cast_row(
-            G, F, X, cam, filt, j, window, width, height, samples, seed, bg, film, node_stack, t_stack
+            G,
+            F,
+            X,
+            environment_of(S),
+            cam,
+            filt,
+            j,
+            window,
+            width,
+            height,
+            samples,
+            seed,
+            bg,
+            film,
+            node_stack,
+            t_stack,
         )
         rows_done[lane * PROGRESS_STRIDE] += 1
 
@@ -135,34 +186,62 @@ def aov_lane(
 
 
 @njit(**KERNEL)
-def _cast_row(G, F, X, cam, filt, j, window, width, height, samples, seed, bg, film, node_stack, t_stack):
+def _cast_row(G, F, X, Env, cam, filt, j, window, width, height, samples, seed, bg, film, node_stack, t_stack):
     first, count, total_spp = samples
     x0, y0, x1, y1 = window
+    spread = cam[CAM_CONE_SPREAD]
     for i in range(x0, x1):
         total = pixel_sums(film, j - y0, i - x0)
         for s in range(first, first + count):
             o, d, w, key = camera_sample(cam, filt, seed, i, j, s, total_spp, width, height)
-            total = add_sample(total, _cast_ray(G, F, X, o, d, bg, node_stack, t_stack), w)
+            cone = spread * _obliquity(cam, d)
+            total = add_sample(total, _cast_ray(G, F, X, Env, o, d, cone, bg, node_stack, t_stack), w)
         store_sums(film, j - y0, i - x0, total)
     return (x1 - x0) * count
 
 
 @njit(**KERNEL)
 def _trace_row(
-    G, F, L, X, cam, filt, j, window, width, height, samples, seed, max_depth, bg, film, work, node_stack, t_stack
+    G, F, L, X, Env, cam, filt, j, window, width, height, samples, seed, max_depth, bg, film, work, node_stack, t_stack
 ):
     first, count, total_spp = samples
     x0, y0, x1, y1 = window
+    spread = cam[CAM_CONE_SPREAD]
     rays = 0
     for i in range(x0, x1):
         total = pixel_sums(film, j - y0, i - x0)
         for s in range(first, first + count):
             o, d, w, key = camera_sample(cam, filt, seed, i, j, s, total_spp, width, height)
-            col, used = trace_ray(G, F, L, X, o, d, max_depth, bg, work, node_stack, t_stack, key)
+            col, used = trace_ray(
+                G, F, L, X, Env, o, d, spread * _obliquity(cam, d), max_depth, bg, work, node_stack, t_stack, key
+            )
             rays += used
             total = add_sample(total, col, w)
         store_sums(film, j - y0, i - x0, total)
     return rays
+
+
+@njit(**KERNEL)
+def _path_row(
+    G, F, Em, Env, X, cam, filt, j, window, width, height, samples, seed, max_depth, bg, film, node_stack, t_stack,
+    strategy,
+):  # fmt: skip
+    first, count, total_spp = samples
+    x0, y0, x1, y1 = window
+    rays = 0
+    rejected = 0
+    for i in range(x0, x1):
+        total = pixel_sums(film, j - y0, i - x0)
+        for s in range(first, first + count):
+            o, d, w, key = camera_sample(cam, filt, seed, i, j, s, total_spp, width, height)
+            col, used = path_ray(G, F, X, Em, Env, o, d, max_depth, bg, key, node_stack, t_stack, strategy)
+            rays += used
+            if not finite_sample(col):
+                rejected += 1
+                col = (0.0, 0.0, 0.0)
+            total = add_sample(total, col, w)
+        store_sums(film, j - y0, i - x0, total)
+    return rays, rejected
 
 
 @njit(**KERNEL)
@@ -173,8 +252,10 @@ def _primary_aovs_row(
     centres. Returns rays traced."""
     x0, y0, x1, y1 = window
     r = j - y0
+    spread = cam[CAM_CONE_SPREAD]
     for i in range(x0, x1):
         o, d = camera_ray(cam, i + 0.5, j + 0.5, width, height)
+        cone = spread * _obliquity(cam, d)
         c0 = i - x0
         t, prim, b1, b2 = closest_hit(G, X, o, d, 0.0, INF, node_stack, t_stack)
         if prim == NO_HIT:
@@ -189,7 +270,7 @@ def _primary_aovs_row(
             ng, ns, m, obj, face = surface(G, X, prim, b1, b2, p)
             if dot(ns, d) > 0.0:
                 ns = mul(ns, -1.0)
-            a = albedo(G, F, X, m, prim, b1, b2, p)
+            a = albedo(G, F, X, m, prim, b1, b2, p, d, ng, cone * t)
             depth[r, c0] = t
             obj_id[r, c0] = obj
             prim_id[r, c0] = face

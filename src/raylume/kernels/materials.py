@@ -19,12 +19,22 @@ MAT_COLOR = 1  # 3 columns, linear RGB
 MAT_SPECULAR = 4  # Phong exponent, -1 for a matte surface
 MAT_REFLECTIVE = 5
 MAT_TRANSPARENCY = 6
-MAT_IOR = 7
+MAT_IOR = 7  # dielectric, plastic and phong: index of refraction of the inside (outside is 1)
 MAT_ABSORPTION = 8  # 3 columns, Beer-Lambert coefficient per unit length
 MAT_TEXTURE = 11  # row in the texture table, -1 for none
-MAT_WIDTH = 12
+MAT_ROUGHNESS = 12  # GGX alpha; 0 is perfectly smooth
+MAT_ETA = 13  # 3 columns: a conductor's complex index of refraction, real part (RGB)
+MAT_K = 16  # 3 columns: its imaginary part
+MAT_HAS_ETA = 19  # 1 when a conductor has eta and k (Fresnel), 0 for a perfect mirror times color
+MAT_EMISSION = 20  # 3 columns: emitted radiance (path mode: the surface is a light)
+MAT_WIDTH = 23
 
+# Kinds (MAT_KIND), the scene's material `type`s.
 PHONG = 0
+DIFFUSE = 1
+CONDUCTOR = 2
+DIELECTRIC = 3
+PLASTIC = 4
 
 
 @njit(**KERNEL, inline="always")
@@ -46,12 +56,13 @@ def phong(n, l, view, specular):
 
 
 @njit(**KERNEL, inline="always")
-def albedo(G, F, X, m, prim, b1, b2, p):
-    """The material's colour at a hit: its plain colour or its texture's."""
+def albedo(G, F, X, m, prim, b1, b2, p, d, n, radius):
+    """The material's colour at a hit: its plain colour or its texture's, filtered over the
+    footprint of a ray cone of `radius` along d at the surface of normal n (textures.py)."""
     x = int(F.materials[m, MAT_TEXTURE])
     if x < 0:
         return row3(F.materials, m, MAT_COLOR)
-    return texture_at(G, F, X, x, prim, b1, b2, p)
+    return texture_at(G, F, X, x, prim, b1, b2, p, d, n, radius)
 
 
 @njit(**KERNEL, inline="always")

@@ -6,6 +6,8 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from .environment import Environment
+
 
 class KernelScene(NamedTuple):
     prims: np.ndarray  # int32 (P, PRIM_WIDTH): the primitive table in BVH leaf order (shapes.py)
@@ -22,6 +24,21 @@ class KernelScene(NamedTuple):
     texels: np.ndarray  # float32 (N, 3): every image texture's linear texels, row by row
     light_kind: np.ndarray  # int32 (L,)
     light_data: np.ndarray  # float64 (L, LIGHT_WIDTH), lights.py
+    # path mode's lights (emitters.py): kinds, rows, the power cdf, how many area lights lead
+    # the table, the environment's and the ambient lights' rows (-1: none); the environment
+    emitter_kind: np.ndarray  # int32 (E,)
+    emitter_data: np.ndarray  # float64 (E, EMIT_WIDTH)
+    emitter_cdf: np.ndarray  # float64 (E + 1,)
+    n_area_emitters: int
+    environment_row: int
+    ambient_row: int
+    # the environment (environment.py's Environment, flattened: parallel kernels take no
+    # nested tuples)
+    env_image: np.ndarray
+    env_marginal_cdf: np.ndarray
+    env_conditional_cdf: np.ndarray
+    env_rotation: np.ndarray
+    env_present: bool
     has_transparency: bool
     # Smallest ray offset: a tiny fraction of the scene's extent, camera included (set per
     # render by the Session, since the camera may move).
@@ -60,6 +77,25 @@ class Surfaces(NamedTuple):
 class Lights(NamedTuple):
     kind: np.ndarray
     data: np.ndarray
+
+
+class Emitters(NamedTuple):
+    kind: np.ndarray
+    data: np.ndarray
+    cdf: np.ndarray
+    n_area: int
+    environment_row: int
+    ambient_row: int
+
+
+@njit
+def emitters_of(S):
+    return Emitters(S.emitter_kind, S.emitter_data, S.emitter_cdf, S.n_area_emitters, S.environment_row, S.ambient_row)
+
+
+@njit
+def environment_of(S):
+    return Environment(S.env_image, S.env_marginal_cdf, S.env_conditional_cdf, S.env_rotation, S.env_present)
 
 
 @njit

@@ -6,6 +6,7 @@ import math
 import numpy as np
 from numba import njit
 
+from .sampler import concentric_disk
 from .shape_plane import intersect_plane
 from .vec import KERNEL, cross, dot, length, madd, row3, sub
 
@@ -111,3 +112,21 @@ def tessellate(row: np.ndarray, view) -> np.ndarray:
     radius = float(row[RADIUS])
     segments = circle_segments(radius, nearest_distance(center, n, radius, view.eye), view.px_per_rad)
     return fan(center, ring(center, e1, np.cross(n, e1), radius, segments))
+
+
+# --- emission (path mode samples emissive shapes) ---------------------------------------------
+
+
+@njit(**KERNEL)
+def sample(rows, i, u1, u2):
+    """A uniform point on disk i for (u1, u2) in [0, 1)^2 (concentric map), and the normal."""
+    n = row3(rows, i, NORMAL)
+    e1 = row3(rows, i, TANGENT)
+    e2 = cross(n, e1)
+    a, b = concentric_disk(u1, u2)
+    r = rows[i, RADIUS]
+    return madd(madd(row3(rows, i, CENTER), e1, a * r), e2, b * r), n
+
+
+def area(rows: np.ndarray) -> np.ndarray:
+    return math.pi * rows[:, RADIUS] ** 2

@@ -80,3 +80,17 @@ def tessellate(row: np.ndarray, view) -> np.ndarray:
     """Two triangles: exactly the parallelogram."""
     k = corners(np.asarray(row, dtype=np.float64)[None, :])[0]
     return np.array([np.concatenate([k[0], k[1], k[2]]), np.concatenate([k[0], k[2], k[3]])])
+
+
+# --- emission (path mode samples emissive shapes) ---------------------------------------------
+
+
+@njit(**KERNEL)
+def sample(rows, i, u1, u2):
+    """A uniform point on quad i for (u1, u2) in [0, 1)^2, and the normal there."""
+    c = madd(madd(row3(rows, i, CENTER), row3(rows, i, U), u1 - 0.5), row3(rows, i, V), u2 - 0.5)
+    return c, row3(rows, i, NORMAL)
+
+
+def area(rows: np.ndarray) -> np.ndarray:
+    return np.linalg.norm(np.cross(rows[:, U : U + 3], rows[:, V : V + 3]), axis=1)

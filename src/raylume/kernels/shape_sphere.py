@@ -148,3 +148,8 @@ def sphere_cap(center, radius: float, eye, px_per_rad: float) -> np.ndarray:
         last = ring_pts[-1]
         tris.append(np.stack([last, np.broadcast_to(antipode, (segments, 3)), last[nxt]], axis=1))
     return np.concatenate(tris).reshape(-1, 9)
+
+
+def area(rows: np.ndarray) -> np.ndarray:
+    """Surface areas (emission: path mode samples a sphere by the cone it subtends, emitters.py)."""
+    return 4.0 * math.pi * rows[:, RADIUS] ** 2

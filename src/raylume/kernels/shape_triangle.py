@@ -102,3 +102,52 @@ def uv(G, i, b1, b2):
         return b1, b2
     b0 = 1.0 - b1 - b2
     return (b0 * uvs[i, 0] + b1 * uvs[i, 2] + b2 * uvs[i, 4], b0 * uvs[i, 1] + b1 * uvs[i, 3] + b2 * uvs[i, 5])
+
+
+@njit(**KERNEL)
+def uv_change(G, i, a):
+    """Change of the triangle's (u, v) along the vector a in its plane (texture filtering):
+    a = e1 db1 + e2 db2 solved for the barycentric change by least squares."""
+    tri = G.triangles
+    v0 = row3(tri, i, 0)
+    e1 = sub(row3(tri, i, 3), v0)
+    e2 = sub(row3(tri, i, 6), v0)
+    a11 = dot(e1, e1)
+    a12 = dot(e1, e2)
+    a22 = dot(e2, e2)
+    det = a11 * a22 - a12 * a12
+    if not (det > 0.0):  # degenerate: never hit, but no division by zero either
+        return 0.0, 0.0
+    r1 = dot(a, e1)
+    r2 = dot(a, e2)
+    db1 = (a22 * r1 - a12 * r2) / det
+    db2 = (a11 * r2 - a12 * r1) / det
+    uvs = G.triangle_uvs
+    if uvs.shape[0] <= i:
+        return db1, db2
+    return (
+        db1 * (uvs[i, 2] - uvs[i, 0]) + db2 * (uvs[i, 4] - uvs[i, 0]),
+        db1 * (uvs[i, 3] - uvs[i, 1]) + db2 * (uvs[i, 5] - uvs[i, 1]),
+    )
+
+
+# --- emission (path mode samples emissive triangles) -------------------------------------------
+
+
+@njit(**KERNEL)
+def sample(G, i, u1, u2):
+    """A uniform point on triangle i for (u1, u2) in [0, 1)^2, and its face normal."""
+    tri = G.triangles
+    s = math.sqrt(u1)
+    v0 = row3(tri, i, 0)
+    e1 = sub(row3(tri, i, 3), v0)
+    e2 = sub(row3(tri, i, 6), v0)
+    return add(add(v0, mul(e1, 1.0 - s)), mul(e2, u2 * s)), normalize(cross(e1, e2))
+
+
+def area(triangles):
+    """One side's area of each of (T, 9) triangles."""
+    import numpy as np
+
+    v = np.asarray(triangles, dtype=np.float64).reshape(-1, 3, 3)
+    return 0.5 * np.linalg.norm(np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]), axis=1)

@@ -74,6 +74,7 @@ INF = math.inf
 # are their only other shape, float64 when they have disks, quads or cylinders (see below).
 _WITH_PLANES = np.zeros(1, dtype=np.int8)  # and nothing but spheres and triangles beside
 _WITH_ALL_SHAPES = np.zeros(1, dtype=np.float64)
+ALL_FEATURES = _WITH_ALL_SHAPES  # for kernels compiled once for every scene (path mode)
 
 
 def features(S):
@@ -161,6 +162,26 @@ def uv(G, X, k, b1, b2, p):
     if X is None:
         return 0.0, 0.0
     return _uv_unusual(X, G.shapes, kind, row, b1, p)
+
+
+@njit(**KERNEL)
+def uv_differentials(G, X, k, b1, b2, p, u, v, a1, a2):
+    """Changes (du1, dv1, du2, dv2) of the UVs (u, v) at p from p to p + a1 and to p + a2,
+    two vectors in the surface's tangent plane (texture filtering). Triangles answer exactly;
+    other shapes by finite differences of their UVs, wrapped across seams (a sphere's u)."""
+    if G.prims[k, PRIM_KIND] == TRIANGLE:
+        row = np.int64(G.prims[k, PRIM_ROW])
+        du1, dv1 = shape_triangle.uv_change(G, row, a1)
+        du2, dv2 = shape_triangle.uv_change(G, row, a2)
+        return du1, dv1, du2, dv2
+    u1, v1 = uv(G, X, k, b1, b2, (p[0] + a1[0], p[1] + a1[1], p[2] + a1[2]))
+    u2, v2 = uv(G, X, k, b1, b2, (p[0] + a2[0], p[1] + a2[1], p[2] + a2[2]))
+    return _wrapped(u1 - u), _wrapped(v1 - v), _wrapped(u2 - u), _wrapped(v2 - v)
+
+
+@njit(**KERNEL, inline="always")
+def _wrapped(x):
+    return x - math.floor(x + 0.5)
 
 
 @njit(**KERNEL)
@@ -259,3 +280,37 @@ def offset_epsilon(epsilon_floor, p):
     """Offset for rays leaving a surface at p: scaled to the hit's magnitude, so no acne at any
     scale (epsilon_floor: a tiny fraction of the scene's extent)."""
     return 1e-7 * max(max_abs(p), epsilon_floor)
+
+
+# --- emission: path mode samples points on emissive primitives (emitters.py) ----------------
+
+# Shapes whose surface next-event estimation samples (a sphere by the cone it subtends, the rest
+# uniformly by area); other emissive shapes are found by BSDF sampling alone.
+EMISSION_SAMPLED = (TRIANGLE, SPHERE, QUAD, DISK)
+
+
+@njit(**KERNEL)
+def sample_surface(G, k, u1, u2):
+    """A uniform point on primitive k (a triangle, quad or disk) and its normal there."""
+    kind = G.prims[k, PRIM_KIND]
+    row = np.int64(G.prims[k, PRIM_ROW])
+    if kind == QUAD:
+        return shape_quad.sample(G.shapes, row, u1, u2)
+    if kind == DISK:
+        return shape_disk.sample(G.shapes, row, u1, u2)
+    return shape_triangle.sample(G, row, u1, u2)
+
+
+def surface_areas(prims: np.ndarray, rows: np.ndarray, shapes: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """One side's area of each primitive in rows (0 for the shapes emission does not sample)."""
+    kinds = prims[rows, PRIM_KIND]
+    where = prims[rows, PRIM_ROW].astype(np.int64)
+    out = np.zeros(len(rows))
+    tri = kinds == TRIANGLE
+    if tri.any():
+        out[tri] = shape_triangle.area(triangles[where[tri]])
+    for kind in (SPHERE, QUAD, DISK):
+        sel = kinds == kind
+        if sel.any():
+            out[sel] = ANALYTIC[Shape(kind)].area(shapes[where[sel]])
+    return out

@@ -2,8 +2,17 @@
 
 Table: float64 (X, TEX_WIDTH). Checker: a 3D checkerboard in world space with cells of side
 TEX_CELL alternating TEX_COLOR_A and TEX_COLOR_B. Image: texels in the scene's texel atlas
-(float32 (N, 3), linear RGB, row by row from TEX_OFFSET), looked up bilinearly by the
-surface's UVs times (TEX_SCALE_U, TEX_SCALE_V), repeating; TEX_COLOR_A holds its mean colour.
+(float32 (N, 3), linear RGB, row by row from TEX_OFFSET), looked up by the surface's UVs times
+(TEX_SCALE_U, TEX_SCALE_V), repeating; TEX_COLOR_A holds its mean colour. The atlas holds
+each image's mip-map: TEX_LEVELS levels, each half the size of the one before (at least 1
+texel), one after the other from TEX_OFFSET.
+
+Filtering (ray cones, Akenine-Moller et al. 2021): a lookup may carry the footprint of the
+pixel at the hit, a cone of radius `radius` around the ray direction d cut by the surface of
+normal n: an ellipse with semi-axes radius / |cos| along d's projection and radius across
+it. The checker is box-filtered over that ellipse's bounding box in closed form; an image is
+read trilinearly from the mip level whose texels match the ellipse's major axis. radius 0
+is a point lookup (exactly the unfiltered texture).
 """
 
 import math
@@ -11,8 +20,8 @@ import math
 import numpy as np
 from numba import njit
 
-from .shapes import uv
-from .vec import KERNEL, row3
+from .shapes import uv, uv_differentials
+from .vec import KERNEL, cross, dot, mul, row3
 
 TEX_KIND = 0
 TEX_COLOR_A = 1  # 3 columns
@@ -23,7 +32,8 @@ TEX_WIDTH_PX = 9
 TEX_HEIGHT_PX = 10
 TEX_SCALE_U = 11
 TEX_SCALE_V = 12
-TEX_WIDTH = 13
+TEX_LEVELS = 13
+TEX_WIDTH = 14
 
 CHECKER = 0
 IMAGE = 1
@@ -39,25 +49,116 @@ def checker(textures, x, p):
     return row3(textures, x, TEX_COLOR_B)
 
 
+# Grazing footprints are capped at this many cone radii: beyond it the checker is grey and
+# the image at its coarsest level anyway.
+MAX_ELONGATION = 100.0
+
+
+@njit(**KERNEL)
+def footprint(d, n, radius):
+    """Semi-axes (a1, a2) of the ellipse a cone of `radius` along the unit direction d cuts
+    from the plane of unit normal n: a1 along d's projection (radius / |cos|), a2 across."""
+    c = max(abs(dot(d, n)), 1.0 / MAX_ELONGATION)
+    across = cross(n, d)
+    s = math.sqrt(dot(across, across))
+    if s < 1e-9:  # looking straight at the surface: a circle, any axes will do
+        helper = (1.0, 0.0, 0.0) if abs(n[0]) < 0.9 else (0.0, 1.0, 0.0)
+        across = cross(n, helper)
+        s = math.sqrt(dot(across, across))
+    t2 = mul(across, 1.0 / s)
+    t1 = cross(t2, n)
+    return mul(t1, radius / c), mul(t2, radius)
+
+
 @njit(**KERNEL, inline="always")
-def texture_at(G, F, X, x, prim, b1, b2, p):
-    """Colour of texture x at a hit on primitive `prim` at p."""
+def _square_wave_integral(x):
+    """Integral from 0 to x of the wave that is +1 on [0, 1), -1 on [1, 2), period 2."""
+    f = x - 2.0 * math.floor(0.5 * x)
+    return 1.0 - abs(f - 1.0)
+
+
+@njit(**KERNEL, inline="always")
+def _filtered_wave(x, width):
+    """That wave averaged over [x - width/2, x + width/2] (the value at x when width is 0)."""
+    if width < 1e-6:
+        return 1.0 if (math.floor(x) % 2) == 0 else -1.0
+    h = 0.5 * width
+    return (_square_wave_integral(x + h) - _square_wave_integral(x - h)) / width
+
+
+@njit(**KERNEL)
+def filtered_checker(textures, x, p, a1, a2):
+    """The checker averaged over the bounding box of the footprint ellipse (a1, a2) at p.
+
+    The checker is A where the product of one square wave per axis is +1 and B where it is -1;
+    a box's average of a product of functions of one axis each is the product of their
+    averages, each in closed form."""
+    inv = 1.0 / textures[x, TEX_CELL]
+    product = 1.0
+    for k in range(3):
+        width = 2.0 * math.sqrt(a1[k] * a1[k] + a2[k] * a2[k]) * inv
+        product *= _filtered_wave(p[k] * inv + 1e-9, width)
+    wa = 0.5 * (1.0 + product)
+    wb = 1.0 - wa
+    return (
+        wa * textures[x, TEX_COLOR_A] + wb * textures[x, TEX_COLOR_B],
+        wa * textures[x, TEX_COLOR_A + 1] + wb * textures[x, TEX_COLOR_B + 1],
+        wa * textures[x, TEX_COLOR_A + 2] + wb * textures[x, TEX_COLOR_B + 2],
+    )
+
+
+@njit(**KERNEL, inline="always")
+def texture_at(G, F, X, x, prim, b1, b2, p, d, n, radius):
+    """Colour of texture x at a hit on primitive `prim` at p, seen along d (unit) on a surface
+    of unit normal n, filtered over a cone footprint of `radius` (0: a point lookup)."""
     tex = F.textures
     if tex[x, TEX_KIND] == CHECKER:
+        if radius > 0.0:
+            a1, a2 = footprint(d, n, radius)
+            return filtered_checker(tex, x, p, a1, a2)
         return checker(tex, x, p)
     if X is None:  # never: such scenes have no image textures (shapes.features)
         return row3(tex, x, TEX_COLOR_A)
     # explicit int64: call sites after inlined traversal may type the primitive as a literal,
     # which would compile shapes.uv once per literal
-    u, v = uv(G, X, np.int64(prim), b1, b2, p)
-    return texture_lookup(
-        F.texels,
-        int(tex[x, TEX_OFFSET]),
-        int(tex[x, TEX_WIDTH_PX]),
-        int(tex[x, TEX_HEIGHT_PX]),
-        u * tex[x, TEX_SCALE_U],
-        v * tex[x, TEX_SCALE_V],
-    )
+    k = np.int64(prim)
+    u, v = uv(G, X, k, b1, b2, p)
+    su = tex[x, TEX_SCALE_U]
+    sv = tex[x, TEX_SCALE_V]
+    width = int(tex[x, TEX_WIDTH_PX])
+    height = int(tex[x, TEX_HEIGHT_PX])
+    level = 0.0
+    if radius > 0.0:
+        a1, a2 = footprint(d, n, radius)
+        du1, dv1, du2, dv2 = uv_differentials(G, X, k, b1, b2, p, u, v, a1, a2)
+        # the footprint's longer axis in texels of level 0
+        l1 = math.hypot(du1 * su * width, dv1 * sv * height)
+        l2 = math.hypot(du2 * su * width, dv2 * sv * height)
+        texels = 2.0 * max(l1, l2)
+        if texels > 1.0:
+            level = math.log2(texels)
+    return mip_lookup(F.texels, int(tex[x, TEX_OFFSET]), width, height, int(tex[x, TEX_LEVELS]), u * su, v * sv, level)
+
+
+@njit(**KERNEL)
+def mip_lookup(texels, offset, width, height, levels, u, v, level):
+    """Trilinear lookup: bilinear in the two mip levels around `level`, blended."""
+    if not (level > 0.0):  # also NaN
+        return texture_lookup(texels, offset, width, height, u, v)
+    top = levels - 1
+    if level >= top:
+        level = float(top)
+    lower = int(level)
+    t = level - lower
+    for _ in range(lower):
+        offset += width * height
+        width = max(1, width // 2)
+        height = max(1, height // 2)
+    a = texture_lookup(texels, offset, width, height, u, v)
+    if t == 0.0 or lower == top:
+        return a
+    b = texture_lookup(texels, offset + width * height, max(1, width // 2), max(1, height // 2), u, v)
+    return (a[0] + (b[0] - a[0]) * t, a[1] + (b[1] - a[1]) * t, a[2] + (b[2] - a[2]) * t)
 
 
 @njit(**KERNEL)

@@ -12,11 +12,12 @@ import math
 from numba import njit
 
 from .direct import direct_lighting
-from .materials import MAT_IOR, MAT_REFLECTIVE, MAT_TRANSPARENCY, albedo, beer_lambert
+from .environment import environment_radiance
+from .materials import MAT_EMISSION, MAT_IOR, MAT_REFLECTIVE, MAT_TRANSPARENCY, albedo, beer_lambert
 from .optics import fresnel_dielectric, reflect, refract
 from .shapes import offset_epsilon, surface
 from .traverse import closest_hit
-from .vec import KERNEL, dot, hadamard, madd, mul
+from .vec import KERNEL, add, dot, hadamard, madd, mul, row3
 
 INF = math.inf
 # Branches whose weight falls below this cannot change an 8-bit pixel.
@@ -27,7 +28,8 @@ RAY_ORIGIN = 0  # 3 columns
 RAY_DIRECTION = 3  # 3 columns
 RAY_WEIGHT = 6  # 3 columns, RGB
 RAY_DEPTH = 9  # bounces left
-RAY_WIDTH = 10
+RAY_CONE = 10  # the ray cone's radius at the origin (texture filtering)
+RAY_WIDTH = 11
 
 
 @njit(**KERNEL)
@@ -38,9 +40,13 @@ def stack_rows(max_depth):
 
 # Inlined into the row loop (frame.py): a call per camera ray passed the scene views by value.
 @njit(**KERNEL, inline="always")
-def trace_ray(G, F, L, X, o, d, max_depth, background, rays, node_stack, t_stack, key):
+def trace_ray(G, F, L, X, Env, o, d, spread, max_depth, background, rays, node_stack, t_stack, key):
     """Colour seen along the ray (o, d). `rays` is the stack of rays waiting to be traced;
-    `key` the camera sample's random key (area lights). Returns (rgb, rays traced)."""
+    `key` the camera sample's random key (area lights). Textures are filtered over a ray cone
+    from the eye whose radius grows by `spread` per unit distance, along reflections and
+    refractions too (as if every surface were flat: curvature's widening is left out). Rays
+    that hit nothing see the environment Env when the scene has one, else the background.
+    Returns (rgb, rays traced)."""
     cr = 0.0
     cg = 0.0
     cb = 0.0
@@ -51,6 +57,7 @@ def trace_ray(G, F, L, X, o, d, max_depth, background, rays, node_stack, t_stack
     # reflection beside a refraction) waits on the stack.
     w = (1.0, 1.0, 1.0)
     depth = max_depth
+    cone = 0.0  # the cone's radius at o
     pending = True
     while True:
         if not pending:
@@ -61,13 +68,15 @@ def trace_ray(G, F, L, X, o, d, max_depth, background, rays, node_stack, t_stack
             d = (rays[top, RAY_DIRECTION], rays[top, RAY_DIRECTION + 1], rays[top, RAY_DIRECTION + 2])
             w = (rays[top, RAY_WEIGHT], rays[top, RAY_WEIGHT + 1], rays[top, RAY_WEIGHT + 2])
             depth = int(rays[top, RAY_DEPTH])
+            cone = rays[top, RAY_CONE]
         pending = False
         t, prim, b1, b2 = closest_hit(G, X, o, d, 0.0, INF, node_stack, t_stack)
         count += 1
         if t == INF:
-            cr += w[0] * background[0]
-            cg += w[1] * background[1]
-            cb += w[2] * background[2]
+            sky = environment_radiance(Env, d) if Env.present else background
+            cr += w[0] * sky[0]
+            cg += w[1] * sky[1]
+            cb += w[2] * sky[2]
             continue
         p = madd(o, d, t)
         ng, ns, m, obj, face = surface(G, X, prim, b1, b2, p)
@@ -87,7 +96,9 @@ def trace_ray(G, F, L, X, o, d, max_depth, background, rays, node_stack, t_stack
         light, shadow_rays = direct_lighting(G, F, L, X, outside, ns, view, m, True, node_stack, t_stack, key, shaded)
         shaded += 1
         count += shadow_rays
-        local = hadamard(albedo(G, F, X, m, prim, b1, b2, p), light)
+        cone += spread * t
+        # the seed's local colour, and any emission (a glowing surface shows its radiance)
+        local = add(hadamard(albedo(G, F, X, m, prim, b1, b2, p, d, ng, cone), light), row3(mat, m, MAT_EMISSION))
         if depth <= 0:
             cr += w[0] * local[0]
             cg += w[1] * local[1]
@@ -115,7 +126,7 @@ def trace_ray(G, F, L, X, o, d, max_depth, background, rays, node_stack, t_stack
         # a stack of both would give).
         if transmits:
             if reflects and top < rays.shape[0]:
-                _push(rays, top, outside, reflect(d, ns), w_reflect, depth - 1)
+                _push(rays, top, outside, reflect(d, ns), w_reflect, depth - 1, cone)
                 top += 1
             o, d, w, depth, pending = madd(p, ng, -eps), refract(d, ns, eta, cos_i, cos_t), w_transmit, depth - 1, True
         elif reflects:
@@ -124,9 +135,10 @@ def trace_ray(G, F, L, X, o, d, max_depth, background, rays, node_stack, t_stack
 
 
 @njit(**KERNEL)
-def _push(rays, top, o, d, w, depth):
+def _push(rays, top, o, d, w, depth, cone):
     for c in range(3):
         rays[top, RAY_ORIGIN + c] = o[c]
         rays[top, RAY_DIRECTION + c] = d[c]
         rays[top, RAY_WEIGHT + c] = w[c]
     rays[top, RAY_DEPTH] = depth
+    rays[top, RAY_CONE] = cone

@@ -92,8 +92,11 @@ class RenderSettings(Strict):
     width: int = Field(600, ge=1, le=MAX_SIDE)
     height: int = Field(600, ge=1, le=MAX_SIDE)
     spp: int = Field(1, ge=1, le=MAX_SPP)
-    max_depth: int = Field(3, ge=0, le=MAX_DEPTH)
-    mode: Literal["cast", "trace", "raster"] = "trace"
+    # Bounces (trace) or path segments (path, as Mitsuba counts them: 1 shows only emitters
+    # seen directly, 2 is direct lighting, -1 unlimited with Russian roulette). Unset: 3 in
+    # trace mode, -1 in path mode (`depth` is the value in force).
+    max_depth: int | None = Field(None, ge=-1, le=MAX_DEPTH)
+    mode: Literal["cast", "trace", "path", "raster"] = "trace"
     background: Color = (0.0, 0.0, 0.0)
     encoding: Literal["clamp", "srgb"] = "clamp"
     seed: int = Field(0, ge=0, le=2**32 - 1)
@@ -103,6 +106,24 @@ class RenderSettings(Strict):
     # Exposure in stops: 8-bit outputs (PNG) are encoded from rgb * 2**exposure; float outputs
     # (.exr, .hdr, .npy) stay as rendered.
     exposure: FiniteFloat = Field(0.0, ge=-64, le=64)
+    # Filter texture lookups over each pixel's footprint (ray cones; mip-maps for images), so
+    # that far checkers and fine images do not alias. false: point lookups.
+    texture_filter: bool = True
+    # Path mode: run Intel Open Image Denoise on the image (with the albedo and normal AOVs).
+    denoise: bool = False
+
+    @model_validator(mode="after")
+    def _depth(self):
+        if self.max_depth == -1 and self.mode != "path":
+            raise ValueError(f"max_depth -1 (unlimited) is for path mode; {self.mode} mode needs a depth >= 0")
+        return self
+
+    @property
+    def depth(self) -> int:
+        """max_depth in force: the set value, else 3 (trace) or -1 (path: unlimited)."""
+        if self.max_depth is not None:
+            return self.max_depth
+        return -1 if self.mode == "path" else 3
 
     @field_validator("background", mode="before")
     @classmethod
@@ -199,13 +220,35 @@ Texture = Annotated[
 ]
 
 
+# Keys that only some material types read; any other type given one is an error.
+_TYPE_KEYS = {
+    "specular": ("phong",),
+    "reflective": ("phong",),
+    "transparency": ("phong",),
+    "roughness": ("conductor", "dielectric", "plastic"),
+    "eta": ("conductor",),
+    "k": ("conductor",),
+    "ior": ("phong", "dielectric", "plastic"),
+    "absorption": ("phong", "dielectric"),
+}
+
+
 class Material(Strict):
+    """A material: `type` "phong" (the seed's model), "diffuse", "conductor", "dielectric" or
+    "plastic" (DESIGN.md section 6); `color` is a reflectance (or a transmittance tint), so at
+    most 1; `emission` makes the surface a light in path mode."""
+
+    type: Literal["phong", "diffuse", "conductor", "dielectric", "plastic"] = "phong"
     color: Color = (1.0, 1.0, 1.0)
     specular: FiniteFloat | None = Field(None, gt=0)
     reflective: FiniteFloat = Field(0.0, ge=0, le=1)
     transparency: FiniteFloat = Field(0.0, ge=0, le=1)
     ior: FiniteFloat = Field(1.5, gt=0)
     absorption: Color = (0.0, 0.0, 0.0)
+    roughness: FiniteFloat = Field(0.0, ge=0, le=1)  # GGX alpha, as Mitsuba's rough plugins
+    eta: Color | None = None  # a conductor's complex index of refraction, eta + i k, per RGB
+    k: Color | None = None
+    emission: Color = (0.0, 0.0, 0.0)  # emitted radiance
     texture: Texture | None = None
 
     @field_validator("color", mode="before")
@@ -213,15 +256,20 @@ class Material(Strict):
     def _col(cls, v):
         return _colour(v, upper=1.0)
 
-    @field_validator("absorption", mode="before")
+    @field_validator("absorption", "emission", "eta", "k", mode="before")
     @classmethod
-    def _abs(cls, v):
-        return _colour(v, upper=None)
+    def _unbounded(cls, v):
+        return None if v is None else _colour(v, upper=None)
 
     @model_validator(mode="after")
     def _energy(self):
         if self.reflective + self.transparency > 1 + 1e-9:
             raise ValueError("reflective + transparency must not exceed 1")
+        for key, types in _TYPE_KEYS.items():
+            if getattr(self, key) != type(self).model_fields[key].default and self.type not in types:
+                raise ValueError(f"{key!r} is not a key of a {self.type} material (it belongs to {', '.join(types)})")
+        if (self.eta is None) != (self.k is None):
+            raise ValueError("a conductor's Fresnel needs both eta and k (or neither: a perfect mirror times color)")
         return self
 
 
@@ -305,6 +353,33 @@ class QuadLight(_LightBase):
         return self
 
 
+class SpotLight(_LightBase):
+    """A point light shining along `direction` within a cone of half-angle `angle` (degrees),
+    at full intensity inside `inner_angle` and falling smoothly to 0 at `angle`."""
+
+    type: Literal["spot"]
+    position: Vec3
+    direction: Vec3  # the way it shines
+    angle: FiniteFloat = Field(30.0, gt=0, le=180)
+    inner_angle: FiniteFloat | None = Field(None, ge=0, le=180)
+
+    @field_validator("direction")
+    @classmethod
+    def _d(cls, v):
+        return _nonzero(v, "direction")
+
+    @model_validator(mode="after")
+    def _cone(self):
+        if self.inner_angle is not None and self.inner_angle > self.angle:
+            raise ValueError(f"inner_angle ({self.inner_angle}) must not exceed angle ({self.angle})")
+        return self
+
+    @property
+    def inner(self) -> float:
+        """The inner angle in force: as set, else 3/4 of the outer angle."""
+        return self.inner_angle if self.inner_angle is not None else 0.75 * self.angle
+
+
 class SphereLight(_LightBase):
     """A sphere of `radius` around `position`, sampled with `samples` shadow rays per shading
     point (over its disk facing the point)."""
@@ -321,6 +396,7 @@ LIGHT_TYPES = {
     "directional": DirectionalLight,
     "quad": QuadLight,
     "sphere": SphereLight,
+    "spot": SpotLight,
 }
 Light = tagged_union(LIGHT_TYPES)
 
@@ -508,12 +584,36 @@ SceneObject = tagged_union(OBJECT_TYPES)
 DEFAULT_MATERIAL = Material()
 
 
+class Environment(Strict):
+    """Light from every direction for rays that hit nothing (it replaces `background`): a
+    constant `color` or an equirectangular image `file` (.exr or .hdr; its centre column
+    looks along +z, its top row along +y), scaled by `intensity`, turned by `rotate` (degrees,
+    as object transforms)."""
+
+    color: Color | None = None
+    file: str | None = None
+    intensity: FiniteFloat = Field(1.0, ge=0)
+    rotate: Vec3 = (0.0, 0.0, 0.0)
+
+    @field_validator("color", mode="before")
+    @classmethod
+    def _col(cls, v):
+        return _colour(v, upper=None)
+
+    @model_validator(mode="after")
+    def _one_source(self):
+        if (self.color is None) == (self.file is None):
+            raise ValueError('give exactly one of color = [r, g, b] and file = "sky.hdr"')
+        return self
+
+
 class Scene(Strict):
     render: RenderSettings = RenderSettings()
     camera: Camera = Camera()
     materials: dict[str, Material] = {}
     lights: list[Light] = []
     objects: list[SceneObject] = []
+    environment: Environment | None = None
 
     # Folder that relative paths (mesh files) are resolved against; set by the loader.
     _base_dir: Path = PrivateAttr(default_factory=Path.cwd)

@@ -1,0 +1,102 @@
+"""The emitter table path mode samples (kernels/emitters.py), built from the scene's lights,
+its emissive primitives and its environment, with a distribution proportional to power."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .kernels import emitters as EM
+from .kernels import lights as LI
+from .kernels.environment import Environment, build_environment, no_environment
+from .kernels.materials import MAT_EMISSION
+from .kernels.shapes import EMISSION_SAMPLED, PRIM_KIND, PRIM_LIGHT, PRIM_MATERIAL, surface_areas
+
+
+def scene_environment(scene, source: str) -> Environment:
+    """The kernels' Environment of the scene's [environment] table (not present without one)."""
+    env = scene.environment
+    if env is None:
+        return no_environment()
+    return build_environment(
+        color=env.color,
+        file=env.file,
+        intensity=env.intensity,
+        rotate=env.rotate,
+        base_dir=scene.base_dir,
+        source=source,
+    )
+
+
+def build_emitters(scene, prims, shapes, triangles, materials, environment: Environment, extent: float):
+    """(kinds int32 (E,), data float64 (E, EMIT_WIDTH), cdf float64 (E + 1,), n_area,
+    environment row or -1, ambient row or -1); sets prims[:, PRIM_LIGHT] for the emissive
+    primitives. Ambient lights become one row: a uniform environment of their summed radiance."""
+    rows: list[np.ndarray] = []
+    kinds: list[int] = []
+    power: list[float] = []
+    radius = max(extent, 1e-9)  # the scene's bounding radius, roughly: a directional light's reach
+    lights = [light for light in scene.lights if light.type != "ambient"]
+    # area lights first (the ray test loops over them), then the rest
+    lights.sort(key=lambda light: light.type not in ("quad", "sphere"))
+    n_area = sum(light.type in ("quad", "sphere") for light in lights)
+    for light in lights:
+        kind, light_row = LI.pack_light(light)
+        row = np.zeros(EM.EMIT_WIDTH)
+        row[: LI.LIGHT_WIDTH] = light_row
+        intensity = float(np.mean(light.intensity))
+        if kind == LI.POINT:
+            phi = 4 * math.pi * intensity
+        elif kind == LI.SPOT:
+            phi = 2 * math.pi * intensity * (1 - 0.5 * (row[LI.LIGHT_COS_INNER] + row[LI.LIGHT_COS_OUTER]))
+        elif kind == LI.DIRECTIONAL:
+            phi = math.pi * radius**2 * intensity
+        elif kind == LI.QUAD:
+            phi = 2 * math.pi * float(np.linalg.norm(np.cross(light.u, light.v))) * intensity
+        else:  # sphere
+            phi = math.pi * 4 * math.pi * light.radius**2 * intensity
+        rows.append(row)
+        kinds.append(kind)
+        power.append(phi)
+
+    emission = materials[:, MAT_EMISSION : MAT_EMISSION + 3]
+    glowing = np.flatnonzero(
+        (emission[prims[:, PRIM_MATERIAL]] > 0).any(axis=1) & np.isin(prims[:, PRIM_KIND], EMISSION_SAMPLED)
+    )
+    first_prim = len(rows)
+    if len(glowing):
+        area = surface_areas(prims, glowing, shapes, triangles)
+        radiance = emission[prims[glowing, PRIM_MATERIAL]]
+        block = np.zeros((len(glowing), EM.EMIT_WIDTH))
+        block[:, LI.LIGHT_INTENSITY : LI.LIGHT_INTENSITY + 3] = radiance
+        block[:, EM.EMIT_PRIM] = glowing
+        block[:, EM.EMIT_AREA] = area
+        rows.extend(block)
+        kinds.extend([EM.PRIMITIVE] * len(glowing))
+        power.extend(2 * math.pi * area * radiance.mean(axis=1))  # both sides
+        prims[glowing, PRIM_LIGHT] = first_prim + np.arange(len(glowing), dtype=np.int32)
+
+    ambient = sum((np.asarray(light.intensity) for light in scene.lights if light.type == "ambient"), np.zeros(3))
+    ambient_row = -1
+    if ambient.any():
+        ambient_row = len(rows)
+        row = np.zeros(EM.EMIT_WIDTH)
+        row[LI.LIGHT_INTENSITY : LI.LIGHT_INTENSITY + 3] = ambient
+        rows.append(row)
+        kinds.append(LI.AMBIENT)
+        power.append(4 * math.pi * math.pi * radius**2 * float(ambient.mean()))
+
+    env_row = -1
+    if environment.present:
+        env_row = len(rows)
+        rows.append(np.zeros(EM.EMIT_WIDTH))
+        kinds.append(EM.ENVIRONMENT)
+        power.append(4 * math.pi * math.pi * radius**2 * float(environment.image.mean()))
+
+    if not rows:
+        return np.zeros(1, np.int32), np.zeros((1, EM.EMIT_WIDTH)), np.zeros(2), 0, -1, -1
+    weights = np.maximum(np.asarray(power, dtype=np.float64), 0.0)
+    cdf = np.zeros(len(weights) + 1)
+    cdf[1:] = np.cumsum(weights)
+    return np.asarray(kinds, np.int32), np.ascontiguousarray(np.stack(rows)), cdf, n_area, env_row, ambient_row

@@ -1,0 +1,239 @@
+"""Path tracing: unbiased Monte Carlo light transport in radiometric units, as Mitsuba 3's
+`path` integrator computes it.
+
+Each camera sample follows one path. At every surface it adds the surface's emission, a
+next-event estimate (one emitter picked in proportion to power, emitters.py, a point on it,
+a shadow ray) and continues in a direction sampled from the BSDF (bsdf.py). Emission found by
+a BSDF-sampled direction and light found by next-event estimation are weighted by the power
+heuristic (Veach's multiple importance sampling), so each light path is counted once;
+delta lights and smooth (delta) BSDF lobes take the one strategy that can find them.
+
+Depth counts path segments as Mitsuba does: the camera ray is segment 1, so max_depth 1 shows
+only emitters seen directly and 2 is direct lighting; -1 is unlimited, with Russian roulette
+from segment RR_DEPTH on. Random numbers come from the sampler's named dimensions keyed by
+(seed, pixel, sample, segment), so an image depends only on the scene, seed and spp.
+"""
+
+import math
+
+import numpy as np
+from numba import njit
+
+from .bsdf import bsdf_eval, bsdf_sample
+from .emitters import (
+    SHADOW_SHORTEN,
+    emitter_pdf,
+    environment_light,
+    hit_area_lights,
+    pick_emitter,
+    pick_probability,
+    sample_emitter,
+)
+from .lights import LIGHT_INTENSITY, basis
+from .materials import (
+    CONDUCTOR,
+    DIELECTRIC,
+    MAT_EMISSION,
+    MAT_KIND,
+    MAT_REFLECTIVE,
+    MAT_ROUGHNESS,
+    MAT_SPECULAR,
+    MAT_TRANSPARENCY,
+    PHONG,
+    albedo,
+    beer_lambert,
+)
+from .sampler import DIM_BSDF, DIM_LIGHT, dimension_key, key_uniform2, sub_key
+from .shapes import NO_HIT, PRIM_LIGHT, offset_epsilon, surface
+from .traverse import any_hit, closest_hit
+from .vec import KERNEL, dot, hadamard, madd, mul, row3
+
+INF = math.inf
+RR_DEPTH = 5  # Mitsuba's rr_depth: Russian roulette from this many segments on
+# Strategies (a debugging and testing switch, RAYLUME_PATH_STRATEGY): both combined by MIS,
+# light sampling alone (emitters found by BSDF samples count only after delta bounces), BSDF
+# sampling alone (next-event estimation only for delta lights, which nothing else can find).
+MIS = 0
+LIGHT_ONLY = 1
+BSDF_ONLY = 2
+DIM_ROULETTE = np.uint64(0x2077E77E)
+
+
+@njit(**KERNEL, inline="always")
+def power_heuristic(a, b):
+    """Veach's power heuristic (beta 2) weight of the strategy with pdf a against pdf b."""
+    a2 = a * a
+    return a2 / (a2 + b * b) if a2 > 0.0 else 0.0
+
+
+@njit(**KERNEL, inline="always")
+def _to_local(v, s, t, n):
+    return (dot(v, s), dot(v, t), dot(v, n))
+
+
+@njit(**KERNEL, inline="always")
+def _to_world(v, s, t, n):
+    return (
+        s[0] * v[0] + t[0] * v[1] + n[0] * v[2],
+        s[1] * v[0] + t[1] * v[1] + n[1] * v[2],
+        s[2] * v[0] + t[2] * v[1] + n[2] * v[2],
+    )
+
+
+@njit(**KERNEL, inline="always")
+def _delta_only(mat, m):
+    """Materials whose every lobe is a delta (next-event estimation cannot reach them)."""
+    kind = mat[m, MAT_KIND]
+    if kind == CONDUCTOR or kind == DIELECTRIC:
+        return mat[m, MAT_ROUGHNESS] == 0.0
+    if kind == PHONG:
+        # no diffuse part left: a pure mirror and/or glass
+        return (1.0 - mat[m, MAT_TRANSPARENCY]) * (1.0 - mat[m, MAT_REFLECTIVE]) == 0.0 and mat[m, MAT_SPECULAR] <= 0.0
+    return False
+
+
+@njit(**KERNEL, inline="always")
+def _emitter_weight(G, Em, Env, e, prev_p, d, t, n_hit, prev_pdf, prev_delta, strategy):
+    """MIS weight of emission met by a BSDF-sampled ray (against next-event estimation)."""
+    if prev_delta or e < 0 or strategy == BSDF_ONLY:
+        return 1.0
+    if strategy == LIGHT_ONLY:
+        return 0.0
+    light_pdf = pick_probability(Em.cdf, e) * emitter_pdf(G, Em, Env, e, prev_p, d, t, n_hit)
+    return power_heuristic(prev_pdf, light_pdf)
+
+
+@njit(**KERNEL, inline="always")
+def path_ray(G, F, X, Em, Env, o, d, max_depth, background, key, node_stack, t_stack, strategy):
+    """Radiance along the camera ray (o, d) by one path. Returns (rgb, rays traced)."""
+    lr = 0.0
+    lg = 0.0
+    lb = 0.0
+    beta = (1.0, 1.0, 1.0)
+    rays = 0
+    depth = 0  # segments traced so far
+    prev_pdf = 0.0
+    prev_delta = True  # the camera ray sees emitters at full weight
+    mat = F.materials
+    while True:
+        t, prim, b1, b2 = closest_hit(G, X, o, d, 0.0, INF, node_stack, t_stack)
+        rays += 1
+        depth += 1
+        if Em.n_area > 0:
+            tl, e, nl = hit_area_lights(Em, o, d, t)
+            if e >= 0:
+                le = row3(Em.data, e, LIGHT_INTENSITY)
+                w = _emitter_weight(G, Em, Env, e, o, d, tl, nl, prev_pdf, prev_delta, strategy)
+                lr += beta[0] * le[0] * w
+                lg += beta[1] * le[1] * w
+                lb += beta[2] * le[2] * w
+                break
+        if prim == NO_HIT:
+            if Em.ambient_row >= 0:
+                le = row3(Em.data, Em.ambient_row, LIGHT_INTENSITY)
+                w = _emitter_weight(G, Em, Env, Em.ambient_row, o, d, INF, d, prev_pdf, prev_delta, strategy)
+                lr += beta[0] * le[0] * w
+                lg += beta[1] * le[1] * w
+                lb += beta[2] * le[2] * w
+            if Env.present:
+                le = environment_light(Env, d)
+                w = _emitter_weight(G, Em, Env, Em.environment_row, o, d, INF, d, prev_pdf, prev_delta, strategy)
+                lr += beta[0] * le[0] * w
+                lg += beta[1] * le[1] * w
+                lb += beta[2] * le[2] * w
+            elif depth == 1 and Em.ambient_row < 0:  # the background: a backdrop, not a light
+                lr += background[0]
+                lg += background[1]
+                lb += background[2]
+            break
+        p = madd(o, d, t)
+        ng, ns, m, obj, face = surface(G, X, prim, b1, b2, p)
+        entering = dot(ng, d) < 0.0
+        if not entering:
+            # the segment just travelled lay inside this surface's medium
+            beta = beer_lambert(mat, m, beta, t)
+        emission = row3(mat, m, MAT_EMISSION)
+        if emission[0] > 0.0 or emission[1] > 0.0 or emission[2] > 0.0:
+            w = _emitter_weight(G, Em, Env, G.prims[prim, PRIM_LIGHT], o, d, t, ng, prev_pdf, prev_delta, strategy)
+            lr += beta[0] * emission[0] * w
+            lg += beta[1] * emission[1] * w
+            lb += beta[2] * emission[2] * w
+        if max_depth >= 0 and depth >= max_depth:
+            break
+        # The shading frame: for two-sided materials its z faces the incoming ray; for
+        # dielectrics it stays outward (the inside is the medium).
+        kind = mat[m, MAT_KIND]
+        two_sided = not (kind == DIELECTRIC or (kind == PHONG and mat[m, MAT_TRANSPARENCY] > 0.0))
+        if two_sided and not entering:
+            ng = mul(ng, -1.0)
+            ns = mul(ns, -1.0)
+        if dot(ns, ng) <= 0.0:
+            ns = ng
+        s_axis, t_axis = basis(ns)
+        wo = _to_local(mul(d, -1.0), s_axis, t_axis, ns)
+        colour = albedo(G, F, X, m, prim, b1, b2, p, d, ng, 0.0)
+        eps = offset_epsilon(F.epsilon_floor, p)
+
+        # next-event estimation
+        if Em.cdf[Em.cdf.shape[0] - 1] > 0.0 and not _delta_only(mat, m):
+            light_key = dimension_key(key, DIM_LIGHT, depth)
+            u_pick, _ = key_uniform2(light_key)
+            u1, u2 = key_uniform2(sub_key(light_key, 1))
+            e, p_pick = pick_emitter(Em.cdf, u_pick)
+            wi, dist, li, pdf_l, delta_l = sample_emitter(G, Em, Env, e, p, u1, u2)
+            if pdf_l > 0.0 and (li[0] > 0.0 or li[1] > 0.0 or li[2] > 0.0) and (delta_l or strategy != BSDF_ONLY):
+                wi_local = _to_local(wi, s_axis, t_axis, ns)
+                up = dot(wi, ng) > 0.0
+                # two-sided reflection: light from below the geometric surface cannot arrive
+                if up or not two_sided:
+                    f, pdf_b = bsdf_eval(mat, m, colour, wo, wi_local)
+                    if f[0] > 0.0 or f[1] > 0.0 or f[2] > 0.0:
+                        origin = madd(p, ng, eps if up else -eps)
+                        tmax = dist * (1.0 - SHADOW_SHORTEN) if dist < INF else INF
+                        rays += 1
+                        if not any_hit(G, X, origin, wi, 0.0, tmax, node_stack):
+                            w = 1.0 if delta_l or strategy == LIGHT_ONLY else power_heuristic(p_pick * pdf_l, pdf_b)
+                            scale = abs(wi_local[2]) * w / (p_pick * pdf_l)
+                            lr += beta[0] * f[0] * li[0] * scale
+                            lg += beta[1] * f[1] * li[1] * scale
+                            lb += beta[2] * f[2] * li[2] * scale
+
+        # continue the path
+        bsdf_key = dimension_key(key, DIM_BSDF, depth)
+        u0, u1 = key_uniform2(bsdf_key)
+        u2, _ = key_uniform2(sub_key(bsdf_key, 1))
+        wi_local, weight, pdf, delta = bsdf_sample(mat, m, colour, wo, u0, u1, u2)
+        if not (pdf > 0.0) or not (weight[0] > 0.0 or weight[1] > 0.0 or weight[2] > 0.0):
+            break
+        wi = _to_world(wi_local, s_axis, t_axis, ns)
+        up = dot(wi, ng) > 0.0
+        if two_sided and not up:
+            break  # a shading normal sent the path through the surface
+        beta = hadamard(beta, weight)
+        prev_pdf = pdf
+        prev_delta = delta
+        o = madd(p, ng, eps if up else -eps)
+        d = wi
+        if depth >= RR_DEPTH:
+            q = min(max(beta[0], beta[1], beta[2]), 0.95)
+            u_rr, _ = key_uniform2(dimension_key(key, DIM_ROULETTE, depth))
+            if u_rr >= q:
+                break
+            beta = mul(beta, 1.0 / q)
+    return (lr, lg, lb), rays
+
+
+@njit(**KERNEL, inline="always")
+def finite_sample(c):
+    """A sample fit for the film: finite and not negative."""
+    return (
+        c[0] == c[0]
+        and c[1] == c[1]
+        and c[2] == c[2]
+        and abs(c[0]) < INF
+        and abs(c[1]) < INF
+        and abs(c[2]) < INF
+        and c[0] >= 0.0
+        and c[1] >= 0.0
+        and c[2] >= 0.0
+    )
