@@ -60,12 +60,13 @@ from numba import njit, prange
 
 from .camera import CAM_CONE_SPREAD, CAM_FORWARD, CAM_POSITION, CAM_RIGHT, CAM_UP
 from .direct import unshadowed_lighting
-from .materials import MAT_TEXTURE, albedo
-from .scene import geometry_of, lights_of, surfaces_of
+from .environment import environment_radiance
+from .materials import MAT_EMISSION, MAT_TEXTURE, albedo
+from .scene import environment_of, geometry_of, lights_of, surfaces_of
 from .shapes import PRIM_MATERIAL, features, offset_epsilon, surface
 from .textures import IMAGE, TEX_KIND
 from .traverse import TRAVERSAL_STACK
-from .vec import dot, hadamard, madd, mul
+from .vec import add, dot, hadamard, madd, mul, normalize, row3
 
 # Helpers that take arrays are inlined at the Numba level (inline="always"): a call that passes
 # array descriptors by value costs more than the helper's work (26 ns a triangle, measured).
@@ -390,6 +391,7 @@ def _shade(
         G = geometry_of(S)
         F = surfaces_of(S)
         L = lights_of(S)
+        Env = environment_of(S)
         node_stack = np.empty(TRAVERSAL_STACK, dtype=np.int32)
         t_stack = np.empty(TRAVERSAL_STACK, dtype=np.float64)
         _shade_row(
@@ -397,6 +399,7 @@ def _shade(
             F,
             L,
             X,
+            Env,
             cam,
             view,
             width,
@@ -422,12 +425,23 @@ def _shade(
         )
 
 
+@njit(fastmath=RFAST, error_model="numpy", inline="always")
+def _pixel_direction(cam, a, b):
+    """forward + right a + up b: the (unnormalised) ray through image point (a, b) in [-1, 1]^2."""
+    return (
+        cam[CAM_FORWARD] + cam[CAM_RIGHT] * a + cam[CAM_UP] * b,
+        cam[CAM_FORWARD + 1] + cam[CAM_RIGHT + 1] * a + cam[CAM_UP + 1] * b,
+        cam[CAM_FORWARD + 2] + cam[CAM_RIGHT + 2] * a + cam[CAM_UP + 2] * b,
+    )
+
+
 @njit(fastmath=RFAST, error_model="numpy")
 def _shade_row(
     G,
     F,
     L,
     X,
+    Env,
     cam,
     view,
     width,
@@ -460,8 +474,12 @@ def _shade_row(
     for i in range(width):
         t = tid[j, i]
         if t < 0:
+            sky = (background[0], background[1], background[2])
+            if Env.present:  # the environment, seen along the pixel centre's ray
+                a = (i + 0.5) / width * 2.0 - 1.0
+                sky = environment_radiance(Env, normalize(_pixel_direction(cam, a, b)))
             for c in range(3):
-                rgb[j, i, c] = background[c]
+                rgb[j, i, c] = sky[c]
             if want_aovs:
                 for c in range(3):
                     normal[j, i, c] = 0.0
@@ -472,11 +490,7 @@ def _shade_row(
             continue
         x_px = i + 0.5
         a = x_px / width * 2.0 - 1.0
-        dv = (
-            cam[CAM_FORWARD] + cam[CAM_RIGHT] * a + cam[CAM_UP] * b,
-            cam[CAM_FORWARD + 1] + cam[CAM_RIGHT + 1] * a + cam[CAM_UP + 1] * b,
-            cam[CAM_FORWARD + 2] + cam[CAM_RIGHT + 2] * a + cam[CAM_UP + 2] * b,
-        )
+        dv = _pixel_direction(cam, a, b)
         scale = math.sqrt(dv[0] * dv[0] + dv[1] * dv[1] + dv[2] * dv[2])
         d = (dv[0] / scale, dv[1] / scale, dv[2] / scale)
         dist = scale / zbuf[j, i]  # z * |F + R a + U b|: distance along the unit ray
@@ -510,7 +524,8 @@ def _shade_row(
             ns = ng
         outside = madd(p, ng, offset_epsilon(F.epsilon_floor, p))
         light, _ = unshadowed_lighting(G, F, L, X, outside, ns, mul(d, -1.0), m, node_stack, t_stack)
-        shaded = hadamard(col, light)
+        # as trace_ray: a glowing surface adds its emission
+        shaded = add(hadamard(col, light), row3(F.materials, m, MAT_EMISSION))
         for c in range(3):
             rgb[j, i, c] = shaded[c]
         if want_aovs:
