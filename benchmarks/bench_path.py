@@ -1,0 +1,365 @@
+"""raylume's path tracer against Mitsuba 3 on the Cornell box (examples/cornell.toml): speed,
+and error against time.
+
+    python benchmarks/bench_path.py [--rounds 3] [--plot docs/images/path_rmse.png] [--quick]
+
+1. Speed: 256 x 256, 64 spp, max_depth 8 (the TOML's), raylume's `mode = "path"` against
+   Mitsuba 3's `path` integrator in variant scalar_rgb (the scene built from the same TOML and
+   OBJ files by benchmarks/mitsuba_reference.py), and llvm_ad_rgb where it runs (it is probed in
+   a child process first: a broken LLVM aborts the process). Both in this process, alternating
+   raylume, Mitsuba, raylume, Mitsuba, ... for --rounds rounds, each round on all cores and on
+   1 thread. Times are the wall time of the render call (raylume's kernel time beside it), after
+   a warm-up render: raylume's Numba compilation (or cache load) is reported apart, and at the
+   very end a cold compile in a new process with an empty Numba cache (--no-cold skips it).
+2. Error against time: 64 x 64 against tests/reference/cornell_mitsuba.npz (Mitsuba's mean over
+   65536 spp), the pixels that see any of the light left out, RMSE over linear RGB. raylume and
+   Mitsuba scalar_rgb at 4 .. 1024 spp, and raylume's 16 spp denoised by Intel OIDN (its time
+   includes the denoiser). New seeds every round, none of the reference's. The reference's own
+   noise adds about 1/64 of a 1024-spp render's variance to its squared error (~0.8 % RMSE).
+
+Mitsuba is optional (pip install 'raylume[bench]'); without it raylume's figures are printed alone.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+from common import REPO, machine, median_of, run_python, table
+from mitsuba_reference import REFERENCE, SCENE, load_toml, mitsuba_dict
+
+import raylume
+
+COLD_CODE = """
+import time, raylume
+t = time.perf_counter()
+img = raylume.render(raylume.load_scene({scene!r}), width=16, height=16, spp=1, mode="path", aovs=False)
+print(time.perf_counter() - t, img.stats["compile_seconds"])
+"""
+
+LLVM_PROBE = """
+import sys
+sys.path.insert(0, {bench!r})
+import mitsuba as mi
+mi.set_variant("llvm_ad_rgb")
+from mitsuba_reference import load_toml, mitsuba_dict
+import numpy as np
+img = np.array(mi.render(mi.load_dict(mitsuba_dict(load_toml(), 16, 16)), spp=2))
+print("ok", img.shape)
+"""
+
+
+def load() -> str:
+    """The 1-minute load average (this benchmark alone brings it near its thread count; more means
+    other work on the machine, which skews every time here)."""
+    return f"1-min load average {os.getloadavg()[0]:.2f}"
+
+
+# --------------------------------------------------------------------------- renderers
+
+
+class Raylume:
+    name = "raylume"
+
+    def __init__(self, width: int, height: int, max_depth: int):
+        t = time.perf_counter()
+        self.session = raylume.Session(raylume.load_scene(SCENE))
+        self.setup_seconds = time.perf_counter() - t
+        self.size = dict(width=width, height=height, mode="path", max_depth=max_depth, aovs=False)
+        t = time.perf_counter()
+        warm = self.session.render(**{**self.size, "width": 16, "height": 16}, spp=1)
+        self.warmup_seconds = time.perf_counter() - t
+        self.compile_seconds = warm.stats["compile_seconds"]
+
+    def render(self, spp: int, seed: int, threads: int, denoise: bool = False):
+        """(linear RGB float64 (H, W, 3), wall seconds of the call, its stats)."""
+        t = time.perf_counter()
+        img = self.session.render(spp=spp, seed=seed, threads=threads, denoise=denoise, **self.size)
+        seconds = time.perf_counter() - t
+        return np.asarray(img.rgb, dtype=np.float64), seconds, img.stats
+
+
+class Mitsuba:
+    def __init__(self, variant: str, doc: dict, width: int, height: int):
+        import drjit as dr
+        import mitsuba as mi
+
+        self.mi, self.dr, self.variant = mi, dr, variant
+        self.name = f"Mitsuba {variant}"
+        mi.set_variant(variant)
+        t = time.perf_counter()
+        self.scene = mi.load_dict(mitsuba_dict(doc, width, height))
+        self.setup_seconds = time.perf_counter() - t
+        t = time.perf_counter()
+        self.render(4, 1, os.cpu_count() or 1)  # first render: the LLVM variant compiles its kernels here
+        self.warmup_seconds = time.perf_counter() - t
+
+    def render(self, spp: int, seed: int, threads: int, denoise: bool = False):
+        self.mi.set_variant(self.variant)
+        self.dr.set_thread_count(threads)
+        t = time.perf_counter()
+        rgb = np.array(self.mi.render(self.scene, seed=seed, spp=spp), dtype=np.float64)[:, :, :3]
+        return rgb, time.perf_counter() - t, {}
+
+
+def mitsuba_version() -> str | None:
+    try:
+        import mitsuba
+    except ImportError:
+        return None
+    return mitsuba.__version__
+
+
+def llvm_probe() -> tuple[bool, str]:
+    """Whether Mitsuba's llvm_ad_rgb renders here (in a child process: an LLVM failure aborts)."""
+    code = LLVM_PROBE.format(bench=str(Path(__file__).resolve().parent))
+    try:
+        out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    except subprocess.TimeoutExpired:
+        return False, "the probe render did not finish in 300 s"
+    if out.returncode == 0 and out.stdout.startswith("ok"):
+        return True, ""
+    lines = [ln.strip() for ln in (out.stderr + out.stdout).splitlines() if ln.strip() and not ln.startswith(" ")]
+    first = next((ln for ln in lines if "ERROR" in ln or "Error" in ln), lines[-1] if lines else "")
+    return False, f"a 16 x 16 render exited with status {out.returncode}: {first[:160]}"
+
+
+# --------------------------------------------------------------------------- part 1: speed
+
+
+def speed(args, doc, have_mitsuba: bool, llvm_ok: bool) -> dict:
+    W, H, spp, depth = args.size, args.size, args.spp, int(doc["render"]["max_depth"])
+    all_cores = os.cpu_count() or 1
+    configs = [all_cores, 1] if all_cores > 1 else [1]
+    engines = [Raylume(W, H, depth)]
+    if have_mitsuba:
+        engines.append(Mitsuba("scalar_rgb", doc, W, H))
+        if llvm_ok:
+            engines.append(Mitsuba("llvm_ad_rgb", doc, W, H))
+    times = {(e.name, t): [] for e in engines for t in configs}
+    kernel = {t: [] for t in configs}
+    rays = {}
+    for r in range(args.rounds):
+        for threads in configs:
+            for e in engines:  # raylume, Mitsuba, raylume, Mitsuba, ...
+                _, seconds, stats = e.render(spp, 100 + r, threads)
+                times[e.name, threads].append(seconds)
+                if stats:
+                    kernel[threads].append(stats["render_seconds"])
+                    rays[threads] = stats["rays"]
+                print(f"  round {r + 1}/{args.rounds}, {threads} thread(s), {e.name}: {seconds:.2f} s", flush=True)
+    samples = W * H * spp
+    rows = []
+    for threads in configs:
+        base = median_of(times["raylume", threads])
+        for e in engines:
+            s = median_of(times[e.name, threads])
+            extra = (
+                f"kernel {median_of(kernel[threads]):.2f} s, {rays[threads] / samples:.2f} rays/sample"
+                if e.name == "raylume"
+                else ""
+            )
+            rows.append(
+                [
+                    e.name,
+                    threads,
+                    f"{s:.2f} s",
+                    f"{samples / s / 1e6:.3f}",
+                    "" if e.name == "raylume" else f"{base / s:.2f}",
+                    extra,
+                ]
+            )
+    print(
+        f"\n### 1. Speed: Cornell box {W} x {H}, {spp} spp, max_depth {depth}, "
+        f"median of {args.rounds} alternating rounds; {machine()}; {load()} at the end\n"
+    )
+    print(
+        table(
+            ["renderer", "threads", "seconds (median)", "M samples/s", "time ratio raylume / this", "notes"],
+            rows,
+        )
+    )
+    setup = [
+        [e.name, f"{e.setup_seconds:.3f} s", f"{e.warmup_seconds:.2f} s"]
+        + ([f"{e.compile_seconds:.2f} s"] if e.name == "raylume" else ["-"])
+        for e in engines
+    ]
+    print(
+        "\n"
+        + table(
+            [
+                "renderer",
+                "scene setup (Session / load_dict)",
+                "warm-up render (wall)",
+                "of which compiling / cache load",
+            ],
+            setup,
+        )
+    )
+    return {
+        t: (median_of(times["raylume", t]), {e.name: median_of(times[e.name, t]) for e in engines}) for t in configs
+    }
+
+
+# --------------------------------------------------------------------------- part 2: error against time
+
+
+def cold_start() -> None:
+    with tempfile.TemporaryDirectory() as cache:
+        wall, out = run_python(COLD_CODE.format(scene=str(SCENE)), env={"NUMBA_CACHE_DIR": cache})
+    first, compile_s = (float(x) for x in out.split())
+    print(
+        f"\nraylume cold start, new process, empty Numba cache: {wall:.1f} s wall "
+        f"(first path render call {first:.1f} s, of which compiling {compile_s:.1f} s); {load()} at the end"
+    )
+
+
+def error_vs_time(args, doc, have_mitsuba: bool) -> dict:
+    with np.load(REFERENCE) as f:
+        ref = f["mean"].astype(np.float64)
+        keep = ~(f["light_coverage"] > 0)
+    H, W = keep.shape
+    depth = int(doc["render"]["max_depth"])
+    threads = os.cpu_count() or 1
+    engines = [Raylume(W, H, depth)]
+    if have_mitsuba:
+        engines.append(Mitsuba("scalar_rgb", doc, W, H))
+
+    def rmse(img):
+        return float(np.sqrt(np.mean((img[keep] - ref[keep]) ** 2)))
+
+    runs = {}  # (engine, spp, denoised) -> [(rmse, seconds)]
+    for r in range(args.rounds):
+        for spp in args.spp_list:
+            for e in engines:
+                img, seconds, _ = e.render(spp, 2000 + r, threads)
+                runs.setdefault((e.name, spp, False), []).append((rmse(img), seconds))
+        img, seconds, stats = engines[0].render(16, 3000 + r, threads, denoise=True)
+        runs.setdefault(("raylume", 16, True), []).append((rmse(img), seconds, stats.get("denoise_seconds", 0.0)))
+        print(f"  error round {r + 1}/{args.rounds} done", flush=True)
+    result = {}
+    rows = []
+    for (name, spp, denoised), vals in runs.items():
+        e = median_of([v[0] for v in vals])
+        s = median_of([v[1] for v in vals])
+        result[name, spp, denoised] = (e, s)
+        label = f"{spp} + OIDN" if denoised else str(spp)
+        note = f"denoiser {median_of([v[2] for v in vals]):.2f} s of it" if denoised else ""
+        rows.append(
+            [name, label, f"{e:.5f}", f"{s:.3f} s", f"{W * H * spp / s / 1e6:.3f}", f"{e * e * s * 1e6:.1f}", note]
+        )
+    rows.sort(key=lambda row: (row[0] != "raylume", int(row[1].split()[0]), "OIDN" in row[1]))
+    ref_rms = float(np.sqrt(np.mean(ref[keep] ** 2)))
+    print(
+        f"\n### 2. Error against time: {W} x {H}, RMSE (linear RGB, {int((~keep).sum())} light pixels left out; "
+        f"the reference's RMS value is {ref_rms:.4f}) against {REFERENCE.relative_to(REPO)}, "
+        f"{threads} threads, median of {args.rounds} rounds; {load()} at the end\n"
+    )
+    headers = ["renderer", "spp", "RMSE (median)", "seconds (median)", "M samples/s", "RMSE^2 x s (1e-6)", "notes"]
+    print(table(headers, rows))
+    print("\nRMSE^2 x seconds: error variance times time, the inverse of Monte Carlo efficiency (lower is better).")
+    return result
+
+
+def plot(result: dict, path: str) -> None:
+    import matplotlib
+    import matplotlib.ticker
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6, 4), dpi=100)
+    for name, style in (("raylume", "o-"), ("Mitsuba scalar_rgb", "s--")):
+        pts = sorted((s, e, spp) for (n, spp, d), (e, s) in result.items() if n == name and not d)
+        if not pts:
+            continue
+        xs, ys, spps = zip(*pts)
+        ax.plot(xs, ys, style, label=name)
+        for x, y, spp in pts:
+            ax.annotate(str(spp), (x, y), textcoords="offset points", xytext=(4, 4), fontsize=7)
+    if ("raylume", 16, True) in result:
+        e, s = result["raylume", 16, True]
+        ax.plot([s], [e], "*", markersize=14, color="C2", label="raylume 16 spp + OIDN denoiser")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
+    ax.yaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
+    ax.set_xlabel("seconds per render (wall, 2 threads)")
+    ax.set_ylabel("RMSE against Mitsuba 65536 spp")
+    ax.set_title("Cornell box 64 x 64: error against time (labels: spp)", fontsize=10)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=100)
+    print(f"\nwrote {path} ({Path(path).stat().st_size / 1024:.0f} KiB)")
+
+
+# --------------------------------------------------------------------------- main
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--rounds", type=int, default=3, help="alternating rounds (medians over them)")
+    parser.add_argument("--quick", action="store_true", help="smoke run: 64 x 64 at 8 spp, spp up to 64, no cold start")
+    parser.add_argument("--plot", metavar="PATH", help="write the RMSE-against-time plot (PNG) here")
+    parser.add_argument("--no-cold", dest="cold", action="store_false", help="skip the cold-compile process")
+    parser.add_argument("--skip-mitsuba", action="store_true", help="raylume's figures alone")
+    args = parser.parse_args()
+    args.size, args.spp = (64, 8) if args.quick else (256, 64)
+    args.spp_list = [4, 16, 64] if args.quick else [4, 16, 64, 256, 1024]
+    args.cold = args.cold and not args.quick
+
+    doc = load_toml()
+    version = None if args.skip_mitsuba else mitsuba_version()
+    have_mitsuba = version is not None
+    llvm_ok, llvm_why = llvm_probe() if have_mitsuba else (False, "")
+    print(f"raylume path mode; {machine()}; {load()}")
+    if not have_mitsuba:
+        why = "--skip-mitsuba" if args.skip_mitsuba else "not importable (pip install 'raylume[bench]')"
+        print(f"Mitsuba skipped: {why}")
+    else:
+        print(f"Mitsuba {version}: scalar_rgb; llvm_ad_rgb " + ("runs here" if llvm_ok else f"skipped: {llvm_why}"))
+
+    speeds = speed(args, doc, have_mitsuba, llvm_ok)
+    errors = error_vs_time(args, doc, have_mitsuba)
+    if args.plot:
+        plot(errors, args.plot)
+    if args.cold:  # last: it takes a minute or more and the figures above matter more
+        cold_start()
+
+    print("\n### Goals\n")
+    if ("raylume", 16, True) in errors and ("raylume", 256, False) in errors:
+        d, raw = errors["raylume", 16, True][0], errors["raylume", 256, False][0]
+        verdict = "holds" if d < raw else "does not hold"
+        print(
+            f"- denoised 16 spp closer to the reference than raw 256 spp: {verdict} "
+            f"(RMSE {d:.5f} against {raw:.5f}, ratio {d / raw:.2f})"
+        )
+    if have_mitsuba:
+        for threads, (ours, theirs) in speeds.items():
+            m = theirs["Mitsuba scalar_rgb"]
+            verdict = "holds" if ours <= m else "does not hold"
+            print(
+                f"- raylume at least as fast per sample as Mitsuba scalar_rgb, {threads} thread(s): {verdict} "
+                f"(raylume / Mitsuba time {ours / m:.2f})"
+            )
+        top = max(args.spp_list)
+        if ("Mitsuba scalar_rgb", top, False) in errors:
+            (e1, s1), (e2, s2) = errors["raylume", top, False], errors["Mitsuba scalar_rgb", top, False]
+            print(
+                f"- (not a goal) error for the time, {top} spp: raylume's RMSE^2 x seconds is "
+                f"{e1 * e1 * s1 / (e2 * e2 * s2):.2f} x Mitsuba's (below 1: raylume reaches an error sooner)"
+            )
+    else:
+        print("- speed against Mitsuba: not measured (Mitsuba skipped)")
+
+
+if __name__ == "__main__":
+    main()
