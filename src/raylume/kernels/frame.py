@@ -228,13 +228,15 @@ def _path_row(
 ):  # fmt: skip
     first, count, total_spp = samples
     x0, y0, x1, y1 = window
+    spread = cam[CAM_CONE_SPREAD]
     rays = 0
     rejected = 0
     for i in range(x0, x1):
         total = pixel_sums(film, j - y0, i - x0)
         for s in range(first, first + count):
             o, d, w, key = camera_sample(cam, filt, seed, i, j, s, total_spp, width, height)
-            col, used = path_ray(G, F, X, Em, Env, o, d, max_depth, bg, key, node_stack, t_stack, strategy)
+            cone = spread * _obliquity(cam, d)
+            col, used = path_ray(G, F, X, Em, Env, o, d, cone, max_depth, bg, key, node_stack, t_stack, strategy)
             rays += used
             if not finite_sample(col):
                 rejected += 1

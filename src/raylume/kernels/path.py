@@ -104,8 +104,9 @@ def _emitter_weight(G, Em, Env, e, prev_p, d, t, n_hit, prev_pdf, prev_delta, st
 
 
 @njit(**KERNEL, inline="always")
-def path_ray(G, F, X, Em, Env, o, d, max_depth, background, key, node_stack, t_stack, strategy):
-    """Radiance along the camera ray (o, d) by one path. Returns (rgb, rays traced)."""
+def path_ray(G, F, X, Em, Env, o, d, spread, max_depth, background, key, node_stack, t_stack, strategy):
+    """Radiance along the camera ray (o, d) by one path; textures are filtered over a ray cone
+    growing by `spread` per unit distance (as trace_ray's). Returns (rgb, rays traced)."""
     lr = 0.0
     lg = 0.0
     lb = 0.0
@@ -114,6 +115,7 @@ def path_ray(G, F, X, Em, Env, o, d, max_depth, background, key, node_stack, t_s
     depth = 0  # segments traced so far
     prev_pdf = 0.0
     prev_delta = True  # the camera ray sees emitters at full weight
+    cone = 0.0  # the ray cone's radius at o
     mat = F.materials
     while True:
         t, prim, b1, b2 = closest_hit(G, X, o, d, 0.0, INF, node_stack, t_stack)
@@ -171,7 +173,8 @@ def path_ray(G, F, X, Em, Env, o, d, max_depth, background, key, node_stack, t_s
             ns = ng
         s_axis, t_axis = basis(ns)
         wo = _to_local(mul(d, -1.0), s_axis, t_axis, ns)
-        colour = albedo(G, F, X, m, prim, b1, b2, p, d, ng, 0.0)
+        cone += spread * t
+        colour = albedo(G, F, X, m, prim, b1, b2, p, d, ng, cone)
         eps = offset_epsilon(F.epsilon_floor, p)
 
         # next-event estimation
