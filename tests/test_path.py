@@ -12,6 +12,7 @@ import math
 
 import numpy as np
 import pytest
+from test_cli import raylume as run_cli  # the command line in a subprocess
 
 import raylume
 
@@ -281,21 +282,6 @@ def test_seed_scene_renders_in_path_mode():
 # --- the command line -----------------------------------------------------------------------
 
 
-def _cli(*args, cwd):
-    import os
-    import subprocess
-    import sys
-
-    return subprocess.run(
-        [sys.executable, "-m", "raylume.cli", *map(str, args)],
-        cwd=cwd,
-        capture_output=True,
-        text=True,
-        env={**os.environ, "PYTHONUNBUFFERED": "1"},
-        timeout=600,
-    )
-
-
 def test_cli_path_mode_denoises_and_keeps_the_noisy_image(tmp_path):
     """--mode path --denoise writes the denoised image, --aov noisy=PATH the image before it;
     denoising a noisy render brings it closer to a converged one."""
@@ -327,7 +313,7 @@ v = [0, 0, 1.5]
 intensity = 6
 """
     )
-    result = _cli(
+    result = run_cli(
         "render", scene, "--mode", "path", "--spp", 4, "--denoise", "--aov", "noisy=noisy.npy", "-o", "out.exr",
         "--stats", "s.json", cwd=tmp_path,
     )  # fmt: skip
@@ -344,7 +330,7 @@ intensity = 6
 
 
 def test_cli_noisy_aov_needs_denoise_and_path_mode(tmp_path):
-    result = _cli("render", "--aov", "noisy=n.npy", "-o", "o.png", cwd=tmp_path)
+    result = run_cli("render", "--aov", "noisy=n.npy", "-o", "o.png", cwd=tmp_path)
     assert result.returncode == 2
     assert "--denoise" in result.stderr and "Traceback" not in result.stderr
     assert not (tmp_path / "o.png").exists()
