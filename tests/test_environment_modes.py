@@ -19,7 +19,9 @@ def _scene(mode, environment):
         {
             "render": {"width": W, "height": H, "mode": mode, "background": [1, 0, 1]},
             "camera": CAMERA,
-            "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 0.5, "material": {"emission": [0.25, 0.5, 1]}}],
+            "objects": [
+                {"type": "sphere", "center": [0, 0, 0], "radius": 0.5, "material": {"emission": [0.25, 0.5, 1]}}
+            ],
             "lights": [{"type": "ambient", "intensity": 0.0}],
             "environment": environment,
         }
