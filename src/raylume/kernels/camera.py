@@ -72,6 +72,13 @@ def camera_of(model, width: int, height: int) -> np.ndarray:
     )
 
 
+@njit(**KERNEL, inline="always")
+def obliquity(cam, d):
+    """cos of the angle between d and the viewing axis: a pixel away from the image's centre
+    subtends a smaller angle (by this factor across the ray), so its ray cone is narrower."""
+    return abs(d[0] * cam[CAM_FORWARD] + d[1] * cam[CAM_FORWARD + 1] + d[2] * cam[CAM_FORWARD + 2])
+
+
 @njit(**KERNEL)
 def camera_ray(cam, x, y, width, height):
     """Unit direction through the image point (x, y) in pixels; (i + 0.5, j + 0.5) is a centre."""

@@ -42,6 +42,9 @@ from .lights import (
     basis,
     spot_falloff,
 )
+from .sampler import uniform_sphere
+from .shape_plane import intersect_plane
+from .shape_sphere import intersect_sphere
 from .shapes import PRIM_KIND, PRIM_ROW, sample_surface
 from .shapes import SPHERE as SHAPE_SPHERE
 from .vec import KERNEL, cross, dot, length, madd, mul, normalize, row3, sub
@@ -87,20 +90,13 @@ def _sphere_cone(centre, radius, p, u1, u2):
     to_c = sub(centre, p)
     dist2 = dot(to_c, to_c)
     if dist2 <= radius * radius * (1.0 + 1e-9):
-        z = 1.0 - 2.0 * u1
-        r = math.sqrt(max(0.0, 1.0 - z * z))
-        phi = 2.0 * math.pi * u2
-        n = (r * math.cos(phi), r * math.sin(phi), z)
+        n = uniform_sphere(u1, u2)
         q = madd(centre, n, radius)
         to_q = sub(q, p)
         dist = length(to_q)
         if dist <= 0.0:
             return (0.0, 0.0, 1.0), 0.0, 0.0
-        wi = mul(to_q, 1.0 / dist)
-        cos_l = abs(dot(n, wi))
-        if cos_l <= 0.0:
-            return wi, dist, 0.0
-        return wi, dist, dist * dist / (4.0 * math.pi * radius * radius * cos_l)
+        return mul(to_q, 1.0 / dist), dist, _area_pdf(p, q, n, 4.0 * math.pi * radius * radius)
     dc = math.sqrt(dist2)
     w = mul(to_c, 1.0 / dc)
     sin2_max = radius * radius / dist2
@@ -110,10 +106,9 @@ def _sphere_cone(centre, radius, p, u1, u2):
     phi = 2.0 * math.pi * u2
     e1, e2 = basis(w)
     wi = normalize(madd(madd(mul(w, cos_t), e1, sin_t * math.cos(phi)), e2, sin_t * math.sin(phi)))
-    # distance to the sphere along wi (the near root)
-    b = dot(wi, to_c)
-    disc = b * b - (dist2 - radius * radius)
-    dist = b - math.sqrt(max(0.0, disc))
+    dist = intersect_sphere(p, wi, centre, radius, 0.0, INF)
+    if dist == INF:  # a direction on the cone's rim, missed by rounding: the tangent point
+        dist = dot(wi, to_c)
     return wi, dist, 1.0 / (2.0 * math.pi * (1.0 - cos_max))
 
 
@@ -123,11 +118,7 @@ def _sphere_cone_pdf(centre, radius, p, wi, dist):
     dist2 = dot(to_c, to_c)
     if dist2 <= radius * radius * (1.0 + 1e-9):
         q = madd(p, wi, dist)
-        n = normalize(sub(q, centre))
-        cos_l = abs(dot(n, wi))
-        if cos_l <= 0.0:
-            return 0.0
-        return dist * dist / (4.0 * math.pi * radius * radius * cos_l)
+        return _area_pdf(p, q, normalize(sub(q, centre)), 4.0 * math.pi * radius * radius)
     cos_max = math.sqrt(max(0.0, 1.0 - radius * radius / dist2))
     return 1.0 / (2.0 * math.pi * (1.0 - cos_max))
 
@@ -166,10 +157,7 @@ def sample_emitter(G, Em, Env, e, p, u1, u2):
         wi, radiance, pdf = sample_environment(Env, u1, u2)
         return wi, INF, radiance, pdf, False
     if kind == AMBIENT:
-        z = 1.0 - 2.0 * u1
-        r = math.sqrt(max(0.0, 1.0 - z * z))
-        phi = 2.0 * math.pi * u2
-        return (r * math.cos(phi), r * math.sin(phi), z), INF, row3(data, e, LIGHT_INTENSITY), 0.25 / math.pi, False
+        return uniform_sphere(u1, u2), INF, row3(data, e, LIGHT_INTENSITY), 0.25 / math.pi, False
     radiance = row3(data, e, LIGHT_INTENSITY)
     if kind == SPHERE or (kind == PRIMITIVE and G.prims[int(data[e, EMIT_PRIM]), PRIM_KIND] == SHAPE_SPHERE):
         if kind == SPHERE:
@@ -239,11 +227,8 @@ def hit_area_lights(Em, o, d, tmax):
             u = row3(data, e, LIGHT_U)
             v = row3(data, e, LIGHT_V)
             n = cross(u, v)
-            denom = dot(n, d)
-            if denom == 0.0:
-                continue
-            t = dot(n, sub(c, o)) / denom
-            if not (t > 0.0 and t < best):
+            t = intersect_plane(o, d, c, n, 0.0, best)
+            if t == INF:
                 continue
             rel = sub(madd(o, d, t), c)
             # coordinates along u and v (dual basis: n x v / |n|^2, u x n / |n|^2)
@@ -255,17 +240,8 @@ def hit_area_lights(Em, o, d, tmax):
                 hit = e
                 normal = mul(n, 1.0 / math.sqrt(nn))
         else:
-            r = data[e, LIGHT_RADIUS]
-            oc = sub(o, c)
-            b = dot(oc, d)
-            disc = b * b - (dot(oc, oc) - r * r)
-            if disc < 0.0:
-                continue
-            s = math.sqrt(disc)
-            t = -b - s
-            if not (t > 0.0):
-                t = -b + s
-            if t > 0.0 and t < best:
+            t = intersect_sphere(o, d, c, data[e, LIGHT_RADIUS], 0.0, best)
+            if t < best:
                 best = t
                 hit = e
                 normal = normalize(sub(madd(o, d, t), c))

@@ -9,7 +9,7 @@ continue from whatever earlier passes left there."""
 import numpy as np
 from numba import njit
 
-from .camera import CAM_CONE_SPREAD, CAM_FORWARD, CAM_LENS_RADIUS, camera_ray, thin_lens_ray
+from .camera import CAM_CONE_SPREAD, CAM_LENS_RADIUS, camera_ray, obliquity, thin_lens_ray
 from .environment import environment_radiance
 from .film import add_sample, filter_sample, pixel_sums, store_sums
 from .materials import albedo
@@ -34,13 +34,6 @@ def _cast_ray(G, F, X, Env, o, d, spread, background, node_stack, t_stack):
     p = madd(o, d, t)
     ng, ns, m, obj, face = surface(G, X, prim, b1, b2, p)
     return albedo(G, F, X, m, prim, b1, b2, p, d, ng, spread * t)
-
-
-@njit(**KERNEL, inline="always")
-def _obliquity(cam, d):
-    """cos of the angle between d and the viewing axis: a pixel away from the image's centre
-    subtends a smaller angle (by this factor across the ray), so its ray cone is narrower."""
-    return abs(d[0] * cam[CAM_FORWARD] + d[1] * cam[CAM_FORWARD + 1] + d[2] * cam[CAM_FORWARD + 2])
 
 
 @njit(**KERNEL, inline="always")
@@ -194,7 +187,7 @@ def _cast_row(G, F, X, Env, cam, filt, j, window, width, height, samples, seed, 
         total = pixel_sums(film, j - y0, i - x0)
         for s in range(first, first + count):
             o, d, w, key = camera_sample(cam, filt, seed, i, j, s, total_spp, width, height)
-            cone = spread * _obliquity(cam, d)
+            cone = spread * obliquity(cam, d)
             total = add_sample(total, _cast_ray(G, F, X, Env, o, d, cone, bg, node_stack, t_stack), w)
         store_sums(film, j - y0, i - x0, total)
     return (x1 - x0) * count
@@ -213,7 +206,7 @@ def _trace_row(
         for s in range(first, first + count):
             o, d, w, key = camera_sample(cam, filt, seed, i, j, s, total_spp, width, height)
             col, used = trace_ray(
-                G, F, L, X, Env, o, d, spread * _obliquity(cam, d), max_depth, bg, work, node_stack, t_stack, key
+                G, F, L, X, Env, o, d, spread * obliquity(cam, d), max_depth, bg, work, node_stack, t_stack, key
             )
             rays += used
             total = add_sample(total, col, w)
@@ -235,7 +228,7 @@ def _path_row(
         total = pixel_sums(film, j - y0, i - x0)
         for s in range(first, first + count):
             o, d, w, key = camera_sample(cam, filt, seed, i, j, s, total_spp, width, height)
-            cone = spread * _obliquity(cam, d)
+            cone = spread * obliquity(cam, d)
             col, used = path_ray(G, F, X, Em, Env, o, d, cone, max_depth, bg, key, node_stack, t_stack, strategy)
             rays += used
             if not finite_sample(col):
@@ -257,7 +250,7 @@ def _primary_aovs_row(
     spread = cam[CAM_CONE_SPREAD]
     for i in range(x0, x1):
         o, d = camera_ray(cam, i + 0.5, j + 0.5, width, height)
-        cone = spread * _obliquity(cam, d)
+        cone = spread * obliquity(cam, d)
         c0 = i - x0
         t, prim, b1, b2 = closest_hit(G, X, o, d, 0.0, INF, node_stack, t_stack)
         if prim == NO_HIT:

@@ -58,7 +58,7 @@ import numba
 import numpy as np
 from numba import njit, prange
 
-from .camera import CAM_CONE_SPREAD, CAM_FORWARD, CAM_POSITION, CAM_RIGHT, CAM_UP
+from .camera import CAM_CONE_SPREAD, CAM_FORWARD, CAM_POSITION, CAM_RIGHT, CAM_UP, obliquity
 from .direct import unshadowed_lighting
 from .environment import environment_radiance
 from .materials import MAT_EMISSION, MAT_TEXTURE, albedo
@@ -510,10 +510,7 @@ def _shade_row(
         face = ns
         if dot(face, d) > 0.0:
             face = mul(face, -1.0)
-        # the ray cone of frame.py's primary rays: narrower off-axis by d . forward
-        cone = cam[CAM_CONE_SPREAD] * (
-            d[0] * cam[CAM_FORWARD] + d[1] * cam[CAM_FORWARD + 1] + d[2] * cam[CAM_FORWARD + 2]
-        )
+        cone = cam[CAM_CONE_SPREAD] * obliquity(cam, d)  # the ray cone of frame.py's primary rays
         col = albedo(G, F, X, m, prim, b1, b2, p, d, ng, cone * dist)
         # as trace_ray: normals turned towards the incoming ray, a shading normal bent past
         # the horizon replaced by the geometric one, lit from just outside the surface

@@ -125,6 +125,15 @@ def light_sample(key, event, light, s, count):
 
 
 @njit(error_model="numpy", _nrt=False)
+def uniform_sphere(u1, u2):
+    """A unit vector uniform over the sphere for (u1, u2) in [0, 1)^2 (pdf 1 / 4 pi)."""
+    z = 1.0 - 2.0 * u1
+    r = math.sqrt(max(0.0, 1.0 - z * z))
+    phi = 2.0 * math.pi * u2
+    return (r * math.cos(phi), r * math.sin(phi), z)
+
+
+@njit(error_model="numpy", _nrt=False)
 def permute(i, n, p):
     """Element i of a pseudo-random permutation of 0..n-1 chosen by p (Kensler 2013,
     "Correlated Multi-Jittered Sampling")."""
