@@ -274,7 +274,7 @@ def _interrupted(exc, output: Path | None, bit_depth: int) -> None:
     except RaylumeError as error:
         typer.echo(f"raylume: interrupted; the partial image was not saved: {error}", err=True)
         raise typer.Exit(130) from None
-    typer.echo(f"raylume: interrupted after {exc.rows_done} of {exc.image.height} rows; saved {path}", err=True)
+    typer.echo(f"raylume: interrupted after {exc.done}; saved {path}", err=True)
     raise typer.Exit(130)
 
 

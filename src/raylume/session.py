@@ -16,6 +16,8 @@ import os
 import time
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor, wait
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numba
 import numpy as np
@@ -29,7 +31,10 @@ from .kernels.film import Film
 from .kernels.frame import PROGRESS_STRIDE, aov_lane, cast_lane, path_lane, trace_lane
 from .kernels.shapes import ALL_FEATURES, features
 from .scene.checks import warn_about
-from .scene.model import Camera, Scene
+from .scene.model import Camera, RenderSettings, Scene
+
+if TYPE_CHECKING:
+    from distributed import Client
 
 AOV_NAMES = ("depth", "normal", "object", "prim", "albedo")
 POLL_SECONDS = 0.05  # how often the waiting thread updates progress and notices Ctrl-C
@@ -38,8 +43,9 @@ POLL_SECONDS = 0.05  # how often the waiting thread updates progress and notices
 class RenderInterrupted(KeyboardInterrupt):
     """Ctrl-C during a render. `image` holds the rows finished so far (the rest is black)."""
 
-    def __init__(self, image: Image, rows_done: int):
-        super().__init__(f"interrupted after {rows_done} of {image.height} rows")
+    def __init__(self, image: Image, rows_done: int, done: str | None = None):
+        self.done = done or f"{rows_done} of {image.height} rows"  # what was finished, in words
+        super().__init__(f"interrupted after {self.done}")
         self.image = image
         self.rows_done = rows_done
 
@@ -130,6 +136,7 @@ class Session:
         progress: Callable[[int, int], None] | None = None,
         crop: tuple[int, int, int, int] | None = None,
         status: Callable[[str], None] | None = None,
+        cluster: str | Client | None = None,
     ) -> Image:
         """Render through `camera` (a Camera, a dict of camera keys replacing the scene's, or
         None for the scene's own); other arguments override the scene's [render] table.
@@ -137,7 +144,11 @@ class Session:
         when `aovs` (and `noisy`, the image before denoising, when `denoise`: path mode), and
         stats. `status` is called with "compiling" before the kernels' first
         call (JIT compilation, or loading from the cache) and "rendering" after it. A scene
-        without objects, or without lights in a lit mode, gives a SceneWarning."""
+        without objects, or without lights in a lit mode, gives a SceneWarning.
+
+        `cluster`: a Dask scheduler's address (`tcp://HOST:PORT`), `local` / `local:N` (a local
+        cluster of N worker processes) or a `distributed.Client`: the image is rendered in
+        tiles on its workers, bit-identical to the in-process render (raylume.cluster)."""
         settings = resolve_settings(
             self.scene,
             self.source,
@@ -163,41 +174,34 @@ class Session:
         build_seconds, self._unreported_build = self._unreported_build, 0.0
         clock = _CompileClock(status)
         extra: dict = {}  # mode-specific statistics
-        S = self.compiled.for_camera(cam_model.position)
-        cam = camera_of(cam_model, W, H)
-        set_cone_spread(cam, H, 1 if settings.mode == "raster" else settings.spp, settings.texture_filter)
-        if settings.mode == "raster":
-            from .raster import rasterize
+        denoising = settings.denoise and settings.mode == "path"
+        if cluster is not None:
+            from .cluster import render_on_cluster
 
-            clock("compiling")  # rasterize compiles its kernels first, outside its own timing
-            rgb, aov_arrays, kernel_seconds, rays = rasterize(
-                S, cam, W, H, settings.background, progress=progress, aovs=aovs
-            )
-            clock("rendering", kernel_seconds)
-            # the rasterizer draws whole frames (it is fast): a crop is that window of one
-            rgb = np.ascontiguousarray(rgb[y0:y1, x0:x1])
-            aov_arrays = {k: np.ascontiguousarray(v[y0:y1, x0:x1]) for k, v in aov_arrays.items()}
-            primary = 0
+            part = render_on_cluster(
+                cluster, self.compiled, cam_model, settings, window, aovs=aovs or denoising, progress=progress,
+                status=clock,
+            )  # fmt: skip
+            extra["cluster"] = part.cluster
         else:
-            film = Film(W, H, settings.filter, total_spp=settings.spp, window=window)
-            denoising = settings.denoise and settings.mode == "path"
-            aov_arrays = allocate_aovs(y1 - y0, x1 - x0) if aovs or denoising else {}
-            kernel_seconds, rays = _ray_render(
-                S, cam, film, settings.spp, settings, aov_arrays, progress, lanes, status=clock
-            )
-            rgb = film.rgb()
-            primary = (x1 - x0) * (y1 - y0) * settings.spp
-            extra["rejected_samples"] = film.rejected
-            if denoising:
-                from .denoise import denoise as oidn
+            part = render_window(
+                self.compiled, cam_model, settings, window, aovs=aovs or denoising, lanes=lanes, progress=progress,
+                status=clock,
+            )  # fmt: skip
+        rgb, aov_arrays, kernel_seconds, rays = part.rgb, part.aovs, part.seconds, part.rays
+        primary = 0 if settings.mode == "raster" else (x1 - x0) * (y1 - y0) * settings.spp
+        if settings.mode != "raster":
+            extra["rejected_samples"] = part.rejected
+        if denoising:
+            from .denoise import denoise as oidn
 
-                started = time.perf_counter()
-                noisy = rgb
-                rgb = oidn(noisy, aov_arrays["albedo"], aov_arrays["normal"])
-                extra["denoise_seconds"] = time.perf_counter() - started
-                if not aovs:
-                    aov_arrays = {}
-                aov_arrays["noisy"] = noisy
+            started = time.perf_counter()
+            noisy = rgb
+            rgb = oidn(noisy, aov_arrays["albedo"], aov_arrays["normal"])
+            extra["denoise_seconds"] = time.perf_counter() - started
+            if not aovs:
+                aov_arrays = {}
+            aov_arrays["noisy"] = noisy
         stats = {
             "width": W,
             "height": H,
@@ -262,6 +266,77 @@ class Session:
         except ValidationError as exc:
             problems = "; ".join(f"camera.{'.'.join(str(p) for p in e['loc'])}: {e['msg']}" for e in exc.errors())
             raise SceneError(f"{self.source}: {problems}") from None
+
+
+@dataclass
+class WindowResult:
+    """What rendering a window of the image gives: the linear RGB of the window (None while
+    passes remain: then `sums` holds the film's running sums), its AOVs, the kernel seconds,
+    the rays traced and the samples rejected (path mode). A cluster's tiles are these."""
+
+    window: tuple[int, int, int, int]
+    rgb: np.ndarray | None
+    aovs: dict = field(default_factory=dict)
+    seconds: float = 0.0
+    rays: int = 0
+    rejected: int = 0
+    sums: np.ndarray | None = None
+    cluster: dict = field(default_factory=dict)  # statistics of a cluster render
+
+
+def render_window(
+    compiled: CompiledScene,
+    camera: Camera,
+    settings: RenderSettings,
+    window: tuple[int, int, int, int],
+    *,
+    aovs: bool,
+    lanes: int,
+    progress: Callable[[int, int], None] | None = None,
+    status: Callable | None = None,
+    first: int = 0,
+    count: int | None = None,
+    sums: np.ndarray | None = None,
+) -> WindowResult:
+    """Render samples first..first+count-1 (default: all of settings.spp) of the pixels in
+    `window` = (x0, x1, y0, y1) of the settings' image, continuing from the film `sums` of
+    the samples before `first`. Needs no scene model, only the compiled scene and resolved
+    settings: this is what a cluster's worker runs for one tile and one pass."""
+    W, H = settings.width, settings.height
+    x0, x1, y0, y1 = window
+    status = status or (lambda what, seconds=0.0: None)
+    S = compiled.for_camera(camera.position)
+    cam = camera_of(camera, W, H)
+    set_cone_spread(cam, H, 1 if settings.mode == "raster" else settings.spp, settings.texture_filter)
+    if settings.mode == "raster":
+        from .raster import rasterize
+
+        status("compiling")  # rasterize compiles its kernels first, outside its own timing
+        rgb, aov_arrays, kernel_seconds, rays = rasterize(
+            S, cam, W, H, settings.background, progress=progress, aovs=aovs
+        )
+        status("rendering", kernel_seconds)
+        # the rasterizer draws whole frames (it is fast): a crop is that window of one
+        rgb = np.ascontiguousarray(rgb[y0:y1, x0:x1])
+        aov_arrays = {k: np.ascontiguousarray(v[y0:y1, x0:x1]) for k, v in aov_arrays.items()}
+        return WindowResult(window, rgb, aov_arrays, kernel_seconds, int(rays))
+    film = Film(W, H, settings.filter, total_spp=settings.spp, window=window)
+    if sums is not None:
+        film.sums[...] = sums
+        film.spp = first
+    count = settings.spp - first if count is None else count
+    aov_arrays = allocate_aovs(y1 - y0, x1 - x0) if aovs else {}
+    kernel_seconds, rays = _ray_render(S, cam, film, count, settings, aov_arrays, progress, lanes, status=status)
+    done = film.spp == film.total_spp
+    return WindowResult(
+        window,
+        film.rgb() if done else None,
+        aov_arrays,
+        kernel_seconds,
+        int(rays),
+        film.rejected,
+        None if done else film.sums,
+    )
 
 
 class _CompileClock:

@@ -1,0 +1,583 @@
+"""Rendering on a Dask distributed cluster, bit-identical to the in-process render.
+
+    client side                                      each worker
+    connect(address) -> Client, versions checked
+    scatter(compiled scene, broadcast) ------------> held in worker memory (no scene files)
+    _warm(...) pinned to each worker --------------> load/compile kernels, time a probe window
+    plan_tiles(): tiles of ~TILE_SECONDS each,
+      split into chained sample passes if needed
+    submit _render_tile per tile and pass ---------> session.render_window(window, passes)
+    paste each finished tile into the image <------- WindowResult (rgb, AOVs, stats)
+
+Every pixel's value depends only on (scene, camera, settings, seed): the sampler is keyed on
+(seed, pixel, sample), so a tile renders the same bits wherever it runs. Passes of one tile are
+chained (pass k starts from the film sums of pass k-1), so the samples of a pixel are summed
+in sample order, as one in-process pass would; tiles cover disjoint pixels, so the order in
+which they finish does not matter. A worker that dies loses only the tasks it held: Dask runs
+them again elsewhere, from the same inputs, to the same bits.
+"""
+
+from __future__ import annotations
+
+import atexit
+import functools
+import logging
+import math
+import os
+import pickle
+import re
+import time
+from collections.abc import Callable, Iterable, Iterator
+from dataclasses import dataclass
+
+import numpy as np
+
+from .compile import CompiledScene
+from .errors import RaylumeError
+from .image import Image
+from .scene.model import Camera, RenderSettings
+from .session import RenderInterrupted, WindowResult, allocate_aovs, render_window
+
+CONNECT_TIMEOUT = 5.0  # seconds: an unreachable scheduler is reported well within 10 s
+TILE_SECONDS = 1.0  # a task's target run time: long enough to hide its overhead, short enough to balance
+MIN_TILE_SIDE = 8  # pixels
+TILES_PER_WORKER = 4  # a still is split into at least this many tiles per worker
+PROBE_SIDE = 32  # the probe window that measures the cost of a sample on a worker
+POLL_SECONDS = 0.05
+# What must match between the client and every worker for the image to be bit-identical: the
+# kernels' source, and the compiler and array library that turn them into machine code.
+BIT_KEYS = ("raylume", "kernels", "numba", "llvmlite", "numpy")
+
+
+class ClusterError(RaylumeError):
+    """The cluster cannot render: unreachable, no workers, mismatched versions, tasks lost."""
+
+
+# --- connecting -----------------------------------------------------------------------------
+
+_clients: dict[str, object] = {}  # address or "local:N" -> Client, reused by later renders
+_local_clusters: list = []
+
+
+def parse_address(text: str) -> tuple[str, int | str]:
+    """("local", N) for `local` / `local:N`, ("remote", address) for SCHEME://HOST:PORT."""
+    text = str(text).strip()
+    if text == "local":
+        return "local", os.cpu_count() or 1
+    match = re.fullmatch(r"local:(\d+)", text)
+    if match:
+        n = int(match.group(1))
+        if not 1 <= n <= 1024:
+            raise ClusterError(f"--cluster {text}: the number of local workers must be 1..1024")
+        return "local", n
+    if re.fullmatch(r"(tcp|tls|ws|wss)://[^\s/:]+:\d{1,5}", text):
+        return "remote", text
+    raise ClusterError(
+        f"--cluster {text}: expected a Dask scheduler's address tcp://HOST:PORT (as `dask scheduler` prints it), "
+        "`local` (a local cluster of one worker process per core) or `local:N` (N worker processes)"
+    )
+
+
+def connect(cluster) -> object:
+    """A distributed.Client for `cluster`: an address, `local`, `local:N`, or a Client (returned
+    as it is). Clients of addresses are kept for later renders; local clusters started here are
+    closed when the program exits. A scheduler that does not answer within CONNECT_TIMEOUT, or
+    has no worker, is a ClusterError."""
+    from distributed import Client
+
+    if isinstance(cluster, Client):
+        return cluster
+    kind, value = parse_address(cluster)
+    key = f"local:{value}" if kind == "local" else str(value)
+    client = _clients.get(key)
+    if client is not None and client.status == "running":
+        return client
+    if kind == "local":
+        from distributed import LocalCluster
+
+        local = LocalCluster(
+            n_workers=int(value),
+            threads_per_worker=1,  # one tile at a time per process: the kernels use one core each
+            processes=True,
+            dashboard_address=None,
+            silence_logs=logging.ERROR,
+        )
+        _local_clusters.append(local)
+        client = Client(local, set_as_default=False)
+    else:
+        try:
+            client = Client(value, timeout=CONNECT_TIMEOUT, set_as_default=False)
+        except Exception as exc:  # OSError, TimeoutError, a handshake with something else
+            raise ClusterError(
+                f"--cluster {value}: no Dask scheduler answered there within {CONNECT_TIMEOUT:g} s ({exc}); "
+                f"start one with `dask scheduler` and workers with `dask worker {value}`, or use --cluster local"
+            ) from None
+        try:
+            client.wait_for_workers(1, timeout=CONNECT_TIMEOUT)
+        except Exception:
+            client.close()
+            raise ClusterError(
+                f"--cluster {value}: the scheduler has no workers; start some with `dask worker {value}`"
+            ) from None
+    _clients[key] = client
+    return client
+
+
+@atexit.register
+def _close_all() -> None:
+    for client in _clients.values():
+        try:
+            client.close(timeout=2)
+        except Exception:
+            pass
+    for local in _local_clusters:
+        try:
+            local.close(timeout=2)
+        except Exception:
+            pass
+    _clients.clear()
+    _local_clusters.clear()
+
+
+@functools.cache
+def versions() -> dict[str, str]:
+    """This process's versions of what decides the image's bits (BIT_KEYS)."""
+    import llvmlite
+    import numba
+
+    from . import __version__
+    from .kernels import _kernel_source_hash
+
+    return {
+        "raylume": __version__,
+        "kernels": _kernel_source_hash(),
+        "numba": numba.__version__,
+        "llvmlite": llvmlite.__version__,
+        "numpy": np.__version__,
+    }
+
+
+def _mismatch(expected: dict, found: dict) -> list[str]:
+    return [
+        f"{key} {found.get(key)} (the client has {expected.get(key)})"
+        for key in BIT_KEYS
+        if found.get(key) != expected.get(key)
+    ]
+
+
+def _refusal(worker: str, differences: list[str]) -> str:
+    return (
+        f"worker {worker} is refused: {', '.join(differences)}. A different Numba, llvmlite, NumPy or raylume "
+        "can compile the kernels into other machine code and the image would not be bit-identical to a local "
+        "render; install the client's versions on every worker"
+    )
+
+
+def check_versions(client, expected: dict | None = None) -> None:
+    """Refuse (ClusterError) a cluster any of whose workers runs other versions of BIT_KEYS."""
+    expected = expected or versions()
+    found = client.run(versions)
+    for worker, theirs in sorted(found.items()):
+        differences = _mismatch(expected, theirs)
+        if differences:
+            raise ClusterError(_refusal(worker, differences))
+
+
+def _check_here(expected: dict) -> str:
+    """On a worker, before any work: refuse if this worker's versions differ (a worker may
+    join after check_versions ran). Returns the worker's address."""
+    differences = _mismatch(expected, versions())
+    address = _worker_address()
+    if differences:
+        raise ClusterError(_refusal(address, differences))
+    return address
+
+
+def _worker_address() -> str:
+    try:
+        from distributed import get_worker
+
+        return get_worker().address
+    except ValueError:  # not on a worker (tests call the task functions directly)
+        return "local"
+
+
+# --- tasks that run on the workers ----------------------------------------------------------
+
+
+def probe_window(settings: RenderSettings) -> tuple[int, int, int, int]:
+    """The centre square (at most PROBE_SIDE pixels a side) whose render times a sample."""
+    W, H = settings.width, settings.height
+    w, h = min(W, PROBE_SIDE), min(H, PROBE_SIDE)
+    x0, y0 = (W - w) // 2, (H - h) // 2
+    return x0, x0 + w, y0, y0 + h
+
+
+def _warm(compiled: CompiledScene, camera: Camera, settings: RenderSettings, expected: dict) -> dict:
+    """A worker's first task: load (or compile) the kernels this render needs, then time one
+    sample of the probe window. Returns the seconds per pixel-sample, and the compile time."""
+    worker = _check_here(expected)
+    marks: list[float] = []
+    started = time.perf_counter()
+    window = probe_window(settings)
+    count = None if settings.mode == "raster" else 1
+    result = render_window(
+        compiled, camera, settings, window, aovs=False, lanes=1, count=count,
+        status=lambda what, seconds=0.0: marks.append(time.perf_counter()),
+    )  # fmt: skip
+    compile_seconds = (marks[1] - marks[0]) if len(marks) >= 2 else 0.0
+    x0, x1, y0, y1 = window
+    pixels = (x1 - x0) * (y1 - y0)
+    return {
+        "worker": worker,
+        "compile_seconds": compile_seconds,
+        "warm_seconds": time.perf_counter() - started,
+        "sample_seconds": max(result.seconds, 1e-9) / pixels,
+    }
+
+
+def _render_tile(
+    compiled: CompiledScene,
+    camera: Camera,
+    settings: RenderSettings,
+    window: tuple[int, int, int, int],
+    first: int,
+    count: int | None,
+    previous: WindowResult | None,
+    aovs: bool,
+    expected: dict,
+) -> WindowResult:
+    """One pass (samples first..first+count-1) of one tile, continuing `previous`, the tile's
+    pass before it (None for the first). AOVs are made in the first pass and carried on."""
+    worker = _check_here(expected)
+    result = render_window(
+        compiled, camera, settings, window, aovs=aovs and previous is None, lanes=1, first=first, count=count,
+        sums=None if previous is None else previous.sums,
+    )  # fmt: skip
+    record = (worker, result.seconds, result.rays)
+    if previous is not None:
+        result.aovs = previous.aovs
+        result.seconds += previous.seconds
+        result.rays += previous.rays
+        result.rejected += previous.rejected
+    result.cluster = {"passes": [*(previous.cluster["passes"] if previous is not None else []), record]}
+    return result
+
+
+# --- planning -------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Tile:
+    window: tuple[int, int, int, int]  # x0, x1, y0, y1
+    passes: tuple[tuple[int, int | None], ...]  # (first, count) of each pass, in sample order
+
+
+def plan_tiles(
+    window: tuple[int, int, int, int],
+    settings: RenderSettings,
+    sample_seconds: float,
+    min_tiles: int = 1,
+    tile_seconds: float | None = None,
+) -> list[Tile]:
+    """Split `window` into square tiles of about `tile_seconds` of work each (at the measured
+    seconds per pixel-sample), at least `min_tiles` of them, and a tile's samples into passes
+    when even a MIN_TILE_SIDE tile would take longer. Raster mode is one task: the rasterizer
+    draws whole frames."""
+    tile_seconds = TILE_SECONDS if tile_seconds is None else tile_seconds
+    if settings.mode == "raster":
+        return [Tile(window, ((0, None),))]
+    x0, x1, y0, y1 = window
+    w, h = x1 - x0, y1 - y0
+    spp = settings.spp
+    total = w * h * spp * sample_seconds
+    n_tiles = max(min_tiles, math.ceil(total / tile_seconds), 1)
+    side = max(MIN_TILE_SIDE, int(math.sqrt(w * h / n_tiles)))
+    side_x, side_y = min(side, w), min(side, h)
+    tile_cost = side_x * side_y * spp * sample_seconds
+    n_passes = min(spp, max(1, math.ceil(tile_cost / tile_seconds)))
+    counts = [spp // n_passes + (1 if k < spp % n_passes else 0) for k in range(n_passes)]
+    firsts = np.cumsum([0, *counts[:-1]])
+    passes = tuple((int(f), int(c)) for f, c in zip(firsts, counts))
+    tiles = []
+    for ty in range(y0, y1, side_y):
+        for tx in range(x0, x1, side_x):
+            tiles.append(Tile((tx, min(tx + side_x, x1), ty, min(ty + side_y, y1)), passes))
+    return tiles
+
+
+# --- the client side ------------------------------------------------------------------------
+
+
+@dataclass
+class _Frame:
+    key: object
+    tiles: list[Tile]
+    finals: dict  # future key -> (future, Tile), until the tile's last pass is in
+    results: list  # (Tile, WindowResult) of the tiles done
+
+
+class FrameRenderer:
+    """Distributed renders of one or more frames (cameras) of one scene and settings: the
+    scene scattered once, the workers warmed once, then each frame planned into tiles and
+    passes. `frames(cameras)` yields (key, WindowResult) in the order given, rendering several
+    frames at once; `partial()` is the first unfinished frame's tiles done so far (after
+    Ctrl-C); `stats()` the cluster's statistics, per worker too."""
+
+    def __init__(
+        self,
+        cluster,
+        compiled: CompiledScene,
+        settings: RenderSettings,
+        window: tuple[int, int, int, int],
+        *,
+        aovs: bool = False,
+        progress: Callable[[int, int], None] | None = None,
+        min_tiles: int = 1,
+        ahead: int | None = None,
+        shuffle=None,
+    ):
+        self.client = connect(cluster)
+        self.settings = settings
+        self.window = window
+        self.aovs = aovs
+        self.progress = progress
+        self.min_tiles = min_tiles
+        self.shuffle = shuffle  # a random.Random: tiles start in a shuffled order (tests)
+        self.threads = max(1, int(sum(self.client.nthreads().values())))
+        self.ahead = ahead or max(2, 2 * self.threads)
+        self.started = time.perf_counter()
+        self.expected = versions()
+        check_versions(self.client, self.expected)
+        self.scene_bytes = len(pickle.dumps(compiled, protocol=5))
+        # Shipped to every worker once, now; tasks name it, so no tile carries the scene.
+        [self.scene] = self.client.scatter([compiled], broadcast=True, hash=False)
+        self.pending: set = set()  # every submitted, unfinished future (passes too)
+        self.warm_futures: list = []
+        self.warm: dict = {}
+        self.sample_seconds: float | None = None
+        self.first_tile_seconds: float | None = None
+        self.tasks_done = 0
+        self.tasks_total = 0
+        self.tiles = 0
+        self.finish_order: list[tuple[object, tuple]] = []  # (frame, tile window) as they finished
+        self.records: list = []  # (worker, seconds, rays) of every pass
+        self.in_flight: list[_Frame] = []
+
+    def frames(self, cameras: Iterable[tuple[object, Camera]]) -> Iterator[tuple[object, WindowResult]]:
+        cameras = iter(cameras)
+        try:
+            waiting = None
+            exhausted = False
+            while True:
+                while not exhausted and len(self.in_flight) < self.ahead:
+                    item = next(cameras, None)
+                    if item is None:
+                        exhausted = True
+                        break
+                    if self.sample_seconds is None:
+                        self.sample_seconds = self._warm_up(item[1])
+                    self.in_flight.append(self._submit(*item))
+                    self._report()
+                if not self.in_flight:
+                    return
+                self._poll()
+                while self.in_flight and not self.in_flight[0].finals:
+                    frame = self.in_flight.pop(0)
+                    waiting = (frame.key, self._combine(frame))
+                    yield waiting
+                    waiting = None
+        finally:
+            self.cancel()
+
+    def _warm_up(self, camera: Camera) -> float:
+        """Warm every worker's kernels (a task pinned to it, before its tiles); wait for the
+        first and return its seconds per pixel-sample."""
+        for address in self.client.nthreads():
+            self.warm_futures.append(
+                self.client.submit(
+                    _warm,
+                    self.scene,
+                    camera,
+                    self.settings,
+                    self.expected,
+                    workers=[address],
+                    allow_other_workers=False,
+                    pure=False,
+                    priority=100,
+                )  # fmt: skip
+            )
+        while True:
+            for future in self.warm_futures:
+                if future.status == "finished":
+                    info = future.result()
+                    self.warm[info["worker"]] = info
+                    return info["sample_seconds"]
+                if future.status == "error":
+                    future.result()  # raises the worker's error (a refused version, ...)
+            time.sleep(POLL_SECONDS / 5)
+
+    def _submit(self, key, camera: Camera) -> _Frame:
+        tiles = plan_tiles(self.window, self.settings, self.sample_seconds, self.min_tiles)
+        order = list(range(len(tiles)))
+        if self.shuffle is not None:
+            self.shuffle.shuffle(order)
+        finals = {}
+        for rank, index in enumerate(order):
+            tile = tiles[index]
+            previous = None
+            for first, count in tile.passes:
+                previous = self.client.submit(
+                    _render_tile, self.scene, camera, self.settings, tile.window, first, count, previous, self.aovs,
+                    self.expected, pure=False, priority=-rank if self.shuffle is not None else 0,
+                )  # fmt: skip
+                self.pending.add(previous)
+                self.tasks_total += 1
+            finals[previous.key] = (previous, tile)
+        self.tiles += len(tiles)
+        return _Frame(key, tiles, finals, [])
+
+    def _poll(self) -> None:
+        """Wait a moment, then collect the finished tasks (a failed one raises its error)."""
+        time.sleep(POLL_SECONDS)
+        for future in [f for f in self.pending if f.status != "pending"]:
+            self.pending.discard(future)
+            if future.status != "finished":
+                self._raise(future)
+            self.tasks_done += 1
+            for frame in self.in_flight:
+                entry = frame.finals.pop(future.key, None)
+                if entry is not None:
+                    result = future.result()
+                    frame.results.append((entry[1], result))
+                    self.records.extend(result.cluster["passes"])
+                    self.finish_order.append((frame.key, entry[1].window))
+                    if self.first_tile_seconds is None:
+                        self.first_tile_seconds = time.perf_counter() - self.started
+        self._report()
+
+    def _report(self) -> None:
+        if self.progress is not None:
+            self.progress(self.tasks_done, self.tasks_total)
+
+    @staticmethod
+    def _raise(future) -> None:
+        from distributed import KilledWorker
+
+        try:
+            future.result()
+        except KilledWorker:
+            raise ClusterError(
+                "a tile's task was lost with its worker several times in a row; the cluster's workers keep dying"
+            ) from None
+        raise ClusterError(f"a tile's task ended as {future.status!r} on the cluster")
+
+    def _combine(self, frame: _Frame) -> WindowResult:
+        """The window's image from the frame's tiles: disjoint pixels, so any order of
+        finishing gives the same array."""
+        x0, x1, y0, y1 = self.window
+        rgb = np.zeros((y1 - y0, x1 - x0, 3), dtype=np.float32)
+        aov_arrays = allocate_aovs(y1 - y0, x1 - x0) if self.aovs else {}
+        for tile, result in frame.results:
+            tx0, tx1, ty0, ty1 = tile.window
+            rows, cols = slice(ty0 - y0, ty1 - y0), slice(tx0 - x0, tx1 - x0)
+            rgb[rows, cols] = result.rgb
+            for name, array in result.aovs.items():
+                aov_arrays[name][rows, cols] = array
+        results = [r for _, r in frame.results]
+        return WindowResult(
+            self.window,
+            rgb,
+            aov_arrays,
+            seconds=sum(r.seconds for r in results),
+            rays=sum(r.rays for r in results),
+            rejected=sum(r.rejected for r in results),
+        )
+
+    def partial(self) -> tuple[WindowResult, int, int] | None:
+        """(the first unfinished frame with its finished tiles, tiles done, tiles), or None."""
+        if not self.in_flight:
+            return None
+        frame = self.in_flight[0]
+        return self._combine(frame), len(frame.results), len(frame.tiles)
+
+    def cancel(self) -> None:
+        """Cancel the cluster's outstanding work and release the scattered scene."""
+        futures = [*self.pending, *self.warm_futures, self.scene]
+        self.pending.clear()
+        self.warm_futures.clear()
+        try:
+            self.client.cancel(futures, force=True)
+        except Exception:
+            pass
+
+    def stats(self) -> dict:
+        workers: dict[str, dict] = {}
+        for worker, seconds, rays in self.records:
+            entry = workers.setdefault(worker, {"tasks": 0, "render_seconds": 0.0, "rays": 0})
+            entry["tasks"] += 1
+            entry["render_seconds"] += seconds
+            entry["rays"] += int(rays)
+        for worker, info in self.warm.items():
+            workers.setdefault(worker, {"tasks": 0, "render_seconds": 0.0, "rays": 0})
+            workers[worker]["compile_seconds"] = info["compile_seconds"]
+        for entry in workers.values():
+            seconds = entry["render_seconds"]
+            entry["mrays_per_second"] = entry["rays"] / seconds / 1e6 if seconds else 0.0
+        nthreads = self.client.nthreads()
+        return {
+            "workers": len(nthreads),
+            "threads": int(sum(nthreads.values())),
+            "tiles": self.tiles,
+            "tasks": self.tasks_done,
+            "scene_bytes": self.scene_bytes,
+            "wall_seconds": time.perf_counter() - self.started,
+            "first_tile_seconds": self.first_tile_seconds,
+            "per_worker": workers,
+        }
+
+
+def render_on_cluster(
+    cluster,
+    compiled: CompiledScene,
+    camera: Camera,
+    settings: RenderSettings,
+    window: tuple[int, int, int, int],
+    *,
+    aovs: bool = False,
+    progress: Callable[[int, int], None] | None = None,
+    status: Callable | None = None,
+    shuffle=None,
+) -> WindowResult:
+    """One image (the `window` of it) rendered in tiles on the cluster: what Session.render
+    does with `cluster=`. `seconds` of the result is the wall time of the distributed render
+    (the tiles' kernel time summed is in .cluster["kernel_seconds"]). Ctrl-C raises
+    RenderInterrupted with the tiles done so far."""
+    client = connect(cluster)
+    threads = max(1, int(sum(client.nthreads().values())))
+    renderer = FrameRenderer(
+        client, compiled, settings, window, aovs=aovs, progress=progress, min_tiles=TILES_PER_WORKER * threads,
+        shuffle=shuffle,
+    )  # fmt: skip
+    if status is not None:
+        status("rendering")
+    try:
+        [(_, result)] = list(renderer.frames([(0, camera)]))
+    except KeyboardInterrupt:
+        raise _interrupted(renderer.partial(), window, settings) from None
+    result.cluster = renderer.stats()
+    result.cluster["kernel_seconds"] = result.seconds
+    result.cluster["finish_order"] = [list(w) for _, w in renderer.finish_order]
+    result.seconds = result.cluster["wall_seconds"]
+    return result
+
+
+def _interrupted(partial, window, settings: RenderSettings) -> RenderInterrupted:
+    x0, x1, y0, y1 = window
+    if partial is None:
+        rgb, done, total = np.zeros((y1 - y0, x1 - x0, 3), dtype=np.float32), 0, 0
+    else:
+        result, done, total = partial
+        rgb = result.rgb
+    image = Image(rgb, {}, {}, settings.encoding, exposure=settings.exposure)
+    return RenderInterrupted(image, 0, done=f"{done} of {total} tiles")
