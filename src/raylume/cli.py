@@ -221,6 +221,24 @@ def render(
             help="Render only pixel columns X0..X1-1 and rows Y0..Y1-1; the output is that window of the full image",
         ),
     ] = None,
+    cluster: Annotated[
+        str | None,
+        typer.Option(
+            "--cluster",
+            metavar="ADDRESS",
+            help="Render in tiles on a Dask cluster: tcp://HOST:PORT of a `dask scheduler`, `local` or `local:N` "
+            "(N local worker processes); the image is bit-identical to an in-process render",
+        ),
+    ] = None,
+    frames: Annotated[
+        str | None,
+        typer.Option(
+            "--frames", metavar="A:B", help="Animation: render frames A to B-1 (into -o out.mp4 or f_%04d.png)"
+        ),
+    ] = None,
+    frame: Annotated[
+        int | None, typer.Option("--frame", metavar="K", help="Animation: render frame K (from 0) as a still")
+    ] = None,
     debug: Annotated[bool, typer.Option("--debug", metavar=FLAG, help="Show tracebacks of errors")] = False,
 ) -> None:
     """Render SCENE to an image (default: the built-in `seed` scene to render.png)."""
@@ -247,6 +265,10 @@ def render(
                 bit_depth=bit_depth,
                 crop=crop,
                 denoise=denoise,
+                cluster=cluster,
+                frames=frames,
+                frame=frame,
+                partial=partial,
             )
     except RenderInterrupted as exc:
         _interrupted(exc, output if partial else None, bit_depth)
@@ -297,18 +319,43 @@ def _render(
     bit_depth=8,
     crop=None,
     denoise=None,
+    cluster=None,
+    frames=None,
+    frame=None,
+    partial=False,
 ):
     import numba
 
     from .image import check_bit_depth, check_output_path, save_npy, write_atomic
     from .render import render as render_scene
+    from .video import check_sequence_path, is_sequence, is_video
 
     # Every output is checked before the scene is even read: a render is never lost to a bad path.
-    output = check_output_path(output)
-    check_bit_depth(output, bit_depth)
+    animated = is_video(output) or (is_sequence(output) and frame is None)
+    if is_sequence(output):
+        output = check_sequence_path(output)
+    elif not is_video(output):
+        output = check_output_path(output)
+    if frames is not None and frame is not None:
+        raise OutputError("--frames A:B and --frame K exclude each other: several frames, or one still")
+    if frames is not None and not animated:
+        raise OutputError(
+            f"--frames {frames}: several frames go into a video (-o out.mp4) or an image sequence "
+            f"(-o frames/f_%04d.png), not into {output}"
+        )
+    if frame is not None and is_video(output):
+        raise OutputError(f"--frame {frame} renders a still: write it to an image (-o frame.png), not to {output}")
+    if animated and (aov_specs or crop):
+        raise OutputError(f"{output}: --aov and --crop are for stills; render one frame with --frame K for them")
+    if not animated:
+        check_bit_depth(output, bit_depth)
     aov_paths, layers = _parse_aovs(aov_specs, output)
     if stats_path is not None:
         stats_path = check_output_path(stats_path, allowed=(".json",))
+    if cluster is not None:
+        from .cluster import parse_address
+
+        parse_address(cluster)  # a malformed address fails before anything is read
     started = time.perf_counter()
     scene_model, label = _resolve_scene(scene, overrides, width, height)
     _check_distinct(output, scene or "", [*aov_paths.values(), *([stats_path] if stats_path else [])])
@@ -336,6 +383,33 @@ def _render(
         require_denoiser()  # a missing package fails now, not after the render
     _warn_ignored(output, scene_model.render, exposure, pixel_filter)
     window = _parse_crop(crop, scene_model.render.width, scene_model.render.height)
+    if animated or frame is not None:
+        from .animation import animation_of, camera_at
+
+        animation_of(scene_model, label)  # no [animation]: an error before anything renders
+    if cluster is not None:
+        from .cluster import connect
+
+        connect(cluster)  # an unreachable scheduler fails now, before the scene is compiled
+    if animated:
+        from .cli_animation import render_animation_to
+
+        render_animation_to(
+            scene_model, label, output, frames, cluster=cluster, quiet=quiet, partial=partial, stats_path=stats_path,
+            progress_bar=_progress, bit_depth=bit_depth,
+        )  # fmt: skip
+        return
+    if frame is not None:
+        scene_model = scene_model.replace(camera=camera_at(scene_model, frame, label))
+        if is_sequence(output):
+            from .video import sequence_path
+
+            output = sequence_path(output, frame)
+    elif scene_model.animation is not None:
+        _warn(
+            f"{label} has an [animation] of {scene_model.animation.frames} frames; this renders the still of "
+            "[camera]: write a video (-o out.mp4), a sequence (-o frames/f_%04d.png) or one frame (--frame K)"
+        )
 
     with _progress(quiet) as progress, _compile_notice(quiet) as status:
         image = render_scene(
@@ -346,6 +420,7 @@ def _render(
             source=label,
             status=status,
             crop=window,
+            cluster=cluster,
         )
     image.stats["parse_seconds"] = parse_seconds
     image.save(output, bit_depth=bit_depth, layers=layers)
@@ -355,7 +430,11 @@ def _render(
         text = json.dumps(_json_safe(image.stats), indent=2) + "\n"
         write_atomic(stats_path, lambda fh: fh.write(text.encode()))
     if not quiet:
-        typer.echo(summary(output, image.stats), err=True)
+        line = summary(output, image.stats)
+        if "cluster" in image.stats:
+            c = image.stats["cluster"]
+            line += f"; on {c['workers']} workers ({c['tiles']} tiles, first in {c['first_tile_seconds'] or 0:.2f} s)"
+        typer.echo(line, err=True)
 
 
 def _parse_crop(text: str | None, width: int, height: int) -> tuple[int, int, int, int] | None:

@@ -38,7 +38,7 @@ from .image import Image
 from .scene.model import Camera, RenderSettings
 from .session import RenderInterrupted, WindowResult, allocate_aovs, render_window
 
-CONNECT_TIMEOUT = 5.0  # seconds: an unreachable scheduler is reported well within 10 s
+CONNECT_TIMEOUT = 4.0  # seconds: an unreachable scheduler is reported well within 10 s
 TILE_SECONDS = 1.0  # a task's target run time: long enough to hide its overhead, short enough to balance
 MIN_TILE_SIDE = 8  # pixels
 TILES_PER_WORKER = 4  # a still is split into at least this many tiles per worker
@@ -336,8 +336,10 @@ class FrameRenderer:
         min_tiles: int = 1,
         ahead: int | None = None,
         shuffle=None,
+        frames: int = 1,
     ):
         self.client = connect(cluster)
+        self.frames_expected = frames  # for the progress bar's total before all are submitted
         self.settings = settings
         self.window = window
         self.aovs = aovs
@@ -359,6 +361,7 @@ class FrameRenderer:
         self.first_tile_seconds: float | None = None
         self.tasks_done = 0
         self.tasks_total = 0
+        self.frames_submitted = 0
         self.tiles = 0
         self.finish_order: list[tuple[object, tuple]] = []  # (frame, tile window) as they finished
         self.records: list = []  # (worker, seconds, rays) of every pass
@@ -435,6 +438,7 @@ class FrameRenderer:
                 self.tasks_total += 1
             finals[previous.key] = (previous, tile)
         self.tiles += len(tiles)
+        self.frames_submitted += 1
         return _Frame(key, tiles, finals, [])
 
     def _poll(self) -> None:
@@ -458,7 +462,10 @@ class FrameRenderer:
 
     def _report(self) -> None:
         if self.progress is not None:
-            self.progress(self.tasks_done, self.tasks_total)
+            total = self.tasks_total
+            if 0 < self.frames_submitted < self.frames_expected:
+                total = round(total * self.frames_expected / self.frames_submitted)
+            self.progress(self.tasks_done, total)
 
     @staticmethod
     def _raise(future) -> None:

@@ -37,6 +37,7 @@ def render(
     source: str = "<scene>",
     crop: tuple[int, int, int, int] | None = None,
     status: Callable[[str], None] | None = None,
+    cluster=None,
 ) -> Image:
     """Render `scene` (arguments override its [render] table). Returns an Image with linear
     float32 RGB, the AOVs (depth, normal, object, prim, albedo) when `aovs` is true, and the
@@ -44,9 +45,11 @@ def render(
     Session: it compiles once. `crop` = (x0, x1, y0, y1) renders only columns x0..x1-1 and
     rows y0..y1-1: the image is that window, equal to the same window of the full render.
     `status` is called with "compiling" before the kernels' first call and "rendering" after
-    it (see Session.render)."""
+    it (see Session.render). `cluster`: a Dask scheduler's address, `local`, `local:N` or a
+    `distributed.Client`: render in tiles on its workers, bit-identical (raylume.cluster)."""
     overrides = dict(width=width, height=height, spp=spp, mode=mode, max_depth=max_depth, seed=seed,
                      filter=filter, exposure=exposure, denoise=denoise)  # fmt: skip
     settings = resolve_settings(scene, source, **overrides)  # fail before compiling
     session = Session(scene, source=source, accelerate=settings.mode != "raster")
-    return session.render(**overrides, threads=threads, aovs=aovs, progress=progress, crop=crop, status=status)
+    return session.render(**overrides, threads=threads, aovs=aovs, progress=progress, crop=crop, status=status,
+                          cluster=cluster)  # fmt: skip

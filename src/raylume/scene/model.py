@@ -607,6 +607,46 @@ class Environment(Strict):
         return self
 
 
+MAX_FRAMES = 1_000_000
+
+
+class CameraKey(Strict):
+    """A camera keyframe of [animation]: the frame it holds at, and any of the camera's
+    position, look_at, up and fov (the others are interpolated from the keyframes that have
+    them, or taken from [camera])."""
+
+    frame: int = Field(ge=0, lt=MAX_FRAMES)
+    position: Vec3 | None = None
+    look_at: Vec3 | None = None
+    up: Vec3 | None = None
+    fov: FiniteFloat | None = Field(None, gt=0, lt=180)
+
+
+class Animation(Strict):
+    """`[animation]`: `frames` frames at `fps`, the camera interpolated between the keyframes
+    of `[[animation.camera]]` (raylume/animation.py)."""
+
+    frames: int = Field(ge=1, le=MAX_FRAMES)
+    fps: FiniteFloat = Field(24.0, gt=0, le=1000)
+    interpolation: Literal["linear", "catmull-rom"] = "catmull-rom"
+    camera: list[CameraKey] = []
+
+    @model_validator(mode="after")
+    def _keyframes(self):
+        seen: dict[int, int] = {}
+        for k, key in enumerate(self.camera):
+            if key.frame >= self.frames:
+                raise ValueError(
+                    f"camera[{k}].frame: {key.frame} is past the last frame, {self.frames - 1} "
+                    f"(frames = {self.frames} counts from 0)"
+                )
+            if key.frame in seen:
+                earlier = seen[key.frame]
+                raise ValueError(f"camera[{k}].frame: frame {key.frame} has a keyframe already (camera[{earlier}])")
+            seen[key.frame] = k
+        return self
+
+
 class Scene(Strict):
     render: RenderSettings = RenderSettings()
     camera: Camera = Camera()
@@ -614,6 +654,7 @@ class Scene(Strict):
     lights: list[Light] = []
     objects: list[SceneObject] = []
     environment: Environment | None = None
+    animation: Animation | None = None
 
     # Folder that relative paths (mesh files) are resolved against; set by the loader.
     _base_dir: Path = PrivateAttr(default_factory=Path.cwd)

@@ -1,0 +1,90 @@
+"""`raylume render SCENE -o out.mp4 | frames/f_%04d.png [--frames A:B]`: render an animation's
+frames (in-process, or in parallel on a cluster) and write them as they arrive, in order."""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+import typer
+
+from .animation import animation_of, parse_frames, render_animation
+from .image import write_atomic
+from .scene.model import Scene
+from .session import RenderInterrupted, Session
+from .video import VideoWriter, check_video_path, is_video, sequence_path
+
+
+def render_animation_to(
+    scene: Scene,
+    label: str,
+    output: Path,
+    frames: str | None,
+    *,
+    cluster=None,
+    quiet: bool = False,
+    partial: bool = False,
+    stats_path: Path | None = None,
+    progress_bar=None,
+    bit_depth: int = 8,
+) -> None:
+    animation = animation_of(scene, label)
+    selected = parse_frames(frames, animation.frames) if frames is not None else range(animation.frames)
+    settings = scene.render
+    writer = None
+    if is_video(output):
+        check_video_path(output, settings.width, settings.height)
+    started = time.perf_counter()
+    session = Session(scene, source=label, accelerate=settings.mode != "raster")
+    written: list[Path] = []
+    done = 0
+    try:
+        if is_video(output):
+            writer = VideoWriter(output, settings.width, settings.height, animation.fps)
+        with progress_bar(quiet) as progress:
+            for k, image in render_animation(session, selected, cluster=cluster, progress=progress):
+                if writer is not None:
+                    writer.write(image.to_uint8())
+                else:
+                    written.append(image.save(sequence_path(output, k), bit_depth=bit_depth))
+                done += 1
+        if writer is not None:
+            writer.close()
+    except (KeyboardInterrupt, RenderInterrupted):
+        where = "nothing written"
+        if writer is not None:
+            kept = writer.abort(output.with_name(f"{output.stem}.partial{output.suffix}") if partial else None)
+            where = f"saved {kept}" if kept else "no video written"
+        elif written:
+            where = f"{len(written)} frame files written"
+        typer.echo(f"raylume: interrupted after {done} of {len(selected)} frames; {where}", err=True)
+        raise typer.Exit(130) from None
+    except BaseException:
+        if writer is not None:
+            writer.abort()
+        raise
+    seconds = time.perf_counter() - started
+    if stats_path is not None:
+        stats = {
+            "frames": done,
+            "first_frame": selected.start,
+            "fps": animation.fps,
+            "width": settings.width,
+            "height": settings.height,
+            "spp": settings.spp,
+            "mode": settings.mode,
+            "seconds": seconds,
+            **session.compiled.stats,
+        }
+        if getattr(session, "last_cluster_stats", None):
+            stats["cluster"] = session.last_cluster_stats
+        text = json.dumps(stats, indent=2, default=float) + "\n"
+        write_atomic(stats_path, lambda fh: fh.write(text.encode()))
+    if not quiet:
+        where = output if writer is not None else f"{output} ({len(written)} files)"
+        typer.echo(
+            f"{where}: {done} frames {settings.width}x{settings.height} {settings.mode} in {seconds:.2f} s "
+            f"({done / seconds:.2f} frames/s)",
+            err=True,
+        )

@@ -1,0 +1,151 @@
+"""Writing an animation's frames: an H.264 video (.mp4, through the ffmpeg that the
+imageio-ffmpeg wheel carries), an animated GIF (Pillow), or one image per frame (`%04d`).
+
+Videos are written to a temporary file beside the output and renamed into place when the last
+frame is in, as every raylume output is: an interrupted render never leaves a truncated video
+under the output's name.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from .errors import OutputError
+from .image import IMAGE_SUFFIXES, check_output_path, check_writable_folder
+
+VIDEO_SUFFIXES = (".mp4", ".gif")
+CRF = 18  # H.264 constant rate factor: 18 is near visually lossless (0 lossless, 51 worst)
+_PATTERN = re.compile(r"%0?(\d*)d")
+
+
+def is_video(path: Path) -> bool:
+    return Path(path).suffix.lower() in VIDEO_SUFFIXES
+
+
+def is_sequence(path: Path) -> bool:
+    """An output name with a printf-style frame number, e.g. frames/f_%04d.png."""
+    return "%" in Path(path).name
+
+
+def check_sequence_path(path: Path) -> Path:
+    """Check an image-sequence pattern before rendering: one %d / %0Nd in the file name, an
+    image extension, a writable folder."""
+    path = Path(path)
+    if len(_PATTERN.findall(path.name)) != 1 or path.name.count("%") != 1:
+        raise OutputError(
+            f"{path}: an image sequence's name holds one frame number as %d or %0Nd, e.g. frames/f_%04d.png"
+        )
+    check_output_path(sequence_path(path, 0), allowed=IMAGE_SUFFIXES)
+    return path
+
+
+def sequence_path(pattern: Path, frame: int) -> Path:
+    pattern = Path(pattern)
+    return pattern.with_name(pattern.name % frame)
+
+
+def check_video_path(path: Path, width: int, height: int) -> Path:
+    path = check_output_path(path, allowed=VIDEO_SUFFIXES)
+    if path.suffix.lower() == ".mp4" and (width % 2 or height % 2):
+        raise OutputError(
+            f"{path}: an H.264 video needs an even width and height (its colour is stored at half resolution); "
+            f"the frames are {width} x {height}"
+        )
+    return path
+
+
+class VideoWriter:
+    """Frames (uint8 (H, W, 3)) in order -> `path` (.mp4 or .gif) at `fps`. `close()` puts the
+    finished video in place; `abort(keep_as)` discards it, or keeps the frames written so far
+    under the name `keep_as`."""
+
+    def __init__(self, path: Path, width: int, height: int, fps: float):
+        self.path = Path(path)
+        self.size = (width, height)
+        self.fps = float(fps)
+        self.frames = 0
+        folder = self.path.parent if str(self.path.parent) else Path(".")
+        check_writable_folder(self.path)
+        fd, tmp = tempfile.mkstemp(prefix=f".{self.path.stem}.", suffix=self.path.suffix, dir=folder)
+        os.close(fd)
+        self.tmp = Path(tmp)
+        self._gif: list = []
+        self._ffmpeg = None
+        if self.path.suffix.lower() == ".mp4":
+            import imageio_ffmpeg
+
+            self._ffmpeg = imageio_ffmpeg.write_frames(
+                str(self.tmp),
+                self.size,
+                fps=self.fps,
+                codec="libx264",
+                pix_fmt_out="yuv420p",  # what every player decodes
+                quality=None,
+                macro_block_size=1,
+                ffmpeg_log_level="error",
+                output_params=["-crf", str(CRF), "-movflags", "+faststart"],
+            )
+            self._ffmpeg.send(None)  # start ffmpeg
+
+    def write(self, rgb8: np.ndarray) -> None:
+        if rgb8.shape != (self.size[1], self.size[0], 3) or rgb8.dtype != np.uint8:
+            want = (self.size[1], self.size[0], 3)
+            raise ValueError(f"a frame must be uint8 {want}, got {rgb8.dtype} {rgb8.shape}")
+        if self._ffmpeg is not None:
+            self._ffmpeg.send(np.ascontiguousarray(rgb8))
+        else:
+            from PIL import Image as PILImage
+
+            self._gif.append(PILImage.fromarray(rgb8))
+        self.frames += 1
+
+    def _finish(self) -> None:
+        if self._ffmpeg is not None:
+            self._ffmpeg.close()
+            self._ffmpeg = None
+        elif self._gif:
+            first, *rest = self._gif
+            duration = max(int(round(1000.0 / self.fps)), 10)  # GIF delays are in 1/100 s
+            first.save(self.tmp, format="GIF", save_all=True, append_images=rest, duration=duration, loop=0)
+            self._gif = []
+
+    def close(self) -> Path:
+        try:
+            if self.frames == 0:
+                raise OutputError(f"{self.path}: no frames were rendered")
+            self._finish()
+            os.chmod(self.tmp, 0o644 & ~_umask())
+            os.replace(self.tmp, self.path)
+        except BaseException:
+            self.abort()
+            raise
+        return self.path
+
+    def abort(self, keep_as: Path | None = None) -> Path | None:
+        try:
+            if keep_as is not None and self.frames:
+                self._finish()
+                os.replace(self.tmp, keep_as)
+                return keep_as
+        except Exception:
+            pass
+        finally:
+            if self._ffmpeg is not None:
+                try:
+                    self._ffmpeg.close()
+                except Exception:
+                    pass
+                self._ffmpeg = None
+            self.tmp.unlink(missing_ok=True)
+        return None
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
