@@ -444,15 +444,16 @@ class FrameRenderer:
     def _poll(self) -> None:
         """Wait a moment, then collect the finished tasks (a failed one raises its error)."""
         time.sleep(POLL_SECONDS)
-        for future in [f for f in self.pending if f.status != "pending"]:
+        # "lost" (its worker died) is not an end: Dask computes it again elsewhere
+        for future in [f for f in self.pending if f.status in ("finished", "error", "cancelled")]:
             self.pending.discard(future)
-            if future.status != "finished":
+            if future.status in ("error", "cancelled"):
                 self._raise(future)
             self.tasks_done += 1
             for frame in self.in_flight:
                 entry = frame.finals.pop(future.key, None)
                 if entry is not None:
-                    result = future.result()
+                    result = future.result()  # waits if it was lost again since
                     frame.results.append((entry[1], result))
                     self.records.extend(result.cluster["passes"])
                     self.finish_order.append((frame.key, entry[1].window))
@@ -469,15 +470,17 @@ class FrameRenderer:
 
     @staticmethod
     def _raise(future) -> None:
+        """A failed task's error: the worker's own (a refused version, ...), or in words."""
         from distributed import KilledWorker
 
+        if future.status == "cancelled":
+            raise ClusterError("the cluster cancelled a tile's task (was the scheduler restarted?)")
         try:
             future.result()
         except KilledWorker:
             raise ClusterError(
                 "a tile's task was lost with its worker several times in a row; the cluster's workers keep dying"
             ) from None
-        raise ClusterError(f"a tile's task ended as {future.status!r} on the cluster")
 
     def _combine(self, frame: _Frame) -> WindowResult:
         """The window's image from the frame's tiles: disjoint pixels, so any order of

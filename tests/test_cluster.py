@@ -1,0 +1,218 @@
+"""Rendering on a Dask cluster: bit-identical to the in-process render (the reference) in every
+mode, whatever the tiles, passes, order of finishing or a worker killed mid-render; Ctrl-C,
+mismatched versions and unreachable schedulers. One local cluster of two single-threaded worker
+processes serves the module; one test starts `dask scheduler` / `dask worker` processes."""
+
+from __future__ import annotations
+
+import json
+import os
+import random
+import signal
+import socket
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+from test_cli import assert_refused, raylume
+
+import raylume as rl
+from raylume import cluster as C
+from raylume.animation import render_animation
+from raylume.session import RenderInterrupted
+
+distributed = pytest.importorskip("distributed")
+
+# The seed scene, small: its kernel variant (spheres only) is the one the rest of the suite
+# compiles first, so these tests seldom pay a compilation of their own.
+SCENE = {
+    "render": {"width": 40, "height": 30},
+    "camera": {"position": [0, 0.5, -1], "look_at": [0, 0, 3]},
+    "lights": [
+        {"type": "ambient", "intensity": 0.2},
+        {"type": "point", "position": [2, 1, 0], "intensity": 0.6},
+        {"type": "directional", "direction": [1, 4, 4], "intensity": 0.2},
+    ],
+    "objects": [
+        {"type": "sphere", "center": [0, -1, 3], "radius": 1, "material": {"color": [1, 0, 0], "reflective": 0.2}},
+        {"type": "sphere", "center": [2, 0, 4], "radius": 1, "material": {"color": [0, 0, 1], "specular": 500}},
+        {
+            "type": "sphere",
+            "center": [0, -5001, 0],
+            "radius": 5000,
+            "material": {"color": [1, 1, 0], "reflective": 0.5},
+        },
+    ],
+}
+
+
+@pytest.fixture(scope="module")
+def client():
+    cluster = distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=40
+    )
+    client = distributed.Client(cluster, set_as_default=False)
+    yield client
+    client.close(timeout=10)
+    cluster.close(timeout=10)
+
+
+@pytest.fixture(scope="module")
+def session():
+    return rl.Session(rl.scene_from_dict(SCENE))
+
+
+def assert_same(reference, image):
+    assert np.array_equal(reference.rgb, image.rgb)
+    assert reference.aovs.keys() <= image.aovs.keys()
+    for name in reference.aovs:
+        assert np.array_equal(reference.aovs[name], image.aovs[name]), name
+
+
+@pytest.mark.parametrize(
+    "mode, spp, pixel_filter",
+    [("cast", 3, "box"), ("trace", 4, "mitchell"), ("path", 6, "gaussian"), ("raster", 1, "box")],
+)
+def test_cluster_render_is_bit_identical_to_the_in_process_render(client, session, mode, spp, pixel_filter):
+    settings = dict(mode=mode, spp=spp, filter=pixel_filter, seed=7)
+    reference = session.render(threads=2, **settings)
+    image = session.render(cluster=client, **settings)
+    assert_same(reference, image)
+    stats = image.stats["cluster"]
+    assert stats["workers"] == 2
+    assert stats["tiles"] >= (1 if mode == "raster" else 8)
+    assert sum(w["tasks"] for w in stats["per_worker"].values()) == stats["tasks"]
+
+
+def test_passes_and_tiles_finishing_in_shuffled_order_give_the_same_bits(client, session, monkeypatch):
+    monkeypatch.setattr(C, "TILE_SECONDS", 1e-9)  # every tile as small as allowed, one sample per pass
+    settings = rl.scene_from_dict(SCENE).with_render(mode="path", spp=5, seed=3).render
+    reference = session.render(mode="path", spp=5, seed=3, threads=2, crop=(4, 36, 2, 26))
+    window = (4, 36, 2, 26)
+    result = C.render_on_cluster(
+        client, session.compiled, session.scene.camera, settings, window, aovs=True, shuffle=random.Random(5)
+    )
+    assert np.array_equal(reference.rgb, result.rgb)
+    for name in reference.aovs:
+        assert np.array_equal(reference.aovs[name], result.aovs[name]), name
+    planned = [list(t.window) for t in C.plan_tiles(window, settings, 1.0, tile_seconds=1e-9)]
+    finished = result.cluster["finish_order"]
+    assert sorted(finished) == sorted(planned) and finished != planned
+    assert result.cluster["tasks"] == 5 * len(planned)  # chained passes of one sample each
+
+
+def test_a_worker_killed_mid_render_loses_nothing(client, session, monkeypatch):
+    monkeypatch.setattr(C, "TILE_SECONDS", 1e-9)
+    settings = dict(mode="path", spp=8, seed=11)
+    reference = session.render(threads=2, **settings)
+    pids = client.run(os.getpid)
+    killed = {}
+
+    def progress(done, total):
+        if done >= 1 and not killed:
+            address, pid = sorted(pids.items())[0]
+            os.kill(pid, signal.SIGKILL)
+            killed.update(address=address, done=done, total=total)
+
+    image = session.render(cluster=client, progress=progress, **settings)
+    assert killed and killed["done"] < killed["total"] / 2  # killed with most of the work left
+    assert_same(reference, image)
+    client.wait_for_workers(2, timeout=60)  # the nanny restarts it for the tests that follow
+
+
+def test_ctrl_c_cancels_the_outstanding_tiles(client, session, monkeypatch):
+    monkeypatch.setattr(C, "TILE_SECONDS", 1e-9)
+
+    def progress(done, total):
+        if done >= 2:
+            raise KeyboardInterrupt
+
+    with pytest.raises(RenderInterrupted) as caught:
+        session.render(cluster=client, mode="trace", spp=16, progress=progress)
+    assert "tiles" in caught.value.done
+    deadline = time.monotonic() + 10
+    while any(client.processing().values()) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert not any(client.processing().values())  # nothing left running on the workers
+
+
+def test_workers_with_another_numba_are_refused(client, session, monkeypatch):
+    real = C.versions()
+    monkeypatch.setattr(C, "versions", lambda: {**real, "numba": "0.1.0"})
+    with pytest.raises(C.ClusterError, match=r"numba .*0\.1\.0.*bit-identical"):
+        session.render(cluster=client, mode="cast")
+
+
+def test_animation_frames_on_the_cluster_equal_the_stills(client):
+    scene = rl.scene_from_dict(
+        {
+            **SCENE,
+            "render": {"width": 24, "height": 16, "mode": "trace"},
+            "animation": {"frames": 5, "camera": [{"frame": 0, "position": [0, 1, -1]}, {"frame": 4, "fov": 40}]},
+        }
+    )
+    session = rl.Session(scene)
+    local = dict(render_animation(session, range(1, 5)))
+    remote = dict(render_animation(session, range(1, 5), cluster=client))
+    assert sorted(remote) == [1, 2, 3, 4]
+    for k in remote:
+        assert np.array_equal(local[k].rgb, remote[k].rgb), k
+
+
+def test_a_malformed_or_unreachable_address_exits_2_within_10_seconds(tmp_path):
+    assert_refused(raylume("render", "--cluster", "somewhere", cwd=tmp_path), "--cluster somewhere", "tcp://HOST:PORT")
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]  # nothing listens there once closed
+    started = time.monotonic()
+    result = raylume("render", "--cluster", f"tcp://127.0.0.1:{port}", "--width", 8, "--height", 8, cwd=tmp_path)
+    assert time.monotonic() - started < 10
+    assert_refused(result, f"tcp://127.0.0.1:{port}", "dask scheduler")
+    assert not (tmp_path / "render.png").exists()
+
+
+def _start(*args):
+    return subprocess.Popen([sys.executable, "-m", "dask", *args], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+
+
+def _stop(process):
+    process.terminate()
+    try:
+        process.wait(timeout=10)
+    except subprocess.TimeoutExpired:
+        process.kill()
+        process.wait(timeout=10)
+
+
+def test_a_cluster_of_dask_scheduler_and_dask_worker_processes(tmp_path):
+    """As a user starts a real cluster: `dask scheduler`, `dask worker ADDRESS`, then
+    `raylume render --cluster ADDRESS`; the image equals the in-process render bit for bit."""
+    address_file = tmp_path / "scheduler.json"
+    scheduler = _start(
+        "scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard", "--scheduler-file", address_file
+    )
+    workers = None
+    try:
+        deadline = time.monotonic() + 60
+        while not address_file.exists() and time.monotonic() < deadline:
+            time.sleep(0.1)
+        address = json.loads(address_file.read_text())["address"]
+        workers = _start(
+            "worker", address, "--nworkers", "2", "--nthreads", "1", "--no-dashboard", "--host", "127.0.0.1"
+        )
+        with distributed.Client(address, timeout=30, set_as_default=False) as probe:
+            probe.wait_for_workers(2, timeout=60)  # started, not only launched
+        scene = tmp_path / "scene.json"
+        scene.write_text(json.dumps({**SCENE, "render": {"width": 32, "height": 24, "spp": 2}}))
+        result = raylume("render", scene, "-o", "c.npy", "--cluster", address, "--stats", "s.json", cwd=tmp_path)
+        assert result.returncode == 0, result.stderr
+        reference = rl.render(rl.load_scene(scene), aovs=False)
+        assert np.array_equal(np.load(tmp_path / "c.npy"), reference.rgb)
+        stats = json.loads((tmp_path / "s.json").read_text())
+        assert stats["cluster"]["workers"] == 2 and stats["cluster"]["per_worker"]
+    finally:
+        if workers is not None:
+            _stop(workers)
+        _stop(scheduler)
