@@ -33,7 +33,7 @@ render: $(STAMP_RENDER)
 
 ## test: run the full test suite
 test: $(STAMP_DEV)
-	$(BIN)/python -m pytest -q -n 2
+	$(BIN)/python -m pytest -q -n 2 --dist loadgroup
 
 ## lint: ruff's lint rules and formatting (configured in pyproject.toml)
 lint: $(STAMP_DEV)

@@ -9,6 +9,8 @@ image.save("seed.png")
 session = raylume.Session(raylume.builtin_scene("seed"))   # compile once ...
 a = session.render(width=300, height=300)                   # ... render many times
 b = session.render(camera={"position": [0, 1, -1]}, mode="cast")
+
+url = raylume.view(raylume.builtin_scene("seed"))           # a live view in the browser
 """
 
 from .errors import RaylumeError, SceneError
@@ -21,6 +23,7 @@ from .scene.checks import SceneWarning
 from .scene.load import load_scene, scene_from_dict
 from .scene.model import Camera, Scene
 from .session import Session
+from .viewer import view
 
 __all__ = [
     "Camera",
@@ -37,5 +40,6 @@ __all__ = [
     "load_scene",
     "render",
     "scene_from_dict",
+    "view",
 ]
 __version__ = "0.1.0"

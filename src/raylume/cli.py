@@ -641,6 +641,57 @@ def scenes() -> None:
         typer.echo(f"{label:<16} {builtin_description(name)}")
 
 
+@app.command(cls=_Command)
+def view(
+    scene: Annotated[
+        str | None,
+        typer.Argument(metavar="SCENE", help="Scene file (.toml/.json), mesh file or built-in name; default: seed"),
+    ] = None,
+    mode: Annotated[
+        str | None, typer.Option("--mode", metavar="MODE", help="cast | trace | path | raster (switchable on the page)")
+    ] = None,
+    width: Annotated[int | None, typer.Option("--width", metavar="W", help="Image width in pixels")] = None,
+    height: Annotated[int | None, typer.Option("--height", metavar="H", help="Image height in pixels")] = None,
+    spp: Annotated[
+        int | None, typer.Option("--spp", metavar="N", help="Samples per pixel at rest (path mode: per film)")
+    ] = None,
+    port: Annotated[int, typer.Option("--port", metavar="P", help="Port to listen on; 0 picks a free one")] = 8765,
+    host: Annotated[
+        str, typer.Option("--host", metavar="ADDR", help="Address to listen on (other than loopback: with a warning)")
+    ] = "127.0.0.1",
+    no_browser: Annotated[
+        bool, typer.Option("--no-browser", metavar=FLAG, help="Print the URL only; do not open a browser")
+    ] = False,
+    overrides: Annotated[
+        list[str] | None,
+        typer.Option("--set", metavar="KEY=VALUE", help="Set a scene key, as for render (repeatable)"),
+    ] = None,
+    threads: Annotated[
+        int | None, typer.Option("--threads", metavar="T", help="Render threads (default: all cores)")
+    ] = None,
+    debug: Annotated[bool, typer.Option("--debug", metavar=FLAG, help="Show tracebacks of errors")] = False,
+) -> None:
+    """Serve a live, progressive view of SCENE in the browser (drag: orbit, right/shift-drag: pan, wheel: dolly)."""
+    from .viewer.command import run_view
+
+    try:
+        with _echo_warnings():
+            scene_model, label = _resolve_scene(scene, overrides or [], width, height)
+            scene_model = _apply_flags(scene_model, width=width, height=height, spp=spp, mode=mode)
+        code = run_view(scene_model, label, host=host, port=port, open_browser=not no_browser, threads=threads)
+    except KeyboardInterrupt:
+        raise typer.Exit(130) from None
+    except RaylumeError as exc:
+        if debug:
+            raise
+        _fail(str(exc))
+    except (ValueError, OSError) as exc:
+        if debug:
+            raise
+        _fail(_error_text(exc))
+    raise typer.Exit(code)
+
+
 def main() -> None:  # pragma: no cover - console entry point
     app()
 

@@ -1,0 +1,89 @@
+"""The live view (`raylume view`, `raylume.view(scene)`): a local web page that shows a scene
+rendering progressively and lets the mouse move the camera.
+
+    camera_control.py  orbit / pan / dolly math
+    renderer.py        the render thread: passes through a Session, films, frames
+    frames.py          a frame's 8-bit pixels, JPEG/PNG encodings and WebSocket message
+    server.py          the Tornado app: page, /stats, /frame.png, POST /camera, /ws; the token
+    service.py         binding, serving in the foreground or on a background thread, shutdown
+    static/            index.html and view.js (plain, no build step)
+"""
+
+from __future__ import annotations
+
+import atexit
+from pathlib import Path
+
+from ..scene.model import Scene
+
+_RUNNING: list = []
+
+
+class ViewURL(str):
+    """The URL of a running view (a str), with `stop()` and the `viewer` behind it."""
+
+    viewer: object
+
+    def stop(self) -> None:
+        self.viewer.stop()
+        if self.viewer in _RUNNING:
+            _RUNNING.remove(self.viewer)
+
+
+def view(
+    scene: Scene | str | Path | None = None,
+    *,
+    width: int | None = None,
+    height: int | None = None,
+    mode: str | None = None,
+    spp: int | None = None,
+    host: str = "127.0.0.1",
+    port: int = 0,
+    threads: int | None = None,
+    show: bool | None = None,
+) -> ViewURL:
+    """Serve a live view of `scene` (a Scene, a scene file, a built-in name, or None for
+    `seed`) in the background and return its URL (with the token). In Jupyter (or when
+    `show`) the page is also shown inline in an iframe. Port 0 (the default here) picks a free
+    port, so several views can run at once; `url.stop()` ends one."""
+    from ..scene.builtin import DEFAULT_SCENE, builtin_names, builtin_scene
+    from ..scene.load import load_scene
+    from ..session import Session
+    from .service import Viewer, warn_if_exposed
+
+    if scene is None or (isinstance(scene, str) and scene in builtin_names()):
+        source = f"built-in scene {scene or DEFAULT_SCENE!r}"
+        scene = builtin_scene(scene or DEFAULT_SCENE)
+    elif isinstance(scene, str | Path):
+        source = str(scene)
+        scene = load_scene(scene)
+    else:
+        source = "<scene>"
+    scene = scene.with_render(width=width, height=height, mode=mode, spp=spp)
+    warn_if_exposed(host)
+    viewer = Viewer(Session(scene, source=source), host=host, port=port, threads=threads)
+    viewer.start()
+    _RUNNING.append(viewer)
+    url = ViewURL(viewer.url)
+    url.viewer = viewer
+    if show or (show is None and _in_notebook()):
+        from IPython.display import IFrame, display
+
+        settings = scene.render
+        display(IFrame(url, width=settings.width + 40, height=settings.height + 100))
+    return url
+
+
+def _in_notebook() -> bool:
+    try:
+        from IPython import get_ipython
+    except ImportError:
+        return False
+    shell = get_ipython()
+    return shell is not None and type(shell).__name__ == "ZMQInteractiveShell"
+
+
+@atexit.register
+def _stop_all() -> None:
+    for viewer in list(_RUNNING):
+        viewer.stop()

@@ -1,0 +1,44 @@
+"""`raylume view`: load the scene as `raylume render` does, bind the port, print the URL as
+the first line on stdout, serve until Ctrl-C."""
+
+from __future__ import annotations
+
+import os
+import sys
+import webbrowser
+
+from ..errors import RaylumeError
+
+
+def run_view(
+    scene_model,
+    label: str,
+    *,
+    host: str,
+    port: int,
+    open_browser: bool,
+    threads: int | None,
+) -> int:
+    from ..session import Session
+    from .renderer import MODES
+    from .service import Viewer, warn_if_exposed
+
+    if not 0 <= port <= 65535:
+        raise RaylumeError(f"--port {port}: expected 0..65535 (0: a free port)")
+    if scene_model.render.mode not in MODES:
+        raise RaylumeError(f"--mode {scene_model.render.mode}: expected one of {', '.join(MODES)}")
+    viewer = Viewer(Session(scene_model, source=label), host=host, port=port, threads=threads)
+    print(f"raylume view: {viewer.url}", flush=True)
+    warn_if_exposed(host)
+    s = scene_model.render
+    print(f"raylume: serving {label}, {s.width}x{s.height} {s.mode}; Ctrl-C stops", file=sys.stderr, flush=True)
+    if open_browser:
+        webbrowser.open(viewer.url)
+    viewer.run()
+    print("raylume: view stopped", file=sys.stderr, flush=True)
+    if viewer.renderer._thread is not None and viewer.renderer._thread.is_alive():
+        # a pass (or a first kernel compilation) still runs: do not wait for it at exit
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(0)
+    return 0

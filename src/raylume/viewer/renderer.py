@@ -1,0 +1,345 @@
+"""The viewer's render thread: renders the current camera progressively, pass after pass.
+
+While the camera moves (it changed less than MOVING_SECONDS ago) every frame is one sample per
+pixel at a resolution reduced until it renders within MOVE_BUDGET, sent as JPEG. Once it rests,
+the full-size film accumulates samples pass after pass, each pass sized to take about
+REST_PASS_SECONDS, and each is sent as a lossless PNG:
+
+* cast and trace mode fill one film of the scene's spp, then stop: the image is then
+  bit-identical to `raylume render` of the same camera and size (at spp 1, after one pass);
+* path mode has no end: it fills films of max(spp, PATH_FILM_SPP) samples with seeds seed,
+  seed + 1, ... (a film's sample stratification is fixed by its total) and shows the mean of
+  all samples so far, weighted by their count, up to PATH_MAX_SPP;
+* raster mode draws the frame once.
+
+A change of camera or mode drops the film. The kernels are nogil and run on the Session's lanes
+(all cores by default); this thread only prepares passes and encodes frames. Without watchers
+(no open tab) it stops after the first lossless frame of a camera: a closed tab costs nothing.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import SceneError
+from ..image import encode_8bit
+from ..kernels.film import Film
+from ..scene.model import Camera
+from ..session import Session, resolve_settings
+from . import camera_control
+from .frames import Frame
+
+MODES = ("cast", "trace", "path", "raster")
+CAMERA_KEYS = ("position", "look_at", "up", "fov")
+MOVING_SECONDS = 0.12  # the camera counts as moving until this long after its last change
+MOVE_BUDGET = 0.025  # seconds a frame may take while moving: sets the resolution divisor
+MAX_DIVISOR = 8
+REST_PASS_SECONDS = 0.05  # a refining pass at rest aims at this long (Ctrl-C and input wait for it)
+PATH_FILM_SPP = 16
+PATH_MAX_SPP = 4096
+FPS_WINDOW = 2.0  # seconds over which fps and Mrays/s are measured
+
+
+@dataclass
+class _Job:
+    """The image being rendered for one camera and mode at one resolution."""
+
+    epoch: int
+    camera_version: int
+    camera: Camera
+    mode: str
+    divisor: int
+    settings: object  # RenderSettings at the job's size
+    batch: int  # total_spp of each film
+    film: Film | None = None
+    generation: int = 0  # films completed (path mode: they used seeds seed .. seed + generation - 1)
+    done_sum: np.ndarray | None = None  # sum over completed films of rgb * batch (float64)
+    done_spp: int = 0
+    rgb: np.ndarray | None = None  # raster mode's image
+    finished: bool = False
+    sent_lossless: bool = False
+
+    @property
+    def spp(self) -> int:
+        if self.film is None:
+            return 1 if self.rgb is not None else 0
+        return self.done_spp + self.film.spp
+
+    def image(self) -> np.ndarray:
+        """Linear float32 RGB of every sample so far (one film: exactly film.rgb())."""
+        if self.film is None:
+            return self.rgb
+        if self.done_spp == 0:
+            return self.film.rgb()
+        total = self.done_sum + self.film.rgb().astype(np.float64) * self.film.spp
+        return (total / (self.done_spp + self.film.spp)).astype(np.float32)
+
+
+class Renderer:
+    """Renders `session`'s scene at its [render] size, camera and mode, following camera and
+    mode changes; `on_frame(frame)` is called (on the render thread) for each new frame."""
+
+    def __init__(
+        self,
+        session: Session,
+        *,
+        threads: int | None = None,
+        on_frame: Callable[[Frame], None] | None = None,
+    ):
+        self.session = session
+        settings = session.scene.render
+        self.width, self.height = settings.width, settings.height
+        self.threads = threads
+        self.on_frame = on_frame
+        self.home = session.scene.camera
+        self._camera = self.home
+        self._mode = settings.mode
+        self._cond = threading.Condition()
+        self._epoch = 0
+        self.camera_version = 0
+        self._last_change = -math.inf
+        self._stop = False
+        self._thread: threading.Thread | None = None
+        self._watchers = 0
+        self.latest: Frame | None = None
+        self.frames = 0
+        self._frame_times: deque[float] = deque()
+        self._rays: deque[tuple[float, int, float]] = deque()  # (time, rays, kernel seconds)
+        self._cost: dict[str, float] = {}  # mode -> kernel seconds per sample per pixel
+        self._warm: set[str] = set()  # modes whose kernels are loaded
+        self.status = "starting"
+        self.error: str | None = None
+        self.started = time.monotonic()
+
+    # --- state the server reads and changes -------------------------------------------------
+
+    @property
+    def camera(self) -> Camera:
+        return self._camera
+
+    @property
+    def mode(self) -> str:
+        return self._mode
+
+    def set_camera(self, updates: dict) -> int:
+        """Move the camera to `updates` (any of position, look_at, up, fov), as a drag would.
+        Returns the new camera_version; a bad value is a SceneError naming the key."""
+        unknown = sorted(set(updates) - set(CAMERA_KEYS))
+        if unknown:
+            raise SceneError(f"camera: unknown key {', '.join(unknown)}; allowed: {', '.join(CAMERA_KEYS)}")
+        camera = self.session._camera({**self._camera.model_dump(), **updates})
+        with self._cond:
+            self._camera = camera
+            self.camera_version += 1
+            self._epoch += 1
+            self._last_change = time.monotonic()
+            self._cond.notify_all()
+            return self.camera_version
+
+    def gesture(self, kind: str, dx: float = 0.0, dy: float = 0.0, delta: float = 0.0) -> int:
+        """Apply a mouse gesture: 'orbit' or 'pan' by (dx, dy) image pixels, 'dolly' by a wheel
+        delta (camera_control.py)."""
+        c = self._camera
+        if kind == "orbit":
+            updates = {"position": camera_control.orbit(c.position, c.look_at, c.up, dx, dy, self.height)}
+        elif kind == "pan":
+            position, look_at = camera_control.pan(c.position, c.look_at, c.up, c.fov, dx, dy, self.height)
+            updates = {"position": position, "look_at": look_at}
+        elif kind == "dolly":
+            updates = {"position": camera_control.dolly(c.position, c.look_at, delta)}
+        else:
+            raise SceneError(f"unknown gesture {kind!r}; expected orbit, pan or dolly")
+        return self.set_camera(updates)
+
+    def reset_camera(self) -> int:
+        return self.set_camera({k: getattr(self.home, k) for k in CAMERA_KEYS})
+
+    def set_mode(self, mode: str) -> None:
+        if mode not in MODES:
+            raise SceneError(f"mode {mode!r}: expected one of {', '.join(MODES)}")
+        resolve_settings(self.session.scene, self.session.source, mode=mode)  # e.g. max_depth -1 outside path
+        with self._cond:
+            if mode != self._mode:
+                self._mode = mode
+                self._epoch += 1
+                self._cond.notify_all()
+
+    def add_watcher(self, count: int = 1) -> None:
+        """A tab opened (count 1) or closed (-1): frames beyond the first lossless one are only
+        rendered while someone watches."""
+        with self._cond:
+            self._watchers += count
+            self._cond.notify_all()
+
+    def stats(self) -> dict:
+        now = time.monotonic()
+        with self._cond:
+            self._trim(now)
+            span = min(FPS_WINDOW, now - self.started)
+            rays = sum(r for _, r, _ in self._rays)
+            seconds = sum(s for _, _, s in self._rays)
+            frame = self.latest
+            c = self._camera
+            return {
+                "frames": self.frames,
+                "fps": len(self._frame_times) / span if span > 0 else 0.0,
+                "spp": frame.spp if frame else 0,
+                "width": self.width,
+                "height": self.height,
+                "mode": self._mode,
+                "camera": {"position": list(c.position), "look_at": list(c.look_at), "up": list(c.up), "fov": c.fov},
+                "camera_version": self.camera_version,
+                "mrays_per_second": rays / seconds / 1e6 if seconds > 0 else 0.0,
+                "frame_width": frame.width if frame else 0,
+                "frame_height": frame.height if frame else 0,
+                "converged": bool(frame and frame.converged),
+                "status": self.status,
+                "error": self.error,
+                "watchers": self._watchers,
+            }
+
+    def _trim(self, now: float) -> None:
+        while self._frame_times and self._frame_times[0] < now - FPS_WINDOW:
+            self._frame_times.popleft()
+        while self._rays and self._rays[0][0] < now - FPS_WINDOW:
+            self._rays.popleft()
+
+    # --- the thread -------------------------------------------------------------------------
+
+    def start(self) -> None:
+        self._thread = threading.Thread(target=self._run, name="raylume-view-render", daemon=True)
+        self._thread.start()
+
+    def stop(self, timeout: float = 1.0) -> bool:
+        """Ask the thread to stop after the pass in flight; True if it ended within `timeout`."""
+        with self._cond:
+            self._stop = True
+            self._cond.notify_all()
+        if self._thread is not None:
+            self._thread.join(timeout)
+            return not self._thread.is_alive()
+        return True
+
+    def _run(self) -> None:
+        job: _Job | None = None
+        failed_epoch = -1
+        while True:
+            with self._cond:
+                if self._stop:
+                    return
+                now = time.monotonic()
+                epoch, version, camera, mode = self._epoch, self.camera_version, self._camera, self._mode
+                rest_in = self._last_change + MOVING_SECONDS - now
+                moving = rest_in > 0
+                fresh = job is None or job.epoch != epoch
+                if epoch == failed_epoch:
+                    self._cond.wait()
+                    continue
+                if not fresh:
+                    if moving:  # a frame of this camera is out; wait for the next move or for rest
+                        self._cond.wait(rest_in)
+                        continue
+                    if job.divisor > 1:
+                        fresh = True  # at rest: start again at full size
+                    elif job.sent_lossless and (job.finished or self._watchers == 0):
+                        self.status = "converged" if job.finished else "paused (no viewer)"
+                        self._cond.wait()
+                        continue
+            try:
+                if fresh:
+                    job = self._new_job(epoch, version, camera, mode, self._divisor(mode) if moving else 1)
+                if not job.finished:
+                    self._step(job, moving)
+                self._publish(job, moving)
+            except Exception as exc:  # a failed pass must not kill the view: report it, wait for a change
+                self.error = f"{type(exc).__name__}: {exc}" if not str(exc) else str(exc)
+                self.status = "error"
+                failed_epoch = epoch
+                job = None
+
+    def _divisor(self, mode: str) -> int:
+        cost = self._cost.get(mode)
+        if cost is None:
+            return 1
+        return max(1, min(MAX_DIVISOR, math.ceil(math.sqrt(cost * self.width * self.height / MOVE_BUDGET))))
+
+    def _new_job(self, epoch: int, version: int, camera: Camera, mode: str, divisor: int) -> _Job:
+        w, h = -(-self.width // divisor), -(-self.height // divisor)
+        settings = resolve_settings(self.session.scene, self.session.source, width=w, height=h, mode=mode)
+        batch = settings.spp if divisor == 1 else 1
+        if mode == "path" and divisor == 1:
+            batch = max(settings.spp, PATH_FILM_SPP)
+        job = _Job(epoch, version, camera, mode, divisor, settings, batch)
+        if mode != "raster":
+            job.film = Film(w, h, settings.filter, total_spp=batch)
+        self.error = None
+        return job
+
+    def _step(self, job: _Job, moving: bool) -> None:
+        """One pass: 1 spp while moving, about REST_PASS_SECONDS of samples at rest."""
+        s = job.settings
+        self.status = "rendering" if job.mode in self._warm else "compiling kernels (first run only)"
+        if job.film is None:
+            image = self.session.render(job.camera, width=s.width, height=s.height, mode="raster", aovs=False)
+            job.rgb, job.finished = image.rgb, True
+            rays, seconds = 0, image.stats["render_seconds"]
+        else:
+            film = job.film
+            count = 1 if moving else self._pass_spp(job.mode, film)
+            info = self.session.add_samples(
+                film, count, job.camera, mode=job.mode, seed=s.seed + job.generation, threads=self.threads
+            )
+            rays, seconds = info["rays"], info["render_seconds"]
+            per_sample = seconds / (count * s.width * s.height)
+            old = self._cost.get(job.mode)
+            self._cost[job.mode] = per_sample if old is None else 0.7 * old + 0.3 * per_sample
+            if film.spp == film.total_spp:
+                if job.mode == "path" and job.spp < PATH_MAX_SPP:
+                    part = film.rgb().astype(np.float64) * film.spp
+                    job.done_sum = part if job.done_sum is None else job.done_sum + part
+                    job.done_spp += film.spp
+                    job.generation += 1
+                    job.film = Film(s.width, s.height, s.filter, total_spp=job.batch)
+                else:
+                    job.finished = True
+        self._warm.add(job.mode)
+        self.status = "rendering"
+        with self._cond:
+            self._rays.append((time.monotonic(), int(rays), float(seconds)))
+
+    def _pass_spp(self, mode: str, film: Film) -> int:
+        cost = self._cost.get(mode)
+        left = film.total_spp - film.spp
+        if cost is None:
+            return 1
+        return max(1, min(left, int(REST_PASS_SECONDS / (cost * film.width * film.height))))
+
+    def _publish(self, job: _Job, moving: bool) -> None:
+        s = job.settings
+        rgb8 = encode_8bit(job.image(), s.encoding, s.exposure)  # as Image.save encodes a PNG
+        lossless = not moving
+        frame = Frame(
+            number=0,
+            rgb8=rgb8,
+            format="png" if lossless else "jpeg",
+            spp=job.spp,
+            mode=job.mode,
+            camera_version=job.camera_version,
+            converged=job.finished and job.divisor == 1,
+        )
+        with self._cond:
+            self.frames += 1
+            frame.number = self.frames
+            self.latest = frame
+            self._frame_times.append(frame.time)
+            self._trim(frame.time)
+        job.sent_lossless = job.sent_lossless or lossless
+        if self.on_frame is not None:
+            self.on_frame(frame)

@@ -1,0 +1,89 @@
+"""A running viewer: the render thread and the web server, either in the foreground (the
+`raylume view` command, until Ctrl-C) or on a background thread (`raylume.view(scene)`)."""
+
+from __future__ import annotations
+
+import asyncio
+import ipaddress
+import signal
+import sys
+import threading
+
+from ..session import Session
+from .renderer import Renderer
+from .server import LOOPBACK, ViewServer, bind
+
+STOP_SECONDS = 1.0  # how long shutting down may wait for the pass in flight
+
+
+def is_loopback(host: str) -> bool:
+    if host in LOOPBACK:
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
+class Viewer:
+    """Binds host:port at once (a port in use is a RaylumeError naming it), then serves
+    `session`'s scene at its [render] size and mode when run."""
+
+    def __init__(self, session: Session, *, host: str = "127.0.0.1", port: int = 8765, threads: int | None = None):
+        self.sockets = bind(host, port)
+        self.renderer = Renderer(session, threads=threads)
+        self.server = ViewServer(self.renderer, self.sockets)
+        self.url = self.server.url(host)
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._stop: asyncio.Event | None = None
+        self._thread: threading.Thread | None = None
+
+    async def serve(self, started: threading.Event | None = None, signals: bool = False) -> None:
+        """Serve until stop() (or SIGINT/SIGTERM when `signals`), then close the port and stop
+        the render thread."""
+        self._loop = asyncio.get_running_loop()
+        self._stop = asyncio.Event()
+        if signals:
+            for sig in (signal.SIGINT, signal.SIGTERM):
+                self._loop.add_signal_handler(sig, self._stop.set)
+        self.server.start()
+        self.renderer.start()
+        if started is not None:
+            started.set()
+        try:
+            await self._stop.wait()
+        finally:
+            await self.server.stop()
+            await asyncio.to_thread(self.renderer.stop, STOP_SECONDS)
+
+    def run(self) -> None:
+        """Serve in the foreground until Ctrl-C or SIGTERM."""
+        asyncio.run(self.serve(signals=True))
+
+    def start(self) -> None:
+        """Serve on a background thread (daemon: it never keeps the interpreter alive)."""
+        started = threading.Event()
+        self._thread = threading.Thread(
+            target=lambda: asyncio.run(self.serve(started)), name="raylume-view-server", daemon=True
+        )
+        self._thread.start()
+        started.wait(10)
+
+    def stop(self) -> None:
+        """Stop a background viewer: the port is free and the render thread ended when this returns."""
+        if self._loop is not None and self._stop is not None and not self._loop.is_closed():
+            try:
+                self._loop.call_soon_threadsafe(self._stop.set)
+            except RuntimeError:
+                pass
+        if self._thread is not None:
+            self._thread.join(STOP_SECONDS + 1.0)
+
+
+def warn_if_exposed(host: str) -> None:
+    if not is_loopback(host):
+        print(
+            f"raylume: warning: --host {host}: the view is reachable from other machines; anyone with the URL "
+            "(its token) can watch the scene and move the camera",
+            file=sys.stderr,
+        )

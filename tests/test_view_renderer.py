@@ -1,0 +1,117 @@
+"""The viewer's render thread and Python API in-process (no browser): progressive passes add up
+to `Session.render`'s image, a view nobody watches stops, path mode's films are averaged by
+their sample counts, `raylume.view` serves and stops."""
+
+from __future__ import annotations
+
+import json
+import socket
+import time
+import urllib.request
+
+import numpy as np
+import pytest
+
+import raylume
+from raylume.errors import SceneError
+from raylume.image import encode_8bit
+from raylume.kernels.film import Film
+from raylume.viewer import renderer as vr
+
+
+def seed(**render):
+    return raylume.builtin_scene("seed").with_render(width=24, height=18, mode="trace", **render)
+
+
+def wait_for(predicate, timeout=60.0):
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        if predicate():
+            return True
+        time.sleep(0.02)
+    raise AssertionError("timed out")
+
+
+def test_passes_at_rest_converge_to_session_render_and_stop():
+    session = raylume.Session(seed(spp=4))
+    r = vr.Renderer(session, threads=1)
+    r.add_watcher(1)
+    r.start()
+    try:
+        wait_for(lambda: r.latest is not None and r.latest.converged)
+        frames = r.frames
+        time.sleep(0.2)
+        assert r.frames == frames  # converged: nothing more to render
+        assert r.latest.spp == 4 and r.latest.format == "png"
+        expected = session.render(width=24, height=18, spp=4, threads=1, aovs=False).to_uint8()
+        np.testing.assert_array_equal(r.latest.rgb8, expected)
+        assert r.stats()["status"] == "converged"
+    finally:
+        assert r.stop(1.0)
+
+
+def test_a_view_nobody_watches_stops_after_one_lossless_frame():
+    r = vr.Renderer(raylume.Session(seed(spp=64)), threads=1)
+    r.start()
+    try:
+        wait_for(lambda: r.latest is not None)
+        time.sleep(0.3)
+        frames, spp = r.frames, r.latest.spp
+        time.sleep(0.3)
+        assert r.frames == frames and spp < 64 and not r.latest.converged
+        r.add_watcher(1)  # a tab opens: refining goes on
+        wait_for(lambda: r.latest.spp > spp)
+    finally:
+        r.stop(1.0)
+
+
+def test_camera_and_mode_changes_are_validated():
+    r = vr.Renderer(raylume.Session(seed()))
+    assert r.set_camera({"fov": 40}) == 1 and r.camera.fov == 40
+    with pytest.raises(SceneError, match="fov"):
+        r.set_camera({"fov": 400})
+    with pytest.raises(SceneError, match="zoom"):
+        r.set_camera({"zoom": 1})
+    with pytest.raises(SceneError, match="expected one of"):
+        r.set_mode("wireframe")
+    assert r.camera_version == 1
+    r.gesture("orbit", dx=10, dy=0)
+    assert r.camera_version == 2 and r.camera.position != (0.0, 0.0, 0.0)
+    r.reset_camera()
+    assert r.camera.position == (0.0, 0.0, 0.0) and r.camera.fov == pytest.approx(53.13)
+
+
+def test_path_films_are_averaged_by_their_sample_counts():
+    # two completed films of 16 spp (means 1 and 3) and a third film with 8 spp of mean 6
+    job = vr._Job(0, 0, None, "path", 1, None, 16)
+    job.done_sum = np.full((2, 2, 3), 1.0 * 16 + 3.0 * 16)
+    job.done_spp = 32
+    job.film = Film(2, 2, "box", total_spp=16)
+    job.film.sums[..., :3] = 6.0 * 8
+    job.film.sums[..., 3] = 8
+    job.film.spp = 8
+    np.testing.assert_allclose(job.image(), (16 + 48 + 48) / 40)
+    assert job.spp == 40
+
+
+def test_python_api_serves_in_the_background_and_stops():
+    url = raylume.view("seed", width=24, height=18, mode="trace", threads=1, show=False)
+    try:
+        assert url.startswith("http://127.0.0.1:") and "?token=" in url
+        base, _, token = url.partition("/?token=")
+        png = urllib.request.urlopen(f"{base}/frame.png?token={token}", timeout=60).read()
+        from io import BytesIO
+
+        from PIL import Image
+
+        shown = np.asarray(Image.open(BytesIO(png)).convert("RGB"))
+        expected = raylume.render(seed(), threads=1, aovs=False)
+        np.testing.assert_array_equal(shown, encode_8bit(expected.rgb, "clamp"))
+        stats = json.loads(urllib.request.urlopen(f"{base}/stats?token={token}", timeout=10).read())
+        assert (stats["width"], stats["height"], stats["mode"]) == (24, 18, "trace")
+    finally:
+        url.stop()
+    port = int(base.rsplit(":", 1)[1])
+    with socket.socket() as s:
+        s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        s.bind(("127.0.0.1", port))
