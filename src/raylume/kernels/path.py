@@ -67,6 +67,12 @@ def power_heuristic(a, b):
 
 
 @njit(**KERNEL, inline="always")
+def _add_light(L, beta, le, w):
+    """L plus radiance le arriving through path throughput beta, with MIS weight w."""
+    return (L[0] + beta[0] * le[0] * w, L[1] + beta[1] * le[1] * w, L[2] + beta[2] * le[2] * w)
+
+
+@njit(**KERNEL, inline="always")
 def _to_local(v, s, t, n):
     return (dot(v, s), dot(v, t), dot(v, n))
 
@@ -107,9 +113,7 @@ def _emitter_weight(G, Em, Env, e, prev_p, d, t, n_hit, prev_pdf, prev_delta, st
 def path_ray(G, F, X, Em, Env, o, d, spread, max_depth, background, key, node_stack, t_stack, strategy):
     """Radiance along the camera ray (o, d) by one path; textures are filtered over a ray cone
     growing by `spread` per unit distance (as trace_ray's). Returns (rgb, rays traced)."""
-    lr = 0.0
-    lg = 0.0
-    lb = 0.0
+    L = (0.0, 0.0, 0.0)  # radiance gathered so far
     beta = (1.0, 1.0, 1.0)
     rays = 0
     depth = 0  # segments traced so far
@@ -124,29 +128,18 @@ def path_ray(G, F, X, Em, Env, o, d, spread, max_depth, background, key, node_st
         if Em.n_area > 0:
             tl, e, nl = hit_area_lights(Em, o, d, t)
             if e >= 0:
-                le = row3(Em.data, e, LIGHT_INTENSITY)
                 w = _emitter_weight(G, Em, Env, e, o, d, tl, nl, prev_pdf, prev_delta, strategy)
-                lr += beta[0] * le[0] * w
-                lg += beta[1] * le[1] * w
-                lb += beta[2] * le[2] * w
+                L = _add_light(L, beta, row3(Em.data, e, LIGHT_INTENSITY), w)
                 break
         if prim == NO_HIT:
             if Em.ambient_row >= 0:
-                le = row3(Em.data, Em.ambient_row, LIGHT_INTENSITY)
                 w = _emitter_weight(G, Em, Env, Em.ambient_row, o, d, INF, d, prev_pdf, prev_delta, strategy)
-                lr += beta[0] * le[0] * w
-                lg += beta[1] * le[1] * w
-                lb += beta[2] * le[2] * w
+                L = _add_light(L, beta, row3(Em.data, Em.ambient_row, LIGHT_INTENSITY), w)
             if Env.present:
-                le = environment_light(Env, d)
                 w = _emitter_weight(G, Em, Env, Em.environment_row, o, d, INF, d, prev_pdf, prev_delta, strategy)
-                lr += beta[0] * le[0] * w
-                lg += beta[1] * le[1] * w
-                lb += beta[2] * le[2] * w
+                L = _add_light(L, beta, environment_light(Env, d), w)
             elif depth == 1 and Em.ambient_row < 0:  # the background: a backdrop, not a light
-                lr += background[0]
-                lg += background[1]
-                lb += background[2]
+                L = _add_light(L, (1.0, 1.0, 1.0), background, 1.0)
             break
         p = madd(o, d, t)
         ng, ns, m, obj, face = surface(G, X, prim, b1, b2, p)
@@ -157,9 +150,7 @@ def path_ray(G, F, X, Em, Env, o, d, spread, max_depth, background, key, node_st
         emission = row3(mat, m, MAT_EMISSION)
         if emission[0] > 0.0 or emission[1] > 0.0 or emission[2] > 0.0:
             w = _emitter_weight(G, Em, Env, G.prims[prim, PRIM_LIGHT], o, d, t, ng, prev_pdf, prev_delta, strategy)
-            lr += beta[0] * emission[0] * w
-            lg += beta[1] * emission[1] * w
-            lb += beta[2] * emission[2] * w
+            L = _add_light(L, beta, emission, w)
         if max_depth >= 0 and depth >= max_depth:
             break
         # The shading frame: for two-sided materials its z faces the incoming ray; for
@@ -197,9 +188,7 @@ def path_ray(G, F, X, Em, Env, o, d, spread, max_depth, background, key, node_st
                         if not any_hit(G, X, origin, wi, 0.0, tmax, node_stack):
                             w = 1.0 if delta_l or strategy == LIGHT_ONLY else power_heuristic(p_pick * pdf_l, pdf_b)
                             scale = abs(wi_local[2]) * w / (p_pick * pdf_l)
-                            lr += beta[0] * f[0] * li[0] * scale
-                            lg += beta[1] * f[1] * li[1] * scale
-                            lb += beta[2] * f[2] * li[2] * scale
+                            L = _add_light(L, hadamard(beta, f), li, scale)
 
         # continue the path
         bsdf_key = dimension_key(key, DIM_BSDF, depth)
@@ -223,7 +212,7 @@ def path_ray(G, F, X, Em, Env, o, d, spread, max_depth, background, key, node_st
             if u_rr >= q:
                 break
             beta = mul(beta, 1.0 / q)
-    return (lr, lg, lb), rays
+    return L, rays
 
 
 @njit(**KERNEL, inline="always")

@@ -289,7 +289,7 @@ def offset_epsilon(epsilon_floor, p):
 EMISSION_SAMPLED = (TRIANGLE, SPHERE, QUAD, DISK)
 
 
-@njit(**KERNEL)
+@njit(**KERNEL, inline="always")
 def sample_surface(G, k, u1, u2):
     """A uniform point on primitive k (a triangle, quad or disk) and its normal there."""
     kind = G.prims[k, PRIM_KIND]

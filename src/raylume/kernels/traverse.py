@@ -45,7 +45,7 @@ def scratch_array(n, dtype):
     return np.empty(n + 2 * SCRATCH_PAD, dtype=dtype)[SCRATCH_PAD : SCRATCH_PAD + n]
 
 
-@njit(**KERNEL)
+@njit(**KERNEL, inline="always")
 def intersect_box(bounds, n, o, slab, tmax):
     """Slab test against node n of bounds (float32 (M, 6)); entry distance or +inf. `slab` is
     the ray's `slab_ray(d)`: 1/d and, per axis, the column of the near plane. Picking the near
