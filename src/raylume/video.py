@@ -19,6 +19,7 @@ from .errors import OutputError
 from .image import IMAGE_SUFFIXES, check_output_path, check_writable_folder
 
 VIDEO_SUFFIXES = (".mp4", ".gif")
+GIF_COLORS = 64
 CRF = 18  # H.264 constant rate factor: 18 is near visually lossless (0 lossless, 51 worst)
 _PATTERN = re.compile(r"%0?(\d*)d")
 
@@ -101,7 +102,9 @@ class VideoWriter:
         else:
             from PIL import Image as PILImage
 
-            self._gif.append(PILImage.fromarray(rgb8))
+            # an adaptive palette of GIF_COLORS per frame, without dithering: a GIF is a preview,
+            # and 64 colours take half the bytes of 255 (dither noise would defeat LZW)
+            self._gif.append(PILImage.fromarray(rgb8).quantize(colors=GIF_COLORS, dither=PILImage.Dither.NONE))
         self.frames += 1
 
     def _finish(self) -> None:
@@ -111,7 +114,8 @@ class VideoWriter:
         elif self._gif:
             first, *rest = self._gif
             duration = max(int(round(1000.0 / self.fps)), 10)  # GIF delays are in 1/100 s
-            first.save(self.tmp, format="GIF", save_all=True, append_images=rest, duration=duration, loop=0)
+            first.save(self.tmp, format="GIF", save_all=True, append_images=rest, duration=duration, loop=0,
+                       optimize=True)  # fmt: skip
             self._gif = []
 
     def close(self) -> Path:
