@@ -132,7 +132,7 @@ def wait_at_rest(server, browser) -> dict:
             return stats
         return None
 
-    return wait_for(rested, what="the view to rest")
+    return wait_for(rested, timeout=300, what="the view to rest")  # a first, cold kernel compile takes long
 
 
 def canvas_pixels(browser) -> np.ndarray:

@@ -39,7 +39,7 @@ from .frames import Frame
 MODES = ("cast", "trace", "path", "raster")
 CAMERA_KEYS = ("position", "look_at", "up", "fov")
 MOVING_SECONDS = 0.12  # the camera counts as moving until this long after its last change
-MOVE_BUDGET = 0.025  # seconds a frame may take while moving: sets the resolution divisor
+MOVE_BUDGET = 0.025  # seconds a frame (pass and encoding) may take while moving: sets the resolution divisor
 MAX_DIVISOR = 8
 REST_PASS_SECONDS = 0.05  # a refining pass at rest aims at this long (Ctrl-C and input wait for it)
 PATH_FILM_SPP = 16
@@ -255,9 +255,12 @@ class Renderer:
             try:
                 if fresh:
                     job = self._new_job(epoch, version, camera, mode, self._divisor(mode) if moving else 1)
-                if not job.finished:
-                    self._step(job, moving)
-                self._publish(job, moving)
+                started = time.perf_counter()
+                samples = self._step(job, moving) if not job.finished else 0
+                if job.epoch == self._epoch:  # else the camera moved during the pass: render the new one at once
+                    self._publish(job, moving)
+                if samples:
+                    self._learn_cost(job, samples, time.perf_counter() - started)
             except Exception as exc:  # a failed pass must not kill the view: report it, wait for a change
                 self.error = f"{type(exc).__name__}: {exc}" if not str(exc) else str(exc)
                 self.status = "error"
@@ -282,8 +285,9 @@ class Renderer:
         self.error = None
         return job
 
-    def _step(self, job: _Job, moving: bool) -> None:
-        """One pass: 1 spp while moving, about REST_PASS_SECONDS of samples at rest."""
+    def _step(self, job: _Job, moving: bool) -> int:
+        """One pass: 1 spp while moving, about REST_PASS_SECONDS of samples at rest. Returns
+        the samples per pixel it added (0 for a first pass, whose time is no measure)."""
         s = job.settings
         self.status = "rendering" if job.mode in self._warm else "compiling kernels (first run only)"
         if job.film is None:
@@ -297,9 +301,6 @@ class Renderer:
                 film, count, job.camera, mode=job.mode, seed=s.seed + job.generation, threads=self.threads
             )
             rays, seconds = info["rays"], info["render_seconds"]
-            per_sample = seconds / (count * s.width * s.height)
-            old = self._cost.get(job.mode)
-            self._cost[job.mode] = per_sample if old is None else 0.7 * old + 0.3 * per_sample
             if film.spp == film.total_spp:
                 if job.mode == "path" and job.spp < PATH_MAX_SPP:
                     part = film.rgb().astype(np.float64) * film.spp
@@ -309,10 +310,19 @@ class Renderer:
                     job.film = Film(s.width, s.height, s.filter, total_spp=job.batch)
                 else:
                     job.finished = True
+        first = job.mode not in self._warm
         self._warm.add(job.mode)
         self.status = "rendering"
         with self._cond:
             self._rays.append((time.monotonic(), int(rays), float(seconds)))
+        return 0 if first else (1 if job.film is None else count)  # a first pass's time includes compiling
+
+    def _learn_cost(self, job: _Job, samples: int, seconds: float) -> None:
+        """Seconds per sample per pixel of a whole frame (pass, read-out, encoding): what the
+        resolution while moving and the size of passes at rest are chosen by."""
+        per_sample = seconds / (samples * job.settings.width * job.settings.height)
+        old = self._cost.get(job.mode)
+        self._cost[job.mode] = per_sample if old is None else 0.7 * old + 0.3 * per_sample
 
     def _pass_spp(self, mode: str, film: Film) -> int:
         cost = self._cost.get(mode)

@@ -54,6 +54,7 @@
     state.drawn += 1;
     state.drawnFrame = header.frame;
     state.last = header;
+    window.dispatchEvent(new CustomEvent("raylume-frame", { detail: header }));
     $("spp").textContent = header.spp;
     $("fps").textContent = header.fps.toFixed(1);
     $("mrays").textContent = header.mrays_per_second.toFixed(1);
@@ -70,6 +71,7 @@
   function send(message) {
     if (socket && socket.readyState === WebSocket.OPEN) socket.send(JSON.stringify(message));
   }
+  state.send = send;  // benchmarks/bench_view.py times a gesture from here to its frame
 
   // Gestures: movements are summed and sent at most once per animation frame.
   let drag = null;
@@ -89,7 +91,7 @@
   }
   canvas.addEventListener("pointerdown", (e) => {
     drag = { x: e.clientX, y: e.clientY, kind: e.button === 2 || e.shiftKey ? "pan" : "orbit" };
-    canvas.setPointerCapture(e.pointerId);
+    try { canvas.setPointerCapture(e.pointerId); } catch (err) { /* a synthetic event */ }
     canvas.classList.add("dragging");
     e.preventDefault();
   });

@@ -1,0 +1,179 @@
+"""`raylume view` in headless Chromium: frames per second drawn by the page for the seed scene in
+trace mode while the camera orbits (a scripted drag, real pointer input through chromedriver)
+and at rest (progressive passes of a 64-spp film), and the latency from a gesture sent by the
+page to the first frame of the new camera drawn on its canvas.
+
+python benchmarks/bench_view.py [--sizes 320x240,640x480] [--seconds 6] [--threads T]
+                                [--screenshot docs/images/view.png]
+
+Needs Debian's chromium and chromium-driver and the selenium package (the dev extra).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import select
+import shutil
+import statistics
+import subprocess
+import sys
+import time
+import urllib.request
+
+from common import machine, table
+
+STEP_MS = int(os.environ.get("STEP_MS", "16"))  # pointer moves every STEP_MS milliseconds
+GESTURE_LATENCY_JS = """
+const done = arguments[arguments.length - 1];
+const view = window.raylumeView;
+const before = view.last ? view.last.camera_version : -1;
+const t0 = performance.now();
+const onFrame = (e) => {
+  if (e.detail.camera_version > before) {
+    window.removeEventListener("raylume-frame", onFrame);
+    done(performance.now() - t0);
+  }
+};
+window.addEventListener("raylume-frame", onFrame);
+view.send({type: "orbit", dx: arguments[0], dy: 0});
+"""
+
+
+def start_server(width: int, height: int, spp: int, threads: int | None):
+    args = [sys.executable, "-m", "raylume.cli", "view", "seed", "--mode", "trace", "--width", str(width)]
+    args += ["--height", str(height), "--spp", str(spp), "--port", "0", "--no-browser"]
+    if threads:
+        args += ["--threads", str(threads)]
+    proc = subprocess.Popen(args, stdout=subprocess.PIPE, text=True, env={**os.environ, "PYTHONUNBUFFERED": "1"})
+    ready, _, _ = select.select([proc.stdout], [], [], 120)
+    if not ready:
+        proc.kill()
+        raise SystemExit("raylume view printed no URL")
+    return proc, proc.stdout.readline().split(": ", 1)[1].strip()
+
+
+def open_browser(width: int, height: int):
+    from selenium import webdriver
+    from selenium.webdriver.chrome.service import Service
+
+    options = webdriver.ChromeOptions()
+    options.binary_location = shutil.which("chromium")
+    for arg in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage"):
+        options.add_argument(arg)
+    options.add_argument(f"--window-size={width + 60},{height + 140}")
+    return webdriver.Chrome(service=Service(shutil.which("chromedriver")), options=options)
+
+
+def stats(url: str) -> dict:
+    base, _, token = url.partition("/?token=")
+    return json.loads(urllib.request.urlopen(f"{base}/stats?token={token}", timeout=30).read())
+
+
+def wait_until(predicate, timeout: float = 120.0):
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        if predicate():
+            return
+        time.sleep(0.02)
+    raise SystemExit("timed out")
+
+
+def drawn(driver) -> tuple[int, int]:
+    """(frames drawn by the page, the last drawn frame's spp)."""
+    state = driver.execute_script("const v = window.raylumeView; return [v.drawn, v.last ? v.last.spp : 0];")
+    return state[0], state[1]
+
+
+def orbit_fps(driver, seconds: float) -> float:
+    """Frames drawn per second during a drag of `seconds`: 4-pixel steps every 16 ms, right
+    then back left, so the pointer stays on the canvas."""
+    from selenium.webdriver.common.action_chains import ActionChains
+
+    canvas = driver.find_element("id", "view")
+    steps = int(seconds * 1000 / STEP_MS)
+    chain = ActionChains(driver, duration=STEP_MS)
+    chain.move_to_element(canvas).click_and_hold()
+    for k in range(steps):
+        chain.move_by_offset(4 if (k // 20) % 2 == 0 else -4, 0)
+    chain.release()
+    n0, _ = drawn(driver)
+    t0 = time.perf_counter()
+    chain.perform()
+    elapsed = time.perf_counter() - t0
+    n1, _ = drawn(driver)
+    return (n1 - n0) / elapsed
+
+
+def rest_fps(driver, url: str) -> tuple[float, float]:
+    """(frames drawn per second while a 64-spp film refines at rest, seconds to converge)."""
+    wait_until(lambda: stats(url)["converged"])  # the previous camera's film
+    driver.execute_script("window.raylumeView.send({type: 'orbit', dx: 3, dy: 0});")
+    t0 = time.perf_counter()
+    wait_until(lambda: drawn(driver)[1] > 1)  # resting: the film has started refining
+    n0, t1 = drawn(driver)[0], time.perf_counter()
+    wait_until(lambda: stats(url)["converged"] and drawn(driver)[1] == stats(url)["spp"])
+    n1, t2 = drawn(driver)[0], time.perf_counter()
+    return (n1 - n0) / max(t2 - t1, 1e-9), t2 - t0
+
+
+def latencies(driver, count: int = 15) -> list[float]:
+    out = []
+    for _ in range(count):
+        out.append(driver.execute_async_script(GESTURE_LATENCY_JS, 5))
+        time.sleep(0.25)  # let it rest, so each gesture starts from a still camera
+    return out
+
+
+def measure(width: int, height: int, seconds: float, threads: int | None, screenshot: str | None) -> list[str]:
+    proc, url = start_server(width, height, 64, threads)
+    driver = open_browser(width, height)
+    try:
+        driver.set_script_timeout(30)
+        driver.get(url)
+        wait_until(lambda: stats(url)["converged"] and drawn(driver)[0] > 0)
+        orbit = [orbit_fps(driver, seconds) for _ in range(3)]
+        mrays = stats(url)["mrays_per_second"]
+        rest, converge = zip(*[rest_fps(driver, url) for _ in range(3)])
+        lat = latencies(driver)
+        if screenshot:
+            driver.execute_script("window.raylumeView.send({type: 'orbit', dx: -40, dy: 12});")
+            time.sleep(0.5)
+            wait_until(lambda: stats(url)["converged"])
+            time.sleep(1.2)  # the fps shown by the page is polled once a second
+            driver.save_screenshot(screenshot)
+    finally:
+        driver.quit()
+        proc.terminate()
+        proc.wait(10)
+    return [
+        f"{width} x {height}",
+        f"{statistics.median(orbit):.1f}",
+        f"{statistics.median(rest):.1f}",
+        f"{statistics.median(converge):.2f}",
+        f"{statistics.median(lat):.0f} / {max(lat):.0f}",
+        f"{mrays:.1f}",
+    ]
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--sizes", default="320x240,640x480")
+    parser.add_argument("--seconds", type=float, default=6.0)
+    parser.add_argument("--threads", type=int, default=None)
+    parser.add_argument("--screenshot", default=None, help="save the page at the last size as this PNG")
+    args = parser.parse_args()
+    sizes = [tuple(int(v) for v in size.split("x")) for size in args.sizes.split(",")]
+    rows = [
+        measure(w, h, args.seconds, args.threads, args.screenshot if k == len(sizes) - 1 else None)
+        for k, (w, h) in enumerate(sizes)
+    ]
+    print(f"raylume view, seed scene, trace mode; {machine()}; {args.threads or os.cpu_count()} render threads\n")
+    headers = ["size", "fps orbiting", "fps at rest (64 spp)", "s to 64 spp", "gesture -> frame ms (median / max)"]
+    print(table([*headers, "Mrays/s orbiting"], rows))
+    print(f"\n(medians of 3 runs of {args.seconds:.0f} s each; latency over 15 gestures)")
+
+
+if __name__ == "__main__":
+    main()
