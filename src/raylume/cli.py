@@ -386,6 +386,11 @@ def _render(
     if animated or frame is not None:
         from .animation import animation_of, camera_at
 
+        if is_video(output) and scene_model.animation is None:
+            raise OutputError(
+                f"{output}: unknown output format {output.suffix!r} for a still image: {output.suffix} is for "
+                f"animations, and {label} has no [animation] table; use one of .png, .jpg, .npy, .exr, .hdr"
+            )
         animation_of(scene_model, label)  # no [animation]: an error before anything renders
     if cluster is not None:
         from .cluster import connect
