@@ -92,10 +92,22 @@ def main() -> None:
         rows,
     ))  # fmt: skip
 
+    # The cost of a task itself: many tiny tiles of almost no work (8 x 8 pixels, cast mode),
+    # the cluster's busy time less the kernels', per task, after the first tile.
+    saved = C.TILE_SECONDS
+    C.TILE_SECONDS = 1e-9
+    overheads = []
+    for _ in range(3):
+        t_tiny, tiny = timed(session.render, width=128, height=128, spp=1, mode="cast", cluster=client, aovs=False)
+        c = tiny.stats["cluster"]
+        overheads.append(max((t_tiny - c["first_tile_seconds"]) * 2 - c["kernel_seconds"], 0.0) / c["tasks"])
+    C.TILE_SECONDS = saved
+    overhead_per_task = statistics.median(overheads)
+    print(f"\nper-task overhead ({c['tasks']} tasks of 8 x 8 pixels, cast): {overhead_per_task * 1000:.1f} ms")
+
     # Estimate: a 4K frame at 1024 spp of this scene on N machines of `cores` cores each.
     long = details["long"]
     sample_seconds = long["stats"]["kernel_seconds"] / (WIDTH * HEIGHT * long["spp"])  # per core
-    overhead_per_task = max(long["cluster"] * 2 - long["stats"]["kernel_seconds"], 0.0) / long["stats"]["tasks"]
     pixels, spp = 3840 * 2160, 1024
     work = pixels * spp * sample_seconds  # core-seconds
     tasks = work / C.TILE_SECONDS
@@ -105,14 +117,15 @@ def main() -> None:
         for cores in (16,):
             n = machines * cores
             compute = (work + tasks * overhead_per_task) / n
+            tail = C.TILE_SECONDS  # the last tiles: at most one tile's time with some cores idle
             transfer = image_bytes / 117e6  # through the client's 1 Gb/s link
             startup = 5.0 + cold_first_tile  # workers warm (kernels from a shared cache), scene scattered
-            total = compute + transfer + startup
+            total = compute + tail + transfer + startup
             est.append([machines, n, f"{work / n:.0f}", f"{compute:.0f}", f"{transfer:.1f}", f"{startup:.1f}",
                         f"{total:.0f}", f"{(work / cores) / total / machines * 100:.0f}%"])  # fmt: skip
     print(f"\nEstimate, 3840 x 2160 x {spp} spp of this scene: {work / 3600:.1f} core-hours of kernels "
           f"({sample_seconds * 1e6:.2f} us per sample per core), {tasks:.0f} tasks of {C.TILE_SECONDS:g} s, "
-          f"{overhead_per_task * 1000:.1f} ms overhead per task (measured above)\n")  # fmt: skip
+          f"{overhead_per_task * 1000:.1f} ms overhead per task, 1 s tail, 1 Gb/s to the client\n")  # fmt: skip
     print(table(["machines", "cores", "ideal s", "compute s", "image transfer s", "startup s", "total s",
                  "efficiency"], est))  # fmt: skip
     client.close()
