@@ -7,11 +7,27 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from PIL import Image as PILImage
-from test_cli import assert_refused, raylume
+from typer.testing import CliRunner
 
 import raylume as rl
 from raylume.animation import camera_at, interpolate, parse_frames
+from raylume.cli import app
 from raylume.errors import SceneError
+
+
+@pytest.fixture
+def raylume(tmp_path, monkeypatch):
+    """The command, run in this process in tmp_path (the kernels load once for every call)."""
+    monkeypatch.chdir(tmp_path)
+    return lambda *args: CliRunner().invoke(app, [str(a) for a in args])
+
+
+def assert_refused(result, *words):
+    assert result.exit_code == 2, result.output
+    assert "Traceback" not in result.output
+    for word in words:
+        assert word in result.output, (word, result.output)
+
 
 BASE = {
     "render": {"width": 32, "height": 24, "mode": "trace"},
@@ -146,14 +162,14 @@ def psnr(a: np.ndarray, b: np.ndarray) -> float:
     return float("inf") if mse == 0 else 10 * np.log10(255.0**2 / mse)
 
 
-def test_video_and_sequence_frames_match_the_stills(tmp_path):
+def test_video_and_sequence_frames_match_the_stills(tmp_path, raylume):
     import imageio_ffmpeg
 
     (tmp_path / "flight.toml").write_text(FLIGHT)
-    result = raylume("render", "flight.toml", "-o", "flight.mp4", "--quiet", cwd=tmp_path)
-    assert result.returncode == 0, result.stderr
-    result = raylume("render", "flight.toml", "-o", "f_%04d.png", "--frames", "3:6", "--quiet", cwd=tmp_path)
-    assert result.returncode == 0, result.stderr
+    result = raylume("render", "flight.toml", "-o", "flight.mp4", "--quiet")
+    assert result.exit_code == 0, result.output
+    result = raylume("render", "flight.toml", "-o", "f_%04d.png", "--frames", "3:6", "--quiet")
+    assert result.exit_code == 0, result.output
     assert sorted(p.name for p in tmp_path.glob("f_*.png")) == ["f_0003.png", "f_0004.png", "f_0005.png"]
     # stills rendered in this process, the way --frame K renders them
     scene = rl.load_scene(tmp_path / "flight.toml")
@@ -173,18 +189,24 @@ def test_video_and_sequence_frames_match_the_stills(tmp_path):
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]  # no temporary files left
 
 
-def test_frame_k_still_and_refusals(tmp_path):
+def test_frame_k_still_and_refusals(tmp_path, raylume):
     (tmp_path / "flight.toml").write_text(FLIGHT)
     (tmp_path / "still.toml").write_text(
         FLIGHT.split("[animation]")[0] + "[[lights]]" + FLIGHT.split("[[lights]]", 1)[1]
     )
-    result = raylume("render", "flight.toml", "-o", "k.png", "--frame", 2, "--quiet", cwd=tmp_path)
-    assert result.returncode == 0, result.stderr
+    result = raylume("render", "flight.toml", "-o", "k.png", "--frame", 2, "--quiet")
+    assert result.exit_code == 0, result.output
     scene = rl.load_scene(tmp_path / "flight.toml")
     still = rl.render(scene.replace(camera=camera_at(scene, 2)), aovs=False).to_uint8()
     assert np.array_equal(np.asarray(PILImage.open(tmp_path / "k.png")), still)
-    assert_refused(raylume("render", "flight.toml", "-o", "v.mp4", "--width", 33, cwd=tmp_path), "even width")
-    assert_refused(raylume("render", "flight.toml", "-o", "k.png", "--frames", "1:3", cwd=tmp_path), "--frames")
-    assert_refused(raylume("render", "flight.toml", "-o", "k.png", "--frame", 6, cwd=tmp_path), "frame 6")
-    assert_refused(raylume("render", "still.toml", "-o", "v.mp4", cwd=tmp_path), "[animation]")
+    assert_refused(
+        raylume("render", "flight.toml", "-o", "v.mp4", "--width", 33),
+        "even width",
+    )
+    assert_refused(
+        raylume("render", "flight.toml", "-o", "k.png", "--frames", "1:3"),
+        "--frames",
+    )
+    assert_refused(raylume("render", "flight.toml", "-o", "k.png", "--frame", 6), "frame 6")
+    assert_refused(raylume("render", "still.toml", "-o", "v.mp4"), "[animation]")
     assert not (tmp_path / "v.mp4").exists()
