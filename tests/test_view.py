@@ -225,6 +225,20 @@ def test_post_camera_moves_the_camera(server, browser):
     assert status == 400 and b"zoom" in answer
 
 
+def test_a_second_tab_sees_the_same_view(server, browser):
+    first = browser.current_window_handle
+    browser.switch_to.new_window("tab")
+    try:
+        browser.get(server.url)
+        wait_at_rest(server, browser)
+        np.testing.assert_array_equal(canvas_pixels(browser), server.frame_png())
+        assert server.stats()["watchers"] == 2
+    finally:
+        browser.close()
+        browser.switch_to.window(first)
+    wait_for(lambda: server.stats()["watchers"] == 1, what="the closed tab to leave")
+
+
 def test_every_request_needs_the_token(server):
     for path in ("/", "/view.js", "/stats", "/frame.png", "/ws", "/nothing"):
         assert server.get(path, token=False)[0] == 403, path

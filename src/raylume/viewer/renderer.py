@@ -39,7 +39,7 @@ from .frames import Frame
 MODES = ("cast", "trace", "path", "raster")
 CAMERA_KEYS = ("position", "look_at", "up", "fov")
 MOVING_SECONDS = 0.12  # the camera counts as moving until this long after its last change
-MOVE_BUDGET = 0.025  # seconds a frame (pass and encoding) may take while moving: sets the resolution divisor
+MOVE_BUDGET = 0.022  # seconds a frame (pass and encoding) may take while moving: sets the resolution divisor
 MAX_DIVISOR = 8
 REST_PASS_SECONDS = 0.05  # a refining pass at rest aims at this long (Ctrl-C and input wait for it)
 PATH_FILM_SPP = 16
@@ -112,7 +112,7 @@ class Renderer:
         self.frames = 0
         self._frame_times: deque[float] = deque()
         self._rays: deque[tuple[float, int, float]] = deque()  # (time, rays, kernel seconds)
-        self._cost: dict[str, float] = {}  # mode -> kernel seconds per sample per pixel
+        self._cost: dict[tuple[str, bool], float] = {}  # (mode, moving) -> seconds per sample per pixel
         self._warm: set[str] = set()  # modes whose kernels are loaded
         self.status = "starting"
         self.error: str | None = None
@@ -260,7 +260,7 @@ class Renderer:
                 if job.epoch == self._epoch:  # else the camera moved during the pass: render the new one at once
                     self._publish(job, moving)
                 if samples:
-                    self._learn_cost(job, samples, time.perf_counter() - started)
+                    self._learn_cost(job, moving, samples, time.perf_counter() - started)
             except Exception as exc:  # a failed pass must not kill the view: report it, wait for a change
                 self.error = f"{type(exc).__name__}: {exc}" if not str(exc) else str(exc)
                 self.status = "error"
@@ -268,7 +268,7 @@ class Renderer:
                 job = None
 
     def _divisor(self, mode: str) -> int:
-        cost = self._cost.get(mode)
+        cost = self._cost.get((mode, True), self._cost.get((mode, False)))
         if cost is None:
             return 1
         return max(1, min(MAX_DIVISOR, math.ceil(math.sqrt(cost * self.width * self.height / MOVE_BUDGET))))
@@ -317,15 +317,17 @@ class Renderer:
             self._rays.append((time.monotonic(), int(rays), float(seconds)))
         return 0 if first else (1 if job.film is None else count)  # a first pass's time includes compiling
 
-    def _learn_cost(self, job: _Job, samples: int, seconds: float) -> None:
-        """Seconds per sample per pixel of a whole frame (pass, read-out, encoding): what the
-        resolution while moving and the size of passes at rest are chosen by."""
+    def _learn_cost(self, job: _Job, moving: bool, samples: int, seconds: float) -> None:
+        """Seconds per sample per pixel of a whole frame (pass, read-out, encoding), apart for
+        moving frames (1 spp: the encoding weighs more) and resting passes: what the resolution
+        while moving and the size of passes at rest are chosen by."""
         per_sample = seconds / (samples * job.settings.width * job.settings.height)
-        old = self._cost.get(job.mode)
-        self._cost[job.mode] = per_sample if old is None else 0.7 * old + 0.3 * per_sample
+        key = (job.mode, moving)
+        old = self._cost.get(key)
+        self._cost[key] = per_sample if old is None else 0.7 * old + 0.3 * per_sample
 
     def _pass_spp(self, mode: str, film: Film) -> int:
-        cost = self._cost.get(mode)
+        cost = self._cost.get((mode, False), self._cost.get((mode, True)))
         left = film.total_spp - film.spp
         if cost is None:
             return 1

@@ -8,7 +8,7 @@
   const ctx = canvas.getContext("2d");
   const $ = (id) => document.getElementById(id);
   // What tests and the benchmark read: frames received and drawn, the last frame's header.
-  const state = (window.raylumeView = { received: 0, drawn: 0, last: null, drawnFrame: 0, error: null });
+  const state = (window.raylumeView = { received: 0, drawn: 0, pixels: 0, last: null, drawnFrame: 0, error: null });
   document.getElementById("save").href = "frame.png" + q;
 
   let socket = null;
@@ -52,6 +52,7 @@
     }
     bitmap.close();
     state.drawn += 1;
+    state.pixels += header.width * header.height;
     state.drawnFrame = header.frame;
     state.last = header;
     window.dispatchEvent(new CustomEvent("raylume-frame", { detail: header }));
