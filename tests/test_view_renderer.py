@@ -32,9 +32,12 @@ def wait_for(predicate, timeout=60.0):
     raise AssertionError("timed out")
 
 
-def test_passes_at_rest_converge_to_session_render_and_stop():
+@pytest.mark.parametrize("slow", [False, True])
+def test_passes_at_rest_converge_to_session_render_and_stop(slow):
     session = raylume.Session(seed(spp=4))
     r = vr.Renderer(session, threads=1)
+    if slow:  # as if a pass took a second: the film is split into row bands, one row each
+        r._cost[("trace", False)] = 1.0
     r.add_watcher(1)
     r.start()
     try:
@@ -46,6 +49,8 @@ def test_passes_at_rest_converge_to_session_render_and_stop():
         expected = session.render(width=24, height=18, spp=4, threads=1, aovs=False).to_uint8()
         np.testing.assert_array_equal(r.latest.rgb8, expected)
         assert r.stats()["status"] == "converged"
+        if slow:
+            assert len(r._job.bands) == 18
     finally:
         assert r.stop(1.0)
 
@@ -86,10 +91,11 @@ def test_path_films_are_averaged_by_their_sample_counts():
     job = vr._Job(0, 0, None, "path", 1, None, 16)
     job.done_sum = np.full((2, 2, 3), 1.0 * 16 + 3.0 * 16)
     job.done_spp = 32
-    job.film = Film(2, 2, "box", total_spp=16)
-    job.film.sums[..., :3] = 6.0 * 8
-    job.film.sums[..., 3] = 8
-    job.film.spp = 8
+    job.bands = [Film(2, 2, "box", total_spp=16, window=(0, 2, y, y + 1)) for y in (0, 1)]
+    for band in job.bands:
+        band.sums[..., :3] = 6.0 * 8
+        band.sums[..., 3] = 8
+        band.spp = 8
     np.testing.assert_allclose(job.image(), (16 + 48 + 48) / 40)
     assert job.spp == 40
 

@@ -24,7 +24,7 @@ import threading
 import time
 from collections import deque
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -42,6 +42,7 @@ MOVING_SECONDS = 0.12  # the camera counts as moving until this long after its l
 MOVE_BUDGET = 0.022  # seconds a frame (pass and encoding) may take while moving: sets the resolution divisor
 MAX_DIVISOR = 8
 REST_PASS_SECONDS = 0.05  # a refining pass at rest aims at this long (Ctrl-C and input wait for it)
+MAX_BANDS = 64
 PATH_FILM_SPP = 16
 PATH_MAX_SPP = 4096
 FPS_WINDOW = 2.0  # seconds over which fps and Mrays/s are measured
@@ -58,7 +59,7 @@ class _Job:
     divisor: int
     settings: object  # RenderSettings at the job's size
     batch: int  # total_spp of each film
-    film: Film | None = None
+    bands: list[Film] = field(default_factory=list)  # the film, as windowed films of row bands (none: raster)
     generation: int = 0  # films completed (path mode: they used seeds seed .. seed + generation - 1)
     done_sum: np.ndarray | None = None  # sum over completed films of rgb * batch (float64)
     done_spp: int = 0
@@ -68,18 +69,34 @@ class _Job:
 
     @property
     def spp(self) -> int:
-        if self.film is None:
+        if not self.bands:
             return 1 if self.rgb is not None else 0
-        return self.done_spp + self.film.spp
+        return self.done_spp + self.bands[0].spp
+
+    def film_rgb(self) -> np.ndarray:
+        """The current film's image: its bands' pixels, which equal those of one whole film."""
+        if len(self.bands) == 1:
+            return self.bands[0].rgb()
+        return np.concatenate([band.rgb() for band in self.bands], axis=0)
 
     def image(self) -> np.ndarray:
-        """Linear float32 RGB of every sample so far (one film: exactly film.rgb())."""
-        if self.film is None:
+        """Linear float32 RGB of every sample so far (one film: exactly its rgb())."""
+        if not self.bands:
             return self.rgb
         if self.done_spp == 0:
-            return self.film.rgb()
-        total = self.done_sum + self.film.rgb().astype(np.float64) * self.film.spp
-        return (total / (self.done_spp + self.film.spp)).astype(np.float32)
+            return self.film_rgb()
+        spp = self.bands[0].spp
+        total = self.done_sum + self.film_rgb().astype(np.float64) * spp
+        return (total / (self.done_spp + spp)).astype(np.float32)
+
+    def new_film(self, count: int) -> None:
+        """Films for rows split into `count` bands (about equal)."""
+        s = self.settings
+        edges = sorted({round(k * s.height / count) for k in range(count + 1)})
+        self.bands = [
+            Film(s.width, s.height, s.filter, total_spp=self.batch, window=(0, s.width, y0, y1))
+            for y0, y1 in zip(edges[:-1], edges[1:])
+        ]
 
 
 class Renderer:
@@ -114,6 +131,7 @@ class Renderer:
         self._rays: deque[tuple[float, int, float]] = deque()  # (time, rays, kernel seconds)
         self._cost: dict[tuple[str, bool], float] = {}  # (mode, moving) -> seconds per sample per pixel
         self._warm: set[str] = set()  # modes whose kernels are loaded
+        self._job: _Job | None = None  # the image being rendered (for tests)
         self.status = "starting"
         self.error: str | None = None
         self.started = time.monotonic()
@@ -254,12 +272,12 @@ class Renderer:
                         continue
             try:
                 if fresh:
-                    job = self._new_job(epoch, version, camera, mode, self._divisor(mode) if moving else 1)
+                    job = self._job = self._new_job(epoch, version, camera, mode, moving)
                 started = time.perf_counter()
                 samples = self._step(job, moving) if not job.finished else 0
-                if job.epoch == self._epoch:  # else the camera moved during the pass: render the new one at once
+                if job.epoch == self._epoch and samples >= 0:  # else the camera moved: render the new one at once
                     self._publish(job, moving)
-                if samples:
+                if samples > 0:
                     self._learn_cost(job, moving, samples, time.perf_counter() - started)
             except Exception as exc:  # a failed pass must not kill the view: report it, wait for a change
                 self.error = f"{type(exc).__name__}: {exc}" if not str(exc) else str(exc)
@@ -273,7 +291,8 @@ class Renderer:
             return 1
         return max(1, min(MAX_DIVISOR, math.ceil(math.sqrt(cost * self.width * self.height / MOVE_BUDGET))))
 
-    def _new_job(self, epoch: int, version: int, camera: Camera, mode: str, divisor: int) -> _Job:
+    def _new_job(self, epoch: int, version: int, camera: Camera, mode: str, moving: bool) -> _Job:
+        divisor = self._divisor(mode) if moving else 1
         w, h = -(-self.width // divisor), -(-self.height // divisor)
         settings = resolve_settings(self.session.scene, self.session.source, width=w, height=h, mode=mode)
         batch = settings.spp if divisor == 1 else 1
@@ -281,41 +300,54 @@ class Renderer:
             batch = max(settings.spp, PATH_FILM_SPP)
         job = _Job(epoch, version, camera, mode, divisor, settings, batch)
         if mode != "raster":
-            job.film = Film(w, h, settings.filter, total_spp=batch)
+            job.new_film(1 if moving else self._band_count(mode, w, h))  # moving: fits MOVE_BUDGET whole
         self.error = None
         return job
 
+    def _band_count(self, mode: str, w: int, h: int) -> int:
+        """Bands for a full-size film at rest: a pass over one band should take about
+        REST_PASS_SECONDS, so that a camera change waits for no more (a pass is not interrupted)."""
+        cost = self._cost.get((mode, False), self._cost.get((mode, True)))
+        if cost is None:
+            return 1
+        return max(1, min(h, MAX_BANDS, math.ceil(cost * w * h / REST_PASS_SECONDS)))
+
     def _step(self, job: _Job, moving: bool) -> int:
-        """One pass: 1 spp while moving, about REST_PASS_SECONDS of samples at rest. Returns
-        the samples per pixel it added (0 for a first pass, whose time is no measure)."""
+        """One pass over the image, band after band: 1 spp while moving, about REST_PASS_SECONDS
+        of samples per band at rest. Returns the samples per pixel it added (0 for a first pass,
+        whose time is no measure; -1 when a camera change or stop cut it short)."""
         s = job.settings
         self.status = "rendering" if job.mode in self._warm else "compiling kernels (first run only)"
-        if job.film is None:
+        first = job.mode not in self._warm
+        rays, seconds, count = 0, 0.0, 1
+        if not job.bands:
             image = self.session.render(job.camera, width=s.width, height=s.height, mode="raster", aovs=False)
             job.rgb, job.finished = image.rgb, True
-            rays, seconds = 0, image.stats["render_seconds"]
+            seconds = image.stats["render_seconds"]
         else:
-            film = job.film
-            count = 1 if moving else self._pass_spp(job.mode, film)
-            info = self.session.add_samples(
-                film, count, job.camera, mode=job.mode, seed=s.seed + job.generation, threads=self.threads
-            )
-            rays, seconds = info["rays"], info["render_seconds"]
-            if film.spp == film.total_spp:
+            count = 1 if moving else self._pass_spp(job)
+            for band in job.bands:
+                if job.epoch != self._epoch or self._stop:
+                    return -1  # the job is dropped: its bands now hold different sample counts
+                info = self.session.add_samples(
+                    band, count, job.camera, mode=job.mode, seed=s.seed + job.generation, threads=self.threads
+                )
+                rays, seconds = rays + info["rays"], seconds + info["render_seconds"]
+                self._warm.add(job.mode)
+            if job.bands[0].spp == job.batch:
                 if job.mode == "path" and job.spp < PATH_MAX_SPP:
-                    part = film.rgb().astype(np.float64) * film.spp
+                    part = job.film_rgb().astype(np.float64) * job.batch
                     job.done_sum = part if job.done_sum is None else job.done_sum + part
-                    job.done_spp += film.spp
+                    job.done_spp += job.batch
                     job.generation += 1
-                    job.film = Film(s.width, s.height, s.filter, total_spp=job.batch)
+                    job.new_film(len(job.bands))
                 else:
                     job.finished = True
-        first = job.mode not in self._warm
         self._warm.add(job.mode)
         self.status = "rendering"
         with self._cond:
             self._rays.append((time.monotonic(), int(rays), float(seconds)))
-        return 0 if first else (1 if job.film is None else count)  # a first pass's time includes compiling
+        return 0 if first else count  # a first pass's time includes compiling
 
     def _learn_cost(self, job: _Job, moving: bool, samples: int, seconds: float) -> None:
         """Seconds per sample per pixel of a whole frame (pass, read-out, encoding), apart for
@@ -326,12 +358,14 @@ class Renderer:
         old = self._cost.get(key)
         self._cost[key] = per_sample if old is None else 0.7 * old + 0.3 * per_sample
 
-    def _pass_spp(self, mode: str, film: Film) -> int:
-        cost = self._cost.get((mode, False), self._cost.get((mode, True)))
-        left = film.total_spp - film.spp
+    def _pass_spp(self, job: _Job) -> int:
+        """Samples per pixel of a pass at rest: about REST_PASS_SECONDS per band."""
+        cost = self._cost.get((job.mode, False), self._cost.get((job.mode, True)))
+        left = job.batch - job.bands[0].spp
         if cost is None:
             return 1
-        return max(1, min(left, int(REST_PASS_SECONDS / (cost * film.width * film.height))))
+        band_pixels = job.settings.width * job.settings.height / len(job.bands)
+        return max(1, min(left, int(REST_PASS_SECONDS / (cost * band_pixels))))
 
     def _publish(self, job: _Job, moving: bool) -> None:
         s = job.settings
