@@ -162,7 +162,14 @@ def test_animation_frames_on_the_cluster_equal_the_stills(client):
 
 
 def test_a_malformed_or_unreachable_address_exits_2_within_10_seconds(tmp_path):
-    assert_refused(raylume("render", "--cluster", "somewhere", cwd=tmp_path), "--cluster somewhere", "tcp://HOST:PORT")
+    from typer.testing import CliRunner
+
+    from raylume.cli import app
+
+    malformed = CliRunner().invoke(app, ["render", "--cluster", "somewhere", "-o", str(tmp_path / "x.png")])
+    assert (
+        malformed.exit_code == 2 and "--cluster somewhere" in malformed.output and "tcp://HOST:PORT" in malformed.output
+    )
     with socket.socket() as probe:
         probe.bind(("127.0.0.1", 0))
         port = probe.getsockname()[1]  # nothing listens there once closed
