@@ -1,7 +1,7 @@
 """raylume's path tracer against Mitsuba 3 on the Cornell box (examples/cornell.toml): speed,
 and error against time.
 
-    python benchmarks/bench_path.py [--rounds 3] [--plot docs/images/path_rmse.png] [--quick]
+    python benchmarks/bench_path.py [--rounds 3] [--plot docs/images/path_rmse.png] [--quick] [--no-denoise-goal]
 
 1. Speed: 256 x 256, 64 spp, max_depth 8 (the TOML's), raylume's `mode = "path"` against
    Mitsuba 3's `path` integrator in variant scalar_rgb (the scene built from the same TOML and
@@ -16,6 +16,10 @@ and error against time.
    Mitsuba scalar_rgb at 4 .. 1024 spp, and raylume's 16 spp denoised by Intel OIDN (its time
    includes the denoiser). New seeds every round, none of the reference's. The reference's own
    noise adds about 1/64 of a 1024-spp render's variance to its squared error (~0.8 % RMSE).
+3. The denoising goal at the speed benchmark's size (256 x 256): raw 256 spp against 16 spp
+   denoised, RMSE against raylume's own 4096-spp render (cached in benchmarks/.cache, minutes to
+   make the first time; --no-denoise-goal skips it), over all pixels, over the pixels that see
+   none of the light, and over those less a 2-pixel ring.
 
 Mitsuba is optional (pip install 'raylume[bench]'); without it raylume's figures are printed alone.
 """
@@ -301,6 +305,77 @@ def plot(result: dict, path: str) -> None:
     print(f"\nwrote {path} ({Path(path).stat().st_size / 1024:.0f} KiB)")
 
 
+# --------------------------------------------------------------------------- part 3: the denoising goal at full size
+
+CACHE = REPO / "benchmarks" / ".cache"  # git-ignored: raylume's long reference renders
+
+
+def raylume_reference(doc, width: int, spp: int = 4096, seed: int = 99) -> np.ndarray:
+    """raylume's own render of the Cornell box at width x width and `spp`, cached under
+    benchmarks/.cache by the scene file's contents (minutes on two cores when not cached)."""
+    import hashlib
+
+    key = hashlib.sha1(
+        SCENE.read_bytes() + b"".join(p.read_bytes() for p in sorted(SCENE.parent.glob("cornell/*.obj")))
+    )
+    path = CACHE / f"cornell_{width}_{spp}spp_seed{seed}_{key.hexdigest()[:10]}.npy"
+    if path.exists():
+        return np.load(path)
+    print(f"  rendering the {spp}-spp reference at {width} x {width} (cached in {path.relative_to(REPO)})", flush=True)
+    t = time.perf_counter()
+    session = raylume.Session(raylume.load_scene(SCENE))
+    img = session.render(width=width, height=width, spp=spp, seed=seed, mode="path", aovs=False)
+    ref = np.asarray(img.rgb, dtype=np.float64)
+    CACHE.mkdir(exist_ok=True)
+    np.save(path, ref)
+    print(f"  reference done in {time.perf_counter() - t:.0f} s", flush=True)
+    return ref
+
+
+def denoise_goal(args, doc) -> dict:
+    """Denoised 16 spp against raw 256 spp, both against raylume's 4096-spp reference, at the
+    speed benchmark's size: RMSE over all pixels, over the pixels that see none of the light
+    (exact coverage, mitsuba_reference.light_coverage) and over those less a 2-pixel ring."""
+    from mitsuba_reference import light_coverage
+
+    W = args.size
+    ref = raylume_reference(doc, W)
+    sees_light = light_coverage(doc, W, W)[0] > 0
+    ring = sees_light.copy()
+    for dy in range(-2, 3):
+        for dx in range(-2, 3):
+            ring |= np.roll(np.roll(sees_light, dy, 0), dx, 1)
+    masks = {"all pixels": None, "pixels that see none of the light": sees_light, "... less a 2-pixel ring": ring}
+    engine = Raylume(W, W, int(doc["render"]["max_depth"]))
+    threads = os.cpu_count() or 1
+    errors: dict = {}
+    for r in range(args.rounds):
+        for label, spp, denoise in (("256", 256, False), ("16 + OIDN", 16, True)):
+            img, seconds, _ = engine.render(spp, 4000 + 10 * r + spp, threads, denoise=denoise)
+            for name, leave_out in masks.items():
+                err = ((img - ref) ** 2).mean(axis=2)
+                keep = err if leave_out is None else err[~leave_out]
+                errors.setdefault((label, name), []).append(float(np.sqrt(keep.mean())))
+            errors.setdefault((label, "seconds"), []).append(seconds)
+        print(f"  denoising round {r + 1}/{args.rounds} done", flush=True)
+    rows = [
+        [name, f"{median_of(errors['256', name]):.5f}", f"{median_of(errors['16 + OIDN', name]):.5f}"] for name in masks
+    ]
+    rows.append(
+        [
+            "seconds per render",
+            f"{median_of(errors['256', 'seconds']):.2f}",
+            f"{median_of(errors['16 + OIDN', 'seconds']):.2f}",
+        ]
+    )
+    print(
+        f"\n### 3. Denoising at {W} x {W}: RMSE against raylume's 4096 spp (seed 99), {threads} threads, "
+        f"median of {args.rounds} rounds; {load()} at the end\n"
+    )
+    print(table(["pixels", "raw 256 spp", "16 spp + OIDN"], rows))
+    return {name: (median_of(errors["16 + OIDN", name]), median_of(errors["256", name])) for name in masks}
+
+
 # --------------------------------------------------------------------------- main
 
 
@@ -311,10 +386,14 @@ def main() -> None:
     parser.add_argument("--plot", metavar="PATH", help="write the RMSE-against-time plot (PNG) here")
     parser.add_argument("--no-cold", dest="cold", action="store_false", help="skip the cold-compile process")
     parser.add_argument("--skip-mitsuba", action="store_true", help="raylume's figures alone")
+    parser.add_argument(
+        "--no-denoise-goal", dest="denoise_goal", action="store_false", help="skip part 3 (its reference takes minutes)"
+    )
     args = parser.parse_args()
     args.size, args.spp = (64, 8) if args.quick else (256, 64)
     args.spp_list = [4, 16, 64] if args.quick else [4, 16, 64, 256, 1024]
     args.cold = args.cold and not args.quick
+    args.denoise_goal = args.denoise_goal and not args.quick
 
     doc = load_toml()
     version = None if args.skip_mitsuba else mitsuba_version()
@@ -329,17 +408,24 @@ def main() -> None:
 
     speeds = speed(args, doc, have_mitsuba, llvm_ok)
     errors = error_vs_time(args, doc, have_mitsuba)
+    denoising = denoise_goal(args, doc) if args.denoise_goal else {}
     if args.plot:
         plot(errors, args.plot)
     if args.cold:  # last: it takes a minute or more and the figures above matter more
         cold_start()
 
     print("\n### Goals\n")
+    for name, (d, raw) in denoising.items():
+        verdict = "holds" if d < raw else "does not hold"
+        print(
+            f"- {args.size} x {args.size}, {name}: denoised 16 spp closer to the 4096-spp reference than raw 256 spp: "
+            f"{verdict} (RMSE {d:.5f} against {raw:.5f})"
+        )
     if ("raylume", 16, True) in errors and ("raylume", 256, False) in errors:
         d, raw = errors["raylume", 16, True][0], errors["raylume", 256, False][0]
         verdict = "holds" if d < raw else "does not hold"
         print(
-            f"- denoised 16 spp closer to the reference than raw 256 spp: {verdict} "
+            f"- 64 x 64 against Mitsuba, light pixels left out: denoised 16 spp closer than raw 256 spp: {verdict} "
             f"(RMSE {d:.5f} against {raw:.5f}, ratio {d / raw:.2f})"
         )
     if have_mitsuba:
