@@ -70,7 +70,7 @@ def parse_address(text: str) -> tuple[str, int | str]:
         if not 1 <= n <= 1024:
             raise ClusterError(f"--cluster {text}: the number of local workers must be 1..1024")
         return "local", n
-    if re.fullmatch(r"(tcp|tls|ws|wss)://[^\s/:]+:\d{1,5}", text):
+    if re.fullmatch(r"(tcp|tls|ws|wss)://(\[[0-9A-Fa-f:.]+\]|[^\s/:\[\]]+):\d{1,5}", text):  # host or [IPv6]
         return "remote", text
     raise ClusterError(
         f"--cluster {text}: expected a Dask scheduler's address tcp://HOST:PORT (as `dask scheduler` prints it), "
