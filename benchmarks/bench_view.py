@@ -117,11 +117,16 @@ def orbit_fps(driver, seconds: float) -> tuple[float, float]:
 def rest_fps(driver, url: str) -> tuple[float, float]:
     """(frames drawn per second while a 64-spp film refines at rest, seconds to converge)."""
     wait_until(lambda: stats(url)["converged"])  # the previous camera's film
+    version = stats(url)["camera_version"]
     driver.execute_script("window.raylumeView.send({type: 'orbit', dx: 3, dy: 0});")
     t0 = time.perf_counter()
-    wait_until(lambda: drawn(driver)[1] > 1)  # resting: the film has started refining
+
+    def shown() -> dict:
+        return driver.execute_script("return window.raylumeView.last;")
+
+    wait_until(lambda: shown()["camera_version"] > version and shown()["format"] == "png")  # resting
     n0, t1 = drawn(driver)[0], time.perf_counter()
-    wait_until(lambda: stats(url)["converged"] and drawn(driver)[1] == stats(url)["spp"])
+    wait_until(lambda: shown()["camera_version"] > version and shown()["converged"])
     n1, t2 = drawn(driver)[0], time.perf_counter()
     return (n1 - n0) / max(t2 - t1, 1e-9), t2 - t0
 
