@@ -4,6 +4,9 @@ Same camera rays for every engine (DESIGN.md camera, one ray per pixel through p
 on the real meshes in ../shared/models and on procedural bumpy spheres of 10k..4M triangles.
 
     python benchmarks/bench_bvh.py [--size 1024] [--repeats 5] [--quick] [--plot docs/images/bvh_scaling.png]
+
+Ratios are speeds (Embree's time / raylume's time, one thread each): above 1, raylume is faster.
+"on hits" repeats both engines on the rays that hit the mesh alone.
 """
 
 from __future__ import annotations
@@ -147,7 +150,13 @@ def main() -> None:
         if have_embree:
             e, e_build, t_embree = time_embree(v, f, o, d, args.repeats)
             agree = np.mean(np.isclose(t_ours, t_embree, rtol=1e-4) | (np.isinf(t_ours) & np.isinf(t_embree)))
-            row += [f"{n / e / 1e6:.2f}", f"{e / r1:.2f}", f"{agree * 100:.2f}%"]
+            # The rays that hit alone: most of a loosely framed frame misses, and a miss costs
+            # Embree more per ray than it costs raylume, which flatters the full-frame ratio.
+            hit = np.isfinite(t_ours)
+            h1, _ = time_raylume(compiled, o[hit], d[hit], 1, args.repeats)
+            eh, _, _ = time_embree(v, f, o[hit], d[hit], args.repeats)
+            row += [f"{n / e / 1e6:.2f}", f"{e / r1:.2f}", f"{hit.mean() * 100:.0f}%", f"{eh / h1:.2f}"]
+            row += [f"{agree * 100:.2f}%"]
         else:
             e_build = float("nan")
         if not args.quick and len(f) <= 1_000_000:
@@ -172,7 +181,7 @@ def main() -> None:
 
     headers = ["mesh", "triangles", "raylume 1T Mrays/s", "raylume all Mrays/s"]
     if have_embree:
-        headers += ["Embree 1T Mrays/s", "raylume/Embree (1T)", "same hits"]
+        headers += ["Embree 1T Mrays/s", "raylume/Embree (1T)", "rays hit", "on hits: raylume/Embree", "same hits"]
     headers += ["trimesh Mrays/s"]
     print("\n" + table(headers, rows))
     print("\nBVH build (raylume: compile + binned-SAH build; Embree: scene build on first query)\n")

@@ -16,7 +16,7 @@ from raylume.compile import compile_scene
 from raylume.kernels.scene import geometry_of
 from raylume.kernels.shape_triangle import INF, intersect_triangle, ray_shear
 from raylume.kernels.shapes import PRIM_FACE, PRIM_KIND, TRIANGLE
-from raylume.kernels.traverse import any_hit, closest_hit
+from raylume.kernels.traverse import BVH_WIDTH, TRAVERSAL_STACK, any_hit, closest_hit
 from raylume.scene.procedural import bumpy_sphere
 
 
@@ -104,8 +104,8 @@ def _closest_all(S, origins, dirs, X=None):
     n = origins.shape[0]
     out_t = np.empty(n)
     out_i = np.empty(n, np.int64)
-    node_stack = np.empty(128, np.int32)
-    t_stack = np.empty(128)
+    node_stack = np.empty(TRAVERSAL_STACK, np.int32)
+    t_stack = np.empty(TRAVERSAL_STACK)
     G = geometry_of(S)
     for k in range(n):
         o = (origins[k, 0], origins[k, 1], origins[k, 2])
@@ -120,7 +120,7 @@ def _closest_all(S, origins, dirs, X=None):
 def _any_all(S, origins, dirs, tmax, X=None):
     n = origins.shape[0]
     out = np.empty(n, np.bool_)
-    node_stack = np.empty(128, np.int32)
+    node_stack = np.empty(TRAVERSAL_STACK, np.int32)
     G = geometry_of(S)
     for k in range(n):
         out[k] = any_hit(
@@ -331,7 +331,8 @@ def test_stats_report_triangles_and_bvh(tmp_path):
     img = raylume.render(_mesh_scene(tmp_path, v, f), width=16, height=16)
     s = img.stats
     assert s["triangles"] == len(f) and s["primitives"] == len(f)
-    assert s["bvh_nodes"] > 2 * len(f) / 8 and s["bvh_bytes"] > 0 and s["build_seconds"] > 0
+    # wide nodes of up to BVH_WIDTH children over leaves of up to 4 triangles
+    assert s["bvh_nodes"] > len(f) / (4 * BVH_WIDTH) and s["bvh_bytes"] > 0 and s["build_seconds"] > 0
 
 
 def test_rays_through_a_shared_diagonal_hit_inside_the_renderer(tmp_path):
@@ -350,3 +351,100 @@ def test_rays_through_a_shared_diagonal_hit_inside_the_renderer(tmp_path):
                 }
             )
             assert (raylume.render(scene).aovs["object"] == 0).all(), (faces, fov, size)
+
+
+# --- the wide BVH: structure, vector code, awkward rays -----------------------------------------
+
+
+def test_box_test_is_vectorised():
+    """The wide box test runs as 8-wide vector instructions (ymm vsubps/vmulps/vmaxps/vminps/
+    vcmpps with AVX2) inside the traversal that every mode inlines: fails loudly if a change
+    turns it back into scalar code."""
+    import re
+
+    import llvmlite.binding as llvm
+
+    if "+avx2" not in llvm.get_host_cpu_features().flatten().split(","):
+        pytest.skip("the CPU has no AVX2: no 8-wide float32 registers to check for")
+    assert BVH_WIDTH == 8
+    v, f = bumpy_sphere(500)
+    tris = compile_scene(raylume.scene_from_dict({"objects": [{"type": "triangle", "vertices": v[f[0]].tolist()}]}))
+    _closest_all(tris.kernel, np.zeros((1, 3)), np.ones((1, 3)))
+    asm = "\n".join(_closest_all.inspect_asm().values())
+    for op in ("vmaxps", "vminps", "vcmp[a-z]*ps", "vsubps", "vmulps"):
+        assert re.search(rf"\b{op}\s+[^\n]*%ymm", asm), f"no 8-wide {op} in the traversal: the box test is scalar"
+
+
+@pytest.mark.parametrize("width", [2, 4, 8])
+def test_collapsed_bvh_keeps_every_leaf_and_box(width):
+    """Every leaf of the binary tree appears in exactly one lane; every lane's box is the
+    binary child's box; unused lanes hold the empty box; children follow their parent."""
+    from raylume.accel.bvh import build_bvh
+    from raylume.accel.wide import collapse, wide_depth
+
+    rng = np.random.default_rng(5)
+    lo = rng.uniform(-1, 1, size=(3000, 3))
+    hi = lo + rng.uniform(0, 0.1, size=(3000, 3))
+    binary = build_bvh(lo, hi, max_leaf_size=4)
+    wide = collapse(binary, width)
+    b, ix = wide.node_bounds, wide.node_index
+    assert b.shape == (len(ix), 6, width) and b.dtype == np.float32 and ix.dtype == np.int32
+    leaves = sorted(
+        (int(ix[m, 0, k]), int(ix[m, 1, k])) for m in range(len(ix)) for k in range(width) if ix[m, 1, k] > 0
+    )
+    leaf = binary.node_axis < 0
+    assert leaves == sorted(map(tuple, binary.node_index[leaf].tolist()))
+    used = np.isfinite(b[:, 0, :]) & (b[:, 0, :] <= b[:, 3, :])
+    assert (used.sum(axis=1) >= 2).all() or len(ix) == 1
+    assert np.all(b[:, :3][~np.broadcast_to(used[:, None], b[:, :3].shape)] == np.inf)
+    inner = used & (ix[:, 1, :] == 0)
+    m_of = np.nonzero(inner)
+    children = ix[:, 0, :][inner]
+    assert (children > m_of[0]).all() and sorted(children.tolist()) == list(range(1, len(ix)))
+    for m, k, c in zip(*m_of, children, strict=True):  # a child's lanes lie within its box
+        sub = used[c]
+        assert (b[c, :3][:, sub] >= b[m, :3, k : k + 1]).all() and (b[c, 3:][:, sub] <= b[m, 3:, k : k + 1]).all()
+    assert wide_depth(wide) <= int(np.ceil(np.log2(len(binary.node_axis)))) + 1
+
+
+def test_awkward_rays_against_brute_force(tmp_path):
+    """A grid of coplanar triangles and degenerate ones: rays exactly through vertices and
+    along edges (in the plane, grazing), axis-parallel rays, zero and NaN directions. Closest
+    hit equals the brute force (the same triangle test, no BVH), any-hit agrees with it."""
+    n = 12
+    g = np.linspace(-1, 1, n + 1)
+    xs, ys = np.meshgrid(g, g)
+    v = np.stack([xs.ravel(), ys.ravel(), np.zeros(xs.size)], axis=1)
+    q = (np.arange(n)[:, None] * (n + 1) + np.arange(n)[None, :]).ravel()
+    f = np.concatenate([np.stack([q, q + 1, q + n + 2], 1), np.stack([q, q + n + 2, q + n + 1], 1)])
+    # degenerate: a zero-area sliver (collinear) and a point, above the grid
+    v = np.concatenate([v, [[0, 0, 0.5], [0.5, 0.5, 0.5], [1, 1, 0.5], [0.2, 0.2, 0.7]]])
+    m = len(v)
+    f = np.concatenate([f, [[m - 4, m - 3, m - 2], [m - 1, m - 1, m - 1]]])
+    scene = _mesh_scene(tmp_path, v, f, "grid.ply")
+    compiled = compile_scene(scene)
+    assert compiled.stats["bvh_nodes"] > 1
+    rng = np.random.default_rng(2)
+    targets = np.concatenate([v[: (n + 1) ** 2], (v[f[:50, 0]] + v[f[:50, 1]]) / 2])  # vertices, edge midpoints
+    o_down = np.concatenate([targets + [0, 0, 2], targets + rng.normal(scale=0.5, size=targets.shape) + [0, 0, 2]])
+    d_down = np.concatenate([np.broadcast_to([0.0, 0.0, -1.0], targets.shape), targets - o_down[len(targets) :]])
+    # in the plane of the grid, along grid lines and diagonals, from outside
+    o_flat = np.array([[-2, gy, 0] for gy in g] + [[gx, -2, 0] for gx in g] + [[-2, -2, 0], [2, -2, 0]], float)
+    d_flat = np.array([[1, 0, 0]] * len(g) + [[0, 1, 0]] * len(g) + [[1, 1, 0], [-1, 1, 0]], float)
+    o_odd = np.array([[0.1, 0.1, 1.0], [0.1, 0.1, 1.0], [0.1, 0.1, 1.0], [np.nan, 0, 1], [0.3, 0.3, 1.0]])
+    d_odd = np.array([[0, 0, 0], [np.nan, 0, -1], [0, np.nan, np.nan], [0, 0, -1], [0, 0, -np.inf]])
+    origins = np.concatenate([o_down, o_flat, o_odd])
+    dirs = np.concatenate([d_down, d_flat, d_odd])
+    with np.errstate(invalid="ignore"):
+        norm = np.linalg.norm(dirs, axis=1, keepdims=True)
+        dirs = np.where(norm > 0, dirs / np.where(norm > 0, norm, 1), dirs)
+    t_bvh, i_bvh = _closest_all(compiled.kernel, origins, dirs)
+    tris = (v.astype(np.float32)[f]).reshape(-1, 9)
+    t_ref, i_ref = _brute(tris, origins, dirs)
+    finite = np.isfinite(origins).all(axis=1) & np.isfinite(dirs).all(axis=1)
+    assert np.isinf(t_bvh[~finite]).all()  # NaN or infinite rays hit nothing
+    np.testing.assert_allclose(t_bvh[finite], t_ref[finite], rtol=1e-12)
+    assert (t_ref[: len(o_down)] < INF).all()  # every downward ray hits the grid (no pinholes)
+    assert (i_bvh == i_ref)[finite & (t_ref < INF)].mean() > 0.5  # ties at shared vertices/edges
+    tmax = np.where(np.isfinite(t_ref), t_ref * 1.0001, 1e30)
+    np.testing.assert_array_equal(_any_all(compiled.kernel, origins, dirs, tmax)[finite], np.isfinite(t_ref)[finite])

@@ -13,7 +13,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .accel.bvh import BVH, build_bvh, bvh_depth, bvh_nbytes
+from .accel.bvh import build_bvh
+from .accel.wide import collapse, single_leaf, wide_depth, wide_nbytes
 from .emitters_table import build_emitters, scene_environment
 from .errors import SceneError
 from .kernels import materials as M
@@ -34,7 +35,7 @@ from .kernels.shapes import (
     is_bounded,
 )
 from .kernels.shapes import bounds as shape_bounds
-from .kernels.traverse import TRAVERSAL_STACK
+from .kernels.traverse import BVH_WIDTH, TRAVERSAL_STACK, stack_needed
 from .scene.mesh import MeshError
 from .scene.model import (
     DEFAULT_MATERIAL,
@@ -312,17 +313,6 @@ def _load_mesh_object(scene: Scene, k: int, obj: Mesh, source):
         raise SceneError(f"{source}: objects[{k}].file: {exc}") from None
 
 
-def single_leaf_bvh(lo: np.ndarray, hi: np.ndarray) -> BVH:
-    """A 'hierarchy' of one leaf holding every primitive: for small scenes (fastest so, and
-    the BVH builder need not even be compiled) and for modes that never trace rays."""
-    if len(lo):
-        bounds = np.concatenate([lo.min(axis=0), hi.max(axis=0)]).astype(np.float32)[None, :]
-    else:
-        bounds = np.array([[np.inf] * 3 + [-np.inf] * 3], dtype=np.float32)
-    n = len(lo)
-    return BVH(bounds, np.array([[0, n]], dtype=np.int32), np.array([-1], dtype=np.int8), np.arange(n, dtype=np.int32))
-
-
 class _Analytic:
     """Analytic shapes gathered in object order: their rows and their primitive-table columns."""
 
@@ -419,15 +409,16 @@ def compile_scene(scene: Scene, source="<scene>", accelerate: bool = True) -> Co
         hi[n_analytic:] = corners.max(axis=1)
         del corners
     if accelerate and len(lo) > SMALL_SCENE:
-        bvh = build_bvh(lo, hi, max_leaf_size=BVH_MAX_LEAF, c_trav=BVH_TRAVERSAL_COST)
-        depth = bvh_depth(bvh)
+        # the binned-SAH binary tree, collapsed into BVH_WIDTH-wide nodes (accel/wide.py)
+        bvh = collapse(build_bvh(lo, hi, max_leaf_size=BVH_MAX_LEAF, c_trav=BVH_TRAVERSAL_COST), BVH_WIDTH)
+        depth = wide_depth(bvh)
     else:
-        bvh = single_leaf_bvh(lo, hi)
+        bvh = single_leaf(lo, hi, BVH_WIDTH)
         depth = 1
-    if depth >= TRAVERSAL_STACK - 2:  # traversal stacks are fixed-size (no allocation per ray)
+    if stack_needed(depth) > TRAVERSAL_STACK:  # traversal stacks are fixed-size (no allocation per ray)
         raise SceneError(
-            f"{source}: the BVH is {depth} levels deep, more than the {TRAVERSAL_STACK - 2} "
-            "traversal supports; the scene's primitives are pathologically arranged"
+            f"{source}: the BVH is {depth} levels deep, more than the traversal supports; "
+            "the scene's primitives are pathologically arranged"
         )
 
     # Reorder so that leaves read consecutive triangles (cache-friendly traversal).
@@ -502,10 +493,10 @@ def compile_scene(scene: Scene, source="<scene>", accelerate: bool = True) -> Co
         "degenerate_triangles": soup.degenerate,
         # without acceleration (the rasterizer's scenes) there is no BVH to report, only the
         # placeholder leaf that keeps the kernels' arrays typed alike
-        "bvh_nodes": int(len(bvh.node_index)) if accelerate else 0,
+        "bvh_nodes": int(len(bvh.node_index)) if accelerate else 0,  # BVH_WIDTH-wide nodes
         "bvh_depth": int(depth) if accelerate else 0,
         # nodes, and the two columns of the primitive table that traversal reads (kind, row)
-        "bvh_bytes": int(bvh_nbytes(bvh) + 8 * len(prims)) if accelerate else 0,
+        "bvh_bytes": int(wide_nbytes(bvh) + 8 * len(prims)) if accelerate else 0,
         "build_seconds": time.perf_counter() - start,
         "mesh_load_seconds": mesh_seconds,
     }

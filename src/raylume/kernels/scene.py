@@ -17,8 +17,8 @@ class KernelScene(NamedTuple):
     triangle_normals: np.ndarray  # float32 (T, 9) vertex normals, or (1, 9) when no mesh is smooth
     triangle_smooth: np.ndarray  # bool (T,)
     triangle_uvs: np.ndarray  # float32 (T, 6): uv0, uv1, uv2, or (1, 6) when no triangle needs UVs
-    node_bounds: np.ndarray  # float32 (N, 6)
-    node_index: np.ndarray  # int32 (N, 2): right child / first prim, 0 / prim count
+    node_bounds: np.ndarray  # float32 (N, 6, W): W-wide BVH nodes' child boxes, SoA (accel/wide.py)
+    node_index: np.ndarray  # int32 (N, 2, W): child node / first prim, 0 / prim count
     materials: np.ndarray  # float64 (M, MAT_WIDTH), materials.py
     textures: np.ndarray  # float64 (X, TEX_WIDTH), textures.py
     texels: np.ndarray  # float32 (N, 3): every image texture's linear texels, row by row

@@ -1,17 +1,29 @@
-"""BVH traversal: closest hit (nearer child first) and any hit (for shadow rays).
+"""BVH traversal: closest hit (nearest children first) and any hit (for shadow rays).
 
-Both take the scene's Geometry view and test primitives through one leaf loop
-(`intersect_range`) over the primitive table (shapes.py). Unbounded primitives (planes) follow
-the bounded ones in that table and are tested before traversal.
+The BVH is wide (accel/wide.py): each node holds up to BVH_WIDTH children, their boxes stored
+structure-of-arrays (float32 (6, W) per node: one row per slab plane, one lane per child).
+`box_hits` tests a ray against all W boxes of a node at once, in explicit LLVM vector code
+(one ymm register per plane row on AVX2: vsubps, vmulps, vmaxps, vminps, vcmpps), so it
+vectorises whatever Numba's SLP vectoriser setting, and the on-disk cache cannot hold a scalar
+version of it. The hit children are pushed onto the stack sorted by entry distance (nearest on
+top); popped entries beyond the best hit so far are skipped.
 
-BVH layout (accel/bvh.py): depth-first; inner node m has its left child at m + 1 and its right
-child in node_index[m, 0]; a leaf holds (first, count) into the primitive table.
+Primitives are tested through one leaf loop (`intersect_range`) over the primitive table
+(shapes.py); leaves are ranges of it. Unbounded primitives (planes) follow the bounded ones in
+that table and are tested before traversal.
+
+Stack entries: an inner node's index (>= 0), or -1 - (node * BVH_WIDTH + lane) for the leaf in
+that lane of that node (its range is node_index[node, :, lane]).
 """
 
 import math
 
 import numpy as np
-from numba import njit
+from llvmlite import ir
+from numba import njit, types
+from numba.core import cgutils
+from numba.core.errors import TypingError
+from numba.extending import intrinsic
 
 from .shape_triangle import NO_SHEAR, ray_shear
 from .shapes import NO_HIT, intersect
@@ -19,8 +31,16 @@ from .vec import KERNEL
 
 INF = math.inf
 
-# Size of per-thread traversal stacks; a BVH deeper than this is rejected at build time.
-TRAVERSAL_STACK = 128
+# Children per BVH node. 8 fills one AVX2 register (8 float32 lanes); measured against 4 with
+# benchmarks/bench_bvh.py and path mode (docs/architecture.md).
+BVH_WIDTH = 8
+_LANE_SHIFT = BVH_WIDTH.bit_length() - 1  # BVH_WIDTH is a power of two
+assert 1 << _LANE_SHIFT == BVH_WIDTH
+
+# Size of per-thread traversal stacks. Closest-hit pushes at most BVH_WIDTH - 1 entries per
+# level and writes a node's BVH_WIDTH entry distances above the top; compile.py rejects BVHs
+# too deep for it (stack_needed).
+TRAVERSAL_STACK = 1024
 # Unused elements on either side of each thread's scratch arrays (at least 256 bytes: beyond a
 # cache line and its prefetched neighbour). Small arrays allocated by two threads can lie back
 # to back: without the gap one thread's stack ended in the cache line where another's began,
@@ -28,8 +48,19 @@ TRAVERSAL_STACK = 128
 # 2 threads).
 SCRATCH_PAD = 1024
 
-# Slab constants for a root leaf (never used, but typed alike).
-_NO_SLAB = ((0.0, 0.0, 0.0), (0, 0, 0))
+_F32_MAX = float(np.finfo(np.float32).max)
+_F32_TINY = float(np.finfo(np.float32).tiny)
+# Widening of each box's slab interval: covers the float32 rounding of the subtraction, of 1/d
+# and of the product (3 roundings of 2**-24 each, relative), so a box that the exact ray enters
+# is never culled and its entry distance never overestimated (a popped entry is skipped when it
+# lies beyond the best hit); the origin is rounded outward in box_ray.
+_NEAR_SCALE = 1.0 - 2.0**-20
+_FAR_SCALE = 1.0 + 2.0**-20
+
+
+def stack_needed(depth: int) -> int:
+    """Traversal stack entries a wide BVH of `depth` levels can need."""
+    return (BVH_WIDTH - 1) * depth + BVH_WIDTH + 1
 
 
 @njit(cache=True)
@@ -45,42 +76,154 @@ def scratch_array(n, dtype):
     return np.empty(n + 2 * SCRATCH_PAD, dtype=dtype)[SCRATCH_PAD : SCRATCH_PAD + n]
 
 
+# --- the wide box test ------------------------------------------------------------------------
+
+
+def _box_codegen(width, store):
+    f32 = ir.FloatType()
+    f64 = ir.DoubleType()
+    i32 = ir.IntType(32)
+    i64 = ir.IntType(64)
+    vt = ir.VectorType(f32, width)
+    undef = ir.Constant(vt, ir.Undefined)
+    broadcast = ir.Constant(ir.VectorType(i32, width), [0] * width)
+
+    def codegen(context, builder, sig, args):
+        bounds = context.make_array(sig.args[0])(context, builder, args[0])
+        node = context.cast(builder, args[1], sig.args[1], types.int64)
+        rf = cgutils.unpack_tuple(builder, args[2], 9)
+        rows = [
+            context.cast(builder, r, t, types.int64)
+            for r, t in zip(cgutils.unpack_tuple(builder, args[3], 3), sig.args[3], strict=True)
+        ]
+        tmax = builder.fptrunc(context.cast(builder, args[4], sig.args[4], types.float64), f32)
+
+        def splat(x):
+            return builder.shuffle_vector(builder.insert_element(undef, x, ir.Constant(i32, 0)), undef, broadcast)
+
+        base = builder.mul(node, ir.Constant(i64, 6 * width))
+
+        def row(r):
+            p = builder.gep(bounds.data, [builder.add(base, builder.mul(r, ir.Constant(i64, width)))], inbounds=True)
+            return builder.load(builder.bitcast(p, vt.as_pointer()), align=4)
+
+        def vmax(a, b):
+            return builder.select(builder.fcmp_ordered(">", a, b), a, b)
+
+        def vmin(a, b):
+            return builder.select(builder.fcmp_ordered("<", a, b), a, b)
+
+        tn, tf = [], []
+        for k in range(3):
+            inv = splat(rf[6 + k])
+            far = builder.sub(ir.Constant(i64, 2 * k + 3), rows[k])
+            tn.append(builder.fmul(builder.fsub(row(rows[k]), splat(rf[k])), inv))
+            tf.append(builder.fmul(builder.fsub(row(far), splat(rf[3 + k])), inv))
+        tnear = vmax(vmax(tn[0], tn[1]), vmax(tn[2], ir.Constant(vt, [0.0] * width)))
+        tfar = vmin(vmin(tf[0], tf[1]), vmin(tf[2], splat(tmax)))
+        tnear = builder.fmul(tnear, ir.Constant(vt, [_NEAR_SCALE] * width))
+        tfar = builder.fmul(tfar, ir.Constant(vt, [_FAR_SCALE] * width))
+        hit = builder.fcmp_ordered("<=", tnear, tfar)
+        mask = builder.zext(builder.bitcast(hit, ir.IntType(width)), i64)
+        if store:
+            out = context.make_array(sig.args[5])(context, builder, args[5])
+            at = context.cast(builder, args[6], sig.args[6], types.int64)
+            dv = ir.VectorType(f64, width)
+            p = builder.gep(out.data, [at], inbounds=True)
+            builder.store(builder.fpext(tnear, dv), builder.bitcast(p, dv.as_pointer()), align=8)
+        return mask
+
+    return codegen
+
+
+@intrinsic
+def box_hits(typingctx, bounds, node, rf, rows, tmax, out, at):
+    """Ray (box_ray's (rf, rows)) against the BVH_WIDTH child boxes of wide node `node`
+    (bounds float32 (M, 6, BVH_WIDTH), C-contiguous), up to distance tmax: a bit mask of the
+    lanes the ray enters. With an array `out` (float64, C-contiguous), the lanes' entry
+    distances are written to out[at : at + BVH_WIDTH] (meaningful for hit lanes only; never
+    beyond the exact entry distance); with out None, nothing is written."""
+    if not (isinstance(bounds, types.Array) and bounds.ndim == 3 and bounds.dtype == types.float32):
+        raise TypingError("box_hits: bounds must be a float32 (M, 6, W) array")
+    if bounds.layout != "C":
+        raise TypingError("box_hits: bounds must be C-contiguous")
+    store = not isinstance(out, (types.NoneType, types.Omitted))
+    if store and not (isinstance(out, types.Array) and out.dtype == types.float64 and out.layout == "C"):
+        raise TypingError("box_hits: out must be a C-contiguous float64 array or None")
+    sig = types.int64(bounds, node, rf, rows, tmax, out, at)
+    return sig, _box_codegen(BVH_WIDTH, store)
+
+
+@intrinsic
+def lowest_bit(typingctx, x):
+    """Index of the lowest set bit of x (x != 0)."""
+    sig = types.int64(x)
+
+    def codegen(context, builder, sig, args):
+        i64 = ir.IntType(64)
+        v = context.cast(builder, args[0], sig.args[0], types.int64)
+        fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(i64, [i64, ir.IntType(1)]), "llvm.cttz.i64")
+        return builder.call(fn, [v, ir.Constant(ir.IntType(1), 1)])
+
+    return sig, codegen
+
+
 @njit(**KERNEL, inline="always")
-def intersect_box(bounds, n, o, slab, tmax):
-    """Slab test against node n of bounds (float32 (M, 6)); entry distance or +inf. `slab` is
-    the ray's `slab_ray(d)`: 1/d and, per axis, the column of the near plane. Picking the near
-    and far plane by the direction's sign gives exactly the min/max of the two slab distances
-    (rounding is monotonic) with six fewer comparisons: traversal ~9% faster."""
-    inv, near = slab
-    nx, ny, nz = near
-    tnx = (bounds[n, nx] - o[0]) * inv[0]
-    tfx = (bounds[n, 3 - nx] - o[0]) * inv[0]
-    tny = (bounds[n, 1 + ny] - o[1]) * inv[1]
-    tfy = (bounds[n, 4 - ny] - o[1]) * inv[1]
-    tnz = (bounds[n, 2 + nz] - o[2]) * inv[2]
-    tfz = (bounds[n, 5 - nz] - o[2]) * inv[2]
-    tnear = max(tnx, tny, tnz, 0.0)
-    # Widen the far side by a few ulps so rounding never culls a box the ray touches.
-    tfar = min(tfx, tfy, tfz, tmax) * 1.0000000000000004
-    if tnear <= tfar:
-        return tnear
-    return INF
+def _ray_axis(o, d, k):
+    """Axis k of box_ray: (near origin, far origin, 1/d, near row)."""
+    # 1/d clamped to normal float32 magnitudes: a zero component gives parallel slabs, and no
+    # lane ever computes inf * 0 (an empty lane's box is +-inf)
+    inv = 1.0 / d if d != 0.0 else _F32_MAX
+    mag = min(max(abs(inv), _F32_TINY), _F32_MAX)
+    inv32 = np.float32(mag if inv >= 0.0 else -mag)
+    # The origin rounded to float32 outward, so that the near distance can only shrink and the
+    # far one only grow: moved by |o| 2**-23 >= half a float32 ulp first, then rounded to nearest
+    # (branch-free; nextafter was a library call per axis).
+    pad = abs(o) * 2.0**-23
+    down = np.float32(o - pad)
+    up = np.float32(o + pad)
+    if inv >= 0.0:
+        return up, down, inv32, k
+    return down, up, inv32, k + 3
 
 
 @njit(**KERNEL)
-def slab_ray(d):
-    """Per-ray constants of the slab test: (1/d, near-plane columns), see intersect_box."""
-    inv = safe_inverse(d)
-    return inv, (0 if inv[0] >= 0.0 else 3, 0 if inv[1] >= 0.0 else 3, 0 if inv[2] >= 0.0 else 3)
+def box_ray(o, d):
+    """Per-ray constants of box_hits: (near-plane origins x, y, z, far-plane origins, 1/d) as
+    float32, and the near plane's row for each axis (the far one is the other)."""
+    nx, fx, ix, rx = _ray_axis(o[0], d[0], 0)
+    ny, fy, iy, ry = _ray_axis(o[1], d[1], 1)
+    nz, fz, iz, rz = _ray_axis(o[2], d[2], 2)
+    return (nx, ny, nz, fx, fy, fz, ix, iy, iz), (rx, ry, rz)
+
+
+@njit(**KERNEL, inline="always")
+def traceable(o, d):
+    """Rays with a NaN or infinite direction, or an origin beyond the float32 range of the
+    BVH's boxes, hit nothing (an empty lane's box is only empty for finite rays)."""
+    return (
+        abs(o[0]) < _F32_MAX
+        and abs(o[1]) < _F32_MAX
+        and abs(o[2]) < _F32_MAX
+        and abs(d[0]) < INF
+        and abs(d[1]) < INF
+        and abs(d[2]) < INF
+    )
 
 
 @njit(**KERNEL)
-def safe_inverse(d):
-    """1/d with zero components replaced by a huge finite value (no inf * 0 = NaN in slabs)."""
-    out0 = 1.0 / d[0] if d[0] != 0.0 else 1e200
-    out1 = 1.0 / d[1] if d[1] != 0.0 else 1e200
-    out2 = 1.0 / d[2] if d[2] != 0.0 else 1e200
-    return (out0, out1, out2)
+def box_entries(bounds, node, o, d, tmax, out):
+    """Entry distances of the ray into the children of `node`, +inf for the lanes it misses
+    (for tests); out: float64 (BVH_WIDTH,) scratch."""
+    rf, rows = box_ray(o, d)
+    mask = box_hits(bounds, node, rf, rows, tmax, out, 0)
+    for i in range(BVH_WIDTH):
+        if (mask >> i) & 1 == 0:
+            out[i] = INF
+    return out
+
+
+# --- leaves -----------------------------------------------------------------------------------
 
 
 @njit(**KERNEL, inline="always")
@@ -107,6 +250,9 @@ def _unbounded_hit(G, X, o, d, shear, tmin, tmax):
     return intersect_range(G, X, G.n_bounded, G.prims.shape[0], o, d, shear, tmin, tmax, NO_HIT, 0.0, 0.0, False)
 
 
+# --- traversal --------------------------------------------------------------------------------
+
+
 @njit(**KERNEL, inline="always")
 def closest_hit(G, X, o, d, tmin, tmax, node_stack, t_stack):
     """Nearest hit in (tmin, tmax): (t, primitive, b1, b2); primitive NO_HIT when nothing.
@@ -116,51 +262,51 @@ def closest_hit(G, X, o, d, tmin, tmax, node_stack, t_stack):
     if X is not None:
         if G.n_bounded < G.prims.shape[0]:
             best_t, prim, b1, b2 = _unbounded_hit(G, X, o, d, shear, tmin, tmax)
-    nodes = G.node_index
+    if not traceable(o, d):
+        return best_t, prim, b1, b2
     bounds = G.node_bounds
-    # A root leaf (small scenes) needs neither box tests nor the inverse direction.
-    slab = _NO_SLAB
-    if nodes[0, 1] == 0:
-        if nodes[0, 0] == 0:
-            return best_t, prim, b1, b2  # empty scene
-        slab = slab_ray(d)
-        if intersect_box(bounds, 0, o, slab, best_t) == INF:
-            return best_t, prim, b1, b2
-    node = 0
+    index = G.node_index
+    rf, rows = box_ray(o, d)
+    ref = 0  # the root node
     top = 0
     while True:
-        count = nodes[node, 1]
-        if count > 0:
-            first = nodes[node, 0]
-            best_t, prim, b1, b2 = intersect_range(
-                G, X, first, first + count, o, d, shear, tmin, best_t, prim, b1, b2, False
-            )
+        if ref >= 0:
+            # the node's children the ray enters, their entry distances at t_stack[top:]; they
+            # are moved down to t_stack[top:top + k] sorted farthest first (lane i >= k is
+            # read before slot top + k is written)
+            mask = box_hits(bounds, ref, rf, rows, best_t, t_stack, top)
+            k = 0
+            while mask != 0:
+                i = lowest_bit(mask)
+                mask &= mask - 1
+                t = t_stack[top + i]
+                child = index[ref, 0, i] if index[ref, 1, i] == 0 else -1 - ((ref << _LANE_SHIFT) + i)
+                j = top + k
+                while j > top and t_stack[j - 1] < t:
+                    t_stack[j] = t_stack[j - 1]
+                    node_stack[j] = node_stack[j - 1]
+                    j -= 1
+                t_stack[j] = t
+                node_stack[j] = child
+                k += 1
+            if k > 0:  # descend into the nearest
+                top += k - 1
+                ref = node_stack[top]
+                continue
         else:
-            left = node + 1
-            right = nodes[node, 0]
-            t_left = intersect_box(bounds, left, o, slab, best_t)
-            t_right = intersect_box(bounds, right, o, slab, best_t)
-            if t_left != INF and t_right != INF:
-                if t_right < t_left:
-                    left, right = right, left
-                    t_left, t_right = t_right, t_left
-                node_stack[top] = right
-                t_stack[top] = t_right
-                top += 1
-                node = left
-                continue
-            if t_left != INF:
-                node = left
-                continue
-            if t_right != INF:
-                node = right
-                continue
-        # pop the next subtree still nearer than the best hit so far
+            leaf = -1 - ref
+            node = leaf >> _LANE_SHIFT
+            lane = leaf & (BVH_WIDTH - 1)
+            first = index[node, 0, lane]
+            best_t, prim, b1, b2 = intersect_range(
+                G, X, first, first + index[node, 1, lane], o, d, shear, tmin, best_t, prim, b1, b2, False
+            )
+        # pop the next entry still nearer than the best hit so far
         found = False
         while top > 0:
             top -= 1
             if t_stack[top] < best_t:
-                node = node_stack[top]
+                ref = node_stack[top]
                 found = True
                 break
         if not found:
@@ -175,28 +321,26 @@ def any_hit(G, X, o, d, tmin, tmax, node_stack):
     if X is not None:
         if G.n_bounded < G.prims.shape[0] and _unbounded_hit(G, X, o, d, shear, tmin, tmax)[1] >= 0:
             return True
-    nodes = G.node_index
+    if not traceable(o, d):
+        return False
     bounds = G.node_bounds
-    if nodes[0, 1] == 0 and nodes[0, 0] == 0:
-        return False  # empty scene
-    slab = slab_ray(d) if nodes[0, 1] == 0 else _NO_SLAB
+    index = G.node_index
+    rf, rows = box_ray(o, d)
     node_stack[0] = 0
     top = 1
     while top > 0:
         top -= 1
         node = node_stack[top]
-        count = nodes[node, 1]
-        if count > 0:
-            first = nodes[node, 0]
-            if intersect_range(G, X, first, first + count, o, d, shear, tmin, tmax, NO_HIT, 0.0, 0.0, True)[1] >= 0:
-                return True
-        else:
-            # test children before pushing them, so the stack holds only boxes the ray enters
-            right = nodes[node, 0]
-            if intersect_box(bounds, right, o, slab, tmax) != INF:
-                node_stack[top] = right
+        mask = box_hits(bounds, node, rf, rows, tmax, None, 0)
+        while mask != 0:
+            i = lowest_bit(mask)
+            mask &= mask - 1
+            count = index[node, 1, i]
+            if count == 0:
+                node_stack[top] = index[node, 0, i]
                 top += 1
-            if intersect_box(bounds, node + 1, o, slab, tmax) != INF:
-                node_stack[top] = node + 1
-                top += 1
+            else:
+                first = index[node, 0, i]
+                if intersect_range(G, X, first, first + count, o, d, shear, tmin, tmax, NO_HIT, 0.0, 0.0, True)[1] >= 0:
+                    return True
     return False

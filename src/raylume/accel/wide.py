@@ -1,0 +1,172 @@
+"""Wide BVH: the binned-SAH binary tree (bvh.py) collapsed into nodes of up to W children.
+
+Each wide node stores its children's boxes structure-of-arrays, one float32 lane per child, so
+that traversal tests all of them with one vector instruction per plane (kernels/traverse.py):
+
+* ``node_bounds[m]``  float32 ``(6, W)``: rows lo_x, lo_y, lo_z, hi_x, hi_y, hi_z, one column
+                      per child. Unused lanes hold the empty box (lo = +inf, hi = -inf), which
+                      no ray can enter (its entry distance is +inf or NaN on every axis).
+* ``node_index[m]``   int32 ``(2, W)``: row 0 the child's wide node (inner child) or its first
+                      primitive (leaf child); row 1 the leaf's primitive count, 0 for an inner
+                      child (and for unused lanes).
+
+Children come after their parent (node 0 is the root), and siblings' nodes are consecutive.
+Leaves are the binary tree's leaves, unchanged: ranges of the primitive table. A root that is
+a leaf (small scenes) becomes a root node with one leaf lane.
+
+The collapse is the classic greedy one (Wald et al. 2008, "Getting rid of packets"; Embree's
+BVH8 builder): a wide node starts from a binary node's two children and repeatedly opens the
+inner child of largest surface area into its two children until it has W children or only
+leaves.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numba as nb
+import numpy as np
+
+from .bvh import BVH
+
+__all__ = ["WideBVH", "collapse", "wide_depth", "wide_nbytes"]
+
+_F32_MAX = float(np.finfo(np.float32).max)
+
+
+class WideBVH(NamedTuple):
+    node_bounds: np.ndarray  # (M, 6, W) float32
+    node_index: np.ndarray  # (M, 2, W) int32
+    prim_order: np.ndarray  # (N,) int32, as the binary tree's
+
+
+@nb.njit(cache=True)
+def _area(b, c):
+    ex = max(min(np.float64(b[c, 3]), _F32_MAX) - max(np.float64(b[c, 0]), -_F32_MAX), 0.0)
+    ey = max(min(np.float64(b[c, 4]), _F32_MAX) - max(np.float64(b[c, 1]), -_F32_MAX), 0.0)
+    ez = max(min(np.float64(b[c, 5]), _F32_MAX) - max(np.float64(b[c, 2]), -_F32_MAX), 0.0)
+    return ex * ey + ey * ez + ez * ex
+
+
+@nb.njit(cache=True)
+def _collapse(nbounds, nindex, naxis, width):
+    n_inner = 0
+    for m in range(naxis.shape[0]):
+        if naxis[m] >= 0:
+            n_inner += 1
+    cap = max(n_inner, 1)  # every wide node consumes at least one binary inner node
+    wb = np.empty((cap, 6, width), np.float32)
+    wi = np.zeros((cap, 2, width), np.int32)
+    for m in range(cap):
+        for lane in range(width):
+            for d in range(3):
+                wb[m, d, lane] = np.inf
+                wb[m, 3 + d, lane] = -np.inf
+    if naxis[0] < 0:  # the root is a leaf
+        for d in range(6):
+            wb[0, d, 0] = nbounds[0, d]
+        wi[0, 0, 0] = nindex[0, 0]
+        wi[0, 1, 0] = nindex[0, 1]
+        return wb, wi, 1
+
+    work_b = np.empty(cap, np.int64)
+    work_w = np.empty(cap, np.int64)
+    kids = np.empty(width, np.int64)
+    work_b[0] = 0
+    work_w[0] = 0
+    sp = 1
+    n_wide = 1
+    while sp > 0:
+        sp -= 1
+        b = work_b[sp]
+        w = work_w[sp]
+        kids[0] = b + 1
+        kids[1] = nindex[b, 0]
+        nk = 2
+        while nk < width:
+            best = -1
+            best_area = -1.0
+            for i in range(nk):
+                c = kids[i]
+                if naxis[c] >= 0:
+                    a = _area(nbounds, c)
+                    if a > best_area:
+                        best_area = a
+                        best = i
+            if best < 0:
+                break
+            c = kids[best]
+            kids[best] = c + 1
+            kids[nk] = nindex[c, 0]
+            nk += 1
+        for i in range(nk):
+            c = kids[i]
+            for d in range(6):
+                wb[w, d, i] = nbounds[c, d]
+            if naxis[c] < 0:
+                wi[w, 0, i] = nindex[c, 0]
+                wi[w, 1, i] = nindex[c, 1]
+            else:
+                wi[w, 0, i] = n_wide
+                wi[w, 1, i] = 0
+                n_wide += 1
+        # pushed in reverse: the first child's subtree is collapsed (and numbered) first
+        for i in range(nk - 1, -1, -1):
+            c = kids[i]
+            if naxis[c] >= 0:
+                work_b[sp] = c
+                work_w[sp] = wi[w, 0, i]
+                sp += 1
+    return wb, wi, n_wide
+
+
+def collapse(bvh: BVH, width: int = 8) -> WideBVH:
+    """The binary BVH as a BVH of ``width``-wide nodes (same leaves, same primitive order)."""
+    if not 2 <= width <= 32:
+        raise ValueError("width must be in 2..32")
+    wb, wi, m = _collapse(bvh.node_bounds, bvh.node_index, bvh.node_axis, int(width))
+    if m < wb.shape[0]:
+        wb, wi = wb[:m].copy(), wi[:m].copy()
+    return WideBVH(wb, wi, bvh.prim_order)
+
+
+@nb.njit(cache=True)
+def _wide_depths(node_index):
+    depth = np.ones(node_index.shape[0], np.int64)
+    for m in range(node_index.shape[0]):
+        for lane in range(node_index.shape[2]):
+            if node_index[m, 1, lane] == 0:
+                c = node_index[m, 0, lane]
+                if c > m:  # inner child (unused lanes point at node 0)
+                    depth[c] = depth[m] + 1
+    return depth
+
+
+def wide_depth(wide: WideBVH) -> int:
+    """Levels of wide nodes (a root with only leaves has depth 1)."""
+    return int(_wide_depths(wide.node_index).max())
+
+
+def wide_nbytes(wide: WideBVH) -> int:
+    """Bytes of the node arrays (what traversal reads beside the primitive table)."""
+    return int(wide.node_bounds.nbytes + wide.node_index.nbytes)
+
+
+def single_leaf(lo: np.ndarray, hi: np.ndarray, width: int = 8) -> WideBVH:
+    """A root node with one leaf lane holding every primitive (small scenes, and modes that
+    never trace rays); its box is rounded outward to float32. Pure numpy: small scenes need no
+    BVH code compiled."""
+    n = len(lo)
+    bounds = np.empty((1, 6, width), np.float32)
+    bounds[:, :3] = np.inf
+    bounds[:, 3:] = -np.inf
+    if n:
+        lo64, hi64 = np.asarray(lo, np.float64).min(axis=0), np.asarray(hi, np.float64).max(axis=0)
+        lo32, hi32 = lo64.astype(np.float32), hi64.astype(np.float32)
+        lo32 = np.where(lo32 > lo64, np.nextafter(lo32, np.float32(-np.inf)), lo32)
+        hi32 = np.where(hi32 < hi64, np.nextafter(hi32, np.float32(np.inf)), hi32)
+        bounds[0, :3, 0] = lo32
+        bounds[0, 3:, 0] = hi32
+    index = np.zeros((1, 2, width), np.int32)
+    index[0, 1, 0] = n
+    return WideBVH(bounds, index, np.arange(n, dtype=np.int32))
