@@ -95,13 +95,17 @@ def connect(cluster) -> object:
     if kind == "local":
         from distributed import LocalCluster
 
-        local = LocalCluster(
-            n_workers=int(value),
-            threads_per_worker=1,  # one tile at a time per process: the kernels use one core each
-            processes=True,
-            dashboard_address=None,
-            silence_logs=logging.ERROR,
-        )
+        try:
+            local = LocalCluster(
+                n_workers=int(value),
+                threads_per_worker=1,  # one tile at a time per process: the kernels use one core each
+                processes=True,
+                dashboard_address=None,
+                silence_logs=logging.ERROR,
+            )
+        except BaseException:  # Ctrl-C while the workers start: leave quietly, exit 130
+            _abandon_half_started_clusters()
+            raise
         _local_clusters.append(local)
         client = Client(local, set_as_default=False)
     else:
@@ -121,6 +125,22 @@ def connect(cluster) -> object:
             ) from None
     _clients[key] = client
     return client
+
+
+def _abandon_half_started_clusters() -> None:
+    """Close the local clusters whose start was interrupted. Distributed closes them again at
+    exit, and one interrupted mid-start fails an assertion there with a traceback on stderr;
+    marked closed, it is skipped."""
+    from distributed.core import Status
+    from distributed.deploy.spec import SpecCluster
+
+    for cluster in list(SpecCluster._instances):
+        if cluster not in _local_clusters and getattr(cluster, "status", Status.closed) != Status.closed:
+            try:
+                cluster.close(timeout=2)
+            except BaseException:
+                pass
+            cluster.status = Status.closed
 
 
 @atexit.register
