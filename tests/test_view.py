@@ -239,6 +239,18 @@ def test_a_second_tab_sees_the_same_view(server, browser):
     wait_for(lambda: server.stats()["watchers"] == 1, what="the closed tab to leave")
 
 
+def test_the_page_switches_the_mode(server, browser):
+    from selenium.webdriver.support.ui import Select
+
+    Select(browser.find_element("id", "mode")).select_by_value("cast")
+    wait_for(lambda: server.stats()["mode"] == "cast", what="cast mode")
+    wait_for(lambda: (page_state(browser).get("last") or {}).get("mode") == "cast", timeout=300, what="a cast frame")
+    wait_at_rest(server, browser)
+    np.testing.assert_array_equal(canvas_pixels(browser), server.frame_png())
+    Select(browser.find_element("id", "mode")).select_by_value("trace")
+    wait_for(lambda: server.stats()["mode"] == "trace", what="trace mode")
+
+
 def test_every_request_needs_the_token(server):
     for path in ("/", "/view.js", "/stats", "/frame.png", "/ws", "/nothing"):
         assert server.get(path, token=False)[0] == 403, path

@@ -67,8 +67,10 @@ def view(
     url = ViewURL(viewer.url)
     url.viewer = viewer
     if show or (show is None and _in_notebook()):
-        from IPython.display import IFrame, display
-
+        try:
+            from IPython.display import IFrame, display
+        except ImportError:  # not in IPython: there is nothing to show the page in
+            return url
         settings = scene.render
         display(IFrame(url, width=settings.width + 40, height=settings.height + 100))
     return url
