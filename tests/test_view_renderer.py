@@ -121,3 +121,26 @@ def test_python_api_serves_in_the_background_and_stops():
     with socket.socket() as s:
         s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
         s.bind(("127.0.0.1", port))
+
+
+@pytest.mark.parametrize(
+    "args, words",
+    [
+        (["--threads", "0"], ["--threads 0"]),
+        (["--port", "70000"], ["--port 70000"]),
+        (["--mode", "wireframe"], ["--mode"]),
+        (["--set", "camera.fov=500"], ["camera.fov"]),
+        (["nosuch.toml"], ["nosuch.toml"]),
+    ],
+)
+def test_bad_view_flags_are_refused_before_serving(args, words):
+    from typer.testing import CliRunner
+
+    from raylume.cli import app
+
+    port = [] if "--port" in args else ["--port", "0"]
+    result = CliRunner().invoke(app, ["view", *args, *port, "--no-browser"])
+    assert result.exit_code == 2, result.output
+    assert "raylume view:" not in result.output  # no URL: nothing was served
+    for word in words:
+        assert word in result.output

@@ -25,6 +25,10 @@ def run_view(
 
     if not 0 <= port <= 65535:
         raise RaylumeError(f"--port {port}: expected 0..65535 (0: a free port)")
+    import numba
+
+    if threads is not None and not 1 <= threads <= numba.config.NUMBA_NUM_THREADS:
+        raise RaylumeError(f"--threads {threads}: must be between 1 and {numba.config.NUMBA_NUM_THREADS}")
     if scene_model.render.mode not in MODES:
         raise RaylumeError(f"--mode {scene_model.render.mode}: expected one of {', '.join(MODES)}")
     viewer = Viewer(Session(scene_model, source=label), host=host, port=port, threads=threads)
