@@ -2,8 +2,9 @@
 
 While the camera moves (it changed less than MOVING_SECONDS ago) every frame is one sample per
 pixel at a resolution reduced until it renders within MOVE_BUDGET, sent as JPEG. Once it rests,
-the full-size film accumulates samples pass after pass, each pass sized to take about
-REST_PASS_SECONDS, and each is sent as a lossless PNG:
+the full-size film accumulates samples pass after pass, each pass a sweep over row bands
+(windowed films, the same pixels as one film) of about REST_PASS_SECONDS each, so that a camera
+change waits for one band at most; each pass is sent as a lossless PNG:
 
 * cast and trace mode fill one film of the scene's spp, then stop: the image is then
   bit-identical to `raylume render` of the same camera and size (at spp 1, after one pass);
@@ -41,7 +42,7 @@ CAMERA_KEYS = ("position", "look_at", "up", "fov")
 MOVING_SECONDS = 0.12  # the camera counts as moving until this long after its last change
 MOVE_BUDGET = 0.022  # seconds a frame (pass and encoding) may take while moving: sets the resolution divisor
 MAX_DIVISOR = 8
-REST_PASS_SECONDS = 0.05  # a refining pass at rest aims at this long (Ctrl-C and input wait for it)
+REST_PASS_SECONDS = 0.05  # a band's pass at rest aims at this long (Ctrl-C and input wait for it)
 MAX_BANDS = 64
 PATH_FILM_SPP = 16
 PATH_MAX_SPP = 4096
@@ -280,7 +281,7 @@ class Renderer:
                 if samples > 0:
                     self._learn_cost(job, moving, samples, time.perf_counter() - started)
             except Exception as exc:  # a failed pass must not kill the view: report it, wait for a change
-                self.error = f"{type(exc).__name__}: {exc}" if not str(exc) else str(exc)
+                self.error = str(exc) or type(exc).__name__
                 self.status = "error"
                 failed_epoch = epoch
                 job = None
