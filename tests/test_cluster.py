@@ -27,6 +27,10 @@ from raylume.session import RenderInterrupted
 
 distributed = pytest.importorskip("distributed")
 
+# One pytest-xdist worker runs this module (make test: --dist loadgroup): one local cluster of
+# two processes, not one per xdist worker, and the kernels loaded by one process.
+pytestmark = pytest.mark.xdist_group("cluster")
+
 # The seed scene, small: its kernel variant (spheres only) is the one the rest of the suite
 # compiles first, so these tests seldom pay a compilation of their own.
 SCENE = {
