@@ -55,7 +55,7 @@ def main() -> None:
     per_spp = seconds / 8
 
     started = time.perf_counter()
-    cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+    cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0",
                            silence_logs=40)  # fmt: skip
     client = Client(cluster, set_as_default=False)
     cluster_start = time.perf_counter() - started

@@ -100,7 +100,7 @@ def connect(cluster) -> object:
                 n_workers=int(value),
                 threads_per_worker=1,  # one tile at a time per process: the kernels use one core each
                 processes=True,
-                dashboard_address=None,
+                dashboard_address=":0",  # a free port: 8787 may be taken by another cluster
                 silence_logs=logging.ERROR,
             )
         except BaseException:  # Ctrl-C while the workers start: leave quietly, exit 130
