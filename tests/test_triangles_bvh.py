@@ -448,3 +448,41 @@ def test_awkward_rays_against_brute_force(tmp_path):
     assert (i_bvh == i_ref)[finite & (t_ref < INF)].mean() > 0.5  # ties at shared vertices/edges
     tmax = np.where(np.isfinite(t_ref), t_ref * 1.0001, 1e30)
     np.testing.assert_array_equal(_any_all(compiled.kernel, origins, dirs, tmax)[finite], np.isfinite(t_ref)[finite])
+
+
+def test_four_triangles_at_once_equal_the_scalar_test_to_the_bit():
+    """intersect_triangles (BVH leaves of 2-4 triangles, one vector test) gives the scalar
+    test's nearest hit row by row: the same t, lane and barycentrics to the last bit, the
+    first row on ties; degenerate rows and rays through shared edges and vertices included."""
+    from raylume.kernels.shape_triangle import intersect_triangles
+
+    rng = np.random.default_rng(4)
+    tris = rng.uniform(-1, 1, size=(400, 9)).astype(np.float32)
+    tris[5] = tris[4]  # a duplicate: ties go to the first row
+    tris[9, 3:6] = tris[9, 0:3]  # degenerate: two equal vertices
+    tris[13, 6:9] = (tris[13, 0:3] + tris[13, 3:6]) / 2  # degenerate: collinear
+    tris[16:20] = [[0, 0, 0, 1, 0, 0, 0, 1, 0], [1, 0, 0, 1, 1, 0, 0, 1, 0], [1, 1, 0, 2, 1, 0, 1, 2, 0], [0] * 9]
+    checked = 0
+    for k in range(1500):
+        first = int(rng.integers(0, 397)) if k % 3 else 16
+        count = int(rng.integers(1, 5))
+        if k % 5 == 0:  # through a vertex or an edge midpoint of the block
+            v = tris[first].astype(np.float64).reshape(3, 3)
+            target = v[k % 3] if k % 2 else (v[0] + v[1]) / 2
+        else:
+            target = rng.uniform(-1, 1, 3)
+        o = rng.uniform(-3, 3, 3)
+        d = target - o
+        d /= np.linalg.norm(d)
+        o, d = tuple(o), tuple(d)
+        shear = ray_shear(d)
+        tmax = INF if k % 7 else 2.0
+        want = (INF, 0, 0.0, 0.0)
+        for j in range(count):
+            t, b1, b2 = intersect_triangle(o, shear, tris, first + j, 0.0, min(tmax, want[0]))
+            if t < want[0]:
+                want = (t, j, b1, b2)
+        got = intersect_triangles(o, shear, tris, first, count, 0.0, tmax)
+        assert got == want, (k, first, count)
+        checked += want[0] < INF
+    assert checked > 200

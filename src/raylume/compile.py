@@ -14,7 +14,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .accel.bvh import build_bvh
-from .accel.wide import collapse, single_leaf, wide_depth, wide_nbytes
+from .accel.wide import collapse, mark_triangle_leaves, single_leaf, wide_depth, wide_nbytes
 from .emitters_table import build_emitters, scene_environment
 from .errors import SceneError
 from .kernels import materials as M
@@ -447,6 +447,8 @@ def compile_scene(scene: Scene, source="<scene>", accelerate: bool = True) -> Co
     prims[tri_slots, PRIM_MATERIAL] = tri_mat
     prims[tri_slots, PRIM_OBJECT] = tri_obj
     prims[tri_slots, PRIM_FACE] = tri_face
+    if accelerate and n_tris:
+        mark_triangle_leaves(bvh, is_tri)  # leaves of triangles alone are tested 4 at a time
 
     textures = TextureTable(scene.base_dir, source)
     mat_rows = np.stack([material_row(m, textures, material_where.get(m, "material")) for m in materials])

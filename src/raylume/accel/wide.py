@@ -8,7 +8,8 @@ that traversal tests all of them with one vector instruction per plane (kernels/
                       no ray can enter (its entry distance is +inf or NaN on every axis).
 * ``node_index[m]``   int32 ``(2, W)``: row 0 the child's wide node (inner child) or its first
                       primitive (leaf child); row 1 the leaf's primitive count, 0 for an inner
-                      child (and for unused lanes).
+                      child (and for unused lanes), negated for a leaf of 2 to 4 triangles that
+                      traversal tests together (mark_triangle_leaves).
 
 Children come after their parent (node 0 is the root), and siblings' nodes are consecutive.
 Leaves are the binary tree's leaves, unchanged: ranges of the primitive table. A root that is
@@ -29,7 +30,7 @@ import numpy as np
 
 from .bvh import BVH
 
-__all__ = ["WideBVH", "collapse", "wide_depth", "wide_nbytes"]
+__all__ = ["WideBVH", "collapse", "mark_triangle_leaves", "single_leaf", "wide_depth", "wide_nbytes"]
 
 _F32_MAX = float(np.finfo(np.float32).max)
 
@@ -170,3 +171,17 @@ def single_leaf(lo: np.ndarray, hi: np.ndarray, width: int = 8) -> WideBVH:
     index = np.zeros((1, 2, width), np.int32)
     index[0, 1, 0] = n
     return WideBVH(bounds, index, np.arange(n, dtype=np.int32))
+
+
+def mark_triangle_leaves(wide: WideBVH, is_triangle: np.ndarray, most: int = 4) -> None:
+    """Leaves of 2 .. `most` primitives that are all triangles get their count negated in place:
+    traversal tests them together (shape_triangle.intersect_triangles), reading consecutive
+    rows of the triangle table. `is_triangle`: bool per primitive-table row, in leaf order."""
+    count = wide.node_index[:, 1, :]
+    first = wide.node_index[:, 0, :]
+    prefix = np.concatenate([[0], np.cumsum(is_triangle, dtype=np.int64)])
+    leaf = (count >= 2) & (count <= most)
+    end = np.where(leaf, first.astype(np.int64) + count, 0)
+    start = np.where(leaf, first, 0)
+    block = leaf & (prefix[end] - prefix[start] == count)
+    count[block] = -count[block]

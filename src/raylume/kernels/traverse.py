@@ -25,8 +25,8 @@ from numba.core import cgutils
 from numba.core.errors import TypingError
 from numba.extending import intrinsic
 
-from .shape_triangle import NO_SHEAR, ray_shear
-from .shapes import NO_HIT, intersect
+from .shape_triangle import NO_SHEAR, intersect_triangles, ray_shear
+from .shapes import NO_HIT, PRIM_ROW, intersect
 from .vec import KERNEL
 
 INF = math.inf
@@ -298,9 +298,16 @@ def closest_hit(G, X, o, d, tmin, tmax, node_stack, t_stack):
             node = leaf >> _LANE_SHIFT
             lane = leaf & (BVH_WIDTH - 1)
             first = index[node, 0, lane]
-            best_t, prim, b1, b2 = intersect_range(
-                G, X, first, first + index[node, 1, lane], o, d, shear, tmin, best_t, prim, b1, b2, False
-            )
+            count = index[node, 1, lane]
+            if count < 0:  # -count triangles in consecutive rows, tested together
+                row = np.int64(G.prims[first, PRIM_ROW])
+                t, j, u, v = intersect_triangles(o, shear, G.triangles, row, -count, tmin, best_t)
+                if t < best_t:
+                    best_t, prim, b1, b2 = t, first + j, u, v
+            else:
+                best_t, prim, b1, b2 = intersect_range(
+                    G, X, first, first + count, o, d, shear, tmin, best_t, prim, b1, b2, False
+                )
         # pop the next entry still nearer than the best hit so far
         found = False
         while top > 0:
@@ -339,6 +346,10 @@ def any_hit(G, X, o, d, tmin, tmax, node_stack):
             if count == 0:
                 node_stack[top] = index[node, 0, i]
                 top += 1
+            elif count < 0:
+                row = np.int64(G.prims[index[node, 0, i], PRIM_ROW])
+                if intersect_triangles(o, shear, G.triangles, row, -count, tmin, tmax)[0] < tmax:
+                    return True
             else:
                 first = index[node, 0, i]
                 if intersect_range(G, X, first, first + count, o, d, shear, tmin, tmax, NO_HIT, 0.0, 0.0, True)[1] >= 0:
