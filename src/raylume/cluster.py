@@ -465,6 +465,10 @@ class FrameRenderer:
         """Wait a moment, then collect the finished tasks (a failed one raises its error)."""
         time.sleep(POLL_SECONDS)
         # "lost" (its worker died) is not an end: Dask computes it again elsewhere
+        for future in [f for f in self.warm_futures if f.status == "finished"]:
+            info = future.result()  # the other workers' warm-ups, for the statistics
+            self.warm[info["worker"]] = info
+            self.warm_futures.remove(future)
         for future in [f for f in self.pending if f.status in ("finished", "error", "cancelled")]:
             self.pending.discard(future)
             if future.status in ("error", "cancelled"):
