@@ -252,6 +252,16 @@ def _unbounded_hit(G, X, o, d, shear, tmin, tmax):
 
 # --- traversal --------------------------------------------------------------------------------
 
+# box_ray's constants for a ray that never meets a box test (typed alike)
+_NO_RAY = ((np.float32(0.0),) * 9, (np.int64(0), np.int64(1), np.int64(2)))
+
+
+@njit(**KERNEL, inline="always")
+def _root_is_a_leaf(index):
+    """A root node with one leaf lane (small scenes; one node has no inner children, so an
+    unused lane 1 means lane 0 alone)."""
+    return index.shape[0] == 1 and index[0, 1, 1] == 0
+
 
 @njit(**KERNEL, inline="always")
 def closest_hit(G, X, o, d, tmin, tmax, node_stack, t_stack):
@@ -262,12 +272,16 @@ def closest_hit(G, X, o, d, tmin, tmax, node_stack, t_stack):
     if X is not None:
         if G.n_bounded < G.prims.shape[0]:
             best_t, prim, b1, b2 = _unbounded_hit(G, X, o, d, shear, tmin, tmax)
-    if not traceable(o, d):
-        return best_t, prim, b1, b2
-    bounds = G.node_bounds
     index = G.node_index
-    rf, rows = box_ray(o, d)
+    bounds = G.node_bounds
+    rf, rows = _NO_RAY
     ref = 0  # the root node
+    if _root_is_a_leaf(index):
+        ref = -1  # its one leaf, with no box test (the seed scene: 60% faster than through the node)
+    else:
+        if not traceable(o, d):
+            return best_t, prim, b1, b2
+        rf, rows = box_ray(o, d)
     top = 0
     while True:
         if ref >= 0:
@@ -328,30 +342,37 @@ def any_hit(G, X, o, d, tmin, tmax, node_stack):
     if X is not None:
         if G.n_bounded < G.prims.shape[0] and _unbounded_hit(G, X, o, d, shear, tmin, tmax)[1] >= 0:
             return True
-    if not traceable(o, d):
-        return False
-    bounds = G.node_bounds
     index = G.node_index
-    rf, rows = box_ray(o, d)
-    node_stack[0] = 0
+    bounds = G.node_bounds
+    rf, rows = _NO_RAY
+    if _root_is_a_leaf(index):
+        node_stack[0] = -1  # its one leaf, with no box test
+    else:
+        if not traceable(o, d):
+            return False
+        rf, rows = box_ray(o, d)
+        node_stack[0] = 0
     top = 1
     while top > 0:
         top -= 1
-        node = node_stack[top]
-        mask = box_hits(bounds, node, rf, rows, tmax, None, 0)
+        ref = node_stack[top]
+        if ref < 0:  # a leaf, tested in the order the stack gives
+            leaf = -1 - ref
+            node = leaf >> _LANE_SHIFT
+            lane = leaf & (BVH_WIDTH - 1)
+            first = index[node, 0, lane]
+            count = index[node, 1, lane]
+            if count < 0:
+                row = np.int64(G.prims[first, PRIM_ROW])
+                if intersect_triangles(o, shear, G.triangles, row, -count, tmin, tmax)[0] < tmax:
+                    return True
+            elif intersect_range(G, X, first, first + count, o, d, shear, tmin, tmax, NO_HIT, 0.0, 0.0, True)[1] >= 0:
+                return True
+            continue
+        mask = box_hits(bounds, ref, rf, rows, tmax, None, 0)
         while mask != 0:
             i = lowest_bit(mask)
             mask &= mask - 1
-            count = index[node, 1, i]
-            if count == 0:
-                node_stack[top] = index[node, 0, i]
-                top += 1
-            elif count < 0:
-                row = np.int64(G.prims[index[node, 0, i], PRIM_ROW])
-                if intersect_triangles(o, shear, G.triangles, row, -count, tmin, tmax)[0] < tmax:
-                    return True
-            else:
-                first = index[node, 0, i]
-                if intersect_range(G, X, first, first + count, o, d, shear, tmin, tmax, NO_HIT, 0.0, 0.0, True)[1] >= 0:
-                    return True
+            node_stack[top] = index[ref, 0, i] if index[ref, 1, i] == 0 else -1 - ((ref << _LANE_SHIFT) + i)
+            top += 1
     return False
