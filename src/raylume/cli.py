@@ -8,6 +8,7 @@ import os
 import threading
 import time
 import warnings
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Annotated
 
@@ -68,6 +69,22 @@ def _error_text(exc: Exception) -> str:
     if isinstance(exc, OSError) and exc.strerror:
         return f"{exc.filename}: {exc.strerror}" if exc.filename else exc.strerror
     return str(exc) or "unexpected error"
+
+
+@contextmanager
+def _errors_exit_2(debug: bool):
+    """Bad input (a RaylumeError, or an unexpected ValueError or OSError) becomes one paragraph
+    on stderr and exit status 2; --debug shows the traceback instead."""
+    try:
+        yield
+    except RaylumeError as exc:
+        if debug:
+            raise
+        _fail(str(exc))
+    except (ValueError, OSError) as exc:
+        if debug:
+            raise
+        _fail(_error_text(exc))
 
 
 @app.callback(invoke_without_command=True)
@@ -245,7 +262,7 @@ def render(
     from .render import RenderInterrupted
 
     try:
-        with _echo_warnings():
+        with _errors_exit_2(debug), _echo_warnings():
             _render(
                 scene,
                 output,
@@ -275,14 +292,6 @@ def render(
     except KeyboardInterrupt:
         typer.echo("raylume: interrupted; nothing written", err=True)
         raise typer.Exit(130) from None
-    except RaylumeError as exc:
-        if debug:
-            raise
-        _fail(str(exc))
-    except (ValueError, OSError) as exc:
-        if debug:
-            raise
-        _fail(_error_text(exc))
 
 
 def _interrupted(exc, output: Path | None, bit_depth: int) -> None:
@@ -680,20 +689,13 @@ def view(
     from .viewer.command import run_view
 
     try:
-        with _echo_warnings():
-            scene_model, label = _resolve_scene(scene, overrides or [], width, height)
-            scene_model = _apply_flags(scene_model, width=width, height=height, spp=spp, mode=mode)
-        code = run_view(scene_model, label, host=host, port=port, open_browser=not no_browser, threads=threads)
+        with _errors_exit_2(debug):
+            with _echo_warnings():
+                scene_model, label = _resolve_scene(scene, overrides or [], width, height)
+                scene_model = _apply_flags(scene_model, width=width, height=height, spp=spp, mode=mode)
+            code = run_view(scene_model, label, host=host, port=port, open_browser=not no_browser, threads=threads)
     except KeyboardInterrupt:
         raise typer.Exit(130) from None
-    except RaylumeError as exc:
-        if debug:
-            raise
-        _fail(str(exc))
-    except (ValueError, OSError) as exc:
-        if debug:
-            raise
-        _fail(_error_text(exc))
     raise typer.Exit(code)
 
 
