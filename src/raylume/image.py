@@ -140,19 +140,21 @@ def _mode_for(path: Path) -> int:
         return 0o666 & ~umask
 
 
-def _png_bytes(rgb8: np.ndarray) -> bytes:
+def png_bytes(rgb8: np.ndarray, compress_level: int = -1) -> bytes:
+    """8-bit RGB as a PNG file's bytes; compress_level is zlib's (-1: its default, level 6)."""
     from PIL import Image as PILImage
 
     buf = io.BytesIO()
-    PILImage.fromarray(rgb8, mode="RGB").save(buf, format="PNG")
+    PILImage.fromarray(rgb8, mode="RGB").save(buf, format="PNG", compress_level=compress_level)
     return buf.getvalue()
 
 
-def _jpeg_bytes(rgb8: np.ndarray) -> bytes:
+def jpeg_bytes(rgb8: np.ndarray, quality: int = JPEG_QUALITY) -> bytes:
+    """8-bit RGB as a JPEG file's bytes."""
     from PIL import Image as PILImage
 
     buf = io.BytesIO()
-    PILImage.fromarray(rgb8, mode="RGB").save(buf, format="JPEG", quality=JPEG_QUALITY)
+    PILImage.fromarray(rgb8, mode="RGB").save(buf, format="JPEG", quality=quality)
     return buf.getvalue()
 
 
@@ -298,9 +300,9 @@ def save_array(
     if suffix == ".png" and bit_depth == 16:
         data = _png16_bytes(encode_16bit(rgb, encoding, exposure))
     elif suffix == ".png":
-        data = _png_bytes(encode_8bit(rgb, encoding, exposure))
+        data = png_bytes(encode_8bit(rgb, encoding, exposure))
     elif suffix in (".jpg", ".jpeg"):
-        data = _jpeg_bytes(encode_8bit(rgb, encoding, exposure))
+        data = jpeg_bytes(encode_8bit(rgb, encoding, exposure))
     elif suffix == ".hdr":
         data = _hdr_bytes(rgb)
     elif suffix == ".npy":
@@ -374,7 +376,7 @@ class Image:
         )
 
     def _repr_png_(self) -> bytes:
-        return _png_bytes(self.to_uint8())
+        return png_bytes(self.to_uint8())
 
     def __array__(self, dtype=None, copy=None):
         return self.rgb if dtype is None else self.rgb.astype(dtype)

@@ -3,7 +3,6 @@ and the WebSocket message that carries it."""
 
 from __future__ import annotations
 
-import io
 import json
 import struct
 import time
@@ -11,27 +10,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..image import jpeg_bytes, png_bytes
+
 # JPEG for frames while the camera moves: a 640 x 480 frame encodes in ~3 ms and is ~10x smaller
 # than PNG. Resting frames are PNG, lossless.
 MOVING_JPEG_QUALITY = 85
 # zlib level 1: a 640 x 480 PNG in ~10 ms instead of ~30 ms at the default level, ~20 % larger.
 PNG_LEVEL = 1
-
-
-def png_bytes(rgb8: np.ndarray) -> bytes:
-    from PIL import Image as PILImage
-
-    buf = io.BytesIO()
-    PILImage.fromarray(rgb8, mode="RGB").save(buf, format="PNG", compress_level=PNG_LEVEL)
-    return buf.getvalue()
-
-
-def jpeg_bytes(rgb8: np.ndarray) -> bytes:
-    from PIL import Image as PILImage
-
-    buf = io.BytesIO()
-    PILImage.fromarray(rgb8, mode="RGB").save(buf, format="JPEG", quality=MOVING_JPEG_QUALITY)
-    return buf.getvalue()
 
 
 @dataclass
@@ -54,7 +39,9 @@ class Frame:
 
     def __post_init__(self) -> None:
         if not self.data:
-            self.data = png_bytes(self.rgb8) if self.format == "png" else jpeg_bytes(self.rgb8)
+            self.data = (
+                png_bytes(self.rgb8, PNG_LEVEL) if self.format == "png" else jpeg_bytes(self.rgb8, MOVING_JPEG_QUALITY)
+            )
         if self.format == "png":
             self._png = self.data
 
@@ -69,7 +56,7 @@ class Frame:
     def png(self) -> bytes:
         """The frame losslessly (encoded on first use for a JPEG frame)."""
         if self._png is None:
-            self._png = png_bytes(self.rgb8)
+            self._png = png_bytes(self.rgb8, PNG_LEVEL)
         return self._png
 
     def header(self) -> dict:
