@@ -36,11 +36,13 @@ from .kernels.shapes import (
 )
 from .kernels.shapes import bounds as shape_bounds
 from .kernels.traverse import BVH_WIDTH, TRAVERSAL_STACK, stack_needed
+from .scene.gltf import flatten, load_gltf_object
 from .scene.mesh import MeshError
 from .scene.model import (
     DEFAULT_MATERIAL,
     Cylinder,
     Disk,
+    Gltf,
     ImageTexture,
     Material,
     Mesh,
@@ -119,9 +121,10 @@ class TextureTable:
 
     MAX_TEXELS = 1 << 26  # 64 Mi texels (768 MiB): a guard against decompression bombs
 
-    def __init__(self, base_dir: Path, source: str):
+    def __init__(self, base_dir: Path, source: str, images: dict[str, np.ndarray] | None = None):
         self.base_dir = Path(base_dir)
         self.source = source
+        self.images = images or {}  # decoded images by ImageTexture.file (a glTF file's textures)
         self.rows: list[np.ndarray] = []
         self.parts: list[np.ndarray] = []
         self.size = 0
@@ -155,7 +158,7 @@ class TextureTable:
             path = self.base_dir / path
         key = path.resolve()
         if key not in self.loaded:
-            texels = self._load(path, where)
+            texels = self.images[file] if file in self.images else self._load(path, where)
             h, w = texels.shape[:2]
             levels = mip_levels(texels)
             self.loaded[key] = (self.size, w, h, len(levels), texels.reshape(-1, 3).mean(axis=0, dtype=np.float64))
@@ -313,6 +316,26 @@ def _load_mesh_object(scene: Scene, k: int, obj: Mesh, source):
         raise SceneError(f"{source}: objects[{k}].file: {exc}") from None
 
 
+def _load_gltf_object(scene: Scene, k: int, obj: Gltf, source):
+    try:
+        return load_gltf_object(obj, scene.base_dir)
+    except MeshError as exc:
+        raise SceneError(f"{source}: objects[{k}].file: {exc}") from None
+
+
+def _add_mesh(soup: _TriangleSoup, mesh, m: int, k: int, needs_uvs: bool) -> None:
+    """A world-space glTF mesh's triangles (UVs where its material's texture needs them; a
+    mesh without UVs then reads texel (0, 0))."""
+    verts = mesh.vertices.astype(np.float32)[mesh.faces].reshape(-1, 9)
+    normals = None if mesh.normals is None else mesh.normals.astype(np.float32)[mesh.faces].reshape(-1, 9)
+    uvs = None
+    if needs_uvs:
+        uv = mesh.uvs if mesh.uvs is not None else np.zeros((len(mesh.vertices), 2), np.float32)
+        uvs = uv.astype(np.float32)[mesh.faces].reshape(-1, 6)
+    soup.add(verts, normals, m, k, uvs)
+    soup.degenerate += mesh.degenerate
+
+
 class _Analytic:
     """Analytic shapes gathered in object order: their rows and their primitive-table columns."""
 
@@ -364,11 +387,24 @@ def compile_scene(scene: Scene, source="<scene>", accelerate: bool = True) -> Co
 
     analytic = _Analytic()
     soup = _TriangleSoup()
+    images: dict[str, np.ndarray] = {}  # textures decoded from glTF files
     mesh_seconds = 0.0  # reading mesh files: part of the build, reported apart
     for k, obj in enumerate(scene.objects):
         m = material_index(obj, k)
         kind = ANALYTIC_MODELS.get(type(obj))
-        if kind is not None:
+        if isinstance(obj, Gltf):  # a glTF file's meshes with their own materials (scene/gltf.py)
+            loading = time.perf_counter()
+            imported = _load_gltf_object(scene, k, obj, source)
+            mesh_seconds += time.perf_counter() - loading
+            images.update(imported.images)
+            for part in imported.parts:
+                mat = imported.materials[part.material]
+                material_where.setdefault(mat, f"objects[{k}].file")
+                m = materials.setdefault(mat, len(materials))
+                # THE glTF call site: flattened copies until meshes compile as instances
+                for mesh in flatten(part):
+                    _add_mesh(soup, mesh, m, k, mat.texture is not None)
+        elif kind is not None:
             analytic.add(kind, ANALYTIC[kind].pack(obj), m, k)
         elif isinstance(obj, Triangle):
             uvs = np.array([[0, 0, 1, 0, 0, 1]], dtype=np.float32) if needs_uvs(obj) else None
@@ -450,7 +486,7 @@ def compile_scene(scene: Scene, source="<scene>", accelerate: bool = True) -> Co
     if accelerate and n_tris:
         mark_triangle_leaves(bvh, is_tri)  # leaves of triangles alone are tested 4 at a time
 
-    textures = TextureTable(scene.base_dir, source)
+    textures = TextureTable(scene.base_dir, source, images)
     mat_rows = np.stack([material_row(m, textures, material_where.get(m, "material")) for m in materials])
     extent = [np.abs(lo).max() if len(lo) else 0.0, np.abs(hi).max() if len(hi) else 0.0]
     for r in unbounded:  # an unbounded shape's size is that of its defining point

@@ -570,6 +570,20 @@ class Cylinder(Strict):
         return _similarity(v, "cylinder")
 
 
+class Gltf(Strict):
+    """A glTF 2.0 file's meshes and materials (scene/gltf.py), placed by `transform` after the
+    file's own node transforms and the right- to left-handed conversion. Its cameras and lights
+    are not imported into a scene that places it (`raylume render file.glb` uses them)."""
+
+    type: Literal["gltf"]
+    file: str
+    transform: Transform = Transform()
+
+    @property
+    def material(self) -> str:
+        return "default"  # materials come from the file
+
+
 OBJECT_TYPES = {
     "sphere": Sphere,
     "plane": Plane,
@@ -578,6 +592,7 @@ OBJECT_TYPES = {
     "disk": Disk,
     "quad": Quad,
     "cylinder": Cylinder,
+    "gltf": Gltf,
 }
 SceneObject = tagged_union(OBJECT_TYPES)
 
