@@ -132,14 +132,21 @@ def _parse_aovs(specs: list[str], output: Path) -> tuple[dict[str, Path], list[s
     return files, layers
 
 
-def _resolve_scene(scene: str | None, overrides: list[str] | None = None, width=None, height=None):
-    """(the scene, its label) for SCENE: a scene file, a mesh file (framed for the image size
-    the flags give, scene/autoframe.py) or a built-in name."""
+def _resolve_scene(scene: str | None, overrides: list[str] | None = None, width=None, height=None, camera=None):
+    """(the scene, its label) for SCENE: a scene file, a glTF file (its camera, or the one
+    --camera names: scene/gltf_scene.py), a mesh file (framed for the image size the flags give,
+    scene/autoframe.py) or a built-in name."""
     from .scene.autoframe import MESH_SUFFIXES, is_mesh_file, mesh_scene
     from .scene.builtin import DEFAULT_SCENE, builtin_names, builtin_scene
+    from .scene.gltf import is_gltf_file
+    from .scene.gltf_scene import gltf_scene
     from .scene.load import SCENE_SUFFIXES, load_scene
 
     name = scene or DEFAULT_SCENE
+    if is_gltf_file(name):
+        return gltf_scene(name, overrides, camera=camera, width=width, height=height), name
+    if camera is not None:
+        raise SceneError(f"--camera {camera}: chooses a camera of a glTF file (.gltf, .glb), and {name} is not one")
     if is_mesh_file(name):
         return mesh_scene(name, overrides, width=width, height=height), name
     if Path(name).suffix.lower() in SCENE_SUFFIXES or os.sep in name or Path(name).exists():
@@ -168,8 +175,8 @@ def render(
         str | None,
         typer.Argument(
             metavar="SCENE",
-            help="Scene file (.toml/.json), mesh file (.obj .ply .stl .off .gltf .glb: framed and lit "
-            "automatically) or built-in name; default: seed",
+            help="Scene file (.toml/.json), glTF scene (.gltf .glb: its camera and lights), mesh file (.obj .ply "
+            ".stl .off: framed and lit automatically) or built-in name; default: seed",
         ),
     ] = None,
     output: Annotated[
@@ -256,6 +263,9 @@ def render(
     frame: Annotated[
         int | None, typer.Option("--frame", metavar="K", help="Animation: render frame K (from 0) as a still")
     ] = None,
+    camera: Annotated[
+        str | None, typer.Option("--camera", metavar="NAME", help="glTF scene: render through the camera NAME")
+    ] = None,
     debug: Annotated[bool, typer.Option("--debug", metavar=FLAG, help="Show tracebacks of errors")] = False,
 ) -> None:
     """Render SCENE to an image (default: the built-in `seed` scene to render.png)."""
@@ -286,6 +296,7 @@ def render(
                 frames=frames,
                 frame=frame,
                 partial=partial,
+                camera=camera,
             )
     except RenderInterrupted as exc:
         _interrupted(exc, output if partial else None, bit_depth)
@@ -332,6 +343,7 @@ def _render(
     frames=None,
     frame=None,
     partial=False,
+    camera=None,
 ):
     import numba
 
@@ -366,7 +378,7 @@ def _render(
 
         parse_address(cluster)  # a malformed address fails before anything is read
     started = time.perf_counter()
-    scene_model, label = _resolve_scene(scene, overrides, width, height)
+    scene_model, label = _resolve_scene(scene, overrides, width, height, camera)
     _check_distinct(output, scene or "", [*aov_paths.values(), *([stats_path] if stats_path else [])])
     if threads is not None and not 1 <= threads <= numba.config.NUMBA_NUM_THREADS:
         raise OutputError(f"--threads {threads}: must be between 1 and {numba.config.NUMBA_NUM_THREADS}")

@@ -25,12 +25,17 @@ SUGGESTION_CUTOFF = 0.8
 
 def load_scene(path: str | Path, overrides: Overrides | None = None, source: str | None = None) -> Scene:
     """Load and validate a scene file; relative paths inside it are resolved against its folder.
-    A mesh file (.obj, .ply, .stl, .off, .gltf, .glb) is a scene by itself: the mesh framed by
-    the camera, lit by a default rig (scene/autoframe.py). `overrides` ("KEY=VALUE" texts as
+    A glTF file (.gltf, .glb) is a scene by itself, with its camera and lights
+    (scene/gltf_scene.py); so is a mesh file (.obj, .ply, .stl, .off): the mesh framed by the
+    camera, lit by a default rig (scene/autoframe.py). `overrides` ("KEY=VALUE" texts as
     --set takes them, or a {dotted key: value} mapping) edit the parsed document before
     validation (see scene/overrides.py). `source` names the scene in validation errors
     (default: the path)."""
     path = Path(path)
+    if path.suffix.lower() in (".gltf", ".glb"):
+        from .gltf_scene import gltf_scene
+
+        return gltf_scene(path, overrides, source=source)
     if path.suffix.lower() in SUPPORTED_EXTENSIONS:
         from .autoframe import mesh_scene
 
