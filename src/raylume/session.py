@@ -193,12 +193,16 @@ class Session:
         if settings.mode != "raster":
             extra["rejected_samples"] = part.rejected
         if denoising:
-            from .denoise import denoise as oidn
+            from .seen_light import denoise_path_image
 
-            started = time.perf_counter()
             noisy = rgb
-            rgb = oidn(noisy, aov_arrays["albedo"], aov_arrays["normal"])
-            extra["denoise_seconds"] = time.perf_counter() - started
+            rgb, split = denoise_path_image(
+                self.compiled, cam_model, settings, window, lanes, noisy, aov_arrays["albedo"], aov_arrays["normal"]
+            )
+            rays += split.rays
+            extra["denoise_seconds"] = split.seconds
+            extra["denoise_edge_pixels"] = split.edge_pixels
+            extra["denoise_edge_spp"] = split.edge_spp
             if not aovs:
                 aov_arrays = {}
             aov_arrays["noisy"] = noisy
