@@ -18,7 +18,9 @@ r^2; trace mode uses each type's approximation, compile.trace_approximation):
 * KHR_materials_transmission >= 0.5: `dielectric` (ior from KHR_materials_ior, default 1.5;
   the base colour as its transmittance tint);
 * else metallic >= 0.5: `conductor` (the base colour as its specular reflectance, no eta/k);
-* else `plastic` (the base colour under a coating of the material's ior, default 1.5).
+* else `plastic` (the base colour under a coating of the material's ior, default 1.5), or
+  `diffuse` at roughness 1 (the coating's reflection, a few percent, spread over the
+  hemisphere: taken as Lambertian).
 Approximated: metallic between 0 and 1 is rounded to the nearer type (raylume has no blend);
 baseColorTexture is multiplied by baseColorFactor and replaces the colour (sampled with
 TEXCOORD_0, repeating); metallicRoughnessTexture and emissiveTexture scale their factors by the
@@ -508,6 +510,9 @@ class _Importer:
             table.update(type="dielectric", ior=ior)
         elif metallic >= 0.5:
             table.update(type="conductor")
+        elif roughness >= 1:  # fully rough: its coating's few percent spread over the hemisphere
+            table.update(type="diffuse")
+            del table["roughness"]
         else:
             table.update(type="plastic", ior=ior)
         return Material.model_validate(table)
