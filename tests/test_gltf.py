@@ -356,10 +356,12 @@ def test_shared_meshes_and_gpu_instancing_place_every_copy(tmp_path):
     scene = raylume.scene_from_dict(
         {"objects": [{"type": "gltf", "file": str(tmp_path / "inst.glb"), "transform": {"translate": [0, 5, 0]}}]}
     )
-    compiled = compile_scene(scene)
-    assert compiled.stats["triangles"] == 5
-    tris = compiled.kernel.triangles.reshape(-1, 3, 3)
-    assert tris[:, :, 1].min() == 5 and tris[:, :, 1].max() == 7  # the scaled copy reaches y = 2 + 5
+    # rays along +z (from raylume z = -10) and -z: each meets the copy the matrices put there
+    origins = [[0.2, 5.2, -10], [1.5, 5.2, -10], [10.2, 5.2, -10], [5, 5.2, -10], [0.2, 5.2, 10]]
+    directions = [[0, 0, 1]] * 4 + [[0, 0, -1]]
+    t, obj, _ = raylume.intersect(scene, np.array(origins, float), np.array(directions, float))
+    np.testing.assert_allclose(t, [7, 10, 10, np.inf, 10], rtol=1e-6)  # GPU copy at -3; scaled; moved; none
+    assert list(obj) == [0, 0, 0, -1, 0]
 
 
 # ------------------------------------------------------------------ bad files
