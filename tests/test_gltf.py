@@ -187,6 +187,7 @@ def test_camera_by_name_aspect_and_framing_without_a_camera(tmp_path):
     assert (first.render.width, first.render.height) == (600, 300)
     assert first.lights[0].type == "ambient"  # no lights in the file: a uniform environment
     assert gltf_scene(path, camera="close").camera.position == (0.0, 0.0, -4.0)
+    assert (gltf_scene(path, width=300).render.height, gltf_scene(path, height=100).render.width) == (150, 200)
     with pytest.raises(SceneError, match="'nope'.*'wide', 'close'"):
         gltf_scene(path, camera="nope")
     b = Builder()

@@ -38,8 +38,15 @@ def choose_camera(imported: GltfScene, name: str | None) -> GltfCamera | None:
     raise SceneError(f"{imported.path}: --camera {name!r}: no perspective camera of that name ({known})")
 
 
-def gltf_document(path: str | Path, imported: GltfScene, camera: GltfCamera | None) -> dict:
-    """The scene document of a glTF file, before framing."""
+def gltf_document(
+    path: str | Path,
+    imported: GltfScene,
+    camera: GltfCamera | None,
+    width: int | None = None,
+    height: int | None = None,
+) -> dict:
+    """The scene document of a glTF file, before framing. With the camera's aspect ratio, a
+    width or height given (flags) sets the other side; neither: SIDE pixels wide."""
     render = dict(RENDER)
     document: dict = {"render": render, "lights": [dict(light) for light in imported.lights] or list(NO_LIGHTS)}
     if camera is not None:
@@ -49,8 +56,11 @@ def gltf_document(path: str | Path, imported: GltfScene, camera: GltfCamera | No
             "up": camera.up,
             "fov": camera.fov,
         }
-        if camera.aspect is not None:
-            render.update(width=SIDE, height=max(1, round(SIDE / camera.aspect)))
+        if camera.aspect is not None and not (width and height):
+            if height:
+                render.update(width=max(1, round(height * camera.aspect)), height=height)
+            else:
+                render.update(width=width or SIDE, height=max(1, round((width or SIDE) / camera.aspect)))
     document["objects"] = [{"type": "gltf", "file": Path(path).name}]
     return document
 
@@ -72,7 +82,7 @@ def gltf_scene(
     except GltfError as exc:
         raise SceneError(str(exc)) from None
     chosen = choose_camera(imported, camera)
-    document = apply_overrides(gltf_document(path, imported, chosen), overrides)
+    document = apply_overrides(gltf_document(path, imported, chosen, width, height), overrides)
     scene = scene_from_dict(document, source=source, overrides=overrides).with_base_dir(path.resolve().parent)
     if chosen is not None:
         return scene
