@@ -420,6 +420,28 @@ def test_broken_files_are_refused_naming_the_file_and_the_fault(tmp_path):
         assert file in message and all(w in message for w in words), (name, message)
 
 
+@pytest.mark.parametrize(
+    "key, value",
+    [
+        (("accessors", 0, "type"), ["VEC3"]),
+        (("accessors", 0, "componentType"), {"a": 1}),
+        (("meshes", 0, "primitives", 0, "material"), {"index": 0}),
+        (("meshes", 0, "primitives", 0), "triangles"),
+        (("nodes", 0, "mesh"), 1.5),
+        (("extensionsUsed",), [True]),
+        (("bufferViews", 0, "byteLength"), 10**9),
+    ],
+)
+def test_values_of_the_wrong_type_are_errors_not_crashes(tmp_path, key, value):
+    b = small_file(tmp_path)
+    table = b.doc
+    for part in key[:-1]:
+        table = table[part]
+    table[key[-1]] = value
+    with pytest.raises(SceneError, match="wrong.glb"):
+        gltf_scene(b.glb(tmp_path / "wrong.glb"))
+
+
 def test_the_command_line_exits_2_and_writes_nothing(tmp_path):
     file, words = broken_files(tmp_path)["truncated"]
     result = run_cli("render", file, "-o", "out.png", "--mode", "cast", "--width", "8", "--height", "8", cwd=tmp_path)

@@ -143,7 +143,14 @@ def read_gltf(path: str | Path) -> GltfScene:
         key = None
     if key is not None and key in _cache:
         return _cache[key]
-    scene = _Importer(GltfFile(path)).run()
+    file = GltfFile(path)
+    try:
+        scene = _Importer(file).run()
+    except GltfError:
+        raise
+    except (TypeError, AttributeError, KeyError, IndexError, ValueError) as exc:
+        # a value of the wrong JSON type where the reader does not check it by name
+        raise GltfError(f"glTF file {path}: it does not follow the glTF 2.0 schema ({exc}).") from None
     from .checks import SceneWarning
 
     for message in scene.warnings:
@@ -217,6 +224,9 @@ class _Importer:
 
     def _extensions(self) -> None:
         doc, f = self.file.doc, self.file
+        for key in ("extensionsRequired", "extensionsUsed"):
+            if not all(isinstance(e, str) for e in f.items(key)):
+                f.fail(f"{key} must be a list of extension names")
         required = [e for e in doc.get("extensionsRequired", []) if e not in SUPPORTED_EXTENSIONS]
         if required:
             f.fail(
@@ -346,6 +356,8 @@ class _Importer:
         if isinstance(index, bool) or not isinstance(index, int) or not 0 <= index < len(table):
             f.fail(f"{where} refers to light {index}, but the file's KHR_lights_punctual has {len(table)}")
         light = table[index]
+        if not isinstance(light, dict):
+            f.fail(f"extensions.KHR_lights_punctual.lights[{index}] is not an object")
         here = f"extensions.KHR_lights_punctual.lights[{index}]"
         colour = f.numbers(light.get("color"), 3, f"{here}.color", (1, 1, 1))
         intensity = f.number(light.get("intensity"), f"{here}.intensity", 1)
@@ -454,6 +466,8 @@ class _Importer:
     # -------------------------------------------------------------- materials
 
     def _material(self, index: int | None) -> int:
+        if index is not None:
+            self.file.item("materials", index, "a primitive's material")
         if index not in self.material_rows:
             self.materials.append(self._convert(index))
             self.material_rows[index] = len(self.materials) - 1

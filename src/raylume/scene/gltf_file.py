@@ -129,7 +129,7 @@ class GltfFile:
     # ------------------------------------------------------------------ binary data
 
     def buffer(self, index, where: str) -> bytes:
-        if index in self._buffers:
+        if isinstance(index, int) and index in self._buffers:
             return self._buffers[index]
         buf = self.item("buffers", index, where)
         uri = buf.get("uri")
@@ -185,9 +185,9 @@ class GltfFile:
         acc = self.item("accessors", index, where)
         here = f"accessors[{index}] ({where})"
         ctype = acc.get("componentType")
-        if ctype not in COMPONENTS:
+        if not isinstance(ctype, int) or ctype not in COMPONENTS:
             self.fail(f"{here}: componentType {ctype!r} is not one of glTF's ({', '.join(map(str, COMPONENTS))})")
-        if acc.get("type") not in WIDTHS:
+        if not isinstance(acc.get("type"), str) or acc["type"] not in WIDTHS:
             self.fail(f"{here}: type {acc.get('type')!r} is not one of {', '.join(WIDTHS)}")
         dtype = np.dtype(COMPONENTS[ctype]).newbyteorder("<")
         width = WIDTHS[acc["type"]]
@@ -225,7 +225,7 @@ class GltfFile:
         n = int(self.number(sparse.get("count"), f"{here}.sparse.count"))
         ind, val = sparse.get("indices") or {}, sparse.get("values") or {}
         itype = ind.get("componentType")
-        if itype not in (5121, 5123, 5125):
+        if not isinstance(itype, int) or itype not in (5121, 5123, 5125):
             self.fail(f"{here}.sparse.indices.componentType is {itype!r}, not an unsigned integer type")
         fake = {"bufferView": ind.get("bufferView"), "byteOffset": ind.get("byteOffset", 0)}
         indices = self._read(fake, np.dtype(COMPONENTS[itype]).newbyteorder("<"), 1, n, f"{here}.sparse.indices")
