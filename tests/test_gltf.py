@@ -9,6 +9,7 @@ import json
 import math
 import struct
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -363,6 +364,18 @@ def test_shared_meshes_and_gpu_instancing_place_every_copy(tmp_path):
     t, obj, _ = raylume.intersect(scene, np.array(origins, float), np.array(directions, float))
     np.testing.assert_allclose(t, [7, 10, 10, np.inf, 10], rtol=1e-6)  # GPU copy at -3; scaled; moved; none
     assert list(obj) == [0, 0, 0, -1, 0]
+
+
+def test_the_shipped_example_holds_what_the_readme_says():
+    imported = read_gltf(Path(__file__).parents[1] / "examples" / "gltf" / "room.glb")
+    assert [c.name for c in imported.cameras] == ["front"] and len(imported.lights) == 2
+    assert {light["type"] for light in imported.lights} == {"point", "spot"}
+    bars = [p for p in imported.parts if p.name.startswith("bar")]
+    assert len(bars) == 1 and len(bars[0].matrices) == 3  # the F: one mesh, three nodes
+    assert {m.type for m in imported.materials} == {"diffuse", "plastic", "conductor", "dielectric"}
+    assert any(m.texture is not None for m in imported.materials) and any(
+        max(m.emission) > 0 for m in imported.materials
+    )
 
 
 # ------------------------------------------------------------------ bad files
