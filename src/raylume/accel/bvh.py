@@ -21,10 +21,15 @@ primitive below it, with no extra padding beyond one float32 rounding.
 
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
 from typing import NamedTuple
 
 import numba as nb
 import numpy as np
+from llvmlite import ir
+from numba import types
+from numba.core import cgutils
+from numba.extending import intrinsic
 
 __all__ = ["BVH", "build_bvh", "bvh_nbytes", "bvh_depth", "sah_cost"]
 
@@ -51,21 +56,23 @@ class BVH(NamedTuple):
 # ---------------------------------------------------------------------------
 # Numba kernels.  fastmath stays off: the code relies on +-inf sentinels and
 # on the bin index of a primitive being computed bit-identically in the
-# binning pass and the partition pass.
+# binning pass and the partition pass.  Every kernel is nogil: the parallel
+# build runs them on Python threads (a parallel=True parfor would add seconds
+# of cold compile time).
 # ---------------------------------------------------------------------------
 
+_JIT = {"cache": True, "nogil": True}
 
-@nb.njit(cache=True)
-def _prepare(lo, hi, box, cbounds):
-    """Round primitive boxes outward to float32 into ``box`` (N, 6) and
-    return the centroid bounds in ``cbounds`` (6,).  Returns the index of
-    the first invalid primitive (NaN or lo > hi), or -1."""
+
+@nb.njit(**_JIT)
+def _prepare(lo, hi, box, cbounds, start, end):
+    """Round primitive boxes [start, end) outward to float32 into ``box``
+    (N, 6) and return their centroid bounds in ``cbounds`` (6,).  Returns
+    the index of the first invalid primitive (NaN or lo > hi), or -1."""
     neg_inf = np.float32(-np.inf)
     pos_inf = np.float32(np.inf)
-    for k in range(3):
-        cbounds[k] = np.inf
-        cbounds[3 + k] = -np.inf
-    for i in range(lo.shape[0]):
+    _set_empty(cbounds)
+    for i in range(start, end):
         for k in range(3):
             a = lo[i, k]
             b = hi[i, k]
@@ -85,7 +92,7 @@ def _prepare(lo, hi, box, cbounds):
     return -1
 
 
-@nb.njit(cache=True)
+@nb.njit(**_JIT)
 def _centroid(a, b):
     # Twice the centroid (the factor is irrelevant for binning); clamping
     # keeps it finite for boxes that reach past the float32 range.
@@ -94,7 +101,7 @@ def _centroid(a, b):
     return a + b
 
 
-@nb.njit(cache=True)
+@nb.njit(**_JIT)
 def _half_area(lx, ly, lz, hx, hy, hz, inv):
     # Surface area / 2 of a box, extents scaled by ``inv`` (1 / node size) so
     # huge or tiny scenes neither overflow nor underflow, then padded.
@@ -104,7 +111,7 @@ def _half_area(lx, ly, lz, hx, hy, hz, inv):
     return ex * ey + ey * ez + ez * ex
 
 
-@nb.njit(cache=True)
+@nb.njit(**_JIT)
 def _bin_of(c, cmin, scale, n_bins):
     # Must be evaluated identically in binning and partitioning.
     t = (c - cmin) * scale
@@ -113,23 +120,14 @@ def _bin_of(c, cmin, scale, n_bins):
     return n_bins - 1
 
 
-@nb.njit(cache=True)
+@nb.njit(**_JIT)
 def _set_empty(b):
     for d in range(3):
         b[d] = np.inf
         b[3 + d] = -np.inf
 
 
-@nb.njit(cache=True)
-def _union(acc, b):
-    for d in range(3):
-        if b[d] < acc[d]:
-            acc[d] = b[d]
-        if b[3 + d] > acc[3 + d]:
-            acc[3 + d] = b[3 + d]
-
-
-@nb.njit(cache=True)
+@nb.njit(**_JIT)
 def _add_centroid(cbnd, box, i):
     for d in range(3):
         c = _centroid(box[i, d], box[i, 3 + d])
@@ -139,25 +137,86 @@ def _add_centroid(cbnd, box, i):
             cbnd[3 + d] = c
 
 
-@nb.njit(cache=True)
-def _bin_prims(box, start, end, cb, scale, n_bins, bcnt, bbox):
-    """Fill per-axis bins (count, box bounds) for primitives [start, end)."""
+# Bins: ``bcnt`` (3, n_bins) primitive counts and ``bbox`` (3, n_bins, 8)
+# float32 box bounds per axis and bin, as (lo_x, lo_y, lo_z, +inf, -hi_x,
+# -hi_y, -hi_z, +inf): one 8-lane min grows a bin by a box (_grow3).  Empty
+# bins are all +inf.
+
+
+@nb.njit(**_JIT)
+def _clear_bins(bcnt, bbox, n_bins):
     for k in range(3):
         for b in range(n_bins):
             bcnt[k, b] = 0
-            _set_empty(bbox[k, b])
-    for i in range(start, end):
+            for d in range(8):
+                bbox[k, b, d] = np.inf
+
+
+@nb.njit(**_JIT)
+def _union_bin(acc, bbox, k, b):
+    for d in range(3):
+        v = np.float64(bbox[k, b, d])
+        if v < acc[d]:
+            acc[d] = v
+        v = -np.float64(bbox[k, b, 4 + d])
+        if v > acc[3 + d]:
+            acc[3 + d] = v
+
+
+@intrinsic
+def _grow3(typingctx, bbox, b0, b1, b2, l0, l1, l2, h0, h1, h2):
+    """Grow bins (0, b0), (1, b1), (2, b2) of ``bbox`` by the box (l, h):
+    one 8-lane vector min each.  Numba leaves LLVM's SLP vectoriser off, and
+    the six scalar min/max per bin made binning twice as slow."""
+    sig = types.void(bbox, b0, b1, b2, l0, l1, l2, h0, h1, h2)
+
+    def codegen(context, builder, sig, args):
+        f32 = ir.FloatType()
+        i64 = ir.IntType(64)
+        vt = ir.VectorType(f32, 8)
+        arr = context.make_array(sig.args[0])(context, builder, args[0])
+        n_bins = cgutils.unpack_tuple(builder, arr.shape, 3)[1]
+        vmin = cgutils.get_or_insert_function(builder.module, ir.FunctionType(vt, [vt, vt]), "llvm.minnum.v8f32")
+        v = ir.Constant(vt, [float("inf")] * 8)
+        for lane, x, t in zip((0, 1, 2, 4, 5, 6), args[4:], sig.args[4:], strict=True):
+            x = context.cast(builder, x, t, types.float32)
+            if lane >= 4:
+                x = builder.fsub(ir.Constant(f32, -0.0), x)  # exact negation
+            v = builder.insert_element(v, x, ir.Constant(ir.IntType(32), lane))
         for k in range(3):
-            b = _bin_of(_centroid(box[i, k], box[i, 3 + k]), cb[k], scale[k], n_bins)
-            bcnt[k, b] += 1
-            for d in range(3):
-                if box[i, d] < bbox[k, b, d]:
-                    bbox[k, b, d] = box[i, d]
-                if box[i, 3 + d] > bbox[k, b, 3 + d]:
-                    bbox[k, b, 3 + d] = box[i, 3 + d]
+            b = context.cast(builder, args[1 + k], sig.args[1 + k], types.int64)
+            row = builder.add(builder.mul(ir.Constant(i64, k), n_bins), b)
+            p = builder.gep(arr.data, [builder.mul(row, ir.Constant(i64, 8))], inbounds=True)
+            vp = builder.bitcast(p, vt.as_pointer())
+            old = builder.load(vp, align=4)
+            # minnum, not a compare and select: LLVM turned that into a masked
+            # store (vmaskmovps), microcoded on AMD and slower than scalar code.
+            # No NaN reaches the bins (inputs are checked), hence nnan.
+            builder.store(builder.call(vmin, [v, old], fastmath=("nnan",)), vp, align=4)
+        return context.get_dummy_value()
+
+    return sig, codegen
 
 
-@nb.njit(cache=True)
+@nb.njit(**_JIT)
+def _bin_prims(box, start, end, cb, scale, n_bins, bcnt, bbox):
+    """Add primitives [start, end) to per-axis bins (count, box bounds);
+    the bins are float32 like the boxes, so unions stay exact."""
+    c0, c1, c2 = cb[0], cb[1], cb[2]
+    s0, s1, s2 = scale[0], scale[1], scale[2]
+    for i in range(start, end):
+        l0, l1, l2 = box[i, 0], box[i, 1], box[i, 2]
+        h0, h1, h2 = box[i, 3], box[i, 4], box[i, 5]
+        b0 = _bin_of(_centroid(l0, h0), c0, s0, n_bins)
+        b1 = _bin_of(_centroid(l1, h1), c1, s1, n_bins)
+        b2 = _bin_of(_centroid(l2, h2), c2, s2, n_bins)
+        bcnt[0, b0] += 1
+        bcnt[1, b1] += 1
+        bcnt[2, b2] += 1
+        _grow3(bbox, b0, b1, b2, l0, l1, l2, h0, h1, h2)
+
+
+@nb.njit(**_JIT)
 def _best_split(bcnt, bbox, n_bins, scale, inv, node_area, c_trav, c_isect, r_area, r_cnt, acc):
     """SAH sweep over all bin boundaries.  Returns (cost, axis, plane); plane
     p sends bins [0, p) left.  axis is -1 when no plane has primitives on
@@ -174,7 +233,7 @@ def _best_split(bcnt, bbox, n_bins, scale, inv, node_area, c_trav, c_isect, r_ar
         cnt = 0
         for b in range(n_bins - 1, 0, -1):
             cnt += bcnt[k, b]
-            _union(acc, bbox[k, b])
+            _union_bin(acc, bbox, k, b)
             r_cnt[b] = cnt
             r_area[b] = _half_area(acc[0], acc[1], acc[2], acc[3], acc[4], acc[5], inv)
         # Left-to-right: combine with bins [0, p).
@@ -182,7 +241,7 @@ def _best_split(bcnt, bbox, n_bins, scale, inv, node_area, c_trav, c_isect, r_ar
         cnt = 0
         for p in range(1, n_bins):
             cnt += bcnt[k, p - 1]
-            _union(acc, bbox[k, p - 1])
+            _union_bin(acc, bbox, k, p - 1)
             if cnt == 0 or r_cnt[p] == 0:
                 continue
             l_area = _half_area(acc[0], acc[1], acc[2], acc[3], acc[4], acc[5], inv)
@@ -194,7 +253,44 @@ def _best_split(bcnt, bbox, n_bins, scale, inv, node_area, c_trav, c_isect, r_ar
     return best_cost, best_axis, best_plane
 
 
-@nb.njit(cache=True)
+@nb.njit(**_JIT)
+def _set_scale(cb, count, n_bins, scale):
+    # Fewer bins for smaller nodes (6 + count / 8, at most one per
+    # primitive): the bins' sweep dominated the build at the bottom of the
+    # tree (bumpy 1M: ~10% faster, SAH +0.05%).  Embree's 4 + count / 20
+    # was faster still but cost SAH +0.5% and a level of depth.
+    nbe = min(n_bins, count, 6 + count // 8)
+    for k in range(3):
+        ext = cb[3 + k] - cb[k]
+        # A zero-width axis puts everything into bin 0, leaving no valid
+        # plane on it; no special case needed.
+        scale[k] = nbe / ext if ext > 0.0 else 0.0
+    return nbe
+
+
+@nb.njit(**_JIT)
+def _choose(bcnt, bbox, nbe, scale, count, max_leaf, c_trav, c_isect, nodebox, r_area, r_cnt, acc):
+    """The node box (into ``nodebox``) and the split of a binned node:
+    returns (axis, plane); axis -2 makes a leaf, -1 halves the range (all
+    centroids coincide)."""
+    # Node box = union of the bins of any one axis.
+    _set_empty(nodebox)
+    for b in range(nbe):
+        _union_bin(nodebox, bbox, 0, b)
+    size = 0.0
+    for d in range(3):
+        e = min(nodebox[3 + d], _F32_MAX) - max(nodebox[d], -_F32_MAX)
+        if e > size:
+            size = e
+    inv = 1.0 / size if size > 0.0 else 1.0
+    node_area = _half_area(nodebox[0], nodebox[1], nodebox[2], nodebox[3], nodebox[4], nodebox[5], inv)
+    cost, axis, plane = _best_split(bcnt, bbox, nbe, scale, inv, node_area, c_trav, c_isect, r_area, r_cnt, acc)
+    if count <= max_leaf and (axis < 0 or c_isect * count * node_area <= cost):
+        return -2, 0
+    return axis, plane
+
+
+@nb.njit(**_JIT)
 def _partition(box, ids, start, end, k, cmin, scale, plane, n_bins, cb_l, cb_r):
     """Hoare partition of [start, end) by bin < plane on axis k; collects
     the centroid bounds of both sides on the way.  Returns the split index."""
@@ -218,17 +314,13 @@ def _partition(box, ids, start, end, k, cmin, scale, plane, n_bins, cb_l, cb_r):
         ids[j] = t_id
 
 
-@nb.njit(cache=True)
-def _build(box, ids, root_cb, max_leaf, n_bins, c_trav, c_isect):
-    n = box.shape[0]
-    cap = 2 * n - 1
-    nbounds = np.empty((cap, 6), np.float32)
-    nindex = np.empty((cap, 2), np.int32)
-    naxis = np.empty(cap, np.int8)
-
-    # Per-axis bins: primitive count and bounds of the primitive boxes.
+@nb.njit(**_JIT)
+def _build_range(box, ids, start0, end0, root_cb, max_leaf, n_bins, c_trav, c_isect, nbounds, nindex, naxis, base):
+    """Serial build of the subtree over primitives [start0, end0) into node
+    rows base, base + 1, ... (depth-first; child links and leaf ranges are
+    absolute).  Returns the number of nodes written (at most 2 count - 1)."""
     bcnt = np.empty((3, n_bins), np.int64)
-    bbox = np.empty((3, n_bins, 6), np.float64)
+    bbox = np.empty((3, n_bins, 8), np.float32)
     r_area = np.empty(n_bins, np.float64)
     r_cnt = np.empty(n_bins, np.int64)
     acc = np.empty(6, np.float64)
@@ -243,8 +335,8 @@ def _build(box, ids, root_cb, max_leaf, n_bins, c_trav, c_isect):
     # are exact far beyond 2**31).  Grows on demand: a pathological SAH tree
     # can be deeper than any fixed bound.
     stack = np.empty((64, 9), np.float64)
-    stack[0, 0] = 0
-    stack[0, 1] = n
+    stack[0, 0] = start0
+    stack[0, 1] = end0
     stack[0, 2] = -1
     for d in range(6):
         stack[0, 3 + d] = root_cb[d]
@@ -258,7 +350,7 @@ def _build(box, ids, root_cb, max_leaf, n_bins, c_trav, c_isect):
         patch = int(stack[sp, 2])
         for d in range(6):
             cb[d] = stack[sp, 3 + d]
-        m = n_nodes
+        m = base + n_nodes
         n_nodes += 1
         if patch >= 0:
             nindex[patch, 0] = m
@@ -272,33 +364,13 @@ def _build(box, ids, root_cb, max_leaf, n_bins, c_trav, c_isect):
             naxis[m] = -1
             continue
 
-        # Small nodes get one bin per primitive at most: extra bins would
-        # stay empty, and clearing/sweeping them dominates the build time
-        # at the bottom of the tree (measured: ~15% faster, same SAH).
-        nbe = min(n_bins, count)
-        for k in range(3):
-            ext = cb[3 + k] - cb[k]
-            # A zero-width axis puts everything into bin 0, leaving no
-            # valid plane on it; no special case needed.
-            scale[k] = nbe / ext if ext > 0.0 else 0.0
+        nbe = _set_scale(cb, count, n_bins, scale)
+        _clear_bins(bcnt, bbox, nbe)
         _bin_prims(box, start, end, cb, scale, nbe, bcnt, bbox)
-
-        # Node box = union of the bins of any one axis.
-        _set_empty(nodebox)
-        for b in range(nbe):
-            _union(nodebox, bbox[0, b])
-        size = 0.0
+        axis, plane = _choose(bcnt, bbox, nbe, scale, count, max_leaf, c_trav, c_isect, nodebox, r_area, r_cnt, acc)
         for d in range(6):
             nbounds[m, d] = nodebox[d]
-        for d in range(3):
-            e = min(nodebox[3 + d], _F32_MAX) - max(nodebox[d], -_F32_MAX)
-            if e > size:
-                size = e
-        inv = 1.0 / size if size > 0.0 else 1.0
-        node_area = _half_area(nodebox[0], nodebox[1], nodebox[2], nodebox[3], nodebox[4], nodebox[5], inv)
-
-        cost, axis, plane = _best_split(bcnt, bbox, nbe, scale, inv, node_area, c_trav, c_isect, r_area, r_cnt, acc)
-        if count <= max_leaf and (axis < 0 or c_isect * count * node_area <= cost):
+        if axis == -2:
             nindex[m, 0] = start
             nindex[m, 1] = count
             naxis[m] = -1
@@ -327,7 +399,8 @@ def _build(box, ids, root_cb, max_leaf, n_bins, c_trav, c_isect):
                     bigger[r, d] = stack[r, d]
             stack = bigger
         # Right job below the left one, so the left child pops next and is
-        # written at m + 1; the right one patches nindex[m, 0] when popped.
+        # written right after its parent; the right one patches nindex[m, 0]
+        # when popped.
         stack[sp, 0] = mid
         stack[sp, 1] = end
         stack[sp, 2] = m
@@ -339,7 +412,230 @@ def _build(box, ids, root_cb, max_leaf, n_bins, c_trav, c_isect):
             stack[sp + 1, 3 + d] = cb_l[d]
         sp += 2
 
-    return nbounds, nindex, naxis, n_nodes
+    return n_nodes
+
+
+# --- The top of the tree: one node at a time, each pass split over threads --
+
+
+@nb.njit(**_JIT)
+def _bin_piece(box, start, end, cb, scale, nbe, bcnt, bbox):
+    _clear_bins(bcnt, bbox, nbe)
+    _bin_prims(box, start, end, cb, scale, nbe, bcnt, bbox)
+
+
+@nb.njit(**_JIT)
+def _choose_top(pcnt, pbox, nbe, scale, count, max_leaf, c_trav, c_isect, nodebox):
+    """Reduce the pieces' bins (exact: counts and min/max, so the result
+    does not depend on how the range was cut) and choose the split."""
+    n_bins = pcnt.shape[2]
+    bcnt = np.zeros((3, n_bins), np.int64)
+    bbox = np.empty((3, n_bins, 8), np.float32)
+    _clear_bins(bcnt, bbox, nbe)
+    for j in range(pcnt.shape[0]):
+        for k in range(3):
+            for b in range(nbe):
+                bcnt[k, b] += pcnt[j, k, b]
+                for d in range(8):
+                    bbox[k, b, d] = min(bbox[k, b, d], pbox[j, k, b, d])
+    r_area = np.empty(n_bins, np.float64)
+    r_cnt = np.empty(n_bins, np.int64)
+    acc = np.empty(6, np.float64)
+    return _choose(bcnt, bbox, nbe, scale, count, max_leaf, c_trav, c_isect, nodebox, r_area, r_cnt, acc)
+
+
+@nb.njit(**_JIT)
+def _goes_left(box, i, k, cmin, scale, plane, nbe, mid):
+    if k < 0:  # halving: by position
+        return i < mid
+    return _bin_of(_centroid(box[i, k], box[i, 3 + k]), cmin, scale, nbe) < plane
+
+
+@nb.njit(**_JIT)
+def _count_piece(box, start, end, k, cmin, scale, plane, nbe, mid, cb_l, cb_r):
+    """Primitives of [start, end) going left, and both sides' centroid bounds."""
+    _set_empty(cb_l)
+    _set_empty(cb_r)
+    n_left = 0
+    for i in range(start, end):
+        if _goes_left(box, i, k, cmin, scale, plane, nbe, mid):
+            n_left += 1
+            _add_centroid(cb_l, box, i)
+        else:
+            _add_centroid(cb_r, box, i)
+    return n_left
+
+
+@nb.njit(**_JIT)
+def _scatter_piece(box, ids, start, end, k, cmin, scale, plane, nbe, mid, tbox, tids, left, right):
+    """Stable partition of a piece into ``tbox``/``tids`` from rows ``left``
+    and ``right`` on: a stable partition is unique, so the primitive order
+    does not depend on the number of pieces (threads)."""
+    for i in range(start, end):
+        if _goes_left(box, i, k, cmin, scale, plane, nbe, mid):
+            r = left
+            left += 1
+        else:
+            r = right
+            right += 1
+        for d in range(6):
+            tbox[r, d] = box[i, d]
+        tids[r] = ids[i]
+
+
+@nb.njit(**_JIT)
+def _copy_piece(tbox, tids, box, ids, start, end):
+    for i in range(start, end):
+        for d in range(6):
+            box[i, d] = tbox[i, d]
+        ids[i] = tids[i]
+
+
+@nb.njit(**_JIT)
+def _place(snb, sni, sna, src, count, nbounds, nindex, naxis, dst):
+    """Copy a subtree's ``count`` nodes from scratch row ``src`` to row
+    ``dst``, moving its child links with it."""
+    shift = dst - src
+    for r in range(count):
+        for d in range(6):
+            nbounds[dst + r, d] = snb[src + r, d]
+        a = sna[src + r]
+        naxis[dst + r] = a
+        nindex[dst + r, 1] = sni[src + r, 1]
+        nindex[dst + r, 0] = sni[src + r, 0] + shift if a >= 0 else sni[src + r, 0]
+
+
+# Nodes above this many primitives are split with their binning and
+# partition passes spread over threads; smaller ones are whole subtrees,
+# built serially, one per thread at a time.  Fixed (not derived from the
+# thread count), so the tree and the primitive order never depend on it.
+_TOP = 1 << 15
+
+
+class _Runner:
+    """Runs a nogil kernel over argument tuples, on ``threads`` threads."""
+
+    def __init__(self, threads: int):
+        self.pool = ThreadPoolExecutor(threads) if threads > 1 else None
+
+    def map(self, fn, argsets):
+        if self.pool is None:
+            return [fn(*a) for a in argsets]
+        return list(self.pool.map(lambda a: fn(*a), argsets))
+
+    def close(self):
+        if self.pool is not None:
+            self.pool.shutdown()
+
+
+def _pieces(start: int, end: int, parts: int) -> list[tuple[int, int]]:
+    cuts = [start + (end - start) * j // parts for j in range(parts + 1)]
+    return [(a, b) for a, b in zip(cuts[:-1], cuts[1:], strict=True) if b > a]
+
+
+def _build(box, ids, root_cb, max_leaf, n_bins, c_trav, c_isect, threads):
+    n = box.shape[0]
+    run = _Runner(threads)
+    try:
+        tbox = tids = None
+        # Top of the tree, in depth-first order: ["node", box, axis, right entry]
+        # or ["task", start, end, centroid bounds] for a subtree built later.
+        entries: list[list] = []
+        stack = [(0, n, root_cb, -1)]
+        scale = np.empty(3, np.float64)
+        while stack:
+            start, end, cb, parent = stack.pop()
+            if parent >= 0:
+                entries[parent][3] = len(entries)
+            count = end - start
+            if count <= _TOP:
+                entries.append(["task", start, end, cb])
+                continue
+            if tbox is None:
+                tbox, tids = np.empty_like(box), np.empty_like(ids)
+            pieces = _pieces(start, end, threads)
+            nbe = _set_scale(cb, count, n_bins, scale)
+            pcnt = np.empty((len(pieces), 3, n_bins), np.int64)
+            pbox = np.empty((len(pieces), 3, n_bins, 8), np.float32)
+            run.map(_bin_piece, [(box, a, b, cb, scale, nbe, pcnt[j], pbox[j]) for j, (a, b) in enumerate(pieces)])
+            nodebox = np.empty(6, np.float64)
+            axis, plane = _choose_top(pcnt, pbox, nbe, scale, count, max_leaf, c_trav, c_isect, nodebox)
+            # count > _TOP >= max_leaf: never a leaf (axis -2).
+            k = int(axis)
+            cmin, sk = (float(cb[k]), float(scale[k])) if k >= 0 else (0.0, 0.0)
+            half = start + count // 2
+            pcb = np.empty((len(pieces), 2, 6), np.float64)
+            lefts = run.map(
+                _count_piece,
+                [(box, a, b, k, cmin, sk, plane, nbe, half, pcb[j, 0], pcb[j, 1]) for j, (a, b) in enumerate(pieces)],
+            )
+            mid = start + sum(lefts)
+            cb_l = np.concatenate([pcb[:, 0, :3].min(axis=0), pcb[:, 0, 3:].max(axis=0)])
+            cb_r = np.concatenate([pcb[:, 1, :3].min(axis=0), pcb[:, 1, 3:].max(axis=0)])
+            left_at = start + np.concatenate([[0], np.cumsum(lefts)[:-1]])
+            right_at = mid + np.concatenate([[0], np.cumsum([b - a - nl for (a, b), nl in zip(pieces, lefts)])[:-1]])
+            run.map(
+                _scatter_piece,
+                [
+                    (box, ids, a, b, k, cmin, sk, plane, nbe, half, tbox, tids, int(left_at[j]), int(right_at[j]))
+                    for j, (a, b) in enumerate(pieces)
+                ],
+            )
+            run.map(_copy_piece, [(tbox, tids, box, ids, a, b) for a, b in pieces])
+            entries.append(["node", nodebox.astype(np.float32), max(k, 0), -1])
+            stack.append((mid, end, cb_r, len(entries) - 1))
+            stack.append((start, mid, cb_l, -1))
+        del tbox, tids
+
+        # Subtrees into scratch rows 2 * start ... (at most 2 count - 1 each,
+        # so they never overlap), largest first for balance.
+        tasks = [e for e in entries if e[0] == "task"]
+        cap = 2 * n - 1
+        snb = np.empty((cap, 6), np.float32)
+        sni = np.empty((cap, 2), np.int32)
+        sna = np.empty(cap, np.int8)
+        order = sorted(range(len(tasks)), key=lambda t: tasks[t][1] - tasks[t][2])
+        sizes = run.map(
+            _build_range,
+            [
+                (box, ids, a, b, cb, max_leaf, n_bins, c_trav, c_isect, snb, sni, sna, 2 * a)
+                for _, a, b, cb in (tasks[t] for t in order)
+            ],
+        )
+        size_of = dict(zip(order, sizes, strict=True))
+        if len(entries) == 1:  # one subtree: the scratch holds the tree
+            m = size_of[0]
+            return snb[:m].copy(), sni[:m].copy(), sna[:m].copy()
+
+        # Depth-first numbering of the whole tree: a subtree's nodes follow
+        # its place in the top part.
+        at = []
+        m = 0
+        t = 0
+        for e in entries:
+            at.append(m)
+            if e[0] == "node":
+                m += 1
+            else:
+                m += size_of[t]
+                t += 1
+        nbounds = np.empty((m, 6), np.float32)
+        nindex = np.empty((m, 2), np.int32)
+        naxis = np.empty(m, np.int8)
+        jobs = []
+        t = 0
+        for e, row in zip(entries, at, strict=True):
+            if e[0] == "node":
+                nbounds[row] = e[1]
+                nindex[row] = (at[e[3]], 0)
+                naxis[row] = e[2]
+            else:
+                jobs.append((snb, sni, sna, 2 * e[1], size_of[t], nbounds, nindex, naxis, row))
+                t += 1
+        run.map(_place, jobs)
+        return nbounds, nindex, naxis
+    finally:
+        run.close()
 
 
 # ---------------------------------------------------------------------------
@@ -351,7 +647,9 @@ def build_bvh(lo, hi, max_leaf_size: int = 4, n_bins: int = 16, *, c_trav: float
     """Build a binned-SAH BVH over N primitive boxes ``lo``/``hi`` (N, 3).
 
     ``c_trav`` / ``c_isect`` are the relative costs of a node traversal and
-    of a primitive intersection used by the heuristic.
+    of a primitive intersection used by the heuristic.  Large inputs are
+    built on ``numba.get_num_threads()`` threads; the result does not depend
+    on the thread count.
     """
     lo = np.ascontiguousarray(lo, dtype=np.float64)
     hi = np.ascontiguousarray(hi, dtype=np.float64)
@@ -362,25 +660,32 @@ def build_bvh(lo, hi, max_leaf_size: int = 4, n_bins: int = 16, *, c_trav: float
     if n_bins < 2:
         raise ValueError("n_bins must be >= 2")
     n = lo.shape[0]
-    if n >= 2**31 - 1:
+    if n >= 2**30:
         raise ValueError("too many primitives for int32 indices")
 
     if n == 0:
         bounds = np.array([[np.inf] * 3 + [-np.inf] * 3], dtype=np.float32)
         return BVH(bounds, np.zeros((1, 2), np.int32), np.full(1, -1, np.int8), np.zeros(0, np.int32))
 
+    threads = max(1, min(nb.get_num_threads(), n // _TOP))
     box = np.empty((n, 6), np.float32)
-    root_cb = np.empty(6, np.float64)
-    bad = _prepare(lo, hi, box, root_cb)
-    if bad >= 0:
-        raise ValueError(f"primitive {bad} has an invalid box (NaN or lo > hi): lo={lo[bad]}, hi={hi[bad]}")
+    pieces = _pieces(0, n, threads)
+    pcb = np.empty((len(pieces), 6), np.float64)
+    run = _Runner(threads)
+    try:
+        bad = run.map(_prepare, [(lo, hi, box, pcb[j], a, b) for j, (a, b) in enumerate(pieces)])
+    finally:
+        run.close()
+    bad = [b for b in bad if b >= 0]
+    if bad:
+        i = min(bad)
+        raise ValueError(f"primitive {i} has an invalid box (NaN or lo > hi): lo={lo[i]}, hi={hi[i]}")
+    root_cb = np.concatenate([pcb[:, :3].min(axis=0), pcb[:, 3:].max(axis=0)])
     ids = np.arange(n, dtype=np.int32)
-    nbounds, nindex, naxis, m = _build(
-        box, ids, root_cb, int(max_leaf_size), int(n_bins), float(c_trav), float(c_isect)
+    nbounds, nindex, naxis = _build(
+        box, ids, root_cb, int(max_leaf_size), int(n_bins), float(c_trav), float(c_isect), threads
     )
-    del box
-    # Copy so the (up to 2N-1) preallocation is released.
-    return BVH(nbounds[:m].copy(), nindex[:m].copy(), naxis[:m].copy(), ids)
+    return BVH(nbounds, nindex, naxis, ids)
 
 
 def bvh_nbytes(bvh: BVH) -> int:
