@@ -4,9 +4,13 @@ Same camera rays for every engine (DESIGN.md camera, one ray per pixel through p
 on the real meshes in ../shared/models and on procedural bumpy spheres of 10k..4M triangles.
 
     python benchmarks/bench_bvh.py [--size 1024] [--repeats 5] [--quick] [--plot docs/images/bvh_scaling.png]
+    python benchmarks/bench_bvh.py --build-only [--repeats 5]   # the BVH build table alone (bumpy 1M, 4M)
 
 Ratios are speeds (Embree's time / raylume's time, one thread each): above 1, raylume is faster.
 "on hits" repeats both engines on the rays that hit the mesh alone.
+The BVH build table times raylume's build_bvh + collapse (the BVH8 that traversal reads) on 1 thread and on
+all threads against Embree's scene commit (its BVH build, on all threads; the mesh upload through embreex is
+excluded: its Python-side copy takes longer than the build), alternating in one process.
 """
 
 from __future__ import annotations
@@ -78,11 +82,12 @@ def time_raylume(compiled, o, d, threads, repeats):
     t = np.empty(n)
     obj = np.empty(n, np.int32)
     prim = np.empty(n, np.int32)
-    intersect_rays(compiled.kernel, features(compiled.kernel), o, d, t, obj, prim, threads)  # compile / warm
+    inst = np.empty(n, np.int32)
+    intersect_rays(compiled.kernel, features(compiled.kernel), o, d, t, obj, prim, inst, threads)  # compile / warm
     times = []
     for _ in range(repeats):
         t0 = time.perf_counter()
-        intersect_rays(compiled.kernel, features(compiled.kernel), o, d, t, obj, prim, threads)
+        intersect_rays(compiled.kernel, features(compiled.kernel), o, d, t, obj, prim, inst, threads)
         times.append(time.perf_counter() - t0)
     return median_of(times), t
 
@@ -106,6 +111,67 @@ def time_embree(vertices, faces, o, d, repeats):
     return median_of(times), build, tfar
 
 
+def time_builds(vertices, faces, repeats):
+    """Medians of the BVH build alone, alternating: raylume (build_bvh + collapse, the boxes that compile.py
+    makes) on 1 thread and on all threads, and Embree's commit. Returns (1T, all, Embree, SAH)."""
+    import numba
+    from embreex import rtcore_scene as rtcs
+    from embreex.mesh_construction import TriangleMesh
+
+    from raylume.accel.bvh import build_bvh, sah_cost
+    from raylume.accel.wide import collapse
+    from raylume.compile import BVH_MAX_LEAF, BVH_TRAVERSAL_COST
+
+    corners = vertices.astype(np.float32)[faces]
+    lo, hi = corners.min(axis=1).astype(np.float64), corners.max(axis=1).astype(np.float64)
+    del corners
+    v32, f32 = vertices.astype(np.float32), faces.astype(np.int32)
+    o, d = np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32)
+    everything = numba.config.NUMBA_NUM_THREADS
+
+    def ours(threads):
+        numba.set_num_threads(threads)
+        t0 = time.perf_counter()
+        bvh = build_bvh(lo, hi, max_leaf_size=BVH_MAX_LEAF, c_trav=BVH_TRAVERSAL_COST)
+        collapse(bvh)
+        return time.perf_counter() - t0, bvh
+
+    def embree():
+        scene = rtcs.EmbreeScene()
+        TriangleMesh(scene, v32, f32)  # the upload: not timed
+        t0 = time.perf_counter()
+        scene.run(o, d, output=1)  # Embree builds lazily on the first query
+        return time.perf_counter() - t0
+
+    ours(1)  # compile
+    t1, ta, te = [], [], []
+    for _ in range(repeats):
+        t1.append(ours(1)[0])
+        dt, bvh = ours(everything)
+        ta.append(dt)
+        te.append(embree())
+    numba.set_num_threads(everything)
+    return median_of(t1), median_of(ta), median_of(te), sah_cost(bvh, BVH_TRAVERSAL_COST)
+
+
+def build_table(repeats):
+    """The build table on its own: bumpy 1M and 4M."""
+    import numba
+
+    rows = []
+    for n in (1_000_000, 4_000_000):
+        v, f = bumpy_sphere(n)
+        t1, ta, te, sah = time_builds(v, f, repeats)
+        rows.append(
+            [f"bumpy {n // 1_000_000}M", f"{len(f):,}", f"{t1:.2f}", f"{ta:.2f}", f"{te:.2f}"]
+            + [f"{t1 / te:.2f}", f"{ta / te:.2f}", f"{sah:.1f}"]
+        )
+        print(" | ".join(rows[-1]), flush=True)
+    headers = ["mesh", "triangles", "raylume build 1T s", f"raylume build {numba.config.NUMBA_NUM_THREADS}T s"]
+    headers += ["Embree build s", "raylume/Embree (1T)", f"raylume/Embree ({numba.config.NUMBA_NUM_THREADS}T)", "SAH"]
+    print("\n" + table(headers, rows))
+
+
 def time_trimesh(vertices, faces, o, d, n_rays):
     import trimesh
 
@@ -123,7 +189,12 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true", help="skip the 4M mesh and trimesh")
     parser.add_argument("--trimesh-rays", type=int, default=20_000)
     parser.add_argument("--plot", default=None, help="write the scaling plot (PNG) here")
+    parser.add_argument("--build-only", action="store_true", help="only the BVH build table (bumpy 1M and 4M)")
     args = parser.parse_args()
+    if args.build_only:
+        print(f"BVH build, medians of {args.repeats}, alternating; {machine()}\n")
+        build_table(args.repeats)
+        return
 
     try:
         import embreex  # noqa: F401  (only probing that it is installed)
@@ -157,8 +228,9 @@ def main() -> None:
             eh, _, _ = time_embree(v, f, o[hit], d[hit], args.repeats)
             row += [f"{n / e / 1e6:.2f}", f"{e / r1:.2f}", f"{hit.mean() * 100:.0f}%", f"{eh / h1:.2f}"]
             row += [f"{agree * 100:.2f}%"]
+            b1, ba, e_build, _ = time_builds(v, f, args.repeats)
         else:
-            e_build = float("nan")
+            b1 = ba = e_build = float("nan")
         if not args.quick and len(f) <= 1_000_000:
             row.append(f"{n / time_trimesh(v, f, o, d, args.trimesh_rays) / 1e6:.3f}")
         else:
@@ -170,7 +242,10 @@ def main() -> None:
                 name,
                 f"{len(f):,}",
                 f"{s['build_seconds']:.2f}",
+                f"{b1:.2f}",
+                f"{ba:.2f}",
                 f"{e_build:.2f}",
+                f"{ba / e_build:.2f}",
                 f"{s['bvh_bytes'] / len(f):.1f}",
                 f"{s['bvh_nodes']:,}",
             ]
@@ -184,12 +259,13 @@ def main() -> None:
         headers += ["Embree 1T Mrays/s", "raylume/Embree (1T)", "rays hit", "on hits: raylume/Embree", "same hits"]
     headers += ["trimesh Mrays/s"]
     print("\n" + table(headers, rows))
-    print("\nBVH build (raylume: compile + binned-SAH build; Embree: scene build on first query)\n")
     print(
-        table(
-            ["mesh", "triangles", "raylume build s", "Embree build s", "raylume BVH bytes/tri", "BVH nodes"], build_rows
-        )
+        "\nBVH build (raylume compile: the whole compile_scene, mesh file included; build: build_bvh + collapse on"
+        " 1 thread and all; Embree: its scene commit on all threads)\n"
     )
+    headers = ["mesh", "triangles", "raylume compile s", "raylume build 1T s", "raylume build all s"]
+    headers += ["Embree build s", "build all/Embree", "raylume BVH bytes/tri", "BVH nodes"]
+    print(table(headers, build_rows))
     # One thread as well: on a shared VM the second core's speed varies most.
     print("\nScaling of primary-ray time with triangle count (1 thread and all threads)\n")
     base = next((row for row in scaling if row[0] == 40_000), scaling[0])

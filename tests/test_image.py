@@ -63,7 +63,7 @@ def test_api_render_returns_image_with_arrays_and_png_repr():
     img = raylume.render(raylume.builtin_scene("seed"), width=20, height=10)
     assert isinstance(img, raylume.Image)
     assert img.rgb.shape == (10, 20, 3) and img.rgb.dtype == np.float32
-    assert set(img.aovs) == {"depth", "normal", "object", "prim", "albedo"}
+    assert set(img.aovs) == {"depth", "normal", "object", "prim", "albedo", "instance"}
     assert np.asarray(img).shape == (10, 20, 3)
     png = PILImage.open(io.BytesIO(img._repr_png_()))
     assert png.size == (20, 10)

@@ -199,7 +199,7 @@ def render(
             "--aov",
             metavar="NAME[=PATH]",
             help="Write an AOV: NAME=PATH.npy, or NAME alone for a layer of the .exr output; "
-            "NAME in depth, normal, object, prim, albedo, noisy (the image before --denoise) (repeatable)",
+            "NAME in depth, normal, object, prim, albedo, instance, noisy (the image before --denoise) (repeatable)",
         ),
     ] = None,
     overrides: Annotated[

@@ -14,7 +14,8 @@ from typing import NamedTuple
 import numpy as np
 
 from .accel.bvh import build_bvh
-from .accel.wide import collapse, mark_triangle_leaves, single_leaf, wide_depth, wide_nbytes
+from .accel.wide import collapse, mark_sphere_leaves, mark_triangle_leaves, single_leaf, wide_depth, wide_nbytes
+from .compile_instances import build_instances, join_triangles, place_instanced
 from .emitters_table import build_emitters, scene_environment
 from .errors import SceneError
 from .kernels import materials as M
@@ -37,7 +38,8 @@ from .kernels.shapes import (
 from .kernels.shapes import bounds as shape_bounds
 from .kernels.traverse import BVH_WIDTH, TRAVERSAL_STACK, stack_needed
 from .scene.gltf import flatten, load_gltf_object
-from .scene.mesh import MeshError
+from .scene.instances import InstanceError, instance_matrices
+from .scene.mesh import MeshData, MeshError
 from .scene.model import (
     DEFAULT_MATERIAL,
     Cylinder,
@@ -323,17 +325,40 @@ def _load_gltf_object(scene: Scene, k: int, obj: Gltf, source):
         raise SceneError(f"{source}: objects[{k}].file: {exc}") from None
 
 
-def _add_mesh(soup: _TriangleSoup, mesh, m: int, k: int, needs_uvs: bool) -> None:
-    """A world-space glTF mesh's triangles (UVs where its material's texture needs them; a
-    mesh without UVs then reads texel (0, 0))."""
-    verts = mesh.vertices.astype(np.float32)[mesh.faces].reshape(-1, 9)
-    normals = None if mesh.normals is None else mesh.normals.astype(np.float32)[mesh.faces].reshape(-1, 9)
-    uvs = None
-    if needs_uvs:
-        uv = mesh.uvs if mesh.uvs is not None else np.zeros((len(mesh.vertices), 2), np.float32)
-        uvs = uv.astype(np.float32)[mesh.faces].reshape(-1, 6)
-    soup.add(verts, normals, m, k, uvs)
-    soup.degenerate += mesh.degenerate
+def _add_gltf_part(geometry: SceneGeometry, part, m: int, k: int, needs_uvs: bool) -> None:
+    """A glTF mesh primitive (UVs where its material's texture needs them; a mesh without UVs
+    then reads texel (0, 0)): placed once, its world-space triangles; used by several nodes or
+    GPU instances, one stored mesh and an instance per matrix (those that flatten it skipped)."""
+    mesh = part.mesh
+    if needs_uvs and mesh.uvs is None:
+        mesh = mesh._replace(uvs=np.zeros((len(mesh.vertices), 2), np.float32))
+    if len(part.matrices) == 1:
+        for placed in flatten(part):
+            geometry.add_mesh(placed._replace(uvs=mesh.uvs), m, k, uvs=needs_uvs)
+        return
+    a = np.asarray(part.matrices, dtype=np.float64)[:, :3, :]
+    keep = np.flatnonzero(np.abs(np.linalg.det(a[:, :, :3])) > 0)
+    if len(keep):
+        geometry.add_mesh(mesh, m, k, a[keep], uvs=needs_uvs, instance_ids=keep)
+
+
+def _instance_matrices(scene: Scene, k: int, obj: Mesh, source) -> np.ndarray | None:
+    try:
+        return instance_matrices(obj, scene.base_dir)
+    except InstanceError as exc:
+        raise SceneError(f"{source}: objects[{k}].instances: {exc}") from None
+
+
+class _InstancedMesh(NamedTuple):
+    """A mesh stored once in object space, and the matrices placing its copies."""
+
+    triangles: np.ndarray  # float32 (F, 9)
+    normals: np.ndarray | None  # float32 (F, 9) vertex normals, None for flat shading
+    uvs: np.ndarray | None  # float32 (F, 6)
+    material: int
+    obj: int
+    matrices: np.ndarray  # float64 (N, 3, 4) object to world
+    ids: np.ndarray  # int32 (N,): each instance's index within its object (the `instance` AOV)
 
 
 class _Analytic:
@@ -369,6 +394,48 @@ class _Analytic:
         return lo, hi
 
 
+class SceneGeometry:
+    """The geometry of a scene as it is gathered, object by object, before the BVHs are built:
+    analytic shapes, world-space triangles, and instanced meshes."""
+
+    def __init__(self):
+        self.analytic = _Analytic()
+        self.soup = _TriangleSoup()
+        self.instanced: list[_InstancedMesh] = []
+
+    def add_mesh(
+        self,
+        mesh: MeshData,
+        material: int,
+        obj: int,
+        instances: np.ndarray | None = None,
+        *,
+        uvs: bool = False,
+        instance_ids: np.ndarray | None = None,
+    ) -> None:
+        """Add a triangle mesh of scene object `obj` (the `object` AOV) with row `material` of
+        the materials table. The `prim` AOV is the face's index in `mesh.faces`.
+
+        Without `instances`, the mesh's vertices are in world space and its triangles join the
+        world BVH with every other primitive. With `instances`, float (N, 3, 4) or (N, 4, 4)
+        object-to-world matrices (column vectors, p' = M @ [p, 1]; finite and invertible, see
+        scene/instances.check_matrices), the mesh is stored once, in its own space, with its
+        own BVH (a BLAS), and each instance costs its inverse matrix, two indices and its share
+        of the top-level BVH. `instance_ids` (int (N,), default 0..N-1) are the `instance` AOV's
+        values. `uvs`: keep the mesh's texture coordinates (mesh.uvs must exist)."""
+        tris = mesh.vertices.astype(np.float32)[mesh.faces].reshape(-1, 9)
+        normals = None if mesh.normals is None else mesh.normals.astype(np.float32)[mesh.faces].reshape(-1, 9)
+        uv6 = mesh.uvs.astype(np.float32)[mesh.faces].reshape(-1, 6) if uvs else None
+        self.soup.degenerate += mesh.degenerate
+        if instances is None:
+            self.soup.add(tris, normals, material, obj, uv6)
+            return
+        m = np.asarray(instances, dtype=np.float64)
+        m = np.ascontiguousarray(m[:, :3, :])
+        ids = np.arange(len(m), dtype=np.int32) if instance_ids is None else np.asarray(instance_ids, np.int32)
+        self.instanced.append(_InstancedMesh(tris, normals, uv6, material, obj, m, ids))
+
+
 def compile_scene(scene: Scene, source="<scene>", accelerate: bool = True) -> CompiledScene:
     """Flatten the scene into arrays. `accelerate=False` skips the BVH (the rasterizer needs
     none: at 4M triangles that saves about 9 s)."""
@@ -385,8 +452,8 @@ def compile_scene(scene: Scene, source="<scene>", accelerate: bool = True) -> Co
     def needs_uvs(obj) -> bool:
         return isinstance(scene.material_of(obj).texture, ImageTexture)
 
-    analytic = _Analytic()
-    soup = _TriangleSoup()
+    geometry = SceneGeometry()
+    analytic, soup = geometry.analytic, geometry.soup
     images: dict[str, np.ndarray] = {}  # textures decoded from glTF files
     mesh_seconds = 0.0  # reading mesh files: part of the build, reported apart
     for k, obj in enumerate(scene.objects):
@@ -401,30 +468,23 @@ def compile_scene(scene: Scene, source="<scene>", accelerate: bool = True) -> Co
                 mat = imported.materials[part.material]
                 material_where.setdefault(mat, f"objects[{k}].file")
                 m = materials.setdefault(mat, len(materials))
-                # THE glTF call site: flattened copies until meshes compile as instances
-                for mesh in flatten(part):
-                    _add_mesh(soup, mesh, m, k, mat.texture is not None)
+                _add_gltf_part(geometry, part, m, k, mat.texture is not None)
         elif kind is not None:
             analytic.add(kind, ANALYTIC[kind].pack(obj), m, k)
         elif isinstance(obj, Triangle):
             uvs = np.array([[0, 0, 1, 0, 0, 1]], dtype=np.float32) if needs_uvs(obj) else None
             soup.add(np.asarray(obj.vertices, dtype=np.float32).reshape(1, 9), None, m, k, uvs)
         else:
+            matrices = _instance_matrices(scene, k, obj, source)  # before the (slower) mesh file
             loading = time.perf_counter()
             mesh = _load_mesh_object(scene, k, obj, source)
             mesh_seconds += time.perf_counter() - loading
-            verts = mesh.vertices.astype(np.float32)[mesh.faces].reshape(-1, 9)
-            normals = None if mesh.normals is None else mesh.normals.astype(np.float32)[mesh.faces].reshape(-1, 9)
-            uvs = None
-            if needs_uvs(obj):
-                if mesh.uvs is None:
-                    raise SceneError(
-                        f"{source}: objects[{k}].file: the mesh has no texture coordinates (UVs), "
-                        "which its material's image texture needs"
-                    )
-                uvs = mesh.uvs.astype(np.float32)[mesh.faces].reshape(-1, 6)
-            soup.add(verts, normals, m, k, uvs)
-            soup.degenerate += mesh.degenerate
+            if needs_uvs(obj) and mesh.uvs is None:
+                raise SceneError(
+                    f"{source}: objects[{k}].file: the mesh has no texture coordinates (UVs), "
+                    "which its material's image texture needs"
+                )
+            geometry.add_mesh(mesh, m, k, matrices, uvs=needs_uvs(obj))
 
     shapes = analytic.table()
     bounded = analytic.bounded()
@@ -432,6 +492,7 @@ def compile_scene(scene: Scene, source="<scene>", accelerate: bool = True) -> Co
     unbounded = np.flatnonzero(~bounded)
     tri, tri_n, tri_smooth, tri_mat, tri_obj, tri_face = soup.arrays()
     tri_uv = soup.uv_array()
+    inst = build_instances(geometry.instanced, accelerate)
     n_analytic, n_tris = len(in_bvh), len(tri)
 
     # Bounds of every BVH primitive: bounded analytic shapes first, then triangles (of the
@@ -470,8 +531,10 @@ def compile_scene(scene: Scene, source="<scene>", accelerate: bool = True) -> Co
         if len(tri_uv) == n_tris:
             tri_uv = tri_uv[tri_perm]
 
-    # The primitive table: the BVH's primitives in leaf order, then the unbounded shapes.
-    n_bounded = len(order)
+    # The primitive table: the world BVH's primitives in leaf order, the instanced meshes'
+    # (each in its BLAS's leaf order), then the unbounded shapes.
+    n_world = len(order)
+    n_bounded = n_world + len(inst.prims)
     prims = np.zeros((n_bounded + len(unbounded), PRIM_WIDTH), dtype=np.int32)
     prims[:, PRIM_LIGHT] = -1  # no primitive emits light yet (path tracing's emitters will)
     shape_rows = np.concatenate([in_bvh[order[~is_tri]], unbounded])
@@ -485,16 +548,32 @@ def compile_scene(scene: Scene, source="<scene>", accelerate: bool = True) -> Co
     prims[tri_slots, PRIM_FACE] = tri_face
     if accelerate and n_tris:
         mark_triangle_leaves(bvh, is_tri)  # leaves of triangles alone are tested 4 at a time
+    mark_sphere_leaves(bvh, prims[:n_world, PRIM_KIND] == Shape.SPHERE)  # and of spheres alone
+    if len(inst.prims):  # the instanced meshes' rows and triangles follow the world's
+        place_instanced(inst, n_world, n_tris)
+        prims[n_world:n_bounded] = inst.prims
+        tri, tri_n, tri_smooth, tri_uv = join_triangles(
+            (tri, tri_n, tri_smooth, tri_uv), (inst.triangles, inst.normals, inst.smooth, inst.uvs)
+        )
+    if inst.stack > TRAVERSAL_STACK:  # a BLAS walk runs on the stack above the TLAS walk's
+        raise SceneError(
+            f"{source}: the instances' BVHs are too deep together for the traversal; "
+            "the instances or an instanced mesh are pathologically arranged"
+        )
 
     textures = TextureTable(scene.base_dir, source, images)
     mat_rows = np.stack([material_row(m, textures, material_where.get(m, "material")) for m in materials])
-    extent = [np.abs(lo).max() if len(lo) else 0.0, np.abs(hi).max() if len(hi) else 0.0]
+    extent = [np.abs(lo).max() if len(lo) else 0.0, np.abs(hi).max() if len(hi) else 0.0, inst.extent]
     for r in unbounded:  # an unbounded shape's size is that of its defining point
         extent.append(np.abs(shapes[r, :3]).max())
     kinds, data = _lights(scene)
     environment = scene_environment(scene, source)
+    # instanced meshes' triangles (stored in object space) are not sampled as lights: path
+    # mode finds their emission by BSDF sampling alone
+    world = np.ones(len(prims), dtype=bool)
+    world[n_world:n_bounded] = False
     emit_kind, emit_data, emit_cdf, n_area, env_row, ambient_row = build_emitters(
-        scene, prims, shapes, tri, mat_rows, environment, float(max(extent))
+        scene, prims, shapes, tri, mat_rows, environment, float(max(extent)), candidates=world
     )
     kernel = KernelScene(
         prims=prims,
@@ -523,20 +602,25 @@ def compile_scene(scene: Scene, source="<scene>", accelerate: bool = True) -> Co
         env_rotation=environment.rotation,
         env_present=environment.present,
         has_transparency=bool((mat_rows[:, M.MAT_TRANSPARENCY] > 0).any()),
+        inst_node_bounds=inst.node_bounds,
+        inst_node_index=inst.node_index,
+        instance_inverse=inst.inverse,
+        instance_index=inst.index,
         epsilon_floor=1e-30,
     )
     stats = {
         "primitives": len(prims),
-        "triangles": n_tris,
+        "triangles": len(tri),  # stored: an instanced mesh's once (instanced_triangles: as drawn)
         "degenerate_triangles": soup.degenerate,
         # without acceleration (the rasterizer's scenes) there is no BVH to report, only the
         # placeholder leaf that keeps the kernels' arrays typed alike
         "bvh_nodes": int(len(bvh.node_index)) if accelerate else 0,  # BVH_WIDTH-wide nodes
         "bvh_depth": int(depth) if accelerate else 0,
         # nodes, and the two columns of the primitive table that traversal reads (kind, row)
-        "bvh_bytes": int(wide_nbytes(bvh) + 8 * len(prims)) if accelerate else 0,
+        "bvh_bytes": int(wide_nbytes(bvh) + 8 * len(prims) + inst.node_bytes) if accelerate else 0,
         "build_seconds": time.perf_counter() - start,
         "mesh_load_seconds": mesh_seconds,
+        **inst.stats,
     }
     return CompiledScene(kernel, float(max(extent)), stats)
 

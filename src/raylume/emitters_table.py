@@ -29,10 +29,13 @@ def scene_environment(scene, source: str) -> Environment:
     )
 
 
-def build_emitters(scene, prims, shapes, triangles, materials, environment: Environment, extent: float):
+def build_emitters(
+    scene, prims, shapes, triangles, materials, environment: Environment, extent: float, candidates=None
+):
     """(kinds int32 (E,), data float64 (E, EMIT_WIDTH), cdf float64 (E + 1,), n_area,
     environment row or -1, ambient row or -1); sets prims[:, PRIM_LIGHT] for the emissive
-    primitives. Ambient lights become one row: a uniform environment of their summed radiance."""
+    primitives (among `candidates`, a bool per row, when given: instanced meshes' rows are
+    not). Ambient lights become one row: a uniform environment of their summed radiance."""
     rows: list[np.ndarray] = []
     kinds: list[int] = []
     power: list[float] = []
@@ -61,9 +64,8 @@ def build_emitters(scene, prims, shapes, triangles, materials, environment: Envi
         power.append(phi)
 
     emission = materials[:, MAT_EMISSION : MAT_EMISSION + 3]
-    glowing = np.flatnonzero(
-        (emission[prims[:, PRIM_MATERIAL]] > 0).any(axis=1) & np.isin(prims[:, PRIM_KIND], EMISSION_SAMPLED)
-    )
+    glowing = (emission[prims[:, PRIM_MATERIAL]] > 0).any(axis=1) & np.isin(prims[:, PRIM_KIND], EMISSION_SAMPLED)
+    glowing = np.flatnonzero(glowing if candidates is None else glowing & candidates)
     first_prim = len(rows)
     if len(glowing):
         area = surface_areas(prims, glowing, shapes, triangles)

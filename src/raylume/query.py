@@ -11,9 +11,11 @@ from .kernels.shapes import features
 from .scene.model import Scene
 
 
-def intersect(scene: Scene | CompiledScene, origins: np.ndarray, directions: np.ndarray):
+def intersect(scene: Scene | CompiledScene, origins: np.ndarray, directions: np.ndarray, *, instances: bool = False):
     """Closest hit of each ray: (t float64, object int32, prim int32), each of the rays' leading
-    shape (origins and directions of shape (..., 3)).
+    shape (origins and directions of shape (..., 3)); with `instances`, a fourth array: the
+    instance AOV (int32: the instance's index within its object, 0 for objects without
+    instances, -1 for misses).
 
     Directions are normalised here, so t is a distance. Misses give t = inf and -1 indices.
     Pass a CompiledScene (raylume.compile.compile_scene) to reuse its BVH across calls."""
@@ -33,7 +35,10 @@ def intersect(scene: Scene | CompiledScene, origins: np.ndarray, directions: np.
     t = np.empty(n)
     obj = np.empty(n, dtype=np.int32)
     prim = np.empty(n, dtype=np.int32)
+    inst = np.empty(n, dtype=np.int32)
     # the ray offset floor of a camera at the origin: the scene's own extent
     S = compiled.for_camera((0.0, 0.0, 0.0))
-    intersect_rays(S, features(S), origins, directions, t, obj, prim, numba.get_num_threads())
+    intersect_rays(S, features(S), origins, directions, t, obj, prim, inst, numba.get_num_threads())
+    if instances:
+        return t.reshape(shape), obj.reshape(shape), prim.reshape(shape), inst.reshape(shape)
     return t.reshape(shape), obj.reshape(shape), prim.reshape(shape)

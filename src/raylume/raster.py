@@ -55,6 +55,7 @@ def rasterize(
     empty when not wanted."""
     W, H = width, height
     cam = np.asarray(cam, dtype=np.float64)
+    S, prim_instance = flatten_instances(S)
     extra, extra_prim, extra_part = tessellate(S, cam, W, H)
     triangle_prim = triangle_primitives(S)
     near = near_distance(S)
@@ -69,6 +70,7 @@ def rasterize(
         "object": np.empty(A, dtype=np.int32),
         "prim": np.empty(A, dtype=np.int32),
         "albedo": np.empty((*A, 3), dtype=np.float32),
+        "instance": np.empty(A, dtype=np.int32),
     }
     _warm_up(S, cam, near, background)
     start = time.perf_counter()
@@ -82,6 +84,7 @@ def rasterize(
         extra,
         extra_prim,
         extra_part,
+        prim_instance,
         background,
         aovs,
         rgb,
@@ -89,6 +92,7 @@ def rasterize(
         arrays["normal"],
         arrays["object"],
         arrays["prim"],
+        arrays["instance"],
         arrays["albedo"],
     )
     kernel_seconds = time.perf_counter() - start
@@ -112,6 +116,7 @@ def _warm_up(S, cam, near, background):
         np.zeros((0, 9)),
         none,
         np.zeros(0),
+        np.zeros(len(S.prims), np.int32),
         background,
         True,
         rgb,
@@ -119,8 +124,86 @@ def _warm_up(S, cam, near, background):
         np.zeros((1, 1, 3), np.float32),
         np.zeros((1, 1), np.int32),
         np.zeros((1, 1), np.int32),
+        np.zeros((1, 1), np.int32),
         np.zeros((1, 1, 3), np.float32),
     )
+
+
+# Instances are drawn as plain triangles, each instance's copy of its mesh; beyond this many
+# the copies would not fit in memory (ray modes trace any number).
+MAX_FLAT_TRIANGLES = 50_000_000
+
+
+def flatten_instances(S):
+    """(S with every instance drawn as world-space triangles, int32 per primitive: its
+    `instance` AOV). A scene without instances comes back as it is (AOV 0 everywhere)."""
+    n_inst = len(S.instance_inverse)
+    if n_inst == 0:
+        return S, np.zeros(len(S.prims), np.int32)
+    from .errors import RaylumeError
+
+    roots = np.unique(S.instance_index[:, 0])
+    index = S.inst_node_index
+    # each BLAS's nodes run from its root to the next root; its leaves cover its rows
+    ranges = {}
+    ends = [*roots[1:], len(index)]
+    for r, e in zip(roots, ends, strict=True):
+        count = index[r:e, 1, :]
+        first = index[r:e, 0, :][count != 0].astype(np.int64)
+        last = first + np.abs(count[count != 0])
+        ranges[int(r)] = (int(first.min()), int(last.max()))
+    n_world = min(a for a, _ in ranges.values())
+    n_bounded = max(b for _, b in ranges.values())
+    sizes = np.array([ranges[int(r)][1] - ranges[int(r)][0] for r in S.instance_index[:, 0]])
+    if sizes.sum() > MAX_FLAT_TRIANGLES:
+        raise RaylumeError(
+            f"raster mode draws every instance's triangles: {int(sizes.sum())} here, more than "
+            f"{MAX_FLAT_TRIANGLES}; render this scene in cast, trace or path mode"
+        )
+    world_tris = int(S.prims[n_world:n_bounded, PRIM_ROW].min())
+    tris, normals, uvs, rows, ids = [], [], [], [], []
+    smooth_any = len(S.triangle_normals) == len(S.triangles)
+    uv_any = len(S.triangle_uvs) == len(S.triangles)
+    for i in range(n_inst):
+        a, b = ranges[int(S.instance_index[i, 0])]
+        inv = S.instance_inverse[i].reshape(3, 4)
+        m = np.linalg.inv(inv[:, :3])  # object to world, linear part
+        t = -m @ inv[:, 3]
+        src = S.prims[a:b, PRIM_ROW].astype(np.int64)
+        v = S.triangles[src].astype(np.float64).reshape(-1, 3, 3) @ m.T + t
+        mirror = np.linalg.det(m) < 0
+        order = [0, 2, 1] if mirror else [0, 1, 2]  # keep the winding's normal outward
+        tris.append(v[:, order].reshape(-1, 9))
+        if smooth_any:
+            n = S.triangle_normals[src].astype(np.float64).reshape(-1, 3, 3) @ np.linalg.inv(m)
+            n /= np.maximum(np.linalg.norm(n, axis=2, keepdims=True), 1e-300)
+            normals.append(n[:, order].reshape(-1, 9))
+        if uv_any:
+            uvs.append(S.triangle_uvs[src].reshape(-1, 3, 2)[:, order].reshape(-1, 6))
+        rows.append(S.prims[a:b])
+        ids.append(np.full(b - a, S.instance_index[i, 1], np.int32))
+    flat = np.concatenate(rows).copy()
+    flat_src = flat[:, PRIM_ROW].astype(np.int64)  # each flat triangle's stored (object-space) row
+    flat[:, PRIM_ROW] = world_tris + np.arange(len(flat), dtype=np.int32)
+    prims = np.concatenate([S.prims[:n_world], flat, S.prims[n_bounded:]])
+    smooth = np.concatenate([S.triangle_smooth[:world_tris], S.triangle_smooth[flat_src]])
+    flat_s = S._replace(
+        prims=prims,
+        n_bounded=n_world + len(flat),
+        triangles=np.concatenate([S.triangles[:world_tris], np.concatenate(tris).astype(np.float32)]),
+        triangle_normals=np.concatenate([S.triangle_normals[:world_tris], np.concatenate(normals).astype(np.float32)])
+        if smooth_any
+        else S.triangle_normals,
+        triangle_smooth=smooth,
+        triangle_uvs=np.concatenate([S.triangle_uvs[:world_tris], np.concatenate(uvs).astype(np.float32)])
+        if uv_any
+        else S.triangle_uvs,
+        instance_inverse=S.instance_inverse[:0],
+        instance_index=S.instance_index[:0],
+    )
+    prim_instance = np.zeros(len(prims), np.int32)
+    prim_instance[n_world : n_world + len(flat)] = np.concatenate(ids)
+    return flat_s, prim_instance
 
 
 def scene_scale(S) -> float:

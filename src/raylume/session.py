@@ -29,14 +29,14 @@ from .image import Image
 from .kernels.camera import camera_of, set_cone_spread
 from .kernels.film import Film
 from .kernels.frame import PROGRESS_STRIDE, aov_lane, cast_lane, path_lane, trace_lane
-from .kernels.shapes import ALL_FEATURES, features
+from .kernels.shapes import features, path_features
 from .scene.checks import warn_about
 from .scene.model import Camera, RenderSettings, Scene
 
 if TYPE_CHECKING:
     from distributed import Client
 
-AOV_NAMES = ("depth", "normal", "object", "prim", "albedo")
+AOV_NAMES = ("depth", "normal", "object", "prim", "albedo", "instance")
 POLL_SECONDS = 0.05  # how often the waiting thread updates progress and notices Ctrl-C
 
 
@@ -52,8 +52,8 @@ class RenderInterrupted(KeyboardInterrupt):
 
 def estimate_bytes(width: int, height: int, aovs: bool) -> int:
     """Memory a render's buffers need: the film's sums, the RGB image, and the AOVs (depth,
-    normal, object, prim, albedo)."""
-    per_pixel = Film.max_bytes_per_pixel() + 12 + (4 + 12 + 4 + 4 + 12 if aovs else 0)
+    normal, object, prim, albedo, instance)."""
+    per_pixel = Film.max_bytes_per_pixel() + 12 + (4 + 12 + 4 + 4 + 12 + 4 if aovs else 0)
     return width * height * per_pixel
 
 
@@ -82,6 +82,7 @@ def allocate_aovs(H: int, W: int) -> dict:
         "object": np.full((H, W), -1, dtype=np.int32),
         "prim": np.full((H, W), -1, dtype=np.int32),
         "albedo": np.zeros((H, W, 3), dtype=np.float32),
+        "instance": np.full((H, W), -1, dtype=np.int32),
     }
 
 
@@ -140,7 +141,7 @@ class Session:
     ) -> Image:
         """Render through `camera` (a Camera, a dict of camera keys replacing the scene's, or
         None for the scene's own); other arguments override the scene's [render] table.
-        Returns an Image: linear float32 RGB, the AOVs (depth, normal, object, prim, albedo)
+        Returns an Image: linear float32 RGB, the AOVs (depth, normal, object, prim, albedo, instance)
         when `aovs` (and `noisy`, the image before denoising, when `denoise`: path mode), and
         stats. `status` is called with "compiling" before the kernels' first
         call (JIT compilation, or loading from the cache) and "rendering" after it. A scene
@@ -421,16 +422,17 @@ def _ray_render(S, cam, film: Film, spp: int, settings, aov: dict, progress, lan
     samples = (film.spp, spp, film.total_spp)  # first, count, total
     X = features(S)  # None: the kernels' variant for spheres and opaque triangles only
     if settings.mode == "path":
-        X = ALL_FEATURES  # one variant of the path kernels for every scene (compiled once)
+        X = path_features(S)  # one variant of the path kernels for every scene (compiled once)
     rejected = np.zeros(lanes * PROGRESS_STRIDE, dtype=np.int64)
     strategy = path_strategy()
 
     def lane_job(lane: int, window) -> None:
         if aov:
-            depth, normal, obj, prim, albedo = (aov[k] for k in AOV_NAMES)
+            depth, normal, obj, prim, albedo, instance = (aov[k] for k in AOV_NAMES)
             aov_lane(
-                S, X, cam, W, H, window, lane, lanes, depth, normal, obj, prim, albedo, rays_per_row, rows_done, stop
-            )
+                S, X, cam, W, H, window, lane, lanes, depth, normal, obj, prim, albedo, instance, rays_per_row,
+                rows_done, stop,
+            )  # fmt: skip
         if settings.mode == "cast":
             cast_lane(S, X, cam, film.filter, W, H, window, lane, lanes, samples, settings.seed, background, film.sums,
                       rays_per_row, rows_done, stop)  # fmt: skip

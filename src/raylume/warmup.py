@@ -2,8 +2,8 @@
 
 A cold start compiles each kernel the first time a render needs it (seconds to a minute per
 mode). `warm_kernels()` renders tiny images that need every variant (each mode against the
-three feature sets of shapes.features: basic scenes, scenes with planes, scenes with the other
-shapes), so that later renders, and other processes sharing the cache folder, start at once:
+feature sets of shapes.features: basic scenes, scenes with planes, scenes with the other
+shapes, scenes with instances), so that later renders, and other processes sharing the cache folder, start at once:
 
     python -m raylume.warmup              # everything, in this process
     python -m raylume.warmup --part 1/2   # the second half of the jobs (run halves side by side)
@@ -15,6 +15,7 @@ pytest workers never compile the same kernel at the same time.
 from __future__ import annotations
 
 import argparse
+import os
 import time
 import warnings
 from collections.abc import Callable
@@ -45,7 +46,25 @@ _OBJECTS = {
 }
 
 
+def _instanced_objects() -> list:
+    """A mesh of two triangles (an OBJ written once per process) with two instances, one
+    mirrored: Instances (kernels/scene.py) as the feature argument."""
+    import tempfile
+    from pathlib import Path
+
+    path = Path(tempfile.gettempdir()) / f"raylume-warmup-{os.getpid()}.obj"
+    if not path.exists():
+        path.write_text("v -1 -1 4\nv 1 -1 4\nv 1 1 4\nv -1 1 4\nf 1 2 3\nf 1 3 4\n")
+    instances = [{"translate": [0, 0, 0]}, {"translate": [0.5, 0, 1], "scale": [-1, 1, 1]}]
+    return [
+        {"type": "sphere", "center": [0, 0, 3], "radius": 1, "material": "m"},
+        {"type": "mesh", "file": str(path), "material": "m", "instances": instances},
+    ]
+
+
 def _scene(kind: str):
+    if kind == "instances" and kind not in _OBJECTS:
+        _OBJECTS[kind] = _instanced_objects()
     return scene_from_dict(
         {
             "render": {"width": 8, "height": 8},
@@ -80,7 +99,8 @@ def _intersect(kind: str) -> Callable[[], None]:
 
 
 # (job, its share of a cold compile in percent, measured on 2 cores): path mode's kernels take
-# a third of it, the three trace variants another third.
+# a third of it, the three trace variants another third. Path mode has one variant for every
+# scene, instances included (shapes.path_features); raster draws instances as plain triangles.
 JOBS: list[tuple[Callable[[], None], float]] = [
     (_render("all", "path"), 32.0),
     (_render("basic", "raster"), 20.0),
@@ -93,6 +113,9 @@ JOBS: list[tuple[Callable[[], None], float]] = [
     (_intersect("all"), 1.5),
     (_intersect("planes"), 1.4),
     (_intersect("basic"), 1.3),
+    (_render("instances", "trace"), 12.0),
+    (_render("instances", "cast"), 2.0),
+    (_intersect("instances"), 1.5),
 ]
 
 

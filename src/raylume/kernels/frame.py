@@ -16,7 +16,7 @@ from .materials import albedo
 from .path import finite_sample, path_ray
 from .sampler import lens_sample, pixel_sample, sample_key
 from .scene import emitters_of, environment_of, geometry_of, lights_of, surfaces_of
-from .shapes import NO_HIT, surface
+from .shapes import NO_HIT, instance_id, surface
 from .trace import RAY_WIDTH, stack_rows, trace_ray
 from .traverse import closest_hit, scratch_array, traversal_stacks
 from .vec import FAST, KERNEL, dot, madd, mul
@@ -157,10 +157,10 @@ def cast_lane(
 
 @njit(**LANE)
 def aov_lane(
-    S, X, cam, width, height, window, lane, lanes, depth, normal, obj_id, prim_id, albedo_out, rays_per_row,
-    rows_done, stop,
+    S, X, cam, width, height, window, lane, lanes, depth, normal, obj_id, prim_id, albedo_out, inst_id,
+    rays_per_row, rows_done, stop,
 ):  # fmt: skip
-    """Primary-hit AOVs (depth, normal, object, prim, albedo) of the lane's rows."""
+    """Primary-hit AOVs (depth, normal, object, prim, albedo, instance) of the lane's rows."""
     node_stack, t_stack = traversal_stacks()
     G, F = geometry_of(S), surfaces_of(S)
     x0, y0, x1, y1 = window
@@ -168,8 +168,9 @@ def aov_lane(
         if stop[0] != 0:
             break
         rays_per_row[j - y0] += _primary_aovs_row(
-            G, F, X, cam, j, window, width, height, node_stack, t_stack, depth, normal, obj_id, prim_id, albedo_out
-        )
+            G, F, X, cam, j, window, width, height, node_stack, t_stack, depth, normal, obj_id, prim_id, albedo_out,
+            inst_id,
+        )  # fmt: skip
         rows_done[lane * PROGRESS_STRIDE] += 1
 
 
@@ -241,10 +242,10 @@ def _path_row(
 
 @njit(**KERNEL)
 def _primary_aovs_row(
-    G, F, X, cam, j, window, width, height, node_stack, t_stack, depth, normal, obj_id, prim_id, albedo_out
+    G, F, X, cam, j, window, width, height, node_stack, t_stack, depth, normal, obj_id, prim_id, albedo_out, inst_id
 ):
-    """Depth, normal, object, prim and albedo of the (pinhole) rays through the row's pixel
-    centres. Returns rays traced."""
+    """Depth, normal, object, prim, albedo and instance of the (pinhole) rays through the row's
+    pixel centres. Returns rays traced."""
     x0, y0, x1, y1 = window
     r = j - y0
     spread = cam[CAM_CONE_SPREAD]
@@ -257,6 +258,7 @@ def _primary_aovs_row(
             depth[r, c0] = INF
             obj_id[r, c0] = -1
             prim_id[r, c0] = -1
+            inst_id[r, c0] = -1
             for c in range(3):
                 normal[r, c0, c] = 0.0
                 albedo_out[r, c0, c] = 0.0
@@ -269,6 +271,7 @@ def _primary_aovs_row(
             depth[r, c0] = t
             obj_id[r, c0] = obj
             prim_id[r, c0] = face
+            inst_id[r, c0] = instance_id(X, prim)
             for c in range(3):
                 normal[r, c0, c] = ns[c]
                 albedo_out[r, c0, c] = a[c]

@@ -44,7 +44,7 @@ from .materials import (
     beer_lambert,
 )
 from .sampler import DIM_BSDF, DIM_LIGHT, dimension_key, key_uniform2, sub_key
-from .shapes import NO_HIT, PRIM_LIGHT, offset_epsilon, surface
+from .shapes import NO_HIT, PRIM_LIGHT, offset_epsilon, split_hit, surface
 from .traverse import any_hit, closest_hit
 from .vec import KERNEL, dot, hadamard, madd, mul, row3
 
@@ -149,7 +149,9 @@ def path_ray(G, F, X, Em, Env, o, d, spread, max_depth, background, key, node_st
             beta = beer_lambert(mat, m, beta, t)
         emission = row3(mat, m, MAT_EMISSION)
         if emission[0] > 0.0 or emission[1] > 0.0 or emission[2] > 0.0:
-            w = _emitter_weight(G, Em, Env, G.prims[prim, PRIM_LIGHT], o, d, t, ng, prev_pdf, prev_delta, strategy)
+            # an instance's primitive is never sampled as a light (PRIM_LIGHT -1): full weight
+            k, _ = split_hit(X, prim)
+            w = _emitter_weight(G, Em, Env, G.prims[k, PRIM_LIGHT], o, d, t, ng, prev_pdf, prev_delta, strategy)
             L = _add_light(L, beta, emission, w)
         if max_depth >= 0 and depth >= max_depth:
             break

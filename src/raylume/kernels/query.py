@@ -4,14 +4,15 @@ and users who want raylume as a ray-intersection library)."""
 from numba import njit, prange
 
 from .scene import geometry_of
-from .shapes import NO_HIT, PRIM_FACE, PRIM_OBJECT
+from .shapes import NO_HIT, PRIM_FACE, PRIM_OBJECT, instance_id, split_hit
 from .traverse import INF, closest_hit, traversal_stacks
 from .vec import FAST
 
 
 @njit(parallel=True, fastmath=FAST, cache=True, error_model="numpy")
-def intersect_rays(S, X, origins, directions, t_out, object_out, prim_out, lanes):
-    """Closest hit of each ray (unit directions). t = inf, object = prim = -1 for misses.
+def intersect_rays(S, X, origins, directions, t_out, object_out, prim_out, instance_out, lanes):
+    """Closest hit of each ray (unit directions). t = inf, object = prim = instance = -1 for
+    misses; instance is the instance's index within its object, 0 off instances.
     X: the scene's `features(S)` (shapes.py).
     `lanes`: parallel iterations, one per thread (numba.get_num_threads(); passed in because
     calling it here would keep Numba from caching the function)."""
@@ -30,6 +31,9 @@ def intersect_rays(S, X, origins, directions, t_out, object_out, prim_out, lanes
                 if prim == NO_HIT:
                     object_out[k] = -1
                     prim_out[k] = -1
+                    instance_out[k] = -1
                 else:
-                    object_out[k] = S.prims[prim, PRIM_OBJECT]
-                    prim_out[k] = S.prims[prim, PRIM_FACE]
+                    row, _ = split_hit(X, prim)
+                    object_out[k] = S.prims[row, PRIM_OBJECT]
+                    prim_out[k] = S.prims[row, PRIM_FACE]
+                    instance_out[k] = instance_id(X, prim)

@@ -371,6 +371,7 @@ def _shade(
     triangle_prim,
     extra_prim,
     extra_part,
+    prim_instance,
     n_main,
     zbuf,
     tid,
@@ -381,6 +382,7 @@ def _shade(
     normal,
     obj_id,
     prim_id,
+    inst_id,
     albedo_out,
 ):
     """Pass 5: shade every pixel once from its nearest triangle, as `trace` lights a surface
@@ -409,6 +411,7 @@ def _shade(
             triangle_prim,
             extra_prim,
             extra_part,
+            prim_instance,
             n_main,
             zbuf,
             tid,
@@ -419,6 +422,7 @@ def _shade(
             normal,
             obj_id,
             prim_id,
+            inst_id,
             albedo_out,
             node_stack,
             t_stack,
@@ -451,6 +455,7 @@ def _shade_row(
     triangle_prim,
     extra_prim,
     extra_part,
+    prim_instance,
     n_main,
     zbuf,
     tid,
@@ -461,6 +466,7 @@ def _shade_row(
     normal,
     obj_id,
     prim_id,
+    inst_id,
     albedo_out,
     node_stack,
     t_stack,
@@ -487,6 +493,7 @@ def _shade_row(
                 depth[j, i] = math.inf
                 obj_id[j, i] = -1
                 prim_id[j, i] = -1
+                inst_id[j, i] = -1
             continue
         x_px = i + 0.5
         a = x_px / width * 2.0 - 1.0
@@ -532,6 +539,7 @@ def _shade_row(
             depth[j, i] = dist
             obj_id[j, i] = obj
             prim_id[j, i] = face_id
+            inst_id[j, i] = prim_instance[prim]
 
 
 def view_matrix(cam: np.ndarray, width: int, height: int) -> np.ndarray:
@@ -581,6 +589,7 @@ def rasterize_arrays(
     extra,
     extra_prim,
     extra_part,
+    prim_instance,
     background,
     want_aovs,
     rgb,
@@ -588,13 +597,15 @@ def rasterize_arrays(
     normal,
     obj_id,
     prim_id,
+    inst_id,
     albedo,
 ):
     """Run the passes over the kernel scene's triangles (row t is primitive triangle_prim[t])
     plus `extra` (float64 (E, 9): tessellated analytic shapes, triangle e drawing primitive
-    extra_prim[e], part extra_part[e]) and
-    write the image (every pixel) and, when `want_aovs`, the AOVs. Compile by calling it on
-    empty input first."""
+    extra_prim[e], part extra_part[e]) and write the image (every pixel) and, when
+    `want_aovs`, the AOVs. Compile by calling it on empty input first. prim_instance (int32
+    per primitive) is each primitive's `instance` AOV (raster.py draws instances as plain
+    triangles)."""
     tri = S.triangles
     n_main = tri.shape[0]
     n_total = n_main + extra.shape[0]
@@ -623,6 +634,7 @@ def rasterize_arrays(
         triangle_prim,
         extra_prim,
         extra_part,
+        prim_instance,
         n_main,
         zbuf,
         tid,
@@ -633,6 +645,7 @@ def rasterize_arrays(
         normal,
         obj_id,
         prim_id,
+        inst_id,
         albedo,
     )
 

@@ -40,6 +40,15 @@ class KernelScene(NamedTuple):
     env_rotation: np.ndarray
     env_present: bool
     has_transparency: bool
+    # Instances (traverse_instances.py): the top-level BVH (node 0, over the instances' world
+    # boxes) followed by every instanced mesh's own BVH, in one node array; per instance its
+    # inverse matrix (world to object, 3 x 4 row-major) and (BLAS root node, index within its
+    # object), in top-level leaf order. Instanced meshes' triangles and primitive rows lie in
+    # the shared tables (prims[n_world:n_bounded]). Zero instances: no top-level BVH.
+    inst_node_bounds: np.ndarray  # float32 (M, 6, W)
+    inst_node_index: np.ndarray  # int32 (M, 2, W)
+    instance_inverse: np.ndarray  # float64 (N, 12)
+    instance_index: np.ndarray  # int32 (N, 2)
     # Smallest ray offset: a tiny fraction of the scene's extent, camera included (set per
     # render by the Session, since the camera may move).
     epsilon_floor: float
@@ -77,6 +86,28 @@ class Surfaces(NamedTuple):
 class Lights(NamedTuple):
     kind: np.ndarray
     data: np.ndarray
+
+
+class Instances(NamedTuple):
+    """The kernels' feature argument X for scenes with instances (shapes.features), holding
+    what the two-level traversal needs beside the Geometry view. Its type selects the kernels'
+    variant with instance code; scenes without instances compile none of it."""
+
+    node_bounds: np.ndarray
+    node_index: np.ndarray
+    inverse: np.ndarray
+    index: np.ndarray
+
+
+def is_instances(X) -> bool:
+    """Typing-time test (in @overload implementations): is the Numba type X an Instances?"""
+    from numba import types
+
+    return isinstance(X, types.BaseNamedTuple) and getattr(X, "instance_class", None) is Instances
+
+
+def instances_of(S) -> Instances:
+    return Instances(S.inst_node_bounds, S.inst_node_index, S.instance_inverse, S.instance_index)
 
 
 class Emitters(NamedTuple):

@@ -22,7 +22,8 @@ from numba import njit, types
 from numba.extending import overload
 
 from . import shape_cylinder, shape_disk, shape_plane, shape_quad, shape_sphere, shape_triangle
-from .vec import KERNEL, max_abs
+from .scene import instances_of, is_instances
+from .vec import KERNEL, max_abs, normalize
 
 
 class Shape(IntEnum):
@@ -78,9 +79,13 @@ ALL_FEATURES = _WITH_ALL_SHAPES  # for kernels compiled once for every scene (pa
 
 
 def features(S):
-    """None for a basic kernel scene (see above); an array otherwise."""
+    """None for a basic kernel scene (see above); an array otherwise; the scene's Instances
+    (kernels/scene.py) when it has instances: that variant compiles every shape's code and the
+    two-level traversal (traverse_instances.py)."""
     from . import lights, textures
 
+    if S.instance_inverse.shape[0] > 0:
+        return instances_of(S)
     basic = (
         bool(np.isin(S.prims[:, PRIM_KIND], (SPHERE, TRIANGLE)).all())
         and not S.has_transparency
@@ -91,6 +96,106 @@ def features(S):
         return None
     unusual = np.isin(S.prims[:, PRIM_KIND], (DISK, QUAD, CYLINDER)).any()
     return _WITH_ALL_SHAPES if unusual else _WITH_PLANES
+
+
+def path_features(S):
+    """X of path mode: one variant for every scene (a path-mode compile is ~55 s), with every
+    shape and the instance code (skipped at run time when the scene has no instances)."""
+    return instances_of(S)
+
+
+# --- hits on instances ---------------------------------------------------------------------
+# A hit on an instance is reported as one int64, `(instance + 1) << INSTANCE_SHIFT | primitive`
+# (traverse_instances.py): primitive is the instanced mesh's row of the primitive table, and
+# instance the row of X.inverse. Hits on everything else are the primitive alone. Functions
+# that index the primitive table with a hit split it first (split_hit); without Instances X
+# that is the identity and compiles to nothing.
+INSTANCE_SHIFT = 32
+_PRIM_MASK = (1 << INSTANCE_SHIFT) - 1
+
+
+def split_hit(X, hit):
+    raise NotImplementedError("a Numba overload")
+
+
+def world_normals(X, inst, ng, ns):
+    raise NotImplementedError("a Numba overload")
+
+
+def object_vector(X, inst, a):
+    raise NotImplementedError("a Numba overload")
+
+
+def instance_id(X, hit):
+    raise NotImplementedError("a Numba overload")
+
+
+@overload(split_hit, jit_options=KERNEL, inline="always")
+def _split_hit_impl(X, hit):
+    """(primitive row, instance row or -1) of a hit."""
+    if is_instances(X):
+        return lambda X, hit: (hit & _PRIM_MASK, (hit >> INSTANCE_SHIFT) - 1)
+    return lambda X, hit: (hit, -1)
+
+
+@njit(**KERNEL, inline="always")
+def _to_world_normal(inv, inst, n):
+    """n (object space) by the inverse transpose of the instance's matrix, normalised: normals
+    stay perpendicular to the surface under non-uniform scale, and outward under mirroring."""
+    return normalize(
+        (
+            inv[inst, 0] * n[0] + inv[inst, 4] * n[1] + inv[inst, 8] * n[2],
+            inv[inst, 1] * n[0] + inv[inst, 5] * n[1] + inv[inst, 9] * n[2],
+            inv[inst, 2] * n[0] + inv[inst, 6] * n[1] + inv[inst, 10] * n[2],
+        )
+    )
+
+
+@overload(world_normals, jit_options=KERNEL, inline="always")
+def _world_normals_impl(X, inst, ng, ns):
+    """(geometric, shading) normals of a hit in world space (those of an instance's mesh are
+    computed in its object space)."""
+    if is_instances(X):
+
+        def impl(X, inst, ng, ns):
+            if inst < 0:
+                return ng, ns
+            return _to_world_normal(X.inverse, inst, ng), _to_world_normal(X.inverse, inst, ns)
+
+        return impl
+    return lambda X, inst, ng, ns: (ng, ns)
+
+
+@overload(object_vector, jit_options=KERNEL, inline="always")
+def _object_vector_impl(X, inst, a):
+    """A world-space vector in the instance's object space (unchanged off instances)."""
+    if is_instances(X):
+
+        def impl(X, inst, a):
+            if inst < 0:
+                return a
+            m = X.inverse
+            return (
+                m[inst, 0] * a[0] + m[inst, 1] * a[1] + m[inst, 2] * a[2],
+                m[inst, 4] * a[0] + m[inst, 5] * a[1] + m[inst, 6] * a[2],
+                m[inst, 8] * a[0] + m[inst, 9] * a[1] + m[inst, 10] * a[2],
+            )
+
+        return impl
+    return lambda X, inst, a: a
+
+
+@overload(instance_id, jit_options=KERNEL, inline="always")
+def _instance_id_impl(X, hit):
+    """The `instance` AOV of a hit: the instance's index within its object, 0 off instances."""
+    if is_instances(X):
+
+        def impl(X, hit):
+            inst = (hit >> INSTANCE_SHIFT) - 1
+            return np.int64(X.index[inst, 1]) if inst >= 0 else np.int64(0)
+
+        return impl
+    return lambda X, hit: np.int64(0)
 
 
 @njit(**KERNEL, inline="always")
@@ -151,8 +256,9 @@ def _normal_other(shapes, kind, row, b1, p):
 
 
 @njit(**KERNEL)
-def uv(G, X, k, b1, b2, p):
+def uv(G, X, hit, b1, b2, p):
     """Texture coordinates of a hit on primitive k (each shape's module documents its own)."""
+    k, _ = split_hit(X, hit)
     kind = np.int64(G.prims[k, PRIM_KIND])
     row = np.int64(G.prims[k, PRIM_ROW])
     if kind == TRIANGLE:
@@ -165,17 +271,20 @@ def uv(G, X, k, b1, b2, p):
 
 
 @njit(**KERNEL)
-def uv_differentials(G, X, k, b1, b2, p, u, v, a1, a2):
+def uv_differentials(G, X, hit, b1, b2, p, u, v, a1, a2):
     """Changes (du1, dv1, du2, dv2) of the UVs (u, v) at p from p to p + a1 and to p + a2,
     two vectors in the surface's tangent plane (texture filtering). Triangles answer exactly;
     other shapes by finite differences of their UVs, wrapped across seams (a sphere's u)."""
+    k, inst = split_hit(X, hit)
     if G.prims[k, PRIM_KIND] == TRIANGLE:
         row = np.int64(G.prims[k, PRIM_ROW])
+        a1 = object_vector(X, inst, a1)  # an instance's triangles are stored in object space
+        a2 = object_vector(X, inst, a2)
         du1, dv1 = shape_triangle.uv_change(G, row, a1)
         du2, dv2 = shape_triangle.uv_change(G, row, a2)
         return du1, dv1, du2, dv2
-    u1, v1 = uv(G, X, k, b1, b2, (p[0] + a1[0], p[1] + a1[1], p[2] + a1[2]))
-    u2, v2 = uv(G, X, k, b1, b2, (p[0] + a2[0], p[1] + a2[1], p[2] + a2[2]))
+    u1, v1 = uv(G, X, hit, b1, b2, (p[0] + a1[0], p[1] + a1[1], p[2] + a1[2]))
+    u2, v2 = uv(G, X, hit, b1, b2, (p[0] + a2[0], p[1] + a2[1], p[2] + a2[2]))
     return _wrapped(u1 - u), _wrapped(v1 - v), _wrapped(u2 - u), _wrapped(v2 - v)
 
 
@@ -213,7 +322,7 @@ def _uv_unusual(X, shapes, kind, row, b1, p):
 
 
 def _all_shapes(X) -> bool:
-    return isinstance(X, types.Array) and X.dtype == types.float64
+    return (isinstance(X, types.Array) and X.dtype == types.float64) or is_instances(X)
 
 
 @overload(_intersect_unusual, jit_options=KERNEL, inline="always")
@@ -262,10 +371,12 @@ def tessellate(kind: Shape, row: np.ndarray, view) -> tuple[np.ndarray, np.ndarr
 
 
 @njit(**KERNEL, inline="always")
-def surface(G, X, k, b1, b2, p):
-    """The surface at a hit on primitive k at p: (outward geometric normal, outward shading
-    normal, material, object, face)."""
+def surface(G, X, hit, b1, b2, p):
+    """The surface at a hit (a primitive, or an instance's primitive: split_hit) at p: (outward
+    geometric normal, outward shading normal, material, object, face), in world space."""
+    k, inst = split_hit(X, hit)
     ng, ns = normals(G, X, k, b1, b2, p)
+    ng, ns = world_normals(X, inst, ng, ns)
     return (
         ng,
         ns,

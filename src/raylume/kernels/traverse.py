@@ -23,8 +23,11 @@ from llvmlite import ir
 from numba import njit, types
 from numba.core import cgutils
 from numba.core.errors import TypingError
-from numba.extending import intrinsic
+from numba.extending import intrinsic, overload
 
+from ..accel.wide import SPHERE_BLOCK
+from .scene import is_instances
+from .shape_sphere import intersect_spheres
 from .shape_triangle import NO_SHEAR, intersect_triangles, ray_shear
 from .shapes import NO_HIT, PRIM_ROW, intersect
 from .vec import KERNEL
@@ -240,6 +243,43 @@ def intersect_range(G, X, first, end, o, d, shear, tmin, best_t, prim, b1, b2, s
     return best_t, prim, b1, b2
 
 
+@njit(**KERNEL, inline="always")
+def intersect_leaf(G, X, first, count, o, d, shear, tmin, best_t, prim, b1, b2):
+    """A leaf (its count field decoded as accel/wide.py says): blocks of 2 to 4 triangles or
+    spheres tested at once, other leaves primitive by primitive. Returns the updated (best_t,
+    prim, b1, b2)."""
+    if count < -SPHERE_BLOCK:
+        n = -count - SPHERE_BLOCK
+        P = G.prims
+        r0 = P[first, PRIM_ROW]
+        rows = (
+            r0,
+            P[first + 1, PRIM_ROW],
+            P[first + 2, PRIM_ROW] if n > 2 else r0,
+            P[first + 3, PRIM_ROW] if n > 3 else r0,
+        )
+        t, j = intersect_spheres(G.shapes, rows, n, o, d, tmin, best_t)
+        if t < best_t:
+            return t, first + j, 0.0, 0.0
+        return best_t, prim, b1, b2
+    if count < 0:  # -count triangles in consecutive rows
+        row = np.int64(G.prims[first, PRIM_ROW])
+        t, j, u, v = intersect_triangles(o, shear, G.triangles, row, -count, tmin, best_t)
+        if t < best_t:
+            return t, first + j, u, v
+        return best_t, prim, b1, b2
+    return intersect_range(G, X, first, first + count, o, d, shear, tmin, best_t, prim, b1, b2, False)
+
+
+@njit(**KERNEL, inline="always")
+def _leaf_blocks(G, X, first, count, o, d, shear, tmin, tmax):
+    """Any hit in (tmin, tmax) in a leaf (as intersect_leaf; a primitive-by-primitive leaf stops
+    at its first hit)."""
+    if count < 0:
+        return intersect_leaf(G, X, first, count, o, d, shear, tmin, tmax, NO_HIT, 0.0, 0.0)[0] < tmax
+    return intersect_range(G, X, first, first + count, o, d, shear, tmin, tmax, NO_HIT, 0.0, 0.0, True)[1] >= 0
+
+
 # Inlined: with a call, every ray of a scene with planes passed the Geometry view by value
 # (glass example: trace 10%, cast 30% slower). Scenes without unbounded shapes compile none of
 # it (X is None, see shapes.features). Any-hit queries use it too, without stopping early (a
@@ -248,6 +288,43 @@ def intersect_range(G, X, first, end, o, d, shear, tmin, best_t, prim, b1, b2, s
 def _unbounded_hit(G, X, o, d, shear, tmin, tmax):
     """The nearest of the unbounded primitives (after the BVH's) hit by the ray."""
     return intersect_range(G, X, G.n_bounded, G.prims.shape[0], o, d, shear, tmin, tmax, NO_HIT, 0.0, 0.0, False)
+
+
+# --- instances ---------------------------------------------------------------------------------
+# Scenes with instances (X an Instances) test them beside the unbounded primitives, before the
+# world BVH (traverse_instances.py); every other variant compiles nothing for them.
+
+
+def _instances_closest(G, X, o, d, tmin, best_t, prim, b1, b2, node_stack, t_stack):
+    raise NotImplementedError("a Numba overload")
+
+
+def _instances_any(G, X, o, d, tmin, tmax, node_stack):
+    raise NotImplementedError("a Numba overload")
+
+
+@overload(_instances_closest, jit_options=KERNEL, inline="always")
+def _instances_closest_impl(G, X, o, d, tmin, best_t, prim, b1, b2, node_stack, t_stack):
+    if is_instances(X):
+        from .traverse_instances import instances_closest
+
+        # the primitive as int64 and the distances as floats: a literal (NO_HIT, 0.0) at some
+        # call sites would compile the function once more per literal
+        return lambda G, X, o, d, tmin, best_t, prim, b1, b2, node_stack, t_stack: instances_closest(
+            G, X, o, d, float(tmin), float(best_t), np.int64(prim), float(b1), float(b2), node_stack, t_stack
+        )
+    return lambda G, X, o, d, tmin, best_t, prim, b1, b2, node_stack, t_stack: (best_t, prim, b1, b2)
+
+
+@overload(_instances_any, jit_options=KERNEL, inline="always")
+def _instances_any_impl(G, X, o, d, tmin, tmax, node_stack):
+    if is_instances(X):
+        from .traverse_instances import instances_any
+
+        return lambda G, X, o, d, tmin, tmax, node_stack: instances_any(
+            G, X, o, d, float(tmin), float(tmax), node_stack
+        )
+    return lambda G, X, o, d, tmin, tmax, node_stack: False
 
 
 # --- traversal --------------------------------------------------------------------------------
@@ -269,15 +346,14 @@ def closest_hit(G, X, o, d, tmin, tmax, node_stack, t_stack):
     if X is not None:
         if G.n_bounded < G.prims.shape[0]:
             best_t, prim, b1, b2 = _unbounded_hit(G, X, o, d, shear, tmin, tmax)
+        best_t, prim, b1, b2 = _instances_closest(G, X, o, d, tmin, best_t, prim, b1, b2, node_stack, t_stack)
     index = G.node_index
     bounds = G.node_bounds
     if _root_is_a_leaf(index):
-        # its one leaf (2 to 4 triangles have their count negated), with no box test and before
-        # the per-ray box constants exist: through the node, or with the constants live across
-        # the traversal loop, the seed's trace kernel was 20-60% slower (1 thread)
-        first = index[0, 0, 0]
-        end = first + abs(index[0, 1, 0])
-        return intersect_range(G, X, first, end, o, d, shear, tmin, best_t, prim, b1, b2, False)
+        # its one leaf, with no box test and before the per-ray box constants exist: through
+        # the node, or with the constants live across the traversal loop, the seed's trace
+        # kernel was 20-60% slower (1 thread)
+        return intersect_leaf(G, X, index[0, 0, 0], index[0, 1, 0], o, d, shear, tmin, best_t, prim, b1, b2)
     if not traceable(o, d):
         return best_t, prim, b1, b2
     rf, rows = box_ray(o, d)
@@ -311,17 +387,9 @@ def closest_hit(G, X, o, d, tmin, tmax, node_stack, t_stack):
             leaf = -1 - ref
             node = leaf >> _LANE_SHIFT
             lane = leaf & (BVH_WIDTH - 1)
-            first = index[node, 0, lane]
-            count = index[node, 1, lane]
-            if count < 0:  # -count triangles in consecutive rows, tested together
-                row = np.int64(G.prims[first, PRIM_ROW])
-                t, j, u, v = intersect_triangles(o, shear, G.triangles, row, -count, tmin, best_t)
-                if t < best_t:
-                    best_t, prim, b1, b2 = t, first + j, u, v
-            else:
-                best_t, prim, b1, b2 = intersect_range(
-                    G, X, first, first + count, o, d, shear, tmin, best_t, prim, b1, b2, False
-                )
+            best_t, prim, b1, b2 = intersect_leaf(
+                G, X, index[node, 0, lane], index[node, 1, lane], o, d, shear, tmin, best_t, prim, b1, b2
+            )
         # pop the next entry still nearer than the best hit so far
         found = False
         while top > 0:
@@ -342,12 +410,12 @@ def any_hit(G, X, o, d, tmin, tmax, node_stack):
     if X is not None:
         if G.n_bounded < G.prims.shape[0] and _unbounded_hit(G, X, o, d, shear, tmin, tmax)[1] >= 0:
             return True
+        if _instances_any(G, X, o, d, tmin, tmax, node_stack):
+            return True
     index = G.node_index
     bounds = G.node_bounds
     if _root_is_a_leaf(index):  # as in closest_hit
-        first = index[0, 0, 0]
-        end = first + abs(index[0, 1, 0])
-        return intersect_range(G, X, first, end, o, d, shear, tmin, tmax, NO_HIT, 0.0, 0.0, True)[1] >= 0
+        return _leaf_blocks(G, X, index[0, 0, 0], index[0, 1, 0], o, d, shear, tmin, tmax)
     if not traceable(o, d):
         return False
     rf, rows = box_ray(o, d)
@@ -360,13 +428,7 @@ def any_hit(G, X, o, d, tmin, tmax, node_stack):
             leaf = -1 - ref
             node = leaf >> _LANE_SHIFT
             lane = leaf & (BVH_WIDTH - 1)
-            first = index[node, 0, lane]
-            count = index[node, 1, lane]
-            if count < 0:
-                row = np.int64(G.prims[first, PRIM_ROW])
-                if intersect_triangles(o, shear, G.triangles, row, -count, tmin, tmax)[0] < tmax:
-                    return True
-            elif intersect_range(G, X, first, first + count, o, d, shear, tmin, tmax, NO_HIT, 0.0, 0.0, True)[1] >= 0:
+            if _leaf_blocks(G, X, index[node, 0, lane], index[node, 1, lane], o, d, shear, tmin, tmax):
                 return True
             continue
         mask = box_hits(bounds, ref, rf, rows, tmax, None, 0)

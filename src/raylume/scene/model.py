@@ -488,6 +488,19 @@ class Mesh(Strict):
     smooth: bool | None = None  # None: use the file's vertex normals when it has them
     # "right": the file is right-handed (most OBJ and glTF): mirror x before the transform
     handedness: Literal["left", "right"] = "left"
+    # Copies of the mesh, each placed by a matrix after `transform` (column vectors, p' = M @ [p, 1]):
+    # a .npy file of shape (N, 4, 4) or (N, 3, 4), relative to the scene file, or inline
+    # transforms. The mesh and its BVH are stored once (scene/instances.py, compile.py).
+    instances: str | list[Transform] | None = None
+
+    @field_validator("instances")
+    @classmethod
+    def _instances(cls, v):
+        if isinstance(v, list) and not v:
+            raise ValueError("instances must list at least one transform (or be left out)")
+        if isinstance(v, str) and not v.strip():
+            raise ValueError("instances must name a .npy file of (N, 4, 4) or (N, 3, 4) matrices")
+        return v
 
 
 def _similarity(transform: Transform, shape: str) -> Transform:

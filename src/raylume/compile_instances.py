@@ -1,0 +1,225 @@
+"""Instanced meshes -> the two-level structure (kernels/traverse_instances.py).
+
+Each instanced mesh is stored once, in its own space: its triangles and primitive-table rows
+(after the world's), and its own wide BVH (a BLAS). The instances of every mesh share one
+top-level wide BVH (the TLAS) over their world boxes. All BLASes follow the TLAS in one node
+array; the TLAS's leaves are ranges of the instance arrays, reordered into its leaf order.
+
+What an instance costs: its inverse matrix (float64 3 x 4, 96 bytes: the world ray is moved
+into object space in float64, so secondary rays leave an instance's surface as exactly as a
+plain mesh's), its BLAS root and its index within its object (int32 x 2, 8 bytes), and its
+share of the TLAS's nodes (256 bytes per node; leaves of up to TLAS_MAX_LEAF instances).
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from .accel.bvh import build_bvh
+from .accel.wide import collapse, mark_triangle_leaves, single_leaf, wide_depth, wide_nbytes
+from .kernels.shapes import PRIM_FACE, PRIM_KIND, PRIM_LIGHT, PRIM_MATERIAL, PRIM_OBJECT, PRIM_ROW, PRIM_WIDTH, Shape
+from .kernels.traverse import BVH_WIDTH, stack_needed
+from .scene.instances import inverse_rows
+
+# BLASes are built as the world BVH is (compile.py's constants); the TLAS's leaves hold up to
+# TLAS_MAX_LEAF instances, and its SAH weighs an instance's test (a transform and a BLAS
+# traversal) as TLAS_ISECT_COST node visits.
+BLAS_MAX_LEAF = 4
+BLAS_TRAVERSAL_COST = 2.0
+SMALL_BLAS = 8
+TLAS_MAX_LEAF = 2
+TLAS_ISECT_COST = 4.0
+
+
+class InstanceArrays(NamedTuple):
+    prims: np.ndarray  # int32 (P, PRIM_WIDTH): instanced meshes' rows, PRIM_ROW into `triangles`
+    triangles: np.ndarray  # float32 (T, 9), object space, each mesh in its BLAS's leaf order
+    normals: np.ndarray | None  # float32 (T, 9), None when no instanced mesh is smooth
+    smooth: np.ndarray  # bool (T,)
+    uvs: np.ndarray | None  # float32 (T, 6), None when none needs UVs
+    node_bounds: np.ndarray  # float32 (M, 6, W): the TLAS (root 0), then every BLAS
+    node_index: np.ndarray  # int32 (M, 2, W); BLAS leaves' first rows relative to `prims`
+    blas_leaf: np.ndarray  # bool (M, W): lanes of node_index[:, 0] that are BLAS leaves' first rows
+    inverse: np.ndarray  # float64 (N, 12): world-to-object matrices, TLAS leaf order
+    index: np.ndarray  # int32 (N, 2): BLAS root node, index within its object
+    extent: float  # largest world coordinate of the instances' boxes
+    stack: int  # traversal stack entries a TLAS walk with a BLAS walk on top can need
+    node_bytes: int  # the node arrays and the primitive table's kind and row columns
+    stats: dict
+
+
+def empty_instances() -> InstanceArrays:
+    tlas = single_leaf(np.zeros((0, 3)), np.zeros((0, 3)), BVH_WIDTH)
+    return InstanceArrays(
+        prims=np.zeros((0, PRIM_WIDTH), np.int32),
+        triangles=np.zeros((0, 9), np.float32),
+        normals=None,
+        smooth=np.zeros(0, bool),
+        uvs=None,
+        node_bounds=tlas.node_bounds,
+        node_index=tlas.node_index,
+        blas_leaf=np.zeros((1, BVH_WIDTH), bool),
+        inverse=np.zeros((0, 12), np.float64),
+        index=np.zeros((0, 2), np.int32),
+        extent=0.0,
+        stack=0,
+        node_bytes=0,
+        stats={"instances": 0},
+    )
+
+
+def _wide(lo, hi, accelerate, small, max_leaf, c_trav, c_isect=1.0):
+    if accelerate and len(lo) > small:
+        return collapse(build_bvh(lo, hi, max_leaf_size=max_leaf, c_trav=c_trav, c_isect=c_isect), BVH_WIDTH)
+    return single_leaf(lo, hi, BVH_WIDTH)
+
+
+def world_boxes(lo: np.ndarray, hi: np.ndarray, matrices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The world boxes (N, 3) of the object box (lo, hi) placed by each (3, 4) matrix: the
+    exact box of the transformed box (centre moved, half-extent by |A|)."""
+    centre = 0.5 * (lo + hi)
+    half = 0.5 * (hi - lo)
+    a = matrices[:, :, :3]
+    c = np.einsum("nij,j->ni", a, centre) + matrices[:, :, 3]
+    e = np.einsum("nij,j->ni", np.abs(a), half)
+    return c - e, c + e
+
+
+def build_instances(meshes: list, accelerate: bool = True) -> InstanceArrays:
+    """The two-level structure of compile.py's instanced meshes (_InstancedMesh)."""
+    if not meshes:
+        return empty_instances()
+    prims, tris, normals, smooth, uvs = [], [], [], [], []
+    blas_bounds, blas_index = [], []
+    box_lo, box_hi, roots, ids, inverses = [], [], [], [], []
+    prim_base = 0
+    node_base = 0  # nodes of the BLASes before this one (the TLAS's are added below)
+    blas_depth = 1
+    drawn = 0
+    any_smooth = any(m.normals is not None for m in meshes)
+    any_uvs = any(m.uvs is not None for m in meshes)
+    for mesh in meshes:
+        corners = mesh.triangles.reshape(-1, 3, 3)
+        lo = corners.min(axis=1).astype(np.float64)
+        hi = corners.max(axis=1).astype(np.float64)
+        del corners
+        blas = _wide(lo, hi, accelerate, SMALL_BLAS, BLAS_MAX_LEAF, BLAS_TRAVERSAL_COST)
+        order = blas.prim_order.astype(np.int64)
+        n = len(order)
+        mark_triangle_leaves(blas, np.ones(n, bool))
+        blas_depth = max(blas_depth, wide_depth(blas) if accelerate else 1)
+        rows = np.zeros((n, PRIM_WIDTH), np.int32)
+        rows[:, PRIM_KIND] = Shape.TRIANGLE
+        rows[:, PRIM_ROW] = prim_base + np.arange(n, dtype=np.int32)
+        rows[:, PRIM_MATERIAL] = mesh.material
+        rows[:, PRIM_OBJECT] = mesh.obj
+        rows[:, PRIM_FACE] = order
+        rows[:, PRIM_LIGHT] = -1
+        prims.append(rows)
+        tris.append(mesh.triangles[order])
+        normals.append(mesh.normals[order] if mesh.normals is not None else None)
+        smooth.append(np.full(n, mesh.normals is not None))
+        uvs.append(mesh.uvs[order] if mesh.uvs is not None else None)
+        index = blas.node_index.copy()
+        leaf = index[:, 1, :] != 0
+        index[:, 0, :] += np.where(leaf, prim_base, node_base).astype(np.int32)
+        blas_bounds.append(blas.node_bounds)
+        blas_index.append(index)
+        # the instances of this mesh: world boxes of the mesh's box
+        wlo, whi = world_boxes(lo.min(axis=0), hi.max(axis=0), mesh.matrices)
+        box_lo.append(wlo)
+        box_hi.append(whi)
+        roots.append(np.full(len(mesh.matrices), node_base, np.int64))
+        ids.append(mesh.ids)
+        inverses.append(inverse_rows(mesh.matrices))
+        drawn += n * len(mesh.matrices)
+        prim_base += n
+        node_base += len(index)
+
+    lo, hi = np.concatenate(box_lo), np.concatenate(box_hi)
+    tlas = _wide(lo, hi, accelerate, 1, TLAS_MAX_LEAF, 1.0, TLAS_ISECT_COST)
+    tlas_depth = wide_depth(tlas) if accelerate else 1
+    order = tlas.prim_order.astype(np.int64)
+    n_tlas = len(tlas.node_index)
+    node_bounds = np.concatenate([tlas.node_bounds, *blas_bounds])
+    node_index = np.concatenate([tlas.node_index, *blas_index])
+    blas_leaf = node_index[:, 1, :] != 0
+    blas_leaf[:n_tlas] = False
+    node_index[n_tlas:, 0, :] += np.where(blas_leaf[n_tlas:], 0, n_tlas).astype(np.int32)
+    index = np.empty((len(order), 2), np.int32)
+    index[:, 0] = (np.concatenate(roots) + n_tlas)[order]
+    index[:, 1] = np.concatenate(ids)[order]
+    inverse = np.ascontiguousarray(np.concatenate(inverses)[order])
+    n_inst = len(order)
+    all_prims = np.concatenate(prims)
+    node_bytes = int(node_bounds.nbytes + node_index.nbytes + 8 * len(all_prims))
+    record = int(inverse.nbytes + index.nbytes)
+    tlas_bytes = wide_nbytes(tlas)
+    return InstanceArrays(
+        prims=all_prims,
+        triangles=np.concatenate(tris),
+        normals=np.concatenate(
+            [nm if nm is not None else np.zeros((len(t), 9), np.float32) for nm, t in zip(normals, tris)]
+        )
+        if any_smooth
+        else None,
+        smooth=np.concatenate(smooth),
+        uvs=np.concatenate([u if u is not None else np.zeros((len(t), 6), np.float32) for u, t in zip(uvs, tris)])
+        if any_uvs
+        else None,
+        node_bounds=np.ascontiguousarray(node_bounds),
+        node_index=np.ascontiguousarray(node_index),
+        blas_leaf=blas_leaf,
+        inverse=inverse,
+        index=index,
+        extent=float(max(np.abs(lo).max(), np.abs(hi).max())),
+        stack=stack_needed(tlas_depth) + stack_needed(blas_depth),
+        node_bytes=node_bytes,
+        stats={
+            "instances": n_inst,
+            "instanced_meshes": len(meshes),
+            "instanced_triangles": int(drawn),  # triangles the instances draw (each mesh stored once)
+            "stored_instanced_triangles": int(prim_base),
+            # per instance: inverse matrix, indices and the top-level BVH's nodes
+            "instance_bytes": record + tlas_bytes,
+            "bytes_per_instance": (record + tlas_bytes) / n_inst,
+            "tlas_nodes": int(n_tlas),
+            "tlas_depth": int(tlas_depth),
+        },
+    )
+
+
+def place_instanced(inst: InstanceArrays, n_world: int, n_world_tris: int) -> None:
+    """Point the instanced rows at their final places, in place: BLAS leaves at primitive rows
+    after the world's n_world, PRIM_ROW at triangle rows after the world's n_world_tris."""
+    inst.node_index[:, 0, :][inst.blas_leaf] += np.int32(n_world)
+    inst.prims[:, PRIM_ROW] += np.int32(n_world_tris)
+
+
+def join_triangles(world: tuple, inst: tuple) -> tuple:
+    """(triangles, normals, smooth, uvs) of the world's triangles followed by the instanced
+    meshes'. Normals and UVs are (1, k) placeholders when no triangle has them."""
+    tri, tri_n, tri_smooth, tri_uv = world
+    i_tri, i_n, i_smooth, i_uv = inst
+    n = len(tri)
+    out_tri = np.concatenate([tri, i_tri])
+    full_n = len(tri_n) == n and n > 0
+    if full_n or i_n is not None:
+        out_n = np.concatenate(
+            [tri_n if full_n else np.zeros((n, 9), np.float32), i_n if i_n is not None else np.zeros_like(i_tri)]
+        )
+    else:
+        out_n = tri_n
+    full_uv = len(tri_uv) == n and n > 0
+    if full_uv or i_uv is not None:
+        out_uv = np.concatenate(
+            [
+                tri_uv if full_uv else np.zeros((n, 6), np.float32),
+                i_uv if i_uv is not None else np.zeros((len(i_tri), 6), np.float32),
+            ]
+        )
+    else:
+        out_uv = tri_uv
+    return out_tri, out_n, np.concatenate([tri_smooth, i_smooth]), out_uv

@@ -1,0 +1,226 @@
+"""Two-level traversal: the top-level BVH over instances, and each instanced mesh's own BVH.
+
+X (an Instances, kernels/scene.py) holds one node array: the top-level BVH (TLAS, root node 0)
+over the instances' world boxes, then the bottom-level BVH (BLAS) of every instanced mesh, each
+rooted at the node its instances name. Both are the wide BVH of accel/wide.py. At a top-level
+leaf the ray is moved into the instance's object space by the inverse matrix, direction *not*
+normalised, so distances along it are the world ray's t: the best hit so far prunes the BLAS as
+it is, and a BLAS hit's t needs no conversion. The watertight test's shear constants and the
+box test's per-ray constants are those of the object-space ray.
+
+BLASes hold triangles alone (instanced meshes), so their leaves are tested by the triangle tests
+directly. A BLAS traversal runs on the same stacks, above the top-level entries still pending
+(compile.py checks that both depths fit TRAVERSAL_STACK).
+
+These functions are calls, not inlined: only scenes with instances run them, each call passes
+the views by value once per ray, and inlining them into every traversal site would grow every
+kernel's compile time.
+"""
+
+import numpy as np
+from numba import njit
+
+from .shape_triangle import intersect_triangle, intersect_triangles, ray_shear
+from .shapes import INSTANCE_SHIFT, NO_HIT, PRIM_ROW
+from .traverse import _LANE_SHIFT, BVH_WIDTH, box_hits, box_ray, lowest_bit, traceable
+from .vec import KERNEL
+
+
+@njit(**KERNEL, inline="always")
+def _to_object(inv, i, o, d):
+    """The world ray (o, d) in instance i's object space (d not normalised)."""
+    oo = (
+        inv[i, 0] * o[0] + inv[i, 1] * o[1] + inv[i, 2] * o[2] + inv[i, 3],
+        inv[i, 4] * o[0] + inv[i, 5] * o[1] + inv[i, 6] * o[2] + inv[i, 7],
+        inv[i, 8] * o[0] + inv[i, 9] * o[1] + inv[i, 10] * o[2] + inv[i, 11],
+    )
+    dd = (
+        inv[i, 0] * d[0] + inv[i, 1] * d[1] + inv[i, 2] * d[2],
+        inv[i, 4] * d[0] + inv[i, 5] * d[1] + inv[i, 6] * d[2],
+        inv[i, 8] * d[0] + inv[i, 9] * d[1] + inv[i, 10] * d[2],
+    )
+    return oo, dd
+
+
+@njit(**KERNEL, inline="always")
+def _leaf_ref(index, ref, i):
+    """Stack entry of lane i of node ref: the child node, or -1 - (node * W + lane) for a leaf."""
+    return index[ref, 0, i] if index[ref, 1, i] == 0 else -1 - ((ref << _LANE_SHIFT) + i)
+
+
+@njit(**KERNEL, inline="always")
+def _leaf_triangles(prims, tris, index, leaf, o, shear, tmin, best_t):
+    """The nearest hit in a BLAS leaf: (t, primitive or NO_HIT, b1, b2)."""
+    node = leaf >> _LANE_SHIFT
+    lane = leaf & (BVH_WIDTH - 1)
+    first = index[node, 0, lane]
+    count = index[node, 1, lane]
+    if count < 0:  # 2 to 4 triangles in consecutive rows, tested together
+        row = np.int64(prims[first, PRIM_ROW])
+        t, j, u, v = intersect_triangles(o, shear, tris, row, -count, tmin, best_t)
+        if t < best_t:
+            return t, np.int64(first + j), u, v
+        return best_t, np.int64(NO_HIT), 0.0, 0.0
+    prim, b1, b2 = np.int64(NO_HIT), 0.0, 0.0
+    for k in range(first, first + count):
+        t, u, v = intersect_triangle(o, shear, tris, np.int64(prims[k, PRIM_ROW]), tmin, best_t)
+        if t < best_t:
+            best_t, prim, b1, b2 = t, np.int64(k), u, v
+    return best_t, prim, b1, b2
+
+
+@njit(**KERNEL, inline="always")
+def _push_sorted(bounds, index, ref, rf, rows, best_t, node_stack, t_stack, top):
+    """Push the children of node ref that the ray enters, nearest on top; returns how many."""
+    mask = box_hits(bounds, ref, rf, rows, best_t, t_stack, top)
+    k = 0
+    while mask != 0:
+        i = lowest_bit(mask)
+        mask &= mask - 1
+        t = t_stack[top + i]
+        child = _leaf_ref(index, ref, i)
+        j = top + k
+        while j > top and t_stack[j - 1] < t:
+            t_stack[j] = t_stack[j - 1]
+            node_stack[j] = node_stack[j - 1]
+            j -= 1
+        t_stack[j] = t
+        node_stack[j] = child
+        k += 1
+    return k
+
+
+@njit(**KERNEL, inline="always")
+def _blas_closest(prims, tris, bounds, index, root, o, d, tmin, best_t, node_stack, t_stack, base):
+    """Nearest hit of the object-space ray in the BLAS rooted at `root`, nearer than best_t,
+    using the stacks from `base` up: (t, primitive or NO_HIT, b1, b2)."""
+    prim, b1, b2 = np.int64(NO_HIT), 0.0, 0.0
+    if not traceable(o, d):
+        return best_t, prim, b1, b2
+    shear = ray_shear(d)
+    rf, rows = box_ray(o, d)
+    ref = np.int64(root)
+    top = base
+    while True:
+        if ref >= 0:
+            k = _push_sorted(bounds, index, ref, rf, rows, best_t, node_stack, t_stack, top)
+            if k > 0:
+                top += k - 1
+                ref = np.int64(node_stack[top])
+                continue
+        else:
+            t, j, u, v = _leaf_triangles(prims, tris, index, -1 - ref, o, shear, tmin, best_t)
+            if j != NO_HIT:
+                best_t, prim, b1, b2 = t, j, u, v
+        found = False
+        while top > base:
+            top -= 1
+            if t_stack[top] < best_t:
+                ref = np.int64(node_stack[top])
+                found = True
+                break
+        if not found:
+            break
+    return best_t, prim, b1, b2
+
+
+@njit(**KERNEL)
+def instances_closest(G, X, o, d, tmin, best_t, hit, b1, b2, node_stack, t_stack):
+    """The nearest instance hit nearer than best_t, else (best_t, hit, b1, b2) unchanged. A hit
+    is `(instance + 1) << INSTANCE_SHIFT | primitive` (shapes.split_hit)."""
+    if X.inverse.shape[0] == 0 or not traceable(o, d):
+        return best_t, hit, b1, b2
+    bounds = X.node_bounds
+    index = X.node_index
+    inv = X.inverse
+    rf, rows = box_ray(o, d)
+    ref = np.int64(0)
+    top = 0
+    while True:
+        if ref >= 0:
+            k = _push_sorted(bounds, index, ref, rf, rows, best_t, node_stack, t_stack, top)
+            if k > 0:
+                top += k - 1
+                ref = np.int64(node_stack[top])
+                continue
+        else:
+            leaf = -1 - ref
+            node = leaf >> _LANE_SHIFT
+            lane = leaf & (BVH_WIDTH - 1)
+            first = index[node, 0, lane]
+            for i in range(first, first + abs(index[node, 1, lane])):
+                oo, dd = _to_object(inv, i, o, d)
+                root = X.index[i, 0]
+                t, j, u, v = _blas_closest(
+                    G.prims, G.triangles, bounds, index, root, oo, dd, tmin, best_t, node_stack, t_stack, top
+                )
+                if j != NO_HIT:
+                    best_t, b1, b2 = t, u, v
+                    hit = ((np.int64(i) + 1) << INSTANCE_SHIFT) | j
+        found = False
+        while top > 0:
+            top -= 1
+            if t_stack[top] < best_t:
+                ref = np.int64(node_stack[top])
+                found = True
+                break
+        if not found:
+            break
+    return best_t, hit, b1, b2
+
+
+@njit(**KERNEL, inline="always")
+def _blas_any(prims, tris, bounds, index, root, o, d, tmin, tmax, node_stack, base):
+    """True when the object-space ray meets a triangle of the BLAS in (tmin, tmax)."""
+    if not traceable(o, d):
+        return False
+    shear = ray_shear(d)
+    rf, rows = box_ray(o, d)
+    node_stack[base] = root
+    top = base + 1
+    while top > base:
+        top -= 1
+        ref = np.int64(node_stack[top])
+        if ref < 0:
+            if _leaf_triangles(prims, tris, index, -1 - ref, o, shear, tmin, tmax)[1] != NO_HIT:
+                return True
+            continue
+        mask = box_hits(bounds, ref, rf, rows, tmax, None, 0)
+        while mask != 0:
+            i = lowest_bit(mask)
+            mask &= mask - 1
+            node_stack[top] = _leaf_ref(index, ref, i)
+            top += 1
+    return False
+
+
+@njit(**KERNEL)
+def instances_any(G, X, o, d, tmin, tmax, node_stack):
+    """True when an instance blocks the ray in (tmin, tmax)."""
+    if X.inverse.shape[0] == 0 or not traceable(o, d):
+        return False
+    bounds = X.node_bounds
+    index = X.node_index
+    rf, rows = box_ray(o, d)
+    node_stack[0] = 0
+    top = 1
+    while top > 0:
+        top -= 1
+        ref = np.int64(node_stack[top])
+        if ref < 0:
+            leaf = -1 - ref
+            node = leaf >> _LANE_SHIFT
+            lane = leaf & (BVH_WIDTH - 1)
+            first = index[node, 0, lane]
+            for i in range(first, first + abs(index[node, 1, lane])):
+                oo, dd = _to_object(X.inverse, i, o, d)
+                if _blas_any(G.prims, G.triangles, bounds, index, X.index[i, 0], oo, dd, tmin, tmax, node_stack, top):
+                    return True
+            continue
+        mask = box_hits(bounds, ref, rf, rows, tmax, None, 0)
+        while mask != 0:
+            i = lowest_bit(mask)
+            mask &= mask - 1
+            node_stack[top] = _leaf_ref(index, ref, i)
+            top += 1
+    return False

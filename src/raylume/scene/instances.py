@@ -1,0 +1,96 @@
+"""A mesh object's `instances`: the placement matrices of its copies, read and checked.
+
+Each matrix maps the object (after its own `transform`) to world space, column-vector
+convention: p' = M @ [p, 1]. They come from a `.npy` file of shape (N, 4, 4) or (N, 3, 4)
+(relative to the scene file) or from inline transform tables (scale, rotate, translate as for
+every object). The compiler (compile.py) stores the mesh once and each copy as its inverse
+matrix; problems are InstanceError, reported by the caller with the object's key path.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .mesh import transform_matrix
+from .model import Mesh
+
+# Beyond this many instances the top-level BVH's build (float64 boxes, sort keys) needs more
+# than a few GB; a guard against a mistaken array rather than a limit anyone should meet.
+MAX_INSTANCES = 1 << 25
+# A matrix whose linear part has |det| below this fraction of the product of its column lengths
+# is singular for all practical purposes (its inverse would amplify rounding by 1e12).
+SINGULAR = 1e-12
+
+
+class InstanceError(ValueError):
+    """The instances of a mesh object cannot be used (missing file, wrong shape, NaN, singular)."""
+
+
+def instance_path(obj: Mesh, base_dir: Path) -> Path:
+    path = Path(str(obj.instances))
+    return path if path.is_absolute() else Path(base_dir) / path
+
+
+def instance_matrices(obj: Mesh, base_dir: Path) -> np.ndarray | None:
+    """float64 (N, 3, 4) object-to-world matrices of the object's instances, or None when it has
+    none (the mesh is placed once, by its transform alone). Raises InstanceError."""
+    if obj.instances is None:
+        return None
+    if isinstance(obj.instances, list):
+        m = np.stack([transform_matrix(t.translate, t.rotate, t.scale3)[:3] for t in obj.instances])
+        return check_matrices(m, "inline instances")
+    path = instance_path(obj, base_dir)
+    what = f"instances file {path}"
+    if not path.is_file():
+        raise InstanceError(f"{what} does not exist" if not path.exists() else f"{what} is not a file")
+    try:
+        array = np.load(path, allow_pickle=False)
+    except (OSError, ValueError, EOFError) as exc:
+        raise InstanceError(f"cannot read {what} as a .npy array: {exc}") from None
+    if not isinstance(array, np.ndarray) or not (
+        np.issubdtype(array.dtype, np.floating) or np.issubdtype(array.dtype, np.integer)
+    ):
+        raise InstanceError(f"{what} must hold a float array of shape (N, 4, 4) or (N, 3, 4), not {array.dtype}")
+    if array.ndim != 3 or array.shape[1:] not in ((4, 4), (3, 4)):
+        raise InstanceError(f"{what} has shape {array.shape}; expected (N, 4, 4) or (N, 3, 4) matrices")
+    return check_matrices(array.astype(np.float64), what)
+
+
+def check_matrices(m: np.ndarray, what: str) -> np.ndarray:
+    """The (N, 3, 4) affine part of (N, 4, 4) or (N, 3, 4) matrices after checking that every one
+    is finite, affine and invertible."""
+    n = len(m)
+    if n == 0:
+        raise InstanceError(f"{what} holds no matrices; give at least one (or leave instances out)")
+    if n > MAX_INSTANCES:
+        raise InstanceError(f"{what} holds {n} matrices, more than the {MAX_INSTANCES} supported")
+    finite = np.isfinite(m).all(axis=(1, 2))
+    if not finite.all():
+        raise InstanceError(f"{what}: matrix {int(np.argmin(finite))} has NaN or infinite entries")
+    if m.shape[1] == 4:
+        bottom = m[:, 3, :]
+        affine = (bottom == (0.0, 0.0, 0.0, 1.0)).all(axis=1)
+        if not affine.all():
+            k = int(np.argmin(affine))
+            raise InstanceError(
+                f"{what}: matrix {k} has bottom row {bottom[k].tolist()}; an affine transform's is [0, 0, 0, 1]"
+            )
+        m = m[:, :3, :]
+    a = m[:, :, :3]
+    det = np.linalg.det(a)
+    scale = np.prod(np.linalg.norm(a, axis=1), axis=1)
+    singular = ~(np.abs(det) > SINGULAR * scale)
+    if singular.any():
+        k = int(np.argmax(singular))
+        raise InstanceError(f"{what}: matrix {k} is singular (it flattens the mesh; determinant {det[k]:.3g})")
+    return np.ascontiguousarray(m, dtype=np.float64)
+
+
+def inverse_rows(m: np.ndarray) -> np.ndarray:
+    """float64 (N, 12): each (3, 4) matrix's inverse (world to object), row-major."""
+    a = m[:, :, :3]
+    inv = np.linalg.inv(a)
+    t = -np.einsum("nij,nj->ni", inv, m[:, :, 3])
+    return np.ascontiguousarray(np.concatenate([inv, t[:, :, None]], axis=2).reshape(len(m), 12))
