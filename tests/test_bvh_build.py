@@ -7,12 +7,15 @@ comparing a BVH traversal with a brute-force slab test over all primitives.
 """
 
 import time
+from unittest.mock import patch
 
+import numba
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from raylume.accel import bvh as bvh_module
 from raylume.accel.bvh import BVH, build_bvh, bvh_depth, bvh_nbytes, sah_cost
 
 # ---------------------------------------------------------------------------
@@ -363,3 +366,113 @@ def test_large_build_smoke():
         f"N={n}: build {dt:.3f}s, {bvh.node_axis.shape[0]} nodes, depth {bvh_depth(bvh)}, "
         f"SAH {sah_cost(bvh):.1f}, {bvh_nbytes(bvh) / 1e6:.1f} MB"
     )
+
+
+# ---------------------------------------------------------------------------
+# The parallel build (nodes above bvh._TOP primitives split over threads)
+# ---------------------------------------------------------------------------
+
+
+def build_on(threads, lo, hi, top=None, **kw):
+    """build_bvh on `threads` Numba threads; with `top`, a smaller threshold for the top part
+    (and blocks of 7 primitives in its partition), so that small inputs take the parallel path."""
+    before = numba.get_num_threads()
+    numba.set_num_threads(threads)
+    try:
+        with (
+            patch.object(bvh_module, "_TOP", top if top is not None else bvh_module._TOP),
+            patch.object(bvh_module, "_BLOCK", 7 if top is not None else bvh_module._BLOCK),
+        ):
+            return build_bvh(lo, hi, **kw)
+    finally:
+        numba.set_num_threads(before)
+
+
+THREADS = min(2, numba.config.NUMBA_NUM_THREADS)
+
+
+def same_tree(a, b):
+    """Identical nodes and leaves; the primitives of each leaf may come in another order."""
+    assert np.array_equal(a.node_bounds, b.node_bounds)
+    assert np.array_equal(a.node_index, b.node_index)
+    assert np.array_equal(a.node_axis, b.node_axis)
+    for first, count in a.node_index[a.node_axis < 0]:
+        assert set(a.prim_order[first : first + count]) == set(b.prim_order[first : first + count])
+
+
+@pytest.mark.parametrize("top", [16, 200])
+def test_parallel_build_is_the_serial_tree_on_any_thread_count(top):
+    rng = np.random.default_rng(7)
+    lo, hi = clustered_boxes(rng, 4000)
+    serial = build_bvh(lo, hi, max_leaf_size=4, c_trav=2.0)  # 4000 < _TOP: one serial subtree
+    one = build_on(1, lo, hi, top, max_leaf_size=4, c_trav=2.0)
+    many = build_on(THREADS, lo, hi, top, max_leaf_size=4, c_trav=2.0)
+    check_bvh(one, lo, hi, 4)
+    for a, b in zip(one, many, strict=True):  # bit for bit, prim_order included
+        assert np.array_equal(a, b)
+    # The split decisions depend only on which primitives a node holds: the same tree as the
+    # serial build, so the same SAH (a stable partition only orders leaves differently).
+    same_tree(one, serial)
+    assert sah_cost(one, 2.0) == sah_cost(serial, 2.0)
+    # More pieces than threads (the internal thread count) changes nothing either.
+    box = np.empty((len(lo), 6), np.float32)
+    cb = np.empty(6)
+    bvh_module._prepare(lo, hi, box, cb, 0, len(lo))
+    ids = np.arange(len(lo), dtype=np.int32)
+    with patch.object(bvh_module, "_TOP", top), patch.object(bvh_module, "_BLOCK", 7):
+        nodes = bvh_module._build(box, ids, cb, 4, 16, 2.0, 1.0, 5)
+    for a, b in zip(nodes + (ids,), one, strict=True):
+        assert np.array_equal(a, b)
+
+
+def test_parallel_build_at_full_size():
+    rng = np.random.default_rng(8)
+    n = 2 * bvh_module._TOP + 1000  # two levels above the threshold
+    lo, hi = clustered_boxes(rng, n)
+    one = build_on(1, lo, hi)
+    many = build_on(THREADS, lo, hi)
+    check_bvh(many, lo, hi, 4)
+    for a, b in zip(one, many, strict=True):
+        assert np.array_equal(a, b)
+    same_tree(one, build_on(1, lo, hi, top=10 * n))  # all of it one serial subtree
+
+
+@pytest.mark.parametrize("max_leaf", [1, 4])
+def test_parallel_build_degenerate(max_leaf):
+    # All centroids equal (halved by position), then equal centroids of different sizes.
+    n = 500
+    lo = np.tile([0.5, -1.0, 2.0], (n, 1))
+    hi = lo + [1.0, 0.0, 3.0]
+    half = np.linspace(0.01, 3.0, n)[:, None] * [1.0, 2.0, 0.5]
+    for a, b in ((lo, hi), (1.0 - half, 1.0 + half)):
+        one = build_on(1, a, b, 16, max_leaf_size=max_leaf)
+        many = build_on(THREADS, a, b, 16, max_leaf_size=max_leaf)
+        check_bvh(many, a, b, max_leaf)
+        for x, y in zip(one, many, strict=True):
+            assert np.array_equal(x, y)
+        if a is lo:  # identical boxes: halved, so balanced
+            assert bvh_depth(many) <= int(np.ceil(np.log2(n))) + 2
+    for n in (0, 1, 2):
+        a = np.arange(3.0 * n).reshape(n, 3)
+        check_bvh(build_on(THREADS, a, a + 1, 1), a, a + 1, 4)
+
+
+def test_parallel_build_reports_the_first_bad_box():
+    lo = np.zeros((1000, 3))
+    hi = np.ones((1000, 3))
+    lo[900, 0] = 2.0  # lo > hi
+    lo[700, 1] = np.nan  # the first bad one, in another thread's piece
+    with pytest.raises(ValueError, match="primitive 700 "):
+        build_on(THREADS, lo, hi, 16)
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(boxes=box_sets(), max_leaf=st.integers(1, 6), n_bins=st.integers(2, 20))
+def test_random_boxes_parallel(boxes, max_leaf, n_bins):
+    # Extreme coordinates (beyond float32, subnormal) through the parallel passes.
+    lo, hi = boxes
+    one = build_on(1, lo, hi, 2, max_leaf_size=max_leaf, n_bins=n_bins)
+    many = build_on(THREADS, lo, hi, 2, max_leaf_size=max_leaf, n_bins=n_bins)
+    check_bvh(many, lo, hi, max_leaf)
+    for a, b in zip(one, many, strict=True):
+        assert np.array_equal(a, b)
