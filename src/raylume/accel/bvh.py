@@ -238,7 +238,9 @@ def _best_split(bcnt, bbox, n_bins, scale, inv, node_area, c_trav, c_isect, r_ar
             lx, ly, lz = _min32(lx, bbox[k, b, 0]), _min32(ly, bbox[k, b, 1]), _min32(lz, bbox[k, b, 2])
             nx, ny, nz = _min32(nx, bbox[k, b, 4]), _min32(ny, bbox[k, b, 5]), _min32(nz, bbox[k, b, 6])
             r_cnt[b] = cnt
-            r_area[b] = _half_area(lx, ly, lz, -np.float64(nx), -np.float64(ny), -np.float64(nz), inv)
+            r_area[b] = _half_area(
+                np.float64(lx), np.float64(ly), np.float64(lz), -np.float64(nx), -np.float64(ny), -np.float64(nz), inv
+            )
         # Left-to-right: combine with bins [0, p).
         lx = ly = lz = np.float32(np.inf)
         nx = ny = nz = np.float32(np.inf)
@@ -249,7 +251,9 @@ def _best_split(bcnt, bbox, n_bins, scale, inv, node_area, c_trav, c_isect, r_ar
             nx, ny, nz = _min32(nx, bbox[k, p - 1, 4]), _min32(ny, bbox[k, p - 1, 5]), _min32(nz, bbox[k, p - 1, 6])
             if cnt == 0 or r_cnt[p] == 0:
                 continue
-            l_area = _half_area(lx, ly, lz, -np.float64(nx), -np.float64(ny), -np.float64(nz), inv)
+            l_area = _half_area(
+                np.float64(lx), np.float64(ly), np.float64(lz), -np.float64(nx), -np.float64(ny), -np.float64(nz), inv
+            )
             cost = c_trav * node_area + c_isect * (cnt * l_area + r_cnt[p] * r_area[p])
             if cost < best_cost:
                 best_cost = cost
@@ -279,7 +283,7 @@ def _set_scale(cb, count, n_bins, scale):
 
 
 @nb.njit(**_JIT)
-def _choose(bcnt, bbox, nbe, scale, count, max_leaf, c_trav, c_isect, nodebox, r_area, r_cnt, acc):
+def _choose(bcnt, bbox, nbe, scale, count, max_leaf, c_trav, c_isect, nodebox, r_area, r_cnt):
     """The node box (into ``nodebox``) and the split of a binned node:
     returns (axis, plane); axis -2 makes a leaf, -1 halves the range (all
     centroids coincide)."""
@@ -333,7 +337,6 @@ def _build_range(box, ids, start0, end0, root_cb, max_leaf, n_bins, c_trav, c_is
     bbox = np.empty((3, n_bins, 8), np.float32)
     r_area = np.empty(n_bins, np.float64)
     r_cnt = np.empty(n_bins, np.int64)
-    acc = np.empty(6, np.float64)
     scale = np.empty(3, np.float64)
     cb = np.empty(6, np.float64)
     nodebox = np.empty(6, np.float64)
@@ -377,7 +380,7 @@ def _build_range(box, ids, start0, end0, root_cb, max_leaf, n_bins, c_trav, c_is
         nbe = _set_scale(cb, count, n_bins, scale)
         _clear_bins(bcnt, bbox, nbe)
         _bin_prims(box, start, end, cb, scale, nbe, bcnt, bbox)
-        axis, plane = _choose(bcnt, bbox, nbe, scale, count, max_leaf, c_trav, c_isect, nodebox, r_area, r_cnt, acc)
+        axis, plane = _choose(bcnt, bbox, nbe, scale, count, max_leaf, c_trav, c_isect, nodebox, r_area, r_cnt)
         for d in range(6):
             nbounds[m, d] = nodebox[d]
         if axis == -2:
@@ -435,26 +438,6 @@ def _bin_piece(box, start, end, cb, scale, nbe, bcnt, bbox):
 
 
 @nb.njit(**_JIT)
-def _choose_top(pcnt, pbox, nbe, scale, count, max_leaf, c_trav, c_isect, nodebox):
-    """Reduce the pieces' bins (exact: counts and min/max, so the result
-    does not depend on how the range was cut) and choose the split."""
-    n_bins = pcnt.shape[2]
-    bcnt = np.zeros((3, n_bins), np.int64)
-    bbox = np.empty((3, n_bins, 8), np.float32)
-    _clear_bins(bcnt, bbox, nbe)
-    for j in range(pcnt.shape[0]):
-        for k in range(3):
-            for b in range(nbe):
-                bcnt[k, b] += pcnt[j, k, b]
-                for d in range(8):
-                    bbox[k, b, d] = min(bbox[k, b, d], pbox[j, k, b, d])
-    r_area = np.empty(n_bins, np.float64)
-    r_cnt = np.empty(n_bins, np.int64)
-    acc = np.empty(6, np.float64)
-    return _choose(bcnt, bbox, nbe, scale, count, max_leaf, c_trav, c_isect, nodebox, r_area, r_cnt, acc)
-
-
-@nb.njit(**_JIT)
 def _partition_blocks(box, ids, start, end, block, j0, j1, k, cmin, scale, plane, nbe, half, n_left, pcb):
     """Partition blocks j0 .. j1 - 1 of [start, end) (``block`` primitives
     each) in place, each on its own; per block: the primitives going left
@@ -475,42 +458,6 @@ def _partition_blocks(box, ids, start, end, block, j0, j1, k, cmin, scale, plane
             for i in range(m, b):
                 _add_centroid(pcb[j, 1], box, i)
         n_left[j] = m - a
-
-
-@nb.njit(**_JIT)
-def _gather_blocks(box, ids, start, end, block, j0, j1, n_left, to_left, to_right, tbox, tids):
-    """Move each block's left part to ``to_left[j]`` and its right part to
-    ``to_right[j]`` in ``tbox``/``tids`` (contiguous row copies)."""
-    for j in range(j0, j1):
-        a = start + j * block
-        b = min(end, a + block)
-        m = a + n_left[j]
-        tl = to_left[j]
-        tr = to_right[j]
-        tbox[tl : tl + m - a] = box[a:m]
-        tids[tl : tl + m - a] = ids[a:m]
-        tbox[tr : tr + b - m] = box[m:b]
-        tids[tr : tr + b - m] = ids[m:b]
-
-
-@nb.njit(**_JIT)
-def _copy_rows(tbox, tids, box, ids, start, end):
-    box[start:end] = tbox[start:end]
-    ids[start:end] = tids[start:end]
-
-
-@nb.njit(**_JIT)
-def _place(snb, sni, sna, src, count, nbounds, nindex, naxis, dst):
-    """Copy a subtree's ``count`` nodes from scratch row ``src`` to row
-    ``dst``, moving its child links with it."""
-    shift = dst - src
-    for r in range(count):
-        for d in range(6):
-            nbounds[dst + r, d] = snb[src + r, d]
-        a = sna[src + r]
-        naxis[dst + r] = a
-        nindex[dst + r, 1] = sni[src + r, 1]
-        nindex[dst + r, 0] = sni[src + r, 0] + shift if a >= 0 else sni[src + r, 0]
 
 
 # Nodes above this many primitives are split with their binning and
@@ -537,6 +484,32 @@ class _Runner:
     def close(self):
         if self.pool is not None:
             self.pool.shutdown()
+
+
+def _gather(box, ids, start, end, j0, j1, n_left, to_left, to_right, tbox, tids):
+    for j in range(j0, j1):
+        a = start + j * _BLOCK
+        b = min(end, a + _BLOCK)
+        m = a + int(n_left[j])
+        tl, tr = int(to_left[j]), int(to_right[j])
+        tbox[tl : tl + m - a] = box[a:m]
+        tids[tl : tl + m - a] = ids[a:m]
+        tbox[tr : tr + b - m] = box[m:b]
+        tids[tr : tr + b - m] = ids[m:b]
+
+
+def _copy_back(tbox, tids, box, ids, start, end):
+    box[start:end] = tbox[start:end]
+    ids[start:end] = tids[start:end]
+
+
+def _place(snb, sni, sna, src, count, nbounds, nindex, naxis, dst):
+    """Copy a subtree's ``count`` nodes from scratch row ``src`` to row
+    ``dst``, moving its child links with it."""
+    nbounds[dst : dst + count] = snb[src : src + count]
+    naxis[dst : dst + count] = a = sna[src : src + count]
+    nindex[dst : dst + count] = sni[src : src + count]
+    nindex[dst : dst + count, 0] += np.where(a >= 0, dst - src, 0).astype(np.int32)
 
 
 def _pieces(start: int, end: int, parts: int) -> list[tuple[int, int]]:
@@ -569,8 +542,12 @@ def _build(box, ids, root_cb, max_leaf, n_bins, c_trav, c_isect, threads):
             pcnt = np.empty((len(pieces), 3, n_bins), np.int64)
             pbox = np.empty((len(pieces), 3, n_bins, 8), np.float32)
             run.map(_bin_piece, [(box, a, b, cb, scale, nbe, pcnt[j], pbox[j]) for j, (a, b) in enumerate(pieces)])
+            # The pieces' bins reduced exactly (counts, min), so the result
+            # does not depend on how the range was cut.
             nodebox = np.empty(6, np.float64)
-            axis, plane = _choose_top(pcnt, pbox, nbe, scale, count, max_leaf, c_trav, c_isect, nodebox)
+            bcnt, bbox = pcnt[:, :, :nbe].sum(axis=0), pbox[:, :, :nbe].min(axis=0)
+            r_area, r_cnt = np.empty(n_bins, np.float64), np.empty(n_bins, np.int64)
+            axis, plane = _choose(bcnt, bbox, nbe, scale, count, max_leaf, c_trav, c_isect, nodebox, r_area, r_cnt)
             k = int(axis)
             cmin, sk = (float(cb[k]), float(scale[k])) if k >= 0 else (0.0, 0.0)
             half = start + count // 2
@@ -584,9 +561,12 @@ def _build(box, ids, root_cb, max_leaf, n_bins, c_trav, c_isect, threads):
             mid = start + int(n_left.sum())
             to_left = start + np.cumsum(n_left) - n_left
             to_right = mid + np.cumsum(n_right) - n_right
-            args = (n_left, to_left, to_right, tbox, tids)
-            run.map(_gather_blocks, [(box, ids, start, end, _BLOCK, j0, j1, *args) for j0, j1 in groups])
-            run.map(_copy_rows, [(tbox, tids, box, ids, a, b) for a, b in pieces])
+            # Blocks' parts moved together, then back: numpy copies (they
+            # release the GIL), no Numba kernels to compile for them.
+            run.map(
+                _gather, [(box, ids, start, end, j0, j1, n_left, to_left, to_right, tbox, tids) for j0, j1 in groups]
+            )
+            run.map(_copy_back, [(tbox, tids, box, ids, a, b) for a, b in pieces])
             cb_l = np.concatenate([pcb[:, 0, :3].min(axis=0), pcb[:, 0, 3:].max(axis=0)])
             cb_r = np.concatenate([pcb[:, 1, :3].min(axis=0), pcb[:, 1, 3:].max(axis=0)])
             entries.append(["node", nodebox.astype(np.float32), max(k, 0), -1])
