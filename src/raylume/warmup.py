@@ -88,6 +88,19 @@ def _render(kind: str, mode: str) -> Callable[[], None]:
     return job
 
 
+def _bvh() -> None:
+    """The BVH builder and the collapse, the threaded top part included (warm-up scenes are
+    too small to build a BVH: compile.SMALL_SCENE)."""
+    from .accel import bvh
+    from .accel.wide import collapse
+
+    lo = np.random.default_rng(0).uniform(0.0, 1.0, (2 * bvh._TOP + 1, 3))
+    collapse(bvh.build_bvh(lo, lo + 0.01))
+
+
+_bvh.__name__ = "bvh build"
+
+
 def _intersect(kind: str) -> Callable[[], None]:
     def job() -> None:
         from .query import intersect
@@ -116,6 +129,7 @@ JOBS: list[tuple[Callable[[], None], float]] = [
     (_render("instances", "trace"), 12.0),
     (_render("instances", "cast"), 2.0),
     (_intersect("instances"), 1.5),
+    (_bvh, 8.0),
 ]
 
 
