@@ -18,6 +18,7 @@ from test_cli import assert_refused
 from test_cli import raylume as run_cli
 
 import raylume
+from raylume.cli import _resolve_scene
 from raylume.compile import compile_scene
 from raylume.errors import SceneError
 from raylume.kernels import materials as M
@@ -191,6 +192,8 @@ def test_camera_by_name_aspect_and_framing_without_a_camera(tmp_path):
     assert (gltf_scene(path, width=300).render.height, gltf_scene(path, height=100).render.width) == (150, 200)
     with pytest.raises(SceneError, match="'nope'.*'wide', 'close'"):
         gltf_scene(path, camera="nope")
+    with pytest.raises(SceneError, match="--camera close: chooses a camera of a glTF file"):
+        _resolve_scene("seed", camera="close")
     b = Builder()
     two_squares(b)
     framed = gltf_scene(b.glb(tmp_path / "nocam.glb"))
