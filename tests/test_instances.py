@@ -163,7 +163,8 @@ def test_ellipsoid_hit_distances_are_analytic(tmp_path):
     outer, inner = first_hit(r_out), first_hit(r_in)
     through = np.isfinite(inner)  # rays through the inscribed ellipsoid must hit the mesh between
     assert through.sum() > 1000 and (~np.isfinite(outer)).sum() > 100
-    assert (t[through] >= outer[through] * (1 - 1e-9)).all() and (t[through] <= inner[through] * (1 + 1e-9)).all()
+    # the inverse matrix is stored in float32: the instance moves by ~1e-7 of its coordinates
+    assert (t[through] >= outer[through] * (1 - 1e-6)).all() and (t[through] <= inner[through] * (1 + 1e-6)).all()
     np.testing.assert_array_equal(np.isfinite(t[~np.isfinite(outer)]), False)  # beyond the vertices: misses
     assert (obj[through] == 0).all() and (ids[through] == 0).all()
 
@@ -248,3 +249,23 @@ def test_emissive_instances_light_path_mode(tmp_path):
     img = raylume.render(raylume.load_scene(tmp_path / "s.toml"))
     centre = img.rgb[8, 8]
     np.testing.assert_allclose(centre, [2, 1, 0.5], rtol=1e-6)
+
+
+def test_an_instance_costs_at_most_128_bytes(tmp_path):
+    """10 000 instances of one mesh, scattered and overlapping: inverse matrix, indices and the
+    top-level BVH's nodes together, per instance; the mesh is stored once."""
+    blob().export(tmp_path / "blob.ply")
+    rng = np.random.default_rng(1)
+    n = 10_000
+    mats = np.stack(
+        [transform_matrix(rng.uniform(-50, 50, 3), rng.uniform(0, 360, 3), rng.uniform(0.5, 2, 3)) for _ in range(n)]
+    )
+    np.save(tmp_path / "m.npy", mats.astype(np.float32))
+    (tmp_path / "s.toml").write_text('[[objects]]\ntype = "mesh"\nfile = "blob.ply"\ninstances = "m.npy"\n')
+    from raylume.compile import compile_scene
+
+    stats = compile_scene(raylume.load_scene(tmp_path / "s.toml")).stats
+    faces = len(blob().faces)
+    assert stats["instances"] == n and stats["triangles"] == faces
+    assert stats["instanced_triangles"] == n * faces
+    assert stats["bytes_per_instance"] <= 128, stats["bytes_per_instance"]

@@ -47,7 +47,7 @@ class KernelScene(NamedTuple):
     # the shared tables (prims[n_world:n_bounded]). Zero instances: no top-level BVH.
     inst_node_bounds: np.ndarray  # float32 (M, 6, W)
     inst_node_index: np.ndarray  # int32 (M, 2, W)
-    instance_inverse: np.ndarray  # float64 (N, 12)
+    instance_inverse: np.ndarray  # float32 (N, 12)
     instance_index: np.ndarray  # int32 (N, 2)
     # Smallest ray offset: a tiny fraction of the scene's extent, camera included (set per
     # render by the Session, since the camera may move).

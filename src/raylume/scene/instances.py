@@ -89,8 +89,9 @@ def check_matrices(m: np.ndarray, what: str) -> np.ndarray:
 
 
 def inverse_rows(m: np.ndarray) -> np.ndarray:
-    """float64 (N, 12): each (3, 4) matrix's inverse (world to object), row-major."""
+    """float32 (N, 12): each (3, 4) matrix's inverse (world to object), row-major, computed in
+    float64 and rounded once."""
     a = m[:, :, :3]
     inv = np.linalg.inv(a)
     t = -np.einsum("nij,nj->ni", inv, m[:, :, 3])
-    return np.ascontiguousarray(np.concatenate([inv, t[:, :, None]], axis=2).reshape(len(m), 12))
+    return np.ascontiguousarray(np.concatenate([inv, t[:, :, None]], axis=2).reshape(len(m), 12), dtype=np.float32)
