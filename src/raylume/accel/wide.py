@@ -173,15 +173,38 @@ def single_leaf(lo: np.ndarray, hi: np.ndarray, width: int = 8) -> WideBVH:
     return WideBVH(bounds, index, np.arange(n, dtype=np.int32))
 
 
+# A leaf's count field tells how traversal tests it: count > 0, primitives first .. first +
+# count - 1 one by one; -4 .. -2, that many triangles at once (mark_triangle_leaves); below
+# -SPHERE_BLOCK, -count - SPHERE_BLOCK spheres at once (mark_sphere_leaves).
+SPHERE_BLOCK = 8
+
+
+def _leaves_of_one_kind(wide: WideBVH, of_kind: np.ndarray, most: int) -> np.ndarray:
+    """bool (N, W): the lanes whose leaf holds 2 .. `most` primitives, all of the kind
+    (`of_kind`: bool per primitive-table row, in leaf order)."""
+    count = wide.node_index[:, 1, :]
+    first = wide.node_index[:, 0, :]
+    prefix = np.concatenate([[0], np.cumsum(of_kind, dtype=np.int64)])
+    leaf = (count >= 2) & (count <= most)
+    end = np.where(leaf, first.astype(np.int64) + count, 0)
+    start = np.where(leaf, first, 0)
+    return leaf & (prefix[end] - prefix[start] == count)
+
+
 def mark_triangle_leaves(wide: WideBVH, is_triangle: np.ndarray, most: int = 4) -> None:
     """Leaves of 2 .. `most` primitives that are all triangles get their count negated in place:
     traversal tests them together (shape_triangle.intersect_triangles), reading consecutive
     rows of the triangle table. `is_triangle`: bool per primitive-table row, in leaf order."""
     count = wide.node_index[:, 1, :]
-    first = wide.node_index[:, 0, :]
-    prefix = np.concatenate([[0], np.cumsum(is_triangle, dtype=np.int64)])
-    leaf = (count >= 2) & (count <= most)
-    end = np.where(leaf, first.astype(np.int64) + count, 0)
-    start = np.where(leaf, first, 0)
-    block = leaf & (prefix[end] - prefix[start] == count)
+    block = _leaves_of_one_kind(wide, is_triangle, most)
     count[block] = -count[block]
+
+
+def mark_sphere_leaves(wide: WideBVH, is_sphere: np.ndarray, most: int = 4) -> None:
+    """Leaves of 2 .. `most` primitives that are all spheres get the count -(SPHERE_BLOCK +
+    count) in place: traversal tests them together (shape_sphere.intersect_spheres). The seed
+    scene's four spheres are one such leaf. `is_sphere`: bool per primitive-table row, in leaf
+    order."""
+    count = wide.node_index[:, 1, :]
+    block = _leaves_of_one_kind(wide, is_sphere, most)
+    count[block] = -(SPHERE_BLOCK + count[block])
