@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import assume, given, settings
+from hypothesis import assume, example, given, settings
 from hypothesis import strategies as st
 
 from raylume.kernels.shape_plane import intersect_plane
@@ -133,6 +133,8 @@ component = st.one_of(st.sampled_from([0.0, -0.0]), st.floats(-1, 1, allow_nan=F
     st.tuples(component, component, component).filter(lambda d: any(d)),
     st.sampled_from([INF, 5.0]),
 )
+# an entry distance in the subnormal range (2.24e-45), once computed as 2.8e-45
+@example(a=(0.0, 2.0, 1.401298464324817e-45), b=(1.0, 0.0, 1.0), o=(0.0, 1.0, 0.0), d=(1.0, 0.0, 0.625), tmax=INF)
 def test_box_test_agrees_with_the_textbook_slab_test(a, b, o, d, tmax):
     """Near/far planes picked by the direction's sign, against min/max of both slab distances
     with exact division and zero components handled explicitly; zero and negative-zero

@@ -122,10 +122,15 @@ def _box_codegen(width, store):
             far = builder.sub(ir.Constant(i64, 2 * k + 3), rows[k])
             tn.append(builder.fmul(builder.fsub(row(rows[k]), splat(rf[k])), inv))
             tf.append(builder.fmul(builder.fsub(row(far), splat(rf[3 + k])), inv))
-        tnear = vmax(vmax(tn[0], tn[1]), vmax(tn[2], ir.Constant(vt, [0.0] * width)))
+        # Widened by the relative factors and by the smallest normal float32: products in the
+        # subnormal range round by a fixed step, which no relative factor covers (hypothesis
+        # found an entry distance of 2.24e-45 computed as 2.8e-45). The entry is then clamped
+        # at 0, so an origin inside the box enters at 0 exactly.
+        tiny = ir.Constant(vt, [_F32_TINY] * width)
+        tnear = builder.fsub(vmax(vmax(tn[0], tn[1]), tn[2]), tiny)
+        tnear = builder.fmul(vmax(tnear, ir.Constant(vt, [0.0] * width)), ir.Constant(vt, [_NEAR_SCALE] * width))
         tfar = vmin(vmin(tf[0], tf[1]), vmin(tf[2], splat(tmax)))
-        tnear = builder.fmul(tnear, ir.Constant(vt, [_NEAR_SCALE] * width))
-        tfar = builder.fmul(tfar, ir.Constant(vt, [_FAR_SCALE] * width))
+        tfar = builder.fadd(builder.fmul(tfar, ir.Constant(vt, [_FAR_SCALE] * width)), tiny)
         hit = builder.fcmp_ordered("<=", tnear, tfar)
         mask = builder.zext(builder.bitcast(hit, ir.IntType(width)), i64)
         if store:
@@ -155,6 +160,30 @@ def box_hits(typingctx, bounds, node, rf, rows, tmax, out, at):
         raise TypingError("box_hits: out must be a C-contiguous float64 array or None")
     sig = types.int64(bounds, node, rf, rows, tmax, out, at)
     return sig, _box_codegen(BVH_WIDTH, store)
+
+
+@intrinsic
+def prefetch_row(typingctx, array, i):
+    """Start loading the cache line of array[i] (its first element; a C-contiguous array), for a
+    read soon: a hint, no result."""
+    if not (isinstance(array, types.Array) and array.layout == "C"):
+        raise TypingError("prefetch_row: a C-contiguous array")
+    sig = types.void(array, i)
+
+    def codegen(context, builder, sig, args):
+        arr = context.make_array(sig.args[0])(context, builder, args[0])
+        row = context.cast(builder, args[1], sig.args[1], types.int64)
+        stride = builder.extract_value(arr.strides, 0)
+        base = builder.ptrtoint(arr.data, ir.IntType(64))
+        addr = builder.inttoptr(builder.add(base, builder.mul(row, stride)), ir.IntType(8).as_pointer())
+        i32 = ir.IntType(32)
+        fn = cgutils.get_or_insert_function(
+            builder.module, ir.FunctionType(ir.VoidType(), [ir.IntType(8).as_pointer(), i32, i32, i32]), "llvm.prefetch"
+        )
+        builder.call(fn, [addr, ir.Constant(i32, 0), ir.Constant(i32, 3), ir.Constant(i32, 1)])
+        return context.get_dummy_value()
+
+    return sig, codegen
 
 
 @intrinsic
@@ -372,13 +401,20 @@ def closest_hit(G, X, o, d, tmin, tmax, node_stack, t_stack):
             # the node's children the ray enters, their entry distances at t_stack[top:]; they
             # are moved down to t_stack[top:top + k] sorted farthest first (lane i >= k is
             # read before slot top + k is written)
+            # the children's indices load beside their boxes, not after the box test: the two
+            # cache misses of a node overlap (hit rays on a 1M-triangle mesh: ~12% less time)
+            prefetch_row(index, ref)
             mask = box_hits(bounds, ref, rf, rows, best_t, t_stack, top)
             k = 0
             while mask != 0:
                 i = lowest_bit(mask)
                 mask &= mask - 1
                 t = t_stack[top + i]
-                child = index[ref, 0, i] if index[ref, 1, i] == 0 else -1 - ((ref << _LANE_SHIFT) + i)
+                if index[ref, 1, i] == 0:
+                    child = index[ref, 0, i]
+                else:
+                    child = -1 - ((ref << _LANE_SHIFT) + i)
+                    prefetch_row(G.prims, index[ref, 0, i])  # the leaf's first row, read soon
                 j = top + k
                 while j > top and t_stack[j - 1] < t:
                     t_stack[j] = t_stack[j - 1]
