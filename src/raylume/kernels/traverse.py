@@ -364,6 +364,57 @@ def _instances_any_impl(G, X, o, d, tmin, tmax, node_stack):
     return lambda G, X, o, d, tmin, tmax, node_stack: False
 
 
+# --- the stack (shared with traverse_instances.py) -------------------------------------------
+
+
+@njit(**KERNEL, inline="always")
+def stack_entry(index, ref, i):
+    """Stack entry of lane i of node ref: the child node, or -1 - (node * W + lane) for a leaf."""
+    return index[ref, 0, i] if index[ref, 1, i] == 0 else -1 - ((ref << _LANE_SHIFT) + i)
+
+
+@njit(**KERNEL, inline="always")
+def push_children(bounds, index, leaf_rows, ref, rf, rows, best_t, node_stack, t_stack, top):
+    """Push the children of node `ref` that the ray enters nearer than best_t onto the stacks
+    from `top`, sorted farthest first (the nearest on top); returns how many. The node's child
+    indices are prefetched beside its boxes, not loaded after the box test, so the two cache
+    misses of a node overlap (hit rays on a 1M-triangle mesh: ~12% less time); a pushed leaf's
+    first row of `leaf_rows` (what testing it reads first) too."""
+    prefetch_row(index, ref)
+    # entry distances land at t_stack[top:]; they are moved down to t_stack[top:top + k] (lane
+    # i >= k is read before slot top + k is written)
+    mask = box_hits(bounds, ref, rf, rows, best_t, t_stack, top)
+    k = 0
+    while mask != 0:
+        i = lowest_bit(mask)
+        mask &= mask - 1
+        t = t_stack[top + i]
+        if index[ref, 1, i] == 0:
+            child = index[ref, 0, i]
+        else:
+            child = -1 - ((ref << _LANE_SHIFT) + i)
+            prefetch_row(leaf_rows, index[ref, 0, i])
+        j = top + k
+        while j > top and t_stack[j - 1] < t:
+            t_stack[j] = t_stack[j - 1]
+            node_stack[j] = node_stack[j - 1]
+            j -= 1
+        t_stack[j] = t
+        node_stack[j] = child
+        k += 1
+    return k
+
+
+@njit(**KERNEL, inline="always")
+def pop_nearer(node_stack, t_stack, top, base, best_t):
+    """The next entry above `base` still nearer than best_t: (found, new top, entry)."""
+    while top > base:
+        top -= 1
+        if t_stack[top] < best_t:
+            return True, top, node_stack[top]
+    return False, top, node_stack[top]
+
+
 # --- traversal --------------------------------------------------------------------------------
 
 
@@ -398,31 +449,7 @@ def closest_hit(G, X, o, d, tmin, tmax, node_stack, t_stack):
     top = 0
     while True:
         if ref >= 0:
-            # the node's children the ray enters, their entry distances at t_stack[top:]; they
-            # are moved down to t_stack[top:top + k] sorted farthest first (lane i >= k is
-            # read before slot top + k is written)
-            # the children's indices load beside their boxes, not after the box test: the two
-            # cache misses of a node overlap (hit rays on a 1M-triangle mesh: ~12% less time)
-            prefetch_row(index, ref)
-            mask = box_hits(bounds, ref, rf, rows, best_t, t_stack, top)
-            k = 0
-            while mask != 0:
-                i = lowest_bit(mask)
-                mask &= mask - 1
-                t = t_stack[top + i]
-                if index[ref, 1, i] == 0:
-                    child = index[ref, 0, i]
-                else:
-                    child = -1 - ((ref << _LANE_SHIFT) + i)
-                    prefetch_row(G.prims, index[ref, 0, i])  # the leaf's first row, read soon
-                j = top + k
-                while j > top and t_stack[j - 1] < t:
-                    t_stack[j] = t_stack[j - 1]
-                    node_stack[j] = node_stack[j - 1]
-                    j -= 1
-                t_stack[j] = t
-                node_stack[j] = child
-                k += 1
+            k = push_children(bounds, index, G.prims, ref, rf, rows, best_t, node_stack, t_stack, top)
             if k > 0:  # descend into the nearest
                 top += k - 1
                 ref = node_stack[top]
@@ -434,14 +461,7 @@ def closest_hit(G, X, o, d, tmin, tmax, node_stack, t_stack):
             best_t, prim, b1, b2 = intersect_leaf(
                 G, X, index[node, 0, lane], index[node, 1, lane], o, d, shear, tmin, best_t, prim, b1, b2
             )
-        # pop the next entry still nearer than the best hit so far
-        found = False
-        while top > 0:
-            top -= 1
-            if t_stack[top] < best_t:
-                ref = node_stack[top]
-                found = True
-                break
+        found, top, ref = pop_nearer(node_stack, t_stack, top, 0, best_t)
         if not found:
             break
     return best_t, prim, b1, b2
@@ -479,6 +499,6 @@ def any_hit(G, X, o, d, tmin, tmax, node_stack):
         while mask != 0:
             i = lowest_bit(mask)
             mask &= mask - 1
-            node_stack[top] = index[ref, 0, i] if index[ref, 1, i] == 0 else -1 - ((ref << _LANE_SHIFT) + i)
+            node_stack[top] = stack_entry(index, ref, i)
             top += 1
     return False

@@ -22,7 +22,17 @@ from numba import njit
 
 from .shape_triangle import intersect_triangle, intersect_triangles, ray_shear
 from .shapes import INSTANCE_SHIFT, NO_HIT, PRIM_ROW
-from .traverse import _LANE_SHIFT, BVH_WIDTH, box_hits, box_ray, lowest_bit, traceable
+from .traverse import (
+    _LANE_SHIFT,
+    BVH_WIDTH,
+    box_hits,
+    box_ray,
+    lowest_bit,
+    pop_nearer,
+    push_children,
+    stack_entry,
+    traceable,
+)
 from .vec import KERNEL
 
 
@@ -40,12 +50,6 @@ def _to_object(inv, i, o, d):
         inv[i, 8] * d[0] + inv[i, 9] * d[1] + inv[i, 10] * d[2],
     )
     return oo, dd
-
-
-@njit(**KERNEL, inline="always")
-def _leaf_ref(index, ref, i):
-    """Stack entry of lane i of node ref: the child node, or -1 - (node * W + lane) for a leaf."""
-    return index[ref, 0, i] if index[ref, 1, i] == 0 else -1 - ((ref << _LANE_SHIFT) + i)
 
 
 @njit(**KERNEL, inline="always")
@@ -70,27 +74,6 @@ def _leaf_triangles(prims, tris, index, leaf, o, shear, tmin, best_t):
 
 
 @njit(**KERNEL, inline="always")
-def _push_sorted(bounds, index, ref, rf, rows, best_t, node_stack, t_stack, top):
-    """Push the children of node ref that the ray enters, nearest on top; returns how many."""
-    mask = box_hits(bounds, ref, rf, rows, best_t, t_stack, top)
-    k = 0
-    while mask != 0:
-        i = lowest_bit(mask)
-        mask &= mask - 1
-        t = t_stack[top + i]
-        child = _leaf_ref(index, ref, i)
-        j = top + k
-        while j > top and t_stack[j - 1] < t:
-            t_stack[j] = t_stack[j - 1]
-            node_stack[j] = node_stack[j - 1]
-            j -= 1
-        t_stack[j] = t
-        node_stack[j] = child
-        k += 1
-    return k
-
-
-@njit(**KERNEL, inline="always")
 def _blas_closest(prims, tris, bounds, index, root, o, d, tmin, best_t, node_stack, t_stack, base):
     """Nearest hit of the object-space ray in the BLAS rooted at `root`, nearer than best_t,
     using the stacks from `base` up: (t, primitive or NO_HIT, b1, b2)."""
@@ -103,7 +86,7 @@ def _blas_closest(prims, tris, bounds, index, root, o, d, tmin, best_t, node_sta
     top = base
     while True:
         if ref >= 0:
-            k = _push_sorted(bounds, index, ref, rf, rows, best_t, node_stack, t_stack, top)
+            k = push_children(bounds, index, prims, ref, rf, rows, best_t, node_stack, t_stack, top)
             if k > 0:
                 top += k - 1
                 ref = np.int64(node_stack[top])
@@ -112,13 +95,8 @@ def _blas_closest(prims, tris, bounds, index, root, o, d, tmin, best_t, node_sta
             t, j, u, v = _leaf_triangles(prims, tris, index, -1 - ref, o, shear, tmin, best_t)
             if j != NO_HIT:
                 best_t, prim, b1, b2 = t, j, u, v
-        found = False
-        while top > base:
-            top -= 1
-            if t_stack[top] < best_t:
-                ref = np.int64(node_stack[top])
-                found = True
-                break
+        found, top, entry = pop_nearer(node_stack, t_stack, top, base, best_t)
+        ref = np.int64(entry)
         if not found:
             break
     return best_t, prim, b1, b2
@@ -138,7 +116,7 @@ def instances_closest(G, X, o, d, tmin, best_t, hit, b1, b2, node_stack, t_stack
     top = 0
     while True:
         if ref >= 0:
-            k = _push_sorted(bounds, index, ref, rf, rows, best_t, node_stack, t_stack, top)
+            k = push_children(bounds, index, inv, ref, rf, rows, best_t, node_stack, t_stack, top)
             if k > 0:
                 top += k - 1
                 ref = np.int64(node_stack[top])
@@ -157,13 +135,8 @@ def instances_closest(G, X, o, d, tmin, best_t, hit, b1, b2, node_stack, t_stack
                 if j != NO_HIT:
                     best_t, b1, b2 = t, u, v
                     hit = ((np.int64(i) + 1) << INSTANCE_SHIFT) | j
-        found = False
-        while top > 0:
-            top -= 1
-            if t_stack[top] < best_t:
-                ref = np.int64(node_stack[top])
-                found = True
-                break
+        found, top, entry = pop_nearer(node_stack, t_stack, top, 0, best_t)
+        ref = np.int64(entry)
         if not found:
             break
     return best_t, hit, b1, b2
@@ -189,7 +162,7 @@ def _blas_any(prims, tris, bounds, index, root, o, d, tmin, tmax, node_stack, ba
         while mask != 0:
             i = lowest_bit(mask)
             mask &= mask - 1
-            node_stack[top] = _leaf_ref(index, ref, i)
+            node_stack[top] = stack_entry(index, ref, i)
             top += 1
     return False
 
@@ -221,6 +194,6 @@ def instances_any(G, X, o, d, tmin, tmax, node_stack):
         while mask != 0:
             i = lowest_bit(mask)
             mask &= mask - 1
-            node_stack[top] = _leaf_ref(index, ref, i)
+            node_stack[top] = stack_entry(index, ref, i)
             top += 1
     return False
