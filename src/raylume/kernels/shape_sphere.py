@@ -9,7 +9,7 @@ from numba.core import cgutils
 from numba.core.errors import TypingError
 from numba.extending import intrinsic
 
-from .shape_triangle import splat_i64
+from .shape_triangle import nearest_lane, splat_i64
 from .vec import KERNEL, normalize, row3, sub
 
 INF = math.inf
@@ -143,14 +143,7 @@ def _spheres_codegen(context, builder, sig, args):
         inf = ir.Constant(v4, [float("inf")] * n)
         t = builder.select(inside(near), near, builder.select(inside(far), far, inf))
         t = builder.select(builder.and_(candidates, builder.not_(flat)), t, inf)
-        # nearest lane, the lowest on ties (the scalar loop keeps the first of equal hits)
-        best_t = builder.extract_element(t, ir.Constant(i32, 0))
-        best_j = ir.Constant(i64, 0)
-        for j in range(1, n):
-            tj = builder.extract_element(t, ir.Constant(i32, j))
-            nearer = builder.fcmp_ordered("<", tj, best_t)
-            best_t = builder.select(nearer, tj, best_t)
-            best_j = builder.select(nearer, ir.Constant(i64, j), best_j)
+        best_t, best_j = nearest_lane(builder, t, n)
         builder.store(best_t, best_t_slot)
         builder.store(best_j, best_j_slot)
     best_t = builder.load(best_t_slot)

@@ -180,18 +180,25 @@ def _triangles_codegen(context, builder, sig, args):
     ok = builder.and_(ok, builder.icmp_signed("<", lanes, splat_i64(builder, count, n)))
     inf = ir.Constant(v4, [float("inf")] * n)
     tt = builder.select(ok, t, inf)
-    # nearest lane, the lowest on ties (the scalar loop keeps the first of equal hits)
-    best_t = builder.extract_element(tt, ir.Constant(i32, 0))
-    best_j = ir.Constant(i64, 0)
-    for j in range(1, n):
-        tj = builder.extract_element(tt, ir.Constant(i32, j))
-        nearer = builder.fcmp_ordered("<", tj, best_t)
-        best_t = builder.select(nearer, tj, best_t)
-        best_j = builder.select(nearer, ir.Constant(i64, j), best_j)
+    best_t, best_j = nearest_lane(builder, tt, n)
     vj = builder.extract_element(v, best_j)
     wj = builder.extract_element(w, best_j)
     dj = builder.extract_element(det, best_j)
     return context.make_tuple(builder, sig.return_type, [best_t, best_j, vj, wj, dj])
+
+
+def nearest_lane(builder, t, n):
+    """(t, lane) of the smallest of the n lanes of vector t, the lowest lane on ties (as a scalar
+    loop keeping the first of equal hits), in LLVM IR."""
+    i32, i64 = ir.IntType(32), ir.IntType(64)
+    best_t = builder.extract_element(t, ir.Constant(i32, 0))
+    best_j = ir.Constant(i64, 0)
+    for j in range(1, n):
+        tj = builder.extract_element(t, ir.Constant(i32, j))
+        nearer = builder.fcmp_ordered("<", tj, best_t)
+        best_t = builder.select(nearer, tj, best_t)
+        best_j = builder.select(nearer, ir.Constant(i64, j), best_j)
+    return best_t, best_j
 
 
 def splat_i64(builder, x, n):

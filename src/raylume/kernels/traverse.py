@@ -406,6 +406,19 @@ def push_children(bounds, index, leaf_rows, ref, rf, rows, best_t, node_stack, t
 
 
 @njit(**KERNEL, inline="always")
+def push_entered(bounds, index, ref, rf, rows, tmax, node_stack, top):
+    """Push the children of node `ref` that the ray enters before tmax, unsorted (any-hit
+    queries); returns the new top."""
+    mask = box_hits(bounds, ref, rf, rows, tmax, None, 0)
+    while mask != 0:
+        i = lowest_bit(mask)
+        mask &= mask - 1
+        node_stack[top] = stack_entry(index, ref, i)
+        top += 1
+    return top
+
+
+@njit(**KERNEL, inline="always")
 def pop_nearer(node_stack, t_stack, top, base, best_t):
     """The next entry above `base` still nearer than best_t: (found, new top, entry)."""
     while top > base:
@@ -495,10 +508,5 @@ def any_hit(G, X, o, d, tmin, tmax, node_stack):
             if _leaf_blocks(G, X, index[node, 0, lane], index[node, 1, lane], o, d, shear, tmin, tmax):
                 return True
             continue
-        mask = box_hits(bounds, ref, rf, rows, tmax, None, 0)
-        while mask != 0:
-            i = lowest_bit(mask)
-            mask &= mask - 1
-            node_stack[top] = stack_entry(index, ref, i)
-            top += 1
+        top = push_entered(bounds, index, ref, rf, rows, tmax, node_stack, top)
     return False

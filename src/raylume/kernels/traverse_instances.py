@@ -25,12 +25,10 @@ from .shapes import INSTANCE_SHIFT, NO_HIT, PRIM_ROW
 from .traverse import (
     _LANE_SHIFT,
     BVH_WIDTH,
-    box_hits,
     box_ray,
-    lowest_bit,
     pop_nearer,
     push_children,
-    stack_entry,
+    push_entered,
     traceable,
 )
 from .vec import KERNEL
@@ -158,12 +156,7 @@ def _blas_any(prims, tris, bounds, index, root, o, d, tmin, tmax, node_stack, ba
             if _leaf_triangles(prims, tris, index, -1 - ref, o, shear, tmin, tmax)[1] != NO_HIT:
                 return True
             continue
-        mask = box_hits(bounds, ref, rf, rows, tmax, None, 0)
-        while mask != 0:
-            i = lowest_bit(mask)
-            mask &= mask - 1
-            node_stack[top] = stack_entry(index, ref, i)
-            top += 1
+        top = push_entered(bounds, index, ref, rf, rows, tmax, node_stack, top)
     return False
 
 
@@ -190,10 +183,5 @@ def instances_any(G, X, o, d, tmin, tmax, node_stack):
                 if _blas_any(G.prims, G.triangles, bounds, index, X.index[i, 0], oo, dd, tmin, tmax, node_stack, top):
                     return True
             continue
-        mask = box_hits(bounds, ref, rf, rows, tmax, None, 0)
-        while mask != 0:
-            i = lowest_bit(mask)
-            mask &= mask - 1
-            node_stack[top] = stack_entry(index, ref, i)
-            top += 1
+        top = push_entered(bounds, index, ref, rf, rows, tmax, node_stack, top)
     return False
