@@ -11,9 +11,11 @@ import raylume
 from raylume.accel.wide import SPHERE_BLOCK
 from raylume.compile import compile_scene
 from raylume.kernels.shape_sphere import intersect_sphere, intersect_spheres
+from raylume.kernels.vec import FAST
 
 
-@njit(cache=True)
+# Compiled with the kernels' fast-math flags, as the block test runs inlined in them
+@njit(cache=True, fastmath=FAST)
 def _block_and_loop(shapes, rows, n, o, d, tmin, tmax):
     """(t, lane) of the block test and of intersect_sphere sphere by sphere (lane -1: no hit)."""
     t4, j = intersect_spheres(shapes, rows, n, o, d, tmin, tmax)
@@ -58,7 +60,7 @@ def test_block_equals_one_by_one_to_the_bit():
 def test_block_test_is_vectorised():
     # A fresh, uncached dispatcher: Numba cannot show the machine code of a kernel that another
     # test worker compiled and this one loaded from the disk cache.
-    block_and_loop = njit(_block_and_loop.py_func)
+    block_and_loop = njit(fastmath=FAST)(_block_and_loop.py_func)
     block_and_loop(np.zeros((1, 16)), (0, 0, 0, 0), 1, (0.0, 0.0, 0.0), (0.0, 0.0, 1.0), 0.0, np.inf)
     asm = next(iter(block_and_loop.inspect_asm().values()))
     for op in ("vsqrtpd", "vdivpd", "vmulpd", "vsubpd"):

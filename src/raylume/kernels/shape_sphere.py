@@ -9,7 +9,7 @@ from numba.core import cgutils
 from numba.core.errors import TypingError
 from numba.extending import intrinsic
 
-from .shape_triangle import nearest_lane, splat_i64
+from .shape_triangle import EXACT, EXACT_DIVISION, exact_ops, nearest_lane, splat_i64
 from .vec import KERNEL, normalize, row3, sub
 
 INF = math.inf
@@ -28,9 +28,10 @@ def bounds(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     ]
 
 
-# No fastmath (as the triangle test): the four-at-once test below must round exactly as this
-# one does, and fused multiply-adds chosen by the compiler would differ between the two.
-@njit(error_model="numpy", _nrt=False)
+# No fastmath (as the triangle test; explicitly, or it would inherit its fast-math callers'):
+# the four-at-once test below must round exactly as this one does, and fused multiply-adds
+# chosen by the compiler would differ between the two.
+@njit(error_model="numpy", _nrt=False, fastmath=False)
 def intersect_sphere(o, d, center, radius, tmin, tmax):
     """The seed's quadratic in a stable form (Ray Tracing Gems ch. 7): the discriminant is
     computed from the ray's closest approach, and the second root via Vieta, so neither a
@@ -98,7 +99,7 @@ def _spheres_codegen(context, builder, sig, args):
             vec = builder.insert_element(vec, builder.load(p, align=8), ir.Constant(i32, j))
         return vec
 
-    fmul, fadd, fsub = builder.fmul, builder.fadd, builder.fsub
+    fadd, fsub, fmul, lt = exact_ops(builder)  # inlined into fast-math kernels: kept exact
     dx, dy, dz = splat(d[0]), splat(d[1]), splat(d[2])
     radius = column(RADIUS)
     cx = fsub(splat(o[0]), column(CENTER))
@@ -110,14 +111,14 @@ def _spheres_codegen(context, builder, sig, args):
     zero = ir.Constant(v4, [0.0] * n)
 
     def gt(a, b_):
-        return builder.fcmp_ordered(">", a, b_)
+        return lt(b_, a)
 
     away = builder.and_(gt(c, zero), gt(b, zero))
     px = fsub(cx, fmul(b, dx))
     py = fsub(cy, fmul(b, dy))
     pz = fsub(cz, fmul(b, dz))
     disc = fsub(rr, fadd(fadd(fmul(px, px), fmul(py, py)), fmul(pz, pz)))
-    missed = builder.fcmp_ordered("<", disc, zero)
+    missed = lt(disc, zero)
     lanes = ir.Constant(ir.VectorType(i64, n), list(range(n)))
     used = builder.icmp_signed("<", lanes, splat_i64(builder, count, n))
     candidates = builder.and_(used, builder.not_(builder.or_(away, missed)))
@@ -129,16 +130,16 @@ def _spheres_codegen(context, builder, sig, args):
     with builder.if_then(anything, likely=False):
         sqrt = cgutils.get_or_insert_function(builder.module, ir.FunctionType(v4, [v4]), "llvm.sqrt.v4f64")
         copysign = cgutils.get_or_insert_function(builder.module, ir.FunctionType(v4, [v4, v4]), "llvm.copysign.v4f64")
-        q = fsub(builder.fneg(b), builder.call(copysign, [builder.call(sqrt, [disc]), b]))
-        flat = builder.fcmp_ordered("==", q, zero)
-        t0 = builder.fdiv(c, q)
+        q = fsub(builder.fneg(b, flags=EXACT), builder.call(copysign, [builder.call(sqrt, [disc]), b]))
+        flat = builder.fcmp_ordered("==", q, zero, flags=EXACT)
+        t0 = builder.fdiv(c, q, flags=EXACT_DIVISION)
         swap = gt(t0, q)
         near = builder.select(swap, q, t0)
         far = builder.select(swap, t0, q)
         lo, hi = splat(tmin), splat(tmax)
 
         def inside(t):
-            return builder.and_(gt(t, lo), builder.fcmp_ordered("<", t, hi))
+            return builder.and_(gt(t, lo), lt(t, hi))
 
         inf = ir.Constant(v4, [float("inf")] * n)
         t = builder.select(inside(near), near, builder.select(inside(far), far, inf))

@@ -39,7 +39,9 @@ NO_SHEAR = (0, 1, 2, 0.0, 0.0, 1.0)
 
 # No fastmath here: contracting a*b - c*d into a fused multiply-add would make the edge
 # functions of two triangles sharing an edge differ, and rays through the edge could slip by.
-@njit(error_model="numpy", _nrt=False)
+# Said explicitly: a function that leaves fastmath unset inherits its caller's flags in Numba,
+# and every caller is a fast-math kernel.
+@njit(error_model="numpy", _nrt=False, fastmath=False)
 def intersect_triangle(o, shear, tri, i, tmin, tmax):
     """Watertight ray-triangle test against row i of tri (float32 (T, 9): v0, v1, v2).
 
@@ -64,9 +66,9 @@ def intersect_triangle(o, shear, tri, i, tmin, tmax):
     u = cx * by - cy * bx
     v = ax * cy - ay * cx
     w = bx * ay - by * ax
-    # Edge functions within a hair of zero count as inside: inlined into fast-math callers,
-    # Numba/LLVM may evaluate the two triangles sharing an edge with different roundings, and a
-    # ray exactly through the edge must still hit at least one of them (no pinholes).
+    # Edge functions within a hair of zero count as inside: a margin beyond exact arithmetic
+    # (a ray exactly through a shared edge must hit at least one of the two triangles, however
+    # a future compiler rounds).
     tol = 1e-12 * (abs(u) + abs(v) + abs(w))
     if (u < -tol or v < -tol or w < -tol) and (u > tol or v > tol or w > tol):
         return INF, 0.0, 0.0
@@ -110,24 +112,8 @@ def _triangles_codegen(context, builder, sig, args):
     def splat(x):
         return builder.shuffle_vector(builder.insert_element(undef, x, ir.Constant(i32, 0)), undef, zero_idx)
 
-    # Every floating-point instruction carries a flag that changes nothing here ('arcp' on
-    # additions, products and comparisons; 'nsz' on the divisions, whose zero sign the clamps
-    # below erase), because Numba's fast-math pass adds its flags (contraction into FMAs
-    # among them) only to instructions that have none: this test is inlined into fast-math
-    # kernels, and must round there exactly as the scalar test does.
-    keep = ("arcp",)
-
-    def fsub(a, b):
-        return builder.fsub(a, b, flags=keep)
-
-    def fadd(a, b):
-        return builder.fadd(a, b, flags=keep)
-
-    def fmul(a, b):
-        return builder.fmul(a, b, flags=keep)
-
-    def lt(a, b):
-        return builder.fcmp_ordered("<", a, b, flags=keep)
+    fadd, fsub, fmul, lt = exact_ops(builder)
+    keep = EXACT
 
     def pick(k):  # o[k] for a runtime k in 0..2
         return builder.select(
@@ -186,7 +172,7 @@ def _triangles_codegen(context, builder, sig, args):
     pos = builder.or_(builder.or_(lt(tol, u), lt(tol, v)), lt(tol, w))
     det = fadd(fadd(u, v), w)
     num = fadd(fadd(fmul(u, az), fmul(v, bz)), fmul(w, cz))
-    t = builder.fdiv(fmul(num, splat(sz)), det, flags=("nsz",))
+    t = builder.fdiv(fmul(num, splat(sz)), det, flags=EXACT_DIVISION)
     lanes = ir.Constant(ir.VectorType(i64, n), list(range(n)))
     ok = builder.and_(
         builder.not_(builder.and_(neg, pos)),
@@ -206,12 +192,39 @@ def _triangles_codegen(context, builder, sig, args):
     found = lt(best_t, tmax)
 
     def barycentric(x):
-        q = builder.fdiv(x, dj, flags=("nsz",))
+        q = builder.fdiv(x, dj, flags=EXACT_DIVISION)
         q = builder.select(builder.fcmp_ordered(">", q, zero, flags=keep), q, zero)
         q = builder.select(lt(q, one), q, one)
         return builder.select(found, q, zero)
 
     return context.make_tuple(builder, sig.return_type, [best_t, best_j, barycentric(vj), barycentric(wj)])
+
+
+# Flags that change nothing for these instructions: 'arcp' only matters to divisions, and
+# 'nsz' on a division only to the sign of a zero result, which the callers never depend on.
+# Numba's fast-math pass adds its flags (contraction into FMAs among them) only to float
+# instructions that have none, so the block tests, inlined into fast-math kernels, round there
+# exactly as the scalar tests they are checked against.
+EXACT = ("arcp",)
+EXACT_DIVISION = ("nsz",)
+
+
+def exact_ops(builder):
+    """(fadd, fsub, fmul, lt) emitting IEEE instructions that Numba's fast-math pass leaves alone."""
+
+    def fadd(a, b):
+        return builder.fadd(a, b, flags=EXACT)
+
+    def fsub(a, b):
+        return builder.fsub(a, b, flags=EXACT)
+
+    def fmul(a, b):
+        return builder.fmul(a, b, flags=EXACT)
+
+    def lt(a, b):
+        return builder.fcmp_ordered("<", a, b, flags=EXACT)
+
+    return fadd, fsub, fmul, lt
 
 
 def nearest_lane(builder, t, n):
@@ -222,7 +235,7 @@ def nearest_lane(builder, t, n):
     best_j = ir.Constant(i64, 0)
     for j in range(1, n):
         tj = builder.extract_element(t, ir.Constant(i32, j))
-        nearer = builder.fcmp_ordered("<", tj, best_t)
+        nearer = builder.fcmp_ordered("<", tj, best_t, flags=EXACT)
         best_t = builder.select(nearer, tj, best_t)
         best_j = builder.select(nearer, ir.Constant(i64, j), best_j)
     return best_t, best_j
