@@ -1,0 +1,106 @@
+"""Hit rays against Embree: the issue-13 ratio, measured so that a busy machine does not decide it.
+
+The camera rays of bench_bvh.py (DESIGN.md camera, pixel centres) that hit the mesh, traced by
+raylume (`intersect_rays`, one thread) and by Embree (embreex's `run`, single-threaded), each
+timed in CPU time (`time.process_time`), alternating raylume, Embree, raylume, Embree in one
+process. CPU time leaves out the moments another process holds the core; alternation spreads
+the VM's drift over both engines. The ratio is Embree's time over raylume's: above 1, raylume
+is faster.
+
+    python benchmarks/bench_hits.py [--size 1024] [--repeats 7] [MESH ...]
+
+MESH: a name in ../shared/models (stanford-bunny, nefertiti) or a bumpy sphere's size (10k,
+1M, 4M); by default the bunny, Nefertiti and bumpy 10k to 4M.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numba
+import numpy as np
+from bench_bvh import camera_rays, raylume_scene
+from common import SHARED_MODELS, machine, table
+
+from raylume.kernels.query import intersect_rays
+from raylume.kernels.shapes import features
+from raylume.scene.mesh import load_mesh
+from raylume.scene.procedural import bumpy_sphere
+
+DEFAULT = ["stanford-bunny", "nefertiti", "10k", "40k", "100k", "1M", "4M"]
+
+
+def mesh(name: str):
+    """(vertices, faces) of a shared model or of a bumpy sphere named by its size (10k, 1M)."""
+    if name[-1] in "kM" and name[:-1].isdigit():
+        return bumpy_sphere(int(name[:-1]) * (1000 if name[-1] == "k" else 1_000_000))
+    path = SHARED_MODELS / f"{name}.obj"
+    if not path.exists():
+        return None
+    m = load_mesh(path)
+    return m.vertices, m.faces
+
+
+def hit_rays(vertices, faces, size):
+    """The compiled scene and the camera rays that hit it (float64 origins and unit directions)."""
+    compiled = raylume_scene(vertices, faces)
+    lo, hi = vertices.min(axis=0), vertices.max(axis=0)
+    o, d = camera_rays((lo + hi) / 2, np.linalg.norm(hi - lo) / 2, size)
+    t, *_ = _trace(compiled, o, d)
+    hit = np.isfinite(t)
+    return compiled, np.ascontiguousarray(o[hit]), np.ascontiguousarray(d[hit])
+
+
+def _trace(compiled, o, d):
+    n = len(o)
+    out = np.empty(n), np.empty(n, np.int32), np.empty(n, np.int32), np.empty(n, np.int32)
+    intersect_rays(compiled.kernel, features(compiled.kernel), o, d, *out, 1)
+    return out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("meshes", nargs="*", default=DEFAULT)
+    parser.add_argument("--size", type=int, default=1024, help="image side: size x size camera rays")
+    parser.add_argument("--repeats", type=int, default=7)
+    args = parser.parse_args()
+    from embreex import rtcore_scene as rtcs
+    from embreex.mesh_construction import TriangleMesh
+
+    numba.set_num_threads(1)
+    print(f"hit rays of a {args.size} x {args.size} frame, 1 thread, CPU time, medians of {args.repeats}")
+    print(f"alternating raylume and Embree; {machine()}\n")
+    rows = []
+    for name in args.meshes:
+        vf = mesh(name)
+        if vf is None:
+            print(f"(skipping {name}: not found in {SHARED_MODELS})")
+            continue
+        v, f = vf
+        compiled, o, d = hit_rays(v, f, args.size)
+        embree = rtcs.EmbreeScene()
+        TriangleMesh(embree, v.astype(np.float32), f.astype(np.int32))
+        o32, d32 = o.astype(np.float32), d.astype(np.float32)
+        embree.run(o32[:1], d32[:1], output=1)  # Embree builds on the first query
+        ours, theirs = [], []
+        for _ in range(args.repeats):
+            c0 = time.process_time()
+            _trace(compiled, o, d)
+            ours.append(time.process_time() - c0)
+            c0 = time.process_time()
+            embree.run(o32, d32, output=1)
+            theirs.append(time.process_time() - c0)
+        r, e = np.median(ours), np.median(theirs)
+        pairs = np.array(theirs) / np.array(ours)
+        rows.append(
+            [name, f"{len(f):,}", f"{len(o):,}", f"{r * 1e3:.1f}", f"{e * 1e3:.1f}", f"{e / r:.2f}"]
+            + [f"{pairs.min():.2f}-{pairs.max():.2f}"]
+        )
+        print(" | ".join(rows[-1]), flush=True)
+    headers = ["mesh", "triangles", "hit rays", "raylume ms", "Embree ms", "Embree / raylume", "per pair"]
+    print("\n" + table(headers, rows))
+
+
+if __name__ == "__main__":
+    main()
