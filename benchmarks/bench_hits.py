@@ -5,7 +5,8 @@ raylume (`intersect_rays`, one thread) and by Embree (embreex's `run`, single-th
 timed in CPU time (`time.process_time`), alternating raylume, Embree, raylume, Embree in one
 process. CPU time leaves out the moments another process holds the core; alternation spreads
 the VM's drift over both engines. The ratio is Embree's time over raylume's: above 1, raylume
-is faster.
+is faster. Beside it, raylume's CPU time for the whole frame (all the camera rays, hits and
+misses) and its ratio to bumpy 40k's: how the cost of a frame grows with the triangle count.
 
     python benchmarks/bench_hits.py [--size 1024] [--repeats 7] [MESH ...]
 
@@ -42,14 +43,19 @@ def mesh(name: str):
     return m.vertices, m.faces
 
 
-def hit_rays(vertices, faces, size):
-    """The compiled scene and the camera rays that hit it (float64 origins and unit directions)."""
+def frame_rays(vertices, faces, size):
+    """The compiled scene, its camera rays and the mask of those that hit."""
     compiled = raylume_scene(vertices, faces)
     lo, hi = vertices.min(axis=0), vertices.max(axis=0)
     o, d = camera_rays((lo + hi) / 2, np.linalg.norm(hi - lo) / 2, size)
     t, *_ = _trace(compiled, o, d)
-    hit = np.isfinite(t)
-    return compiled, np.ascontiguousarray(o[hit]), np.ascontiguousarray(d[hit])
+    return compiled, o, d, np.isfinite(t)
+
+
+def cpu_seconds(fn) -> float:
+    c0 = time.process_time()
+    fn()
+    return time.process_time() - c0
 
 
 def _trace(compiled, o, d):
@@ -72,33 +78,37 @@ def main() -> None:
     print(f"hit rays of a {args.size} x {args.size} frame, 1 thread, CPU time, medians of {args.repeats}")
     print(f"alternating raylume and Embree; {machine()}\n")
     rows = []
+    frame = {}  # CPU seconds of the whole frame, per mesh
     for name in args.meshes:
         vf = mesh(name)
         if vf is None:
             print(f"(skipping {name}: not found in {SHARED_MODELS})")
             continue
         v, f = vf
-        compiled, o, d = hit_rays(v, f, args.size)
+        compiled, fo, fd, hit = frame_rays(v, f, args.size)
+        o, d = np.ascontiguousarray(fo[hit]), np.ascontiguousarray(fd[hit])
         embree = rtcs.EmbreeScene()
         TriangleMesh(embree, v.astype(np.float32), f.astype(np.int32))
         o32, d32 = o.astype(np.float32), d.astype(np.float32)
         embree.run(o32[:1], d32[:1], output=1)  # Embree builds on the first query
-        ours, theirs = [], []
+        ours, theirs, frames = [], [], []
         for _ in range(args.repeats):
-            c0 = time.process_time()
-            _trace(compiled, o, d)
-            ours.append(time.process_time() - c0)
-            c0 = time.process_time()
-            embree.run(o32, d32, output=1)
-            theirs.append(time.process_time() - c0)
+            ours.append(cpu_seconds(lambda: _trace(compiled, o, d)))  # noqa: B023 (called at once)
+            theirs.append(cpu_seconds(lambda: embree.run(o32, d32, output=1)))  # noqa: B023
+            frames.append(cpu_seconds(lambda: _trace(compiled, fo, fd)))  # noqa: B023
         r, e = np.median(ours), np.median(theirs)
+        frame[name] = np.median(frames)
         pairs = np.array(theirs) / np.array(ours)
         rows.append(
             [name, f"{len(f):,}", f"{len(o):,}", f"{r * 1e3:.1f}", f"{e * 1e3:.1f}", f"{e / r:.2f}"]
-            + [f"{pairs.min():.2f}-{pairs.max():.2f}"]
+            + [f"{pairs.min():.2f}-{pairs.max():.2f}", f"{frame[name] * 1e3:.1f}"]
         )
         print(" | ".join(rows[-1]), flush=True)
+    base = frame.get("40k")
+    for row in rows:
+        row.append(f"{frame[row[0]] / base:.2f}" if base else "-")
     headers = ["mesh", "triangles", "hit rays", "raylume ms", "Embree ms", "Embree / raylume", "per pair"]
+    headers += ["raylume frame ms", "frame / 40k frame"]
     print("\n" + table(headers, rows))
 
 
