@@ -7,7 +7,7 @@ and Embree through embreex, one thread each: embreex's run() is single-threaded)
 
     python benchmarks/bench_instances.py [--width 1024 --height 768] [--repeats 3]
                                          [--counts 1,10,100,1000,10000] [--flat-max 100]
-                                         [--plot docs/images/instances.png]
+                                         [--rotate] [--plot docs/images/instances.png]
 
 Every configuration runs in a process of its own, so that its peak resident memory (VmHWM, what
 /usr/bin/time -v reports as maximum resident set size) is its own: build + render, with the
@@ -31,13 +31,18 @@ from common import machine, table
 MESH_TRIANGLES = 100_000
 
 
-def grid_matrices(n: int) -> np.ndarray:
-    """(n, 3, 4): copies of a unit-radius mesh on a side x side grid covering [-1, 1]^2 at z = 0."""
+def grid_matrices(n: int, rotate: bool = False) -> np.ndarray:
+    """(n, 3, 4): copies of a unit-radius mesh on a side x side grid covering [-1, 1]^2 at z = 0;
+    with `rotate`, each copy turned by its own random rotation (seeded)."""
     side = math.ceil(math.sqrt(n))
     scale = 0.95 / side
     ij = np.stack(np.meshgrid(np.arange(side), np.arange(side)), axis=-1).reshape(-1, 2)[:n]
     m = np.zeros((n, 3, 4))
     m[:, 0, 0] = m[:, 1, 1] = m[:, 2, 2] = scale
+    if rotate:
+        from scipy.spatial.transform import Rotation
+
+        m[:, :, :3] = scale * Rotation.random(n, random_state=11).as_matrix()
     m[:, 0, 3] = (ij[:, 0] + 0.5) * 2 / side - 1
     m[:, 1, 3] = 1 - (ij[:, 1] + 0.5) * 2 / side
     return m
@@ -109,7 +114,7 @@ def run(mode: str, folder: Path, n: int, args) -> dict:
     return json.loads(proc.stdout.strip().splitlines()[-1])
 
 
-def prepare(folder: Path, counts: list[int], flat_max: int) -> None:
+def prepare(folder: Path, counts: list[int], flat_max: int, rotate: bool = False) -> None:
     import trimesh
 
     from raylume.scene.procedural import bumpy_sphere
@@ -117,7 +122,7 @@ def prepare(folder: Path, counts: list[int], flat_max: int) -> None:
     v, f = bumpy_sphere(MESH_TRIANGLES, radius=1.0, bumpiness=0.2, seed=7)
     trimesh.Trimesh(v, f, process=False).export(folder / "mesh.ply")
     for n in counts:
-        m = grid_matrices(n)
+        m = grid_matrices(n, rotate)
         np.save(folder / f"m{n}.npy", m)
         if n <= flat_max:
             verts = np.concatenate([v @ a[:, :3].T + a[:, 3] for a in m])
@@ -132,15 +137,17 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--counts", default="1,10,100,1000,10000")
     parser.add_argument("--flat-max", type=int, default=100, help="largest N also flattened (N x 100k triangles)")
+    parser.add_argument("--rotate", action="store_true", help="each copy randomly rotated (looser world boxes)")
     parser.add_argument("--plot", default=None)
     args = parser.parse_args()
     counts = [int(c) for c in args.counts.split(",")]
     print(f"{args.width} x {args.height} primary rays (cast), 1 thread, medians of {args.repeats}; {machine()}")
-    print(f"mesh: bumpy sphere of {MESH_TRIANGLES} triangles; N copies fill the same view\n")
+    turned = ", each randomly rotated" if args.rotate else ""
+    print(f"mesh: bumpy sphere of {MESH_TRIANGLES} triangles; N copies fill the same view{turned}\n")
     results: dict = {}
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
-        prepare(folder, counts, args.flat_max)
+        prepare(folder, counts, args.flat_max, args.rotate)
         for n in counts:
             results[n] = {"instanced": run("instanced", folder, n, args)}
             if n <= args.flat_max:
