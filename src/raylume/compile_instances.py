@@ -60,6 +60,7 @@ class InstanceArrays(NamedTuple):
     blas_leaf: np.ndarray  # bool (M, W): lanes of node_index[:, 0] that are BLAS leaves' first rows
     inverse: np.ndarray  # float32 (N, 12): world-to-object matrices, TLAS leaf order
     index: np.ndarray  # int32 (N, 2): BLAS root node, index within its object
+    meshes: np.ndarray  # int64 (K, 3): each instanced mesh's first row of `prims`, rows, BLAS root
     extent: float  # largest world coordinate of the instances' boxes
     stack: int  # traversal stack entries a TLAS walk with a BLAS walk on top can need
     node_bytes: int  # the node arrays and the primitive table's kind and row columns
@@ -79,6 +80,7 @@ def empty_instances() -> InstanceArrays:
         blas_leaf=np.zeros((1, BVH_WIDTH), bool),
         inverse=np.zeros((0, 12), np.float32),
         index=np.zeros((0, 2), np.int32),
+        meshes=np.zeros((0, 3), np.int64),
         extent=0.0,
         stack=0,
         node_bytes=0,
@@ -278,7 +280,7 @@ def build_instances(meshes: list, accelerate: bool = True) -> InstanceArrays:
         return empty_instances()
     prims, tris, normals, smooth, uvs = [], [], [], [], []
     blas_bounds, blas_index = [], []
-    box_lo, box_hi, roots, ids, inverses = [], [], [], [], []
+    box_lo, box_hi, roots, ids, inverses, firsts = [], [], [], [], [], []
     prim_base = 0
     node_base = 0  # nodes of the BLASes before this one (the TLAS's are added below)
     blas_depth = 1
@@ -320,6 +322,7 @@ def build_instances(meshes: list, accelerate: bool = True) -> InstanceArrays:
         box_lo.append(wlo)
         box_hi.append(whi)
         roots.append(np.full(len(mesh.matrices), node_base, np.int64))
+        firsts.append((prim_base, n))
         ids.append(mesh.ids)
         inverses.append(inverse_rows(mesh.matrices))
         drawn += n * len(mesh.matrices)
@@ -362,6 +365,7 @@ def build_instances(meshes: list, accelerate: bool = True) -> InstanceArrays:
         blas_leaf=blas_leaf,
         inverse=inverse,
         index=index,
+        meshes=np.array([(f, n, r[0] + n_tlas) for (f, n), r in zip(firsts, roots)], np.int64).reshape(-1, 3),
         extent=float(max(np.abs(lo).max(), np.abs(hi).max())),
         stack=stack_needed(tlas_depth) + stack_needed(blas_depth),
         node_bytes=node_bytes,
@@ -381,9 +385,11 @@ def build_instances(meshes: list, accelerate: bool = True) -> InstanceArrays:
 
 def place_instanced(inst: InstanceArrays, n_world: int, n_world_tris: int) -> None:
     """Point the instanced rows at their final places, in place: BLAS leaves at primitive rows
-    after the world's n_world, PRIM_ROW at triangle rows after the world's n_world_tris."""
+    after the world's n_world, PRIM_ROW at triangle rows after the world's n_world_tris (and
+    `meshes`' first rows at the primitive table's)."""
     inst.node_index[:, 0, :][inst.blas_leaf] += np.int32(n_world)
     inst.prims[:, PRIM_ROW] += np.int32(n_world_tris)
+    inst.meshes[:, 0] += n_world
 
 
 def join_triangles(world: tuple, inst: tuple) -> tuple:
