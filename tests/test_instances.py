@@ -352,6 +352,35 @@ def test_light_sampling_emissive_instances_lowers_the_noise(glow_scenes, monkeyp
     assert abs(diff.sum()) < Z * se, (diff.sum(), se)
 
 
+def test_top_level_lanes_hold_one_instance_each_and_bound_it(scenes):
+    """The TLAS gives each instance a lane of its own, whose box holds every vertex of that
+    copy (placed by numpy) and is no larger than the box of the object box's corners moved by
+    the matrix (the box built from the BLAS's second-level boxes is tighter for rotated copies)."""
+    inst, _, mesh, mats = scenes
+    from raylume.compile import compile_scene
+
+    k = compile_scene(inst).kernel
+    bounds, index = k.inst_node_bounds, k.inst_node_index
+    n_tlas = int(k.instance_index[:, 0].min())  # the BLASes' nodes follow the TLAS's
+    lanes = [(m, j) for m in range(n_tlas) for j in range(index.shape[2]) if index[m, 1, j] != 0]
+    assert sorted(int(index[m, 0, j]) for m, j in lanes) == list(range(len(mats)))
+    assert all(index[m, 1, j] == 1 for m, j in lanes)
+    v = np.asarray(mesh.vertices).astype(np.float32).astype(np.float64)  # as the scene stores them
+    corners = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)])
+    corners = v.min(axis=0) + corners * (v.max(axis=0) - v.min(axis=0))
+    tighter = 0
+    for m, j in lanes:
+        row = int(index[m, 0, j])
+        a = mats[k.instance_index[row, 1]]
+        lo, hi = bounds[m, :3, j].astype(np.float64), bounds[m, 3:, j].astype(np.float64)
+        placed = v @ a[:3, :3].T + a[:3, 3]
+        assert (placed >= lo).all() and (placed <= hi).all()
+        moved = corners @ a[:3, :3].T + a[:3, 3]
+        assert (lo >= moved.min(axis=0) - 1e-6).all() and (hi <= moved.max(axis=0) + 1e-6).all()
+        tighter += np.prod(hi - lo) < 0.95 * np.prod(moved.max(axis=0) - moved.min(axis=0))
+    assert tighter >= 2  # the rotated copies
+
+
 def test_an_instance_costs_at_most_128_bytes(tmp_path):
     """10 000 instances of one mesh, scattered and overlapping: inverse matrix, indices and the
     top-level BVH's nodes together, per instance; the mesh is stored once."""

@@ -164,15 +164,21 @@ def _pick(dist, first, n, u):
     return lo
 
 
-@njit(**KERNEL)
-def instance_weight(inv, i):
-    """The weight of instance i in its mesh's instance distribution: |det A|^(2/3) of its
-    object-to-world matrix A (the scale of areas under a similarity), from the stored inverse."""
-    det = (
+@njit(**KERNEL, inline="always")
+def _inverse_det(inv, i):
+    """det B of instance i's stored world-to-object matrix B (float32, taken in float64)."""
+    return (
         inv[i, 0] * (np.float64(inv[i, 5]) * inv[i, 10] - np.float64(inv[i, 6]) * inv[i, 9])
         - inv[i, 1] * (np.float64(inv[i, 4]) * inv[i, 10] - np.float64(inv[i, 6]) * inv[i, 8])
         + inv[i, 2] * (np.float64(inv[i, 4]) * inv[i, 9] - np.float64(inv[i, 5]) * inv[i, 8])
     )
+
+
+@njit(**KERNEL, inline="always")
+def instance_weight(det):
+    """The weight of an instance in its mesh's instance distribution, from det B: |det A|^(2/3)
+    of its object-to-world matrix A = B^-1 (the scale of areas under a similarity;
+    emitters_table.instance_weights computes the same at compile time)."""
     return abs(det) ** (-2.0 / 3.0)
 
 
@@ -183,18 +189,14 @@ def instanced_area(dist, data, e, inv, i, tris, r):
     area times |B^T n| / |det B| (B the world-to-object matrix, n the unit object normal)."""
     n_inst = int(data[e, INST_COUNT])
     first = int(data[e, INST_CDF])
-    p_inst = instance_weight(inv, i) / dist[first + n_inst]
+    det = _inverse_det(inv, i)
+    p_inst = instance_weight(det) / dist[first + n_inst]
     v0 = row3(tris, r, 0)
     n = normalize(cross(sub(row3(tris, r, 3), v0), sub(row3(tris, r, 6), v0)))
     bn = (
         inv[i, 0] * n[0] + inv[i, 4] * n[1] + inv[i, 8] * n[2],
         inv[i, 1] * n[0] + inv[i, 5] * n[1] + inv[i, 9] * n[2],
         inv[i, 2] * n[0] + inv[i, 6] * n[1] + inv[i, 10] * n[2],
-    )
-    det = (
-        inv[i, 0] * (np.float64(inv[i, 5]) * inv[i, 10] - np.float64(inv[i, 6]) * inv[i, 9])
-        - inv[i, 1] * (np.float64(inv[i, 4]) * inv[i, 10] - np.float64(inv[i, 6]) * inv[i, 8])
-        + inv[i, 2] * (np.float64(inv[i, 4]) * inv[i, 9] - np.float64(inv[i, 5]) * inv[i, 8])
     )
     # P(triangle) = area / total object area; the triangle's own object area cancels
     return data[e, EMIT_AREA] * length(bn) / (abs(det) * p_inst)
