@@ -7,12 +7,15 @@ and Embree through embreex, one thread each: embreex's run() is single-threaded)
 
     python benchmarks/bench_instances.py [--width 1024 --height 768] [--repeats 3]
                                          [--counts 1,10,100,1000,10000] [--flat-max 100]
-                                         [--plot docs/images/instances.png]
+                                         [--rotate] [--rounds 1] [--plot docs/images/instances.png]
 
 Every configuration runs in a process of its own, so that its peak resident memory (VmHWM, what
 /usr/bin/time -v reports as maximum resident set size) is its own: build + render, with the
 kernels loaded from Numba's cache.
-"Frame" is the kernel time of one frame (stats render_seconds), median of --repeats.
+"Frame" is the kernel time of one frame (stats render_seconds), median of --repeats; "CPU" the
+process's CPU time for the frame (time.process_time), which other work on the machine disturbs
+less. With --rounds R every configuration runs R times, the counts alternating (1, 10000, 1,
+10000, ...), and the table gives the medians over the rounds.
 """
 
 from __future__ import annotations
@@ -31,13 +34,18 @@ from common import machine, table
 MESH_TRIANGLES = 100_000
 
 
-def grid_matrices(n: int) -> np.ndarray:
-    """(n, 3, 4): copies of a unit-radius mesh on a side x side grid covering [-1, 1]^2 at z = 0."""
+def grid_matrices(n: int, rotate: bool = False) -> np.ndarray:
+    """(n, 3, 4): copies of a unit-radius mesh on a side x side grid covering [-1, 1]^2 at z = 0;
+    with `rotate`, each copy turned by its own random rotation (seeded)."""
     side = math.ceil(math.sqrt(n))
     scale = 0.95 / side
     ij = np.stack(np.meshgrid(np.arange(side), np.arange(side)), axis=-1).reshape(-1, 2)[:n]
     m = np.zeros((n, 3, 4))
     m[:, 0, 0] = m[:, 1, 1] = m[:, 2, 2] = scale
+    if rotate:
+        from scipy.spatial.transform import Rotation
+
+        m[:, :, :3] = scale * Rotation.random(n, random_state=11).as_matrix()
     m[:, 0, 3] = (ij[:, 0] + 0.5) * 2 / side - 1
     m[:, 1, 3] = 1 - (ij[:, 1] + 0.5) * 2 / side
     return m
@@ -81,11 +89,14 @@ else:
     lights = [{"type": "ambient", "intensity": 1}]
     scene = raylume.scene_from_dict({"camera": camera, "objects": [obj], "lights": lights})
     session = raylume.Session(scene)
-    times = []
+    times, cpu = [], []
     for _ in range(repeats + 1):  # the first loads the kernels
+        c0 = time.process_time()
         img = session.render(mode="cast", width=width, height=height, threads=1, aovs=False)
+        cpu.append(time.process_time() - c0)
         times.append(img.stats["render_seconds"])
     out["frame"] = float(np.median(times[1:]))
+    out["frame_cpu"] = float(np.median(cpu[1:]))  # this process's CPU time: steadier under load
     out["build_seconds"] = session.compiled.stats["build_seconds"]
     out["bytes_per_instance"] = session.compiled.stats.get("bytes_per_instance")
     out["bvh_bytes"] = session.compiled.stats["bvh_bytes"]
@@ -109,7 +120,7 @@ def run(mode: str, folder: Path, n: int, args) -> dict:
     return json.loads(proc.stdout.strip().splitlines()[-1])
 
 
-def prepare(folder: Path, counts: list[int], flat_max: int) -> None:
+def prepare(folder: Path, counts: list[int], flat_max: int, rotate: bool = False) -> None:
     import trimesh
 
     from raylume.scene.procedural import bumpy_sphere
@@ -117,12 +128,24 @@ def prepare(folder: Path, counts: list[int], flat_max: int) -> None:
     v, f = bumpy_sphere(MESH_TRIANGLES, radius=1.0, bumpiness=0.2, seed=7)
     trimesh.Trimesh(v, f, process=False).export(folder / "mesh.ply")
     for n in counts:
-        m = grid_matrices(n)
+        m = grid_matrices(n, rotate)
         np.save(folder / f"m{n}.npy", m)
         if n <= flat_max:
             verts = np.concatenate([v @ a[:, :3].T + a[:, 3] for a in m])
             faces = np.concatenate([f + k * len(v) for k in range(n)])
             trimesh.Trimesh(verts, faces, process=False).export(folder / f"flat{n}.ply")
+
+
+def _median_run(runs: list[dict]) -> dict:
+    """One configuration's runs: the medians of its times, the rest from the first run."""
+    runs = [r for r in runs if r]
+    if not runs:
+        return {}
+    out = dict(runs[0])
+    for key in ("frame", "frame_cpu"):
+        if key in out:
+            out[key] = float(np.median([r[key] for r in runs]))
+    return out
 
 
 def main() -> None:
@@ -132,22 +155,32 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--counts", default="1,10,100,1000,10000")
     parser.add_argument("--flat-max", type=int, default=100, help="largest N also flattened (N x 100k triangles)")
+    parser.add_argument("--rotate", action="store_true", help="each copy randomly rotated (looser world boxes)")
+    parser.add_argument("--rounds", type=int, default=1, help="runs of every configuration, alternating")
     parser.add_argument("--plot", default=None)
     args = parser.parse_args()
     counts = [int(c) for c in args.counts.split(",")]
-    print(f"{args.width} x {args.height} primary rays (cast), 1 thread, medians of {args.repeats}; {machine()}")
-    print(f"mesh: bumpy sphere of {MESH_TRIANGLES} triangles; N copies fill the same view\n")
+    print(
+        f"{args.width} x {args.height} primary rays (cast), 1 thread, medians of {args.repeats} frames"
+        f" x {args.rounds} alternating rounds; {machine()}"
+    )
+    turned = ", each randomly rotated" if args.rotate else ""
+    print(f"mesh: bumpy sphere of {MESH_TRIANGLES} triangles; N copies fill the same view{turned}\n")
     results: dict = {}
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
-        prepare(folder, counts, args.flat_max)
+        prepare(folder, counts, args.flat_max, args.rotate)
+        runs: dict = {n: {} for n in counts}
+        for _ in range(args.rounds):
+            for n in counts:
+                modes = ["instanced"] + (["flat", "embree"] if n <= args.flat_max else [])
+                for mode in modes:
+                    runs[n].setdefault(mode, []).append(run(mode, folder, n, args))
+                print(f"N = {n}: {json.dumps({m: r[-1] for m, r in runs[n].items()})}", flush=True)
         for n in counts:
-            results[n] = {"instanced": run("instanced", folder, n, args)}
-            if n <= args.flat_max:
-                results[n]["flat"] = run("flat", folder, n, args)
-                results[n]["embree"] = run("embree", folder, n, args)
-            print(f"N = {n}: {json.dumps(results[n])}", flush=True)
+            results[n] = {mode: _median_run(r) for mode, r in runs[n].items()}
     base = results[counts[0]]["instanced"]["frame"]
+    base_cpu = results[counts[0]]["instanced"].get("frame_cpu")
     rows = []
     for n in counts:
         r = results[n]
@@ -155,6 +188,9 @@ def main() -> None:
 
         def ms(x):
             return f"{1e3 * x['frame']:.0f}" if x else "-"
+
+        cpu = f"{1e3 * inst['frame_cpu']:.0f}" if inst.get("frame_cpu") else "-"
+        cpu_vs = f"{inst['frame_cpu'] / base_cpu:.2f}x" if inst.get("frame_cpu") and base_cpu else "-"
 
         def gb(x):
             return f"{x['peak_bytes'] / 2**30:.2f}" if x else "-"
@@ -165,6 +201,8 @@ def main() -> None:
                 f"{n * MESH_TRIANGLES / 1e6:g} M",
                 ms(inst),
                 f"{inst['frame'] / base:.2f}x",
+                cpu,
+                cpu_vs,
                 gb(inst),
                 f"{inst['bytes_per_instance']:.0f}" if inst.get("bytes_per_instance") else "-",
                 ms(flat),
@@ -182,6 +220,8 @@ def main() -> None:
                 "triangles",
                 "frame ms",
                 "vs 1",
+                "CPU ms",
+                "CPU vs 1",
                 "peak GB",
                 "B/instance",
                 "flat ms",

@@ -4,6 +4,8 @@ shadows (any-hit), the `instance` AOV in every mode, and bad input."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 import trimesh
@@ -237,7 +239,7 @@ def test_every_mode_renders_instances(scenes, mode):
 
 
 def test_emissive_instances_light_path_mode(tmp_path):
-    """BSDF-sampled rays find an emissive instanced mesh (it is not sampled as a light)."""
+    """An emissive instanced mesh seen directly shows its emission (every copy)."""
     trimesh.creation.box(extents=(1, 1, 1)).export(tmp_path / "box.ply")
     (tmp_path / "s.toml").write_text(
         '[render]\nwidth = 16\nheight = 16\nmode = "path"\nspp = 16\n'
@@ -249,6 +251,134 @@ def test_emissive_instances_light_path_mode(tmp_path):
     img = raylume.render(raylume.load_scene(tmp_path / "s.toml"))
     centre = img.rgb[8, 8]
     np.testing.assert_allclose(centre, [2, 1, 0.5], rtol=1e-6)
+
+
+# Glowing copies of the blob over a diffuse floor, seen from above: a scaled, a mirrored and
+# non-uniformly scaled, a rotated and stretched copy (the pdf of a light sample must account for
+# what each matrix does to the triangles' areas).
+GLOW = [
+    ((-1.2, 1.4, 0.6), (10, 20, 30), (0.15, 0.15, 0.15)),
+    ((0.9, 1.1, -0.4), (0, 45, 0), (0.25, -0.12, 0.2)),
+    ((0.2, 2.0, 1.2), (70, 0, 20), (0.1, 0.3, 0.15)),
+]
+GLOW_SCENE = """
+[render]
+width = 20
+height = 16
+mode = "path"
+max_depth = 3
+[camera]
+position = [0, 5, -3]
+look_at = [0, 0, 0.3]
+fov = 60
+[[objects]]
+type = "plane"
+point = [0, 0, 0]
+normal = [0, 1, 0]
+material = {{ type = "diffuse", color = [0.8, 0.8, 0.8] }}
+[[objects]]
+type = "mesh"
+file = "{file}"
+material = {{ type = "diffuse", color = [0.5, 0.5, 0.5], emission = [24, 16, 8] }}
+"""
+SEEDS = 12  # independent renders per estimate: the per-pixel standard errors come from them
+
+
+def _seed_renders(scene, spp, strategy=None, monkeypatch=None):
+    """(SEEDS, H, W) luminance-like means of SEEDS renders with different seeds."""
+    if strategy is not None:
+        monkeypatch.setenv("RAYLUME_PATH_STRATEGY", strategy)
+    session = raylume.Session(scene)
+    out = np.stack([session.render(spp=spp, seed=s, aovs=False).rgb.mean(axis=2) for s in range(SEEDS)])
+    if strategy is not None:
+        monkeypatch.delenv("RAYLUME_PATH_STRATEGY")
+    return out
+
+
+@pytest.fixture(scope="module")
+def glow_scenes(tmp_path_factory):
+    d = tmp_path_factory.mktemp("glow")
+    mesh = blob()
+    mesh.export(d / "blob.ply")
+    mats = np.stack([transform_matrix(t, r, s) for t, r, s in GLOW])
+    np.save(d / "glow.npy", mats)
+    flattened(mesh, mats).export(d / "flat.ply")
+    (d / "inst.toml").write_text(GLOW_SCENE.format(file="blob.ply") + 'instances = "glow.npy"\n')
+    (d / "flat.toml").write_text(GLOW_SCENE.format(file="flat.ply"))
+    return raylume.load_scene(d / "inst.toml"), raylume.load_scene(d / "flat.toml")
+
+
+Z = 4.5  # standard errors allowed (as tests/test_path.py): a false alarm about once in 150 000
+
+
+@pytest.mark.parametrize("strategy", ["mis", "light"])
+def test_emissive_instances_are_light_sampled_as_the_flattened_meshes(glow_scenes, strategy, monkeypatch):
+    """Next-event estimation of an emissive instanced mesh (one emitter row, an instance then a
+    triangle picked, the point moved to world space) against the same copies flattened into
+    one plain emissive mesh (one emitter row per triangle): the images agree within their
+    standard errors, computed per pixel from independent renders (seeds), over the whole
+    image and each quarter of it. With light sampling alone ("light") the pdf is tested
+    without BSDF sampling's help."""
+    inst, flat = glow_scenes
+    a = _seed_renders(inst, 4, strategy, monkeypatch)
+    b = _seed_renders(flat, 4, strategy, monkeypatch)
+    assert np.isfinite(a).all() and np.isfinite(b).all()
+    mean = a.mean(axis=0) - b.mean(axis=0)
+    var = a.var(axis=0, ddof=1) / SEEDS + b.var(axis=0, ddof=1) / SEEDS  # per-pixel se^2
+    assert (var > 0).mean() > 0.9  # the floor is lit everywhere, by sampled light
+    h, w = mean.shape
+    for name, part in (
+        ("image", np.s_[:, :]),
+        ("top left", np.s_[: h // 2, : w // 2]),
+        ("top right", np.s_[: h // 2, w // 2 :]),
+        ("bottom left", np.s_[h // 2 :, : w // 2]),
+        ("bottom right", np.s_[h // 2 :, w // 2 :]),
+    ):
+        diff, se = mean[part].sum(), math.sqrt(var[part].sum())
+        assert abs(diff) < Z * se, (strategy, name, diff, se, a.mean(), b.mean())
+
+
+def test_light_sampling_emissive_instances_lowers_the_noise(glow_scenes, monkeypatch):
+    """MIS (next-event estimation and BSDF sampling) against BSDF sampling alone, the only way
+    an instanced emitter was found before: the per-pixel variance over seeds drops."""
+    inst, _ = glow_scenes
+    mis = _seed_renders(inst, 4)
+    bsdf = _seed_renders(inst, 4, "bsdf", monkeypatch)
+    v_mis, v_bsdf = mis.var(axis=0, ddof=1).mean(), bsdf.var(axis=0, ddof=1).mean()
+    assert v_mis < v_bsdf, (v_mis, v_bsdf)
+    # and the two estimate the same image
+    diff = mis.mean(axis=0) - bsdf.mean(axis=0)
+    se = math.sqrt((mis.var(axis=0, ddof=1) / SEEDS + bsdf.var(axis=0, ddof=1) / SEEDS).sum())
+    assert abs(diff.sum()) < Z * se, (diff.sum(), se)
+
+
+def test_top_level_lanes_hold_one_instance_each_and_bound_it(scenes):
+    """The TLAS gives each instance a lane of its own, whose box holds every vertex of that
+    copy (placed by numpy) and is no larger than the box of the object box's corners moved by
+    the matrix (the box built from the BLAS's second-level boxes is tighter for rotated copies)."""
+    inst, _, mesh, mats = scenes
+    from raylume.compile import compile_scene
+
+    k = compile_scene(inst).kernel
+    bounds, index = k.inst_node_bounds, k.inst_node_index
+    n_tlas = int(k.instance_index[:, 0].min())  # the BLASes' nodes follow the TLAS's
+    lanes = [(m, j) for m in range(n_tlas) for j in range(index.shape[2]) if index[m, 1, j] != 0]
+    assert sorted(int(index[m, 0, j]) for m, j in lanes) == list(range(len(mats)))
+    assert all(index[m, 1, j] == 1 for m, j in lanes)
+    v = np.asarray(mesh.vertices).astype(np.float32).astype(np.float64)  # as the scene stores them
+    corners = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)])
+    corners = v.min(axis=0) + corners * (v.max(axis=0) - v.min(axis=0))
+    tighter = 0
+    for m, j in lanes:
+        row = int(index[m, 0, j])
+        a = mats[k.instance_index[row, 1]]
+        lo, hi = bounds[m, :3, j].astype(np.float64), bounds[m, 3:, j].astype(np.float64)
+        placed = v @ a[:3, :3].T + a[:3, 3]
+        assert (placed >= lo).all() and (placed <= hi).all()
+        moved = corners @ a[:3, :3].T + a[:3, 3]
+        assert (lo >= moved.min(axis=0) - 1e-6).all() and (hi <= moved.max(axis=0) + 1e-6).all()
+        tighter += np.prod(hi - lo) < 0.95 * np.prod(moved.max(axis=0) - moved.min(axis=0))
+    assert tighter >= 2  # the rotated copies
 
 
 def test_an_instance_costs_at_most_128_bytes(tmp_path):

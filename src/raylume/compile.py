@@ -568,12 +568,12 @@ def compile_scene(scene: Scene, source="<scene>", accelerate: bool = True) -> Co
         extent.append(np.abs(shapes[r, :3]).max())
     kinds, data = _lights(scene)
     environment = scene_environment(scene, source)
-    # instanced meshes' triangles (stored in object space) are not sampled as lights: path
-    # mode finds their emission by BSDF sampling alone
+    # instanced meshes' triangles (stored in object space) are sampled per mesh, through its
+    # instances (emitters_table.instanced_emitters), not one row per triangle
     world = np.ones(len(prims), dtype=bool)
     world[n_world:n_bounded] = False
-    emit_kind, emit_data, emit_cdf, n_area, env_row, ambient_row = build_emitters(
-        scene, prims, shapes, tri, mat_rows, environment, float(max(extent)), candidates=world
+    emit_kind, emit_data, emit_cdf, emit_dist, n_area, env_row, ambient_row = build_emitters(
+        scene, prims, shapes, tri, mat_rows, environment, float(max(extent)), candidates=world, instances=inst
     )
     kernel = KernelScene(
         prims=prims,
@@ -593,6 +593,7 @@ def compile_scene(scene: Scene, source="<scene>", accelerate: bool = True) -> Co
         emitter_kind=emit_kind,
         emitter_data=emit_data,
         emitter_cdf=emit_cdf,
+        emitter_dist=emit_dist,
         n_area_emitters=n_area,
         environment_row=env_row,
         ambient_row=ambient_row,

@@ -10,6 +10,11 @@ distribution (float64 (E + 1,)) that picks a row in proportion to its power. Row
   (irradiance on a surface facing them): the lights.py columns, copied;
 * emissive primitives: triangles, spheres, quads and disks whose material has `emission`
   (the primitive table's PRIM_LIGHT column points back here, for MIS when a ray hits them);
+* emissive instanced meshes, one row each (INSTANCED): a sample picks one of the mesh's
+  instances (from a distribution over them), then a triangle in proportion to its area in the
+  mesh's own space, then a uniform point on it, taken to world space by the instance's matrix
+  (`instanced_area`: the pdf accounts for what the matrix does to the triangle's area); every
+  triangle of the mesh points back here through PRIM_LIGHT;
 * the environment, when the scene has one (one row; environment.py samples it).
 
 Ambient lights are a uniform environment in path mode: their radiances summed in one row
@@ -42,10 +47,10 @@ from .lights import (
     basis,
     spot_falloff,
 )
-from .sampler import uniform_sphere
+from .sampler import key_uniform2, sub_key, uniform_sphere
 from .shape_plane import intersect_plane
 from .shape_sphere import intersect_sphere
-from .shapes import PRIM_KIND, PRIM_ROW, sample_surface
+from .shapes import PRIM_KIND, PRIM_ROW, sample_surface, split_hit
 from .shapes import SPHERE as SHAPE_SPHERE
 from .vec import KERNEL, cross, dot, length, madd, mul, normalize, row3, sub
 
@@ -53,10 +58,20 @@ INF = math.inf
 
 PRIMITIVE = 6  # an emissive primitive of the scene's geometry
 ENVIRONMENT = 7
+INSTANCED = 8  # an emissive instanced mesh: all its instances' triangles
 
 EMIT_PRIM = LIGHT_WIDTH  # PRIMITIVE rows: the primitive's index in the primitive table
 EMIT_AREA = LIGHT_WIDTH + 1  # its area
 EMIT_WIDTH = LIGHT_WIDTH + 2
+# INSTANCED rows (beside the radiance in LIGHT_INTENSITY): where the mesh's distributions lie
+# in the emitter distributions array (Emitters.dist, float64): its instances' cdf (count + 1
+# values, unnormalised) followed by those instances' rows of the instance table (as floats),
+# and its triangles' cdf (by area in object space, count + 1 values); EMIT_PRIM is the mesh's
+# first primitive row (its triangles' rows are consecutive), EMIT_AREA its object-space area.
+INST_CDF = 0
+INST_COUNT = 1
+TRI_CDF = 2
+TRI_COUNT = 6
 
 # Shadow rays towards a sampled point stop this fraction short of it (the emitter itself
 # must not count as a blocker).
@@ -134,13 +149,112 @@ def _area_pdf(p, q, n, area):
     return dist2 / (area * cos_l)
 
 
+@njit(**KERNEL, inline="always")
+def _pick(dist, first, n, u):
+    """Index in [0, n) whose share of the cdf dist[first : first + n + 1] holds u."""
+    lo = 0
+    hi = n
+    total = dist[first + n]
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if dist[first + mid] <= u * total:
+            lo = mid
+        else:
+            hi = mid
+    return lo
+
+
+@njit(**KERNEL, inline="always")
+def _inverse_det(inv, i):
+    """det B of instance i's stored world-to-object matrix B (float32, taken in float64)."""
+    return (
+        inv[i, 0] * (np.float64(inv[i, 5]) * inv[i, 10] - np.float64(inv[i, 6]) * inv[i, 9])
+        - inv[i, 1] * (np.float64(inv[i, 4]) * inv[i, 10] - np.float64(inv[i, 6]) * inv[i, 8])
+        + inv[i, 2] * (np.float64(inv[i, 4]) * inv[i, 9] - np.float64(inv[i, 5]) * inv[i, 8])
+    )
+
+
+@njit(**KERNEL, inline="always")
+def instance_weight(det):
+    """The weight of an instance in its mesh's instance distribution, from det B: |det A|^(2/3)
+    of its object-to-world matrix A = B^-1 (the scale of areas under a similarity;
+    emitters_table.instance_weights computes the same at compile time)."""
+    return abs(det) ** (-2.0 / 3.0)
+
+
+@njit(**KERNEL)
+def instanced_area(dist, data, e, inv, i, tris, r):
+    """1 / (area density) of the points INSTANCED row e samples, at triangle row r of instance
+    i: P(instance) P(triangle) / (the triangle's world area). The world area is the object
+    area times |B^T n| / |det B| (B the world-to-object matrix, n the unit object normal)."""
+    n_inst = int(data[e, INST_COUNT])
+    first = int(data[e, INST_CDF])
+    det = _inverse_det(inv, i)
+    p_inst = instance_weight(det) / dist[first + n_inst]
+    v0 = row3(tris, r, 0)
+    n = normalize(cross(sub(row3(tris, r, 3), v0), sub(row3(tris, r, 6), v0)))
+    bn = (
+        inv[i, 0] * n[0] + inv[i, 4] * n[1] + inv[i, 8] * n[2],
+        inv[i, 1] * n[0] + inv[i, 5] * n[1] + inv[i, 9] * n[2],
+        inv[i, 2] * n[0] + inv[i, 6] * n[1] + inv[i, 10] * n[2],
+    )
+    # P(triangle) = area / total object area; the triangle's own object area cancels
+    return data[e, EMIT_AREA] * length(bn) / (abs(det) * p_inst)
+
+
+# Not inlined: only instanced emitters take this branch, and the path kernel's compile stays as
+# it was. Arrays by value, no views of the scene.
+@njit(**KERNEL)
+def _sample_instanced(dist, data, e, inv, prims, tris, u1, u2, u3, u4):
+    """A point of INSTANCED row e: (world point, unit world normal, 1 / area density)."""
+    n_inst = int(data[e, INST_COUNT])
+    first = int(data[e, INST_CDF])
+    i = int(dist[first + n_inst + 1 + _pick(dist, first, n_inst, u3)])
+    k = int(data[e, EMIT_PRIM]) + _pick(dist, int(data[e, TRI_CDF]), int(data[e, TRI_COUNT]), u4)
+    r = np.int64(prims[k, PRIM_ROW])
+    s = math.sqrt(u1)
+    v0 = row3(tris, r, 0)
+    e1 = sub(row3(tris, r, 3), v0)
+    e2 = sub(row3(tris, r, 6), v0)
+    q = sub(madd(madd(v0, e1, 1.0 - s), e2, u2 * s), (inv[i, 3], inv[i, 7], inv[i, 11]))
+    # world point: B^-1 (q - b), by the adjugate; world normal: B^T n (the inverse transpose)
+    a00, a01, a02 = np.float64(inv[i, 0]), np.float64(inv[i, 1]), np.float64(inv[i, 2])
+    a10, a11, a12 = np.float64(inv[i, 4]), np.float64(inv[i, 5]), np.float64(inv[i, 6])
+    a20, a21, a22 = np.float64(inv[i, 8]), np.float64(inv[i, 9]), np.float64(inv[i, 10])
+    c00 = a11 * a22 - a12 * a21
+    c01 = a12 * a20 - a10 * a22
+    c02 = a10 * a21 - a11 * a20
+    det = a00 * c00 + a01 * c01 + a02 * c02
+    c10 = a02 * a21 - a01 * a22
+    c11 = a00 * a22 - a02 * a20
+    c12 = a01 * a20 - a00 * a21
+    c20 = a01 * a12 - a02 * a11
+    c21 = a02 * a10 - a00 * a12
+    c22 = a00 * a11 - a01 * a10
+    p = (
+        (c00 * q[0] + c10 * q[1] + c20 * q[2]) / det,
+        (c01 * q[0] + c11 * q[1] + c21 * q[2]) / det,
+        (c02 * q[0] + c12 * q[1] + c22 * q[2]) / det,
+    )
+    n = cross(e1, e2)
+    nw = normalize(
+        (
+            a00 * n[0] + a10 * n[1] + a20 * n[2],
+            a01 * n[0] + a11 * n[1] + a21 * n[2],
+            a02 * n[0] + a12 * n[1] + a22 * n[2],
+        )
+    )
+    return p, nw, instanced_area(dist, data, e, inv, i, tris, r)
+
+
 # Inlined (one call site): a call passed the Geometry, Emitters and Environment views by value,
 # which cost more than the sampling (148 vs 84 ns on the Cornell box's light).
 @njit(**KERNEL, inline="always")
-def sample_emitter(G, Em, Env, e, p, u1, u2):
+def sample_emitter(G, X, Em, Env, e, p, u1, u2, key):
     """Emitter row e seen from p: (unit direction wi, distance (inf: at infinity), radiance
     arriving along wi (delta lights: intensity / r^2 or irradiance), solid-angle pdf (0: no
-    sample), delta)."""
+    sample), delta). `key`: the light sample's key (instanced emitters draw two more uniforms
+    from it); X: the scene's Instances (kernels/scene.py)."""
     kind = Em.kind[e]
     data = Em.data
     if kind == POINT or kind == SPOT:
@@ -178,6 +292,9 @@ def sample_emitter(G, Em, Env, e, p, u1, u2):
         n = cross(u, v)
         area = length(n)
         n = mul(n, 1.0 / area)
+    elif kind == INSTANCED:
+        u3, u4 = key_uniform2(sub_key(key, 2))
+        q, n, area = _sample_instanced(Em.dist, data, e, X.inverse, G.prims, G.triangles, u1, u2, u3, u4)
     else:
         q, n = sample_surface(G, int(data[e, EMIT_PRIM]), u1, u2)
         area = data[e, EMIT_AREA]
@@ -190,9 +307,10 @@ def sample_emitter(G, Em, Env, e, p, u1, u2):
 
 
 @njit(**KERNEL)
-def emitter_pdf(G, Em, Env, e, p, wi, dist, n_hit):
+def emitter_pdf(G, X, Em, Env, e, p, wi, dist, n_hit, hit):
     """The solid-angle pdf with which sample_emitter(e, p) gives the direction wi that met the
-    emitter at distance dist (normal n_hit there); 0 for delta lights."""
+    emitter at distance dist (normal n_hit there; `hit`: the primitive hit, as closest_hit
+    gives it, for instanced emitters); 0 for delta lights."""
     kind = Em.kind[e]
     data = Em.data
     if kind == POINT or kind == SPOT or kind == DIRECTIONAL:
@@ -210,6 +328,9 @@ def emitter_pdf(G, Em, Env, e, p, wi, dist, n_hit):
         )
     if kind == QUAD:
         area = length(cross(row3(data, e, LIGHT_U), row3(data, e, LIGHT_V)))
+    elif kind == INSTANCED:
+        k, i = split_hit(X, hit)
+        area = instanced_area(Em.dist, data, e, X.inverse, i, G.triangles, np.int64(G.prims[k, PRIM_ROW]))
     else:
         area = data[e, EMIT_AREA]
     return _area_pdf(p, madd(p, wi, dist), n_hit, area)

@@ -99,13 +99,14 @@ def _delta_only(mat, m):
 
 
 @njit(**KERNEL, inline="always")
-def _emitter_weight(G, Em, Env, e, prev_p, d, t, n_hit, prev_pdf, prev_delta, strategy):
-    """MIS weight of emission met by a BSDF-sampled ray (against next-event estimation)."""
+def _emitter_weight(G, X, Em, Env, e, hit, prev_p, d, t, n_hit, prev_pdf, prev_delta, strategy):
+    """MIS weight of emission met by a BSDF-sampled ray (against next-event estimation); `hit`:
+    the primitive met (NO_HIT for lights that are not primitives)."""
     if prev_delta or e < 0 or strategy == BSDF_ONLY:
         return 1.0
     if strategy == LIGHT_ONLY:
         return 0.0
-    light_pdf = pick_probability(Em.cdf, e) * emitter_pdf(G, Em, Env, e, prev_p, d, t, n_hit)
+    light_pdf = pick_probability(Em.cdf, e) * emitter_pdf(G, X, Em, Env, e, prev_p, d, t, n_hit, hit)
     return power_heuristic(prev_pdf, light_pdf)
 
 
@@ -128,15 +129,19 @@ def path_ray(G, F, X, Em, Env, o, d, spread, max_depth, background, key, node_st
         if Em.n_area > 0:
             tl, e, nl = hit_area_lights(Em, o, d, t)
             if e >= 0:
-                w = _emitter_weight(G, Em, Env, e, o, d, tl, nl, prev_pdf, prev_delta, strategy)
+                w = _emitter_weight(G, X, Em, Env, e, np.int64(NO_HIT), o, d, tl, nl, prev_pdf, prev_delta, strategy)
                 L = _add_light(L, beta, row3(Em.data, e, LIGHT_INTENSITY), w)
                 break
         if prim == NO_HIT:
             if Em.ambient_row >= 0:
-                w = _emitter_weight(G, Em, Env, Em.ambient_row, o, d, INF, d, prev_pdf, prev_delta, strategy)
+                w = _emitter_weight(
+                    G, X, Em, Env, Em.ambient_row, np.int64(NO_HIT), o, d, INF, d, prev_pdf, prev_delta, strategy
+                )
                 L = _add_light(L, beta, row3(Em.data, Em.ambient_row, LIGHT_INTENSITY), w)
             if Env.present:
-                w = _emitter_weight(G, Em, Env, Em.environment_row, o, d, INF, d, prev_pdf, prev_delta, strategy)
+                w = _emitter_weight(
+                    G, X, Em, Env, Em.environment_row, np.int64(NO_HIT), o, d, INF, d, prev_pdf, prev_delta, strategy
+                )
                 L = _add_light(L, beta, environment_light(Env, d), w)
             elif depth == 1 and Em.ambient_row < 0:  # the background: a backdrop, not a light
                 L = _add_light(L, (1.0, 1.0, 1.0), background, 1.0)
@@ -149,9 +154,10 @@ def path_ray(G, F, X, Em, Env, o, d, spread, max_depth, background, key, node_st
             beta = beer_lambert(mat, m, beta, t)
         emission = row3(mat, m, MAT_EMISSION)
         if emission[0] > 0.0 or emission[1] > 0.0 or emission[2] > 0.0:
-            # an instance's primitive is never sampled as a light (PRIM_LIGHT -1): full weight
             k, _ = split_hit(X, prim)
-            w = _emitter_weight(G, Em, Env, G.prims[k, PRIM_LIGHT], o, d, t, ng, prev_pdf, prev_delta, strategy)
+            w = _emitter_weight(
+                G, X, Em, Env, G.prims[k, PRIM_LIGHT], prim, o, d, t, ng, prev_pdf, prev_delta, strategy
+            )
             L = _add_light(L, beta, emission, w)
         if max_depth >= 0 and depth >= max_depth:
             break
@@ -176,7 +182,7 @@ def path_ray(G, F, X, Em, Env, o, d, spread, max_depth, background, key, node_st
             u_pick, _ = key_uniform2(light_key)
             u1, u2 = key_uniform2(sub_key(light_key, 1))
             e, p_pick = pick_emitter(Em.cdf, u_pick)
-            wi, dist, li, pdf_l, delta_l = sample_emitter(G, Em, Env, e, p, u1, u2)
+            wi, dist, li, pdf_l, delta_l = sample_emitter(G, X, Em, Env, e, p, u1, u2, light_key)
             if pdf_l > 0.0 and (li[0] > 0.0 or li[1] > 0.0 or li[2] > 0.0) and (delta_l or strategy != BSDF_ONLY):
                 wi_local = _to_local(wi, s_axis, t_axis, ns)
                 up = dot(wi, ng) > 0.0

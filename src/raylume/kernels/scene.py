@@ -29,6 +29,7 @@ class KernelScene(NamedTuple):
     emitter_kind: np.ndarray  # int32 (E,)
     emitter_data: np.ndarray  # float64 (E, EMIT_WIDTH)
     emitter_cdf: np.ndarray  # float64 (E + 1,)
+    emitter_dist: np.ndarray  # float64 (D,): instanced emitters' instance and triangle cdfs
     n_area_emitters: int
     environment_row: int
     ambient_row: int
@@ -114,6 +115,7 @@ class Emitters(NamedTuple):
     kind: np.ndarray
     data: np.ndarray
     cdf: np.ndarray
+    dist: np.ndarray
     n_area: int
     environment_row: int
     ambient_row: int
@@ -121,7 +123,15 @@ class Emitters(NamedTuple):
 
 @njit
 def emitters_of(S):
-    return Emitters(S.emitter_kind, S.emitter_data, S.emitter_cdf, S.n_area_emitters, S.environment_row, S.ambient_row)
+    return Emitters(
+        S.emitter_kind,
+        S.emitter_data,
+        S.emitter_cdf,
+        S.emitter_dist,
+        S.n_area_emitters,
+        S.environment_row,
+        S.ambient_row,
+    )
 
 
 @njit
