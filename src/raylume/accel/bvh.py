@@ -65,13 +65,15 @@ _JIT = {"cache": True, "nogil": True}
 
 
 @nb.njit(**_JIT)
-def _prepare(lo, hi, box, cbounds, start, end):
+def _prepare(lo, hi, box, cen, cbounds, start, end):
     """Round primitive boxes [start, end) outward to float32 into ``box``
-    (N, 6) and return their centroid bounds in ``cbounds`` (6,).  Returns
-    the index of the first invalid primitive (NaN or lo > hi), or -1."""
+    (N, 6), their centroids into ``cen`` (N, 3), and return the centroid
+    bounds in ``cbounds`` (6,).  Returns the index of the first invalid
+    primitive (NaN or lo > hi), or -1."""
     neg_inf = np.float32(-np.inf)
     pos_inf = np.float32(np.inf)
-    _set_empty(cbounds)
+    c_lo = np.full(3, pos_inf, np.float32)
+    c_hi = np.full(3, neg_inf, np.float32)
     for i in range(start, end):
         for k in range(3):
             a = lo[i, k]
@@ -87,18 +89,23 @@ def _prepare(lo, hi, box, cbounds, start, end):
             box[i, k] = fa
             box[i, 3 + k] = fb
             c = _centroid(fa, fb)
-            cbounds[k] = min(cbounds[k], c)
-            cbounds[3 + k] = max(cbounds[3 + k], c)
+            cen[i, k] = c
+            c_lo[k] = min(c_lo[k], c)
+            c_hi[k] = max(c_hi[k], c)
+    for k in range(3):
+        cbounds[k] = c_lo[k]
+        cbounds[3 + k] = c_hi[k]
     return -1
 
 
 @nb.njit(**_JIT)
 def _centroid(a, b):
-    # Twice the centroid (the factor is irrelevant for binning); clamping
-    # keeps it finite for boxes that reach past the float32 range.
+    # The centroid, float32 (computed once, in _prepare: binning and
+    # partitioning read it).  Clamping keeps it finite for boxes that reach
+    # past the float32 range.
     a = min(max(np.float64(a), -_F32_MAX), _F32_MAX)
     b = min(max(np.float64(b), -_F32_MAX), _F32_MAX)
-    return a + b
+    return np.float32(0.5 * (a + b))
 
 
 @nb.njit(**_JIT)
@@ -128,13 +135,16 @@ def _set_empty(b):
 
 
 @nb.njit(**_JIT)
-def _add_centroid(cbnd, box, i):
-    for d in range(3):
-        c = _centroid(box[i, d], box[i, 3 + d])
-        if c < cbnd[d]:
-            cbnd[d] = c
-        if c > cbnd[3 + d]:
-            cbnd[3 + d] = c
+def _cen_bounds(cen, start, end, cbnd):
+    """Centroid bounds of primitives [start, end) into ``cbnd`` (6,); an
+    empty range gives the empty bounds."""
+    l0 = l1 = l2 = np.float32(np.inf)
+    h0 = h1 = h2 = np.float32(-np.inf)
+    for i in range(start, end):
+        c0, c1, c2 = cen[i, 0], cen[i, 1], cen[i, 2]
+        l0, l1, l2 = _min32(l0, c0), _min32(l1, c1), _min32(l2, c2)
+        h0, h1, h2 = _max32(h0, c0), _max32(h1, c1), _max32(h2, c2)
+    cbnd[0], cbnd[1], cbnd[2], cbnd[3], cbnd[4], cbnd[5] = l0, l1, l2, h0, h1, h2
 
 
 # Bins: ``bcnt`` (3, n_bins) primitive counts and ``bbox`` (3, n_bins, 8)
@@ -199,7 +209,7 @@ def _grow3(typingctx, bbox, b0, b1, b2, l0, l1, l2, h0, h1, h2):
 
 
 @nb.njit(**_JIT)
-def _bin_prims(box, start, end, cb, scale, n_bins, bcnt, bbox):
+def _bin_prims(box, cen, start, end, cb, scale, n_bins, bcnt, bbox):
     """Add primitives [start, end) to per-axis bins (count, box bounds);
     the bins are float32 like the boxes, so unions stay exact."""
     c0, c1, c2 = cb[0], cb[1], cb[2]
@@ -207,9 +217,9 @@ def _bin_prims(box, start, end, cb, scale, n_bins, bcnt, bbox):
     for i in range(start, end):
         l0, l1, l2 = box[i, 0], box[i, 1], box[i, 2]
         h0, h1, h2 = box[i, 3], box[i, 4], box[i, 5]
-        b0 = _bin_of(_centroid(l0, h0), c0, s0, n_bins)
-        b1 = _bin_of(_centroid(l1, h1), c1, s1, n_bins)
-        b2 = _bin_of(_centroid(l2, h2), c2, s2, n_bins)
+        b0 = _bin_of(cen[i, 0], c0, s0, n_bins)
+        b1 = _bin_of(cen[i, 1], c1, s1, n_bins)
+        b2 = _bin_of(cen[i, 2], c2, s2, n_bins)
         bcnt[0, b0] += 1
         bcnt[1, b1] += 1
         bcnt[2, b2] += 1
@@ -268,6 +278,11 @@ def _min32(a, b):
 
 
 @nb.njit(**_JIT)
+def _max32(a, b):
+    return a if a > b else b
+
+
+@nb.njit(**_JIT)
 def _set_scale(cb, count, n_bins, scale):
     # Fewer bins for smaller nodes (6 + count / 8, at most one per
     # primitive): the bins' sweep dominated the build at the bottom of the
@@ -305,31 +320,49 @@ def _choose(bcnt, bbox, nbe, scale, count, max_leaf, c_trav, c_isect, nodebox, r
 
 
 @nb.njit(**_JIT)
-def _partition(box, ids, start, end, k, cmin, scale, plane, n_bins, cb_l, cb_r):
+def _partition(box, cen, ids, start, end, k, cmin, scale, plane, n_bins, cb_l, cb_r):
     """Hoare partition of [start, end) by bin < plane on axis k; collects
-    the centroid bounds of both sides on the way.  Returns the split index."""
+    the centroid bounds of both sides on the way (in locals: through the
+    arrays, every primitive's update went through memory).  Returns the
+    split index."""
+    inf = np.float32(np.inf)
+    la0 = la1 = la2 = inf
+    lb0 = lb1 = lb2 = -inf
+    ra0 = ra1 = ra2 = inf
+    rb0 = rb1 = rb2 = -inf
     i = start
     j = end - 1
     while True:
-        while i <= j and _bin_of(_centroid(box[i, k], box[i, 3 + k]), cmin, scale, n_bins) < plane:
-            _add_centroid(cb_l, box, i)
+        while i <= j and _bin_of(cen[i, k], cmin, scale, n_bins) < plane:
+            c0, c1, c2 = cen[i, 0], cen[i, 1], cen[i, 2]
+            la0, la1, la2 = _min32(la0, c0), _min32(la1, c1), _min32(la2, c2)
+            lb0, lb1, lb2 = _max32(lb0, c0), _max32(lb1, c1), _max32(lb2, c2)
             i += 1
-        while i <= j and _bin_of(_centroid(box[j, k], box[j, 3 + k]), cmin, scale, n_bins) >= plane:
-            _add_centroid(cb_r, box, j)
+        while i <= j and _bin_of(cen[j, k], cmin, scale, n_bins) >= plane:
+            c0, c1, c2 = cen[j, 0], cen[j, 1], cen[j, 2]
+            ra0, ra1, ra2 = _min32(ra0, c0), _min32(ra1, c1), _min32(ra2, c2)
+            rb0, rb1, rb2 = _max32(rb0, c0), _max32(rb1, c1), _max32(rb2, c2)
             j -= 1
         if i >= j:
-            return i
+            break
         for d in range(6):
             t = box[i, d]
             box[i, d] = box[j, d]
             box[j, d] = t
+        for d in range(3):
+            t = cen[i, d]
+            cen[i, d] = cen[j, d]
+            cen[j, d] = t
         t_id = ids[i]
         ids[i] = ids[j]
         ids[j] = t_id
+    cb_l[0], cb_l[1], cb_l[2], cb_l[3], cb_l[4], cb_l[5] = la0, la1, la2, lb0, lb1, lb2
+    cb_r[0], cb_r[1], cb_r[2], cb_r[3], cb_r[4], cb_r[5] = ra0, ra1, ra2, rb0, rb1, rb2
+    return i
 
 
 @nb.njit(**_JIT)
-def _build_range(box, ids, start0, end0, root_cb, max_leaf, n_bins, c_trav, c_isect, nbounds, nindex, naxis, base):
+def _build_range(box, cen, ids, start0, end0, root_cb, max_leaf, n_bins, c_trav, c_isect, nbounds, nindex, naxis, base):
     """Serial build of the subtree over primitives [start0, end0) into node
     rows base, base + 1, ... (depth-first; child links and leaf ranges are
     absolute).  Returns the number of nodes written (at most 2 count - 1)."""
@@ -369,6 +402,21 @@ def _build_range(box, ids, start0, end0, root_cb, max_leaf, n_bins, c_trav, c_is
             nindex[patch, 0] = m
         count = end - start
 
+        if count <= max_leaf and count * c_isect <= c_trav:
+            # A leaf whatever the bins say: a split costs more than c_trav
+            # (children's areas are padded, never 0), this leaf at most that.
+            for d in range(3):
+                lo = box[start, d]
+                hi = box[start, 3 + d]
+                for i in range(start + 1, end):
+                    lo = _min32(lo, box[i, d])
+                    hi = _max32(hi, box[i, 3 + d])
+                nbounds[m, d] = lo
+                nbounds[m, 3 + d] = hi
+            nindex[m, 0] = start
+            nindex[m, 1] = count
+            naxis[m] = -1
+            continue
         if count == 1:
             for d in range(6):
                 nbounds[m, d] = box[start, d]
@@ -379,7 +427,7 @@ def _build_range(box, ids, start0, end0, root_cb, max_leaf, n_bins, c_trav, c_is
 
         nbe = _set_scale(cb, count, n_bins, scale)
         _clear_bins(bcnt, bbox, nbe)
-        _bin_prims(box, start, end, cb, scale, nbe, bcnt, bbox)
+        _bin_prims(box, cen, start, end, cb, scale, nbe, bcnt, bbox)
         axis, plane = _choose(bcnt, bbox, nbe, scale, count, max_leaf, c_trav, c_isect, nodebox, r_area, r_cnt)
         for d in range(6):
             nbounds[m, d] = nodebox[d]
@@ -389,18 +437,14 @@ def _build_range(box, ids, start0, end0, root_cb, max_leaf, n_bins, c_trav, c_is
             naxis[m] = -1
             continue
 
-        _set_empty(cb_l)
-        _set_empty(cb_r)
         if axis >= 0:
-            mid = _partition(box, ids, start, end, axis, cb[axis], scale[axis], plane, nbe, cb_l, cb_r)
+            mid = _partition(box, cen, ids, start, end, axis, cb[axis], scale[axis], plane, nbe, cb_l, cb_r)
         else:
             # All centroids coincide: nothing to bin, so halve the range to
             # keep leaves within max_leaf.
             mid = start + count // 2
-            for i in range(start, mid):
-                _add_centroid(cb_l, box, i)
-            for i in range(mid, end):
-                _add_centroid(cb_r, box, i)
+            _cen_bounds(cen, start, mid, cb_l)
+            _cen_bounds(cen, mid, end, cb_r)
             axis = 0
         naxis[m] = axis
         nindex[m, 1] = 0  # nindex[m, 0] is patched when the right job pops
@@ -432,13 +476,13 @@ def _build_range(box, ids, start0, end0, root_cb, max_leaf, n_bins, c_trav, c_is
 
 
 @nb.njit(**_JIT)
-def _bin_piece(box, start, end, cb, scale, nbe, bcnt, bbox):
+def _bin_piece(box, cen, start, end, cb, scale, nbe, bcnt, bbox):
     _clear_bins(bcnt, bbox, nbe)
-    _bin_prims(box, start, end, cb, scale, nbe, bcnt, bbox)
+    _bin_prims(box, cen, start, end, cb, scale, nbe, bcnt, bbox)
 
 
 @nb.njit(**_JIT)
-def _partition_blocks(box, ids, start, end, block, j0, j1, k, cmin, scale, plane, nbe, half, n_left, pcb):
+def _partition_blocks(box, cen, ids, start, end, block, j0, j1, k, cmin, scale, plane, nbe, half, n_left, pcb):
     """Partition blocks j0 .. j1 - 1 of [start, end) (``block`` primitives
     each) in place, each on its own; per block: the primitives going left
     (``n_left[j]``) and both sides' centroid bounds (``pcb[j]``).  Blocks
@@ -447,16 +491,12 @@ def _partition_blocks(box, ids, start, end, block, j0, j1, k, cmin, scale, plane
     for j in range(j0, j1):
         a = start + j * block
         b = min(end, a + block)
-        _set_empty(pcb[j, 0])
-        _set_empty(pcb[j, 1])
         if k >= 0:
-            m = _partition(box, ids, a, b, k, cmin, scale, plane, nbe, pcb[j, 0], pcb[j, 1])
+            m = _partition(box, cen, ids, a, b, k, cmin, scale, plane, nbe, pcb[j, 0], pcb[j, 1])
         else:
             m = min(max(half, a), b)
-            for i in range(a, m):
-                _add_centroid(pcb[j, 0], box, i)
-            for i in range(m, b):
-                _add_centroid(pcb[j, 1], box, i)
+            _cen_bounds(cen, a, m, pcb[j, 0])
+            _cen_bounds(cen, m, b, pcb[j, 1])
         n_left[j] = m - a
 
 
@@ -486,21 +526,26 @@ class _Runner:
             self.pool.shutdown()
 
 
-def _gather(box, ids, start, end, j0, j1, n_left, to_left, to_right, tbox, tids):
+def _gather(src, dst, start, end, j0, j1, n_left, to_left, to_right):
+    """Blocks j0 .. j1 - 1: their left and right parts from the arrays ``src``
+    (box, centroids, ids) to their places in ``dst``."""
     for j in range(j0, j1):
         a = start + j * _BLOCK
         b = min(end, a + _BLOCK)
         m = a + int(n_left[j])
         tl, tr = int(to_left[j]), int(to_right[j])
-        tbox[tl : tl + m - a] = box[a:m]
-        tids[tl : tl + m - a] = ids[a:m]
-        tbox[tr : tr + b - m] = box[m:b]
-        tids[tr : tr + b - m] = ids[m:b]
+        for x, y in zip(src, dst, strict=True):
+            y[tl : tl + m - a] = x[a:m]
+            y[tr : tr + b - m] = x[m:b]
 
 
-def _copy_back(tbox, tids, box, ids, start, end):
-    box[start:end] = tbox[start:end]
-    ids[start:end] = tids[start:end]
+def _build_task(box, cen, tids, ids, start, end, cb, max_leaf, n_bins, c_trav, c_isect, snb, sni, sna):
+    """A subtree over [start, end) (its primitives in ``box``, ``cen``, ``tids``)
+    into scratch rows 2 * start ...; its primitive order ends in ``ids``."""
+    m = _build_range(box, cen, tids, start, end, cb, max_leaf, n_bins, c_trav, c_isect, snb, sni, sna, 2 * start)
+    if tids is not ids:
+        ids[start:end] = tids[start:end]
+    return m
 
 
 def _place(snb, sni, sna, src, count, nbounds, nindex, naxis, dst):
@@ -517,31 +562,39 @@ def _pieces(start: int, end: int, parts: int) -> list[tuple[int, int]]:
     return [(a, b) for a, b in zip(cuts[:-1], cuts[1:], strict=True) if b > a]
 
 
-def _build(box, ids, root_cb, max_leaf, n_bins, c_trav, c_isect, threads):
+def _build(box, cen, ids, root_cb, max_leaf, n_bins, c_trav, c_isect, threads):
+    """The tree over the prepared primitives; reorders ``ids`` (and uses
+    ``box``, ``cen`` as scratch).  Returns (node_bounds, node_index, node_axis)."""
     n = box.shape[0]
     run = _Runner(threads)
     try:
-        tbox = tids = None
+        # The top splits move a node's primitives from one set of arrays to
+        # the other (no copy back): bufs[0] = the inputs, bufs[1] allocated
+        # on the first top split.
+        bufs = [(box, cen, ids), None]
         # Top of the tree, in depth-first order: ["node", box, axis, right entry]
-        # or ["task", start, end, centroid bounds] for a subtree built later.
+        # or ["task", start, end, centroid bounds, buffer] for a subtree built later.
         entries: list[list] = []
-        stack = [(0, n, root_cb, -1)]
+        stack = [(0, n, root_cb, -1, 0)]
         scale = np.empty(3, np.float64)
         while stack:
-            start, end, cb, parent = stack.pop()
+            start, end, cb, parent, side = stack.pop()
             if parent >= 0:
                 entries[parent][3] = len(entries)
             count = end - start
             if count <= max(_TOP, max_leaf):  # so that a top node is never a leaf
-                entries.append(["task", start, end, cb])
+                entries.append(["task", start, end, cb, side])
                 continue
-            if tbox is None:
-                tbox, tids = np.empty_like(box), np.empty_like(ids)
+            if bufs[1] is None:
+                bufs[1] = tuple(np.empty_like(x) for x in bufs[0])
+            sbox, scen, sids = bufs[side]
             pieces = _pieces(start, end, threads)
             nbe = _set_scale(cb, count, n_bins, scale)
             pcnt = np.empty((len(pieces), 3, n_bins), np.int64)
             pbox = np.empty((len(pieces), 3, n_bins, 8), np.float32)
-            run.map(_bin_piece, [(box, a, b, cb, scale, nbe, pcnt[j], pbox[j]) for j, (a, b) in enumerate(pieces)])
+            run.map(
+                _bin_piece, [(sbox, scen, a, b, cb, scale, nbe, pcnt[j], pbox[j]) for j, (a, b) in enumerate(pieces)]
+            )
             # The pieces' bins reduced exactly (counts, min), so the result
             # does not depend on how the range was cut.
             nodebox = np.empty(6, np.float64)
@@ -556,23 +609,22 @@ def _build(box, ids, root_cb, max_leaf, n_bins, c_trav, c_isect, threads):
             n_left = np.empty(n_blocks, np.int64)
             pcb = np.empty((n_blocks, 2, 6), np.float64)
             args = (k, cmin, sk, plane, nbe, half, n_left, pcb)
-            run.map(_partition_blocks, [(box, ids, start, end, _BLOCK, j0, j1, *args) for j0, j1 in groups])
+            run.map(_partition_blocks, [(sbox, scen, sids, start, end, _BLOCK, j0, j1, *args) for j0, j1 in groups])
             n_right = np.minimum(_BLOCK, end - (start + _BLOCK * np.arange(n_blocks))) - n_left
             mid = start + int(n_left.sum())
             to_left = start + np.cumsum(n_left) - n_left
             to_right = mid + np.cumsum(n_right) - n_right
-            # Blocks' parts moved together, then back: numpy copies (they
-            # release the GIL), no Numba kernels to compile for them.
+            # Blocks' parts moved together into the other arrays: numpy copies
+            # (they release the GIL), no Numba kernels to compile for them.
             run.map(
-                _gather, [(box, ids, start, end, j0, j1, n_left, to_left, to_right, tbox, tids) for j0, j1 in groups]
+                _gather,
+                [(bufs[side], bufs[1 - side], start, end, j0, j1, n_left, to_left, to_right) for j0, j1 in groups],
             )
-            run.map(_copy_back, [(tbox, tids, box, ids, a, b) for a, b in pieces])
             cb_l = np.concatenate([pcb[:, 0, :3].min(axis=0), pcb[:, 0, 3:].max(axis=0)])
             cb_r = np.concatenate([pcb[:, 1, :3].min(axis=0), pcb[:, 1, 3:].max(axis=0)])
             entries.append(["node", nodebox.astype(np.float32), max(k, 0), -1])
-            stack.append((mid, end, cb_r, len(entries) - 1))
-            stack.append((start, mid, cb_l, -1))
-        del tbox, tids
+            stack.append((mid, end, cb_r, len(entries) - 1, 1 - side))
+            stack.append((start, mid, cb_l, -1, 1 - side))
 
         # Subtrees into scratch rows 2 * start ... (at most 2 count - 1 each,
         # so they never overlap), largest first for balance.
@@ -583,12 +635,13 @@ def _build(box, ids, root_cb, max_leaf, n_bins, c_trav, c_isect, threads):
         sna = np.empty(cap, np.int8)
         order = sorted(range(len(tasks)), key=lambda t: tasks[t][1] - tasks[t][2])
         sizes = run.map(
-            _build_range,
+            _build_task,
             [
-                (box, ids, a, b, cb, max_leaf, n_bins, c_trav, c_isect, snb, sni, sna, 2 * a)
-                for _, a, b, cb in (tasks[t] for t in order)
+                (*bufs[side], ids, a, b, cb, max_leaf, n_bins, c_trav, c_isect, snb, sni, sna)
+                for _, a, b, cb, side in (tasks[t] for t in order)
             ],
         )
+        bufs = None
         size_of = dict(zip(order, sizes, strict=True))
         if len(entries) == 1:  # one subtree: the scratch holds the tree
             m = size_of[0]
@@ -656,11 +709,12 @@ def build_bvh(lo, hi, max_leaf_size: int = 4, n_bins: int = 16, *, c_trav: float
 
     threads = max(1, min(nb.get_num_threads(), n // _TOP))
     box = np.empty((n, 6), np.float32)
+    cen = np.empty((n, 3), np.float32)
     pieces = _pieces(0, n, threads)
     pcb = np.empty((len(pieces), 6), np.float64)
     run = _Runner(threads)
     try:
-        bad = run.map(_prepare, [(lo, hi, box, pcb[j], a, b) for j, (a, b) in enumerate(pieces)])
+        bad = run.map(_prepare, [(lo, hi, box, cen, pcb[j], a, b) for j, (a, b) in enumerate(pieces)])
     finally:
         run.close()
     bad = [b for b in bad if b >= 0]
@@ -670,7 +724,7 @@ def build_bvh(lo, hi, max_leaf_size: int = 4, n_bins: int = 16, *, c_trav: float
     root_cb = np.concatenate([pcb[:, :3].min(axis=0), pcb[:, 3:].max(axis=0)])
     ids = np.arange(n, dtype=np.int32)
     nbounds, nindex, naxis = _build(
-        box, ids, root_cb, int(max_leaf_size), int(n_bins), float(c_trav), float(c_isect), threads
+        box, cen, ids, root_cb, int(max_leaf_size), int(n_bins), float(c_trav), float(c_isect), threads
     )
     return BVH(nbounds, nindex, naxis, ids)
 
