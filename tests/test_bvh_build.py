@@ -477,3 +477,78 @@ def test_random_boxes_parallel(boxes, max_leaf, n_bins):
     check_bvh(many, lo, hi, max_leaf)
     for a, b in zip(one, many, strict=True):
         assert np.array_equal(a, b)
+
+
+# ---------------------------------------------------------------------------
+# The collapse into 8-wide nodes (accel/wide.py), subtrees on threads
+# ---------------------------------------------------------------------------
+
+
+def reference_collapse(bvh, width=8):
+    """Greedy collapse in plain Python: a wide node starts from a binary node's two children
+    and opens the inner child of largest surface area (first on ties) until it has `width`
+    children or only leaves; inner children are numbered consecutively when their parent is
+    filled, the first child's subtree first."""
+    nb_, ni, na, _ = bvh
+    b64 = nb_.astype(np.float64)
+
+    def area(c):
+        big = float(np.finfo(np.float32).max)
+        e = np.maximum(np.minimum(b64[c, 3:], big) - np.maximum(b64[c, :3], -big), 0.0)
+        return e[0] * e[1] + e[1] * e[2] + e[2] * e[0]
+
+    rows = {}
+    stack, n_wide = [(0, 0)], 1
+    while stack:
+        b, w = stack.pop()
+        kids = [b + 1, int(ni[b, 0])]
+        while len(kids) < width:
+            inner = [i for i, c in enumerate(kids) if na[c] >= 0]
+            if not inner:
+                break
+            best = max(inner, key=lambda i: (area(kids[i]), -i))
+            c = kids[best]
+            kids[best] = c + 1
+            kids.append(int(ni[c, 0]))
+        lanes = []
+        for c in kids:
+            if na[c] < 0:
+                lanes.append((c, int(ni[c, 0]), int(ni[c, 1])))
+            else:
+                lanes.append((c, n_wide, 0))
+                n_wide += 1
+        rows[w] = lanes
+        for c, link, _ in reversed(lanes):
+            if na[c] >= 0:
+                stack.append((c, link))
+    bounds = np.empty((n_wide, 6, width), np.float32)
+    bounds[:, :3], bounds[:, 3:] = np.inf, -np.inf
+    index = np.zeros((n_wide, 2, width), np.int32)
+    for w, lanes in rows.items():
+        for lane, (c, link, count) in enumerate(lanes):
+            bounds[w, :, lane] = nb_[c]
+            index[w, :, lane] = (link, count)
+    return bounds, index
+
+
+@pytest.mark.parametrize("item", [3, 40, None])
+def test_collapse_is_the_serial_greedy_on_any_thread_count(item):
+    from raylume.accel import wide
+
+    rng = np.random.default_rng(12)
+    lo, hi = clustered_boxes(rng, 3000)
+    chain = np.arange(300.0)[:, None] * [1.0, 0.0, 0.0] * np.logspace(0, 3, 300)[:, None]
+    for a, b in ((lo, hi), (chain, chain + 0.5)):
+        bvh = build_bvh(a, b, max_leaf_size=4, c_trav=2.0)
+        bounds, index = reference_collapse(bvh)
+        for threads in (1, THREADS):
+            before = numba.get_num_threads()
+            numba.set_num_threads(threads)
+            try:
+                with patch.object(wide, "_ITEM", item if item is not None else wide._ITEM):
+                    got = wide.collapse(bvh)
+            finally:
+                numba.set_num_threads(before)
+            assert np.array_equal(got.node_bounds, bounds)
+            assert np.array_equal(got.node_index, index)
+            assert got.prim_order is bvh.prim_order

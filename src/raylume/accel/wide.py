@@ -23,6 +23,7 @@ leaves.
 
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
 from typing import NamedTuple
 
 import numba as nb
@@ -41,7 +42,7 @@ class WideBVH(NamedTuple):
     prim_order: np.ndarray  # (N,) int32, as the binary tree's
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def _area(b, c):
     ex = max(min(np.float64(b[c, 3]), _F32_MAX) - max(np.float64(b[c, 0]), -_F32_MAX), 0.0)
     ey = max(min(np.float64(b[c, 4]), _F32_MAX) - max(np.float64(b[c, 1]), -_F32_MAX), 0.0)
@@ -49,38 +50,49 @@ def _area(b, c):
     return ex * ey + ey * ez + ez * ex
 
 
-@nb.njit(cache=True)
-def _collapse(nbounds, nindex, naxis, width):
-    n_inner = 0
-    for m in range(naxis.shape[0]):
-        if naxis[m] >= 0:
-            n_inner += 1
-    cap = max(n_inner, 1)  # every wide node consumes at least one binary inner node
-    wb = np.empty((cap, 6, width), np.float32)
-    wi = np.zeros((cap, 2, width), np.int32)
-    for m in range(cap):
-        for lane in range(width):
-            for d in range(3):
-                wb[m, d, lane] = np.inf
-                wb[m, 3 + d, lane] = -np.inf
-    if naxis[0] < 0:  # the root is a leaf
-        for d in range(6):
-            wb[0, d, 0] = nbounds[0, d]
-        wi[0, 0, 0] = nindex[0, 0]
-        wi[0, 1, 0] = nindex[0, 1]
-        return wb, wi, 1
+_NOGIL = {"cache": True, "nogil": True}
 
-    work_b = np.empty(cap, np.int64)
-    work_w = np.empty(cap, np.int64)
+
+@nb.njit(**_NOGIL)
+def _grown(a, n):
+    b = np.empty(2 * a.shape[0] + n, a.dtype)
+    b[: a.shape[0]] = a
+    return b
+
+
+@nb.njit(**_NOGIL)
+def _walk(nbounds, nindex, naxis, width, b0, w0, n0, wb, wi, bsize, limit, desc):
+    """Collapse the binary subtree of inner node ``b0`` into wide row ``w0``, numbering new
+    wide nodes from ``n0``: depth-first, a node's inner children consecutive, the first
+    child's subtree first. With ``limit`` >= 0, an inner node other than ``b0`` whose binary
+    subtree has at most ``limit`` nodes is an item, collapsed apart: the walk leaves its row
+    unwritten and skips ``desc[k]`` rows (the k-th item's descendants, 0 when not known yet)
+    right where it would have numbered them, so that the result is the serial walk's. Returns
+    (next free row, the items: binary node, root row, first descendant row)."""
+    work_b = np.empty(64, np.int64)
+    work_w = np.empty(64, np.int64)
+    item_b = np.empty(16, np.int64)
+    item_w = np.empty(16, np.int64)
+    item_base = np.empty(16, np.int64)
     kids = np.empty(width, np.int64)
-    work_b[0] = 0
-    work_w[0] = 0
+    work_b[0] = b0
+    work_w[0] = w0
     sp = 1
-    n_wide = 1
+    n_wide = n0
+    n_items = 0
     while sp > 0:
         sp -= 1
         b = work_b[sp]
         w = work_w[sp]
+        if limit >= 0 and b != b0 and bsize[b] <= limit:
+            if n_items == item_b.shape[0]:
+                item_b, item_w, item_base = _grown(item_b, 1), _grown(item_w, 1), _grown(item_base, 1)
+            item_b[n_items] = b
+            item_w[n_items] = w
+            item_base[n_items] = n_wide
+            n_wide += desc[n_items] if n_items < desc.shape[0] else 0
+            n_items += 1
+            continue
         kids[0] = b + 1
         kids[1] = nindex[b, 0]
         nk = 2
@@ -100,6 +112,9 @@ def _collapse(nbounds, nindex, naxis, width):
             kids[best] = c + 1
             kids[nk] = nindex[c, 0]
             nk += 1
+        if sp + nk > work_b.shape[0]:
+            work_b, work_w = _grown(work_b, nk), _grown(work_w, nk)
+        first = n_wide
         for i in range(nk):
             c = kids[i]
             for d in range(6):
@@ -111,23 +126,117 @@ def _collapse(nbounds, nindex, naxis, width):
                 wi[w, 0, i] = n_wide
                 wi[w, 1, i] = 0
                 n_wide += 1
+        for i in range(nk, width):
+            for d in range(3):
+                wb[w, d, i] = np.inf
+                wb[w, 3 + d, i] = -np.inf
+            wi[w, 0, i] = 0
+            wi[w, 1, i] = 0
         # pushed in reverse: the first child's subtree is collapsed (and numbered) first
+        child = n_wide
         for i in range(nk - 1, -1, -1):
-            c = kids[i]
-            if naxis[c] >= 0:
-                work_b[sp] = c
-                work_w[sp] = wi[w, 0, i]
+            if naxis[kids[i]] >= 0:
+                child -= 1
+                work_b[sp] = kids[i]
+                work_w[sp] = child
                 sp += 1
-    return wb, wi, n_wide
+        n_wide = max(n_wide, first)
+    return n_wide, item_b[:n_items], item_w[:n_items], item_base[:n_items]
+
+
+@nb.njit(**_NOGIL)
+def _subtree_sizes(nindex, naxis):
+    # Children come after their parent: one backward pass.
+    size = np.ones(naxis.shape[0], np.int64)
+    for m in range(naxis.shape[0] - 1, -1, -1):
+        if naxis[m] >= 0:
+            size[m] = 1 + size[m + 1] + size[nindex[m, 0]]
+    return size
+
+
+@nb.njit(**_NOGIL)
+def _collapse_items(nbounds, nindex, naxis, width, item_b, j0, j1, swb, swi, desc):
+    """Items j0 .. j1 - 1 collapsed on their own into scratch rows from b // 2 (a subtree of s
+    binary nodes has at most s // 2 inner ones, hence as many wide nodes: the items' rows never
+    overlap); each one's number of descendant rows into ``desc``."""
+    none = np.empty(0, np.int64)
+    for j in range(j0, j1):
+        r0 = item_b[j] // 2
+        end, _, _, _ = _walk(nbounds, nindex, naxis, width, item_b[j], r0, r0 + 1, swb, swi, none, -1, none)
+        desc[j] = end - r0 - 1
+
+
+@nb.njit(**_NOGIL)
+def _place_items(item_b, item_w, item_base, desc, j0, j1, swb, swi, wb, wi):
+    """Items j0 .. j1 - 1 from scratch to their rows: the root to its row, its descendants from
+    its first row on, their child links moved with them."""
+    width = wb.shape[2]
+    for j in range(j0, j1):
+        r0 = item_b[j] // 2
+        shift = item_base[j] - (r0 + 1)
+        for r in range(desc[j] + 1):
+            src = r0 + r
+            dst = item_w[j] if r == 0 else item_base[j] + r - 1
+            for d in range(6):
+                for lane in range(width):
+                    wb[dst, d, lane] = swb[src, d, lane]
+            for lane in range(width):
+                v = swi[src, 0, lane]
+                if swi[src, 1, lane] == 0 and v != 0:  # an inner child (empty lanes hold 0, 0)
+                    v += shift
+                wi[dst, 0, lane] = v
+                wi[dst, 1, lane] = swi[src, 1, lane]
+
+
+# Binary subtrees of at most this many nodes are collapsed apart, on threads, when the tree has
+# more than 4 times as many (the result is the serial collapse's, whatever the threshold).
+_ITEM = 1 << 14
+
+
+def _collapse(nbounds, nindex, naxis, width, threads):
+    m_bin = naxis.shape[0]
+    if naxis[0] < 0:  # the root is a leaf
+        wb = np.empty((1, 6, width), np.float32)
+        wb[0, :3], wb[0, 3:] = np.inf, -np.inf
+        wb[0, :, 0] = nbounds[0]
+        wi = np.zeros((1, 2, width), np.int32)
+        wi[0, :, 0] = nindex[0]
+        return wb, wi
+    none = np.empty(0, np.int64)
+    if threads <= 1 or m_bin <= 4 * _ITEM:
+        cap = int(np.count_nonzero(naxis >= 0))  # each wide node consumes a binary inner node
+        wb = np.empty((cap, 6, width), np.float32)
+        wi = np.empty((cap, 2, width), np.int32)
+        m, _, _, _ = _walk(nbounds, nindex, naxis, width, 0, 0, 1, wb, wi, none, -1, none)
+        return wb[:m].copy(), wi[:m].copy()
+    bsize = _subtree_sizes(nindex, naxis)
+    # The top of the wide tree walked first without the items' descendants (rows written to
+    # scratch, only to find the items), the items collapsed apart on threads (largest first),
+    # then the top walked again with their sizes known, into the final rows, and the items
+    # moved under it.
+    swb = np.empty((m_bin // 2 + 1, 6, width), np.float32)
+    swi = np.empty((m_bin // 2 + 1, 2, width), np.int32)
+    n1, item_b, _, _ = _walk(nbounds, nindex, naxis, width, 0, 0, 1, swb, swi, bsize, _ITEM, none)
+    desc = np.empty(len(item_b), np.int64)
+    jobs = np.argsort(-bsize[item_b], kind="stable").tolist()
+    with ThreadPoolExecutor(threads) as pool:
+        list(pool.map(lambda j: _collapse_items(nbounds, nindex, naxis, width, item_b, j, j + 1, swb, swi, desc), jobs))
+        m = int(n1 + desc.sum())
+        wb = np.empty((m, 6, width), np.float32)
+        wi = np.empty((m, 2, width), np.int32)
+        end, _, item_w, item_base = _walk(nbounds, nindex, naxis, width, 0, 0, 1, wb, wi, bsize, _ITEM, desc)
+        assert end == m
+        list(pool.map(lambda j: _place_items(item_b, item_w, item_base, desc, j, j + 1, swb, swi, wb, wi), jobs))
+    return wb, wi
 
 
 def collapse(bvh: BVH, width: int = 8) -> WideBVH:
-    """The binary BVH as a BVH of ``width``-wide nodes (same leaves, same primitive order)."""
+    """The binary BVH as a BVH of ``width``-wide nodes (same leaves, same primitive order).
+    Large trees are collapsed on ``numba.get_num_threads()`` threads; the result does not depend
+    on the thread count."""
     if not 2 <= width <= 32:
         raise ValueError("width must be in 2..32")
-    wb, wi, m = _collapse(bvh.node_bounds, bvh.node_index, bvh.node_axis, int(width))
-    if m < wb.shape[0]:
-        wb, wi = wb[:m].copy(), wi[:m].copy()
+    wb, wi = _collapse(bvh.node_bounds, bvh.node_index, bvh.node_axis, int(width), nb.get_num_threads())
     return WideBVH(wb, wi, bvh.prim_order)
 
 
