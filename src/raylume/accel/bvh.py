@@ -526,26 +526,39 @@ class _Runner:
             self.pool.shutdown()
 
 
-def _gather(src, dst, start, end, j0, j1, n_left, to_left, to_right):
-    """Blocks j0 .. j1 - 1: their left and right parts from the arrays ``src``
-    (box, centroids, ids) to their places in ``dst``."""
+def _misplaced(start, end, mid, n_left):
+    """After the blocks' partition: the pairs of equal ranges (right-part primitives before
+    ``mid``, left-part ones from ``mid`` on, both in position order) to swap so that
+    [start, mid) holds the left part. Returns (to_right, to_left, length) arrays."""
+    a = start + _BLOCK * np.arange(len(n_left))
+    b = np.minimum(a + _BLOCK, end)
+    m = a + n_left
+    r_lo, r_hi = m, np.minimum(b, mid)  # right parts sitting left of mid
+    l_lo, l_hi = np.maximum(a, mid), m  # left parts sitting right of mid
+    r = r_hi > r_lo
+    lft = l_hi > l_lo
+    r_lo, r_len = r_lo[r], (r_hi - r_lo)[r]
+    l_lo, l_len = l_lo[lft], (l_hi - l_lo)[lft]
+    # Both lists cover as many primitives: cut them at each other's boundaries.
+    cuts = np.union1d(np.cumsum(r_len), np.cumsum(l_len))
+    cuts = np.concatenate([[0], cuts])
+    length = np.diff(cuts)
+    at = cuts[:-1]
+    ri = np.searchsorted(np.cumsum(r_len), at, side="right")
+    li = np.searchsorted(np.cumsum(l_len), at, side="right")
+    r_off = at - (np.cumsum(r_len) - r_len)[ri]
+    l_off = at - (np.cumsum(l_len) - l_len)[li]
+    return r_lo[ri] + r_off, l_lo[li] + l_off, length
+
+
+def _swap(arrays, x, y, length, j0, j1):
+    """Swap ranges x[j], y[j] of ``length[j]`` rows in each of ``arrays``, j in j0 .. j1 - 1."""
     for j in range(j0, j1):
-        a = start + j * _BLOCK
-        b = min(end, a + _BLOCK)
-        m = a + int(n_left[j])
-        tl, tr = int(to_left[j]), int(to_right[j])
-        for x, y in zip(src, dst, strict=True):
-            y[tl : tl + m - a] = x[a:m]
-            y[tr : tr + b - m] = x[m:b]
-
-
-def _build_task(box, cen, tids, ids, start, end, cb, max_leaf, n_bins, c_trav, c_isect, snb, sni, sna):
-    """A subtree over [start, end) (its primitives in ``box``, ``cen``, ``tids``)
-    into scratch rows 2 * start ...; its primitive order ends in ``ids``."""
-    m = _build_range(box, cen, tids, start, end, cb, max_leaf, n_bins, c_trav, c_isect, snb, sni, sna, 2 * start)
-    if tids is not ids:
-        ids[start:end] = tids[start:end]
-    return m
+        p, q, k = int(x[j]), int(y[j]), int(length[j])
+        for arr in arrays:
+            t = arr[p : p + k].copy()
+            arr[p : p + k] = arr[q : q + k]
+            arr[q : q + k] = t
 
 
 def _place(snb, sni, sna, src, count, nbounds, nindex, naxis, dst):
@@ -568,33 +581,24 @@ def _build(box, cen, ids, root_cb, max_leaf, n_bins, c_trav, c_isect, threads):
     n = box.shape[0]
     run = _Runner(threads)
     try:
-        # The top splits move a node's primitives from one set of arrays to
-        # the other (no copy back): bufs[0] = the inputs, bufs[1] allocated
-        # on the first top split.
-        bufs = [(box, cen, ids), None]
         # Top of the tree, in depth-first order: ["node", box, axis, right entry]
-        # or ["task", start, end, centroid bounds, buffer] for a subtree built later.
+        # or ["task", start, end, centroid bounds] for a subtree built later.
         entries: list[list] = []
-        stack = [(0, n, root_cb, -1, 0)]
+        stack = [(0, n, root_cb, -1)]
         scale = np.empty(3, np.float64)
         while stack:
-            start, end, cb, parent, side = stack.pop()
+            start, end, cb, parent = stack.pop()
             if parent >= 0:
                 entries[parent][3] = len(entries)
             count = end - start
             if count <= max(_TOP, max_leaf):  # so that a top node is never a leaf
-                entries.append(["task", start, end, cb, side])
+                entries.append(["task", start, end, cb])
                 continue
-            if bufs[1] is None:
-                bufs[1] = tuple(np.empty_like(x) for x in bufs[0])
-            sbox, scen, sids = bufs[side]
             pieces = _pieces(start, end, threads)
             nbe = _set_scale(cb, count, n_bins, scale)
             pcnt = np.empty((len(pieces), 3, n_bins), np.int64)
             pbox = np.empty((len(pieces), 3, n_bins, 8), np.float32)
-            run.map(
-                _bin_piece, [(sbox, scen, a, b, cb, scale, nbe, pcnt[j], pbox[j]) for j, (a, b) in enumerate(pieces)]
-            )
+            run.map(_bin_piece, [(box, cen, a, b, cb, scale, nbe, pcnt[j], pbox[j]) for j, (a, b) in enumerate(pieces)])
             # The pieces' bins reduced exactly (counts, min), so the result
             # does not depend on how the range was cut.
             nodebox = np.empty(6, np.float64)
@@ -609,22 +613,21 @@ def _build(box, cen, ids, root_cb, max_leaf, n_bins, c_trav, c_isect, threads):
             n_left = np.empty(n_blocks, np.int64)
             pcb = np.empty((n_blocks, 2, 6), np.float64)
             args = (k, cmin, sk, plane, nbe, half, n_left, pcb)
-            run.map(_partition_blocks, [(sbox, scen, sids, start, end, _BLOCK, j0, j1, *args) for j0, j1 in groups])
-            n_right = np.minimum(_BLOCK, end - (start + _BLOCK * np.arange(n_blocks))) - n_left
+            run.map(_partition_blocks, [(box, cen, ids, start, end, _BLOCK, j0, j1, *args) for j0, j1 in groups])
             mid = start + int(n_left.sum())
-            to_left = start + np.cumsum(n_left) - n_left
-            to_right = mid + np.cumsum(n_right) - n_right
-            # Blocks' parts moved together into the other arrays: numpy copies
-            # (they release the GIL), no Numba kernels to compile for them.
-            run.map(
-                _gather,
-                [(bufs[side], bufs[1 - side], start, end, j0, j1, n_left, to_left, to_right) for j0, j1 in groups],
-            )
+            # Then the right parts left of mid swapped with the left parts right
+            # of it, in place (only misplaced primitives move; blocks that went
+            # wholly to their side stay): numpy copies, which release the GIL,
+            # so no Numba kernel to compile for them.
+            x, y, length = _misplaced(start, end, mid, n_left)
+            cut = np.searchsorted(np.cumsum(length), np.sum(length) * np.arange(1, threads) / threads)
+            spans = [(int(p), int(q)) for p, q in zip(np.r_[0, cut], np.r_[cut, len(length)], strict=True) if q > p]
+            run.map(_swap, [((box, cen, ids), x, y, length, j0, j1) for j0, j1 in spans])
             cb_l = np.concatenate([pcb[:, 0, :3].min(axis=0), pcb[:, 0, 3:].max(axis=0)])
             cb_r = np.concatenate([pcb[:, 1, :3].min(axis=0), pcb[:, 1, 3:].max(axis=0)])
             entries.append(["node", nodebox.astype(np.float32), max(k, 0), -1])
-            stack.append((mid, end, cb_r, len(entries) - 1, 1 - side))
-            stack.append((start, mid, cb_l, -1, 1 - side))
+            stack.append((mid, end, cb_r, len(entries) - 1))
+            stack.append((start, mid, cb_l, -1))
 
         # Subtrees into scratch rows 2 * start ... (at most 2 count - 1 each,
         # so they never overlap), largest first for balance.
@@ -635,13 +638,12 @@ def _build(box, cen, ids, root_cb, max_leaf, n_bins, c_trav, c_isect, threads):
         sna = np.empty(cap, np.int8)
         order = sorted(range(len(tasks)), key=lambda t: tasks[t][1] - tasks[t][2])
         sizes = run.map(
-            _build_task,
+            _build_range,
             [
-                (*bufs[side], ids, a, b, cb, max_leaf, n_bins, c_trav, c_isect, snb, sni, sna)
-                for _, a, b, cb, side in (tasks[t] for t in order)
+                (box, cen, ids, a, b, cb, max_leaf, n_bins, c_trav, c_isect, snb, sni, sna, 2 * a)
+                for _, a, b, cb in (tasks[t] for t in order)
             ],
         )
-        bufs = None
         size_of = dict(zip(order, sizes, strict=True))
         if len(entries) == 1:  # one subtree: the scratch holds the tree
             m = size_of[0]
