@@ -362,6 +362,47 @@ def _partition(box, cen, ids, start, end, k, cmin, scale, plane, n_bins, cb_l, c
 
 
 @nb.njit(**_JIT)
+def _surely_leaf(box, start, end, c_trav, c_isect, nodebox):
+    """Whether a node of at most max_leaf primitives is a leaf whatever its
+    bins say (then its box is in ``nodebox``), without binning it.  Any
+    split costs at least c_trav A + c_isect (the sum of the primitives'
+    areas), since each side's box holds each of its primitives' boxes (and
+    areas computed as _choose does are monotone): a leaf costing no more
+    than that bound (less a margin for rounding) is what _choose decides
+    too.  With c_trav = 2, the leaves of 2 always, most of 3 and many of 4."""
+    count = end - start
+    for d in range(3):
+        lo = box[start, d]
+        hi = box[start, 3 + d]
+        for i in range(start + 1, end):
+            lo = _min32(lo, box[i, d])
+            hi = _max32(hi, box[i, 3 + d])
+        nodebox[d] = lo
+        nodebox[3 + d] = hi
+    if count * c_isect <= c_trav:  # a split costs more than c_trav A alone
+        return True
+    size = 0.0
+    for d in range(3):
+        e = min(nodebox[3 + d], _F32_MAX) - max(nodebox[d], -_F32_MAX)
+        if e > size:
+            size = e
+    inv = 1.0 / size if size > 0.0 else 1.0
+    node_area = _half_area(nodebox[0], nodebox[1], nodebox[2], nodebox[3], nodebox[4], nodebox[5], inv)
+    prims = 0.0
+    for i in range(start, end):
+        prims += _half_area(
+            np.float64(box[i, 0]),
+            np.float64(box[i, 1]),
+            np.float64(box[i, 2]),
+            np.float64(box[i, 3]),
+            np.float64(box[i, 4]),
+            np.float64(box[i, 5]),
+            inv,
+        )
+    return c_isect * count * node_area <= (c_trav * node_area + c_isect * prims) * (1.0 - 1e-9)
+
+
+@nb.njit(**_JIT)
 def _build_range(box, cen, ids, start0, end0, root_cb, max_leaf, n_bins, c_trav, c_isect, nbounds, nindex, naxis, base):
     """Serial build of the subtree over primitives [start0, end0) into node
     rows base, base + 1, ... (depth-first; child links and leaf ranges are
@@ -402,17 +443,9 @@ def _build_range(box, cen, ids, start0, end0, root_cb, max_leaf, n_bins, c_trav,
             nindex[patch, 0] = m
         count = end - start
 
-        if count <= max_leaf and count * c_isect <= c_trav:
-            # A leaf whatever the bins say: a split costs more than c_trav
-            # (children's areas are padded, never 0), this leaf at most that.
-            for d in range(3):
-                lo = box[start, d]
-                hi = box[start, 3 + d]
-                for i in range(start + 1, end):
-                    lo = _min32(lo, box[i, d])
-                    hi = _max32(hi, box[i, 3 + d])
-                nbounds[m, d] = lo
-                nbounds[m, 3 + d] = hi
+        if count <= max_leaf and _surely_leaf(box, start, end, c_trav, c_isect, nodebox):
+            for d in range(6):
+                nbounds[m, d] = nodebox[d]
             nindex[m, 0] = start
             nindex[m, 1] = count
             naxis[m] = -1
