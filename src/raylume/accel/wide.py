@@ -54,43 +54,31 @@ _NOGIL = {"cache": True, "nogil": True}
 
 
 @nb.njit(**_NOGIL)
-def _grown(a, n):
-    b = np.empty(2 * a.shape[0] + n, a.dtype)
-    b[: a.shape[0]] = a
-    return b
-
-
-@nb.njit(**_NOGIL)
-def _walk(nbounds, nindex, naxis, width, b0, w0, n0, wb, wi, bsize, limit, desc):
+def _walk(nbounds, nindex, naxis, width, b0, w0, n0, wb, wi, stack, limit, bsize, items, desc):
     """Collapse the binary subtree of inner node ``b0`` into wide row ``w0``, numbering new
     wide nodes from ``n0``: depth-first, a node's inner children consecutive, the first
-    child's subtree first. With ``limit`` >= 0, an inner node other than ``b0`` whose binary
-    subtree has at most ``limit`` nodes is an item, collapsed apart: the walk leaves its row
-    unwritten and skips ``desc[k]`` rows (the k-th item's descendants, 0 when not known yet)
-    right where it would have numbered them, so that the result is the serial walk's. Returns
-    (next free row, the items: binary node, root row, first descendant row)."""
-    work_b = np.empty(64, np.int64)
-    work_w = np.empty(64, np.int64)
-    item_b = np.empty(16, np.int64)
-    item_w = np.empty(16, np.int64)
-    item_base = np.empty(16, np.int64)
+    child's subtree first. ``stack`` (K, 2): work rows, K above the subtree's inner nodes
+    (each is pushed once). With ``limit`` >= 0, an inner node other than ``b0`` whose binary
+    subtree has at most ``limit`` nodes (``bsize``) is an item, collapsed apart: the walk
+    leaves its row unwritten, records it in ``items`` (rows: binary node, its row, its
+    descendants' first row) and skips ``desc[k]`` rows (the k-th item's descendants, 0 when not
+    known yet) right where it would have numbered them, so that the result is the serial
+    walk's. Returns (next free row, number of items)."""
     kids = np.empty(width, np.int64)
-    work_b[0] = b0
-    work_w[0] = w0
+    stack[0, 0] = b0
+    stack[0, 1] = w0
     sp = 1
     n_wide = n0
     n_items = 0
     while sp > 0:
         sp -= 1
-        b = work_b[sp]
-        w = work_w[sp]
+        b = stack[sp, 0]
+        w = stack[sp, 1]
         if limit >= 0 and b != b0 and bsize[b] <= limit:
-            if n_items == item_b.shape[0]:
-                item_b, item_w, item_base = _grown(item_b, 1), _grown(item_w, 1), _grown(item_base, 1)
-            item_b[n_items] = b
-            item_w[n_items] = w
-            item_base[n_items] = n_wide
-            n_wide += desc[n_items] if n_items < desc.shape[0] else 0
+            items[n_items, 0] = b
+            items[n_items, 1] = w
+            items[n_items, 2] = n_wide
+            n_wide += desc[n_items]
             n_items += 1
             continue
         kids[0] = b + 1
@@ -112,8 +100,6 @@ def _walk(nbounds, nindex, naxis, width, b0, w0, n0, wb, wi, bsize, limit, desc)
             kids[best] = c + 1
             kids[nk] = nindex[c, 0]
             nk += 1
-        if sp + nk > work_b.shape[0]:
-            work_b, work_w = _grown(work_b, nk), _grown(work_w, nk)
         first = n_wide
         for i in range(nk):
             c = kids[i]
@@ -137,11 +123,11 @@ def _walk(nbounds, nindex, naxis, width, b0, w0, n0, wb, wi, bsize, limit, desc)
         for i in range(nk - 1, -1, -1):
             if naxis[kids[i]] >= 0:
                 child -= 1
-                work_b[sp] = kids[i]
-                work_w[sp] = child
+                stack[sp, 0] = kids[i]
+                stack[sp, 1] = child
                 sp += 1
         n_wide = max(n_wide, first)
-    return n_wide, item_b[:n_items], item_w[:n_items], item_base[:n_items]
+    return n_wide, n_items
 
 
 @nb.njit(**_NOGIL)
@@ -154,38 +140,27 @@ def _subtree_sizes(nindex, naxis):
     return size
 
 
-@nb.njit(**_NOGIL)
-def _collapse_items(nbounds, nindex, naxis, width, item_b, j0, j1, swb, swi, desc):
-    """Items j0 .. j1 - 1 collapsed on their own into scratch rows from b // 2 (a subtree of s
-    binary nodes has at most s // 2 inner ones, hence as many wide nodes: the items' rows never
-    overlap); each one's number of descendant rows into ``desc``."""
-    none = np.empty(0, np.int64)
-    for j in range(j0, j1):
-        r0 = item_b[j] // 2
-        end, _, _, _ = _walk(nbounds, nindex, naxis, width, item_b[j], r0, r0 + 1, swb, swi, none, -1, none)
-        desc[j] = end - r0 - 1
+def _collapse_item(nbounds, nindex, naxis, width, items, j, bsize, swb, swi, desc):
+    """Item j collapsed on its own into scratch rows from b // 2 (a subtree of s binary nodes
+    has at most s // 2 inner ones, hence as many wide nodes: the items' rows never overlap);
+    its number of descendant rows into ``desc[j]``."""
+    b = int(items[j, 0])
+    r0 = b // 2
+    stack = np.empty((int(bsize[b]) // 2 + 2, 2), np.int64)
+    end, _ = _walk(nbounds, nindex, naxis, width, b, r0, r0 + 1, swb, swi, stack, -1, bsize, items, desc)
+    desc[j] = end - r0 - 1
 
 
-@nb.njit(**_NOGIL)
-def _place_items(item_b, item_w, item_base, desc, j0, j1, swb, swi, wb, wi):
-    """Items j0 .. j1 - 1 from scratch to their rows: the root to its row, its descendants from
-    its first row on, their child links moved with them."""
-    width = wb.shape[2]
-    for j in range(j0, j1):
-        r0 = item_b[j] // 2
-        shift = item_base[j] - (r0 + 1)
-        for r in range(desc[j] + 1):
-            src = r0 + r
-            dst = item_w[j] if r == 0 else item_base[j] + r - 1
-            for d in range(6):
-                for lane in range(width):
-                    wb[dst, d, lane] = swb[src, d, lane]
-            for lane in range(width):
-                v = swi[src, 0, lane]
-                if swi[src, 1, lane] == 0 and v != 0:  # an inner child (empty lanes hold 0, 0)
-                    v += shift
-                wi[dst, 0, lane] = v
-                wi[dst, 1, lane] = swi[src, 1, lane]
+def _place_item(items, desc, j, swb, swi, wb, wi):
+    """Item j from scratch to its rows: the root to its row, its descendants from its first row
+    on, their inner-child links moved with them (numpy copies: no kernel to compile)."""
+    r0, row, base, k = int(items[j, 0]) // 2, int(items[j, 1]), int(items[j, 2]), int(desc[j])
+    wb[row] = swb[r0]
+    wb[base : base + k] = swb[r0 + 1 : r0 + 1 + k]
+    for dst, src in ((wi[row : row + 1], swi[r0 : r0 + 1]), (wi[base : base + k], swi[r0 + 1 : r0 + 1 + k])):
+        link, count = src[:, 0], src[:, 1]
+        dst[:, 0] = np.where((count == 0) & (link != 0), link + (base - r0 - 1), link)  # empty lanes hold 0, 0
+        dst[:, 1] = count
 
 
 # Binary subtrees of at most this many nodes are collapsed apart, on threads, when the tree has
@@ -202,31 +177,33 @@ def _collapse(nbounds, nindex, naxis, width, threads):
         wi = np.zeros((1, 2, width), np.int32)
         wi[0, :, 0] = nindex[0]
         return wb, wi
-    none = np.empty(0, np.int64)
+    cap = m_bin // 2 + 2  # inner nodes (each is pushed once), items, wide nodes: at most m_bin // 2
+    stack = np.empty((cap, 2), np.int64)  # (untouched rows cost no memory)
+    bsize = np.empty(0, np.int64)
     if threads <= 1 or m_bin <= 4 * _ITEM:
-        cap = int(np.count_nonzero(naxis >= 0))  # each wide node consumes a binary inner node
         wb = np.empty((cap, 6, width), np.float32)
         wi = np.empty((cap, 2, width), np.int32)
-        m, _, _, _ = _walk(nbounds, nindex, naxis, width, 0, 0, 1, wb, wi, none, -1, none)
+        m, _ = _walk(nbounds, nindex, naxis, width, 0, 0, 1, wb, wi, stack, -1, bsize, stack, bsize)
         return wb[:m].copy(), wi[:m].copy()
     bsize = _subtree_sizes(nindex, naxis)
     # The top of the wide tree walked first without the items' descendants (rows written to
     # scratch, only to find the items), the items collapsed apart on threads (largest first),
     # then the top walked again with their sizes known, into the final rows, and the items
     # moved under it.
-    swb = np.empty((m_bin // 2 + 1, 6, width), np.float32)
-    swi = np.empty((m_bin // 2 + 1, 2, width), np.int32)
-    n1, item_b, _, _ = _walk(nbounds, nindex, naxis, width, 0, 0, 1, swb, swi, bsize, _ITEM, none)
-    desc = np.empty(len(item_b), np.int64)
-    jobs = np.argsort(-bsize[item_b], kind="stable").tolist()
+    swb = np.empty((cap, 6, width), np.float32)
+    swi = np.empty((cap, 2, width), np.int32)
+    items = np.empty((cap, 3), np.int64)
+    desc = np.zeros(cap, np.int64)
+    n1, n_items = _walk(nbounds, nindex, naxis, width, 0, 0, 1, swb, swi, stack, _ITEM, bsize, items, desc)
+    jobs = np.argsort(-bsize[items[:n_items, 0]], kind="stable").tolist()
     with ThreadPoolExecutor(threads) as pool:
-        list(pool.map(lambda j: _collapse_items(nbounds, nindex, naxis, width, item_b, j, j + 1, swb, swi, desc), jobs))
-        m = int(n1 + desc.sum())
+        list(pool.map(lambda j: _collapse_item(nbounds, nindex, naxis, width, items, j, bsize, swb, swi, desc), jobs))
+        m = int(n1 + desc[:n_items].sum())
         wb = np.empty((m, 6, width), np.float32)
         wi = np.empty((m, 2, width), np.int32)
-        end, _, item_w, item_base = _walk(nbounds, nindex, naxis, width, 0, 0, 1, wb, wi, bsize, _ITEM, desc)
+        end, _ = _walk(nbounds, nindex, naxis, width, 0, 0, 1, wb, wi, stack, _ITEM, bsize, items, desc)
         assert end == m
-        list(pool.map(lambda j: _place_items(item_b, item_w, item_base, desc, j, j + 1, swb, swi, wb, wi), jobs))
+        list(pool.map(lambda j: _place_item(items, desc, j, swb, swi, wb, wi), jobs))
     return wb, wi
 
 
