@@ -554,13 +554,16 @@ def test_collapse_is_the_serial_greedy_on_any_thread_count(item):
             assert got.prim_order is bvh.prim_order
 
 
-@pytest.mark.parametrize("top", [None, 16])
-def test_triangle_bounds_are_numpys(top):
+@pytest.mark.parametrize("kernel", [None, 16])
+def test_triangle_bounds_are_numpys(kernel):
     rng = np.random.default_rng(3)
     tri = rng.normal(size=(1000, 9)).astype(np.float32)
     tri[7, 4] = np.nan
     lo, hi = np.empty((1000, 3)), np.empty((1000, 3))
-    with patch.object(bvh_module, "_TOP", top if top is not None else bvh_module._TOP):
+    with (
+        patch.object(bvh_module, "_TRI_KERNEL", kernel if kernel is not None else bvh_module._TRI_KERNEL),
+        patch.object(bvh_module, "_TOP", 16 if kernel is not None else bvh_module._TOP),  # threads too
+    ):
         bvh_module.triangle_bounds(tri, lo, hi)
     corners = tri.reshape(-1, 3, 3)
     np.testing.assert_array_equal(lo, corners.min(axis=1))
