@@ -5,6 +5,7 @@ on the real meshes in ../shared/models and on procedural bumpy spheres of 10k..4
 
     python benchmarks/bench_bvh.py [--size 1024] [--repeats 5] [--quick] [--plot docs/images/bvh_scaling.png]
     python benchmarks/bench_bvh.py --build-only [--repeats 5]   # the BVH build table alone (bumpy 1M, 4M)
+    python benchmarks/bench_bvh.py --phases 4e6 [--repeats 5]  # where the build's time goes, beside Embree
 
 Ratios are speeds (Embree's time / raylume's time, one thread each): above 1, raylume is faster.
 "on hits" repeats both engines on the rays that hit the mesh alone.
@@ -199,6 +200,65 @@ def build_table(repeats):
     print("\n" + table(headers, rows))
 
 
+def phase_table(n, repeats):
+    """Where the build's time goes at n triangles (bumpy sphere), on all threads, alternating with
+    Embree's commit: wall seconds of each pass the builder runs on its thread pool (wrapped here),
+    the rest of build_bvh, the boxes and the collapse; medians."""
+    from embreex import rtcore_scene as rtcs
+    from embreex.mesh_construction import TriangleMesh
+
+    from raylume.accel import bvh as bvh_module
+    from raylume.accel.wide import collapse
+    from raylume.compile import BVH_MAX_LEAF, BVH_TRAVERSAL_COST
+
+    v, f = bumpy_sphere(n)
+    tri = v.astype(np.float32)[f].reshape(-1, 9)
+    v32, f32 = v.astype(np.float32), f.astype(np.int32)
+    spent: dict[str, float] = {}
+    plain_map = bvh_module._Runner.map
+
+    def timed_map(self, fn, argsets):
+        t0 = time.perf_counter()
+        out = plain_map(self, fn, argsets)
+        spent[fn.__name__] = spent.get(fn.__name__, 0.0) + time.perf_counter() - t0
+        return out
+
+    def ours():
+        c0, t0 = time.process_time(), time.perf_counter()
+        lo, hi = np.empty((len(tri), 3)), np.empty((len(tri), 3))
+        bvh_module.triangle_bounds(tri, lo, hi)
+        t1 = time.perf_counter()
+        spent.clear()
+        bvh = bvh_module.build_bvh(lo, hi, max_leaf_size=BVH_MAX_LEAF, c_trav=BVH_TRAVERSAL_COST)
+        t2 = time.perf_counter()
+        collapse(bvh)
+        t3 = time.perf_counter()
+        row = {"boxes (triangle_bounds)": t1 - t0, **{f"build_bvh: {k}": t for k, t in spent.items()}}
+        row["build_bvh: the rest (Python, numpy)"] = (t2 - t1) - sum(spent.values())
+        row["collapse"] = t3 - t2
+        row["total"] = t3 - t0
+        row["total CPU"] = time.process_time() - c0
+        return row
+
+    def embree():
+        scene = rtcs.EmbreeScene()
+        TriangleMesh(scene, v32, f32)
+        c0, t0 = time.process_time(), time.perf_counter()
+        scene.run(np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32), output=1)
+        return {"Embree commit": time.perf_counter() - t0, "Embree CPU": time.process_time() - c0}
+
+    bvh_module._Runner.map = timed_map
+    try:
+        ours()  # compile
+        rows = []
+        for _ in range(repeats):
+            rows.append({**ours(), **embree()})
+    finally:
+        bvh_module._Runner.map = plain_map
+    keys = list(rows[0])
+    print(table(["phase", "s"], [[k, f"{median_of([r.get(k, 0.0) for r in rows]):.3f}"] for k in keys]))
+
+
 def time_trimesh(vertices, faces, o, d, n_rays):
     import trimesh
 
@@ -217,7 +277,12 @@ def main() -> None:
     parser.add_argument("--trimesh-rays", type=int, default=20_000)
     parser.add_argument("--plot", default=None, help="write the scaling plot (PNG) here")
     parser.add_argument("--build-only", action="store_true", help="only the BVH build table (bumpy 1M and 4M)")
+    parser.add_argument("--phases", type=float, default=None, help="the build's phases at this many triangles")
     args = parser.parse_args()
+    if args.phases:
+        print(f"BVH build phases, bumpy {args.phases:g} triangles, medians of {args.repeats}; {machine()}\n")
+        phase_table(int(args.phases), args.repeats)
+        return
     if args.build_only:
         print(f"BVH build, medians of {args.repeats}, alternating; {machine()}\n")
         build_table(args.repeats)
