@@ -5,12 +5,15 @@ on the real meshes in ../shared/models and on procedural bumpy spheres of 10k..4
 
     python benchmarks/bench_bvh.py [--size 1024] [--repeats 5] [--quick] [--plot docs/images/bvh_scaling.png]
     python benchmarks/bench_bvh.py --build-only [--repeats 5]   # the BVH build table alone (bumpy 1M, 4M)
+    python benchmarks/bench_bvh.py --phases 4e6 [--repeats 5]  # where the build's time goes, beside Embree
 
 Ratios are speeds (Embree's time / raylume's time, one thread each): above 1, raylume is faster.
 "on hits" repeats both engines on the rays that hit the mesh alone.
-The BVH build table times raylume's build_bvh + collapse (the BVH8 that traversal reads) on 1 thread and on
-all threads against Embree's scene commit (its BVH build, on all threads; the mesh upload through embreex is
-excluded: its Python-side copy takes longer than the build), alternating in one process.
+The BVH build table times raylume's BVH part of compile (the triangles' boxes, build_bvh, collapse into the
+BVH8 that traversal reads) on 1 thread and on all threads against Embree's scene commit (its BVH build, on all
+threads; the mesh upload through embreex is excluded: its Python-side copy takes longer than the build),
+alternating in one process; with the all-threads build's phases and the CPU time of both (on a loaded VM, the
+CPU time is the steadier figure).
 """
 
 from __future__ import annotations
@@ -112,46 +115,63 @@ def time_embree(vertices, faces, o, d, repeats):
 
 
 def time_builds(vertices, faces, repeats):
-    """Medians of the BVH build alone, alternating: raylume (build_bvh + collapse, the boxes that compile.py
-    makes) on 1 thread and on all threads, and Embree's commit. Returns (1T, all, Embree, SAH)."""
+    """Medians of the BVH build alone, alternating: raylume on 1 thread and on all threads (what
+    compile.py does: the triangles' boxes from the float32 triangle table, build_bvh, collapse into
+    the BVH8), and Embree's commit. Returns (1T s, all s, Embree s, SAH, the all-threads build's
+    phases (boxes, build_bvh, collapse) s, CPU s of the all-threads build and of Embree's)."""
     import numba
     from embreex import rtcore_scene as rtcs
     from embreex.mesh_construction import TriangleMesh
 
-    from raylume.accel.bvh import build_bvh, sah_cost
+    from raylume.accel.bvh import build_bvh, sah_cost, triangle_bounds
     from raylume.accel.wide import collapse
     from raylume.compile import BVH_MAX_LEAF, BVH_TRAVERSAL_COST
 
-    corners = vertices.astype(np.float32)[faces]
-    lo, hi = corners.min(axis=1).astype(np.float64), corners.max(axis=1).astype(np.float64)
-    del corners
+    tri = vertices.astype(np.float32)[faces].reshape(-1, 9)
     v32, f32 = vertices.astype(np.float32), faces.astype(np.int32)
     o, d = np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32)
     everything = numba.config.NUMBA_NUM_THREADS
 
     def ours(threads):
         numba.set_num_threads(threads)
-        t0 = time.perf_counter()
+        c0, t0 = time.process_time(), time.perf_counter()
+        lo, hi = np.empty((len(tri), 3)), np.empty((len(tri), 3))
+        triangle_bounds(tri, lo, hi)
+        t1 = time.perf_counter()
         bvh = build_bvh(lo, hi, max_leaf_size=BVH_MAX_LEAF, c_trav=BVH_TRAVERSAL_COST)
+        t2 = time.perf_counter()
         collapse(bvh)
-        return time.perf_counter() - t0, bvh
+        t3 = time.perf_counter()
+        return t3 - t0, (t1 - t0, t2 - t1, t3 - t2), time.process_time() - c0, bvh
 
     def embree():
         scene = rtcs.EmbreeScene()
         TriangleMesh(scene, v32, f32)  # the upload: not timed
-        t0 = time.perf_counter()
+        c0, t0 = time.process_time(), time.perf_counter()
         scene.run(o, d, output=1)  # Embree builds lazily on the first query
-        return time.perf_counter() - t0
+        return time.perf_counter() - t0, time.process_time() - c0
 
     ours(1)  # compile
-    t1, ta, te = [], [], []
+    t1, ta, te, phases, cpu, cpu_e = [], [], [], [], [], []
     for _ in range(repeats):
         t1.append(ours(1)[0])
-        dt, bvh = ours(everything)
+        dt, ph, c, bvh = ours(everything)
         ta.append(dt)
-        te.append(embree())
+        phases.append(ph)
+        cpu.append(c)
+        e, ce = embree()
+        te.append(e)
+        cpu_e.append(ce)
     numba.set_num_threads(everything)
-    return median_of(t1), median_of(ta), median_of(te), sah_cost(bvh, BVH_TRAVERSAL_COST)
+    phase = tuple(median_of([p[k] for p in phases]) for k in range(3))
+    return (
+        median_of(t1),
+        median_of(ta),
+        median_of(te),
+        sah_cost(bvh, BVH_TRAVERSAL_COST),
+        phase,
+        (median_of(cpu), median_of(cpu_e)),
+    )
 
 
 def build_table(repeats):
@@ -161,15 +181,82 @@ def build_table(repeats):
     rows = []
     for n in (1_000_000, 4_000_000):
         v, f = bumpy_sphere(n)
-        t1, ta, te, sah = time_builds(v, f, repeats)
+        t1, ta, te, sah, (boxes, build, coll), (cpu, cpu_e) = time_builds(v, f, repeats)
         rows.append(
-            [f"bumpy {n // 1_000_000}M", f"{len(f):,}", f"{t1:.2f}", f"{ta:.2f}", f"{te:.2f}"]
-            + [f"{t1 / te:.2f}", f"{ta / te:.2f}", f"{sah:.1f}"]
+            [
+                f"bumpy {n // 1_000_000}M",
+                f"{len(f):,}",
+                f"{t1:.2f}",
+                f"{ta:.2f}",
+                f"{boxes:.2f} / {build:.2f} / {coll:.2f}",
+            ]
+            + [f"{te:.2f}", f"{t1 / te:.2f}", f"{ta / te:.2f}", f"{cpu:.2f} / {cpu_e:.2f}", f"{sah:.1f}"]
         )
         print(" | ".join(rows[-1]), flush=True)
-    headers = ["mesh", "triangles", "raylume build 1T s", f"raylume build {numba.config.NUMBA_NUM_THREADS}T s"]
-    headers += ["Embree build s", "raylume/Embree (1T)", f"raylume/Embree ({numba.config.NUMBA_NUM_THREADS}T)", "SAH"]
+    all_t = numba.config.NUMBA_NUM_THREADS
+    headers = ["mesh", "triangles", "raylume build 1T s", f"raylume build {all_t}T s"]
+    headers += [f"boxes / build_bvh / collapse {all_t}T s", "Embree build s", "raylume/Embree (1T)"]
+    headers += [f"raylume/Embree ({all_t}T)", f"CPU s raylume {all_t}T / Embree", "SAH"]
     print("\n" + table(headers, rows))
+
+
+def phase_table(n, repeats):
+    """Where the build's time goes at n triangles (bumpy sphere), on all threads, alternating with
+    Embree's commit: wall seconds of each pass the builder runs on its thread pool (wrapped here),
+    the rest of build_bvh, the boxes and the collapse; medians."""
+    from embreex import rtcore_scene as rtcs
+    from embreex.mesh_construction import TriangleMesh
+
+    from raylume.accel import bvh as bvh_module
+    from raylume.accel.wide import collapse
+    from raylume.compile import BVH_MAX_LEAF, BVH_TRAVERSAL_COST
+
+    v, f = bumpy_sphere(n)
+    tri = v.astype(np.float32)[f].reshape(-1, 9)
+    v32, f32 = v.astype(np.float32), f.astype(np.int32)
+    spent: dict[str, float] = {}
+    plain_map = bvh_module._Runner.map
+
+    def timed_map(self, fn, argsets):
+        t0 = time.perf_counter()
+        out = plain_map(self, fn, argsets)
+        spent[fn.__name__] = spent.get(fn.__name__, 0.0) + time.perf_counter() - t0
+        return out
+
+    def ours():
+        c0, t0 = time.process_time(), time.perf_counter()
+        lo, hi = np.empty((len(tri), 3)), np.empty((len(tri), 3))
+        bvh_module.triangle_bounds(tri, lo, hi)
+        t1 = time.perf_counter()
+        spent.clear()
+        bvh = bvh_module.build_bvh(lo, hi, max_leaf_size=BVH_MAX_LEAF, c_trav=BVH_TRAVERSAL_COST)
+        t2 = time.perf_counter()
+        collapse(bvh)
+        t3 = time.perf_counter()
+        row = {"boxes (triangle_bounds)": t1 - t0, **{f"build_bvh: {k}": t for k, t in spent.items()}}
+        row["build_bvh: the rest (Python, numpy)"] = (t2 - t1) - sum(spent.values())
+        row["collapse"] = t3 - t2
+        row["total"] = t3 - t0
+        row["total CPU"] = time.process_time() - c0
+        return row
+
+    def embree():
+        scene = rtcs.EmbreeScene()
+        TriangleMesh(scene, v32, f32)
+        c0, t0 = time.process_time(), time.perf_counter()
+        scene.run(np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32), output=1)
+        return {"Embree commit": time.perf_counter() - t0, "Embree CPU": time.process_time() - c0}
+
+    bvh_module._Runner.map = timed_map
+    try:
+        ours()  # compile
+        rows = []
+        for _ in range(repeats):
+            rows.append({**ours(), **embree()})
+    finally:
+        bvh_module._Runner.map = plain_map
+    keys = list(rows[0])
+    print(table(["phase", "s"], [[k, f"{median_of([r.get(k, 0.0) for r in rows]):.3f}"] for k in keys]))
 
 
 def time_trimesh(vertices, faces, o, d, n_rays):
@@ -190,7 +277,12 @@ def main() -> None:
     parser.add_argument("--trimesh-rays", type=int, default=20_000)
     parser.add_argument("--plot", default=None, help="write the scaling plot (PNG) here")
     parser.add_argument("--build-only", action="store_true", help="only the BVH build table (bumpy 1M and 4M)")
+    parser.add_argument("--phases", type=float, default=None, help="the build's phases at this many triangles")
     args = parser.parse_args()
+    if args.phases:
+        print(f"BVH build phases, bumpy {args.phases:g} triangles, medians of {args.repeats}; {machine()}\n")
+        phase_table(int(args.phases), args.repeats)
+        return
     if args.build_only:
         print(f"BVH build, medians of {args.repeats}, alternating; {machine()}\n")
         build_table(args.repeats)
@@ -228,7 +320,7 @@ def main() -> None:
             eh, _, _ = time_embree(v, f, o[hit], d[hit], args.repeats)
             row += [f"{n / e / 1e6:.2f}", f"{e / r1:.2f}", f"{hit.mean() * 100:.0f}%", f"{eh / h1:.2f}"]
             row += [f"{agree * 100:.2f}%"]
-            b1, ba, e_build, _ = time_builds(v, f, args.repeats)
+            b1, ba, e_build, *_ = time_builds(v, f, args.repeats)
         else:
             b1 = ba = e_build = float("nan")
         if not args.quick and len(f) <= 1_000_000:
@@ -260,8 +352,8 @@ def main() -> None:
     headers += ["trimesh Mrays/s"]
     print("\n" + table(headers, rows))
     print(
-        "\nBVH build (raylume compile: the whole compile_scene, mesh file included; build: build_bvh + collapse on"
-        " 1 thread and all; Embree: its scene commit on all threads)\n"
+        "\nBVH build (raylume compile: the whole compile_scene, mesh file included; build: boxes + build_bvh +"
+        " collapse on 1 thread and all; Embree: its scene commit on all threads)\n"
     )
     headers = ["mesh", "triangles", "raylume compile s", "raylume build 1T s", "raylume build all s"]
     headers += ["Embree build s", "build all/Embree", "raylume BVH bytes/tri", "BVH nodes"]

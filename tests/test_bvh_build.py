@@ -416,11 +416,12 @@ def test_parallel_build_is_the_serial_tree_on_any_thread_count(top):
     assert sah_cost(one, 2.0) == sah_cost(serial, 2.0)
     # More pieces than threads (the internal thread count) changes nothing either.
     box = np.empty((len(lo), 6), np.float32)
+    cen = np.empty((len(lo), 3), np.float32)
     cb = np.empty(6)
-    bvh_module._prepare(lo, hi, box, cb, 0, len(lo))
+    bvh_module._prepare(lo, hi, box, cen, cb, 0, len(lo))
     ids = np.arange(len(lo), dtype=np.int32)
     with patch.object(bvh_module, "_TOP", top), patch.object(bvh_module, "_BLOCK", 7):
-        nodes = bvh_module._build(box, ids, cb, 4, 16, 2.0, 1.0, 5)
+        nodes = bvh_module._build(box, cen, ids, cb, 4, 16, 2.0, 1.0, 5)
     for a, b in zip(nodes + (ids,), one, strict=True):
         assert np.array_equal(a, b)
 
@@ -476,3 +477,89 @@ def test_random_boxes_parallel(boxes, max_leaf, n_bins):
     check_bvh(many, lo, hi, max_leaf)
     for a, b in zip(one, many, strict=True):
         assert np.array_equal(a, b)
+
+
+# ---------------------------------------------------------------------------
+# The collapse into 8-wide nodes (accel/wide.py)
+# ---------------------------------------------------------------------------
+
+
+def reference_collapse(bvh, width=8):
+    """Greedy collapse in plain Python: a wide node starts from a binary node's two children
+    and opens the inner child of largest surface area (first on ties) until it has `width`
+    children or only leaves; inner children are numbered consecutively when their parent is
+    filled, the first child's subtree first."""
+    nb_, ni, na, _ = bvh
+    b64 = nb_.astype(np.float64)
+
+    def area(c):
+        big = float(np.finfo(np.float32).max)
+        e = np.maximum(np.minimum(b64[c, 3:], big) - np.maximum(b64[c, :3], -big), 0.0)
+        return e[0] * e[1] + e[1] * e[2] + e[2] * e[0]
+
+    rows = {}
+    stack, n_wide = [(0, 0)], 1
+    while stack:
+        b, w = stack.pop()
+        kids = [b + 1, int(ni[b, 0])]
+        while len(kids) < width:
+            inner = [i for i, c in enumerate(kids) if na[c] >= 0]
+            if not inner:
+                break
+            best = max(inner, key=lambda i: (area(kids[i]), -i))
+            c = kids[best]
+            kids[best] = c + 1
+            kids.append(int(ni[c, 0]))
+        lanes = []
+        for c in kids:
+            if na[c] < 0:
+                lanes.append((c, int(ni[c, 0]), int(ni[c, 1])))
+            else:
+                lanes.append((c, n_wide, 0))
+                n_wide += 1
+        rows[w] = lanes
+        for c, link, _ in reversed(lanes):
+            if na[c] >= 0:
+                stack.append((c, link))
+    bounds = np.empty((n_wide, 6, width), np.float32)
+    bounds[:, :3], bounds[:, 3:] = np.inf, -np.inf
+    index = np.zeros((n_wide, 2, width), np.int32)
+    for w, lanes in rows.items():
+        for lane, (c, link, count) in enumerate(lanes):
+            bounds[w, :, lane] = nb_[c]
+            index[w, :, lane] = (link, count)
+    return bounds, index
+
+
+def test_collapse_is_the_plain_greedy():
+    from raylume.accel import wide
+
+    rng = np.random.default_rng(12)
+    lo, hi = clustered_boxes(rng, 3000)
+    chain = np.arange(300.0)[:, None] * [1.0, 0.0, 0.0] * np.logspace(0, 3, 300)[:, None]
+    for a, b in ((lo, hi), (chain, chain + 0.5), (lo[:3], hi[:3]), (lo[:9], hi[:9])):
+        bvh = build_bvh(a, b, max_leaf_size=4, c_trav=2.0)
+        got = wide.collapse(bvh)
+        if bvh.node_axis[0] < 0:  # a root leaf: one node with one leaf lane
+            assert got.node_index.shape == (1, 2, 8) and got.node_index[0, 1, 0] == len(a)
+            continue
+        bounds, index = reference_collapse(bvh)
+        assert np.array_equal(got.node_bounds, bounds)
+        assert np.array_equal(got.node_index, index)
+        assert got.prim_order is bvh.prim_order
+
+
+@pytest.mark.parametrize("kernel", [None, 16])
+def test_triangle_bounds_are_numpys(kernel):
+    rng = np.random.default_rng(3)
+    tri = rng.normal(size=(1000, 9)).astype(np.float32)
+    tri[7, 4] = np.nan
+    lo, hi = np.empty((1000, 3)), np.empty((1000, 3))
+    with (
+        patch.object(bvh_module, "_TRI_KERNEL", kernel if kernel is not None else bvh_module._TRI_KERNEL),
+        patch.object(bvh_module, "_TOP", 16 if kernel is not None else bvh_module._TOP),  # threads too
+    ):
+        bvh_module.triangle_bounds(tri, lo, hi)
+    corners = tri.reshape(-1, 3, 3)
+    np.testing.assert_array_equal(lo, corners.min(axis=1))
+    np.testing.assert_array_equal(hi, corners.max(axis=1))

@@ -13,7 +13,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .accel.bvh import build_bvh
+from .accel.bvh import build_bvh, triangle_bounds
 from .accel.wide import collapse, mark_sphere_leaves, mark_triangle_leaves, single_leaf, wide_depth, wide_nbytes
 from .compile_instances import build_instances, join_triangles, place_instanced
 from .emitters_table import build_emitters, scene_environment
@@ -501,10 +501,7 @@ def compile_scene(scene: Scene, source="<scene>", accelerate: bool = True) -> Co
     hi = np.empty_like(lo)
     lo[:n_analytic], hi[:n_analytic] = analytic.bounds(shapes, in_bvh)
     if n_tris:
-        corners = tri.reshape(-1, 3, 3)
-        lo[n_analytic:] = corners.min(axis=1)
-        hi[n_analytic:] = corners.max(axis=1)
-        del corners
+        triangle_bounds(tri, lo[n_analytic:], hi[n_analytic:])
     if accelerate and len(lo) > SMALL_SCENE:
         # the binned-SAH binary tree, collapsed into BVH_WIDTH-wide nodes (accel/wide.py)
         bvh = collapse(build_bvh(lo, hi, max_leaf_size=BVH_MAX_LEAF, c_trav=BVH_TRAVERSAL_COST), BVH_WIDTH)

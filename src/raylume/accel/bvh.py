@@ -31,7 +31,7 @@ from numba import types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
-__all__ = ["BVH", "build_bvh", "bvh_nbytes", "bvh_depth", "sah_cost"]
+__all__ = ["BVH", "build_bvh", "bvh_nbytes", "bvh_depth", "sah_cost", "triangle_bounds"]
 
 # Largest finite float32.  Primitive coordinates beyond float32 range become
 # +-inf after outward rounding (still conservative); clamping to this value
@@ -65,13 +65,13 @@ _JIT = {"cache": True, "nogil": True}
 
 
 @nb.njit(**_JIT)
-def _prepare(lo, hi, box, cbounds, start, end):
+def _prepare(lo, hi, box, cen, cbounds, start, end):
     """Round primitive boxes [start, end) outward to float32 into ``box``
-    (N, 6) and return their centroid bounds in ``cbounds`` (6,).  Returns
-    the index of the first invalid primitive (NaN or lo > hi), or -1."""
+    (N, 6), their centroids into ``cen`` (N, 3), and return the centroid
+    bounds in ``cbounds`` (6,).  Returns the index of the first invalid
+    primitive (NaN or lo > hi), or -1."""
     neg_inf = np.float32(-np.inf)
     pos_inf = np.float32(np.inf)
-    _set_empty(cbounds)
     for i in range(start, end):
         for k in range(3):
             a = lo[i, k]
@@ -86,19 +86,19 @@ def _prepare(lo, hi, box, cbounds, start, end):
                 fb = np.nextafter(fb, pos_inf)
             box[i, k] = fa
             box[i, 3 + k] = fb
-            c = _centroid(fa, fb)
-            cbounds[k] = min(cbounds[k], c)
-            cbounds[3 + k] = max(cbounds[3 + k], c)
+            cen[i, k] = _centroid(fa, fb)
+    _cen_bounds(cen, start, end, cbounds)
     return -1
 
 
 @nb.njit(**_JIT)
 def _centroid(a, b):
-    # Twice the centroid (the factor is irrelevant for binning); clamping
-    # keeps it finite for boxes that reach past the float32 range.
+    # The centroid, float32 (computed once, in _prepare: binning and
+    # partitioning read it).  Clamping keeps it finite for boxes that reach
+    # past the float32 range.
     a = min(max(np.float64(a), -_F32_MAX), _F32_MAX)
     b = min(max(np.float64(b), -_F32_MAX), _F32_MAX)
-    return a + b
+    return np.float32(0.5 * (a + b))
 
 
 @nb.njit(**_JIT)
@@ -128,13 +128,16 @@ def _set_empty(b):
 
 
 @nb.njit(**_JIT)
-def _add_centroid(cbnd, box, i):
-    for d in range(3):
-        c = _centroid(box[i, d], box[i, 3 + d])
-        if c < cbnd[d]:
-            cbnd[d] = c
-        if c > cbnd[3 + d]:
-            cbnd[3 + d] = c
+def _cen_bounds(cen, start, end, cbnd):
+    """Centroid bounds of primitives [start, end) into ``cbnd`` (6,); an
+    empty range gives the empty bounds."""
+    l0 = l1 = l2 = np.float32(np.inf)
+    h0 = h1 = h2 = np.float32(-np.inf)
+    for i in range(start, end):
+        c0, c1, c2 = cen[i, 0], cen[i, 1], cen[i, 2]
+        l0, l1, l2 = _min32(l0, c0), _min32(l1, c1), _min32(l2, c2)
+        h0, h1, h2 = _max32(h0, c0), _max32(h1, c1), _max32(h2, c2)
+    cbnd[0], cbnd[1], cbnd[2], cbnd[3], cbnd[4], cbnd[5] = l0, l1, l2, h0, h1, h2
 
 
 # Bins: ``bcnt`` (3, n_bins) primitive counts and ``bbox`` (3, n_bins, 8)
@@ -199,7 +202,7 @@ def _grow3(typingctx, bbox, b0, b1, b2, l0, l1, l2, h0, h1, h2):
 
 
 @nb.njit(**_JIT)
-def _bin_prims(box, start, end, cb, scale, n_bins, bcnt, bbox):
+def _bin_prims(box, cen, start, end, cb, scale, n_bins, bcnt, bbox):
     """Add primitives [start, end) to per-axis bins (count, box bounds);
     the bins are float32 like the boxes, so unions stay exact."""
     c0, c1, c2 = cb[0], cb[1], cb[2]
@@ -207,9 +210,9 @@ def _bin_prims(box, start, end, cb, scale, n_bins, bcnt, bbox):
     for i in range(start, end):
         l0, l1, l2 = box[i, 0], box[i, 1], box[i, 2]
         h0, h1, h2 = box[i, 3], box[i, 4], box[i, 5]
-        b0 = _bin_of(_centroid(l0, h0), c0, s0, n_bins)
-        b1 = _bin_of(_centroid(l1, h1), c1, s1, n_bins)
-        b2 = _bin_of(_centroid(l2, h2), c2, s2, n_bins)
+        b0 = _bin_of(cen[i, 0], c0, s0, n_bins)
+        b1 = _bin_of(cen[i, 1], c1, s1, n_bins)
+        b2 = _bin_of(cen[i, 2], c2, s2, n_bins)
         bcnt[0, b0] += 1
         bcnt[1, b1] += 1
         bcnt[2, b2] += 1
@@ -268,6 +271,11 @@ def _min32(a, b):
 
 
 @nb.njit(**_JIT)
+def _max32(a, b):
+    return a if a > b else b
+
+
+@nb.njit(**_JIT)
 def _set_scale(cb, count, n_bins, scale):
     # Fewer bins for smaller nodes (6 + count / 8, at most one per
     # primitive): the bins' sweep dominated the build at the bottom of the
@@ -305,31 +313,90 @@ def _choose(bcnt, bbox, nbe, scale, count, max_leaf, c_trav, c_isect, nodebox, r
 
 
 @nb.njit(**_JIT)
-def _partition(box, ids, start, end, k, cmin, scale, plane, n_bins, cb_l, cb_r):
+def _partition(box, cen, ids, start, end, k, cmin, scale, plane, n_bins, cb_l, cb_r):
     """Hoare partition of [start, end) by bin < plane on axis k; collects
-    the centroid bounds of both sides on the way.  Returns the split index."""
+    the centroid bounds of both sides on the way (in locals: through the
+    arrays, every primitive's update went through memory).  Returns the
+    split index."""
+    inf = np.float32(np.inf)
+    la0 = la1 = la2 = inf
+    lb0 = lb1 = lb2 = -inf
+    ra0 = ra1 = ra2 = inf
+    rb0 = rb1 = rb2 = -inf
     i = start
     j = end - 1
     while True:
-        while i <= j and _bin_of(_centroid(box[i, k], box[i, 3 + k]), cmin, scale, n_bins) < plane:
-            _add_centroid(cb_l, box, i)
+        while i <= j and _bin_of(cen[i, k], cmin, scale, n_bins) < plane:
+            c0, c1, c2 = cen[i, 0], cen[i, 1], cen[i, 2]
+            la0, la1, la2 = _min32(la0, c0), _min32(la1, c1), _min32(la2, c2)
+            lb0, lb1, lb2 = _max32(lb0, c0), _max32(lb1, c1), _max32(lb2, c2)
             i += 1
-        while i <= j and _bin_of(_centroid(box[j, k], box[j, 3 + k]), cmin, scale, n_bins) >= plane:
-            _add_centroid(cb_r, box, j)
+        while i <= j and _bin_of(cen[j, k], cmin, scale, n_bins) >= plane:
+            c0, c1, c2 = cen[j, 0], cen[j, 1], cen[j, 2]
+            ra0, ra1, ra2 = _min32(ra0, c0), _min32(ra1, c1), _min32(ra2, c2)
+            rb0, rb1, rb2 = _max32(rb0, c0), _max32(rb1, c1), _max32(rb2, c2)
             j -= 1
         if i >= j:
-            return i
+            break
         for d in range(6):
             t = box[i, d]
             box[i, d] = box[j, d]
             box[j, d] = t
+        for d in range(3):
+            t = cen[i, d]
+            cen[i, d] = cen[j, d]
+            cen[j, d] = t
         t_id = ids[i]
         ids[i] = ids[j]
         ids[j] = t_id
+    cb_l[0], cb_l[1], cb_l[2], cb_l[3], cb_l[4], cb_l[5] = la0, la1, la2, lb0, lb1, lb2
+    cb_r[0], cb_r[1], cb_r[2], cb_r[3], cb_r[4], cb_r[5] = ra0, ra1, ra2, rb0, rb1, rb2
+    return i
 
 
 @nb.njit(**_JIT)
-def _build_range(box, ids, start0, end0, root_cb, max_leaf, n_bins, c_trav, c_isect, nbounds, nindex, naxis, base):
+def _surely_leaf(box, start, end, c_trav, c_isect, nodebox):
+    """Whether a node of at most max_leaf primitives is a leaf whatever its
+    bins say (then its box is in ``nodebox``), without binning it.  Any
+    split costs at least c_trav A + c_isect (the sum of the primitives'
+    areas), since each side's box holds each of its primitives' boxes (and
+    areas computed as _choose does are monotone): a leaf costing no more
+    than that bound (less a margin for rounding) is what _choose decides
+    too.  With c_trav = 2, the leaves of 2 always, most of 3 and many of 4."""
+    count = end - start
+    for d in range(3):
+        lo = box[start, d]
+        hi = box[start, 3 + d]
+        for i in range(start + 1, end):
+            lo = _min32(lo, box[i, d])
+            hi = _max32(hi, box[i, 3 + d])
+        nodebox[d] = lo
+        nodebox[3 + d] = hi
+    if count * c_isect <= c_trav:  # a split costs more than c_trav A alone
+        return True
+    size = 0.0
+    for d in range(3):
+        e = min(nodebox[3 + d], _F32_MAX) - max(nodebox[d], -_F32_MAX)
+        if e > size:
+            size = e
+    inv = 1.0 / size if size > 0.0 else 1.0
+    node_area = _half_area(nodebox[0], nodebox[1], nodebox[2], nodebox[3], nodebox[4], nodebox[5], inv)
+    prims = 0.0
+    for i in range(start, end):
+        prims += _half_area(
+            np.float64(box[i, 0]),
+            np.float64(box[i, 1]),
+            np.float64(box[i, 2]),
+            np.float64(box[i, 3]),
+            np.float64(box[i, 4]),
+            np.float64(box[i, 5]),
+            inv,
+        )
+    return c_isect * count * node_area <= (c_trav * node_area + c_isect * prims) * (1.0 - 1e-9)
+
+
+@nb.njit(**_JIT)
+def _build_range(box, cen, ids, start0, end0, root_cb, max_leaf, n_bins, c_trav, c_isect, nbounds, nindex, naxis, base):
     """Serial build of the subtree over primitives [start0, end0) into node
     rows base, base + 1, ... (depth-first; child links and leaf ranges are
     absolute).  Returns the number of nodes written (at most 2 count - 1)."""
@@ -369,6 +436,13 @@ def _build_range(box, ids, start0, end0, root_cb, max_leaf, n_bins, c_trav, c_is
             nindex[patch, 0] = m
         count = end - start
 
+        if count <= max_leaf and _surely_leaf(box, start, end, c_trav, c_isect, nodebox):
+            for d in range(6):
+                nbounds[m, d] = nodebox[d]
+            nindex[m, 0] = start
+            nindex[m, 1] = count
+            naxis[m] = -1
+            continue
         if count == 1:
             for d in range(6):
                 nbounds[m, d] = box[start, d]
@@ -379,7 +453,7 @@ def _build_range(box, ids, start0, end0, root_cb, max_leaf, n_bins, c_trav, c_is
 
         nbe = _set_scale(cb, count, n_bins, scale)
         _clear_bins(bcnt, bbox, nbe)
-        _bin_prims(box, start, end, cb, scale, nbe, bcnt, bbox)
+        _bin_prims(box, cen, start, end, cb, scale, nbe, bcnt, bbox)
         axis, plane = _choose(bcnt, bbox, nbe, scale, count, max_leaf, c_trav, c_isect, nodebox, r_area, r_cnt)
         for d in range(6):
             nbounds[m, d] = nodebox[d]
@@ -389,18 +463,14 @@ def _build_range(box, ids, start0, end0, root_cb, max_leaf, n_bins, c_trav, c_is
             naxis[m] = -1
             continue
 
-        _set_empty(cb_l)
-        _set_empty(cb_r)
         if axis >= 0:
-            mid = _partition(box, ids, start, end, axis, cb[axis], scale[axis], plane, nbe, cb_l, cb_r)
+            mid = _partition(box, cen, ids, start, end, axis, cb[axis], scale[axis], plane, nbe, cb_l, cb_r)
         else:
             # All centroids coincide: nothing to bin, so halve the range to
             # keep leaves within max_leaf.
             mid = start + count // 2
-            for i in range(start, mid):
-                _add_centroid(cb_l, box, i)
-            for i in range(mid, end):
-                _add_centroid(cb_r, box, i)
+            _cen_bounds(cen, start, mid, cb_l)
+            _cen_bounds(cen, mid, end, cb_r)
             axis = 0
         naxis[m] = axis
         nindex[m, 1] = 0  # nindex[m, 0] is patched when the right job pops
@@ -431,14 +501,16 @@ def _build_range(box, ids, start0, end0, root_cb, max_leaf, n_bins, c_trav, c_is
 # --- The top of the tree: one node at a time, each pass split over threads --
 
 
-@nb.njit(**_JIT)
-def _bin_piece(box, start, end, cb, scale, nbe, bcnt, bbox):
+# These two call the kernels that _build_range calls, with the same types, from
+# Python (the kernels release the GIL): no kernel of their own to compile.
+
+
+def _bin_piece(box, cen, start, end, cb, scale, nbe, bcnt, bbox):
     _clear_bins(bcnt, bbox, nbe)
-    _bin_prims(box, start, end, cb, scale, nbe, bcnt, bbox)
+    _bin_prims(box, cen, start, end, cb, scale, nbe, bcnt, bbox)
 
 
-@nb.njit(**_JIT)
-def _partition_blocks(box, ids, start, end, block, j0, j1, k, cmin, scale, plane, nbe, half, n_left, pcb):
+def _partition_blocks(box, cen, ids, start, end, block, j0, j1, k, cmin, scale, plane, nbe, half, n_left, pcb):
     """Partition blocks j0 .. j1 - 1 of [start, end) (``block`` primitives
     each) in place, each on its own; per block: the primitives going left
     (``n_left[j]``) and both sides' centroid bounds (``pcb[j]``).  Blocks
@@ -447,16 +519,12 @@ def _partition_blocks(box, ids, start, end, block, j0, j1, k, cmin, scale, plane
     for j in range(j0, j1):
         a = start + j * block
         b = min(end, a + block)
-        _set_empty(pcb[j, 0])
-        _set_empty(pcb[j, 1])
         if k >= 0:
-            m = _partition(box, ids, a, b, k, cmin, scale, plane, nbe, pcb[j, 0], pcb[j, 1])
+            m = _partition(box, cen, ids, a, b, k, cmin, scale, plane, nbe, pcb[j, 0], pcb[j, 1])
         else:
             m = min(max(half, a), b)
-            for i in range(a, m):
-                _add_centroid(pcb[j, 0], box, i)
-            for i in range(m, b):
-                _add_centroid(pcb[j, 1], box, i)
+            _cen_bounds(cen, a, m, pcb[j, 0])
+            _cen_bounds(cen, m, b, pcb[j, 1])
         n_left[j] = m - a
 
 
@@ -486,21 +554,39 @@ class _Runner:
             self.pool.shutdown()
 
 
-def _gather(box, ids, start, end, j0, j1, n_left, to_left, to_right, tbox, tids):
+def _misplaced(start, end, mid, n_left):
+    """After the blocks' partition: the pairs of equal ranges (right-part primitives before
+    ``mid``, left-part ones from ``mid`` on, both in position order) to swap so that
+    [start, mid) holds the left part. Returns (to_right, to_left, length) arrays."""
+    a = start + _BLOCK * np.arange(len(n_left))
+    b = np.minimum(a + _BLOCK, end)
+    m = a + n_left
+    r_lo, r_hi = m, np.minimum(b, mid)  # right parts sitting left of mid
+    l_lo, l_hi = np.maximum(a, mid), m  # left parts sitting right of mid
+    r = r_hi > r_lo
+    lft = l_hi > l_lo
+    r_lo, r_len = r_lo[r], (r_hi - r_lo)[r]
+    l_lo, l_len = l_lo[lft], (l_hi - l_lo)[lft]
+    # Both lists cover as many primitives: cut them at each other's boundaries.
+    cuts = np.union1d(np.cumsum(r_len), np.cumsum(l_len))
+    cuts = np.concatenate([[0], cuts])
+    length = np.diff(cuts)
+    at = cuts[:-1]
+    ri = np.searchsorted(np.cumsum(r_len), at, side="right")
+    li = np.searchsorted(np.cumsum(l_len), at, side="right")
+    r_off = at - (np.cumsum(r_len) - r_len)[ri]
+    l_off = at - (np.cumsum(l_len) - l_len)[li]
+    return r_lo[ri] + r_off, l_lo[li] + l_off, length
+
+
+def _swap(arrays, x, y, length, j0, j1):
+    """Swap ranges x[j], y[j] of ``length[j]`` rows in each of ``arrays``, j in j0 .. j1 - 1."""
     for j in range(j0, j1):
-        a = start + j * _BLOCK
-        b = min(end, a + _BLOCK)
-        m = a + int(n_left[j])
-        tl, tr = int(to_left[j]), int(to_right[j])
-        tbox[tl : tl + m - a] = box[a:m]
-        tids[tl : tl + m - a] = ids[a:m]
-        tbox[tr : tr + b - m] = box[m:b]
-        tids[tr : tr + b - m] = ids[m:b]
-
-
-def _copy_back(tbox, tids, box, ids, start, end):
-    box[start:end] = tbox[start:end]
-    ids[start:end] = tids[start:end]
+        p, q, k = int(x[j]), int(y[j]), int(length[j])
+        for arr in arrays:
+            t = arr[p : p + k].copy()
+            arr[p : p + k] = arr[q : q + k]
+            arr[q : q + k] = t
 
 
 def _place(snb, sni, sna, src, count, nbounds, nindex, naxis, dst):
@@ -517,11 +603,12 @@ def _pieces(start: int, end: int, parts: int) -> list[tuple[int, int]]:
     return [(a, b) for a, b in zip(cuts[:-1], cuts[1:], strict=True) if b > a]
 
 
-def _build(box, ids, root_cb, max_leaf, n_bins, c_trav, c_isect, threads):
+def _build(box, cen, ids, root_cb, max_leaf, n_bins, c_trav, c_isect, threads):
+    """The tree over the prepared primitives; reorders ``ids`` (and uses
+    ``box``, ``cen`` as scratch).  Returns (node_bounds, node_index, node_axis)."""
     n = box.shape[0]
     run = _Runner(threads)
     try:
-        tbox = tids = None
         # Top of the tree, in depth-first order: ["node", box, axis, right entry]
         # or ["task", start, end, centroid bounds] for a subtree built later.
         entries: list[list] = []
@@ -535,13 +622,11 @@ def _build(box, ids, root_cb, max_leaf, n_bins, c_trav, c_isect, threads):
             if count <= max(_TOP, max_leaf):  # so that a top node is never a leaf
                 entries.append(["task", start, end, cb])
                 continue
-            if tbox is None:
-                tbox, tids = np.empty_like(box), np.empty_like(ids)
             pieces = _pieces(start, end, threads)
             nbe = _set_scale(cb, count, n_bins, scale)
             pcnt = np.empty((len(pieces), 3, n_bins), np.int64)
             pbox = np.empty((len(pieces), 3, n_bins, 8), np.float32)
-            run.map(_bin_piece, [(box, a, b, cb, scale, nbe, pcnt[j], pbox[j]) for j, (a, b) in enumerate(pieces)])
+            run.map(_bin_piece, [(box, cen, a, b, cb, scale, nbe, pcnt[j], pbox[j]) for j, (a, b) in enumerate(pieces)])
             # The pieces' bins reduced exactly (counts, min), so the result
             # does not depend on how the range was cut.
             nodebox = np.empty(6, np.float64)
@@ -556,23 +641,21 @@ def _build(box, ids, root_cb, max_leaf, n_bins, c_trav, c_isect, threads):
             n_left = np.empty(n_blocks, np.int64)
             pcb = np.empty((n_blocks, 2, 6), np.float64)
             args = (k, cmin, sk, plane, nbe, half, n_left, pcb)
-            run.map(_partition_blocks, [(box, ids, start, end, _BLOCK, j0, j1, *args) for j0, j1 in groups])
-            n_right = np.minimum(_BLOCK, end - (start + _BLOCK * np.arange(n_blocks))) - n_left
+            run.map(_partition_blocks, [(box, cen, ids, start, end, _BLOCK, j0, j1, *args) for j0, j1 in groups])
             mid = start + int(n_left.sum())
-            to_left = start + np.cumsum(n_left) - n_left
-            to_right = mid + np.cumsum(n_right) - n_right
-            # Blocks' parts moved together, then back: numpy copies (they
-            # release the GIL), no Numba kernels to compile for them.
-            run.map(
-                _gather, [(box, ids, start, end, j0, j1, n_left, to_left, to_right, tbox, tids) for j0, j1 in groups]
-            )
-            run.map(_copy_back, [(tbox, tids, box, ids, a, b) for a, b in pieces])
+            # Then the right parts left of mid swapped with the left parts right
+            # of it, in place (only misplaced primitives move; blocks that went
+            # wholly to their side stay): numpy copies, which release the GIL,
+            # so no Numba kernel to compile for them.
+            x, y, length = _misplaced(start, end, mid, n_left)
+            cut = np.searchsorted(np.cumsum(length), np.sum(length) * np.arange(1, threads) / threads)
+            spans = [(int(p), int(q)) for p, q in zip(np.r_[0, cut], np.r_[cut, len(length)], strict=True) if q > p]
+            run.map(_swap, [((box, cen, ids), x, y, length, j0, j1) for j0, j1 in spans])
             cb_l = np.concatenate([pcb[:, 0, :3].min(axis=0), pcb[:, 0, 3:].max(axis=0)])
             cb_r = np.concatenate([pcb[:, 1, :3].min(axis=0), pcb[:, 1, 3:].max(axis=0)])
             entries.append(["node", nodebox.astype(np.float32), max(k, 0), -1])
             stack.append((mid, end, cb_r, len(entries) - 1))
             stack.append((start, mid, cb_l, -1))
-        del tbox, tids
 
         # Subtrees into scratch rows 2 * start ... (at most 2 count - 1 each,
         # so they never overlap), largest first for balance.
@@ -585,7 +668,7 @@ def _build(box, ids, root_cb, max_leaf, n_bins, c_trav, c_isect, threads):
         sizes = run.map(
             _build_range,
             [
-                (box, ids, a, b, cb, max_leaf, n_bins, c_trav, c_isect, snb, sni, sna, 2 * a)
+                (box, cen, ids, a, b, cb, max_leaf, n_bins, c_trav, c_isect, snb, sni, sna, 2 * a)
                 for _, a, b, cb in (tasks[t] for t in order)
             ],
         )
@@ -656,11 +739,12 @@ def build_bvh(lo, hi, max_leaf_size: int = 4, n_bins: int = 16, *, c_trav: float
 
     threads = max(1, min(nb.get_num_threads(), n // _TOP))
     box = np.empty((n, 6), np.float32)
+    cen = np.empty((n, 3), np.float32)
     pieces = _pieces(0, n, threads)
     pcb = np.empty((len(pieces), 6), np.float64)
     run = _Runner(threads)
     try:
-        bad = run.map(_prepare, [(lo, hi, box, pcb[j], a, b) for j, (a, b) in enumerate(pieces)])
+        bad = run.map(_prepare, [(lo, hi, box, cen, pcb[j], a, b) for j, (a, b) in enumerate(pieces)])
     finally:
         run.close()
     bad = [b for b in bad if b >= 0]
@@ -670,9 +754,45 @@ def build_bvh(lo, hi, max_leaf_size: int = 4, n_bins: int = 16, *, c_trav: float
     root_cb = np.concatenate([pcb[:, :3].min(axis=0), pcb[:, 3:].max(axis=0)])
     ids = np.arange(n, dtype=np.int32)
     nbounds, nindex, naxis = _build(
-        box, ids, root_cb, int(max_leaf_size), int(n_bins), float(c_trav), float(c_isect), threads
+        box, cen, ids, root_cb, int(max_leaf_size), int(n_bins), float(c_trav), float(c_isect), threads
     )
     return BVH(nbounds, nindex, naxis, ids)
+
+
+@nb.njit(**_JIT)
+def _triangle_bounds(tri, lo, hi, start, end):
+    for i in range(start, end):
+        for d in range(3):
+            a, b, c = tri[i, d], tri[i, 3 + d], tri[i, 6 + d]
+            if a != a or b != b or c != c:  # NaN, as numpy's min gives (build_bvh rejects it)
+                lo[i, d] = hi[i, d] = np.nan
+            else:
+                lo[i, d] = min(a, b, c)
+                hi[i, d] = max(a, b, c)
+
+
+# Triangle counts above which triangle_bounds runs its kernel.
+_TRI_KERNEL = 1 << 18
+
+
+def triangle_bounds(tri: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> None:
+    """The boxes of triangles ``tri`` (T, 9) float32 (three corners) into ``lo``, ``hi`` (T, 3)
+    float64; above _TRI_KERNEL triangles in a kernel on ``numba.get_num_threads()`` threads
+    (numpy's min over the corner axis took 1.6-3 s at 4 M triangles, the kernel 0.06 s; below,
+    numpy's elementwise minimum, a few times faster than that min, and no kernel to compile:
+    ~0.3 s cold)."""
+    n = len(tri)
+    if n <= _TRI_KERNEL:  # numpy (exact as well): smaller scenes compile no kernel for it
+        np.minimum(np.minimum(tri[:, 0:3], tri[:, 3:6]), tri[:, 6:9], out=lo)
+        np.maximum(np.maximum(tri[:, 0:3], tri[:, 3:6]), tri[:, 6:9], out=hi)
+        return
+    tri = np.ascontiguousarray(tri, np.float32)
+    threads = max(1, min(nb.get_num_threads(), n // _TOP))
+    run = _Runner(threads)
+    try:
+        run.map(_triangle_bounds, [(tri, lo, hi, a, b) for a, b in _pieces(0, n, threads)])
+    finally:
+        run.close()
 
 
 def bvh_nbytes(bvh: BVH) -> int:
