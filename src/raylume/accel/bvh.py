@@ -102,6 +102,19 @@ def _centroid(a, b):
 
 
 @nb.njit(**_JIT)
+def _scaled_area(nodebox):
+    """(1 / the node's largest extent, its half area in those units): the scale its children's
+    and bins' areas are measured in."""
+    size = 0.0
+    for d in range(3):
+        e = min(nodebox[3 + d], _F32_MAX) - max(nodebox[d], -_F32_MAX)
+        if e > size:
+            size = e
+    inv = 1.0 / size if size > 0.0 else 1.0
+    return inv, _half_area(nodebox[0], nodebox[1], nodebox[2], nodebox[3], nodebox[4], nodebox[5], inv)
+
+
+@nb.njit(**_JIT)
 def _half_area(lx, ly, lz, hx, hy, hz, inv):
     # Surface area / 2 of a box, extents scaled by ``inv`` (1 / node size) so
     # huge or tiny scenes neither overflow nor underflow, then padded.
@@ -299,13 +312,7 @@ def _choose(bcnt, bbox, nbe, scale, count, max_leaf, c_trav, c_isect, nodebox, r
     _set_empty(nodebox)
     for b in range(nbe):
         _union_bin(nodebox, bbox, 0, b)
-    size = 0.0
-    for d in range(3):
-        e = min(nodebox[3 + d], _F32_MAX) - max(nodebox[d], -_F32_MAX)
-        if e > size:
-            size = e
-    inv = 1.0 / size if size > 0.0 else 1.0
-    node_area = _half_area(nodebox[0], nodebox[1], nodebox[2], nodebox[3], nodebox[4], nodebox[5], inv)
+    inv, node_area = _scaled_area(nodebox)
     cost, axis, plane = _best_split(bcnt, bbox, nbe, scale, inv, node_area, c_trav, c_isect, r_area, r_cnt)
     if count <= max_leaf and (axis < 0 or c_isect * count * node_area <= cost):
         return -2, 0
@@ -374,13 +381,7 @@ def _surely_leaf(box, start, end, c_trav, c_isect, nodebox):
         nodebox[3 + d] = hi
     if count * c_isect <= c_trav:  # a split costs more than c_trav A alone
         return True
-    size = 0.0
-    for d in range(3):
-        e = min(nodebox[3 + d], _F32_MAX) - max(nodebox[d], -_F32_MAX)
-        if e > size:
-            size = e
-    inv = 1.0 / size if size > 0.0 else 1.0
-    node_area = _half_area(nodebox[0], nodebox[1], nodebox[2], nodebox[3], nodebox[4], nodebox[5], inv)
+    inv, node_area = _scaled_area(nodebox)
     prims = 0.0
     for i in range(start, end):
         prims += _half_area(
