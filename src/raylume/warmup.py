@@ -117,6 +117,11 @@ def _intersect(kind: str) -> Callable[[], None]:
 JOBS: list[tuple[Callable[[], None], float]] = [
     (_render("all", "path"), 32.0),
     (_render("basic", "raster"), 20.0),
+    # the raster kernels of the other feature sets: tests of textured, unusual-shape and
+    # instanced scenes each compiled one (~60 s on 2 busy cores), the same one in both workers
+    (_render("all", "raster"), 20.0),
+    (_render("planes", "raster"), 20.0),
+    (_render("instances", "raster"), 20.0),
     (_render("planes", "trace"), 15.0),
     (_render("all", "trace"), 12.0),
     (_render("basic", "trace"), 11.0),
