@@ -113,7 +113,6 @@ def _triangles_codegen(context, builder, sig, args):
         return builder.shuffle_vector(builder.insert_element(undef, x, ir.Constant(i32, 0)), undef, zero_idx)
 
     fadd, fsub, fmul, lt = exact_ops(builder)
-    keep = EXACT
 
     def pick(k):  # o[k] for a runtime k in 0..2
         return builder.select(
@@ -166,7 +165,7 @@ def _triangles_codegen(context, builder, sig, args):
             builder.call(fabs, [w]),
         ),
     )
-    ntol = builder.fneg(tol, flags=keep)
+    ntol = builder.fneg(tol, flags=EXACT)
 
     neg = builder.or_(builder.or_(lt(u, ntol), lt(v, ntol)), lt(w, ntol))
     pos = builder.or_(builder.or_(lt(tol, u), lt(tol, v)), lt(tol, w))
@@ -176,7 +175,7 @@ def _triangles_codegen(context, builder, sig, args):
     lanes = ir.Constant(ir.VectorType(i64, n), list(range(n)))
     ok = builder.and_(
         builder.not_(builder.and_(neg, pos)),
-        builder.fcmp_unordered("!=", det, ir.Constant(v4, [0.0] * n), flags=keep),
+        builder.fcmp_unordered("!=", det, ir.Constant(v4, [0.0] * n), flags=EXACT),
     )
     ok = builder.and_(ok, builder.and_(lt(splat(tmin), t), lt(t, splat(tmax))))
     ok = builder.and_(ok, builder.icmp_signed("<", lanes, splat_i64(builder, count, n)))
@@ -193,7 +192,7 @@ def _triangles_codegen(context, builder, sig, args):
 
     def barycentric(x):
         q = builder.fdiv(x, dj, flags=EXACT_DIVISION)
-        q = builder.select(builder.fcmp_ordered(">", q, zero, flags=keep), q, zero)
+        q = builder.select(builder.fcmp_ordered(">", q, zero, flags=EXACT), q, zero)
         q = builder.select(lt(q, one), q, one)
         return builder.select(found, q, zero)
 
