@@ -1,9 +1,9 @@
 """Compile every kernel variant ahead of time, into Numba's on-disk cache.
 
 A cold start compiles each kernel the first time a render needs it (seconds to a minute per
-mode). `warm_kernels()` renders tiny images that need every variant (each mode against the
-feature sets of shapes.features: basic scenes, scenes with planes, scenes with the other
-shapes, scenes with instances), so that later renders, and other processes sharing the cache folder, start at once:
+mode). `warm_kernels()` renders tiny images that need every variant (each mode with the two
+variants of shapes.features: a basic scene, and one with other shapes and instances), so that
+later renders, and other processes sharing the cache folder, start at once:
 
     python -m raylume.warmup              # everything, in this process
     python -m raylume.warmup --part 1/2   # the second half of the jobs (run halves side by side)
@@ -33,22 +33,13 @@ _OBJECTS = {
         {"type": "sphere", "center": [0, 0, 3], "radius": 1, "material": "m"},
         {"type": "triangle", "vertices": [[-2, -1, 4], [2, -1, 4], [0, 2, 4]], "material": "m"},
     ],
-    # planes beside them: an int8 feature array
-    "planes": [
-        {"type": "sphere", "center": [0, 0, 3], "radius": 1, "material": "m"},
-        {"type": "plane", "point": [0, -1, 0], "normal": [0, 1, 0], "material": "m"},
-    ],
-    # any other shape: a float64 feature array (path mode always compiles this one)
-    "all": [
-        {"type": "sphere", "center": [0, 0, 3], "radius": 1, "material": "m"},
-        {"type": "quad", "position": [0, -1, 3], "u": [4, 0, 0], "v": [0, 0, 4], "material": "m"},
-    ],
 }
 
 
-def _instanced_objects() -> list:
-    """A mesh of two triangles (an OBJ written once per process) with two instances, one
-    mirrored: Instances (kernels/scene.py) as the feature argument."""
+def _all_objects() -> list:
+    """Any other shape, and a mesh of two triangles (an OBJ written once per process) with two
+    instances, one mirrored: the scene's Instances as the feature argument (path mode always
+    compiles this variant); the instances compile the top-level build too."""
     import tempfile
     from pathlib import Path
 
@@ -58,13 +49,14 @@ def _instanced_objects() -> list:
     instances = [{"translate": [0, 0, 0]}, {"translate": [0.5, 0, 1], "scale": [-1, 1, 1]}]
     return [
         {"type": "sphere", "center": [0, 0, 3], "radius": 1, "material": "m"},
+        {"type": "quad", "position": [0, -1, 3], "u": [4, 0, 0], "v": [0, 0, 4], "material": "m"},
         {"type": "mesh", "file": str(path), "material": "m", "instances": instances},
     ]
 
 
 def _scene(kind: str):
-    if kind == "instances" and kind not in _OBJECTS:
-        _OBJECTS[kind] = _instanced_objects()
+    if kind == "all" and kind not in _OBJECTS:
+        _OBJECTS[kind] = _all_objects()
     return scene_from_dict(
         {
             "render": {"width": 8, "height": 8},
@@ -111,30 +103,21 @@ def _intersect(kind: str) -> Callable[[], None]:
     return job
 
 
-# (job, its share of a cold compile in percent, measured on 2 cores): path mode's kernels take
-# a third of it, the three trace variants another third. Path mode has one variant for every
-# scene, instances included (shapes.path_features); raster draws instances as plain triangles.
+# (job, its relative cost: seconds of a cold compile / 10, measured with the two parts side by
+# side on a busy 2-core machine). Every mode has two variants, the basic one and the Instances
+# one (shapes.features), which any other scene uses, whichever shapes it has; path mode and the
+# rasterizer's shading pass have only the latter (raster draws instances as plain triangles:
+# their Instances are empty).
 JOBS: list[tuple[Callable[[], None], float]] = [
-    (_render("all", "path"), 32.0),
-    (_render("basic", "raster"), 20.0),
-    # the raster kernels of the other feature sets: tests of textured, unusual-shape and
-    # instanced scenes each compiled one (~60 s on 2 busy cores), the same one in both workers
-    (_render("all", "raster"), 20.0),
-    (_render("planes", "raster"), 20.0),
-    (_render("instances", "raster"), 20.0),
-    (_render("planes", "trace"), 15.0),
-    (_render("all", "trace"), 12.0),
-    (_render("basic", "trace"), 11.0),
-    (_render("basic", "cast"), 2.3),
-    (_render("all", "cast"), 1.9),
-    (_render("planes", "cast"), 1.7),
-    (_intersect("all"), 1.5),
-    (_intersect("planes"), 1.4),
-    (_intersect("basic"), 1.3),
-    (_render("instances", "trace"), 12.0),
-    (_render("instances", "cast"), 2.0),
-    (_intersect("instances"), 1.5),
-    (_bvh, 8.0),
+    (_render("all", "path"), 39.0),
+    (_render("all", "trace"), 23.0),
+    (_render("basic", "trace"), 21.5),
+    (_render("all", "raster"), 19.0),
+    (_intersect("all"), 6.9),
+    (_render("all", "cast"), 6.3),
+    (_render("basic", "cast"), 6.0),
+    (_intersect("basic"), 2.9),
+    (_bvh, 0.4),
 ]
 
 

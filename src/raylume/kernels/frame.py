@@ -65,9 +65,9 @@ def camera_sample(cam, filt, seed, i, j, s, total_spp, width, height):
 # pixel (i, j) of the image is their element (j - y0, i - x0), and its samples are those of
 # the full image (the same keys), so a window equals that part of the full render.
 # `samples` is (first, count, total): this pass adds samples first..first+count-1 of total.
-# X is None for scenes of spheres and opaque triangles only, and an array otherwise (see
-# shapes.py, "features"): with None, Numba compiles no code for the other shapes, planes or
-# transparent shadows.
+# X is None for scenes of spheres and opaque triangles only, and the scene's Instances otherwise
+# (see shapes.py, "features"): with None, Numba compiles no code for the other shapes, planes,
+# transparent shadows or instances.
 # Every lane counts the rows it finished in rows_done[lane * PROGRESS_STRIDE] (counters a cache
 # line apart, against false sharing) and checks stop[0] before each row: the waiting thread
 # shows progress from the counters and stops a render within a row's time.

@@ -63,7 +63,7 @@ from .direct import unshadowed_lighting
 from .environment import environment_radiance
 from .materials import MAT_EMISSION, MAT_TEXTURE, albedo
 from .scene import environment_of, geometry_of, lights_of, surfaces_of
-from .shapes import PRIM_MATERIAL, features, offset_epsilon, surface
+from .shapes import PRIM_MATERIAL, offset_epsilon, path_features, surface
 from .textures import IMAGE, TEX_KIND
 from .traverse import TRAVERSAL_STACK
 from .vec import add, dot, hadamard, madd, mul, normalize, row3
@@ -623,9 +623,11 @@ def rasterize_arrays(
         _draw_bands(view, near, height, tri, extra, n_main, bounds, band_start, entries, zbuf, tid)
     finally:
         numba.set_parallel_chunksize(previous)
+    # One variant of the shading pass for every scene, as path mode has: its parallel loop
+    # compiles in ~90 s of CPU a variant, and the basic variant is only a few % faster.
     _shade(
         S,
-        features(S),
+        path_features(S),
         cam,
         view,
         width,

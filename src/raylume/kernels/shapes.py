@@ -18,7 +18,7 @@ import math
 from enum import IntEnum
 
 import numpy as np
-from numba import njit, types
+from numba import njit
 from numba.extending import overload
 
 from . import shape_cylinder, shape_disk, shape_plane, shape_quad, shape_sphere, shape_triangle
@@ -69,38 +69,34 @@ INF = math.inf
 
 # Basic scenes (spheres and opaque triangles, no image textures, no area lights: the seed scene,
 # most meshes) compile without the code for the other shapes, planes, transparent shadows,
-# image textures and area lights: kernels take X = features(S), None for a basic scene, and
-# test `X is not None` before that code; Numba drops a branch on a None argument before
-# compiling it (about 9 s of a 45 s cold start). Other scenes get an array: int8 when planes
-# are their only other shape, float64 when they have disks, quads or cylinders (see below).
-_WITH_PLANES = np.zeros(1, dtype=np.int8)  # and nothing but spheres and triangles beside
-_WITH_ALL_SHAPES = np.zeros(1, dtype=np.float64)
-ALL_FEATURES = _WITH_ALL_SHAPES  # for kernels compiled once for every scene (path mode)
+# image textures, area lights and instances: kernels take X = features(S), None for a basic
+# scene, and test `X is not None` before that code; Numba drops a branch on a None argument
+# before compiling it (the seed scene's trace kernel: 4% faster, and 72 s of compilation against
+# 96 s). Every other scene gets its Instances (kernels/scene.py, empty when it has none): one
+# variant with every shape's code, compiled once. (There were int8 and float64 variants for
+# planes-only and other-shape scenes too; each mode's kernels compiled up to four times, and a
+# fresh machine spent most of its first test run compiling them.)
 
 
 def features(S):
-    """None for a basic kernel scene (see above); an array otherwise; the scene's Instances
-    (kernels/scene.py) when it has instances: that variant compiles every shape's code and the
-    two-level traversal (traverse_instances.py)."""
+    """None for a basic kernel scene (see above); the scene's Instances otherwise: that variant
+    compiles every shape's code and the two-level traversal (traverse_instances.py), skipped at
+    run time when the scene has no instances."""
     from . import lights, textures
 
-    if S.instance_inverse.shape[0] > 0:
-        return instances_of(S)
     basic = (
-        bool(np.isin(S.prims[:, PRIM_KIND], (SPHERE, TRIANGLE)).all())
+        S.instance_inverse.shape[0] == 0
+        and bool(np.isin(S.prims[:, PRIM_KIND], (SPHERE, TRIANGLE)).all())
         and not S.has_transparency
         and not (S.textures[:, textures.TEX_KIND] == textures.IMAGE).any()
         and not np.isin(S.light_kind, (lights.QUAD, lights.SPHERE)).any()
     )
-    if basic:
-        return None
-    unusual = np.isin(S.prims[:, PRIM_KIND], (DISK, QUAD, CYLINDER)).any()
-    return _WITH_ALL_SHAPES if unusual else _WITH_PLANES
+    return None if basic else instances_of(S)
 
 
 def path_features(S):
-    """X of path mode: one variant for every scene (a path-mode compile is ~55 s), with every
-    shape and the instance code (skipped at run time when the scene has no instances)."""
+    """X of path mode: one variant for every scene (a path-mode compile is ~55 s), the scene's
+    Instances as for any scene that is not basic."""
     return instances_of(S)
 
 
@@ -212,7 +208,7 @@ def intersect(G, X, k, o, d, shear, tmin, tmax):
     # other shapes: a call, so that they cost the leaf loop no code size (planes are tested
     # once per ray, before traversal); no code at all for scenes without them (X is None)
     if X is not None:
-        return _intersect_unusual(X, G.shapes, kind, row, o, d, tmin, tmax)
+        return _intersect_other(G.shapes, kind, row, o, d, tmin, tmax)
     return INF, 0.0, 0.0
 
 
@@ -240,7 +236,7 @@ def normals(G, X, k, b1, b2, p):
         return shape_triangle.normals(G, row, b1, b2)
     n = (0.0, 0.0, 1.0)
     if X is not None:
-        n = _normal_unusual(X, G.shapes, kind, row, b1, p)
+        n = _normal_other(G.shapes, kind, row, b1, p)
     return n, n
 
 
@@ -267,7 +263,7 @@ def uv(G, X, hit, b1, b2, p):
         return shape_sphere.uv(G.shapes, row, p)
     if X is None:
         return 0.0, 0.0
-    return _uv_unusual(X, G.shapes, kind, row, b1, p)
+    return _uv_other(G.shapes, kind, row, b1, p)
 
 
 @njit(**KERNEL)
@@ -302,52 +298,6 @@ def _uv_other(shapes, kind, row, b1, p):
     if kind == QUAD:
         return shape_quad.uv(shapes, row, p)
     return shape_cylinder.uv(shapes, row, p, b1)
-
-
-# Shapes beyond spheres and triangles go through these three functions, chosen by X's type at
-# compile time: scenes whose only other shape is the plane (X int8) compile the plane's code
-# alone; scenes with disks, quads or cylinders (X float64) compile every shape's.
-
-
-def _intersect_unusual(X, shapes, kind, row, o, d, tmin, tmax):
-    raise NotImplementedError("a Numba overload")
-
-
-def _normal_unusual(X, shapes, kind, row, b1, p):
-    raise NotImplementedError("a Numba overload")
-
-
-def _uv_unusual(X, shapes, kind, row, b1, p):
-    raise NotImplementedError("a Numba overload")
-
-
-def _all_shapes(X) -> bool:
-    return (isinstance(X, types.Array) and X.dtype == types.float64) or is_instances(X)
-
-
-@overload(_intersect_unusual, jit_options=KERNEL, inline="always")
-def _intersect_unusual_impl(X, shapes, kind, row, o, d, tmin, tmax):
-    if _all_shapes(X):
-        return lambda X, shapes, kind, row, o, d, tmin, tmax: _intersect_other(shapes, kind, row, o, d, tmin, tmax)
-    return lambda X, shapes, kind, row, o, d, tmin, tmax: (
-        shape_plane.intersect(shapes, row, o, d, tmin, tmax),
-        0.0,
-        0.0,
-    )
-
-
-@overload(_normal_unusual, jit_options=KERNEL, inline="always")
-def _normal_unusual_impl(X, shapes, kind, row, b1, p):
-    if _all_shapes(X):
-        return lambda X, shapes, kind, row, b1, p: _normal_other(shapes, kind, row, b1, p)
-    return lambda X, shapes, kind, row, b1, p: shape_plane.normal(shapes, row, p)
-
-
-@overload(_uv_unusual, jit_options=KERNEL, inline="always")
-def _uv_unusual_impl(X, shapes, kind, row, b1, p):
-    if _all_shapes(X):
-        return lambda X, shapes, kind, row, b1, p: _uv_other(shapes, kind, row, b1, p)
-    return lambda X, shapes, kind, row, b1, p: shape_plane.uv(shapes, row, p)
 
 
 # --- Python side -----------------------------------------------------------------------------
