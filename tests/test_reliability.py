@@ -46,73 +46,6 @@ def _warm_kernels(tmp_path):
     )
 
 
-def test_sigint_stops_quickly_writes_nothing_and_exits_130(tmp_path):
-    _warm_kernels(tmp_path)
-    proc = subprocess.Popen(
-        [
-            sys.executable,
-            "-m",
-            "raylume.cli",
-            "render",
-            "--width",
-            "4000",
-            "--height",
-            "4000",
-            "--spp",
-            "16",
-            "-o",
-            "big.png",
-        ],
-        cwd=tmp_path,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
-    time.sleep(5)
-    assert proc.poll() is None, proc.communicate()
-    sent = time.monotonic()
-    proc.send_signal(signal.SIGINT)
-    _out, err = proc.communicate(timeout=30)
-    assert proc.returncode == 130, err
-    assert time.monotonic() - sent < 5
-    assert "interrupted" in err and "Traceback" not in err
-    assert not (tmp_path / "big.png").exists()
-    assert list(tmp_path.iterdir()) == []
-
-
-def test_sigint_with_partial_saves_the_rows_done(tmp_path):
-    _warm_kernels(tmp_path)
-    proc = subprocess.Popen(
-        [
-            sys.executable,
-            "-m",
-            "raylume.cli",
-            "render",
-            "--width",
-            "3000",
-            "--height",
-            "3000",
-            "--spp",
-            "16",
-            "-o",
-            "big.npy",
-            "--partial",
-        ],
-        cwd=tmp_path,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
-    time.sleep(5)
-    proc.send_signal(signal.SIGINT)
-    _, err = proc.communicate(timeout=30)
-    assert proc.returncode == 130, err
-    assert not (tmp_path / "big.npy").exists()
-    partial = np.load(tmp_path / "big.partial.npy")
-    assert partial.shape == (3000, 3000, 3)
-    assert partial[-1].max() == 0.0  # the bottom rows (ground) were not reached
-
-
 def _watch(stream, text: bytes) -> tuple[threading.Event, list]:
     """Read `stream` in a thread; the event is set once `text` has appeared in it."""
     seen, chunks = threading.Event(), []
@@ -125,6 +58,64 @@ def _watch(stream, text: bytes) -> tuple[threading.Event, list]:
 
     threading.Thread(target=read, daemon=True).start()
     return seen, chunks
+
+
+def _render_in_progress(tmp_path, *args):
+    """`raylume render *args` in tmp_path, returned once its progress bar says it is rendering
+    (not after a fixed sleep: on a loaded machine the import alone took over 5 s, and the
+    interrupt landed in it), with the list its stderr is read into."""
+    env = {**os.environ, "TTY_COMPATIBLE": "1", "TTY_INTERACTIVE": "1"}  # Rich draws its bar into the pipe
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "raylume.cli", "render", *args],
+        cwd=tmp_path,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        env=env,
+    )
+    seen, chunks = _watch(proc.stderr, b"rendering")
+    if not seen.wait(timeout=120):
+        proc.kill()
+        pytest.fail(b"".join(chunks).decode(errors="replace"))
+    return proc, chunks
+
+
+def _interrupted(proc, chunks) -> tuple[float, str]:
+    """Send SIGINT; (seconds until the process ended, its stderr)."""
+    sent = time.monotonic()
+    proc.send_signal(signal.SIGINT)
+    try:
+        proc.wait(timeout=30)
+    finally:
+        proc.kill()
+    elapsed = time.monotonic() - sent
+    time.sleep(0.1)  # the reader thread's last chunk
+    return elapsed, b"".join(chunks).decode(errors="replace")
+
+
+def test_sigint_stops_quickly_writes_nothing_and_exits_130(tmp_path):
+    _warm_kernels(tmp_path)
+    proc, chunks = _render_in_progress(tmp_path, "--width", "4000", "--height", "4000", "--spp", "16", "-o", "big.png")
+    time.sleep(1.0)  # inside the render's rows
+    assert proc.poll() is None, "the render ended before the interrupt"
+    elapsed, err = _interrupted(proc, chunks)
+    assert proc.returncode == 130, err
+    assert elapsed < 5
+    assert "interrupted" in err and "Traceback" not in err
+    assert not (tmp_path / "big.png").exists()
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_sigint_with_partial_saves_the_rows_done(tmp_path):
+    _warm_kernels(tmp_path)
+    args = ("--width", "3000", "--height", "3000", "--spp", "16", "-o", "big.npy", "--partial")
+    proc, chunks = _render_in_progress(tmp_path, *args)
+    time.sleep(1.0)
+    _, err = _interrupted(proc, chunks)
+    assert proc.returncode == 130, err
+    assert not (tmp_path / "big.npy").exists()
+    partial = np.load(tmp_path / "big.partial.npy")
+    assert partial.shape == (3000, 3000, 3)
+    assert partial[-1].max() == 0.0  # the bottom rows (ground) were not reached
 
 
 def test_sigint_during_a_long_render_exits_130_within_two_seconds(tmp_path):
