@@ -205,9 +205,12 @@ def intersect(G, X, k, o, d, shear, tmin, tmax):
         return shape_sphere.intersect(G.shapes, row, o, d, tmin, tmax), 0.0, 0.0
     if kind == TRIANGLE:
         return shape_triangle.intersect_triangle(o, shear, G.triangles, row, tmin, tmax)
-    # other shapes: a call, so that they cost the leaf loop no code size (planes are tested
-    # once per ray, before traversal); no code at all for scenes without them (X is None)
+    # other shapes: no code at all in the basic variant (X is None); planes, tested once per
+    # ray before traversal, inline (as a call, the glass example's cast frame took 20% longer,
+    # its trace frame 9%); the rest by a call, so that they cost the leaf loop no code size
     if X is not None:
+        if kind == PLANE:
+            return shape_plane.intersect(G.shapes, row, o, d, tmin, tmax), 0.0, 0.0
         return _intersect_other(G.shapes, kind, row, o, d, tmin, tmax)
     return INF, 0.0, 0.0
 
