@@ -33,6 +33,10 @@ from raylume.kernels.materials import (
     PLASTIC,
 )
 
+# The checks below share njit helpers (cached, but compiled on a fresh machine): one xdist worker
+# runs them all, so that the two workers do not each compile them at the same time.
+pytestmark = pytest.mark.xdist_group("bsdf")
+
 GOLD_ETA = (0.143, 0.374, 1.442)  # gold at ~650, 550, 450 nm (Johnson and Christy)
 GOLD_K = (3.983, 2.385, 1.603)
 GREY = (0.8, 0.8, 0.8)

@@ -97,6 +97,9 @@ def test_random_rays_never_nan_and_hits_lie_in_the_triangle(verts, o, d):
 
 
 # --- BVH against brute force -------------------------------------------------------------------
+# The helpers below are compiled in the test process, uncached (test_box_test_is_vectorised reads
+# their machine code): the tests that call them share one xdist worker, which compiles them once.
+BRUTE_FORCE_WORKER = pytest.mark.xdist_group("bvh_brute_force")
 
 
 @njit
@@ -166,6 +169,7 @@ def _random_rays(rng, n, center, spread):
     return origins, dirs
 
 
+@BRUTE_FORCE_WORKER
 @pytest.mark.parametrize("kind", ["soup", "bumpy"])
 def test_bvh_closest_hit_equals_brute_force(tmp_path, kind):
     rng = np.random.default_rng(7)
@@ -192,6 +196,7 @@ def test_bvh_closest_hit_equals_brute_force(tmp_path, kind):
     assert not shorter[np.isfinite(t_ref)].any()
 
 
+@BRUTE_FORCE_WORKER
 def test_public_intersect_equals_brute_force_on_all_threads(tmp_path):
     """raylume.intersect (threads take interleaved chunks of rays) against the brute force:
     distances to the last bits, face indices, object ids, misses; directions need not be unit."""
@@ -218,6 +223,7 @@ def test_public_intersect_equals_brute_force_on_all_threads(tmp_path):
         raylume.intersect(scene, origins[:2], np.zeros((2, 3)))
 
 
+@BRUTE_FORCE_WORKER
 def test_bvh_on_a_real_mesh_equals_brute_force(shared_models, tmp_path):
     from raylume.scene.mesh import load_mesh
 
@@ -356,6 +362,7 @@ def test_rays_through_a_shared_diagonal_hit_inside_the_renderer(tmp_path):
 # --- the wide BVH: structure, vector code, awkward rays -----------------------------------------
 
 
+@BRUTE_FORCE_WORKER
 def test_box_test_is_vectorised():
     """The wide box test runs as 8-wide vector instructions (ymm vsubps/vmulps/vmaxps/vminps/
     vcmpps with AVX2) inside the traversal that every mode inlines: fails loudly if a change
@@ -407,6 +414,7 @@ def test_collapsed_bvh_keeps_every_leaf_and_box(width):
     assert wide_depth(wide) <= int(np.ceil(np.log2(len(binary.node_axis)))) + 1
 
 
+@BRUTE_FORCE_WORKER
 def test_awkward_rays_against_brute_force(tmp_path):
     """A grid of coplanar triangles and degenerate ones: rays exactly through vertices and
     along edges (in the plane, grazing), axis-parallel rays, zero and NaN directions. Closest
