@@ -69,7 +69,9 @@ def stack_needed(depth: int) -> int:
 @njit(cache=True)
 def traversal_stacks():
     """One thread's (node_stack, t_stack) for closest_hit and any_hit."""
-    return scratch_array(TRAVERSAL_STACK, np.int32), scratch_array(TRAVERSAL_STACK, np.float64)
+    # Entry distances as the box test computes them, float32: exactly the values (and order) a
+    # float64 stack held, in half the memory (bumpy 1M hit rays: ~4% less time).
+    return scratch_array(TRAVERSAL_STACK, np.int32), scratch_array(TRAVERSAL_STACK, np.float32)
 
 
 @njit(cache=True)
@@ -136,9 +138,12 @@ def _box_codegen(width, store):
         if store:
             out = context.make_array(sig.args[5])(context, builder, args[5])
             at = context.cast(builder, args[6], sig.args[6], types.int64)
-            dv = ir.VectorType(f64, width)
             p = builder.gep(out.data, [at], inbounds=True)
-            builder.store(builder.fpext(tnear, dv), builder.bitcast(p, dv.as_pointer()), align=8)
+            if sig.args[5].dtype == types.float32:
+                builder.store(tnear, builder.bitcast(p, vt.as_pointer()), align=4)
+            else:
+                dv = ir.VectorType(f64, width)
+                builder.store(builder.fpext(tnear, dv), builder.bitcast(p, dv.as_pointer()), align=8)
         return mask
 
     return codegen
@@ -148,7 +153,7 @@ def _box_codegen(width, store):
 def box_hits(typingctx, bounds, node, rf, rows, tmax, out, at):
     """Ray (box_ray's (rf, rows)) against the BVH_WIDTH child boxes of wide node `node`
     (bounds float32 (M, 6, BVH_WIDTH), C-contiguous), up to distance tmax: a bit mask of the
-    lanes the ray enters. With an array `out` (float64, C-contiguous), the lanes' entry
+    lanes the ray enters. With an array `out` (float32 or float64, C-contiguous), the lanes' entry
     distances are written to out[at : at + BVH_WIDTH] (meaningful for hit lanes only; never
     beyond the exact entry distance); with out None, nothing is written."""
     if not (isinstance(bounds, types.Array) and bounds.ndim == 3 and bounds.dtype == types.float32):
@@ -156,8 +161,10 @@ def box_hits(typingctx, bounds, node, rf, rows, tmax, out, at):
     if bounds.layout != "C":
         raise TypingError("box_hits: bounds must be C-contiguous")
     store = not isinstance(out, (types.NoneType, types.Omitted))
-    if store and not (isinstance(out, types.Array) and out.dtype == types.float64 and out.layout == "C"):
-        raise TypingError("box_hits: out must be a C-contiguous float64 array or None")
+    if store and not (
+        isinstance(out, types.Array) and out.dtype in (types.float32, types.float64) and out.layout == "C"
+    ):
+        raise TypingError("box_hits: out must be a C-contiguous float32 or float64 array or None")
     sig = types.int64(bounds, node, rf, rows, tmax, out, at)
     return sig, _box_codegen(BVH_WIDTH, store)
 
