@@ -392,22 +392,25 @@ def push_children(bounds, index, leaf_rows, ref, rf, rows, best_t, node_stack, t
     # i >= k is read before slot top + k is written)
     mask = box_hits(bounds, ref, rf, rows, best_t, t_stack, top)
     k = 0
+    # Subscripts as unsigned (none is negative): Numba wraps every signed subscript around
+    # (shift, and, add); without that, bumpy 10k hit rays took ~2% less time.
     while mask != 0:
         i = lowest_bit(mask)
         mask &= mask - 1
-        t = t_stack[top + i]
-        if index[ref, 1, i] == 0:
-            child = index[ref, 0, i]
+        u = np.uint64(i)
+        t = t_stack[np.uint64(top + i)]
+        if index[np.uint64(ref), 1, u] == 0:
+            child = index[np.uint64(ref), 0, u]
         else:
             child = -1 - ((ref << _LANE_SHIFT) + i)
-            prefetch_row(leaf_rows, index[ref, 0, i])
+            prefetch_row(leaf_rows, index[np.uint64(ref), 0, u])
         j = top + k
-        while j > top and t_stack[j - 1] < t:
-            t_stack[j] = t_stack[j - 1]
-            node_stack[j] = node_stack[j - 1]
+        while j > top and t_stack[np.uint64(j - 1)] < t:
+            t_stack[np.uint64(j)] = t_stack[np.uint64(j - 1)]
+            node_stack[np.uint64(j)] = node_stack[np.uint64(j - 1)]
             j -= 1
-        t_stack[j] = t
-        node_stack[j] = child
+        t_stack[np.uint64(j)] = t
+        node_stack[np.uint64(j)] = child
         k += 1
     return k
 
@@ -430,8 +433,8 @@ def pop_nearer(node_stack, t_stack, top, base, best_t):
     """The next entry above `base` still nearer than best_t: (found, new top, entry)."""
     while top > base:
         top -= 1
-        if t_stack[top] < best_t:
-            return True, top, node_stack[top]
+        if t_stack[np.uint64(top)] < best_t:  # unsigned: as in push_children
+            return True, top, node_stack[np.uint64(top)]
     return False, top, node_stack[top]
 
 
