@@ -6,7 +6,29 @@ from numba import njit, prange
 from .scene import geometry_of
 from .shapes import NO_HIT, PRIM_FACE, PRIM_OBJECT, instance_id, split_hit
 from .traverse import INF, closest_hit, traversal_stacks
-from .vec import FAST
+from .vec import FAST, KERNEL
+
+
+# A call per chunk of rays, compiled without reference counting (KERNEL), as the frame kernels'
+# row functions are: inlined into intersect_rays' parallel loop, the traversal took and dropped
+# references to the BVH arrays for every ray (4 calls with atomic operations a ray).
+@njit(**KERNEL)
+def _intersect_chunk(G, X, origins, directions, t_out, object_out, prim_out, instance_out, start, end, stacks):
+    node_stack, t_stack = stacks
+    for k in range(start, end):
+        o = (float(origins[k, 0]), float(origins[k, 1]), float(origins[k, 2]))
+        d = (float(directions[k, 0]), float(directions[k, 1]), float(directions[k, 2]))
+        t, prim, b1, b2 = closest_hit(G, X, o, d, 0.0, INF, node_stack, t_stack)
+        t_out[k] = t
+        if prim == NO_HIT:
+            object_out[k] = -1
+            prim_out[k] = -1
+            instance_out[k] = -1
+        else:
+            row, _ = split_hit(X, prim)
+            object_out[k] = G.prims[row, PRIM_OBJECT]
+            prim_out[k] = G.prims[row, PRIM_FACE]
+            instance_out[k] = instance_id(X, prim)
 
 
 @njit(parallel=True, fastmath=FAST, cache=True, error_model="numpy")
@@ -20,20 +42,10 @@ def intersect_rays(S, X, origins, directions, t_out, object_out, prim_out, insta
     chunk = 256
     for lane in prange(lanes):
         G = geometry_of(S)  # made inside the parallel loop: parfor cannot capture it from outside
-        node_stack, t_stack = traversal_stacks()
+        stacks = traversal_stacks()
         # interleaved chunks: neighbouring rays cost alike, distant ones may not (see frame.py)
         for c in range(lane, (n + chunk - 1) // chunk, lanes):
-            for k in range(c * chunk, min(n, (c + 1) * chunk)):
-                o = (float(origins[k, 0]), float(origins[k, 1]), float(origins[k, 2]))
-                d = (float(directions[k, 0]), float(directions[k, 1]), float(directions[k, 2]))
-                t, prim, b1, b2 = closest_hit(G, X, o, d, 0.0, INF, node_stack, t_stack)
-                t_out[k] = t
-                if prim == NO_HIT:
-                    object_out[k] = -1
-                    prim_out[k] = -1
-                    instance_out[k] = -1
-                else:
-                    row, _ = split_hit(X, prim)
-                    object_out[k] = S.prims[row, PRIM_OBJECT]
-                    prim_out[k] = S.prims[row, PRIM_FACE]
-                    instance_out[k] = instance_id(X, prim)
+            end = min(n, (c + 1) * chunk)
+            _intersect_chunk(
+                G, X, origins, directions, t_out, object_out, prim_out, instance_out, c * chunk, end, stacks
+            )

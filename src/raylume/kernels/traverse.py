@@ -69,7 +69,9 @@ def stack_needed(depth: int) -> int:
 @njit(cache=True)
 def traversal_stacks():
     """One thread's (node_stack, t_stack) for closest_hit and any_hit."""
-    return scratch_array(TRAVERSAL_STACK, np.int32), scratch_array(TRAVERSAL_STACK, np.float64)
+    # Entry distances as the box test computes them, float32: exactly the values (and order) a
+    # float64 stack held, in half the memory (bumpy 1M hit rays: ~4% less time).
+    return scratch_array(TRAVERSAL_STACK, np.int32), scratch_array(TRAVERSAL_STACK, np.float32)
 
 
 @njit(cache=True)
@@ -136,9 +138,12 @@ def _box_codegen(width, store):
         if store:
             out = context.make_array(sig.args[5])(context, builder, args[5])
             at = context.cast(builder, args[6], sig.args[6], types.int64)
-            dv = ir.VectorType(f64, width)
             p = builder.gep(out.data, [at], inbounds=True)
-            builder.store(builder.fpext(tnear, dv), builder.bitcast(p, dv.as_pointer()), align=8)
+            if sig.args[5].dtype == types.float32:
+                builder.store(tnear, builder.bitcast(p, vt.as_pointer()), align=4)
+            else:
+                dv = ir.VectorType(f64, width)
+                builder.store(builder.fpext(tnear, dv), builder.bitcast(p, dv.as_pointer()), align=8)
         return mask
 
     return codegen
@@ -148,7 +153,7 @@ def _box_codegen(width, store):
 def box_hits(typingctx, bounds, node, rf, rows, tmax, out, at):
     """Ray (box_ray's (rf, rows)) against the BVH_WIDTH child boxes of wide node `node`
     (bounds float32 (M, 6, BVH_WIDTH), C-contiguous), up to distance tmax: a bit mask of the
-    lanes the ray enters. With an array `out` (float64, C-contiguous), the lanes' entry
+    lanes the ray enters. With an array `out` (float32 or float64, C-contiguous), the lanes' entry
     distances are written to out[at : at + BVH_WIDTH] (meaningful for hit lanes only; never
     beyond the exact entry distance); with out None, nothing is written."""
     if not (isinstance(bounds, types.Array) and bounds.ndim == 3 and bounds.dtype == types.float32):
@@ -156,8 +161,10 @@ def box_hits(typingctx, bounds, node, rf, rows, tmax, out, at):
     if bounds.layout != "C":
         raise TypingError("box_hits: bounds must be C-contiguous")
     store = not isinstance(out, (types.NoneType, types.Omitted))
-    if store and not (isinstance(out, types.Array) and out.dtype == types.float64 and out.layout == "C"):
-        raise TypingError("box_hits: out must be a C-contiguous float64 array or None")
+    if store and not (
+        isinstance(out, types.Array) and out.dtype in (types.float32, types.float64) and out.layout == "C"
+    ):
+        raise TypingError("box_hits: out must be a C-contiguous float32 or float64 array or None")
     sig = types.int64(bounds, node, rf, rows, tmax, out, at)
     return sig, _box_codegen(BVH_WIDTH, store)
 
@@ -385,22 +392,25 @@ def push_children(bounds, index, leaf_rows, ref, rf, rows, best_t, node_stack, t
     # i >= k is read before slot top + k is written)
     mask = box_hits(bounds, ref, rf, rows, best_t, t_stack, top)
     k = 0
+    # Subscripts as unsigned (none is negative): Numba wraps every signed subscript around
+    # (shift, and, add); without that, bumpy 10k hit rays took ~2% less time.
     while mask != 0:
         i = lowest_bit(mask)
         mask &= mask - 1
-        t = t_stack[top + i]
-        if index[ref, 1, i] == 0:
-            child = index[ref, 0, i]
+        u = np.uint64(i)
+        t = t_stack[np.uint64(top + i)]
+        if index[np.uint64(ref), 1, u] == 0:
+            child = index[np.uint64(ref), 0, u]
         else:
             child = -1 - ((ref << _LANE_SHIFT) + i)
-            prefetch_row(leaf_rows, index[ref, 0, i])
+            prefetch_row(leaf_rows, index[np.uint64(ref), 0, u])
         j = top + k
-        while j > top and t_stack[j - 1] < t:
-            t_stack[j] = t_stack[j - 1]
-            node_stack[j] = node_stack[j - 1]
+        while j > top and t_stack[np.uint64(j - 1)] < t:
+            t_stack[np.uint64(j)] = t_stack[np.uint64(j - 1)]
+            node_stack[np.uint64(j)] = node_stack[np.uint64(j - 1)]
             j -= 1
-        t_stack[j] = t
-        node_stack[j] = child
+        t_stack[np.uint64(j)] = t
+        node_stack[np.uint64(j)] = child
         k += 1
     return k
 
@@ -423,8 +433,8 @@ def pop_nearer(node_stack, t_stack, top, base, best_t):
     """The next entry above `base` still nearer than best_t: (found, new top, entry)."""
     while top > base:
         top -= 1
-        if t_stack[top] < best_t:
-            return True, top, node_stack[top]
+        if t_stack[np.uint64(top)] < best_t:  # unsigned: as in push_children
+            return True, top, node_stack[np.uint64(top)]
     return False, top, node_stack[top]
 
 
