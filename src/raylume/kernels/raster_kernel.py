@@ -65,7 +65,7 @@ from .materials import MAT_EMISSION, MAT_TEXTURE, albedo
 from .scene import environment_of, geometry_of, lights_of, surfaces_of
 from .shapes import PRIM_MATERIAL, offset_epsilon, path_features, surface
 from .textures import IMAGE, TEX_KIND
-from .traverse import TRAVERSAL_STACK
+from .traverse import traversal_stacks
 from .vec import add, dot, hadamard, madd, mul, normalize, row3
 
 # Helpers that take arrays are inlined at the Numba level (inline="always"): a call that passes
@@ -394,8 +394,7 @@ def _shade(
         F = surfaces_of(S)
         L = lights_of(S)
         Env = environment_of(S)
-        node_stack = np.empty(TRAVERSAL_STACK, dtype=np.int32)
-        t_stack = np.empty(TRAVERSAL_STACK, dtype=np.float64)
+        node_stack, t_stack = traversal_stacks()
         _shade_row(
             G,
             F,
