@@ -326,6 +326,42 @@ def _choose(bcnt, bbox, nbe, scale, count, max_leaf, c_trav, c_isect, nodebox, r
 
 
 @nb.njit(**_NO_RC)
+def _threshold(cmin, scale, plane, n_bins):
+    """The least float32 centroid whose bin is ``plane`` or above: since
+    _bin_of is monotone, bin < plane exactly when the centroid is below it
+    (one compare a primitive in the partition instead of the bin's
+    arithmetic on its critical path).  ``cmin`` is the node's least
+    centroid (bin 0); every centroid is at most the largest float32."""
+    inf = np.float32(np.inf)
+    # Nearly always within an ulp or two of the plane's position.
+    x = np.float32(cmin + plane / scale)
+    for _ in range(4):
+        if _bin_of(x, cmin, scale, n_bins) < plane:
+            y = np.nextafter(x, inf)
+            if _bin_of(y, cmin, scale, n_bins) >= plane:
+                return y
+        else:
+            y = np.nextafter(x, -inf)
+            if _bin_of(y, cmin, scale, n_bins) < plane:
+                return x
+        x = y
+    # Otherwise (bins far wider than the float32 spacing near the plane, e.g.
+    # around 0 in a node spanning 1e30: a flat run of billions of floats)
+    # bisection, keeping bin(lo) < plane <= bin(hi).
+    lo = np.float32(cmin)
+    hi = np.float32(_F32_MAX)
+    while np.nextafter(lo, inf) < hi:
+        m = np.float32(0.5 * (np.float64(lo) + np.float64(hi)))
+        if m <= lo or m >= hi:
+            m = np.nextafter(lo, inf)
+        if _bin_of(m, cmin, scale, n_bins) >= plane:
+            hi = m
+        else:
+            lo = m
+    return hi
+
+
+@nb.njit(**_NO_RC)
 def _partition(box, cen, ids, start, end, k, cmin, scale, plane, n_bins, cb_l, cb_r):
     """Hoare partition of [start, end) by bin < plane on axis k; collects
     the centroid bounds of both sides on the way (in locals: through the
@@ -336,15 +372,16 @@ def _partition(box, cen, ids, start, end, k, cmin, scale, plane, n_bins, cb_l, c
     lb0 = lb1 = lb2 = -inf
     ra0 = ra1 = ra2 = inf
     rb0 = rb1 = rb2 = -inf
+    thr = _threshold(cmin, scale, plane, n_bins)
     i = start
     j = end - 1
     while True:
-        while i <= j and _bin_of(cen[i, k], cmin, scale, n_bins) < plane:
+        while i <= j and cen[i, k] < thr:
             c0, c1, c2 = cen[i, 0], cen[i, 1], cen[i, 2]
             la0, la1, la2 = _min32(la0, c0), _min32(la1, c1), _min32(la2, c2)
             lb0, lb1, lb2 = _max32(lb0, c0), _max32(lb1, c1), _max32(lb2, c2)
             i += 1
-        while i <= j and _bin_of(cen[j, k], cmin, scale, n_bins) >= plane:
+        while i <= j and not cen[j, k] < thr:
             c0, c1, c2 = cen[j, 0], cen[j, 1], cen[j, 2]
             ra0, ra1, ra2 = _min32(ra0, c0), _min32(ra1, c1), _min32(ra2, c2)
             rb0, rb1, rb2 = _max32(rb0, c0), _max32(rb1, c1), _max32(rb2, c2)
