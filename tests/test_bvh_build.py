@@ -450,8 +450,8 @@ def test_parallel_build_is_the_serial_tree_on_any_thread_count(top):
     box = np.empty((len(lo), 6), np.float32)
     cen = np.empty((len(lo), 3), np.float32)
     cb = np.empty(6)
-    bvh_module._prepare(lo, hi, box, cen, cb, 0, len(lo))
-    ids = np.arange(len(lo), dtype=np.int32)
+    ids = np.empty(len(lo), np.int32)
+    bvh_module._prepare(lo, hi, box, cen, ids, cb, 0, len(lo))
     with patch.object(bvh_module, "_TOP", top), patch.object(bvh_module, "_BLOCK", 7):
         nodes = bvh_module._build(box, cen, ids, cb, 4, 16, 2.0, 1.0, 5)
     for a, b in zip(nodes + (ids,), one, strict=True):
