@@ -246,7 +246,9 @@ def _best_split(bcnt, bbox, n_bins, scale, inv, node_area, c_trav, c_isect, r_ar
     p sends bins [0, p) left.  axis is -1 when no plane has primitives on
     both sides.  Costs are not divided by the node area, so zero-area nodes
     need no special case.  The running boxes are local scalars (through an
-    array, every bin's union went through memory: ~2x slower)."""
+    array, every bin's union went through memory: ~2x slower).  An empty bin
+    (all +inf) changes neither the running box nor the count, so its area is
+    the one before, not computed again: small nodes have many."""
     best_cost = np.inf
     best_axis = -1
     best_plane = -1
@@ -257,27 +259,50 @@ def _best_split(bcnt, bbox, n_bins, scale, inv, node_area, c_trav, c_isect, r_ar
         lx = ly = lz = np.float32(np.inf)
         nx = ny = nz = np.float32(np.inf)  # -hi
         cnt = 0
+        area = np.inf  # read only where r_cnt > 0
         for b in range(n_bins - 1, 0, -1):
-            cnt += bcnt[k, b]
-            lx, ly, lz = _min32(lx, bbox[k, b, 0]), _min32(ly, bbox[k, b, 1]), _min32(lz, bbox[k, b, 2])
-            nx, ny, nz = _min32(nx, bbox[k, b, 4]), _min32(ny, bbox[k, b, 5]), _min32(nz, bbox[k, b, 6])
+            c = bcnt[k, b]
+            if c != 0:
+                cnt += c
+                lx, ly, lz = _min32(lx, bbox[k, b, 0]), _min32(ly, bbox[k, b, 1]), _min32(lz, bbox[k, b, 2])
+                nx, ny, nz = _min32(nx, bbox[k, b, 4]), _min32(ny, bbox[k, b, 5]), _min32(nz, bbox[k, b, 6])
+                area = _half_area(
+                    np.float64(lx),
+                    np.float64(ly),
+                    np.float64(lz),
+                    -np.float64(nx),
+                    -np.float64(ny),
+                    -np.float64(nz),
+                    inv,
+                )
             r_cnt[b] = cnt
-            r_area[b] = _half_area(
-                np.float64(lx), np.float64(ly), np.float64(lz), -np.float64(nx), -np.float64(ny), -np.float64(nz), inv
-            )
+            r_area[b] = area
         # Left-to-right: combine with bins [0, p).
         lx = ly = lz = np.float32(np.inf)
         nx = ny = nz = np.float32(np.inf)
         cnt = 0
+        l_area = np.inf
+        grown = False  # since l_area was computed
         for p in range(1, n_bins):
-            cnt += bcnt[k, p - 1]
-            lx, ly, lz = _min32(lx, bbox[k, p - 1, 0]), _min32(ly, bbox[k, p - 1, 1]), _min32(lz, bbox[k, p - 1, 2])
-            nx, ny, nz = _min32(nx, bbox[k, p - 1, 4]), _min32(ny, bbox[k, p - 1, 5]), _min32(nz, bbox[k, p - 1, 6])
+            c = bcnt[k, p - 1]
+            if c != 0:
+                cnt += c
+                lx, ly, lz = _min32(lx, bbox[k, p - 1, 0]), _min32(ly, bbox[k, p - 1, 1]), _min32(lz, bbox[k, p - 1, 2])
+                nx, ny, nz = _min32(nx, bbox[k, p - 1, 4]), _min32(ny, bbox[k, p - 1, 5]), _min32(nz, bbox[k, p - 1, 6])
+                grown = True
             if cnt == 0 or r_cnt[p] == 0:
                 continue
-            l_area = _half_area(
-                np.float64(lx), np.float64(ly), np.float64(lz), -np.float64(nx), -np.float64(ny), -np.float64(nz), inv
-            )
+            if grown:
+                l_area = _half_area(
+                    np.float64(lx),
+                    np.float64(ly),
+                    np.float64(lz),
+                    -np.float64(nx),
+                    -np.float64(ny),
+                    -np.float64(nz),
+                    inv,
+                )
+                grown = False
             cost = c_trav * node_area + c_isect * (cnt * l_area + r_cnt[p] * r_area[p])
             if cost < best_cost:
                 best_cost = cost
