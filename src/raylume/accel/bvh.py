@@ -21,6 +21,7 @@ primitive below it, with no extra padding beyond one float32 rounding.
 
 from __future__ import annotations
 
+import threading
 from concurrent.futures import ThreadPoolExecutor
 from typing import NamedTuple
 
@@ -661,26 +662,38 @@ def _swap(arrays, x, y, length, j0, j1):
 
 
 def _place(snb, sni, sna, src, count, nbounds, nindex, naxis, dst):
-    """Copy a subtree's ``count`` nodes from scratch row ``src`` to row
-    ``dst``, moving its child links with it."""
+    """Copy a subtree's ``count`` nodes from row ``src`` of the subtrees'
+    rows to row ``dst``; its child links (numbered from 0) move with it."""
     nbounds[dst : dst + count] = snb[src : src + count]
     naxis[dst : dst + count] = a = sna[src : src + count]
     nindex[dst : dst + count] = sni[src : src + count]
-    nindex[dst : dst + count, 0] += np.where(a >= 0, dst - src, 0).astype(np.int32)
+    nindex[dst : dst + count, 0] += np.where(a >= 0, dst, 0).astype(np.int32)
 
 
-def _subtree(box, cen, ids, a, b, cb, max_leaf, n_bins, c_trav, c_isect):
-    """The subtree over primitives [a, b), built serially, its node rows numbered from 0:
-    (bounds, index, axis) views of arrays for the 2 (b - a) - 1 rows it may need.  Only the
-    rows written are ever touched, so only they take memory (a shared scratch of 2 N rows,
-    written at 2 a ..., had its pages touched all over: 0.26 GB at bumpy 4M, and its
-    page faults were a tenth of the build's CPU time)."""
+def _subtree(box, cen, ids, a, b, cb, max_leaf, n_bins, c_trav, c_isect, scratch, out):
+    """The subtree over primitives [a, b), built serially into this thread's scratch (up to
+    2 (b - a) - 1 rows; ``scratch``: a threading.local), its node rows numbered from 0, then
+    copied to the next free rows of ``out`` (bounds, index, axis, a lock, [next free row]);
+    returns (first row in out, rows).  So the rows of ``out`` are touched from the start, only
+    as far as they are used, and freed at once with it.  Before, a shared scratch of 2 N rows
+    written at 2 a ... had its pages touched all over (0.26 GB at bumpy 4M; its page faults
+    were a tenth of the build's CPU time); arrays of 2 (b - a) - 1 rows per subtree, kept,
+    raised the 10 M render's peak memory by 2%, and so did copies of each subtree (the
+    allocator kept the freed copies)."""
     cap = 2 * (b - a) - 1
-    snb = np.empty((cap, 6), np.float32)
-    sni = np.empty((cap, 2), np.int32)
-    sna = np.empty(cap, np.int8)
+    if getattr(scratch, "cap", 0) < cap:
+        scratch.cap = cap
+        scratch.arrays = (np.empty((cap, 6), np.float32), np.empty((cap, 2), np.int32), np.empty(cap, np.int8))
+    snb, sni, sna = scratch.arrays
     m = _build_range(box, cen, ids, a, b, cb, max_leaf, n_bins, c_trav, c_isect, snb, sni, sna, 0)
-    return snb[:m], sni[:m], sna[:m]
+    onb, oni, ona, lock, free = out
+    with lock:
+        at = free[0]
+        free[0] += m
+    onb[at : at + m] = snb[:m]
+    oni[at : at + m] = sni[:m]
+    ona[at : at + m] = sna[:m]
+    return at, m
 
 
 def _pieces(start: int, end: int, parts: int) -> list[tuple[int, int]]:
@@ -742,18 +755,25 @@ def _build(box, cen, ids, root_cb, max_leaf, n_bins, c_trav, c_isect, threads):
             stack.append((mid, end, cb_r, len(entries) - 1))
             stack.append((start, mid, cb_l, -1))
 
-        # Subtrees built whole, largest first for balance, each into arrays
-        # of its own (see _subtree).
+        # Subtrees built whole, largest first for balance, each into its
+        # thread's scratch, then copied into the rows of `out` in the order
+        # they finish (see _subtree).
         tasks = [e for e in entries if e[0] == "task"]
+        cap = 2 * n - 1
+        out = (np.empty((cap, 6), np.float32), np.empty((cap, 2), np.int32), np.empty(cap, np.int8))
+        scratch, lock, free = threading.local(), threading.Lock(), [0]
         order = sorted(range(len(tasks)), key=lambda t: tasks[t][1] - tasks[t][2])
         built = run.map(
             _subtree,
-            [(box, cen, ids, a, b, cb, max_leaf, n_bins, c_trav, c_isect) for _, a, b, cb in (tasks[t] for t in order)],
+            [
+                (box, cen, ids, a, b, cb, max_leaf, n_bins, c_trav, c_isect, scratch, (*out, lock, free))
+                for _, a, b, cb in (tasks[t] for t in order)
+            ],
         )
         sub = dict(zip(order, built, strict=True))
-        size_of = {t: len(sub[t][2]) for t in sub}
+        size_of = {t: sub[t][1] for t in sub}
         if len(entries) == 1:  # one subtree: the tree
-            return sub[0]
+            return tuple(x[: size_of[0]].copy() for x in out)
 
         # Depth-first numbering of the whole tree: a subtree's nodes follow
         # its place in the top part.
@@ -774,7 +794,7 @@ def _build(box, cen, ids, root_cb, max_leaf, n_bins, c_trav, c_isect, threads):
         t = 0
         for e, row in zip(entries, at, strict=True):
             if e[0] == "task":
-                jobs.append((*sub[t], 0, size_of[t], nbounds, nindex, naxis, row))
+                jobs.append((*out, sub[t][0], size_of[t], nbounds, nindex, naxis, row))
                 t += 1
         run.map(_place, jobs)
         # The top nodes' rows after the subtrees': their first writes, scattered
