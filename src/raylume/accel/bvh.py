@@ -696,6 +696,15 @@ def _subtree(box, cen, ids, a, b, cb, max_leaf, n_bins, c_trav, c_isect, scratch
     return at, m
 
 
+def _reuse(buf, rows, cols, dtype):
+    """A (rows, cols) ``dtype`` array in the memory of ``buf`` (C-contiguous, 4-byte
+    items) if it fits, else a new one."""
+    flat = buf.reshape(-1).view(dtype)
+    if rows * cols <= flat.size:
+        return flat[: rows * cols].reshape(rows, cols)
+    return np.empty((rows, cols), dtype)
+
+
 def _pieces(start: int, end: int, parts: int) -> list[tuple[int, int]]:
     cuts = [start + (end - start) * j // parts for j in range(parts + 1)]
     return [(a, b) for a, b in zip(cuts[:-1], cuts[1:], strict=True) if b > a]
@@ -787,8 +796,12 @@ def _build(box, cen, ids, root_cb, max_leaf, n_bins, c_trav, c_isect, threads):
             else:
                 m += size_of[t]
                 t += 1
-        nbounds = np.empty((m, 6), np.float32)
-        nindex = np.empty((m, 2), np.int32)
+        # The result in the memory of `box` and `cen`, when it fits (leaves of
+        # several primitives: about 0.7 N nodes): their pages are in already
+        # (fresh arrays' page faults: placing took 0.18 s, now 0.03 at 4 M), they are not
+        # read any more, and the peak does not grow by the tree.
+        nbounds = _reuse(box, m, 6, np.float32)
+        nindex = _reuse(cen, m, 2, np.int32)
         naxis = np.empty(m, np.int8)
         jobs = []
         t = 0
