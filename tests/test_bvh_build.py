@@ -12,7 +12,7 @@ from unittest.mock import patch
 import numba
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from raylume.accel import bvh as bvh_module
@@ -368,6 +368,38 @@ def test_large_build_smoke():
     )
 
 
+def numpy_bins(c, cmin, scale, n_bins):
+    """The bin of float32 centroids ``c`` as the binning pass defines it, in numpy."""
+    t = (c.astype(np.float64) - cmin) * scale
+    return np.where(t < n_bins, np.floor(np.minimum(t, n_bins)), n_bins - 1).astype(np.int64)
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    cmin=st.one_of(st.floats(-10, 10), st.floats(-1e30, 1e30), st.floats(-1e-30, 1e-30), st.just(-3.4e38)),
+    ext=st.one_of(st.floats(1e-6, 20), st.floats(1e-40, 1e-30), st.floats(1.0, 1e31), st.just(6.8e38)),
+    n_bins=st.integers(2, 16),
+    data=st.data(),
+)
+def test_partition_threshold_is_the_bin_test(cmin, ext, n_bins, data):
+    # The partition sends a centroid left when it is below _threshold: exactly when its bin
+    # is below the plane (including nodes whose bins span billions of float32 steps around 0).
+    cmin = float(np.float32(cmin))
+    cmax = float(np.float32(min(cmin + ext, 3.4e38)))
+    assume(cmax > cmin)
+    scale = n_bins / (cmax - cmin)
+    plane = data.draw(st.integers(1, n_bins - 1))
+    thr = np.float32(bvh_module._threshold(cmin, scale, plane, n_bins))
+    below = np.nextafter(thr, np.float32(-np.inf))
+    assert numpy_bins(np.array([thr]), cmin, scale, n_bins)[0] >= plane
+    assert numpy_bins(np.array([below]), cmin, scale, n_bins)[0] < plane
+    rng = np.random.default_rng(data.draw(st.integers(0, 2**32 - 1)))
+    c = np.float32(cmin) + (rng.uniform(0, 1, 200) * (cmax - cmin)).astype(np.float32)
+    c = np.concatenate([c, [thr, below, np.float32(cmin), np.float32(cmax)]]).astype(np.float32)
+    c = c[(c >= np.float32(cmin)) & (c <= np.float32(cmax))]
+    np.testing.assert_array_equal(c < thr, numpy_bins(c, cmin, scale, n_bins) < plane)
+
+
 # ---------------------------------------------------------------------------
 # The parallel build (nodes above bvh._TOP primitives split over threads)
 # ---------------------------------------------------------------------------
@@ -418,8 +450,8 @@ def test_parallel_build_is_the_serial_tree_on_any_thread_count(top):
     box = np.empty((len(lo), 6), np.float32)
     cen = np.empty((len(lo), 3), np.float32)
     cb = np.empty(6)
-    bvh_module._prepare(lo, hi, box, cen, cb, 0, len(lo))
-    ids = np.arange(len(lo), dtype=np.int32)
+    ids = np.empty(len(lo), np.int32)
+    bvh_module._prepare(lo, hi, box, cen, ids, cb, 0, len(lo))
     with patch.object(bvh_module, "_TOP", top), patch.object(bvh_module, "_BLOCK", 7):
         nodes = bvh_module._build(box, cen, ids, cb, 4, 16, 2.0, 1.0, 5)
     for a, b in zip(nodes + (ids,), one, strict=True):
