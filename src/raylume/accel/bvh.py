@@ -134,6 +134,14 @@ def _half_area(lx, ly, lz, hx, hy, hz, inv):
 
 
 @nb.njit(**_JIT)
+def _bins_area(lx, ly, lz, nx, ny, nz, inv):
+    """_half_area of a running box of bins, kept as float32 lo and -hi."""
+    return _half_area(
+        np.float64(lx), np.float64(ly), np.float64(lz), -np.float64(nx), -np.float64(ny), -np.float64(nz), inv
+    )
+
+
+@nb.njit(**_JIT)
 def _bin_of(c, cmin, scale, n_bins):
     # Must be evaluated identically in binning and partitioning.
     t = (c - cmin) * scale
@@ -267,15 +275,7 @@ def _best_split(bcnt, bbox, n_bins, scale, inv, node_area, c_trav, c_isect, r_ar
                 cnt += c
                 lx, ly, lz = _min32(lx, bbox[k, b, 0]), _min32(ly, bbox[k, b, 1]), _min32(lz, bbox[k, b, 2])
                 nx, ny, nz = _min32(nx, bbox[k, b, 4]), _min32(ny, bbox[k, b, 5]), _min32(nz, bbox[k, b, 6])
-                area = _half_area(
-                    np.float64(lx),
-                    np.float64(ly),
-                    np.float64(lz),
-                    -np.float64(nx),
-                    -np.float64(ny),
-                    -np.float64(nz),
-                    inv,
-                )
+                area = _bins_area(lx, ly, lz, nx, ny, nz, inv)
             r_cnt[b] = cnt
             r_area[b] = area
         # Left-to-right: combine with bins [0, p).
@@ -294,15 +294,7 @@ def _best_split(bcnt, bbox, n_bins, scale, inv, node_area, c_trav, c_isect, r_ar
             if cnt == 0 or r_cnt[p] == 0:
                 continue
             if grown:
-                l_area = _half_area(
-                    np.float64(lx),
-                    np.float64(ly),
-                    np.float64(lz),
-                    -np.float64(nx),
-                    -np.float64(ny),
-                    -np.float64(nz),
-                    inv,
-                )
+                l_area = _bins_area(lx, ly, lz, nx, ny, nz, inv)
                 grown = False
             cost = c_trav * node_area + c_isect * (cnt * l_area + r_cnt[p] * r_area[p])
             if cost < best_cost:
