@@ -217,8 +217,7 @@ def intersect(G, X, k, o, d, shear, tmin, tmax):
 
 @njit(**KERNEL)
 def _intersect_other(shapes, kind, row, o, d, tmin, tmax):
-    if kind == PLANE:
-        return shape_plane.intersect(shapes, row, o, d, tmin, tmax), 0.0, 0.0
+    """Disks, quads and cylinders (intersect tests planes inline)."""
     if kind == DISK:
         return shape_disk.intersect(shapes, row, o, d, tmin, tmax), 0.0, 0.0
     if kind == QUAD:
