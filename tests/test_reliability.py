@@ -127,26 +127,10 @@ def test_sigint_during_a_long_render_exits_130_within_two_seconds(tmp_path):
         [*command, "--width", "16", "--height", "10", "-o", "warm.png", "-q"], cwd=tmp_path / "warm", check=True
     )
     (tmp_path / "run").mkdir()
-    env = {**os.environ, "TTY_COMPATIBLE": "1", "TTY_INTERACTIVE": "1"}  # Rich draws its bar into the pipe
-    proc = subprocess.Popen(
-        [*command, "--spp", "16", "-o", "q.png"],
-        cwd=tmp_path / "run",
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.PIPE,
-        env=env,
-    )
-    try:
-        seen, chunks = _watch(proc.stderr, b"rendering")
-        assert seen.wait(timeout=120), b"".join(chunks).decode(errors="replace")
-        time.sleep(0.3)  # well inside the render's rows
-        assert proc.poll() is None, "the render ended before the interrupt"
-        sent = time.monotonic()
-        proc.send_signal(signal.SIGINT)
-        proc.wait(timeout=30)
-        elapsed = time.monotonic() - sent
-    finally:
-        proc.kill()
-    err = b"".join(chunks).decode(errors="replace")
+    proc, chunks = _render_in_progress(tmp_path / "run", str(QUALITY), "--threads", "1", "--spp", "16", "-o", "q.png")
+    time.sleep(0.3)  # well inside the render's rows
+    assert proc.poll() is None, "the render ended before the interrupt"
+    elapsed, err = _interrupted(proc, chunks)
     print(f"Ctrl-C to exit: {elapsed:.3f} s")
     assert proc.returncode == 130, err
     assert elapsed < 2.0, elapsed
