@@ -10,7 +10,7 @@ import numpy as np
 from numba import njit
 
 from .sampler import concentric_disk
-from .vec import KERNEL, madd, normalize, sub
+from .vec import INLINE, KERNEL, madd, normalize, sub
 
 CAM_POSITION = 0  # 3 columns
 CAM_FORWARD = 3  # 3 columns, unit
@@ -72,7 +72,7 @@ def camera_of(model, width: int, height: int) -> np.ndarray:
     )
 
 
-@njit(**KERNEL, inline="always")
+@njit(**INLINE)
 def obliquity(cam, d):
     """cos of the angle between d and the viewing axis: a pixel away from the image's centre
     subtends a smaller angle (by this factor across the ray), so its ray cone is narrower."""

@@ -16,12 +16,12 @@ from .materials import MAT_SPECULAR, MAT_TRANSPARENCY, beer_lambert, phong
 from .sampler import light_sample
 from .shapes import offset_epsilon, surface
 from .traverse import any_hit, closest_hit
-from .vec import KERNEL, dot, madd, mul, normalize, row3
+from .vec import INLINE, KERNEL, dot, madd, mul, normalize, row3
 
 INF = math.inf
 
 
-@njit(**KERNEL, inline="always")
+@njit(**INLINE)
 def direct_lighting(G, F, L, X, p, n, view, m, shadows, node_stack, t_stack, key, event):
     """Ambient + diffuse + specular intensity (RGB) at p from every light, and the shadow rays
     traced. n faces the viewer; p is already offset off the surface. Area lights take their
@@ -75,7 +75,7 @@ def direct_lighting(G, F, L, X, p, n, view, m, shadows, node_stack, t_stack, key
     return (ir, ig, ib), rays
 
 
-@njit(**KERNEL, inline="always")
+@njit(**INLINE)
 def shadow_transmittance(G, F, X, o, d, tmax, node_stack, t_stack):
     """Fraction (RGB) of light reaching o from distance tmax along d, and the rays used."""
     if X is not None:
@@ -116,7 +116,7 @@ def _transparent_shadow(G, F, X, o, d, tmax, node_stack, t_stack):
     return (0.0, 0.0, 0.0), rays
 
 
-@njit(**KERNEL, inline="always")
+@njit(**INLINE)
 def unshadowed_lighting(G, F, L, X, p, n, view, m, node_stack, t_stack):
     """direct_lighting without shadow rays and with the fixed area-light pattern (the
     rasterizer's lighting)."""

@@ -52,7 +52,7 @@ from .shape_plane import intersect_plane
 from .shape_sphere import intersect_sphere
 from .shapes import PRIM_KIND, PRIM_ROW, sample_surface, split_hit
 from .shapes import SPHERE as SHAPE_SPHERE
-from .vec import KERNEL, cross, dot, length, madd, mul, normalize, row3, sub
+from .vec import INLINE, KERNEL, cross, dot, length, madd, mul, normalize, row3, sub
 
 INF = math.inf
 
@@ -93,7 +93,7 @@ def pick_emitter(cdf, u):
     return lo, (cdf[lo + 1] - cdf[lo]) / cdf[n]
 
 
-@njit(**KERNEL, inline="always")
+@njit(**INLINE)
 def pick_probability(cdf, e):
     return (cdf[e + 1] - cdf[e]) / cdf[cdf.shape[0] - 1]
 
@@ -138,7 +138,7 @@ def _sphere_cone_pdf(centre, radius, p, wi, dist):
     return 1.0 / (2.0 * math.pi * (1.0 - cos_max))
 
 
-@njit(**KERNEL, inline="always")
+@njit(**INLINE)
 def _area_pdf(p, q, n, area):
     """Solid-angle pdf at p of a point q (normal n) sampled uniformly on a surface of `area`."""
     to_q = sub(q, p)
@@ -149,7 +149,7 @@ def _area_pdf(p, q, n, area):
     return dist2 / (area * cos_l)
 
 
-@njit(**KERNEL, inline="always")
+@njit(**INLINE)
 def _pick(dist, first, n, u):
     """Index in [0, n) whose share of the cdf dist[first : first + n + 1] holds u."""
     lo = 0
@@ -164,7 +164,7 @@ def _pick(dist, first, n, u):
     return lo
 
 
-@njit(**KERNEL, inline="always")
+@njit(**INLINE)
 def _inverse_det(inv, i):
     """det B of instance i's stored world-to-object matrix B (float32, taken in float64)."""
     return (
@@ -174,7 +174,7 @@ def _inverse_det(inv, i):
     )
 
 
-@njit(**KERNEL, inline="always")
+@njit(**INLINE)
 def instance_weight(det):
     """The weight of an instance in its mesh's instance distribution, from det B: |det A|^(2/3)
     of its object-to-world matrix A = B^-1 (the scale of areas under a similarity;
@@ -249,7 +249,7 @@ def _sample_instanced(dist, data, e, inv, prims, tris, u1, u2, u3, u4):
 
 # Inlined (one call site): a call passed the Geometry, Emitters and Environment views by value,
 # which cost more than the sampling (148 vs 84 ns on the Cornell box's light).
-@njit(**KERNEL, inline="always")
+@njit(**INLINE)
 def sample_emitter(G, X, Em, Env, e, p, u1, u2, key):
     """Emitter row e seen from p: (unit direction wi, distance (inf: at infinity), radiance
     arriving along wi (delta lights: intensity / r^2 or irradiance), solid-angle pdf (0: no
@@ -371,7 +371,7 @@ def hit_area_lights(Em, o, d, tmax):
     return best, hit, normal
 
 
-@njit(**KERNEL, inline="always")
+@njit(**INLINE)
 def environment_light(Env, d):
     """Radiance of the environment along d (zero without one)."""
     if Env.present:

@@ -47,7 +47,7 @@ import numpy as np
 from numba import njit
 
 from ..errors import SceneError
-from .vec import KERNEL
+from .vec import INLINE, KERNEL
 
 PI = math.pi
 TWO_PI = 2.0 * math.pi
@@ -100,7 +100,7 @@ def environment_radiance(E, d):
     return (float(E.image[i, j, 0]), float(E.image[i, j, 1]), float(E.image[i, j, 2]))
 
 
-@njit(**KERNEL, inline="always")
+@njit(**INLINE)
 def _texel_solid_angle(i, h, w):
     return (math.cos(PI * i / h) - math.cos(PI * (i + 1) / h)) * (TWO_PI / w)
 
@@ -121,7 +121,7 @@ def environment_pdf(E, d):
     return p_row * p_col / area
 
 
-@njit(**KERNEL, inline="always")
+@njit(**INLINE)
 def _search_marginal(cdf, n, u):
     """The i in 0..n-1 with cdf[i] <= u < cdf[i + 1] (cdf[0] = 0 <= u < 1 = cdf[n]): never
     an empty interval."""
@@ -136,7 +136,7 @@ def _search_marginal(cdf, n, u):
     return lo
 
 
-@njit(**KERNEL, inline="always")
+@njit(**INLINE)
 def _search_conditional(cdf, row, n, u):
     lo = 0
     hi = n

@@ -17,7 +17,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .vec import KERNEL
+from .vec import INLINE, KERNEL
 
 FILM_RGB = 0  # 3 columns: sum of weighted colours
 FILM_WEIGHT = 3  # sum of filter weights
@@ -49,7 +49,7 @@ def filter_offset(table, first, u):
     return table[first + k] * (1.0 - t) + table[first + k + 1] * t
 
 
-@njit(**KERNEL, inline="always")
+@njit(**INLINE)
 def filter_sample(filt, i, j, ux, uy):
     """Image position (x, y) of the unit-square sample (ux, uy) of pixel (i, j), and its
     weight (+-1)."""
@@ -65,7 +65,7 @@ def filter_sample(filt, i, j, ux, uy):
     return i + 0.5 + dx, j + 0.5 + dy, weight
 
 
-@njit(**KERNEL, inline="always")
+@njit(**INLINE)
 def pixel_sums(film, j, i):
     """The pixel's running sums: ((r, g, b, weight), (|r|, |g|, |b|, count)); the unsigned half
     is kept only by films of filters with negative lobes (zeros otherwise)."""
@@ -76,7 +76,7 @@ def pixel_sums(film, j, i):
                     film[j, i, FILM_COUNT])  # fmt: skip
 
 
-@njit(**KERNEL, inline="always")
+@njit(**INLINE)
 def add_sample(total, col, w):
     """A pixel's running sums plus one sample of filter weight w = +-1."""
     signed, unsigned = total
@@ -87,7 +87,7 @@ def add_sample(total, col, w):
     return (signed[0] - col[0], signed[1] - col[1], signed[2] - col[2], signed[3] + w), unsigned
 
 
-@njit(**KERNEL, inline="always")
+@njit(**INLINE)
 def store_sums(film, j, i, total):
     signed, unsigned = total
     film[j, i, FILM_RGB] = signed[0]

@@ -19,12 +19,12 @@ from .scene import emitters_of, environment_of, geometry_of, lights_of, surfaces
 from .shapes import NO_HIT, instance_id, surface
 from .trace import RAY_WIDTH, stack_rows, trace_ray
 from .traverse import closest_hit, scratch_array, traversal_stacks
-from .vec import FAST, KERNEL, dot, madd, mul
+from .vec import FAST, INLINE, KERNEL, dot, madd, mul
 
 INF = np.inf
 
 
-@njit(**KERNEL, inline="always")
+@njit(**INLINE)
 def _cast_ray(G, F, X, Env, o, d, spread, background, node_stack, t_stack):
     t, prim, b1, b2 = closest_hit(G, X, o, d, 0.0, INF, node_stack, t_stack)
     if prim == NO_HIT:
@@ -36,7 +36,7 @@ def _cast_ray(G, F, X, Env, o, d, spread, background, node_stack, t_stack):
     return albedo(G, F, X, m, prim, b1, b2, p, d, ng, spread * t)
 
 
-@njit(**KERNEL, inline="always")
+@njit(**INLINE)
 def camera_sample(cam, filt, seed, i, j, s, total_spp, width, height):
     """Camera sample s (of total_spp per pixel) of pixel (i, j): (origin, direction, filter
     weight, random key)."""

@@ -19,7 +19,7 @@ import numpy as np
 from numba import njit
 
 from .sampler import concentric_disk
-from .vec import KERNEL, length, madd, normalize, row3, sub
+from .vec import INLINE, KERNEL, length, madd, normalize, row3, sub
 
 INF = math.inf
 
@@ -73,13 +73,13 @@ def pack_light(light) -> tuple[int, np.ndarray]:
     return kind, row
 
 
-@njit(**KERNEL, inline="always")
+@njit(**INLINE)
 def is_delta(kind):
     """A light of a single point (one sample, no random numbers)."""
     return kind == POINT or kind == DIRECTIONAL or kind == SPOT
 
 
-@njit(**KERNEL, inline="always")
+@njit(**INLINE)
 def spot_falloff(data, k, l):
     """The share of spot light k's intensity sent along -l (l: unit, from the lit point towards
     the light): 1 inside the inner cone, 0 outside the outer one, a smooth step between."""
@@ -94,7 +94,7 @@ def spot_falloff(data, k, l):
     return x * x * (3.0 - 2.0 * x)
 
 
-@njit(**KERNEL, inline="always")
+@njit(**INLINE)
 def sample_delta(L, k, p):
     """Point, spot or directional light k seen from p: (vector from p towards it, shadow ray
     length)."""

@@ -68,7 +68,7 @@ from .textures import IMAGE, TEX_KIND
 from .traverse import traversal_stacks
 from .vec import add, dot, hadamard, madd, mul, normalize, row3
 
-# Helpers that take arrays are inlined at the Numba level (inline="always"): a call that passes
+# Helpers that take arrays are inlined (forceinline: LLVM's alwaysinline): a call that passes
 # array descriptors by value costs more than the helper's work (26 ns a triangle, measured).
 # Fast-math flags of the raster kernels: no 'nnan'/'ninf' (inf is meaningful), and no
 # 'contract'/'arcp', so that shared vertices and edges are evaluated bit-identically.
@@ -78,7 +78,7 @@ BAND_ROWS = 8  # rows per screen band: the unit of parallel work and of binning
 N_CHUNKS = 256  # triangle chunks for binning; fixed, so the band lists never depend on threads
 
 
-@njit(fastmath=RFAST, error_model="numpy", inline="always")
+@njit(fastmath=RFAST, error_model="numpy", forceinline=True)
 def _vertex(tri, extra, n_main, t, k):
     """Vertex k of triangle t: rows below n_main are in `tri` (float32), the rest in `extra`."""
     if t < n_main:
@@ -100,7 +100,7 @@ def _project(view, p):
     )
 
 
-@njit(fastmath=RFAST, error_model="numpy", inline="always")
+@njit(fastmath=RFAST, error_model="numpy", forceinline=True)
 def _homogeneous(view, tri, extra, n_main, t):
     return (
         _project(view, _vertex(tri, extra, n_main, t, 0)),
@@ -212,7 +212,7 @@ def _pixel_range(lo, hi, n):
     return first, int(b) - 1
 
 
-@njit(fastmath=RFAST, error_model="numpy", inline="always")
+@njit(fastmath=RFAST, error_model="numpy", forceinline=True)
 def triangle_bounds(view, near, width, height, tri, extra, n_main, t):
     """(i0, i1, j0, j1): columns and rows of pixel centres triangle t may cover; i0 > i1 or
     j0 > j1 when it covers none (behind the camera, off screen, or between pixel centres)."""
@@ -225,7 +225,7 @@ def triangle_bounds(view, near, width, height, tri, extra, n_main, t):
     return i0, i1, j0, j1
 
 
-@njit(fastmath=RFAST, error_model="numpy", inline="always")
+@njit(fastmath=RFAST, error_model="numpy", forceinline=True)
 def _draw(view, near, tri, extra, n_main, t, i0, i1, j0, j1, zbuf, tid, count, counting):
     """Scan-convert triangle t over rows j0..j1 and columns i0..i1: depth-test into
     (zbuf = 1/z, tid), or, when `counting`, add 1 to count[j, i] for every covered centre."""
@@ -263,7 +263,7 @@ def _draw(view, near, tri, extra, n_main, t, i0, i1, j0, j1, zbuf, tid, count, c
                 tid[j, i] = t
 
 
-@njit(fastmath=RFAST, error_model="numpy", inline="always")
+@njit(fastmath=RFAST, error_model="numpy", forceinline=True)
 def barycentrics(view, tri, extra, n_main, t, x, y):
     """Perspective-correct weights (b1, b2) of vertices 1 and 2 of triangle t at (x, y)."""
     h0, h1, h2 = _homogeneous(view, tri, extra, n_main, t)
@@ -428,7 +428,7 @@ def _shade(
         )
 
 
-@njit(fastmath=RFAST, error_model="numpy", inline="always")
+@njit(fastmath=RFAST, error_model="numpy", forceinline=True)
 def _pixel_direction(cam, a, b):
     """forward + right a + up b: the (unnormalised) ray through image point (a, b) in [-1, 1]^2."""
     return (

@@ -10,7 +10,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .vec import KERNEL, cross, dot, madd, mul, normalize, row3, sub
+from .vec import INLINE, KERNEL, cross, dot, madd, mul, normalize, row3, sub
 
 INF = math.inf
 P0 = 0
@@ -95,7 +95,7 @@ def intersect(rows, i, o, d, tmin, tmax):
     return INF, part
 
 
-@njit(**KERNEL, inline="always")
+@njit(**INLINE)
 def normal(rows, i, p, part):
     a = row3(rows, i, AXIS)
     if part == PART_TOP:

@@ -8,7 +8,7 @@ from numba import njit
 
 from .sampler import concentric_disk
 from .shape_plane import intersect_plane
-from .vec import KERNEL, cross, dot, length, madd, row3, sub
+from .vec import INLINE, KERNEL, cross, dot, length, madd, row3, sub
 
 INF = math.inf
 CENTER = 0
@@ -50,7 +50,7 @@ def intersect(rows, i, o, d, tmin, tmax):
     return t
 
 
-@njit(**KERNEL, inline="always")
+@njit(**INLINE)
 def normal(rows, i, p):
     return row3(rows, i, NORMAL)
 

@@ -6,7 +6,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .vec import KERNEL, cross, dot, normalize, row3, sub
+from .vec import INLINE, KERNEL, cross, dot, normalize, row3, sub
 
 INF = math.inf
 POINT = 0
@@ -37,12 +37,12 @@ def intersect_plane(o, d, point, normal, tmin, tmax):
     return INF
 
 
-@njit(**KERNEL, inline="always")
+@njit(**INLINE)
 def intersect(rows, i, o, d, tmin, tmax):
     return intersect_plane(o, d, row3(rows, i, POINT), row3(rows, i, NORMAL), tmin, tmax)
 
 
-@njit(**KERNEL, inline="always")
+@njit(**INLINE)
 def normal(rows, i, p):
     return row3(rows, i, NORMAL)
 

@@ -9,7 +9,7 @@ import numpy as np
 from numba import njit
 
 from .shape_plane import intersect_plane
-from .vec import KERNEL, cross, dot, madd, row3, sub
+from .vec import INLINE, KERNEL, cross, dot, madd, row3, sub
 
 INF = math.inf
 CENTER = 0
@@ -64,7 +64,7 @@ def intersect(rows, i, o, d, tmin, tmax):
     return t
 
 
-@njit(**KERNEL, inline="always")
+@njit(**INLINE)
 def normal(rows, i, p):
     return row3(rows, i, NORMAL)
 

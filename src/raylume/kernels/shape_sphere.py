@@ -10,7 +10,7 @@ from numba.core.errors import TypingError
 from numba.extending import intrinsic
 
 from .shape_triangle import EXACT, EXACT_DIVISION, exact_ops, nearest_lane, splat_i64
-from .vec import KERNEL, normalize, row3, sub
+from .vec import INLINE, KERNEL, normalize, row3, sub
 
 INF = math.inf
 CENTER = 0
@@ -168,12 +168,12 @@ def intersect_spheres(typingctx, shapes, rows, count, o, d, tmin, tmax):
     return ret(shapes, rows, count, o, d, tmin, tmax), _spheres_codegen
 
 
-@njit(**KERNEL, inline="always")
+@njit(**INLINE)
 def intersect(rows, i, o, d, tmin, tmax):
     return intersect_sphere(o, d, row3(rows, i, CENTER), rows[i, RADIUS], tmin, tmax)
 
 
-@njit(**KERNEL, inline="always")
+@njit(**INLINE)
 def normal(rows, i, p):
     return normalize(sub(p, row3(rows, i, CENTER)))
 

@@ -10,7 +10,7 @@ from numba.core import cgutils
 from numba.core.errors import TypingError
 from numba.extending import intrinsic
 
-from .vec import KERNEL, add, cross, dot, mul, normalize, row3, sub
+from .vec import INLINE, KERNEL, add, cross, dot, mul, normalize, row3, sub
 
 INF = math.inf
 BOUNDED = True
@@ -262,7 +262,7 @@ def _triangles4(typingctx, tri, first, count, o, shear, tmin, tmax):
 # Inlined into the traversal (a call per leaf passed the arrays and spilled the ray's state: the
 # hit rays of a 10k-triangle mesh took 6-9% longer); its arithmetic is protected from the
 # caller's fast-math flags inside _triangles_codegen.
-@njit(**KERNEL, inline="always")
+@njit(**INLINE)
 def intersect_triangles(o, shear, tri, first, count, tmin, tmax):
     """The watertight test against rows first .. first + count - 1 (count <= 4) of tri at once:
     (t, lane, b1, b2) of the nearest hit in (tmin, tmax), the lowest lane on ties; t = +inf
@@ -270,7 +270,7 @@ def intersect_triangles(o, shear, tri, first, count, tmin, tmax):
     return _triangles4(tri, first, count, o, shear, tmin, tmax)
 
 
-@njit(**KERNEL, inline="always")
+@njit(**INLINE)
 def normals(G, i, b1, b2):
     """(geometric normal, shading normal) of triangle i at barycentrics (b1, b2): the face
     normal by the winding (v1 - v0) x (v2 - v0), and the interpolated vertex normals when

@@ -23,7 +23,7 @@ from numba.extending import overload
 
 from . import shape_cylinder, shape_disk, shape_plane, shape_quad, shape_sphere, shape_triangle
 from .scene import instances_of, is_instances
-from .vec import KERNEL, max_abs, normalize
+from .vec import INLINE, KERNEL, max_abs, normalize
 
 
 class Shape(IntEnum):
@@ -126,7 +126,7 @@ def instance_id(X, hit):
     raise NotImplementedError("a Numba overload")
 
 
-@overload(split_hit, jit_options=KERNEL, inline="always")
+@overload(split_hit, jit_options=INLINE)
 def _split_hit_impl(X, hit):
     """(primitive row, instance row or -1) of a hit."""
     if is_instances(X):
@@ -134,7 +134,7 @@ def _split_hit_impl(X, hit):
     return lambda X, hit: (hit, -1)
 
 
-@njit(**KERNEL, inline="always")
+@njit(**INLINE)
 def _to_world_normal(inv, inst, n):
     """n (object space) by the inverse transpose of the instance's matrix, normalised: normals
     stay perpendicular to the surface under non-uniform scale, and outward under mirroring."""
@@ -147,7 +147,7 @@ def _to_world_normal(inv, inst, n):
     )
 
 
-@overload(world_normals, jit_options=KERNEL, inline="always")
+@overload(world_normals, jit_options=INLINE)
 def _world_normals_impl(X, inst, ng, ns):
     """(geometric, shading) normals of a hit in world space (those of an instance's mesh are
     computed in its object space)."""
@@ -162,7 +162,7 @@ def _world_normals_impl(X, inst, ng, ns):
     return lambda X, inst, ng, ns: (ng, ns)
 
 
-@overload(object_vector, jit_options=KERNEL, inline="always")
+@overload(object_vector, jit_options=INLINE)
 def _object_vector_impl(X, inst, a):
     """A world-space vector in the instance's object space (unchanged off instances)."""
     if is_instances(X):
@@ -181,7 +181,7 @@ def _object_vector_impl(X, inst, a):
     return lambda X, inst, a: a
 
 
-@overload(instance_id, jit_options=KERNEL, inline="always")
+@overload(instance_id, jit_options=INLINE)
 def _instance_id_impl(X, hit):
     """The `instance` AOV of a hit: the instance's index within its object, 0 off instances."""
     if is_instances(X):
@@ -194,7 +194,7 @@ def _instance_id_impl(X, hit):
     return lambda X, hit: np.int64(0)
 
 
-@njit(**KERNEL, inline="always")
+@njit(**INLINE)
 def intersect(G, X, k, o, d, shear, tmin, tmax):
     """Ray against primitive k: (t, b1, b2), t = +inf for no hit in (tmin, tmax). b1, b2 are a
     triangle's barycentric weights of v1 and v2; shapes that need to remember which part they
@@ -226,7 +226,7 @@ def _intersect_other(shapes, kind, row, o, d, tmin, tmax):
     return t, part, 0.0
 
 
-@njit(**KERNEL, inline="always")
+@njit(**INLINE)
 def normals(G, X, k, b1, b2, p):
     """(outward geometric normal, outward shading normal) of primitive k at the hit point p."""
     kind = G.prims[k, PRIM_KIND]
@@ -286,7 +286,7 @@ def uv_differentials(G, X, hit, b1, b2, p, u, v, a1, a2):
     return _wrapped(u1 - u), _wrapped(v1 - v), _wrapped(u2 - u), _wrapped(v2 - v)
 
 
-@njit(**KERNEL, inline="always")
+@njit(**INLINE)
 def _wrapped(x):
     return x - math.floor(x + 0.5)
 
@@ -322,7 +322,7 @@ def tessellate(kind: Shape, row: np.ndarray, view) -> tuple[np.ndarray, np.ndarr
     return tris, (np.zeros(len(tris)) if part is None else part)
 
 
-@njit(**KERNEL, inline="always")
+@njit(**INLINE)
 def surface(G, X, hit, b1, b2, p):
     """The surface at a hit (a primitive, or an instance's primitive: split_hit) at p: (outward
     geometric normal, outward shading normal, material, object, face), in world space."""
@@ -352,7 +352,7 @@ def offset_epsilon(epsilon_floor, p):
 EMISSION_SAMPLED = (TRIANGLE, SPHERE, QUAD, DISK)
 
 
-@njit(**KERNEL, inline="always")
+@njit(**INLINE)
 def sample_surface(G, k, u1, u2):
     """A uniform point on primitive k (a triangle, quad or disk) and its normal there."""
     kind = G.prims[k, PRIM_KIND]

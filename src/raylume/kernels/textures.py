@@ -21,7 +21,7 @@ import numpy as np
 from numba import njit
 
 from .shapes import uv, uv_differentials
-from .vec import KERNEL, cross, dot, mul, row3
+from .vec import INLINE, KERNEL, cross, dot, mul, row3
 
 TEX_KIND = 0
 TEX_COLOR_A = 1  # 3 columns
@@ -39,7 +39,7 @@ CHECKER = 0
 IMAGE = 1
 
 
-@njit(**KERNEL, inline="always")
+@njit(**INLINE)
 def checker(textures, x, p):
     # A tiny bias keeps a plane through a cell boundary (y = 0) inside one cell.
     inv = 1.0 / textures[x, TEX_CELL]
@@ -70,14 +70,14 @@ def footprint(d, n, radius):
     return mul(t1, radius / c), mul(t2, radius)
 
 
-@njit(**KERNEL, inline="always")
+@njit(**INLINE)
 def _square_wave_integral(x):
     """Integral from 0 to x of the wave that is +1 on [0, 1), -1 on [1, 2), period 2."""
     f = x - 2.0 * math.floor(0.5 * x)
     return 1.0 - abs(f - 1.0)
 
 
-@njit(**KERNEL, inline="always")
+@njit(**INLINE)
 def _filtered_wave(x, width):
     """That wave averaged over [x - width/2, x + width/2] (the value at x when width is 0)."""
     if width < 1e-6:
@@ -107,7 +107,7 @@ def filtered_checker(textures, x, p, a1, a2):
     )
 
 
-@njit(**KERNEL, inline="always")
+@njit(**INLINE)
 def texture_at(G, F, X, x, prim, b1, b2, p, d, n, radius):
     """Colour of texture x at a hit on primitive `prim` at p, seen along d (unit) on a surface
     of unit normal n, filtered over a cone footprint of `radius` (0: a point lookup)."""

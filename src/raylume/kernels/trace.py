@@ -17,7 +17,7 @@ from .materials import MAT_EMISSION, MAT_IOR, MAT_REFLECTIVE, MAT_TRANSPARENCY, 
 from .optics import fresnel_dielectric, reflect, refract
 from .shapes import offset_epsilon, surface
 from .traverse import closest_hit
-from .vec import KERNEL, add, dot, hadamard, madd, mul, row3
+from .vec import INLINE, KERNEL, add, dot, hadamard, madd, mul, row3
 
 INF = math.inf
 # Branches whose weight falls below this cannot change an 8-bit pixel.
@@ -39,7 +39,7 @@ def stack_rows(max_depth):
 
 
 # Inlined into the row loop (frame.py): a call per camera ray passed the scene views by value.
-@njit(**KERNEL, inline="always")
+@njit(**INLINE)
 def trace_ray(G, F, L, X, Env, o, d, spread, max_depth, background, rays, node_stack, t_stack, key):
     """Colour seen along the ray (o, d). `rays` is the stack of rays waiting to be traced;
     `key` the camera sample's random key (area lights). Textures are filtered over a ray cone

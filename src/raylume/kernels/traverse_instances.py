@@ -31,10 +31,10 @@ from .traverse import (
     push_entered,
     traceable,
 )
-from .vec import KERNEL
+from .vec import INLINE, KERNEL
 
 
-@njit(**KERNEL, inline="always")
+@njit(**INLINE)
 def _to_object(inv, i, o, d):
     """The world ray (o, d) in instance i's object space (d not normalised)."""
     oo = (
@@ -50,7 +50,7 @@ def _to_object(inv, i, o, d):
     return oo, dd
 
 
-@njit(**KERNEL, inline="always")
+@njit(**INLINE)
 def _leaf_triangles(prims, tris, index, leaf, o, shear, tmin, best_t):
     """The nearest hit in a BLAS leaf: (t, primitive or NO_HIT, b1, b2)."""
     node = leaf >> _LANE_SHIFT
@@ -71,7 +71,7 @@ def _leaf_triangles(prims, tris, index, leaf, o, shear, tmin, best_t):
     return best_t, prim, b1, b2
 
 
-@njit(**KERNEL, inline="always")
+@njit(**INLINE)
 def _blas_closest(prims, tris, bounds, index, root, o, d, tmin, best_t, node_stack, t_stack, base):
     """Nearest hit of the object-space ray in the BLAS rooted at `root`, nearer than best_t,
     using the stacks from `base` up: (t, primitive or NO_HIT, b1, b2)."""
@@ -140,7 +140,7 @@ def instances_closest(G, X, o, d, tmin, best_t, hit, b1, b2, node_stack, t_stack
     return best_t, hit, b1, b2
 
 
-@njit(**KERNEL, inline="always")
+@njit(**INLINE)
 def _blas_any(prims, tris, bounds, index, root, o, d, tmin, tmax, node_stack, base):
     """True when the object-space ray meets a triangle of the BLAS in (tmin, tmax)."""
     if not traceable(o, d):
