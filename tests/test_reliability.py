@@ -60,6 +60,14 @@ def _watch(stream, text: bytes) -> tuple[threading.Event, list]:
     return seen, chunks
 
 
+def _sigint_as_in_a_terminal() -> None:
+    """In the child before it runs Python: SIGINT's default action, as a command typed in a
+    terminal has. An ignored SIGINT is inherited, and Python then leaves it ignored: a test run
+    started in the background by a non-interactive shell (`make test &`) ignores SIGINT, and
+    these renders ran to their end."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def _render_in_progress(tmp_path, *args):
     """`raylume render *args` in tmp_path, returned once its progress bar says it is rendering
     (not after a fixed sleep: on a loaded machine the import alone took over 5 s, and the
@@ -71,6 +79,7 @@ def _render_in_progress(tmp_path, *args):
         stdout=subprocess.DEVNULL,
         stderr=subprocess.PIPE,
         env=env,
+        preexec_fn=_sigint_as_in_a_terminal,
     )
     seen, chunks = _watch(proc.stderr, b"rendering")
     if not seen.wait(timeout=120):
