@@ -80,7 +80,7 @@ from .materials import (
     PLASTIC,
 )
 from .optics import fresnel_dielectric
-from .vec import INLINE, KERNEL, add, cross, dot, madd, mul, normalize
+from .vec import INLINE, add, cross, dot, kernel_function, madd, mul, normalize
 
 INV_PI = 1.0 / math.pi
 ALPHA_MIN = 1e-4  # Mitsuba's clamp of GGX alpha
@@ -95,31 +95,31 @@ _FAILED = (_UP, _ZERO, 0.0, False)  # (wi, weight, pdf, delta) of a failed sampl
 _EVALUATE = -1.0
 
 
-@njit(**KERNEL)
+@kernel_function
 def _same_side(a, b):
     """a and b (z components) strictly on the same side (signs, not a product that can underflow)."""
     return (a > 0.0 and b > 0.0) or (a < 0.0 and b < 0.0)
 
 
-@njit(**KERNEL)
+@kernel_function
 def _side(v, s):
     """v with its z times s = +-1: the two-sided kinds work with wo's side as +z."""
     return (v[0], v[1], v[2] * s)
 
 
-@njit(**KERNEL)
+@kernel_function
 def _mirror(v):
     """The mirror direction of v about the normal z."""
     return (-v[0], -v[1], v[2])
 
 
-@njit(**KERNEL)
+@kernel_function
 def _reflect(v, m):
     """v mirrored about the unit (micro)normal m: 2 (v.m) m - v."""
     return madd(mul(v, -1.0), m, 2.0 * dot(v, m))
 
 
-@njit(**KERNEL)
+@kernel_function
 def _cosine_hemisphere(u1, u2):
     """A direction about +z with density cos / pi."""
     r = math.sqrt(u1)
@@ -127,7 +127,7 @@ def _cosine_hemisphere(u1, u2):
     return (r * math.cos(phi), r * math.sin(phi), math.sqrt(max(0.0, 1.0 - u1)))
 
 
-@njit(**KERNEL)
+@kernel_function
 def _grid(x, n):
     """Cell and weight of x in [0, 1] on n equally spaced nodes (n a float: one compilation)."""
     t = min(max(x, 0.0), 1.0) * (n - 1.0)
@@ -139,7 +139,7 @@ def _grid(x, n):
 # (the dielectric one is optics.fresnel_dielectric: cos_i >= 0, eta = n_incident / n_transmitted)
 
 
-@njit(**KERNEL)
+@kernel_function
 def fresnel_conductor(cos_i, eta, k):
     """Unpolarised reflectance of a conductor of complex index eta + i k lit from index 1 at
     cos_i in [0, 1] (the closed form Mitsuba takes from Moeller's "Optics")."""
@@ -157,7 +157,7 @@ def fresnel_conductor(cos_i, eta, k):
     return 0.5 * (r_s + r_p)
 
 
-@njit(**KERNEL)
+@kernel_function
 def fresnel_diffuse_reflectance(eta):
     """Fdr: the dielectric Fresnel reflectance averaged over cosine-weighted incident light,
     eta = n_transmitted / n_incident. Mitsuba's choice of fits: Egan and Hilgeman 1973 below 1,
@@ -171,7 +171,7 @@ def fresnel_diffuse_reflectance(eta):
 # --- GGX microfacets -------------------------------------------------------------------------
 
 
-@njit(**KERNEL)
+@kernel_function
 def ggx_d(m, alpha):
     """GGX (Trowbridge-Reitz) density of unit microfacet normals m, isotropic alpha."""
     if m[2] <= 0.0:
@@ -181,7 +181,7 @@ def ggx_d(m, alpha):
     return INV_PI / (a2 * t * t)
 
 
-@njit(**KERNEL)
+@kernel_function
 def smith_g1(v, m, alpha):
     """Smith's GGX masking 2 / (1 + sqrt(1 + alpha^2 tan^2 theta_v)), written with |v.z| instead
     of the tangent so that grazing v gives 0 (not inf / inf); 0 where v sees m's back side."""
@@ -191,7 +191,7 @@ def smith_g1(v, m, alpha):
     return 2.0 * z / (z + math.sqrt(z * z + alpha * alpha * (v[0] * v[0] + v[1] * v[1])))
 
 
-@njit(**KERNEL)
+@kernel_function
 def sample_vndf(v, alpha, u1, u2):
     """A GGX normal m visible from v (v.z >= 0), density G1(v) max(0, v.m) D(m) / v.z (Heitz
     2018): stretch v to alpha = 1, pick a point of the hemisphere's projection seen from v,
@@ -230,7 +230,7 @@ _NA, _NE, _NM = 17, 17, 33
 _tables = sys.modules[__name__]
 
 
-@njit(**KERNEL)
+@kernel_function
 def coat_quadrature(alpha, eta_ratio, mu, transmitted, r_nodes, r_weights):
     """Albedo of a GGX dielectric's reflection lobe (E[F(wo.m) G1(wi, m)] over the normals m
     visible from wo, Mitsuba's eval_reflectance) or transmission lobe (E[(1 - F) G1(wt, m)],
@@ -310,7 +310,7 @@ def __getattr__(name):
     return globals()[name]
 
 
-@njit(**KERNEL)
+@kernel_function
 def coat_terms(alpha, eta, mu):
     """(T(alpha, eta, mu), R_int(alpha, eta)), interpolated in the tables."""
     i, a = _grid(math.sqrt(alpha), float(_NA))
@@ -331,14 +331,14 @@ def coat_terms(alpha, eta, mu):
 # --- Evaluation, per kind -------------------------------------------------------------------
 
 
-@njit(**KERNEL)
+@kernel_function
 def _diffuse_eval(color, wo, wi):
     if not _same_side(wo[2], wi[2]):
         return _ZERO, 0.0
     return mul(color, INV_PI), abs(wi[2]) * INV_PI
 
 
-@njit(**KERNEL)
+@kernel_function
 def _conductor_reflectance(mat, m, color, cos_i):
     if mat[m, MAT_HAS_ETA] < 0.5:
         return color
@@ -349,7 +349,7 @@ def _conductor_reflectance(mat, m, color, cos_i):
     )
 
 
-@njit(**KERNEL)
+@kernel_function
 def _conductor_eval(mat, m, color, wo, wi):
     if mat[m, MAT_ROUGHNESS] <= 0.0 or not _same_side(wo[2], wi[2]):
         return _ZERO, 0.0
@@ -365,7 +365,7 @@ def _conductor_eval(mat, m, color, wo, wi):
     return mul(_conductor_reflectance(mat, m, color, dot(wo, h)), k), g1o * d / (4.0 * wo[2])
 
 
-@njit(**KERNEL)
+@kernel_function
 def _dielectric_eval(mat, m, color, wo, wi):
     co = wo[2]
     ci = wi[2]
@@ -399,7 +399,7 @@ def _dielectric_eval(mat, m, color, wo, wi):
     return mul(color, v), pdf_h * (1.0 - fr) * eta * eta * abs(dwi) / denom
 
 
-@njit(**KERNEL)
+@kernel_function
 def _plastic_terms(mat, m, color, wo):
     """(eta, alpha (0: smooth), T(wo), color / (1 - Fdr) / eta^2, probability of the coating
     lobe) for wo on the +z side."""
@@ -417,7 +417,7 @@ def _plastic_terms(mat, m, color, wo):
     return eta, alpha, t_o, mul(color, 1.0 / ((1.0 - fdr) * eta * eta)), p_spec
 
 
-@njit(**KERNEL)
+@kernel_function
 def _plastic_eval(mat, m, color, wo, wi):
     if not _same_side(wo[2], wi[2]):
         return _ZERO, 0.0
@@ -437,7 +437,7 @@ def _plastic_eval(mat, m, color, wo, wi):
     return madd((spec, spec, spec), diffuse, t_o * t_i * INV_PI), pdf + p_spec * g1o * d / (4.0 * wo[2])
 
 
-@njit(**KERNEL)
+@kernel_function
 def _phong_weights(mat, m, color):
     """The lobes' luminance weights: Lambert, highlight, mirror, dielectric; and ks."""
     t = mat[m, MAT_TRANSPARENCY]
@@ -448,7 +448,7 @@ def _phong_weights(mat, m, color):
     return kl * (1.0 - ks) * y, kl * ks * y, (1.0 - t) * r, t, ks
 
 
-@njit(**KERNEL)
+@kernel_function
 def _phong_eval(mat, m, color, wo, wi):
     wd, wp, wm, wt, ks = _phong_weights(mat, m, color)
     total = wd + wp + wm + wt
@@ -468,7 +468,7 @@ def _phong_eval(mat, m, color, wo, wi):
     return f, (wd * wi[2] * INV_PI + wp * (n + 1.0) * lobe) / total
 
 
-@njit(**KERNEL)
+@kernel_function
 def bsdf_eval(mat, m, color, wo, wi):
     """(f, pdf) of material row m for the unit local directions wo, wi (module docstring)."""
     kind = int(mat[m, MAT_KIND])
@@ -489,7 +489,7 @@ def bsdf_eval(mat, m, color, wo, wi):
 # which bsdf_sample weighs with bsdf_eval (all lobes' f and pdf).
 
 
-@njit(**KERNEL)
+@kernel_function
 def _smooth_dielectric(ior, tint, wo, u):
     """Fresnel choice between mirror reflection and refraction; the refracted weight carries
     the tint and the radiance factor (n_wo / n_wi)^2."""
@@ -501,14 +501,14 @@ def _smooth_dielectric(ior, tint, wo, u):
     return wi, mul(tint, ratio * ratio), 1.0 - f, True
 
 
-@njit(**KERNEL)
+@kernel_function
 def _conductor_sample(mat, m, color, wo, up, u1, u2):
     if mat[m, MAT_ROUGHNESS] <= 0.0:
         return _mirror(wo), _conductor_reflectance(mat, m, color, up[2]), 1.0, True
     return _reflect(up, sample_vndf(up, max(mat[m, MAT_ROUGHNESS], ALPHA_MIN), u1, u2)), _ZERO, _EVALUATE, False
 
 
-@njit(**KERNEL)
+@kernel_function
 def _dielectric_sample(mat, m, color, wo, u0, u1, u2):
     if mat[m, MAT_ROUGHNESS] <= 0.0:
         return _smooth_dielectric(mat[m, MAT_IOR], color, wo, u0)
@@ -530,7 +530,7 @@ def _dielectric_sample(mat, m, color, wo, u0, u1, u2):
     return wi, _ZERO, _EVALUATE, False
 
 
-@njit(**KERNEL)
+@kernel_function
 def _plastic_sample(mat, m, color, wo, up, u0, u1, u2):
     eta, alpha, t_o, diffuse, p_spec = _plastic_terms(mat, m, color, up)
     if u0 >= p_spec:
@@ -541,7 +541,7 @@ def _plastic_sample(mat, m, color, wo, up, u0, u1, u2):
     return _reflect(up, sample_vndf(up, alpha, u1, u2)), _ZERO, _EVALUATE, False
 
 
-@njit(**KERNEL)
+@kernel_function
 def _phong_sample(mat, m, color, wo, up, u0, u1, u2):
     wd, wp, wm, wt, ks = _phong_weights(mat, m, color)
     total = wd + wp + wm + wt

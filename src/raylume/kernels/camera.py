@@ -7,10 +7,9 @@ one compiled scene through any number of cameras."""
 import math
 
 import numpy as np
-from numba import njit
 
 from .sampler import concentric_disk
-from .vec import INLINE, KERNEL, madd, normalize, sub
+from .vec import inline_function, kernel_function, madd, normalize, sub
 
 CAM_POSITION = 0  # 3 columns
 CAM_FORWARD = 3  # 3 columns, unit
@@ -72,14 +71,14 @@ def camera_of(model, width: int, height: int) -> np.ndarray:
     )
 
 
-@njit(**INLINE)
+@inline_function
 def obliquity(cam, d):
     """cos of the angle between d and the viewing axis: a pixel away from the image's centre
     subtends a smaller angle (by this factor across the ray), so its ray cone is narrower."""
     return abs(d[0] * cam[CAM_FORWARD] + d[1] * cam[CAM_FORWARD + 1] + d[2] * cam[CAM_FORWARD + 2])
 
 
-@njit(**KERNEL)
+@kernel_function
 def camera_ray(cam, x, y, width, height):
     """Unit direction through the image point (x, y) in pixels; (i + 0.5, j + 0.5) is a centre."""
     a = x / width * 2.0 - 1.0
@@ -92,7 +91,7 @@ def camera_ray(cam, x, y, width, height):
     return (cam[CAM_POSITION], cam[CAM_POSITION + 1], cam[CAM_POSITION + 2]), normalize(d)
 
 
-@njit(**KERNEL)
+@kernel_function
 def thin_lens_ray(cam, o, d, u1, u2):
     """The pinhole ray (o, d) through a thin lens: from the lens point of (u1, u2) (concentric
     disk of radius aperture / 2, in the camera's right/up plane) towards the point where the

@@ -9,19 +9,18 @@ hit to hit: each transparent surface lets `transparency` through, and the path i
 import math
 
 import numpy as np
-from numba import njit
 
 from .lights import AMBIENT, LIGHT_INTENSITY, LIGHT_SAMPLES, SPOT, is_delta, sample_area, sample_delta, spot_falloff
 from .materials import MAT_SPECULAR, MAT_TRANSPARENCY, beer_lambert, phong
 from .sampler import light_sample
 from .shapes import offset_epsilon, surface
 from .traverse import any_hit, closest_hit
-from .vec import INLINE, KERNEL, dot, madd, mul, normalize, row3
+from .vec import dot, inline_function, kernel_function, madd, mul, normalize, row3
 
 INF = math.inf
 
 
-@njit(**INLINE)
+@inline_function
 def direct_lighting(G, F, L, X, p, n, view, m, shadows, node_stack, t_stack, key, event):
     """Ambient + diffuse + specular intensity (RGB) at p from every light, and the shadow rays
     traced. n faces the viewer; p is already offset off the surface. Area lights take their
@@ -75,7 +74,7 @@ def direct_lighting(G, F, L, X, p, n, view, m, shadows, node_stack, t_stack, key
     return (ir, ig, ib), rays
 
 
-@njit(**INLINE)
+@inline_function
 def shadow_transmittance(G, F, X, o, d, tmax, node_stack, t_stack):
     """Fraction (RGB) of light reaching o from distance tmax along d, and the rays used."""
     if X is not None:
@@ -88,7 +87,7 @@ def shadow_transmittance(G, F, X, o, d, tmax, node_stack, t_stack):
 
 # A call, not inlined: a walk through transparent surfaces costs several traversals anyway, and
 # one more inlined copy of the traversal costs seconds of compile time in every trace kernel.
-@njit(**KERNEL)
+@kernel_function
 def _transparent_shadow(G, F, X, o, d, tmax, node_stack, t_stack):
     tr = (1.0, 1.0, 1.0)
     origin = o
@@ -116,7 +115,7 @@ def _transparent_shadow(G, F, X, o, d, tmax, node_stack, t_stack):
     return (0.0, 0.0, 0.0), rays
 
 
-@njit(**INLINE)
+@inline_function
 def unshadowed_lighting(G, F, L, X, p, n, view, m, node_stack, t_stack):
     """direct_lighting without shadow rays and with the fixed area-light pattern (the
     rasterizer's lighting)."""

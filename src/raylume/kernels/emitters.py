@@ -27,7 +27,6 @@ that a BSDF sample happened to find, for multiple importance sampling.
 import math
 
 import numpy as np
-from numba import njit
 
 from . import shape_sphere
 from .environment import environment_pdf, environment_radiance, sample_environment
@@ -52,7 +51,7 @@ from .shape_plane import intersect_plane
 from .shape_sphere import intersect_sphere
 from .shapes import PRIM_KIND, PRIM_ROW, sample_surface, split_hit
 from .shapes import SPHERE as SHAPE_SPHERE
-from .vec import INLINE, KERNEL, cross, dot, length, madd, mul, normalize, row3, sub
+from .vec import cross, dot, inline_function, kernel_function, length, madd, mul, normalize, row3, sub
 
 INF = math.inf
 
@@ -78,7 +77,7 @@ TRI_COUNT = 6
 SHADOW_SHORTEN = 1e-5
 
 
-@njit(**KERNEL)
+@kernel_function
 def pick_emitter(cdf, u):
     """The row whose share of the cdf holds u, and the probability of picking it."""
     n = cdf.shape[0] - 1
@@ -93,12 +92,12 @@ def pick_emitter(cdf, u):
     return lo, (cdf[lo + 1] - cdf[lo]) / cdf[n]
 
 
-@njit(**INLINE)
+@inline_function
 def pick_probability(cdf, e):
     return (cdf[e + 1] - cdf[e]) / cdf[cdf.shape[0] - 1]
 
 
-@njit(**KERNEL)
+@kernel_function
 def _sphere_cone(centre, radius, p, u1, u2):
     """A direction towards the sphere, uniform over the cone it subtends from p (pbrt), its
     distance and pdf; from inside, a uniform point on the sphere (pdf converted)."""
@@ -127,7 +126,7 @@ def _sphere_cone(centre, radius, p, u1, u2):
     return wi, dist, 1.0 / (2.0 * math.pi * (1.0 - cos_max))
 
 
-@njit(**KERNEL)
+@kernel_function
 def _sphere_cone_pdf(centre, radius, p, wi, dist):
     to_c = sub(centre, p)
     dist2 = dot(to_c, to_c)
@@ -138,7 +137,7 @@ def _sphere_cone_pdf(centre, radius, p, wi, dist):
     return 1.0 / (2.0 * math.pi * (1.0 - cos_max))
 
 
-@njit(**INLINE)
+@inline_function
 def _area_pdf(p, q, n, area):
     """Solid-angle pdf at p of a point q (normal n) sampled uniformly on a surface of `area`."""
     to_q = sub(q, p)
@@ -149,7 +148,7 @@ def _area_pdf(p, q, n, area):
     return dist2 / (area * cos_l)
 
 
-@njit(**INLINE)
+@inline_function
 def _pick(dist, first, n, u):
     """Index in [0, n) whose share of the cdf dist[first : first + n + 1] holds u."""
     lo = 0
@@ -164,7 +163,7 @@ def _pick(dist, first, n, u):
     return lo
 
 
-@njit(**INLINE)
+@inline_function
 def _inverse_det(inv, i):
     """det B of instance i's stored world-to-object matrix B (float32, taken in float64)."""
     return (
@@ -174,7 +173,7 @@ def _inverse_det(inv, i):
     )
 
 
-@njit(**INLINE)
+@inline_function
 def instance_weight(det):
     """The weight of an instance in its mesh's instance distribution, from det B: |det A|^(2/3)
     of its object-to-world matrix A = B^-1 (the scale of areas under a similarity;
@@ -182,7 +181,7 @@ def instance_weight(det):
     return abs(det) ** (-2.0 / 3.0)
 
 
-@njit(**KERNEL)
+@kernel_function
 def instanced_area(dist, data, e, inv, i, tris, r):
     """1 / (area density) of the points INSTANCED row e samples, at triangle row r of instance
     i: P(instance) P(triangle) / (the triangle's world area). The world area is the object
@@ -204,7 +203,7 @@ def instanced_area(dist, data, e, inv, i, tris, r):
 
 # Not inlined: only instanced emitters take this branch, and the path kernel's compile stays as
 # it was. Arrays by value, no views of the scene.
-@njit(**KERNEL)
+@kernel_function
 def _sample_instanced(dist, data, e, inv, prims, tris, u1, u2, u3, u4):
     """A point of INSTANCED row e: (world point, unit world normal, 1 / area density)."""
     n_inst = int(data[e, INST_COUNT])
@@ -249,7 +248,7 @@ def _sample_instanced(dist, data, e, inv, prims, tris, u1, u2, u3, u4):
 
 # Inlined (one call site): a call passed the Geometry, Emitters and Environment views by value,
 # which cost more than the sampling (148 vs 84 ns on the Cornell box's light).
-@njit(**INLINE)
+@inline_function
 def sample_emitter(G, X, Em, Env, e, p, u1, u2, key):
     """Emitter row e seen from p: (unit direction wi, distance (inf: at infinity), radiance
     arriving along wi (delta lights: intensity / r^2 or irradiance), solid-angle pdf (0: no
@@ -306,7 +305,7 @@ def sample_emitter(G, X, Em, Env, e, p, u1, u2, key):
     return wi, dist, radiance, _area_pdf(p, q, n, area), False
 
 
-@njit(**KERNEL)
+@kernel_function
 def emitter_pdf(G, X, Em, Env, e, p, wi, dist, n_hit, hit):
     """The solid-angle pdf with which sample_emitter(e, p) gives the direction wi that met the
     emitter at distance dist (normal n_hit there; `hit`: the primitive hit, as closest_hit
@@ -336,7 +335,7 @@ def emitter_pdf(G, X, Em, Env, e, p, wi, dist, n_hit, hit):
     return _area_pdf(p, madd(p, wi, dist), n_hit, area)
 
 
-@njit(**KERNEL)
+@kernel_function
 def hit_area_lights(Em, o, d, tmax):
     """The nearest area light (rows 0..n_area-1) along the ray before tmax: (t, row, normal),
     row -1 when none."""
@@ -371,7 +370,7 @@ def hit_area_lights(Em, o, d, tmax):
     return best, hit, normal
 
 
-@njit(**INLINE)
+@inline_function
 def environment_light(Env, d):
     """Radiance of the environment along d (zero without one)."""
     if Env.present:

@@ -44,10 +44,9 @@ from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
 
 from ..errors import SceneError
-from .vec import INLINE, KERNEL
+from .vec import inline_function, kernel_function
 
 PI = math.pi
 TWO_PI = 2.0 * math.pi
@@ -72,7 +71,7 @@ class Environment(NamedTuple):
 # Kernels
 
 
-@njit(**KERNEL)
+@kernel_function
 def _texel_of(E, d):
     """(row, column) of the texel that world direction d falls in."""
     r = E.rotation
@@ -91,7 +90,7 @@ def _texel_of(E, d):
     return i, j
 
 
-@njit(**KERNEL)
+@kernel_function
 def environment_radiance(E, d):
     """Radiance (r, g, b) arriving from world direction d (unit): the nearest texel."""
     if not E.present:
@@ -100,12 +99,12 @@ def environment_radiance(E, d):
     return (float(E.image[i, j, 0]), float(E.image[i, j, 1]), float(E.image[i, j, 2]))
 
 
-@njit(**INLINE)
+@inline_function
 def _texel_solid_angle(i, h, w):
     return (math.cos(PI * i / h) - math.cos(PI * (i + 1) / h)) * (TWO_PI / w)
 
 
-@njit(**KERNEL)
+@kernel_function
 def environment_pdf(E, d):
     """The solid-angle pdf with which sample_environment returns world direction d."""
     if not E.present:
@@ -121,7 +120,7 @@ def environment_pdf(E, d):
     return p_row * p_col / area
 
 
-@njit(**INLINE)
+@inline_function
 def _search_marginal(cdf, n, u):
     """The i in 0..n-1 with cdf[i] <= u < cdf[i + 1] (cdf[0] = 0 <= u < 1 = cdf[n]): never
     an empty interval."""
@@ -136,7 +135,7 @@ def _search_marginal(cdf, n, u):
     return lo
 
 
-@njit(**INLINE)
+@inline_function
 def _search_conditional(cdf, row, n, u):
     lo = 0
     hi = n
@@ -149,7 +148,7 @@ def _search_conditional(cdf, row, n, u):
     return lo
 
 
-@njit(**KERNEL)
+@kernel_function
 def sample_environment(E, u1, u2):
     """A world direction for the random numbers u1 (row) and u2 (column) in [0, 1): (direction,
     its radiance (r, g, b), its solid-angle pdf). The pdf is 0 for a failed sample (no

@@ -15,9 +15,8 @@ pixels: deterministic and free of write races. Box is the plain jittered pixel o
 import math
 
 import numpy as np
-from numba import njit
 
-from .vec import INLINE, KERNEL
+from .vec import inline_function, kernel_function
 
 FILM_RGB = 0  # 3 columns: sum of weighted colours
 FILM_WEIGHT = 3  # sum of filter weights
@@ -39,7 +38,7 @@ FILTER_BOX = 0
 FILTER_WARPED = 1  # any other filter: samples placed by the tabulated inverse CDF
 
 
-@njit(**KERNEL)
+@kernel_function
 def filter_offset(table, first, u):
     """Offset in pixels (from the pixel centre) of the unit sample u under the filter whose
     inverse CDF is tabulated at table[first : first + FILTER_TABLE_SIZE]."""
@@ -49,7 +48,7 @@ def filter_offset(table, first, u):
     return table[first + k] * (1.0 - t) + table[first + k + 1] * t
 
 
-@njit(**INLINE)
+@inline_function
 def filter_sample(filt, i, j, ux, uy):
     """Image position (x, y) of the unit-square sample (ux, uy) of pixel (i, j), and its
     weight (+-1)."""
@@ -65,7 +64,7 @@ def filter_sample(filt, i, j, ux, uy):
     return i + 0.5 + dx, j + 0.5 + dy, weight
 
 
-@njit(**INLINE)
+@inline_function
 def pixel_sums(film, j, i):
     """The pixel's running sums: ((r, g, b, weight), (|r|, |g|, |b|, count)); the unsigned half
     is kept only by films of filters with negative lobes (zeros otherwise)."""
@@ -76,7 +75,7 @@ def pixel_sums(film, j, i):
                     film[j, i, FILM_COUNT])  # fmt: skip
 
 
-@njit(**INLINE)
+@inline_function
 def add_sample(total, col, w):
     """A pixel's running sums plus one sample of filter weight w = +-1."""
     signed, unsigned = total
@@ -87,7 +86,7 @@ def add_sample(total, col, w):
     return (signed[0] - col[0], signed[1] - col[1], signed[2] - col[2], signed[3] + w), unsigned
 
 
-@njit(**INLINE)
+@inline_function
 def store_sums(film, j, i, total):
     signed, unsigned = total
     film[j, i, FILM_RGB] = signed[0]

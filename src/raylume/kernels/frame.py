@@ -19,12 +19,12 @@ from .scene import emitters_of, environment_of, geometry_of, lights_of, surfaces
 from .shapes import NO_HIT, instance_id, surface
 from .trace import RAY_WIDTH, stack_rows, trace_ray
 from .traverse import closest_hit, scratch_array, traversal_stacks
-from .vec import FAST, INLINE, KERNEL, dot, madd, mul
+from .vec import FAST, dot, inline_function, kernel_function, madd, mul
 
 INF = np.inf
 
 
-@njit(**INLINE)
+@inline_function
 def _cast_ray(G, F, X, Env, o, d, spread, background, node_stack, t_stack):
     t, prim, b1, b2 = closest_hit(G, X, o, d, 0.0, INF, node_stack, t_stack)
     if prim == NO_HIT:
@@ -36,7 +36,7 @@ def _cast_ray(G, F, X, Env, o, d, spread, background, node_stack, t_stack):
     return albedo(G, F, X, m, prim, b1, b2, p, d, ng, spread * t)
 
 
-@njit(**INLINE)
+@inline_function
 def camera_sample(cam, filt, seed, i, j, s, total_spp, width, height):
     """Camera sample s (of total_spp per pixel) of pixel (i, j): (origin, direction, filter
     weight, random key)."""
@@ -179,7 +179,7 @@ def aov_lane(
 # words): that cost ~40 ns per pixel, a fifth of the seed scene's time.
 
 
-@njit(**KERNEL)
+@kernel_function
 def _cast_row(G, F, X, Env, cam, filt, j, window, width, height, samples, seed, bg, film, node_stack, t_stack):
     first, count, total_spp = samples
     x0, y0, x1, y1 = window
@@ -194,7 +194,7 @@ def _cast_row(G, F, X, Env, cam, filt, j, window, width, height, samples, seed, 
     return (x1 - x0) * count
 
 
-@njit(**KERNEL)
+@kernel_function
 def _trace_row(
     G, F, L, X, Env, cam, filt, j, window, width, height, samples, seed, max_depth, bg, film, work, node_stack, t_stack
 ):
@@ -215,7 +215,7 @@ def _trace_row(
     return rays
 
 
-@njit(**KERNEL)
+@kernel_function
 def _path_row(
     G, F, Em, Env, X, cam, filt, j, window, width, height, samples, seed, max_depth, bg, film, node_stack, t_stack,
     strategy,
@@ -240,7 +240,7 @@ def _path_row(
     return rays, rejected
 
 
-@njit(**KERNEL)
+@kernel_function
 def _primary_aovs_row(
     G, F, X, cam, j, window, width, height, node_stack, t_stack, depth, normal, obj_id, prim_id, albedo_out, inst_id
 ):

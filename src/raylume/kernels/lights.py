@@ -16,10 +16,9 @@ of the same lights, in radiometric units, is emitters.py).
 import math
 
 import numpy as np
-from numba import njit
 
 from .sampler import concentric_disk
-from .vec import INLINE, KERNEL, length, madd, normalize, row3, sub
+from .vec import inline_function, kernel_function, length, madd, normalize, row3, sub
 
 INF = math.inf
 
@@ -73,13 +72,13 @@ def pack_light(light) -> tuple[int, np.ndarray]:
     return kind, row
 
 
-@njit(**INLINE)
+@inline_function
 def is_delta(kind):
     """A light of a single point (one sample, no random numbers)."""
     return kind == POINT or kind == DIRECTIONAL or kind == SPOT
 
 
-@njit(**INLINE)
+@inline_function
 def spot_falloff(data, k, l):
     """The share of spot light k's intensity sent along -l (l: unit, from the lit point towards
     the light): 1 inside the inner cone, 0 outside the outer one, a smooth step between."""
@@ -94,7 +93,7 @@ def spot_falloff(data, k, l):
     return x * x * (3.0 - 2.0 * x)
 
 
-@njit(**INLINE)
+@inline_function
 def sample_delta(L, k, p):
     """Point, spot or directional light k seen from p: (vector from p towards it, shadow ray
     length)."""
@@ -104,7 +103,7 @@ def sample_delta(L, k, p):
     return row3(L.data, k, LIGHT_DIRECTION), INF
 
 
-@njit(**KERNEL)
+@kernel_function
 def sample_area(L, k, p, u1, u2):
     """The point (u1, u2) in [0, 1)^2 of area light k as seen from p: (vector from p to the
     point, shadow ray length)."""
@@ -120,7 +119,7 @@ def sample_area(L, k, p, u1, u2):
     return to_light, length(to_light) * (1.0 - AREA_SHADOW_SHORTEN)
 
 
-@njit(**KERNEL)
+@kernel_function
 def basis(w):
     """Two unit vectors completing the unit w to an orthonormal basis (Duff et al. 2017)."""
     sign = 1.0 if w[2] >= 0.0 else -1.0

@@ -9,10 +9,8 @@ shadow rays, is direct.py.
 
 import math
 
-from numba import njit
-
 from .textures import texture_at
-from .vec import INLINE, dot, mul, row3, sub
+from .vec import dot, inline_function, mul, row3, sub
 
 MAT_KIND = 0
 MAT_COLOR = 1  # 3 columns, linear RGB
@@ -37,7 +35,7 @@ DIELECTRIC = 3
 PLASTIC = 4
 
 
-@njit(**INLINE)
+@inline_function
 def phong(n, l, view, specular):
     """The seed's diffuse + specular factor for the unit direction l towards a light (n and
     view unit too; specular <= 0 for a matte surface)."""
@@ -55,7 +53,7 @@ def phong(n, l, view, specular):
     return scale
 
 
-@njit(**INLINE)
+@inline_function
 def albedo(G, F, X, m, prim, b1, b2, p, d, n, radius):
     """The material's colour at a hit: its plain colour or its texture's, filtered over the
     footprint of a ray cone of `radius` along d at the surface of normal n (textures.py)."""
@@ -65,7 +63,7 @@ def albedo(G, F, X, m, prim, b1, b2, p, d, n, radius):
     return texture_at(G, F, X, x, prim, b1, b2, p, d, n, radius)
 
 
-@njit(**INLINE)
+@inline_function
 def beer_lambert(materials, m, w, distance):
     """w attenuated by the material's absorption over `distance` inside it."""
     return (

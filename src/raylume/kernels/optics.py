@@ -2,18 +2,16 @@
 
 import math
 
-from numba import njit
-
-from .vec import KERNEL, dot, madd, mul
+from .vec import dot, kernel_function, madd, mul
 
 
-@njit(**KERNEL)
+@kernel_function
 def reflect(d, n):
     """Mirror d about the unit normal n: d - 2 (d.n) n (the seed's 2N(N.L) - L with L = -d)."""
     return madd(d, n, -2.0 * dot(d, n))
 
 
-@njit(**KERNEL)
+@kernel_function
 def fresnel_dielectric(cos_i, eta):
     """Unpolarised reflectance of a dielectric interface (exact Fresnel equations).
 
@@ -28,7 +26,7 @@ def fresnel_dielectric(cos_i, eta):
     return 0.5 * (r_s * r_s + r_p * r_p), cos_t
 
 
-@njit(**KERNEL)
+@kernel_function
 def refract(d, n, eta, cos_i, cos_t):
     """Snell's law: d refracted through the unit normal n facing against d."""
     return madd(mul(d, eta), n, eta * cos_i - cos_t)

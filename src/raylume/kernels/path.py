@@ -17,7 +17,6 @@ from segment RR_DEPTH on. Random numbers come from the sampler's named dimension
 import math
 
 import numpy as np
-from numba import njit
 
 from .bsdf import bsdf_eval, bsdf_sample
 from .emitters import (
@@ -46,7 +45,7 @@ from .materials import (
 from .sampler import DIM_BSDF, DIM_LIGHT, dimension_key, key_uniform2, sub_key
 from .shapes import NO_HIT, PRIM_LIGHT, offset_epsilon, split_hit, surface
 from .traverse import any_hit, closest_hit
-from .vec import INLINE, dot, hadamard, madd, mul, row3
+from .vec import dot, hadamard, inline_function, madd, mul, row3
 
 INF = math.inf
 RR_DEPTH = 5  # Mitsuba's rr_depth: Russian roulette from this many segments on
@@ -59,25 +58,25 @@ BSDF_ONLY = 2
 DIM_ROULETTE = np.uint64(0x2077E77E)
 
 
-@njit(**INLINE)
+@inline_function
 def power_heuristic(a, b):
     """Veach's power heuristic (beta 2) weight of the strategy with pdf a against pdf b."""
     a2 = a * a
     return a2 / (a2 + b * b) if a2 > 0.0 else 0.0
 
 
-@njit(**INLINE)
+@inline_function
 def _add_light(L, beta, le, w):
     """L plus radiance le arriving through path throughput beta, with MIS weight w."""
     return (L[0] + beta[0] * le[0] * w, L[1] + beta[1] * le[1] * w, L[2] + beta[2] * le[2] * w)
 
 
-@njit(**INLINE)
+@inline_function
 def _to_local(v, s, t, n):
     return (dot(v, s), dot(v, t), dot(v, n))
 
 
-@njit(**INLINE)
+@inline_function
 def _to_world(v, s, t, n):
     return (
         s[0] * v[0] + t[0] * v[1] + n[0] * v[2],
@@ -86,7 +85,7 @@ def _to_world(v, s, t, n):
     )
 
 
-@njit(**INLINE)
+@inline_function
 def _delta_only(mat, m):
     """Materials whose every lobe is a delta (next-event estimation cannot reach them)."""
     kind = mat[m, MAT_KIND]
@@ -98,7 +97,7 @@ def _delta_only(mat, m):
     return False
 
 
-@njit(**INLINE)
+@inline_function
 def _emitter_weight(G, X, Em, Env, e, hit, prev_p, d, t, n_hit, prev_pdf, prev_delta, strategy):
     """MIS weight of emission met by a BSDF-sampled ray (against next-event estimation); `hit`:
     the primitive met (NO_HIT for lights that are not primitives)."""
@@ -110,7 +109,7 @@ def _emitter_weight(G, X, Em, Env, e, hit, prev_p, d, t, n_hit, prev_pdf, prev_d
     return power_heuristic(prev_pdf, light_pdf)
 
 
-@njit(**INLINE)
+@inline_function
 def path_ray(G, F, X, Em, Env, o, d, spread, max_depth, background, key, node_stack, t_stack, strategy):
     """Radiance along the camera ray (o, d) by one path; textures are filtered over a ray cone
     growing by `spread` per unit distance (as trace_ray's). Returns (rgb, rays traced)."""
@@ -223,7 +222,7 @@ def path_ray(G, F, X, Em, Env, o, d, spread, max_depth, background, key, node_st
     return L, rays
 
 
-@njit(**INLINE)
+@inline_function
 def finite_sample(c):
     """A sample fit for the film: finite and not negative."""
     return (

@@ -6,13 +6,13 @@ from numba import njit, prange
 from .scene import geometry_of
 from .shapes import NO_HIT, PRIM_FACE, PRIM_OBJECT, instance_id, split_hit
 from .traverse import INF, closest_hit, traversal_stacks
-from .vec import FAST, KERNEL
+from .vec import FAST, kernel_function
 
 
 # A call per chunk of rays, compiled without reference counting (KERNEL), as the frame kernels'
 # row functions are: inlined into intersect_rays' parallel loop, the traversal took and dropped
 # references to the BVH arrays for every ray (4 calls with atomic operations a ray).
-@njit(**KERNEL)
+@kernel_function
 def _intersect_chunk(G, X, origins, directions, t_out, object_out, prim_out, instance_out, start, end, stacks):
     node_stack, t_stack = stacks
     for k in range(start, end):

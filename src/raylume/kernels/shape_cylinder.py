@@ -8,9 +8,8 @@ p0, PART_TOP at p1), so the surface normal needs no guess at the rim."""
 import math
 
 import numpy as np
-from numba import njit
 
-from .vec import INLINE, KERNEL, cross, dot, madd, mul, normalize, row3, sub
+from .vec import cross, dot, inline_function, kernel_function, madd, mul, normalize, row3, sub
 
 INF = math.inf
 P0 = 0
@@ -48,7 +47,7 @@ def bounds(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.minimum(p0, p1) - reach, np.maximum(p0, p1) + reach
 
 
-@njit(**KERNEL)
+@kernel_function
 def intersect(rows, i, o, d, tmin, tmax):
     """Nearest of the side's two roots within the height and, when capped, the end disks.
     Returns (t, part). The side's quadratic is solved as the sphere's is: from the ray's
@@ -95,7 +94,7 @@ def intersect(rows, i, o, d, tmin, tmax):
     return INF, part
 
 
-@njit(**INLINE)
+@inline_function
 def normal(rows, i, p, part):
     a = row3(rows, i, AXIS)
     if part == PART_TOP:
@@ -106,7 +105,7 @@ def normal(rows, i, p, part):
     return normalize(madd(rel, a, -dot(rel, a)))
 
 
-@njit(**KERNEL)
+@kernel_function
 def uv(rows, i, p, part):
     """u: the angle around the axis from the tangent, over 2 pi; v: on the side the height
     from p0 over the length (0 at p0, 1 at p1), on the caps the distance from the axis over

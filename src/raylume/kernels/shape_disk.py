@@ -4,11 +4,10 @@ radius, then the unit tangent e1 (3) that UVs measure angles from."""
 import math
 
 import numpy as np
-from numba import njit
 
 from .sampler import concentric_disk
 from .shape_plane import intersect_plane
-from .vec import INLINE, KERNEL, cross, dot, length, madd, row3, sub
+from .vec import cross, dot, inline_function, kernel_function, length, madd, row3, sub
 
 INF = math.inf
 CENTER = 0
@@ -36,7 +35,7 @@ def bounds(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return c - reach, c + reach
 
 
-@njit(**KERNEL)
+@kernel_function
 def intersect(rows, i, o, d, tmin, tmax):
     """The supporting plane's hit, kept when it lies within the radius."""
     c = row3(rows, i, CENTER)
@@ -50,12 +49,12 @@ def intersect(rows, i, o, d, tmin, tmax):
     return t
 
 
-@njit(**INLINE)
+@inline_function
 def normal(rows, i, p):
     return row3(rows, i, NORMAL)
 
 
-@njit(**KERNEL)
+@kernel_function
 def uv(rows, i, p):
     """u: the angle around the normal from the tangent, over 2 pi (0..1); v: the distance from
     the centre over the radius (0 at the centre, 1 on the rim)."""
@@ -117,7 +116,7 @@ def tessellate(row: np.ndarray, view) -> np.ndarray:
 # --- emission (path mode samples emissive shapes) ---------------------------------------------
 
 
-@njit(**KERNEL)
+@kernel_function
 def sample(rows, i, u1, u2):
     """A uniform point on disk i for (u1, u2) in [0, 1)^2 (concentric map), and the normal."""
     n = row3(rows, i, NORMAL)

@@ -4,9 +4,8 @@ is tested before traversal. Row: point (3), unit normal (3)."""
 import math
 
 import numpy as np
-from numba import njit
 
-from .vec import INLINE, KERNEL, cross, dot, normalize, row3, sub
+from .vec import cross, dot, inline_function, kernel_function, normalize, row3, sub
 
 INF = math.inf
 POINT = 0
@@ -26,7 +25,7 @@ def bounds(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.full((len(rows), 3), -np.inf), np.full((len(rows), 3), np.inf)
 
 
-@njit(**KERNEL)
+@kernel_function
 def intersect_plane(o, d, point, normal, tmin, tmax):
     denom = dot(d, normal)
     if denom == 0.0:
@@ -37,17 +36,17 @@ def intersect_plane(o, d, point, normal, tmin, tmax):
     return INF
 
 
-@njit(**INLINE)
+@inline_function
 def intersect(rows, i, o, d, tmin, tmax):
     return intersect_plane(o, d, row3(rows, i, POINT), row3(rows, i, NORMAL), tmin, tmax)
 
 
-@njit(**INLINE)
+@inline_function
 def normal(rows, i, p):
     return row3(rows, i, NORMAL)
 
 
-@njit(**KERNEL)
+@kernel_function
 def uv(rows, i, p):
     """World units along two axes of the plane: right and up of a wall facing -z; x and z on
     a floor."""

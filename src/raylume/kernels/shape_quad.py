@@ -6,10 +6,9 @@ that gives a point's (a, b) in p - centre = a u + b v."""
 import math
 
 import numpy as np
-from numba import njit
 
 from .shape_plane import intersect_plane
-from .vec import INLINE, KERNEL, cross, dot, madd, row3, sub
+from .vec import cross, dot, inline_function, kernel_function, madd, row3, sub
 
 INF = math.inf
 CENTER = 0
@@ -44,7 +43,7 @@ def bounds(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return k.min(axis=1), k.max(axis=1)
 
 
-@njit(**KERNEL)
+@kernel_function
 def local(rows, i, p):
     """(a, b) with p - centre = a u + b v, for p in the quad's plane; |a|, |b| <= 1/2 inside."""
     rel = sub(p, row3(rows, i, CENTER))
@@ -52,7 +51,7 @@ def local(rows, i, p):
     return dot(w, cross(rel, row3(rows, i, V))), dot(w, cross(row3(rows, i, U), rel))
 
 
-@njit(**KERNEL)
+@kernel_function
 def intersect(rows, i, o, d, tmin, tmax):
     """The supporting plane's hit, kept when it lies within the parallelogram."""
     t = intersect_plane(o, d, row3(rows, i, CENTER), row3(rows, i, NORMAL), tmin, tmax)
@@ -64,12 +63,12 @@ def intersect(rows, i, o, d, tmin, tmax):
     return t
 
 
-@njit(**INLINE)
+@inline_function
 def normal(rows, i, p):
     return row3(rows, i, NORMAL)
 
 
-@njit(**KERNEL)
+@kernel_function
 def uv(rows, i, p):
     """(0, 0) at centre - u/2 - v/2, (1, 0) at centre + u/2 - v/2, (0, 1) at centre - u/2 + v/2."""
     a, b = local(rows, i, p)
@@ -85,7 +84,7 @@ def tessellate(row: np.ndarray, view) -> np.ndarray:
 # --- emission (path mode samples emissive shapes) ---------------------------------------------
 
 
-@njit(**KERNEL)
+@kernel_function
 def sample(rows, i, u1, u2):
     """A uniform point on quad i for (u1, u2) in [0, 1)^2, and the normal there."""
     c = madd(madd(row3(rows, i, CENTER), row3(rows, i, U), u1 - 0.5), row3(rows, i, V), u2 - 0.5)

@@ -10,7 +10,7 @@ from numba.core.errors import TypingError
 from numba.extending import intrinsic
 
 from .shape_triangle import EXACT, EXACT_DIVISION, exact_ops, nearest_lane, splat_i64
-from .vec import INLINE, KERNEL, normalize, row3, sub
+from .vec import inline_function, kernel_function, normalize, row3, sub
 
 INF = math.inf
 CENTER = 0
@@ -168,17 +168,17 @@ def intersect_spheres(typingctx, shapes, rows, count, o, d, tmin, tmax):
     return ret(shapes, rows, count, o, d, tmin, tmax), _spheres_codegen
 
 
-@njit(**INLINE)
+@inline_function
 def intersect(rows, i, o, d, tmin, tmax):
     return intersect_sphere(o, d, row3(rows, i, CENTER), rows[i, RADIUS], tmin, tmax)
 
 
-@njit(**INLINE)
+@inline_function
 def normal(rows, i, p):
     return normalize(sub(p, row3(rows, i, CENTER)))
 
 
-@njit(**KERNEL)
+@kernel_function
 def uv(rows, i, p):
     """u = 0.5 + atan2(n.x, -n.z) / 2pi (0.5 faces -z, the default camera; the seam is at the
     back, +z), v = 0.5 + asin(n.y) / pi (0 at the south pole, 1 at the north)."""

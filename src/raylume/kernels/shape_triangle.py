@@ -10,13 +10,13 @@ from numba.core import cgutils
 from numba.core.errors import TypingError
 from numba.extending import intrinsic
 
-from .vec import INLINE, KERNEL, add, cross, dot, mul, normalize, row3, sub
+from .vec import add, cross, dot, inline_function, kernel_function, mul, normalize, row3, sub
 
 INF = math.inf
 BOUNDED = True
 
 
-@njit(**KERNEL)
+@kernel_function
 def ray_shear(d):
     """Per-ray constants of the watertight test."""
     ax, ay, az = abs(d[0]), abs(d[1]), abs(d[2])
@@ -262,7 +262,7 @@ def _triangles4(typingctx, tri, first, count, o, shear, tmin, tmax):
 # Inlined into the traversal (a call per leaf passed the arrays and spilled the ray's state: the
 # hit rays of a 10k-triangle mesh took 6-9% longer); its arithmetic is protected from the
 # caller's fast-math flags inside _triangles_codegen.
-@njit(**INLINE)
+@inline_function
 def intersect_triangles(o, shear, tri, first, count, tmin, tmax):
     """The watertight test against rows first .. first + count - 1 (count <= 4) of tri at once:
     (t, lane, b1, b2) of the nearest hit in (tmin, tmax), the lowest lane on ties; t = +inf
@@ -270,7 +270,7 @@ def intersect_triangles(o, shear, tri, first, count, tmin, tmax):
     return _triangles4(tri, first, count, o, shear, tmin, tmax)
 
 
-@njit(**INLINE)
+@inline_function
 def normals(G, i, b1, b2):
     """(geometric normal, shading normal) of triangle i at barycentrics (b1, b2): the face
     normal by the winding (v1 - v0) x (v2 - v0), and the interpolated vertex normals when
@@ -288,7 +288,7 @@ def normals(G, i, b1, b2):
     return ng, ns
 
 
-@njit(**KERNEL)
+@kernel_function
 def uv(G, i, b1, b2):
     """The mesh's UVs interpolated; without UVs (and for a `triangle` object) the vertices sit
     at (0, 0), (1, 0), (0, 1)."""
@@ -299,7 +299,7 @@ def uv(G, i, b1, b2):
     return (b0 * uvs[i, 0] + b1 * uvs[i, 2] + b2 * uvs[i, 4], b0 * uvs[i, 1] + b1 * uvs[i, 3] + b2 * uvs[i, 5])
 
 
-@njit(**KERNEL)
+@kernel_function
 def uv_change(G, i, a):
     """Change of the triangle's (u, v) along the vector a in its plane (texture filtering):
     a = e1 db1 + e2 db2 solved for the barycentric change by least squares."""
@@ -329,7 +329,7 @@ def uv_change(G, i, a):
 # --- emission (path mode samples emissive triangles) -------------------------------------------
 
 
-@njit(**KERNEL)
+@kernel_function
 def sample(G, i, u1, u2):
     """A uniform point on triangle i for (u1, u2) in [0, 1)^2, and its face normal."""
     tri = G.triangles

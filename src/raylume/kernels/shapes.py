@@ -18,12 +18,11 @@ import math
 from enum import IntEnum
 
 import numpy as np
-from numba import njit
 from numba.extending import overload
 
 from . import shape_cylinder, shape_disk, shape_plane, shape_quad, shape_sphere, shape_triangle
 from .scene import instances_of, is_instances
-from .vec import INLINE, KERNEL, max_abs, normalize
+from .vec import INLINE, inline_function, kernel_function, max_abs, normalize
 
 
 class Shape(IntEnum):
@@ -134,7 +133,7 @@ def _split_hit_impl(X, hit):
     return lambda X, hit: (hit, -1)
 
 
-@njit(**INLINE)
+@inline_function
 def _to_world_normal(inv, inst, n):
     """n (object space) by the inverse transpose of the instance's matrix, normalised: normals
     stay perpendicular to the surface under non-uniform scale, and outward under mirroring."""
@@ -194,7 +193,7 @@ def _instance_id_impl(X, hit):
     return lambda X, hit: np.int64(0)
 
 
-@njit(**INLINE)
+@inline_function
 def intersect(G, X, k, o, d, shear, tmin, tmax):
     """Ray against primitive k: (t, b1, b2), t = +inf for no hit in (tmin, tmax). b1, b2 are a
     triangle's barycentric weights of v1 and v2; shapes that need to remember which part they
@@ -215,7 +214,7 @@ def intersect(G, X, k, o, d, shear, tmin, tmax):
     return INF, 0.0, 0.0
 
 
-@njit(**KERNEL)
+@kernel_function
 def _intersect_other(shapes, kind, row, o, d, tmin, tmax):
     """Disks, quads and cylinders (intersect tests planes inline)."""
     if kind == DISK:
@@ -226,7 +225,7 @@ def _intersect_other(shapes, kind, row, o, d, tmin, tmax):
     return t, part, 0.0
 
 
-@njit(**INLINE)
+@inline_function
 def normals(G, X, k, b1, b2, p):
     """(outward geometric normal, outward shading normal) of primitive k at the hit point p."""
     kind = G.prims[k, PRIM_KIND]
@@ -242,7 +241,7 @@ def normals(G, X, k, b1, b2, p):
     return n, n
 
 
-@njit(**KERNEL)
+@kernel_function
 def _normal_other(shapes, kind, row, b1, p):
     if kind == PLANE:
         return shape_plane.normal(shapes, row, p)
@@ -253,7 +252,7 @@ def _normal_other(shapes, kind, row, b1, p):
     return shape_cylinder.normal(shapes, row, p, b1)
 
 
-@njit(**KERNEL)
+@kernel_function
 def uv(G, X, hit, b1, b2, p):
     """Texture coordinates of a hit on primitive k (each shape's module documents its own)."""
     k, _ = split_hit(X, hit)
@@ -268,7 +267,7 @@ def uv(G, X, hit, b1, b2, p):
     return _uv_other(G.shapes, kind, row, b1, p)
 
 
-@njit(**KERNEL)
+@kernel_function
 def uv_differentials(G, X, hit, b1, b2, p, u, v, a1, a2):
     """Changes (du1, dv1, du2, dv2) of the UVs (u, v) at p from p to p + a1 and to p + a2,
     two vectors in the surface's tangent plane (texture filtering). Triangles answer exactly;
@@ -286,12 +285,12 @@ def uv_differentials(G, X, hit, b1, b2, p, u, v, a1, a2):
     return _wrapped(u1 - u), _wrapped(v1 - v), _wrapped(u2 - u), _wrapped(v2 - v)
 
 
-@njit(**INLINE)
+@inline_function
 def _wrapped(x):
     return x - math.floor(x + 0.5)
 
 
-@njit(**KERNEL)
+@kernel_function
 def _uv_other(shapes, kind, row, b1, p):
     if kind == PLANE:
         return shape_plane.uv(shapes, row, p)
@@ -322,7 +321,7 @@ def tessellate(kind: Shape, row: np.ndarray, view) -> tuple[np.ndarray, np.ndarr
     return tris, (np.zeros(len(tris)) if part is None else part)
 
 
-@njit(**INLINE)
+@inline_function
 def surface(G, X, hit, b1, b2, p):
     """The surface at a hit (a primitive, or an instance's primitive: split_hit) at p: (outward
     geometric normal, outward shading normal, material, object, face), in world space."""
@@ -338,7 +337,7 @@ def surface(G, X, hit, b1, b2, p):
     )
 
 
-@njit(**KERNEL)
+@kernel_function
 def offset_epsilon(epsilon_floor, p):
     """Offset for rays leaving a surface at p: scaled to the hit's magnitude, so no acne at any
     scale (epsilon_floor: a tiny fraction of the scene's extent)."""
@@ -352,7 +351,7 @@ def offset_epsilon(epsilon_floor, p):
 EMISSION_SAMPLED = (TRIANGLE, SPHERE, QUAD, DISK)
 
 
-@njit(**INLINE)
+@inline_function
 def sample_surface(G, k, u1, u2):
     """A uniform point on primitive k (a triangle, quad or disk) and its normal there."""
     kind = G.prims[k, PRIM_KIND]

@@ -18,10 +18,9 @@ is a point lookup (exactly the unfiltered texture).
 import math
 
 import numpy as np
-from numba import njit
 
 from .shapes import uv, uv_differentials
-from .vec import INLINE, KERNEL, cross, dot, mul, row3
+from .vec import cross, dot, inline_function, kernel_function, mul, row3
 
 TEX_KIND = 0
 TEX_COLOR_A = 1  # 3 columns
@@ -39,7 +38,7 @@ CHECKER = 0
 IMAGE = 1
 
 
-@njit(**INLINE)
+@inline_function
 def checker(textures, x, p):
     # A tiny bias keeps a plane through a cell boundary (y = 0) inside one cell.
     inv = 1.0 / textures[x, TEX_CELL]
@@ -54,7 +53,7 @@ def checker(textures, x, p):
 MAX_ELONGATION = 100.0
 
 
-@njit(**KERNEL)
+@kernel_function
 def footprint(d, n, radius):
     """Semi-axes (a1, a2) of the ellipse a cone of `radius` along the unit direction d cuts
     from the plane of unit normal n: a1 along d's projection (radius / |cos|), a2 across."""
@@ -70,14 +69,14 @@ def footprint(d, n, radius):
     return mul(t1, radius / c), mul(t2, radius)
 
 
-@njit(**INLINE)
+@inline_function
 def _square_wave_integral(x):
     """Integral from 0 to x of the wave that is +1 on [0, 1), -1 on [1, 2), period 2."""
     f = x - 2.0 * math.floor(0.5 * x)
     return 1.0 - abs(f - 1.0)
 
 
-@njit(**INLINE)
+@inline_function
 def _filtered_wave(x, width):
     """That wave averaged over [x - width/2, x + width/2] (the value at x when width is 0)."""
     if width < 1e-6:
@@ -86,7 +85,7 @@ def _filtered_wave(x, width):
     return (_square_wave_integral(x + h) - _square_wave_integral(x - h)) / width
 
 
-@njit(**KERNEL)
+@kernel_function
 def filtered_checker(textures, x, p, a1, a2):
     """The checker averaged over the bounding box of the footprint ellipse (a1, a2) at p.
 
@@ -107,7 +106,7 @@ def filtered_checker(textures, x, p, a1, a2):
     )
 
 
-@njit(**INLINE)
+@inline_function
 def texture_at(G, F, X, x, prim, b1, b2, p, d, n, radius):
     """Colour of texture x at a hit on primitive `prim` at p, seen along d (unit) on a surface
     of unit normal n, filtered over a cone footprint of `radius` (0: a point lookup)."""
@@ -140,7 +139,7 @@ def texture_at(G, F, X, x, prim, b1, b2, p, d, n, radius):
     return mip_lookup(F.texels, int(tex[x, TEX_OFFSET]), width, height, int(tex[x, TEX_LEVELS]), u * su, v * sv, level)
 
 
-@njit(**KERNEL)
+@kernel_function
 def mip_lookup(texels, offset, width, height, levels, u, v, level):
     """Trilinear lookup: bilinear in the two mip levels around `level`, blended."""
     if not (level > 0.0):  # also NaN
@@ -161,7 +160,7 @@ def mip_lookup(texels, offset, width, height, levels, u, v, level):
     return (a[0] + (b[0] - a[0]) * t, a[1] + (b[1] - a[1]) * t, a[2] + (b[2] - a[2]) * t)
 
 
-@njit(**KERNEL)
+@kernel_function
 def texture_lookup(texels, offset, width, height, u, v):
     """Bilinear lookup of an image texture at (u, v), wrapping (repeating) in both directions.
 

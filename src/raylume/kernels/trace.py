@@ -9,15 +9,13 @@ local * (1 - r) + reflected * r. At depth 0 the surface returns its local colour
 
 import math
 
-from numba import njit
-
 from .direct import direct_lighting
 from .environment import environment_radiance
 from .materials import MAT_EMISSION, MAT_IOR, MAT_REFLECTIVE, MAT_TRANSPARENCY, albedo, beer_lambert
 from .optics import fresnel_dielectric, reflect, refract
 from .shapes import offset_epsilon, surface
 from .traverse import closest_hit
-from .vec import INLINE, KERNEL, add, dot, hadamard, madd, mul, row3
+from .vec import add, dot, hadamard, inline_function, kernel_function, madd, mul, row3
 
 INF = math.inf
 # Branches whose weight falls below this cannot change an 8-bit pixel.
@@ -32,14 +30,14 @@ RAY_CONE = 10  # the ray cone's radius at the origin (texture filtering)
 RAY_WIDTH = 11
 
 
-@njit(**KERNEL)
+@kernel_function
 def stack_rows(max_depth):
     """Rows of the ray stack: a reflection waiting beside a refraction at every level, and spare."""
     return 2 * max_depth + 4
 
 
 # Inlined into the row loop (frame.py): a call per camera ray passed the scene views by value.
-@njit(**INLINE)
+@inline_function
 def trace_ray(G, F, L, X, Env, o, d, spread, max_depth, background, rays, node_stack, t_stack, key):
     """Colour seen along the ray (o, d). `rays` is the stack of rays waiting to be traced;
     `key` the camera sample's random key (area lights). Textures are filtered over a ray cone
@@ -134,7 +132,7 @@ def trace_ray(G, F, L, X, Env, o, d, spread, max_depth, background, rays, node_s
     return (cr, cg, cb), count
 
 
-@njit(**KERNEL)
+@kernel_function
 def _push(rays, top, o, d, w, depth, cone):
     for c in range(3):
         rays[top, RAY_ORIGIN + c] = o[c]

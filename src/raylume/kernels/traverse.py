@@ -30,7 +30,7 @@ from .scene import is_instances
 from .shape_sphere import intersect_spheres
 from .shape_triangle import NO_SHEAR, intersect_triangles, ray_shear
 from .shapes import NO_HIT, PRIM_ROW, intersect
-from .vec import INLINE, KERNEL
+from .vec import INLINE, inline_function, kernel_function
 
 INF = math.inf
 
@@ -207,7 +207,7 @@ def lowest_bit(typingctx, x):
     return sig, codegen
 
 
-@njit(**INLINE)
+@inline_function
 def _ray_axis(o, d, k):
     """Axis k of box_ray: (near origin, far origin, 1/d, near row)."""
     # 1/d clamped to normal float32 magnitudes: a zero component gives parallel slabs, and no
@@ -226,7 +226,7 @@ def _ray_axis(o, d, k):
     return down, up, inv32, k + 3
 
 
-@njit(**KERNEL)
+@kernel_function
 def box_ray(o, d):
     """Per-ray constants of box_hits: (near-plane origins x, y, z, far-plane origins, 1/d) as
     float32, and the near plane's row for each axis (the far one is the other)."""
@@ -236,7 +236,7 @@ def box_ray(o, d):
     return (nx, ny, nz, fx, fy, fz, ix, iy, iz), (rx, ry, rz)
 
 
-@njit(**INLINE)
+@inline_function
 def traceable(o, d):
     """Rays with a NaN or infinite direction, or an origin beyond the float32 range of the
     BVH's boxes, hit nothing (an empty lane's box is only empty for finite rays)."""
@@ -250,7 +250,7 @@ def traceable(o, d):
     )
 
 
-@njit(**KERNEL)
+@kernel_function
 def box_entries(bounds, node, o, d, tmax, out):
     """Entry distances of the ray into the children of `node`, +inf for the lanes it misses
     (for tests); out: float64 (BVH_WIDTH,) scratch."""
@@ -265,7 +265,7 @@ def box_entries(bounds, node, o, d, tmax, out):
 # --- leaves -----------------------------------------------------------------------------------
 
 
-@njit(**INLINE)
+@inline_function
 def intersect_range(G, X, first, end, o, d, shear, tmin, best_t, prim, b1, b2, stop_at_first):
     """The leaf loop: primitives first..end-1 against the ray, nearest hit before best_t.
     Returns the updated (best_t, prim, b1, b2); with stop_at_first, returns at the first hit
@@ -279,7 +279,7 @@ def intersect_range(G, X, first, end, o, d, shear, tmin, best_t, prim, b1, b2, s
     return best_t, prim, b1, b2
 
 
-@njit(**INLINE)
+@inline_function
 def intersect_leaf(G, X, first, count, o, d, shear, tmin, best_t, prim, b1, b2):
     """A leaf (its count field decoded as accel/wide.py says): blocks of 2 to 4 triangles or
     spheres tested at once, other leaves primitive by primitive. Returns the updated (best_t,
@@ -307,7 +307,7 @@ def intersect_leaf(G, X, first, count, o, d, shear, tmin, best_t, prim, b1, b2):
     return intersect_range(G, X, first, first + count, o, d, shear, tmin, best_t, prim, b1, b2, False)
 
 
-@njit(**INLINE)
+@inline_function
 def _leaf_blocks(G, X, first, count, o, d, shear, tmin, tmax):
     """Any hit in (tmin, tmax) in a leaf (as intersect_leaf; a primitive-by-primitive leaf stops
     at its first hit)."""
@@ -320,7 +320,7 @@ def _leaf_blocks(G, X, first, count, o, d, shear, tmin, tmax):
 # (glass example: trace 10%, cast 30% slower). Scenes without unbounded shapes compile none of
 # it (X is None, see shapes.features). Any-hit queries use it too, without stopping early (a
 # few planes).
-@njit(**INLINE)
+@inline_function
 def _unbounded_hit(G, X, o, d, shear, tmin, tmax):
     """The nearest of the unbounded primitives (after the BVH's) hit by the ray."""
     return intersect_range(G, X, G.n_bounded, G.prims.shape[0], o, d, shear, tmin, tmax, NO_HIT, 0.0, 0.0, False)
@@ -374,13 +374,13 @@ def _instances_any_impl(G, X, o, d, tmin, tmax, node_stack):
 # --- the stack (shared with traverse_instances.py) -------------------------------------------
 
 
-@njit(**INLINE)
+@inline_function
 def stack_entry(index, ref, i):
     """Stack entry of lane i of node ref: the child node, or -1 - (node * W + lane) for a leaf."""
     return index[ref, 0, i] if index[ref, 1, i] == 0 else -1 - ((ref << _LANE_SHIFT) + i)
 
 
-@njit(**INLINE)
+@inline_function
 def push_children(bounds, index, leaf_rows, ref, rf, rows, best_t, node_stack, t_stack, top):
     """Push the children of node `ref` that the ray enters nearer than best_t onto the stacks
     from `top`, sorted farthest first (the nearest on top); returns how many. The node's child
@@ -415,7 +415,7 @@ def push_children(bounds, index, leaf_rows, ref, rf, rows, best_t, node_stack, t
     return k
 
 
-@njit(**INLINE)
+@inline_function
 def push_entered(bounds, index, ref, rf, rows, tmax, node_stack, top):
     """Push the children of node `ref` that the ray enters before tmax, unsorted (any-hit
     queries); returns the new top."""
@@ -428,7 +428,7 @@ def push_entered(bounds, index, ref, rf, rows, tmax, node_stack, top):
     return top
 
 
-@njit(**INLINE)
+@inline_function
 def pop_nearer(node_stack, t_stack, top, base, best_t):
     """The next entry above `base` still nearer than best_t: (found, new top, entry)."""
     while top > base:
@@ -441,14 +441,14 @@ def pop_nearer(node_stack, t_stack, top, base, best_t):
 # --- traversal --------------------------------------------------------------------------------
 
 
-@njit(**INLINE)
+@inline_function
 def _root_is_a_leaf(index):
     """A root node with one leaf lane (small scenes; one node has no inner children, so an
     unused lane 1 means lane 0 alone)."""
     return index.shape[0] == 1 and index[0, 1, 1] == 0
 
 
-@njit(**INLINE)
+@inline_function
 def closest_hit(G, X, o, d, tmin, tmax, node_stack, t_stack):
     """Nearest hit in (tmin, tmax): (t, primitive, b1, b2); primitive NO_HIT when nothing.
     b1, b2 are the barycentric weights of a triangle's second and third vertices."""
@@ -490,7 +490,7 @@ def closest_hit(G, X, o, d, tmin, tmax, node_stack, t_stack):
     return best_t, prim, b1, b2
 
 
-@njit(**INLINE)
+@inline_function
 def any_hit(G, X, o, d, tmin, tmax, node_stack):
     """True when anything lies in (tmin, tmax): stops at the first blocker found."""
     shear = ray_shear(d) if G.triangles.shape[0] > 0 else NO_SHEAR

@@ -18,7 +18,6 @@ kernel's compile time.
 """
 
 import numpy as np
-from numba import njit
 
 from .shape_triangle import intersect_triangle, intersect_triangles, ray_shear
 from .shapes import INSTANCE_SHIFT, NO_HIT, PRIM_ROW
@@ -31,10 +30,10 @@ from .traverse import (
     push_entered,
     traceable,
 )
-from .vec import INLINE, KERNEL
+from .vec import inline_function, kernel_function
 
 
-@njit(**INLINE)
+@inline_function
 def _to_object(inv, i, o, d):
     """The world ray (o, d) in instance i's object space (d not normalised)."""
     oo = (
@@ -50,7 +49,7 @@ def _to_object(inv, i, o, d):
     return oo, dd
 
 
-@njit(**INLINE)
+@inline_function
 def _leaf_triangles(prims, tris, index, leaf, o, shear, tmin, best_t):
     """The nearest hit in a BLAS leaf: (t, primitive or NO_HIT, b1, b2)."""
     node = leaf >> _LANE_SHIFT
@@ -71,7 +70,7 @@ def _leaf_triangles(prims, tris, index, leaf, o, shear, tmin, best_t):
     return best_t, prim, b1, b2
 
 
-@njit(**INLINE)
+@inline_function
 def _blas_closest(prims, tris, bounds, index, root, o, d, tmin, best_t, node_stack, t_stack, base):
     """Nearest hit of the object-space ray in the BLAS rooted at `root`, nearer than best_t,
     using the stacks from `base` up: (t, primitive or NO_HIT, b1, b2)."""
@@ -100,7 +99,7 @@ def _blas_closest(prims, tris, bounds, index, root, o, d, tmin, best_t, node_sta
     return best_t, prim, b1, b2
 
 
-@njit(**KERNEL)
+@kernel_function
 def instances_closest(G, X, o, d, tmin, best_t, hit, b1, b2, node_stack, t_stack):
     """The nearest instance hit nearer than best_t, else (best_t, hit, b1, b2) unchanged. A hit
     is `(instance + 1) << INSTANCE_SHIFT | primitive` (shapes.split_hit)."""
@@ -140,7 +139,7 @@ def instances_closest(G, X, o, d, tmin, best_t, hit, b1, b2, node_stack, t_stack
     return best_t, hit, b1, b2
 
 
-@njit(**INLINE)
+@inline_function
 def _blas_any(prims, tris, bounds, index, root, o, d, tmin, tmax, node_stack, base):
     """True when the object-space ray meets a triangle of the BLAS in (tmin, tmax)."""
     if not traceable(o, d):
@@ -160,7 +159,7 @@ def _blas_any(prims, tris, bounds, index, root, o, d, tmin, tmax, node_stack, ba
     return False
 
 
-@njit(**KERNEL)
+@kernel_function
 def instances_any(G, X, o, d, tmin, tmax, node_stack):
     """True when an instance blocks the ray in (tmin, tmax)."""
     if X.inverse.shape[0] == 0 or not traceable(o, d):
