@@ -80,7 +80,7 @@ from .materials import (
     PLASTIC,
 )
 from .optics import fresnel_dielectric
-from .vec import INLINE, add, cross, dot, kernel_function, madd, mul, normalize
+from .vec import add, cross, dot, inline_function, kernel_function, madd, mul, normalize
 
 INV_PI = 1.0 / math.pi
 ALPHA_MIN = 1e-4  # Mitsuba's clamp of GGX alpha
@@ -575,7 +575,7 @@ def _phong_sample(mat, m, color, wo, up, u0, u1, u2):
     return wi, mul(w, total), p * wt / total, delta
 
 
-@njit(**INLINE)  # one call site (path.py); a call cost ~25 ns a bounce
+@inline_function  # one call site (path.py); a call cost ~25 ns a bounce
 def bsdf_sample(mat, m, color, wo, u0, u1, u2):
     """(wi, weight, pdf, delta) of material row m for wo, from uniforms u0 (the lobe), u1, u2
     (the direction) in [0, 1) (module docstring)."""

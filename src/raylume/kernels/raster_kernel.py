@@ -66,7 +66,7 @@ from .scene import environment_of, geometry_of, lights_of, surfaces_of
 from .shapes import PRIM_MATERIAL, offset_epsilon, path_features, surface
 from .textures import IMAGE, TEX_KIND
 from .traverse import traversal_stacks
-from .vec import add, dot, hadamard, madd, mul, normalize, row3
+from .vec import add, dot, hadamard, kernel_function, madd, mul, normalize, row3
 
 # Helpers that take arrays are inlined (forceinline: LLVM's alwaysinline): a call that passes
 # array descriptors by value costs more than the helper's work (26 ns a triangle, measured).
@@ -78,7 +78,7 @@ BAND_ROWS = 8  # rows per screen band: the unit of parallel work and of binning
 N_CHUNKS = 256  # triangle chunks for binning; fixed, so the band lists never depend on threads
 
 
-@njit(fastmath=RFAST, error_model="numpy", forceinline=True)
+@kernel_function(fastmath=RFAST, error_model="numpy", forceinline=True)
 def _vertex(tri, extra, n_main, t, k):
     """Vertex k of triangle t: rows below n_main are in `tri` (float32), the rest in `extra`."""
     if t < n_main:
@@ -87,7 +87,7 @@ def _vertex(tri, extra, n_main, t, k):
     return (extra[e, 3 * k], extra[e, 3 * k + 1], extra[e, 3 * k + 2])
 
 
-@njit(fastmath=RFAST, error_model="numpy")
+@kernel_function(fastmath=RFAST, error_model="numpy")
 def _project(view, p):
     """Homogeneous screen coordinates (x * w, y * w, w) of the world point p."""
     vx = p[0] - view[0, 0]
@@ -100,7 +100,7 @@ def _project(view, p):
     )
 
 
-@njit(fastmath=RFAST, error_model="numpy", forceinline=True)
+@kernel_function(fastmath=RFAST, error_model="numpy", forceinline=True)
 def _homogeneous(view, tri, extra, n_main, t):
     return (
         _project(view, _vertex(tri, extra, n_main, t, 0)),
@@ -109,13 +109,13 @@ def _homogeneous(view, tri, extra, n_main, t):
     )
 
 
-@njit(fastmath=RFAST, error_model="numpy")
+@kernel_function(fastmath=RFAST, error_model="numpy")
 def _before(a, b):
     """Lexicographic order of two homogeneous vertices (branch-free: the order is random)."""
     return (a[0] < b[0]) | ((a[0] == b[0]) & ((a[1] < b[1]) | ((a[1] == b[1]) & (a[2] < b[2]))))
 
 
-@njit(fastmath=RFAST, error_model="numpy")
+@kernel_function(fastmath=RFAST, error_model="numpy")
 def _edge(hi, hj):
     """Coefficients of E(x, y) = c0 x + c1 y + c2 = (hi x hj) . (x, y, 1), evaluated in a
     canonical vertex order so that the reversed edge gives exactly the negated values."""
@@ -130,7 +130,7 @@ def _edge(hi, hj):
     return ((a1 * b2 - a2 * b1) * sign, (a2 * b0 - a0 * b2) * sign, (a0 * b1 - a1 * b0) * sign)
 
 
-@njit(fastmath=RFAST, error_model="numpy")
+@kernel_function(fastmath=RFAST, error_model="numpy")
 def _setup(h0, h1, h2):
     """Edge functions oriented so that the inside is E >= 0, and 1/|det| (0: degenerate).
 
@@ -148,7 +148,7 @@ def _setup(h0, h1, h2):
     return e0, e1, e2, 1.0 / abs(det)
 
 
-@njit(fastmath=RFAST, error_model="numpy")
+@kernel_function(fastmath=RFAST, error_model="numpy")
 def _top_left(e):
     """Does a pixel centre exactly on this (inward-oriented) edge belong to the triangle?
     Left edges (inward normal points right, +x) and top edges (horizontal, inward normal
@@ -156,7 +156,7 @@ def _top_left(e):
     return e[0] > 0.0 or (e[0] == 0.0 and e[1] > 0.0)
 
 
-@njit(fastmath=RFAST, error_model="numpy")
+@kernel_function(fastmath=RFAST, error_model="numpy")
 def _extend(box, h):
     """Extend box (xmin, xmax, ymin, ymax) by the projection of h (w >= near > 0), clamped
     to +-1e30 pixels (a clipped vertex at a tiny near distance may project to infinity)."""
@@ -165,7 +165,7 @@ def _extend(box, h):
     return (min(box[0], x), max(box[1], x), min(box[2], y), max(box[3], y))
 
 
-@njit(fastmath=RFAST, error_model="numpy")
+@kernel_function(fastmath=RFAST, error_model="numpy")
 def _screen_box(h0, h1, h2, near):
     """Screen bounding box of the triangle clipped to w >= near: (xmin, xmax, ymin, ymax),
     empty (xmin > xmax) when the whole triangle lies behind the near plane."""
@@ -199,7 +199,7 @@ def _screen_box(h0, h1, h2, near):
     return box
 
 
-@njit(fastmath=RFAST, error_model="numpy")
+@kernel_function(fastmath=RFAST, error_model="numpy")
 def _pixel_range(lo, hi, n):
     """Indices i in [0, n) whose centres i + 0.5 may lie in [lo, hi] (finite), conservatively
     widened against rounding in the division by w; first > last when there are none.
@@ -212,7 +212,7 @@ def _pixel_range(lo, hi, n):
     return first, int(b) - 1
 
 
-@njit(fastmath=RFAST, error_model="numpy", forceinline=True)
+@kernel_function(fastmath=RFAST, error_model="numpy", forceinline=True)
 def triangle_bounds(view, near, width, height, tri, extra, n_main, t):
     """(i0, i1, j0, j1): columns and rows of pixel centres triangle t may cover; i0 > i1 or
     j0 > j1 when it covers none (behind the camera, off screen, or between pixel centres)."""
@@ -225,7 +225,7 @@ def triangle_bounds(view, near, width, height, tri, extra, n_main, t):
     return i0, i1, j0, j1
 
 
-@njit(fastmath=RFAST, error_model="numpy", forceinline=True)
+@kernel_function(fastmath=RFAST, error_model="numpy", forceinline=True)
 def _draw(view, near, tri, extra, n_main, t, i0, i1, j0, j1, zbuf, tid, count, counting):
     """Scan-convert triangle t over rows j0..j1 and columns i0..i1: depth-test into
     (zbuf = 1/z, tid), or, when `counting`, add 1 to count[j, i] for every covered centre."""
@@ -263,7 +263,7 @@ def _draw(view, near, tri, extra, n_main, t, i0, i1, j0, j1, zbuf, tid, count, c
                 tid[j, i] = t
 
 
-@njit(fastmath=RFAST, error_model="numpy", forceinline=True)
+@kernel_function(fastmath=RFAST, error_model="numpy", forceinline=True)
 def barycentrics(view, tri, extra, n_main, t, x, y):
     """Perspective-correct weights (b1, b2) of vertices 1 and 2 of triangle t at (x, y)."""
     h0, h1, h2 = _homogeneous(view, tri, extra, n_main, t)
@@ -428,7 +428,7 @@ def _shade(
         )
 
 
-@njit(fastmath=RFAST, error_model="numpy", forceinline=True)
+@kernel_function(fastmath=RFAST, error_model="numpy", forceinline=True)
 def _pixel_direction(cam, a, b):
     """forward + right a + up b: the (unnormalised) ray through image point (a, b) in [-1, 1]^2."""
     return (
@@ -438,7 +438,7 @@ def _pixel_direction(cam, a, b):
     )
 
 
-@njit(fastmath=RFAST, error_model="numpy")
+@kernel_function(fastmath=RFAST, error_model="numpy")
 def _shade_row(
     G,
     F,

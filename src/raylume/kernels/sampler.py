@@ -19,6 +19,8 @@ import math
 import numpy as np
 from numba import njit
 
+from .vec import kernel_function
+
 _M1 = np.uint64(0xBF58476D1CE4E5B9)
 _M2 = np.uint64(0x94D049BB133111EB)
 _GOLDEN = np.uint64(0x9E3779B97F4A7C15)
@@ -38,7 +40,7 @@ DIM_LIGHT = np.uint64(0x11647E47)
 DIM_BSDF = np.uint64(0xB5DFB5DF)
 
 
-@njit(error_model="numpy", _nrt=False)
+@kernel_function(error_model="numpy", _nrt=False)
 def mix64(x):
     """splitmix64 finaliser."""
     x = (x ^ (x >> _S30)) * _M1
@@ -46,7 +48,7 @@ def mix64(x):
     return x ^ (x >> _S31)
 
 
-@njit(error_model="numpy", _nrt=False)
+@kernel_function(error_model="numpy", _nrt=False)
 def sample_key(seed, pixel, sample):
     """The key of one camera sample; everything random about that sample derives from it."""
     key = mix64(np.uint64(seed) * _GOLDEN + np.uint64(pixel))
@@ -61,7 +63,7 @@ def dimension_key(key, dim, event):
     return mix64((key ^ dim) + np.uint64(event) * _GOLDEN)
 
 
-@njit(error_model="numpy", _nrt=False)
+@kernel_function(error_model="numpy", _nrt=False)
 def key_uniform2(key):
     """Two independent uniforms in [0, 1) from a key."""
     a = float(key >> _S11) * _TO_UNIT
@@ -69,13 +71,13 @@ def key_uniform2(key):
     return a, b
 
 
-@njit(error_model="numpy", _nrt=False)
+@kernel_function(error_model="numpy", _nrt=False)
 def sub_key(key, index):
     """An independent key for the index-th use of `key` (a light, a sample)."""
     return mix64(key ^ (np.uint64(index) * _M2 + _GOLDEN))
 
 
-@njit(error_model="numpy", _nrt=False)
+@kernel_function(error_model="numpy", _nrt=False)
 def stratum(s, n, jx, jy):
     """Sample s of n in [0, 1)^2: jitter (jx, jy) inside cell s of a near-square grid of
     cols x rows = floor(sqrt n) x floor(n / cols) strata; the few samples beyond the grid
@@ -90,21 +92,21 @@ def stratum(s, n, jx, jy):
     return min(x, ONE_MINUS_EPS), min(y, ONE_MINUS_EPS)
 
 
-@njit(error_model="numpy", _nrt=False)
+@kernel_function(error_model="numpy", _nrt=False)
 def stratified_key(key, s, n):
     """Sample s of n stratified points in [0, 1)^2, jittered by a hash of key."""
     jx, jy = key_uniform2(sub_key(key, s))
     return stratum(s, n, jx, jy)
 
 
-@njit(error_model="numpy", _nrt=False)
+@kernel_function(error_model="numpy", _nrt=False)
 def pixel_sample(key, s, spp):
     """Position in [0, 1)^2 inside the pixel of sample s of spp (dimension PIXEL)."""
     jx, jy = key_uniform2(key ^ DIM_PIXEL)
     return stratum(s, spp, jx, jy)
 
 
-@njit(error_model="numpy", _nrt=False)
+@kernel_function(error_model="numpy", _nrt=False)
 def lens_sample(key, sample, spp):
     """Stratified point in [0, 1)^2 for the lens of camera sample `sample` of `spp`
     (dimension LENS): the pixel's strata in a shuffled order, so lens and pixel positions are
@@ -124,7 +126,7 @@ def light_sample(key, event, light, s, count):
     return stratified_key(sub_key(dimension_key(key, DIM_LIGHT, event), light), s, count)
 
 
-@njit(error_model="numpy", _nrt=False)
+@kernel_function(error_model="numpy", _nrt=False)
 def uniform_sphere(u1, u2):
     """A unit vector uniform over the sphere for (u1, u2) in [0, 1)^2 (pdf 1 / 4 pi)."""
     z = 1.0 - 2.0 * u1
@@ -133,7 +135,7 @@ def uniform_sphere(u1, u2):
     return (r * math.cos(phi), r * math.sin(phi), z)
 
 
-@njit(error_model="numpy", _nrt=False)
+@kernel_function(error_model="numpy", _nrt=False)
 def permute(i, n, p):
     """Element i of a pseudo-random permutation of 0..n-1 chosen by p (Kensler 2013,
     "Correlated Multi-Jittered Sampling")."""
@@ -169,7 +171,7 @@ def permute(i, n, p):
     return np.int64((x + p) % np.uint64(n))
 
 
-@njit(error_model="numpy", _nrt=False)
+@kernel_function(error_model="numpy", _nrt=False)
 def concentric_disk(u1, u2):
     """Map [0, 1)^2 onto the unit disk, area-preserving and keeping strata compact
     (Shirley and Chiu 1997)."""

@@ -4,7 +4,7 @@ import math
 
 import numpy as np
 from llvmlite import ir
-from numba import njit, types
+from numba import types
 from numba.core import cgutils
 from numba.core.errors import TypingError
 from numba.extending import intrinsic
@@ -31,7 +31,7 @@ def bounds(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 # No fastmath (as the triangle test; explicitly, or it would inherit its fast-math callers'):
 # the four-at-once test below must round exactly as this one does, and fused multiply-adds
 # chosen by the compiler would differ between the two.
-@njit(error_model="numpy", _nrt=False, fastmath=False)
+@kernel_function(error_model="numpy", _nrt=False, fastmath=False)
 def intersect_sphere(o, d, center, radius, tmin, tmax):
     """The seed's quadratic in a stable form (Ray Tracing Gems ch. 7): the discriminant is
     computed from the ray's closest approach, and the second root via Vieta, so neither a

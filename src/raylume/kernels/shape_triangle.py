@@ -5,7 +5,7 @@ and Wald (2013)."""
 import math
 
 from llvmlite import ir
-from numba import njit, types
+from numba import types
 from numba.core import cgutils
 from numba.core.errors import TypingError
 from numba.extending import intrinsic
@@ -41,7 +41,7 @@ NO_SHEAR = (0, 1, 2, 0.0, 0.0, 1.0)
 # functions of two triangles sharing an edge differ, and rays through the edge could slip by.
 # Said explicitly: a function that leaves fastmath unset inherits its caller's flags in Numba,
 # and every caller is a fast-math kernel.
-@njit(error_model="numpy", _nrt=False, fastmath=False)
+@kernel_function(error_model="numpy", _nrt=False, fastmath=False)
 def intersect_triangle(o, shear, tri, i, tmin, tmax):
     """Watertight ray-triangle test against row i of tri (float32 (T, 9): v0, v1, v2).
 

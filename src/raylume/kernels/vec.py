@@ -58,19 +58,20 @@ _NO_WRAPPERS = {"no_cpython_wrapper": True, "no_cfunc_wrapper": True}
 _NOT_FOR_NJIT = {"nopython", *_NO_WRAPPERS}
 
 
-def _kernel_function(options):
-    def decorate(py_func):
-        if config.DISABLE_JIT:
-            return py_func
-        return KernelFunction(py_func=py_func, locals={}, targetoptions=dict(options, nopython=True, **_NO_WRAPPERS))
+def kernel_function(py_func=None, /, **options):
+    """Decorator of per-ray functions: `@kernel_function` compiles a KernelFunction with the
+    options KERNEL; `@kernel_function(**options)` with these Numba options instead."""
+    if py_func is None:
+        return lambda f: kernel_function(f, **options)
+    if config.DISABLE_JIT:
+        return py_func
+    targetoptions = dict(options or KERNEL, nopython=True, **_NO_WRAPPERS)
+    return KernelFunction(py_func=py_func, locals={}, targetoptions=targetoptions)
 
-    return decorate
 
-
-# @kernel_function: a per-ray function called (not inlined) where it is used.
-kernel_function = _kernel_function(KERNEL)
-# @inline_function: a per-ray function inlined by LLVM into every caller.
-inline_function = _kernel_function(INLINE)
+def inline_function(py_func):
+    """Decorator of per-ray functions inlined by LLVM into every caller (the options INLINE)."""
+    return kernel_function(py_func, **INLINE)
 
 
 @kernel_function
