@@ -4,9 +4,9 @@ views of it that hot kernels take."""
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
 
 from .environment import Environment
+from .vec import kernel_function
 
 
 class KernelScene(NamedTuple):
@@ -121,7 +121,7 @@ class Emitters(NamedTuple):
     ambient_row: int
 
 
-@njit
+@kernel_function()
 def emitters_of(S):
     return Emitters(
         S.emitter_kind,
@@ -134,12 +134,12 @@ def emitters_of(S):
     )
 
 
-@njit
+@kernel_function()
 def environment_of(S):
     return Environment(S.env_image, S.env_marginal_cdf, S.env_conditional_cdf, S.env_rotation, S.env_present)
 
 
-@njit
+@kernel_function()
 def geometry_of(S):
     return Geometry(
         S.prims,
@@ -154,11 +154,11 @@ def geometry_of(S):
     )
 
 
-@njit
+@kernel_function()
 def surfaces_of(S):
     return Surfaces(S.materials, S.textures, S.texels, S.has_transparency, S.epsilon_floor)
 
 
-@njit
+@kernel_function()
 def lights_of(S):
     return Lights(S.light_kind, S.light_data)

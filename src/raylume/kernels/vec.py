@@ -60,18 +60,23 @@ _NOT_FOR_NJIT = {"nopython", *_NO_WRAPPERS}
 
 def kernel_function(py_func=None, /, **options):
     """Decorator of per-ray functions: `@kernel_function` compiles a KernelFunction with the
-    options KERNEL; `@kernel_function(**options)` with these Numba options instead."""
+    options KERNEL; `@kernel_function(**options)` with these Numba options instead (none:
+    Numba's defaults)."""
     if py_func is None:
-        return lambda f: kernel_function(f, **options)
-    if config.DISABLE_JIT:
-        return py_func
-    targetoptions = dict(options or KERNEL, nopython=True, **_NO_WRAPPERS)
-    return KernelFunction(py_func=py_func, locals={}, targetoptions=targetoptions)
+        return lambda f: _kernel_function(f, options)
+    return _kernel_function(py_func, KERNEL)
 
 
 def inline_function(py_func):
     """Decorator of per-ray functions inlined by LLVM into every caller (the options INLINE)."""
-    return kernel_function(py_func, **INLINE)
+    return _kernel_function(py_func, INLINE)
+
+
+def _kernel_function(py_func, options):
+    if config.DISABLE_JIT:
+        return py_func
+    targetoptions = dict(options, nopython=True, **_NO_WRAPPERS)
+    return KernelFunction(py_func=py_func, locals={}, targetoptions=targetoptions)
 
 
 @kernel_function
