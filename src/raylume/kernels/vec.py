@@ -32,7 +32,7 @@ class KernelFunction(CPUDispatcher):
     and `row3(a, i, 6)` share one compilation; LLVM sees the constant after inlining anyway).
     Each compilation is a library of its own that LLVM optimises and turns into machine code
     with its wrappers, and path mode compiles a few hundred of them: the warm-up's path job
-    compiled in 80 s instead of 113 s. A call from Python (tests, a notebook) goes to a plain
+    compiled in 69 s instead of 113 s. A call from Python (tests, a notebook) goes to a plain
     Numba compilation of the same function, made on first use: without a wrapper, Numba's own
     call from Python would crash."""
 
