@@ -128,6 +128,28 @@ def test_a_worker_killed_mid_render_loses_nothing(client, session, monkeypatch):
     client.wait_for_workers(2, timeout=60)  # the nanny restarts it for the tests that follow
 
 
+def test_every_worker_killed_mid_render_loses_nothing(client, session, monkeypatch):
+    """The scene goes down with the last worker holding it (Dask keeps a single copy of a
+    broadcast value once no task waits for it, so one worker's death can be enough): it is
+    scattered again to the restarted workers and the unfinished tiles resubmitted."""
+    monkeypatch.setattr(C, "TILE_SECONDS", 1e-9)
+    settings = dict(mode="path", spp=8, seed=11)
+    reference = session.render(threads=2, **settings)
+    pids = client.run(os.getpid)
+    killed = {}
+
+    def progress(done, total):
+        if done >= 1 and not killed:
+            for pid in pids.values():
+                os.kill(pid, signal.SIGKILL)
+            killed.update(done=done, total=total)
+
+    image = session.render(cluster=client, progress=progress, **settings)
+    assert killed and killed["done"] < killed["total"] / 2
+    assert_same(reference, image)
+    client.wait_for_workers(2, timeout=60)
+
+
 def test_ctrl_c_cancels_the_outstanding_tiles(client, session, monkeypatch):
     monkeypatch.setattr(C, "TILE_SECONDS", 1e-9)
 

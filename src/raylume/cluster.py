@@ -28,6 +28,7 @@ import pickle
 import re
 import time
 from collections.abc import Callable, Iterable, Iterator
+from concurrent.futures import CancelledError
 from dataclasses import dataclass
 
 import numpy as np
@@ -44,6 +45,8 @@ MIN_TILE_SIDE = 8  # pixels
 TILES_PER_WORKER = 4  # a still is split into at least this many tiles per worker
 PROBE_SIDE = 32  # the probe window that measures the cost of a sample on a worker
 POLL_SECONDS = 0.05
+SCENE_RESENDS = 3  # times tasks may be cancelled (the scene lost) and the scene sent again, in one render
+WORKER_WAIT = 60.0  # seconds to wait for a worker to come back when the scene must be sent again
 # What must match between the client and every worker for the image to be bit-identical: the
 # kernels' source, and the compiler and array library that turn them into machine code.
 BIT_KEYS = ("raylume", "kernels", "numba", "llvmlite", "numpy")
@@ -332,6 +335,7 @@ def plan_tiles(
 @dataclass
 class _Frame:
     key: object
+    camera: Camera
     tiles: list[Tile]
     finals: dict  # future key -> (future, Tile), until the tile's last pass is in
     results: list  # (Tile, WindowResult) of the tiles done
@@ -373,7 +377,9 @@ class FrameRenderer:
         check_versions(self.client, self.expected)
         self.scene_bytes = len(pickle.dumps(compiled, protocol=5))
         # Shipped to every worker once, now; tasks name it, so no tile carries the scene.
+        self.compiled = compiled
         [self.scene] = self.client.scatter([compiled], broadcast=True, hash=False)
+        self.scene_resends = 0
         self.pending: set = set()  # every submitted, unfinished future (passes too)
         self.warm_futures: list = []
         self.warm: dict = {}
@@ -447,19 +453,23 @@ class FrameRenderer:
             self.shuffle.shuffle(order)
         finals = {}
         for rank, index in enumerate(order):
-            tile = tiles[index]
-            previous = None
-            for first, count in tile.passes:
-                previous = self.client.submit(
-                    _render_tile, self.scene, camera, self.settings, tile.window, first, count, previous, self.aovs,
-                    self.expected, pure=False, priority=-rank if self.shuffle is not None else 0,
-                )  # fmt: skip
-                self.pending.add(previous)
-                self.tasks_total += 1
-            finals[previous.key] = (previous, tile)
+            final = self._submit_tile(camera, tiles[index], -rank if self.shuffle is not None else 0)
+            finals[final.key] = (final, tiles[index])
         self.tiles += len(tiles)
         self.frames_submitted += 1
-        return _Frame(key, tiles, finals, [])
+        return _Frame(key, camera, tiles, finals, [])
+
+    def _submit_tile(self, camera: Camera, tile: Tile, priority: int):
+        """Submit the tile's passes, each taking the previous one's result; returns the last."""
+        previous = None
+        for first, count in tile.passes:
+            previous = self.client.submit(
+                _render_tile, self.scene, camera, self.settings, tile.window, first, count, previous, self.aovs,
+                self.expected, pure=False, priority=priority,
+            )  # fmt: skip
+            self.pending.add(previous)
+            self.tasks_total += 1
+        return previous
 
     def _poll(self) -> None:
         """Wait a moment, then collect the finished tasks (a failed one raises its error)."""
@@ -469,21 +479,61 @@ class FrameRenderer:
             info = future.result()  # the other workers' warm-ups, for the statistics
             self.warm[info["worker"]] = info
             self.warm_futures.remove(future)
-        for future in [f for f in self.pending if f.status in ("finished", "error", "cancelled")]:
+        settled = [f for f in self.pending if f.status in ("finished", "error", "cancelled")]
+        # A task is cancelled when something it needs can no longer be computed: the scene,
+        # when the last worker holding it dies (Dask's memory manager keeps one copy of a
+        # broadcast value once no task waits for it), or when the scheduler restarted. Then the
+        # scene is sent again and the tiles not done resubmitted.
+        lost = False
+        for future in settled:
             self.pending.discard(future)
-            if future.status in ("error", "cancelled"):
+            if future.status == "cancelled":
+                lost = True
+                continue
+            if future.status == "error":
                 self._raise(future)
             self.tasks_done += 1
             for frame in self.in_flight:
-                entry = frame.finals.pop(future.key, None)
+                entry = frame.finals.get(future.key)
                 if entry is not None:
-                    result = future.result()  # waits if it was lost again since
+                    try:
+                        result = future.result()  # waits if it was lost again since
+                    except CancelledError:
+                        lost = True
+                        continue
+                    del frame.finals[future.key]
                     frame.results.append((entry[1], result))
                     self.records.extend(result.cluster["passes"])
                     self.finish_order.append((frame.key, entry[1].window))
                     if self.first_tile_seconds is None:
                         self.first_tile_seconds = time.perf_counter() - self.started
+        if lost:
+            self._resend_scene()
         self._report()
+
+    def _resend_scene(self) -> None:
+        """Scatter the scene again and resubmit every tile not done, each from its first pass."""
+        self.scene_resends += 1
+        if self.scene_resends > SCENE_RESENDS:
+            raise ClusterError(
+                f"the cluster cancelled tiles' tasks {SCENE_RESENDS} times in this render (the scene lost with "
+                "the workers holding it, or the scheduler restarted); the scene was sent again each time"
+            )
+        self.client.cancel([*self.pending, self.scene], force=True)
+        self.pending.clear()
+        try:
+            self.client.wait_for_workers(1, timeout=WORKER_WAIT)
+        except TimeoutError:
+            raise ClusterError(
+                f"the scene was lost with its workers and none came back within {WORKER_WAIT:.0f} s"
+            ) from None
+        [self.scene] = self.client.scatter([self.compiled], broadcast=True, hash=False)
+        for frame in self.in_flight:
+            finals = {}
+            for _, tile in frame.finals.values():
+                final = self._submit_tile(frame.camera, tile, 0)
+                finals[final.key] = (final, tile)
+            frame.finals = finals
 
     def _report(self) -> None:
         if self.progress is not None:
@@ -497,8 +547,6 @@ class FrameRenderer:
         """A failed task's error: the worker's own (a refused version, ...), or in words."""
         from distributed import KilledWorker
 
-        if future.status == "cancelled":
-            raise ClusterError("the cluster cancelled a tile's task (was the scheduler restarted?)")
         try:
             future.result()
         except KilledWorker:
