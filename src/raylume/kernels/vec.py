@@ -26,6 +26,11 @@ KERNEL = dict(fastmath=FAST, error_model="numpy", _nrt=False, forceinline=False)
 INLINE = dict(KERNEL, forceinline=True)
 
 
+# What KernelFunction compiles without, and the options a plain njit entry for Python leaves out.
+_NO_WRAPPERS = {"no_cpython_wrapper": True, "no_cfunc_wrapper": True}
+_NOT_FOR_NJIT = {"nopython", *_NO_WRAPPERS}
+
+
 class KernelFunction(CPUDispatcher):
     """A Numba function that kernels call: compiled without the wrappers that let Python call
     it, and once per argument types rather than once more per literal value (`row3(a, i, 3)`
@@ -52,10 +57,6 @@ def _python_entry(function: KernelFunction):
     (an entry that called `function` could not hand back an array without reference counting)."""
     options = {k: v for k, v in function.targetoptions.items() if k not in _NOT_FOR_NJIT}
     return njit(**options)(function.py_func)
-
-
-_NO_WRAPPERS = {"no_cpython_wrapper": True, "no_cfunc_wrapper": True}
-_NOT_FOR_NJIT = {"nopython", *_NO_WRAPPERS}
 
 
 def kernel_function(py_func=None, /, **options):
