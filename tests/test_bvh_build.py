@@ -91,14 +91,15 @@ def subtree_prims(bvh, m):
     return out
 
 
-def ref_sah(bounds_of_nodes, leaf_counts, root_area, c_trav=1.0, c_isect=1.0):
+def ref_sah(bounds_of_nodes, leaf_counts, root_area, c_trav=1.0, c_isect=1.0, block=1):
+    """SAH with a leaf of n primitives costing ceil(n / block) intersections."""
     e = np.maximum(bounds_of_nodes[:, 3:] - bounds_of_nodes[:, :3], 0.0)
     a = 2.0 * (e[:, 0] * e[:, 1] + e[:, 1] * e[:, 2] + e[:, 2] * e[:, 0])
-    w = np.where(leaf_counts > 0, c_isect * leaf_counts, c_trav)
+    w = np.where(leaf_counts > 0, c_isect * np.ceil(leaf_counts / block), c_trav)
     return float((w * a).sum() / root_area)
 
 
-def tree_sah_float64(bvh, lo, hi):
+def tree_sah_float64(bvh, lo, hi, c_trav=1.0, block=1):
     """SAH of a built tree with node boxes recomputed exactly from the
     float64 primitive boxes (independent of the stored float32 bounds)."""
     nb, ni, na, order = bvh
@@ -110,7 +111,7 @@ def tree_sah_float64(bvh, lo, hi):
     boxes = np.array(boxes)
     e = boxes[0, 3:] - boxes[0, :3]
     root = 2.0 * (e[0] * e[1] + e[1] * e[2] + e[2] * e[0])
-    return ref_sah(boxes, np.array(counts), root)
+    return ref_sah(boxes, np.array(counts), root, c_trav=c_trav, block=block)
 
 
 def median_tree_sah(lo, hi, max_leaf):
@@ -269,6 +270,8 @@ def test_rejects_bad_input():
     lo[1, 2] = np.nan
     with pytest.raises(ValueError):
         build_bvh(lo, np.ones((2, 3)))
+    with pytest.raises(ValueError):
+        build_bvh(np.zeros((2, 3)), np.ones((2, 3)), leaf_block=0)
 
 
 # ---------------------------------------------------------------------------
@@ -349,6 +352,28 @@ def test_sah_beats_median_split(seed):
     median = median_tree_sah(lo, hi, 4)
     print(f"seed {seed}: SAH binned {ours:.2f} vs object median {median:.2f}")
     assert ours < 0.95 * median
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_leaf_blocks_fill_leaves_and_lower_the_block_cost(seed):
+    """With leaf_block=4 a leaf of 1 to 4 primitives costs one (vector) test. With c_isect <=
+    c_trav no inner node then holds 4 primitives or fewer (a split costs at least one
+    traversal), and the tree's SAH counted in blocks, recomputed here in float64, is lower than
+    that of the tree built counting primitives."""
+    rng = np.random.default_rng(seed)
+    lo, hi = clustered_boxes(rng, 1500)
+    plain = build_bvh(lo, hi, max_leaf_size=4, c_trav=2.0)
+    blocks = build_bvh(lo, hi, max_leaf_size=4, c_trav=2.0, leaf_block=4)
+    check_bvh(blocks, lo, hi, 4)
+
+    def small_inner(bvh):
+        return [m for m in np.flatnonzero(bvh.node_axis >= 0) if len(subtree_prims(bvh, m)) <= 4]
+
+    assert small_inner(plain)  # counting primitives, such nodes are split
+    assert not small_inner(blocks)
+    ours, theirs = tree_sah_float64(blocks, lo, hi, 2.0, 4), tree_sah_float64(plain, lo, hi, 2.0, 4)
+    print(f"seed {seed}: block SAH {ours:.2f} with leaf_block=4, {theirs:.2f} without")
+    assert ours < theirs
 
 
 def test_large_build_smoke():
@@ -433,12 +458,14 @@ def same_tree(a, b):
 
 
 @pytest.mark.parametrize("top", [16, 200])
-def test_parallel_build_is_the_serial_tree_on_any_thread_count(top):
+@pytest.mark.parametrize("leaf_block", [1, 4])
+def test_parallel_build_is_the_serial_tree_on_any_thread_count(top, leaf_block):
     rng = np.random.default_rng(7)
     lo, hi = clustered_boxes(rng, 4000)
-    serial = build_bvh(lo, hi, max_leaf_size=4, c_trav=2.0)  # 4000 < _TOP: one serial subtree
-    one = build_on(1, lo, hi, top, max_leaf_size=4, c_trav=2.0)
-    many = build_on(THREADS, lo, hi, top, max_leaf_size=4, c_trav=2.0)
+    kw = {"max_leaf_size": 4, "c_trav": 2.0, "leaf_block": leaf_block}
+    serial = build_bvh(lo, hi, **kw)  # 4000 < _TOP: one serial subtree
+    one = build_on(1, lo, hi, top, **kw)
+    many = build_on(THREADS, lo, hi, top, **kw)
     check_bvh(one, lo, hi, 4)
     for a, b in zip(one, many, strict=True):  # bit for bit, prim_order included
         assert np.array_equal(a, b)
@@ -453,7 +480,7 @@ def test_parallel_build_is_the_serial_tree_on_any_thread_count(top):
     ids = np.empty(len(lo), np.int32)
     bvh_module._prepare(lo, hi, box, cen, ids, cb, 0, len(lo))
     with patch.object(bvh_module, "_TOP", top), patch.object(bvh_module, "_BLOCK", 7):
-        nodes = bvh_module._build(box, cen, ids, cb, 4, 16, 2.0, 1.0, 5)
+        nodes = bvh_module._build(box, cen, ids, cb, 4, 16, 2.0, 1.0, leaf_block, 5)
     for a, b in zip(nodes + (ids,), one, strict=True):
         assert np.array_equal(a, b)
 

@@ -23,6 +23,7 @@ import numpy as np
 
 from .accel.bvh import build_bvh
 from .accel.wide import WideBVH, collapse, mark_triangle_leaves, single_leaf, wide_depth, wide_nbytes
+from .kernels.shape_triangle import TRIANGLES_PER_TEST
 from .kernels.shapes import PRIM_FACE, PRIM_KIND, PRIM_LIGHT, PRIM_MATERIAL, PRIM_OBJECT, PRIM_ROW, PRIM_WIDTH, Shape
 from .kernels.traverse import BVH_WIDTH, stack_needed
 from .scene.instances import inverse_rows
@@ -42,6 +43,7 @@ from .scene.instances import inverse_rows
 # randomly turned copies, -5% frame time; level 3 bought nothing more).
 BLAS_MAX_LEAF = 4
 BLAS_TRAVERSAL_COST = 2.0
+BLAS_LEAF_BLOCK = TRIANGLES_PER_TEST  # as the world BVH's (compile.py BVH_LEAF_BLOCK)
 SMALL_BLAS = 8
 TLAS_MAX_LEAF = 8
 TLAS_TRAVERSAL_COST = 4.0
@@ -88,9 +90,10 @@ def empty_instances() -> InstanceArrays:
     )
 
 
-def _wide(lo, hi, accelerate, small, max_leaf, c_trav, c_isect=1.0):
+def _wide(lo, hi, accelerate, small, max_leaf, c_trav, leaf_block):
     if accelerate and len(lo) > small:
-        return collapse(build_bvh(lo, hi, max_leaf_size=max_leaf, c_trav=c_trav, c_isect=c_isect), BVH_WIDTH)
+        bvh = build_bvh(lo, hi, max_leaf_size=max_leaf, c_trav=c_trav, leaf_block=leaf_block)
+        return collapse(bvh, BVH_WIDTH)
     return single_leaf(lo, hi, BVH_WIDTH)
 
 
@@ -292,7 +295,7 @@ def build_instances(meshes: list, accelerate: bool = True) -> InstanceArrays:
         lo = corners.min(axis=1).astype(np.float64)
         hi = corners.max(axis=1).astype(np.float64)
         del corners
-        blas = _wide(lo, hi, accelerate, SMALL_BLAS, BLAS_MAX_LEAF, BLAS_TRAVERSAL_COST)
+        blas = _wide(lo, hi, accelerate, SMALL_BLAS, BLAS_MAX_LEAF, BLAS_TRAVERSAL_COST, BLAS_LEAF_BLOCK)
         order = blas.prim_order.astype(np.int64)
         n = len(order)
         mark_triangle_leaves(blas, np.ones(n, bool))

@@ -250,7 +250,7 @@ def _bin_prims(box, cen, start, end, cb, scale, n_bins, bcnt, bbox):
 
 
 @nb.njit(**_NO_RC)
-def _best_split(bcnt, bbox, n_bins, scale, inv, node_area, c_trav, c_isect, r_area, r_cnt):
+def _best_split(bcnt, bbox, n_bins, scale, inv, node_area, c_trav, c_isect, block, r_area, r_cnt):
     """SAH sweep over all bin boundaries.  Returns (cost, axis, plane); plane
     p sends bins [0, p) left.  axis is -1 when no plane has primitives on
     both sides.  Costs are not divided by the node area, so zero-area nodes
@@ -296,7 +296,7 @@ def _best_split(bcnt, bbox, n_bins, scale, inv, node_area, c_trav, c_isect, r_ar
             if grown:
                 l_area = _bins_area(lx, ly, lz, nx, ny, nz, inv)
                 grown = False
-            cost = c_trav * node_area + c_isect * (cnt * l_area + r_cnt[p] * r_area[p])
+            cost = c_trav * node_area + c_isect * (_blocks(cnt, block) * l_area + _blocks(r_cnt[p], block) * r_area[p])
             if cost < best_cost:
                 best_cost = cost
                 best_axis = k
@@ -312,6 +312,12 @@ def _min32(a, b):
 @nb.njit(**_JIT)
 def _max32(a, b):
     return a if a > b else b
+
+
+@nb.njit(**_JIT)
+def _blocks(count, block):
+    """Intersection tests a leaf of ``count`` primitives costs: one per block."""
+    return (count + block - 1) // block
 
 
 @nb.njit(**_NO_RC)
@@ -330,7 +336,7 @@ def _set_scale(cb, count, n_bins, scale):
 
 
 @nb.njit(**_NO_RC)
-def _choose(bcnt, bbox, nbe, scale, count, max_leaf, c_trav, c_isect, nodebox, r_area, r_cnt):
+def _choose(bcnt, bbox, nbe, scale, count, max_leaf, c_trav, c_isect, block, nodebox, r_area, r_cnt):
     """The node box (into ``nodebox``) and the split of a binned node:
     returns (axis, plane); axis -2 makes a leaf, -1 halves the range (all
     centroids coincide)."""
@@ -339,8 +345,8 @@ def _choose(bcnt, bbox, nbe, scale, count, max_leaf, c_trav, c_isect, nodebox, r
     for b in range(nbe):
         _union_bin(nodebox, bbox, 0, b)
     inv, node_area = _scaled_area(nodebox)
-    cost, axis, plane = _best_split(bcnt, bbox, nbe, scale, inv, node_area, c_trav, c_isect, r_area, r_cnt)
-    if count <= max_leaf and (axis < 0 or c_isect * count * node_area <= cost):
+    cost, axis, plane = _best_split(bcnt, bbox, nbe, scale, inv, node_area, c_trav, c_isect, block, r_area, r_cnt)
+    if count <= max_leaf and (axis < 0 or c_isect * _blocks(count, block) * node_area <= cost):
         return -2, 0
     return axis, plane
 
@@ -425,14 +431,17 @@ def _partition(box, cen, ids, start, end, k, cmin, scale, plane, n_bins, cb_l, c
 
 
 @nb.njit(**_NO_RC)
-def _surely_leaf(box, start, end, c_trav, c_isect, nodebox):
+def _surely_leaf(box, start, end, c_trav, c_isect, block, nodebox):
     """Whether a node of at most max_leaf primitives is a leaf whatever its
     bins say (then its box is in ``nodebox``), without binning it.  Any
     split costs at least c_trav A + c_isect (the sum of the primitives'
     areas), since each side's box holds each of its primitives' boxes (and
     areas computed as _choose does are monotone): a leaf costing no more
     than that bound (less a margin for rounding) is what _choose decides
-    too.  With c_trav = 2, the leaves of 2 always, most of 3 and many of 4."""
+    too.  With c_trav = 2, the leaves of 2 always, most of 3 and many of 4.
+    With blocks of several primitives a side costs at least its box's area
+    once, so the bound is c_trav A + c_isect (the largest primitive's area);
+    with c_isect <= c_trav every node of one block is a leaf."""
     count = end - start
     for d in range(3):
         lo = box[start, d]
@@ -442,12 +451,13 @@ def _surely_leaf(box, start, end, c_trav, c_isect, nodebox):
             hi = _max32(hi, box[i, 3 + d])
         nodebox[d] = lo
         nodebox[3 + d] = hi
-    if count * c_isect <= c_trav:  # a split costs more than c_trav A alone
+    if _blocks(count, block) * c_isect <= c_trav:  # a split costs more than c_trav A alone
         return True
     inv, node_area = _scaled_area(nodebox)
     prims = 0.0
+    largest = 0.0
     for i in range(start, end):
-        prims += _half_area(
+        a = _half_area(
             np.float64(box[i, 0]),
             np.float64(box[i, 1]),
             np.float64(box[i, 2]),
@@ -456,11 +466,17 @@ def _surely_leaf(box, start, end, c_trav, c_isect, nodebox):
             np.float64(box[i, 5]),
             inv,
         )
-    return c_isect * count * node_area <= (c_trav * node_area + c_isect * prims) * (1.0 - 1e-9)
+        prims += a
+        largest = max(largest, a)
+    if block > 1:
+        prims = largest
+    return c_isect * _blocks(count, block) * node_area <= (c_trav * node_area + c_isect * prims) * (1.0 - 1e-9)
 
 
 @nb.njit(**_JIT)
-def _build_range(box, cen, ids, start0, end0, root_cb, max_leaf, n_bins, c_trav, c_isect, nbounds, nindex, naxis, base):
+def _build_range(
+    box, cen, ids, start0, end0, root_cb, max_leaf, n_bins, c_trav, c_isect, block, nbounds, nindex, naxis, base
+):
     """Serial build of the subtree over primitives [start0, end0) into node
     rows base, base + 1, ... (depth-first; child links and leaf ranges are
     absolute).  Returns the number of nodes written (at most 2 count - 1)."""
@@ -500,7 +516,7 @@ def _build_range(box, cen, ids, start0, end0, root_cb, max_leaf, n_bins, c_trav,
             nindex[patch, 0] = m
         count = end - start
 
-        if count <= max_leaf and _surely_leaf(box, start, end, c_trav, c_isect, nodebox):
+        if count <= max_leaf and _surely_leaf(box, start, end, c_trav, c_isect, block, nodebox):
             for d in range(6):
                 nbounds[m, d] = nodebox[d]
             nindex[m, 0] = start
@@ -518,7 +534,7 @@ def _build_range(box, cen, ids, start0, end0, root_cb, max_leaf, n_bins, c_trav,
         nbe = _set_scale(cb, count, n_bins, scale)
         _clear_bins(bcnt, bbox, nbe)
         _bin_prims(box, cen, start, end, cb, scale, nbe, bcnt, bbox)
-        axis, plane = _choose(bcnt, bbox, nbe, scale, count, max_leaf, c_trav, c_isect, nodebox, r_area, r_cnt)
+        axis, plane = _choose(bcnt, bbox, nbe, scale, count, max_leaf, c_trav, c_isect, block, nodebox, r_area, r_cnt)
         for d in range(6):
             nbounds[m, d] = nodebox[d]
         if axis == -2:
@@ -662,7 +678,7 @@ def _place(snb, sni, sna, src, count, nbounds, nindex, naxis, dst):
     nindex[dst : dst + count, 0] += np.where(a >= 0, dst, 0).astype(np.int32)
 
 
-def _subtree(box, cen, ids, a, b, cb, max_leaf, n_bins, c_trav, c_isect, scratch, out):
+def _subtree(box, cen, ids, a, b, cb, max_leaf, n_bins, c_trav, c_isect, block, scratch, out):
     """The subtree over primitives [a, b), built serially into this thread's scratch (up to
     2 (b - a) - 1 rows; ``scratch``: a threading.local), its node rows numbered from 0, then
     copied to the next free rows of ``out`` (bounds, index, axis, a lock, [next free row]);
@@ -677,7 +693,7 @@ def _subtree(box, cen, ids, a, b, cb, max_leaf, n_bins, c_trav, c_isect, scratch
         scratch.cap = cap
         scratch.arrays = (np.empty((cap, 6), np.float32), np.empty((cap, 2), np.int32), np.empty(cap, np.int8))
     snb, sni, sna = scratch.arrays
-    m = _build_range(box, cen, ids, a, b, cb, max_leaf, n_bins, c_trav, c_isect, snb, sni, sna, 0)
+    m = _build_range(box, cen, ids, a, b, cb, max_leaf, n_bins, c_trav, c_isect, block, snb, sni, sna, 0)
     onb, oni, ona, lock, free = out
     with lock:
         at = free[0]
@@ -702,7 +718,7 @@ def _pieces(start: int, end: int, parts: int) -> list[tuple[int, int]]:
     return [(a, b) for a, b in zip(cuts[:-1], cuts[1:], strict=True) if b > a]
 
 
-def _build(box, cen, ids, root_cb, max_leaf, n_bins, c_trav, c_isect, threads):
+def _build(box, cen, ids, root_cb, max_leaf, n_bins, c_trav, c_isect, block, threads):
     """The tree over the prepared primitives; reorders ``ids`` (and uses
     ``box``, ``cen`` as scratch).  Returns (node_bounds, node_index, node_axis)."""
     n = box.shape[0]
@@ -731,7 +747,9 @@ def _build(box, cen, ids, root_cb, max_leaf, n_bins, c_trav, c_isect, threads):
             nodebox = np.empty(6, np.float64)
             bcnt, bbox = pcnt[:, :, :nbe].sum(axis=0), pbox[:, :, :nbe].min(axis=0)
             r_area, r_cnt = np.empty(n_bins, np.float64), np.empty(n_bins, np.int64)
-            axis, plane = _choose(bcnt, bbox, nbe, scale, count, max_leaf, c_trav, c_isect, nodebox, r_area, r_cnt)
+            axis, plane = _choose(
+                bcnt, bbox, nbe, scale, count, max_leaf, c_trav, c_isect, block, nodebox, r_area, r_cnt
+            )
             k = int(axis)
             cmin, sk = (float(cb[k]), float(scale[k])) if k >= 0 else (0.0, 0.0)
             half = start + count // 2
@@ -767,7 +785,7 @@ def _build(box, cen, ids, root_cb, max_leaf, n_bins, c_trav, c_isect, threads):
         built = run.map(
             _subtree,
             [
-                (box, cen, ids, a, b, cb, max_leaf, n_bins, c_trav, c_isect, scratch, (*out, lock, free))
+                (box, cen, ids, a, b, cb, max_leaf, n_bins, c_trav, c_isect, block, scratch, (*out, lock, free))
                 for _, a, b, cb in (tasks[t] for t in order)
             ],
         )
@@ -820,11 +838,16 @@ def _build(box, cen, ids, root_cb, max_leaf, n_bins, c_trav, c_isect, threads):
 # ---------------------------------------------------------------------------
 
 
-def build_bvh(lo, hi, max_leaf_size: int = 4, n_bins: int = 16, *, c_trav: float = 1.0, c_isect: float = 1.0) -> BVH:
+def build_bvh(
+    lo, hi, max_leaf_size: int = 4, n_bins: int = 16, *, c_trav: float = 1.0, c_isect: float = 1.0, leaf_block: int = 1
+) -> BVH:
     """Build a binned-SAH BVH over N primitive boxes ``lo``/``hi`` (N, 3).
 
     ``c_trav`` / ``c_isect`` are the relative costs of a node traversal and
-    of a primitive intersection used by the heuristic.  Large inputs are
+    of a primitive intersection used by the heuristic; ``leaf_block``
+    primitives are tested as one (a leaf of n costs ceil(n / leaf_block)
+    intersections: traversal tests blocks of 4 triangles with one vector
+    test, so a leaf of 1 costs as much as one of 4).  Large inputs are
     built on ``numba.get_num_threads()`` threads; the result does not depend
     on the thread count.
     """
@@ -836,6 +859,8 @@ def build_bvh(lo, hi, max_leaf_size: int = 4, n_bins: int = 16, *, c_trav: float
         raise ValueError("max_leaf_size must be >= 1")
     if n_bins < 2:
         raise ValueError("n_bins must be >= 2")
+    if leaf_block < 1:
+        raise ValueError("leaf_block must be >= 1")
     n = lo.shape[0]
     if n >= 2**30:
         raise ValueError("too many primitives for int32 indices")
@@ -861,7 +886,7 @@ def build_bvh(lo, hi, max_leaf_size: int = 4, n_bins: int = 16, *, c_trav: float
         raise ValueError(f"primitive {i} has an invalid box (NaN or lo > hi): lo={lo[i]}, hi={hi[i]}")
     root_cb = np.concatenate([pcb[:, :3].min(axis=0), pcb[:, 3:].max(axis=0)])
     nbounds, nindex, naxis = _build(
-        box, cen, ids, root_cb, int(max_leaf_size), int(n_bins), float(c_trav), float(c_isect), threads
+        box, cen, ids, root_cb, int(max_leaf_size), int(n_bins), float(c_trav), float(c_isect), int(leaf_block), threads
     )
     return BVH(nbounds, nindex, naxis, ids)
 
