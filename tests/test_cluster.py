@@ -12,6 +12,7 @@ import signal
 import socket
 import subprocess
 import sys
+import threading
 import time
 
 import numpy as np
@@ -139,6 +140,31 @@ def test_every_worker_killed_mid_render_loses_nothing(client, session, monkeypat
     broadcast value once no task waits for it, so one worker's death can be enough): it is
     scattered again to the restarted workers and the unfinished tiles resubmitted."""
     _assert_killing_workers_mid_render_loses_nothing(client, session, monkeypatch, 2)
+
+
+def test_every_worker_killed_during_the_warm_up_loses_nothing(client, session, monkeypatch):
+    """The warm-up tasks are pinned to the workers there were; killed, they come back at new
+    addresses (their nannies restart them) and the scene may be gone with them. The render
+    warms the new workers (sending the scene again if it was lost) instead of waiting forever
+    for the old ones."""
+    settings = dict(mode="trace", spp=2)
+    reference = session.render(threads=2, **settings)
+    pids = client.run(os.getpid)
+    warm_up = C.FrameRenderer._warm_up
+
+    def kill_then_warm_up(self, camera):
+        for pid in pids.values():
+            os.kill(pid, signal.SIGKILL)
+        return warm_up(self, camera)
+
+    monkeypatch.setattr(C.FrameRenderer, "_warm_up", kill_then_warm_up)
+    done = {}
+    worker = threading.Thread(target=lambda: done.update(image=session.render(cluster=client, **settings)), daemon=True)
+    worker.start()
+    worker.join(timeout=180)
+    assert "image" in done, "the render still waits for the warm-up of workers that have left"
+    assert_same(reference, done["image"])
+    client.wait_for_workers(2, timeout=60)  # both restarted, for the tests that follow
 
 
 def test_ctrl_c_cancels_the_outstanding_tiles(client, session, monkeypatch):

@@ -382,6 +382,8 @@ class FrameRenderer:
         self.scene_resends = 0
         self.pending: set = set()  # every submitted, unfinished future (passes too)
         self.warm_futures: list = []
+        self.warm_workers: dict = {}  # warm-up task's key -> the worker it is pinned to
+        self.warm_up_retries = 0
         self.warm: dict = {}
         self.sample_seconds: float | None = None
         self.first_tile_seconds: float | None = None
@@ -422,29 +424,61 @@ class FrameRenderer:
     def _warm_up(self, camera: Camera) -> float:
         """Warm every worker's kernels (a task pinned to it, before its tiles); wait for the
         first and return its seconds per pixel-sample."""
-        for address in self.client.nthreads():
-            self.warm_futures.append(
-                self.client.submit(
-                    _warm,
-                    self.scene,
-                    camera,
-                    self.settings,
-                    self.expected,
-                    workers=[address],
-                    allow_other_workers=False,
-                    pure=False,
-                    priority=100,
-                )  # fmt: skip
-            )
+        self._submit_warm_ups(camera)
+        checked = time.monotonic()
         while True:
             for future in self.warm_futures:
                 if future.status == "finished":
-                    info = future.result()
+                    try:
+                        info = future.result()
+                    except CancelledError:  # lost with the scene since
+                        continue
                     self.warm[info["worker"]] = info
                     return info["sample_seconds"]
                 if future.status == "error":
                     future.result()  # raises the worker's error (a refused version, ...)
+            if time.monotonic() - checked > POLL_SECONDS:
+                checked = time.monotonic()
+                if self._warm_ups_stranded():
+                    self._warm_up_again(camera)
             time.sleep(POLL_SECONDS / 5)
+
+    def _submit_warm_ups(self, camera: Camera) -> None:
+        for address in self.client.nthreads():
+            future = self.client.submit(
+                _warm, self.scene, camera, self.settings, self.expected,
+                workers=[address], allow_other_workers=False, pure=False, priority=100,
+            )  # fmt: skip
+            self.warm_futures.append(future)
+            self.warm_workers[future.key] = address
+
+    def _warm_ups_stranded(self) -> bool:
+        """Whether no warm-up task can finish any more: each one cancelled (the scene lost) or
+        pinned to a worker that has left (a restarted worker comes back at another address).
+        Also true when there were no workers to warm."""
+        workers = self.client.nthreads()
+        return all(
+            f.status == "cancelled" or (f.status != "finished" and self.warm_workers[f.key] not in workers)
+            for f in self.warm_futures
+        )
+
+    def _warm_up_again(self, camera: Camera) -> None:
+        """The workers left (or the scene went with them) during the warm-up: send the scene
+        again if it was lost, and warm the workers there are now."""
+        scene_lost = any(f.status == "cancelled" for f in self.warm_futures)
+        self.client.cancel(self.warm_futures, force=True)
+        self.warm_futures.clear()
+        if scene_lost:
+            self._resend_scene()  # counts against SCENE_RESENDS, waits for a worker
+        else:
+            self.warm_up_retries += 1
+            if self.warm_up_retries > SCENE_RESENDS:
+                raise ClusterError(
+                    f"the workers left during the warm-up {SCENE_RESENDS} times in this render; "
+                    "the cluster's workers keep dying"
+                )
+            self._wait_for_a_worker("the workers left during the warm-up")
+        self._submit_warm_ups(camera)
 
     def _submit(self, key, camera: Camera) -> _Frame:
         tiles = plan_tiles(self.window, self.settings, self.sample_seconds, self.min_tiles)
@@ -476,9 +510,12 @@ class FrameRenderer:
         time.sleep(POLL_SECONDS)
         # "lost" (its worker died) is not an end: Dask computes it again elsewhere
         for future in [f for f in self.warm_futures if f.status == "finished"]:
-            info = future.result()  # the other workers' warm-ups, for the statistics
-            self.warm[info["worker"]] = info
             self.warm_futures.remove(future)
+            try:
+                info = future.result()  # the other workers' warm-ups, for the statistics
+            except CancelledError:  # lost with the scene since: only statistics
+                continue
+            self.warm[info["worker"]] = info
         settled = [f for f in self.pending if f.status in ("finished", "error", "cancelled")]
         # A task is cancelled when something it needs can no longer be computed: the scene,
         # when the last worker holding it dies (Dask's memory manager keeps one copy of a
@@ -521,12 +558,7 @@ class FrameRenderer:
             )
         self.client.cancel([*self.pending, self.scene], force=True)
         self.pending.clear()
-        try:
-            self.client.wait_for_workers(1, timeout=WORKER_WAIT)
-        except TimeoutError:
-            raise ClusterError(
-                f"the scene was lost with its workers and none came back within {WORKER_WAIT:.0f} s"
-            ) from None
+        self._wait_for_a_worker("the scene was lost with its workers")
         [self.scene] = self.client.scatter([self.compiled], broadcast=True, hash=False)
         for frame in self.in_flight:
             finals = {}
@@ -534,6 +566,12 @@ class FrameRenderer:
                 final = self._submit_tile(frame.camera, tile, 0)
                 finals[final.key] = (final, tile)
             frame.finals = finals
+
+    def _wait_for_a_worker(self, what: str) -> None:
+        try:
+            self.client.wait_for_workers(1, timeout=WORKER_WAIT)
+        except TimeoutError:
+            raise ClusterError(f"{what} and none came back within {WORKER_WAIT:.0f} s") from None
 
     def _report(self) -> None:
         if self.progress is not None:
