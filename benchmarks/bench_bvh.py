@@ -125,7 +125,7 @@ def time_builds(vertices, faces, repeats):
 
     from raylume.accel.bvh import build_bvh, sah_cost, triangle_bounds
     from raylume.accel.wide import collapse
-    from raylume.compile import BVH_MAX_LEAF, BVH_TRAVERSAL_COST
+    from raylume.compile import BVH_LEAF_BLOCK, BVH_OPTIONS, BVH_TRAVERSAL_COST
 
     tri = vertices.astype(np.float32)[faces].reshape(-1, 9)
     v32, f32 = vertices.astype(np.float32), faces.astype(np.int32)
@@ -138,7 +138,7 @@ def time_builds(vertices, faces, repeats):
         lo, hi = np.empty((len(tri), 3)), np.empty((len(tri), 3))
         triangle_bounds(tri, lo, hi)
         t1 = time.perf_counter()
-        bvh = build_bvh(lo, hi, max_leaf_size=BVH_MAX_LEAF, c_trav=BVH_TRAVERSAL_COST)
+        bvh = build_bvh(lo, hi, **BVH_OPTIONS)
         t2 = time.perf_counter()
         collapse(bvh)
         t3 = time.perf_counter()
@@ -168,7 +168,7 @@ def time_builds(vertices, faces, repeats):
         median_of(t1),
         median_of(ta),
         median_of(te),
-        sah_cost(bvh, BVH_TRAVERSAL_COST),
+        sah_cost(bvh, BVH_TRAVERSAL_COST, leaf_block=BVH_LEAF_BLOCK),
         phase,
         (median_of(cpu), median_of(cpu_e)),
     )
@@ -209,7 +209,7 @@ def phase_table(n, repeats):
 
     from raylume.accel import bvh as bvh_module
     from raylume.accel.wide import collapse
-    from raylume.compile import BVH_MAX_LEAF, BVH_TRAVERSAL_COST
+    from raylume.compile import BVH_OPTIONS
 
     v, f = bumpy_sphere(n)
     tri = v.astype(np.float32)[f].reshape(-1, 9)
@@ -229,7 +229,7 @@ def phase_table(n, repeats):
         bvh_module.triangle_bounds(tri, lo, hi)
         t1 = time.perf_counter()
         spent.clear()
-        bvh = bvh_module.build_bvh(lo, hi, max_leaf_size=BVH_MAX_LEAF, c_trav=BVH_TRAVERSAL_COST)
+        bvh = bvh_module.build_bvh(lo, hi, **BVH_OPTIONS)
         t2 = time.perf_counter()
         collapse(bvh)
         t3 = time.perf_counter()

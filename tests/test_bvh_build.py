@@ -374,6 +374,7 @@ def test_leaf_blocks_fill_leaves_and_lower_the_block_cost(seed):
     ours, theirs = tree_sah_float64(blocks, lo, hi, 2.0, 4), tree_sah_float64(plain, lo, hi, 2.0, 4)
     print(f"seed {seed}: block SAH {ours:.2f} with leaf_block=4, {theirs:.2f} without")
     assert ours < theirs
+    assert sah_cost(blocks, 2.0, leaf_block=4) == pytest.approx(ours, rel=1e-4)  # from the float32 bounds
 
 
 def test_large_build_smoke():

@@ -66,6 +66,7 @@ BVH_TRAVERSAL_COST = 2.0
 # so the heuristic counts a leaf's cost in blocks of 4: a leaf of 1 costs as much as one of 4.
 # Hit rays on a 1M-triangle mesh ~3% faster, the bunny ~1.5% (benchmarks/bench_hits.py).
 BVH_LEAF_BLOCK = TRIANGLES_PER_TEST
+BVH_OPTIONS = {"max_leaf_size": BVH_MAX_LEAF, "c_trav": BVH_TRAVERSAL_COST, "leaf_block": BVH_LEAF_BLOCK}
 SMALL_SCENE = 8
 
 # Model classes of the analytic shapes and their kinds (one line per shape).
@@ -509,10 +510,7 @@ def compile_scene(scene: Scene, source="<scene>", accelerate: bool = True) -> Co
         triangle_bounds(tri, lo[n_analytic:], hi[n_analytic:])
     if accelerate and len(lo) > SMALL_SCENE:
         # the binned-SAH binary tree, collapsed into BVH_WIDTH-wide nodes (accel/wide.py)
-        bvh = collapse(
-            build_bvh(lo, hi, max_leaf_size=BVH_MAX_LEAF, c_trav=BVH_TRAVERSAL_COST, leaf_block=BVH_LEAF_BLOCK),
-            BVH_WIDTH,
-        )
+        bvh = collapse(build_bvh(lo, hi, **BVH_OPTIONS), BVH_WIDTH)
         depth = wide_depth(bvh)
     else:
         bvh = single_leaf(lo, hi, BVH_WIDTH)

@@ -955,13 +955,14 @@ def _areas(bounds: np.ndarray) -> np.ndarray:
     return 2.0 * (e[:, 0] * e[:, 1] + e[:, 1] * e[:, 2] + e[:, 2] * e[:, 0])
 
 
-def sah_cost(bvh: BVH, c_trav: float = 1.0, c_isect: float = 1.0) -> float:
+def sah_cost(bvh: BVH, c_trav: float = 1.0, c_isect: float = 1.0, leaf_block: int = 1) -> float:
     """Expected cost of a random ray that hits the root box:
     sum over inner nodes of ``c_trav * A(n)/A(root)`` plus sum over leaves of
-    ``c_isect * count * A(n)/A(root)``."""
+    ``c_isect * ceil(count / leaf_block) * A(n)/A(root)`` (as build_bvh counts)."""
     area = _areas(bvh.node_bounds)
     leaf = bvh.node_axis < 0
-    weight = np.where(leaf, c_isect * bvh.node_index[:, 1], c_trav)
+    blocks = -(-bvh.node_index[:, 1].astype(np.int64) // leaf_block)
+    weight = np.where(leaf, c_isect * blocks, c_trav)
     root = area[0]
     if not root > 0.0:
         # Degenerate scene (points or a segment): all ratios tend to 1.
