@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import threading
 import time
 import warnings
@@ -135,28 +134,15 @@ def _parse_aovs(specs: list[str], output: Path) -> tuple[dict[str, Path], list[s
 def _resolve_scene(scene: str | None, overrides: list[str] | None = None, width=None, height=None, camera=None):
     """(the scene, its label) for SCENE: a scene file, a glTF file (its camera, or the one
     --camera names: scene/gltf_scene.py), a mesh file (framed for the image size the flags give,
-    scene/autoframe.py) or a built-in name."""
-    from .scene.autoframe import MESH_SUFFIXES, is_mesh_file, mesh_scene
-    from .scene.builtin import DEFAULT_SCENE, builtin_names, builtin_scene
+    scene/autoframe.py) or a built-in name (scene/open.py)."""
+    from .scene.builtin import DEFAULT_SCENE
     from .scene.gltf import is_gltf_file
-    from .scene.gltf_scene import gltf_scene
-    from .scene.load import SCENE_SUFFIXES, load_scene
+    from .scene.open import open_scene
 
     name = scene or DEFAULT_SCENE
-    if is_gltf_file(name):
-        return gltf_scene(name, overrides, camera=camera, width=width, height=height), name
-    if camera is not None:
+    if camera is not None and not is_gltf_file(name):
         raise SceneError(f"--camera {camera}: chooses a camera of a glTF file (.gltf, .glb), and {name} is not one")
-    if is_mesh_file(name):
-        return mesh_scene(name, overrides, width=width, height=height), name
-    if Path(name).suffix.lower() in SCENE_SUFFIXES or os.sep in name or Path(name).exists():
-        return load_scene(name, overrides=overrides), name
-    if name in builtin_names():
-        return builtin_scene(name, overrides=overrides), f"built-in scene {name!r}"
-    raise SceneError(
-        f"{name}: not a scene file (.toml or .json), a mesh file ({', '.join(MESH_SUFFIXES)}) nor a built-in "
-        f"scene; built-ins: {', '.join(builtin_names())}"
-    )
+    return open_scene(name, overrides, width=width, height=height, camera=camera)
 
 
 def _check_distinct(out: Path, scene_label: str, others: list[Path]) -> None:

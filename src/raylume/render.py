@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable
 
 from .image import Image
-from .scene.model import Scene
+from .scene.open import SceneLike, open_scene
 from .session import (
     AOV_NAMES,
     RenderInterrupted,
@@ -20,7 +20,7 @@ __all__ = ["AOV_NAMES", "RenderInterrupted", "allocate_aovs", "check_memory", "e
 
 
 def render(
-    scene: Scene,
+    scene: SceneLike,
     *,
     width: int | None = None,
     height: int | None = None,
@@ -39,7 +39,9 @@ def render(
     status: Callable[[str], None] | None = None,
     cluster=None,
 ) -> Image:
-    """Render `scene` (arguments override its [render] table). Returns an Image with linear
+    """Render `scene` (arguments override its [render] table): a Scene, a path to a scene,
+    glTF or mesh file (a mesh is framed and lit), or a built-in scene's name, as the command
+    line's SCENE (None: the built-in `seed`). Returns an Image with linear
     float32 RGB, the AOVs (depth, normal, object, prim, albedo) when `aovs` is true, and the
     stats dictionary. To render one scene several times (other cameras, sizes, modes), use a
     Session: it compiles once. `crop` = (x0, x1, y0, y1) renders only columns x0..x1-1 and
@@ -47,6 +49,8 @@ def render(
     `status` is called with "compiling" before the kernels' first call and "rendering" after
     it (see Session.render). `cluster`: a Dask scheduler's address, `local`, `local:N` or a
     `distributed.Client`: render in tiles on its workers, bit-identical (raylume.cluster)."""
+    scene, label = open_scene(scene, width=width, height=height)
+    source = label if source == "<scene>" else source
     overrides = dict(width=width, height=height, spp=spp, mode=mode, max_depth=max_depth, seed=seed,
                      filter=filter, exposure=exposure, denoise=denoise)  # fmt: skip
     settings = resolve_settings(scene, source, **overrides)  # fail before compiling

@@ -32,6 +32,7 @@ from .kernels.frame import PROGRESS_STRIDE, aov_lane, cast_lane, path_lane, trac
 from .kernels.shapes import features, path_features
 from .scene.checks import warn_about
 from .scene.model import Camera, RenderSettings, Scene
+from .scene.open import SceneLike, open_scene
 
 if TYPE_CHECKING:
     from distributed import Client
@@ -89,15 +90,18 @@ def allocate_aovs(H: int, W: int) -> dict:
 class Session:
     """A scene compiled once (geometry, materials, lights, BVH) that renders many times.
 
-        session = raylume.Session(raylume.builtin_scene("seed"))
+        session = raylume.Session("seed")  # or a Scene, a scene file, a mesh file
         a = session.render(width=300, height=300)
         b = session.render(camera={"position": [0, 1, -2]}, mode="cast", spp=4)
 
     `accelerate=False` skips the BVH until a ray mode needs it (rasterizing never does)."""
 
-    def __init__(self, scene: Scene, *, source: str = "<scene>", accelerate: bool = True):
+    def __init__(self, scene: SceneLike, *, source: str = "<scene>", accelerate: bool = True):
+        """`scene`: a Scene, a path to a scene, glTF or mesh file, or a built-in scene's name
+        (as raylume.render takes it)."""
+        scene, label = open_scene(scene)
         self.scene = scene
-        self.source = source
+        self.source = label if source == "<scene>" else source
         self.bvh_builds = 0
         self._compile(accelerate)
 

@@ -42,23 +42,15 @@ def view(
     threads: int | None = None,
     show: bool | None = None,
 ) -> ViewURL:
-    """Serve a live view of `scene` (a Scene, a scene file, a built-in name, or None for
-    `seed`) in the background and return its URL (with the token). In Jupyter (or when
+    """Serve a live view of `scene` (a Scene, a scene, glTF or mesh file, a built-in name, or
+    None for `seed`) in the background and return its URL (with the token). In Jupyter (or when
     `show`) the page is also shown inline in an iframe. Port 0 (the default here) picks a free
     port, so several views can run at once; `url.stop()` ends one."""
-    from ..scene.builtin import DEFAULT_SCENE, builtin_names, builtin_scene
-    from ..scene.load import load_scene
+    from ..scene.open import open_scene
     from ..session import Session
     from .service import Viewer, warn_if_exposed
 
-    if scene is None or (isinstance(scene, str) and scene in builtin_names()):
-        source = f"built-in scene {scene or DEFAULT_SCENE!r}"
-        scene = builtin_scene(scene or DEFAULT_SCENE)
-    elif isinstance(scene, str | Path):
-        source = str(scene)
-        scene = load_scene(scene)
-    else:
-        source = "<scene>"
+    scene, source = open_scene(scene, width=width, height=height)
     scene = scene.with_render(width=width, height=height, mode=mode, spp=spp)
     warn_if_exposed(host)
     viewer = Viewer(Session(scene, source=source), host=host, port=port, threads=threads)
