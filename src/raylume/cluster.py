@@ -437,7 +437,7 @@ class FrameRenderer:
                     return info["sample_seconds"]
                 if future.status == "error":
                     future.result()  # raises the worker's error (a refused version, ...)
-            if time.monotonic() - checked > POLL_SECONDS:
+            if time.monotonic() - checked > 10 * POLL_SECONDS:  # asks the scheduler: not every poll
                 checked = time.monotonic()
                 if self._warm_ups_stranded():
                     self._warm_up_again(camera)
