@@ -13,17 +13,60 @@ b = session.render(camera={"position": [0, 1, -1]}, mode="cast")
 url = raylume.view(raylume.builtin_scene("seed"))           # a live view in the browser
 """
 
+# The public names are imported on first use (PEP 562), so that `import raylume` and the
+# command line's --help do not load Numba, pydantic and the kernels (1.5 s) before they are needed.
+import importlib
+from typing import TYPE_CHECKING
+
 from .errors import RaylumeError, SceneError
-from .image import Image
-from .kernels.film import Film
-from .query import intersect
-from .render import render
-from .scene.builtin import builtin_names, builtin_scene
-from .scene.checks import SceneWarning
-from .scene.load import load_scene, scene_from_dict
-from .scene.model import Camera, Scene
-from .session import Session
-from .viewer import view
+
+_HOMES = {
+    "Camera": ".scene.model",
+    "Film": ".kernels.film",
+    "Image": ".image",
+    "Scene": ".scene.model",
+    "SceneWarning": ".scene.checks",
+    "Session": ".session",
+    "builtin_names": ".scene.builtin",
+    "builtin_scene": ".scene.builtin",
+    "intersect": ".query",
+    "load_scene": ".scene.load",
+    "render": ".render",
+    "scene_from_dict": ".scene.load",
+    "view": ".viewer",
+}
+
+
+def __getattr__(name: str):
+    home = _HOMES.get(name)
+    if home is not None:
+        value = getattr(importlib.import_module(home, __name__), name)
+    else:
+        try:  # a submodule (raylume.compile, raylume.cluster, ...) not imported yet
+            value = importlib.import_module(f".{name}", __name__)
+        except ModuleNotFoundError as error:
+            if error.name != f"{__name__}.{name}":
+                raise
+            raise AttributeError(f"module {__name__!r} has no attribute {name!r}") from None
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *_HOMES})
+
+
+if TYPE_CHECKING:
+    from .image import Image
+    from .kernels.film import Film
+    from .query import intersect
+    from .render import render
+    from .scene.builtin import builtin_names, builtin_scene
+    from .scene.checks import SceneWarning
+    from .scene.load import load_scene, scene_from_dict
+    from .scene.model import Camera, Scene
+    from .session import Session
+    from .viewer import view
 
 __all__ = [
     "Camera",

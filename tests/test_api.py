@@ -1,9 +1,12 @@
-"""The Python API takes a scene as the command line's SCENE does (scene/open.py): a built-in
-name, a scene file or a mesh file, beside a Scene. Each is checked against the other way of
-getting the same picture: the Scene built by hand, or the command line's own output."""
+"""The Python API's front door. `render`, `Session` take a scene as the command line's SCENE
+does (scene/open.py): a built-in name, a scene file or a mesh file, beside a Scene; each is
+checked against the other way of getting the same picture (the Scene built by hand, or the
+command line's own output). And `import raylume` is cheap: its names load on first use."""
 
 from __future__ import annotations
 
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -52,3 +55,14 @@ def test_what_is_not_a_scene_is_refused_by_name(tmp_path):
         raylume.Session(tmp_path / "nosuch.toml")
     with pytest.raises(raylume.SceneError, match="not a scene file.*built-ins: .*seed"):
         raylume.render("no-such-built-in")
+
+
+def test_importing_raylume_loads_no_kernels():
+    """The package imports its public names on first use: `import raylume` and the command
+    line's --help do not load Numba (1.5 s), while every public name still resolves."""
+    code = (
+        "import sys, raylume, raylume.cli; loaded = 'numba' in sys.modules; "
+        "names = [getattr(raylume, n) for n in raylume.__all__]; print(loaded, 'numba' in sys.modules)"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.split() == ["False", "True"]
