@@ -19,6 +19,7 @@ import importlib
 from typing import TYPE_CHECKING
 
 from .errors import RaylumeError, SceneError
+from .render import render  # at once: the function shadows its module (render.py stays light)
 
 _HOMES = {
     "Camera": ".scene.model",
@@ -31,7 +32,6 @@ _HOMES = {
     "builtin_scene": ".scene.builtin",
     "intersect": ".query",
     "load_scene": ".scene.load",
-    "render": ".render",
     "scene_from_dict": ".scene.load",
     "view": ".viewer",
 }
@@ -60,7 +60,6 @@ if TYPE_CHECKING:
     from .image import Image
     from .kernels.film import Film
     from .query import intersect
-    from .render import render
     from .scene.builtin import builtin_names, builtin_scene
     from .scene.checks import SceneWarning
     from .scene.load import load_scene, scene_from_dict

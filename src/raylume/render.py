@@ -3,20 +3,27 @@
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import TYPE_CHECKING
 
-from .image import Image
-from .scene.open import SceneLike, open_scene
-from .session import (
-    AOV_NAMES,
-    RenderInterrupted,
-    Session,
-    allocate_aovs,
-    check_memory,
-    estimate_bytes,
-    resolve_settings,
-)
+if TYPE_CHECKING:
+    from .image import Image
+    from .scene.open import SceneLike
+    from .session import AOV_NAMES, RenderInterrupted, allocate_aovs, check_memory, estimate_bytes
 
 __all__ = ["AOV_NAMES", "RenderInterrupted", "allocate_aovs", "check_memory", "estimate_bytes", "render"]
+
+# raylume/__init__.py imports this module at once (its `render` function must shadow the module
+# of the same name), so it stays light: what it needs is imported on use, and the session's
+# names it re-exports are loaded on first access.
+_FROM_SESSION = {"AOV_NAMES", "RenderInterrupted", "allocate_aovs", "check_memory", "estimate_bytes"}
+
+
+def __getattr__(name: str):
+    if name in _FROM_SESSION:
+        from . import session
+
+        return getattr(session, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def render(
@@ -49,6 +56,9 @@ def render(
     `status` is called with "compiling" before the kernels' first call and "rendering" after
     it (see Session.render). `cluster`: a Dask scheduler's address, `local`, `local:N` or a
     `distributed.Client`: render in tiles on its workers, bit-identical (raylume.cluster)."""
+    from .scene.open import open_scene
+    from .session import Session, resolve_settings
+
     scene, label = open_scene(scene, width=width, height=height)
     source = label if source == "<scene>" else source
     overrides = dict(width=width, height=height, spp=spp, mode=mode, max_depth=max_depth, seed=seed,
