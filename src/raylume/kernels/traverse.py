@@ -452,7 +452,13 @@ def _root_is_a_leaf(index):
 def closest_hit(G, X, o, d, tmin, tmax, node_stack, t_stack):
     """Nearest hit in (tmin, tmax): (t, primitive, b1, b2); primitive NO_HIT when nothing.
     b1, b2 are the barycentric weights of a triangle's second and third vertices."""
-    shear = ray_shear(d) if G.triangles.shape[0] > 0 else NO_SHEAR
+    # Without planes or instances the shear is computed at the first leaf, not before the
+    # traversal: a ray that misses every box never computes it, and the others do not hold it
+    # through the first node visits (bunny and bumpy 10k-1M frames ~8% less time, their hit
+    # rays ~3%; benchmarks/bench_hits.py, alternating builds). Planes and instances need it
+    # before the traversal.
+    lazy_shear = X is None and G.triangles.shape[0] > 0
+    shear = ray_shear(d) if G.triangles.shape[0] > 0 and not lazy_shear else NO_SHEAR
     best_t, prim, b1, b2 = tmax, NO_HIT, 0.0, 0.0
     if X is not None:
         if G.n_bounded < G.prims.shape[0]:
@@ -464,6 +470,8 @@ def closest_hit(G, X, o, d, tmin, tmax, node_stack, t_stack):
         # its one leaf, with no box test and before the per-ray box constants exist: through
         # the node, or with the constants live across the traversal loop, the seed's trace
         # kernel was 20-60% slower (1 thread)
+        if lazy_shear:
+            shear = ray_shear(d)
         return intersect_leaf(G, X, index[0, 0, 0], index[0, 1, 0], o, d, shear, tmin, best_t, prim, b1, b2)
     if not traceable(o, d):
         return best_t, prim, b1, b2
@@ -478,6 +486,9 @@ def closest_hit(G, X, o, d, tmin, tmax, node_stack, t_stack):
                 ref = node_stack[top]
                 continue
         else:
+            if lazy_shear:
+                shear = ray_shear(d)
+                lazy_shear = False
             leaf = -1 - ref
             node = leaf >> _LANE_SHIFT
             lane = leaf & (BVH_WIDTH - 1)
@@ -493,7 +504,8 @@ def closest_hit(G, X, o, d, tmin, tmax, node_stack, t_stack):
 @inline_function
 def any_hit(G, X, o, d, tmin, tmax, node_stack):
     """True when anything lies in (tmin, tmax): stops at the first blocker found."""
-    shear = ray_shear(d) if G.triangles.shape[0] > 0 else NO_SHEAR
+    lazy_shear = X is None and G.triangles.shape[0] > 0  # as in closest_hit
+    shear = ray_shear(d) if G.triangles.shape[0] > 0 and not lazy_shear else NO_SHEAR
     if X is not None:
         if G.n_bounded < G.prims.shape[0] and _unbounded_hit(G, X, o, d, shear, tmin, tmax)[1] >= 0:
             return True
@@ -502,6 +514,8 @@ def any_hit(G, X, o, d, tmin, tmax, node_stack):
     index = G.node_index
     bounds = G.node_bounds
     if _root_is_a_leaf(index):  # as in closest_hit
+        if lazy_shear:
+            shear = ray_shear(d)
         return _leaf_blocks(G, X, index[0, 0, 0], index[0, 1, 0], o, d, shear, tmin, tmax)
     if not traceable(o, d):
         return False
@@ -512,6 +526,9 @@ def any_hit(G, X, o, d, tmin, tmax, node_stack):
         top -= 1
         ref = node_stack[top]
         if ref < 0:  # a leaf, tested in the order the stack gives
+            if lazy_shear:
+                shear = ray_shear(d)
+                lazy_shear = False
             leaf = -1 - ref
             node = leaf >> _LANE_SHIFT
             lane = leaf & (BVH_WIDTH - 1)
