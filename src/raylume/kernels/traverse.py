@@ -458,7 +458,7 @@ def closest_hit(G, X, o, d, tmin, tmax, node_stack, t_stack):
     # rays ~3%; benchmarks/bench_hits.py, alternating builds). Planes and instances need it
     # before the traversal.
     lazy_shear = X is None and G.triangles.shape[0] > 0
-    shear = ray_shear(d) if G.triangles.shape[0] > 0 and not lazy_shear else NO_SHEAR
+    shear = ray_shear(d) if X is not None and G.triangles.shape[0] > 0 else NO_SHEAR
     best_t, prim, b1, b2 = tmax, NO_HIT, 0.0, 0.0
     if X is not None:
         if G.n_bounded < G.prims.shape[0]:
@@ -505,7 +505,7 @@ def closest_hit(G, X, o, d, tmin, tmax, node_stack, t_stack):
 def any_hit(G, X, o, d, tmin, tmax, node_stack):
     """True when anything lies in (tmin, tmax): stops at the first blocker found."""
     lazy_shear = X is None and G.triangles.shape[0] > 0  # as in closest_hit
-    shear = ray_shear(d) if G.triangles.shape[0] > 0 and not lazy_shear else NO_SHEAR
+    shear = ray_shear(d) if X is not None and G.triangles.shape[0] > 0 else NO_SHEAR
     if X is not None:
         if G.n_bounded < G.prims.shape[0] and _unbounded_hit(G, X, o, d, shear, tmin, tmax)[1] >= 0:
             return True
