@@ -3,32 +3,62 @@ and users who want raylume as a ray-intersection library)."""
 
 from numba import njit, prange
 
+from .packet import PACKET, packet_closest, packet_hit, packet_scratch, packet_setup, scene_extent, uses_packets
 from .scene import geometry_of
 from .shapes import NO_HIT, PRIM_FACE, PRIM_OBJECT, instance_id, split_hit
 from .traverse import INF, closest_hit, traversal_stacks
-from .vec import FAST, kernel_function
+from .vec import FAST, inline_function, kernel_function
 
 
 # A call per chunk of rays, compiled without reference counting (KERNEL), as the frame kernels'
 # row functions are: inlined into intersect_rays' parallel loop, the traversal took and dropped
 # references to the BVH arrays for every ray (4 calls with atomic operations a ray).
 @kernel_function
-def _intersect_chunk(G, X, origins, directions, t_out, object_out, prim_out, instance_out, start, end, stacks):
+def _intersect_chunk(G, X, origins, directions, t_out, object_out, prim_out, instance_out, start, end, stacks, packets):
+    node_stack, t_stack = stacks
+    box, lane, prim_lane, mask_stack = packets
+    if uses_packets(G, X):
+        extent = scene_extent(G)
+        k = start
+        while k < end:
+            n = min(PACKET, end - k)
+            coherent, rows, axes = packet_setup(origins, directions, k, n, 0.0, INF, extent, box, lane, prim_lane)
+            if coherent:
+                packet_closest(G, X, rows, axes, (1 << n) - 1, box, lane, prim_lane, node_stack, t_stack, mask_stack)
+                for i in range(n):
+                    t, prim, _, _ = packet_hit(lane, prim_lane, i)
+                    _store_hit(G, X, k + i, t, prim, t_out, object_out, prim_out, instance_out)
+            else:
+                _intersect_rays_singly(
+                    G, X, origins, directions, t_out, object_out, prim_out, instance_out, k, k + n, stacks
+                )
+            k += n
+    else:
+        _intersect_rays_singly(G, X, origins, directions, t_out, object_out, prim_out, instance_out, start, end, stacks)
+
+
+@inline_function
+def _intersect_rays_singly(G, X, origins, directions, t_out, object_out, prim_out, instance_out, start, end, stacks):
     node_stack, t_stack = stacks
     for k in range(start, end):
         o = (float(origins[k, 0]), float(origins[k, 1]), float(origins[k, 2]))
         d = (float(directions[k, 0]), float(directions[k, 1]), float(directions[k, 2]))
         t, prim, b1, b2 = closest_hit(G, X, o, d, 0.0, INF, node_stack, t_stack)
-        t_out[k] = t
-        if prim == NO_HIT:
-            object_out[k] = -1
-            prim_out[k] = -1
-            instance_out[k] = -1
-        else:
-            row, _ = split_hit(X, prim)
-            object_out[k] = G.prims[row, PRIM_OBJECT]
-            prim_out[k] = G.prims[row, PRIM_FACE]
-            instance_out[k] = instance_id(X, prim)
+        _store_hit(G, X, k, t, prim, t_out, object_out, prim_out, instance_out)
+
+
+@inline_function
+def _store_hit(G, X, k, t, prim, t_out, object_out, prim_out, instance_out):
+    t_out[k] = t
+    if prim == NO_HIT:
+        object_out[k] = -1
+        prim_out[k] = -1
+        instance_out[k] = -1
+    else:
+        row, _ = split_hit(X, prim)
+        object_out[k] = G.prims[row, PRIM_OBJECT]
+        prim_out[k] = G.prims[row, PRIM_FACE]
+        instance_out[k] = instance_id(X, prim)
 
 
 @njit(parallel=True, fastmath=FAST, cache=True, error_model="numpy")
@@ -43,9 +73,10 @@ def intersect_rays(S, X, origins, directions, t_out, object_out, prim_out, insta
     for lane in prange(lanes):
         G = geometry_of(S)  # made inside the parallel loop: parfor cannot capture it from outside
         stacks = traversal_stacks()
+        packets = packet_scratch()
         # interleaved chunks: neighbouring rays cost alike, distant ones may not (see frame.py)
         for c in range(lane, (n + chunk - 1) // chunk, lanes):
             end = min(n, (c + 1) * chunk)
             _intersect_chunk(
-                G, X, origins, directions, t_out, object_out, prim_out, instance_out, c * chunk, end, stacks
+                G, X, origins, directions, t_out, object_out, prim_out, instance_out, c * chunk, end, stacks, packets
             )

@@ -1,0 +1,559 @@
+"""Ray packets: eight coherent rays traced through the wide BVH together (SIMD across rays).
+
+Single-ray traversal (traverse.py) tests one ray against a node's eight child boxes in one
+vector instruction per plane. A packet turns that around: eight rays that start close together
+and point the same way (neighbouring camera pixels) visit nearly the same nodes, so one pass
+over the tree serves all eight. Each child box is tested against the eight rays at once, each
+triangle of a leaf against the eight rays at once, and a node's boxes, its child list and a
+leaf's triangles are loaded once for eight rays rather than once each, the stack pushed and
+popped once for eight (Wald, Slusallek, Benthin and Wagner 2001, "Interactive rendering with
+coherent ray tracing"; Embree's packet kernels).
+
+Each ray's result is the single-ray traversal's to the last bit: the triangle test is the same
+watertight test (shape_triangle.py) operation for operation, one ray per lane in float64, and
+the box test widens every slab as the single-ray one does, so no box a ray enters is culled.
+Only which of two triangles hit at exactly the same distance is reported can differ (a ray
+through a shared edge): the first one found, and the packet finds them in another order.
+
+A packet is taken only when it pays and is safe: every ray finite, every direction in one
+octant with one dominant axis (so the slab rows and the watertight test's axis permutation are
+the packet's, not each ray's), directions within a few degrees of each other and origins close
+together; and only in scenes the plain traversal covers (no planes or instances, a root that is
+not a leaf). Anything else is traced ray by ray.
+
+Packet state lives in one thread's scratch arrays (`packet_scratch`):
+
+* ``box`` float32 (9, 8): per lane, box_ray's near origins x, y, z, far origins, 1 / d.
+* ``lane`` float64 (LANE_ROWS, 8): per lane the sheared-test constants, the best hit so far and
+  the ray itself (rows below).
+* ``prim`` int64 (8,): per lane the primitive of the best hit (NO_HIT when none).
+"""
+
+import math
+
+import numpy as np
+from llvmlite import ir
+from numba import njit, types
+from numba.core import cgutils
+from numba.core.errors import TypingError
+from numba.extending import intrinsic
+
+from ..accel.wide import SPHERE_BLOCK
+from .shape_triangle import EXACT, EXACT_DIVISION, exact_ops, ray_shear
+from .shapes import NO_HIT, PRIM_ROW
+from .traverse import (
+    _F32_TINY,
+    _FAR_SCALE,
+    _LANE_SHIFT,
+    _NEAR_SCALE,
+    BVH_WIDTH,
+    TRAVERSAL_STACK,
+    _root_is_a_leaf,
+    box_ray,
+    intersect_leaf,
+    lowest_bit,
+    prefetch_row,
+    scratch_array,
+    traceable,
+)
+from .vec import inline_function
+
+PACKET = 8  # rays per packet: eight float32 lanes in one AVX2 register
+assert PACKET == BVH_WIDTH  # a node's child mask and a child's ray mask are both one byte
+
+# Rows of the `lane` scratch (float64, one column per ray)
+OX, OY, OZ = 0, 1, 2  # the origin's components along the shear axes kx, ky, kz
+SX, SY, SZ = 3, 4, 5  # the watertight test's shear constants
+TMIN = 6
+BEST_T, BEST_V, BEST_W, BEST_DET = 7, 8, 9, 10  # the best hit: t and its unnormalised barycentrics
+RAY_O, RAY_D = 11, 14  # the ray as given (x, y, z rows), for leaves tested ray by ray
+LANE_ROWS = 17
+
+# How close a packet's rays must be to be traced together. Neighbouring pixels of any camera
+# at any usual resolution differ by far less than this; rays of a path tracer's bounces, or
+# random rays, fail it and take the single-ray path, where a packet would only visit the union
+# of eight unrelated traversals.
+_MIN_COS = 0.985  # directions within 10 degrees of the first ray's
+_ORIGIN_SPREAD = 0.01  # origins within this fraction of the scene's extent of the first ray's
+
+_INF = math.inf
+
+
+@njit(cache=True)
+def packet_scratch():
+    """One thread's packet state: (box, lane, prim, mask stack) as the module docstring says."""
+    return (
+        scratch_array(9 * PACKET, np.float32).reshape((9, PACKET)),
+        scratch_array(LANE_ROWS * PACKET, np.float64).reshape((LANE_ROWS, PACKET)),
+        scratch_array(PACKET, np.int64),
+        scratch_array(TRAVERSAL_STACK, np.int32),
+    )
+
+
+# --- LLVM IR helpers ------------------------------------------------------------------------------
+
+_f32, _f64, _i1 = ir.FloatType(), ir.DoubleType(), ir.IntType(1)
+_i8, _i32, _i64 = ir.IntType(8), ir.IntType(32), ir.IntType(64)
+_V8F = ir.VectorType(_f32, PACKET)
+_V8D = ir.VectorType(_f64, PACKET)
+_V8I64 = ir.VectorType(_i64, PACKET)
+
+
+def _splat(builder, x, vt):
+    undef = ir.Constant(vt, ir.Undefined)
+    zeros = ir.Constant(ir.VectorType(_i32, vt.count), [0] * vt.count)
+    return builder.shuffle_vector(builder.insert_element(undef, x, ir.Constant(_i32, 0)), undef, zeros)
+
+
+def _row_pointer(builder, data, row, vt):
+    """Pointer to row `row` (an i64) of a C-contiguous (R, PACKET) array, as a vector."""
+    p = builder.gep(data, [builder.mul(row, ir.Constant(_i64, PACKET))], inbounds=True)
+    return builder.bitcast(p, vt.as_pointer())
+
+
+def _align(vt):
+    """The element's alignment: numpy guarantees no more for a scratch row."""
+    return 4 if vt.element == _f32 else 8
+
+
+def _load_row(builder, data, row, vt):
+    return builder.load(_row_pointer(builder, data, ir.Constant(_i64, row), vt), align=_align(vt))
+
+
+def _store_row(builder, value, data, row, vt):
+    builder.store(value, _row_pointer(builder, data, ir.Constant(_i64, row), vt), align=_align(vt))
+
+
+def _mask_vector(builder, mask):
+    """The low PACKET bits of the i64 `mask` as a <PACKET x i1> vector (bit i: lane i)."""
+    return builder.bitcast(builder.trunc(mask, ir.IntType(PACKET)), ir.VectorType(_i1, PACKET))
+
+
+def _mask_bits(builder, vec):
+    """A <PACKET x i1> vector as the low bits of an i64."""
+    return builder.zext(builder.bitcast(vec, ir.IntType(PACKET)), _i64)
+
+
+def _reduce(builder, v, pick):
+    """A horizontal reduction of the vector v by pick(builder, a, b) (a shuffle tree)."""
+    n = v.type.count
+    undef = ir.Constant(v.type, ir.Undefined)
+    while n > 1:
+        n //= 2
+        hi = builder.shuffle_vector(
+            v,
+            undef,
+            ir.Constant(ir.VectorType(_i32, v.type.count), [n + i for i in range(n)] + [0] * (v.type.count - n)),
+        )
+        v = pick(builder, v, hi)
+    return builder.extract_element(v, ir.Constant(_i32, 0))
+
+
+def _vmin(builder, a, b):
+    return builder.select(builder.fcmp_ordered("<", a, b), a, b)
+
+
+def _vmax(builder, a, b):
+    return builder.select(builder.fcmp_ordered(">", a, b), a, b)
+
+
+def _array_data(context, builder, ty, value):
+    return context.make_array(ty)(context, builder, value).data
+
+
+def _check_array(name, a, dtype, ndim):
+    if not (isinstance(a, types.Array) and a.dtype == dtype and a.ndim == ndim and a.layout == "C"):
+        raise TypingError(f"{name}: a C-contiguous {dtype} array of {ndim} dimensions")
+
+
+# --- a node: its eight child boxes against the packet ----------------------------------------------
+
+
+@intrinsic
+def packet_node(typingctx, bounds, node, box, rows, lane, active, t_out, at):
+    """The packet's rays (box: box_ray's constants per lane; rows: the packet's near-plane rows)
+    against the BVH_WIDTH child boxes of wide node `node`, each ray up to its best hit so far
+    (lane[BEST_T]): an i64 of BVH_WIDTH bytes, byte c the mask of the `active` rays that enter
+    child c; t_out[at + c] (float32) the nearest entry distance over those rays (+inf for none).
+    The slabs are widened as traverse.box_hits widens them: no ray's entered box is culled."""
+    _check_array("packet_node", bounds, types.float32, 3)
+    _check_array("packet_node", box, types.float32, 2)
+    _check_array("packet_node", lane, types.float64, 2)
+    _check_array("packet_node", t_out, types.float32, 1)
+
+    def codegen(context, builder, sig, args):
+        b = _array_data(context, builder, sig.args[0], args[0])
+        n = context.cast(builder, args[1], sig.args[1], types.int64)
+        bx = _array_data(context, builder, sig.args[2], args[2])
+        rows = [
+            context.cast(builder, r, t, types.int64)
+            for r, t in zip(cgutils.unpack_tuple(builder, args[3], 3), sig.args[3], strict=True)
+        ]
+        ln = _array_data(context, builder, sig.args[4], args[4])
+        act = _mask_vector(builder, context.cast(builder, args[5], sig.args[5], types.int64))
+        out = builder.gep(
+            _array_data(context, builder, sig.args[6], args[6]),
+            [context.cast(builder, args[7], sig.args[7], types.int64)],
+            inbounds=True,
+        )
+        near = [_load_row(builder, bx, k, _V8F) for k in range(3)]
+        far = [_load_row(builder, bx, 3 + k, _V8F) for k in range(3)]
+        inv = [_load_row(builder, bx, 6 + k, _V8F) for k in range(3)]
+        tmax = builder.fptrunc(_load_row(builder, ln, BEST_T, _V8D), _V8F)
+        base = builder.mul(n, ir.Constant(_i64, 6 * BVH_WIDTH))
+        # the node's rows: one vector of the eight children's planes each
+        planes = []
+        for k in range(3):
+            far_row = builder.sub(ir.Constant(_i64, 2 * k + 3), rows[k])
+            lo = builder.add(base, builder.mul(rows[k], ir.Constant(_i64, BVH_WIDTH)))
+            hi = builder.add(base, builder.mul(far_row, ir.Constant(_i64, BVH_WIDTH)))
+            planes.append(
+                (
+                    builder.load(builder.bitcast(builder.gep(b, [lo], inbounds=True), _V8F.as_pointer()), align=4),
+                    builder.load(builder.bitcast(builder.gep(b, [hi], inbounds=True), _V8F.as_pointer()), align=4),
+                )
+            )
+        tiny = ir.Constant(_V8F, [_F32_TINY] * PACKET)
+        zero = ir.Constant(_V8F, [0.0] * PACKET)
+        inf = ir.Constant(_V8F, [math.inf] * PACKET)
+        undef = ir.Constant(_V8F, ir.Undefined)
+        result = ir.Constant(_i64, 0)
+        for c in range(BVH_WIDTH):
+            lane_c = ir.Constant(ir.VectorType(_i32, PACKET), [c] * PACKET)
+            tn, tf = [], []
+            for k in range(3):
+                lo = builder.shuffle_vector(planes[k][0], undef, lane_c)
+                hi = builder.shuffle_vector(planes[k][1], undef, lane_c)
+                tn.append(builder.fmul(builder.fsub(lo, near[k]), inv[k]))
+                tf.append(builder.fmul(builder.fsub(hi, far[k]), inv[k]))
+            tnear = builder.fsub(_vmax(builder, _vmax(builder, tn[0], tn[1]), tn[2]), tiny)
+            tnear = builder.fmul(_vmax(builder, tnear, zero), ir.Constant(_V8F, [_NEAR_SCALE] * PACKET))
+            tfar = _vmin(builder, _vmin(builder, tf[0], tf[1]), _vmin(builder, tf[2], tmax))
+            tfar = builder.fadd(builder.fmul(tfar, ir.Constant(_V8F, [_FAR_SCALE] * PACKET)), tiny)
+            hit = builder.and_(builder.fcmp_ordered("<=", tnear, tfar), act)
+            nearest = _reduce(builder, builder.select(hit, tnear, inf), _vmin)
+            builder.store(nearest, builder.gep(out, [ir.Constant(_i64, c)], inbounds=True), align=4)
+            bits = builder.shl(_mask_bits(builder, hit), ir.Constant(_i64, 8 * c))
+            result = builder.or_(result, bits)
+        return result
+
+    return types.int64(bounds, node, box, rows, lane, active, t_out, at), codegen
+
+
+@intrinsic
+def packet_farthest(typingctx, lane, mask):
+    """The farthest best hit so far (lane[BEST_T]) among the rays of `mask`."""
+    _check_array("packet_farthest", lane, types.float64, 2)
+
+    def codegen(context, builder, sig, args):
+        ln = _array_data(context, builder, sig.args[0], args[0])
+        m = _mask_vector(builder, context.cast(builder, args[1], sig.args[1], types.int64))
+        best = _load_row(builder, ln, BEST_T, _V8D)
+        return _reduce(builder, builder.select(m, best, ir.Constant(_V8D, [-math.inf] * PACKET)), _vmax)
+
+    return types.float64(lane, mask), codegen
+
+
+# --- a leaf of triangles against the packet ----------------------------------------------------------
+
+
+@intrinsic
+def packet_triangles(typingctx, tri, row, count, first, axes, lane, prim, active):
+    """Triangles row .. row + count - 1 of tri (float32 (T, 9)) against the `active` rays of the
+    packet, one ray per float64 lane: shape_triangle.intersect_triangle's arithmetic operation
+    for operation (IEEE, no FMA contraction), with the packet's shear axes `axes` (kx, ky, kz)
+    and each lane's origin and shear constants. A hit nearer than a ray's best replaces it in
+    lane[BEST_*] and prim (first + the triangle's place in the leaf): as the single-ray test,
+    the first of equal hits is kept."""
+    _check_array("packet_triangles", tri, types.float32, 2)
+    _check_array("packet_triangles", lane, types.float64, 2)
+    _check_array("packet_triangles", prim, types.int64, 1)
+
+    def codegen(context, builder, sig, args):
+        t_data = _array_data(context, builder, sig.args[0], args[0])
+        row0 = context.cast(builder, args[1], sig.args[1], types.int64)
+        n = context.cast(builder, args[2], sig.args[2], types.int64)
+        first = context.cast(builder, args[3], sig.args[3], types.int64)
+        kx, ky, kz = (
+            context.cast(builder, a, t, types.int64)
+            for a, t in zip(cgutils.unpack_tuple(builder, args[4], 3), sig.args[4], strict=True)
+        )
+        ln = _array_data(context, builder, sig.args[5], args[5])
+        pr = _array_data(context, builder, sig.args[6], args[6])
+        act = _mask_vector(builder, context.cast(builder, args[7], sig.args[7], types.int64))
+        fadd, fsub, fmul, lt = exact_ops(builder)
+        ox, oy, oz = (_load_row(builder, ln, r, _V8D) for r in (OX, OY, OZ))
+        sx, sy, sz = (_load_row(builder, ln, r, _V8D) for r in (SX, SY, SZ))
+        tmin = _load_row(builder, ln, TMIN, _V8D)
+        fabs = cgutils.get_or_insert_function(builder.module, ir.FunctionType(_V8D, [_V8D]), "llvm.fabs.v8f64")
+        prim_ptr = builder.bitcast(pr, _V8I64.as_pointer())
+        c3, c6 = ir.Constant(_i64, 3), ir.Constant(_i64, 6)
+        cols = (kx, ky, kz, builder.add(kx, c3), builder.add(ky, c3), builder.add(kz, c3))
+        cols += (builder.add(kx, c6), builder.add(ky, c6), builder.add(kz, c6))
+        with cgutils.for_range(builder, n) as loop:
+            r = builder.add(row0, loop.index)
+            base = builder.mul(r, ir.Constant(_i64, 9))
+
+            def vertex(c):  # tri[r, c] as a float64 splat
+                x = builder.load(builder.gep(t_data, [builder.add(base, c)], inbounds=True), align=4)
+                return _splat(builder, builder.fpext(x, _f64), _V8D)
+
+            ax, ay, az = fsub(vertex(cols[0]), ox), fsub(vertex(cols[1]), oy), fsub(vertex(cols[2]), oz)
+            bx, by, bz = fsub(vertex(cols[3]), ox), fsub(vertex(cols[4]), oy), fsub(vertex(cols[5]), oz)
+            cx, cy, cz = fsub(vertex(cols[6]), ox), fsub(vertex(cols[7]), oy), fsub(vertex(cols[8]), oz)
+            ax = fsub(ax, fmul(sx, az))
+            ay = fsub(ay, fmul(sy, az))
+            bx = fsub(bx, fmul(sx, bz))
+            by = fsub(by, fmul(sy, bz))
+            cx = fsub(cx, fmul(sx, cz))
+            cy = fsub(cy, fmul(sy, cz))
+            u = fsub(fmul(cx, by), fmul(cy, bx))
+            v = fsub(fmul(ax, cy), fmul(ay, cx))
+            w = fsub(fmul(bx, ay), fmul(by, ax))
+            tol = fmul(
+                ir.Constant(_V8D, [1e-12] * PACKET),
+                fadd(fadd(builder.call(fabs, [u]), builder.call(fabs, [v])), builder.call(fabs, [w])),
+            )
+            ntol = builder.fneg(tol, flags=EXACT)
+            neg = builder.or_(builder.or_(lt(u, ntol), lt(v, ntol)), lt(w, ntol))
+            pos = builder.or_(builder.or_(lt(tol, u), lt(tol, v)), lt(tol, w))
+            det = fadd(fadd(u, v), w)
+            num = fadd(fadd(fmul(u, az), fmul(v, bz)), fmul(w, cz))
+            t = builder.fdiv(fmul(num, sz), det, flags=EXACT_DIVISION)
+            best = _load_row(builder, ln, BEST_T, _V8D)
+            ok = builder.and_(
+                builder.not_(builder.and_(neg, pos)),
+                builder.fcmp_unordered("!=", det, ir.Constant(_V8D, [0.0] * PACKET), flags=EXACT),
+            )
+            ok = builder.and_(ok, builder.and_(lt(tmin, t), lt(t, best)))
+            ok = builder.and_(ok, act)
+            _store_row(builder, builder.select(ok, t, best), ln, BEST_T, _V8D)
+            for dest, value in ((BEST_V, v), (BEST_W, w), (BEST_DET, det)):
+                _store_row(builder, builder.select(ok, value, _load_row(builder, ln, dest, _V8D)), ln, dest, _V8D)
+            here = _splat(builder, builder.add(first, loop.index), _V8I64)
+            builder.store(builder.select(ok, here, builder.load(prim_ptr, align=8)), prim_ptr, align=8)
+        return context.get_dummy_value()
+
+    return types.void(tri, row, count, first, axes, lane, prim, active), codegen
+
+
+# --- setting a packet up --------------------------------------------------------------------------
+
+
+@inline_function
+def uses_packets(G, X):
+    """Whether rays of this scene may be traced in packets (module docstring)."""
+    if X is not None:
+        return False
+    return not _root_is_a_leaf(G.node_index)
+
+
+@inline_function
+def scene_extent(G):
+    """The largest side of the root node's children's boxes (what "close together" is measured
+    against)."""
+    b = G.node_bounds
+    e = 0.0
+    for c in range(BVH_WIDTH):
+        if b[0, 0, c] <= b[0, 3, c]:
+            e = max(e, float(b[0, 3, c] - b[0, 0, c]), float(b[0, 4, c] - b[0, 1, c]), float(b[0, 5, c] - b[0, 2, c]))
+    return e
+
+
+@inline_function
+def packet_setup(origins, directions, start, n, tmin, tmax, extent, box, lane, prim):
+    """Load rays start .. start + n - 1 (n <= PACKET) into the packet's scratch, their unused
+    lanes copies of the first. Returns (coherent, rows, axes): whether they can be traced as a
+    packet (module docstring), the packet's near-plane rows and its shear axes."""
+    d0 = (float(directions[start, 0]), float(directions[start, 1]), float(directions[start, 2]))
+    o0 = (float(origins[start, 0]), float(origins[start, 1]), float(origins[start, 2]))
+    rows = box_ray(o0, d0)[1]
+    kx0, ky0, kz0, _, _, _ = ray_shear(d0)
+    n0 = d0[0] * d0[0] + d0[1] * d0[1] + d0[2] * d0[2]
+    for i in range(PACKET):
+        k = start + (i if i < n else 0)
+        o = (float(origins[k, 0]), float(origins[k, 1]), float(origins[k, 2]))
+        d = (float(directions[k, 0]), float(directions[k, 1]), float(directions[k, 2]))
+        if not traceable(o, d):
+            return False, rows, (kx0, ky0, kz0)
+        rf, r = box_ray(o, d)
+        if r[0] != rows[0] or r[1] != rows[1] or r[2] != rows[2]:  # another octant
+            return False, rows, (kx0, ky0, kz0)
+        kx, ky, kz, sx, sy, sz = ray_shear(d)
+        if kz != kz0 or kx != kx0:
+            return False, rows, (kx0, ky0, kz0)
+        dd = d[0] * d0[0] + d[1] * d0[1] + d[2] * d0[2]
+        if not (dd >= _MIN_COS * math.sqrt((d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) * n0)):
+            return False, rows, (kx0, ky0, kz0)
+        spread = max(abs(o[0] - o0[0]), abs(o[1] - o0[1]), abs(o[2] - o0[2]))
+        if spread > _ORIGIN_SPREAD * extent:
+            return False, rows, (kx0, ky0, kz0)
+        for j in range(9):
+            box[j, i] = rf[j]
+        lane[OX, i] = o[kx]
+        lane[OY, i] = o[ky]
+        lane[OZ, i] = o[kz]
+        lane[SX, i] = sx
+        lane[SY, i] = sy
+        lane[SZ, i] = sz
+        lane[TMIN, i] = tmin
+        lane[BEST_T, i] = tmax
+        lane[BEST_V, i] = 0.0
+        lane[BEST_W, i] = 0.0
+        lane[BEST_DET, i] = 1.0
+        for r in range(3):
+            lane[RAY_O + r, i] = o[r]
+            lane[RAY_D + r, i] = d[r]
+        prim[i] = NO_HIT
+    return True, rows, (kx0, ky0, kz0)
+
+
+@intrinsic
+def packet_finish(typingctx, lane, prim):
+    """Each lane's barycentrics from its best hit's (v, w, det): v / det and w / det clamped to
+    [0, 1], into lane[BEST_V], lane[BEST_W] (0 for a miss), det 1. IEEE divisions, as the
+    single-ray block test divides: the kernels' fast-math flags would turn them into
+    multiplications by a reciprocal, an ulp off."""
+    _check_array("packet_finish", lane, types.float64, 2)
+    _check_array("packet_finish", prim, types.int64, 1)
+
+    def codegen(context, builder, sig, args):
+        ln = _array_data(context, builder, sig.args[0], args[0])
+        pr = _array_data(context, builder, sig.args[1], args[1])
+        _, _, _, lt = exact_ops(builder)
+        found = builder.icmp_signed(
+            "!=",
+            builder.load(builder.bitcast(pr, _V8I64.as_pointer()), align=8),
+            ir.Constant(_V8I64, [NO_HIT] * PACKET),
+        )
+        det = _load_row(builder, ln, BEST_DET, _V8D)
+        zero, one = ir.Constant(_V8D, [0.0] * PACKET), ir.Constant(_V8D, [1.0] * PACKET)
+        for r in (BEST_V, BEST_W):
+            q = builder.fdiv(_load_row(builder, ln, r, _V8D), det, flags=EXACT_DIVISION)
+            q = builder.select(builder.fcmp_ordered(">", q, zero, flags=EXACT), q, zero)
+            q = builder.select(lt(q, one), q, one)
+            _store_row(builder, builder.select(found, q, zero), ln, r, _V8D)
+        _store_row(builder, one, ln, BEST_DET, _V8D)
+        return context.get_dummy_value()
+
+    return types.void(lane, prim), codegen
+
+
+@inline_function
+def packet_hit(lane, prim, i):
+    """Lane i's result after packet_closest: (t, primitive, b1, b2), as closest_hit returns them."""
+    return lane[BEST_T, i], prim[i], lane[BEST_V, i], lane[BEST_W, i]
+
+
+# --- traversal ------------------------------------------------------------------------------------
+
+
+@inline_function
+def _lane_ray(lane, axes, i):
+    """Lane i's ray as the single-ray functions take it: (o, d, shear)."""
+    o = (lane[RAY_O, i], lane[RAY_O + 1, i], lane[RAY_O + 2, i])
+    d = (lane[RAY_D, i], lane[RAY_D + 1, i], lane[RAY_D + 2, i])
+    return o, d, (axes[0], axes[1], axes[2], lane[SX, i], lane[SY, i], lane[SZ, i])
+
+
+@inline_function
+def _lane_best(lane, prim, i):
+    """Lane i's best hit so far as the single-ray functions carry it, (t, prim, b1, b2): here
+    (v, w) stand for (b1, b2), handed back unchanged when the ray finds nothing nearer."""
+    return lane[BEST_T, i], prim[i], lane[BEST_V, i], lane[BEST_W, i]
+
+
+@inline_function
+def _set_lane_best(lane, prim, i, t, p, b1, b2):
+    """Lane i's best hit from a single-ray function, its barycentrics kept as (b1, b2, det 1),
+    which packet_finish divides back exactly."""
+    if p != prim[i] or t != lane[BEST_T, i]:
+        lane[BEST_T, i] = t
+        lane[BEST_V, i] = b1
+        lane[BEST_W, i] = b2
+        lane[BEST_DET, i] = 1.0
+        prim[i] = p
+
+
+@inline_function
+def _leaf_ray_by_ray(G, X, first, count, axes, lane, prim, active):
+    """A leaf that is not a block of triangles, tested for each active ray with the single-ray
+    leaf test."""
+    m = active
+    while m != 0:
+        i = lowest_bit(m)
+        m &= m - 1
+        o, d, shear = _lane_ray(lane, axes, i)
+        t, p, b1, b2 = _lane_best(lane, prim, i)
+        t, p, b1, b2 = intersect_leaf(G, X, first, count, o, d, shear, lane[TMIN, i], t, p, b1, b2)
+        _set_lane_best(lane, prim, i, t, p, b1, b2)
+
+
+@inline_function
+def packet_closest(G, X, rows, axes, active, box, lane, prim, node_stack, t_stack, mask_stack):
+    """The nearest hit of each active ray of the packet (set up by packet_setup) through the
+    BVH, into lane[BEST_*] and prim (read them with packet_hit). Stack entries are
+    traverse.py's, each with the mask of the rays that entered it, and the nearest of their entry
+    distances: an entry is skipped when even that lies beyond the farthest best hit of its rays."""
+    index = G.node_index
+    bounds = G.node_bounds
+    tri = G.triangles
+    P = G.prims
+    ref = 0
+    mask = active
+    top = 0
+    while True:
+        if ref >= 0:
+            prefetch_row(index, ref)
+            masks = packet_node(bounds, ref, box, rows, lane, mask, t_stack, top)
+            k = 0
+            for c in range(BVH_WIDTH):
+                m = (masks >> (8 * c)) & 0xFF
+                if m == 0:
+                    continue
+                u = np.uint64(c)
+                t = t_stack[np.uint64(top + c)]
+                if index[np.uint64(ref), 1, u] == 0:
+                    child = index[np.uint64(ref), 0, u]
+                else:
+                    child = -1 - ((ref << _LANE_SHIFT) + c)
+                    prefetch_row(P, index[np.uint64(ref), 0, u])
+                # sorted insertion, the nearest on top; slots top + c' > top + k are still
+                # unread entry distances of lanes after c, so the shift stays below them
+                j = top + k
+                while j > top and t_stack[np.uint64(j - 1)] < t:
+                    t_stack[np.uint64(j)] = t_stack[np.uint64(j - 1)]
+                    node_stack[np.uint64(j)] = node_stack[np.uint64(j - 1)]
+                    mask_stack[np.uint64(j)] = mask_stack[np.uint64(j - 1)]
+                    j -= 1
+                t_stack[np.uint64(j)] = t
+                node_stack[np.uint64(j)] = child
+                mask_stack[np.uint64(j)] = m
+                k += 1
+            if k > 0:
+                top += k - 1
+                ref = node_stack[np.uint64(top)]
+                mask = mask_stack[np.uint64(top)]
+                continue
+        else:
+            leaf = -1 - ref
+            node = leaf >> _LANE_SHIFT
+            c = leaf & (BVH_WIDTH - 1)
+            first = index[node, 0, c]
+            count = index[node, 1, c]
+            if -SPHERE_BLOCK <= count < 0:  # a block of triangles in consecutive rows
+                packet_triangles(tri, np.int64(P[first, PRIM_ROW]), -count, first, axes, lane, prim, mask)
+            else:
+                _leaf_ray_by_ray(G, X, first, count, axes, lane, prim, mask)
+        found = False
+        while top > 0:
+            top -= 1
+            m = mask_stack[np.uint64(top)]
+            if t_stack[np.uint64(top)] < packet_farthest(lane, m):
+                found = True
+                ref = node_stack[np.uint64(top)]
+                mask = m
+                break
+        if not found:
+            break
+    packet_finish(lane, prim)

@@ -1,0 +1,264 @@
+"""Ray packets (kernels/packet.py): eight coherent rays traced together give each ray the
+single-ray traversal's hit to the last bit (t, barycentrics; the face too, except where two faces
+are hit at exactly the same distance), and the brute force's distance. Incoherent rays are
+refused as packets and traced ray by ray."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import trimesh
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from numba import njit
+
+import raylume
+from raylume.compile import compile_scene
+from raylume.kernels.camera import camera_frame
+from raylume.kernels.packet import PACKET, packet_closest, packet_hit, packet_scratch, packet_setup, scene_extent
+from raylume.kernels.query import intersect_rays
+from raylume.kernels.scene import geometry_of
+from raylume.kernels.shape_triangle import INF, intersect_triangle, ray_shear
+from raylume.kernels.shapes import features
+from raylume.kernels.traverse import TRAVERSAL_STACK, closest_hit
+from raylume.scene.procedural import bumpy_sphere
+
+# compiled in the test process; the tests that call them share one xdist worker
+PACKET_WORKER = pytest.mark.xdist_group("packets")
+
+
+@njit
+def _single(S, origins, dirs):
+    """closest_hit ray by ray: (t, prim, b1, b2) arrays."""
+    n = origins.shape[0]
+    out = np.empty((n, 4))
+    node_stack = np.empty(TRAVERSAL_STACK, np.int32)
+    t_stack = np.empty(TRAVERSAL_STACK, np.float32)
+    G = geometry_of(S)
+    for k in range(n):
+        o = (origins[k, 0], origins[k, 1], origins[k, 2])
+        d = (dirs[k, 0], dirs[k, 1], dirs[k, 2])
+        t, prim, b1, b2 = closest_hit(G, None, o, d, 0.0, INF, node_stack, t_stack)
+        out[k, 0], out[k, 1], out[k, 2], out[k, 3] = t, prim, b1, b2
+    return out
+
+
+@njit
+def _packets(S, origins, dirs, size):
+    """The rays in packets of `size` (the last one may be smaller): (t, prim, b1, b2) arrays
+    from packet_closest, and for each packet whether packet_setup took it (the rays of those
+    refused are left NaN)."""
+    n = origins.shape[0]
+    out = np.full((n, 4), np.nan)
+    taken = np.zeros((n + size - 1) // size, np.bool_)
+    box, lane, prim, mask_stack = packet_scratch()
+    node_stack = np.empty(TRAVERSAL_STACK, np.int32)
+    t_stack = np.empty(TRAVERSAL_STACK, np.float32)
+    G = geometry_of(S)
+    extent = scene_extent(G)
+    for p in range(taken.shape[0]):
+        start = p * size
+        m = min(size, n - start)
+        ok, rows, axes = packet_setup(origins, dirs, start, m, 0.0, INF, extent, box, lane, prim)
+        taken[p] = ok
+        if ok:
+            packet_closest(G, None, rows, axes, (1 << m) - 1, box, lane, prim, node_stack, t_stack, mask_stack)
+            for i in range(m):
+                t, q, b1, b2 = packet_hit(lane, prim, i)
+                out[start + i, 0], out[start + i, 1], out[start + i, 2], out[start + i, 3] = t, q, b1, b2
+    return out, taken
+
+
+@njit
+def _brute(tris, origins, dirs):
+    n = origins.shape[0]
+    out_t = np.full(n, np.inf)
+    for k in range(n):
+        o = (origins[k, 0], origins[k, 1], origins[k, 2])
+        d = (dirs[k, 0], dirs[k, 1], dirs[k, 2])
+        shear = ray_shear(d)
+        for f in range(tris.shape[0]):
+            t, _, _ = intersect_triangle(o, shear, tris, f, 0.0, out_t[k])
+            out_t[k] = min(out_t[k], t)
+    return out_t
+
+
+def _compiled_mesh(tmp_path, v, f, extra=()):
+    trimesh.Trimesh(v, f, process=False).export(tmp_path / "m.ply")
+    objects = [*extra, {"type": "mesh", "file": str(tmp_path / "m.ply")}]
+    return compile_scene(raylume.scene_from_dict({"objects": objects}))
+
+
+def _camera_rays(center, radius, size):
+    """Pixel-centre rays of the DESIGN.md camera, 2.4 radii in front of `center`, row by row."""
+    position = np.asarray(center, float) - [0.0, 0.0, 2.4 * radius]
+    cam = camera_frame(position, center, (0, 1, 0), 53.13, size, size)
+    i, j = np.meshgrid(np.arange(size) + 0.5, np.arange(size) + 0.5)
+    d = cam[3:6] + (i / size * 2 - 1).reshape(-1, 1) * cam[6:9] + (1 - j / size * 2).reshape(-1, 1) * cam[9:12]
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    return np.broadcast_to(position, d.shape).copy(), d
+
+
+def _assert_same_hits(got, ref):
+    """Bit-identical t and barycentrics; the same face except on exact ties of t."""
+    np.testing.assert_array_equal(got[:, 0], ref[:, 0])
+    same_prim = got[:, 1] == ref[:, 1]
+    assert same_prim.mean() > 0.999
+    np.testing.assert_array_equal(got[same_prim, 2:], ref[same_prim, 2:])
+
+
+@PACKET_WORKER
+@pytest.mark.parametrize("kind", ["bumpy", "soup"])
+def test_camera_packets_equal_single_rays_and_brute_force(tmp_path, kind):
+    rng = np.random.default_rng(5)
+    if kind == "soup":  # overlapping random triangles: packets split up at every level
+        centers = rng.uniform(-1, 1, size=(4000, 1, 3))
+        v = (centers + rng.normal(scale=0.08, size=(4000, 3, 3))).reshape(-1, 3)
+        f = np.arange(len(v)).reshape(-1, 3)
+    else:
+        v, f = bumpy_sphere(20000)
+    compiled = _compiled_mesh(tmp_path, v, f)
+    o, d = _camera_rays(np.zeros(3), 1.2, 96)
+    got, taken = _packets(compiled.kernel, o, d, PACKET)
+    assert taken.all()  # neighbouring pixels are coherent
+    ref = _single(compiled.kernel, o, d)
+    assert 0.2 < np.isfinite(ref[:, 0]).mean() < 0.95
+    _assert_same_hits(got, ref)
+    t_ref = _brute((v.astype(np.float32)[f]).reshape(-1, 9), o, d)
+    np.testing.assert_array_equal(got[:, 0], t_ref)
+
+
+@PACKET_WORKER
+@pytest.mark.parametrize("size", [1, 3, 5, 7])
+def test_partial_packets_leave_their_unused_lanes_out(tmp_path, size):
+    v, f = bumpy_sphere(5000)
+    compiled = _compiled_mesh(tmp_path, v, f)
+    o, d = _camera_rays(np.zeros(3), 1.2, 64)
+    got, taken = _packets(compiled.kernel, o, d, size)
+    # refused: packets that span two rows of the image, or the centre column (directions in two
+    # octants), about two a row
+    assert taken.mean() > 0.75
+    packed = np.repeat(taken, size)[: len(o)]
+    _assert_same_hits(got[packed], _single(compiled.kernel, o, d)[packed])
+
+
+@PACKET_WORKER
+def test_packets_through_vertices_and_edges_leave_no_pinholes(tmp_path):
+    """A grid of coplanar triangles under parallel rays straight down through its vertices and
+    edge midpoints, eight at a time: every ray hits, at the brute force's distance."""
+    n = 12
+    g = np.linspace(-1, 1, n + 1)
+    xs, ys = np.meshgrid(g, g)
+    v = np.stack([xs.ravel(), ys.ravel(), np.zeros(xs.size)], axis=1)
+    q = (np.arange(n)[:, None] * (n + 1) + np.arange(n)[None, :]).ravel()
+    f = np.concatenate([np.stack([q, q + 1, q + n + 2], 1), np.stack([q, q + n + 2, q + n + 1], 1)])
+    compiled = _compiled_mesh(tmp_path, v, f)
+    edge_mids = (v[f[:, 0]] + v[f[:, 1]]) / 2
+    # a packet around each vertex and edge midpoint: the exact point and seven rays beside it
+    # (2e-4 apart, within one packet's reach)
+    offsets = np.arange(-3, 5)[:, None] * [2e-4, 1e-4, 0.0]
+    targets = (np.concatenate([v, edge_mids])[:, None, :] + offsets).reshape(-1, 3)
+    o = targets + [0.0, 0.0, 2.0]
+    d = np.broadcast_to([0.0, 0.0, -1.0], o.shape).copy()
+    got, taken = _packets(compiled.kernel, o, d, PACKET)
+    assert taken.all()
+    inside = (np.abs(targets[:, :2]) <= 1).all(axis=1)
+    assert (got[inside, 0] == 2.0).all()  # every ray over the grid hits, at exactly 2
+    ref = _single(compiled.kernel, o, d)
+    np.testing.assert_array_equal(got[:, 0], ref[:, 0])
+    np.testing.assert_array_equal(got[:, 0], _brute(v.astype(np.float32)[f].reshape(-1, 9), o, d))
+
+
+@PACKET_WORKER
+def test_spheres_beside_triangles_in_packets(tmp_path):
+    """Leaves of spheres are tested ray by ray inside a packet: the same hits as single rays."""
+    rng = np.random.default_rng(8)
+    v, f = bumpy_sphere(3000)
+    spheres = [
+        {"type": "sphere", "center": c.tolist(), "radius": float(r)}
+        for c, r in zip(rng.uniform(-1.5, 1.5, size=(60, 3)), rng.uniform(0.05, 0.3, size=60), strict=True)
+    ]
+    compiled = _compiled_mesh(tmp_path, v, f, spheres)
+    o, d = _camera_rays(np.zeros(3), 1.6, 80)
+    got, taken = _packets(compiled.kernel, o, d, PACKET)
+    assert taken.all()
+    ref = _single(compiled.kernel, o, d)
+    kinds = compiled.kernel.prims[ref[np.isfinite(ref[:, 0]), 1].astype(int), 0]
+    assert len(np.unique(kinds)) == 2  # both spheres and triangles are hit
+    _assert_same_hits(got, ref)
+
+
+@PACKET_WORKER
+def test_incoherent_rays_are_refused_as_packets(tmp_path):
+    v, f = bumpy_sphere(2000)
+    compiled = _compiled_mesh(tmp_path, v, f)
+    rng = np.random.default_rng(1)
+    o, d = _camera_rays(np.zeros(3), 1.2, 64)
+    n = len(o)
+    shuffled = rng.permutation(n)  # directions across the whole field of view
+    spread = o + rng.normal(scale=0.5, size=o.shape)  # origins far apart
+    odd = d.copy()
+    odd[3::8] = [np.nan, 0.0, 1.0]  # one NaN ray in each packet
+    flipped = d.copy()
+    flipped[5::8, 0] *= -1  # one ray in each packet in another octant
+    flipped[5::8, 0] += np.sign(flipped[5::8, 0]) * 0.01
+    for origins, dirs in ((o[shuffled], d[shuffled]), (spread, d), (o, odd), (o, flipped)):
+        _, taken = _packets(compiled.kernel, np.ascontiguousarray(origins), np.ascontiguousarray(dirs), PACKET)
+        assert not taken.any()
+
+
+def _clear_dominant_axis(t):
+    a = sorted(abs(x) for x in t)
+    return a[2] > 0.1 and a[2] > 1.3 * a[1]
+
+
+@PACKET_WORKER
+@settings(max_examples=40, deadline=None)
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    # a dominant axis that the jitter below cannot change
+    direction=st.tuples(*[st.floats(-1, 1)] * 3).filter(_clear_dominant_axis),
+    jitter=st.floats(1e-6, 0.03),
+)
+def test_random_coherent_packets_equal_single_rays(packet_soup, seed, direction, jitter):
+    """Random packets (a random direction, jittered per ray, from nearby origins) into a soup of
+    triangles: each ray's hit is the single-ray traversal's."""
+    compiled = packet_soup
+    rng = np.random.default_rng(seed)
+    d0 = np.asarray(direction) / np.linalg.norm(direction)
+    d = d0 + rng.normal(scale=jitter, size=(64, 3))
+    d = np.abs(d) * np.where(d0 < 0, -1.0, 1.0)  # one octant
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    o = -2.5 * d0 + rng.normal(scale=0.3, size=(8, 1, 3)) + rng.normal(scale=1e-4, size=(8, 8, 3))
+    o = o.reshape(-1, 3)
+    got, taken = _packets(compiled.kernel, o, d, PACKET)
+    assert taken.all()
+    _assert_same_hits(got, _single(compiled.kernel, o, d))
+
+
+@pytest.fixture(scope="module")
+def packet_soup(tmp_path_factory):
+    rng = np.random.default_rng(3)
+    centers = rng.uniform(-1, 1, size=(3000, 1, 3))
+    v = (centers + rng.normal(scale=0.1, size=(3000, 3, 3))).reshape(-1, 3)
+    return _compiled_mesh(tmp_path_factory.mktemp("soup"), v, np.arange(len(v)).reshape(-1, 3))
+
+
+@PACKET_WORKER
+@pytest.mark.parametrize("threads", [1, 2])
+def test_intersect_rays_takes_packets_and_matches_single_rays(tmp_path, threads):
+    """The batch query (raylume.intersect's kernel) traces camera rays in packets: the same
+    distances, objects and faces as ray by ray, on any number of threads."""
+    v, f = bumpy_sphere(20000)
+    compiled = _compiled_mesh(tmp_path, v, f)
+    o, d = _camera_rays(np.zeros(3), 1.2, 128)
+    n = len(o)
+    out = np.empty(n), np.empty(n, np.int32), np.empty(n, np.int32), np.empty(n, np.int32)
+    S = compiled.kernel
+    intersect_rays(S, features(S), o, d, *out, threads)
+    ref = _single(S, o, d)
+    np.testing.assert_array_equal(out[0], ref[:, 0])
+    hit = np.isfinite(ref[:, 0])
+    faces = np.where(hit, S.prims[np.maximum(ref[:, 1], 0).astype(int), 4], -1)
+    assert (out[2] == faces).mean() > 0.999
+    assert (out[1][hit] == 0).all() and (out[1][~hit] == -1).all()
