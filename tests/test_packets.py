@@ -262,3 +262,27 @@ def test_intersect_rays_takes_packets_and_matches_single_rays(tmp_path, threads)
     faces = np.where(hit, S.prims[np.maximum(ref[:, 1], 0).astype(int), 4], -1)
     assert (out[2] == faces).mean() > 0.999
     assert (out[1][hit] == 0).all() and (out[1][~hit] == -1).all()
+
+
+def test_cast_mode_traces_packets_that_hit_what_single_rays_hit(tmp_path):
+    """A cast render of two meshes (kernels/frame.py traces its camera rays in packets) against
+    its own object AOV, which single rays trace: each pixel shows the colour of the object its
+    pixel-centre ray hits, the background where it hits none."""
+    colors = [[0.9, 0.2, 0.1], [0.1, 0.5, 0.9]]
+    objects = []
+    for k, x in enumerate((-0.6, 0.7)):
+        v, f = bumpy_sphere(4000)
+        trimesh.Trimesh(v * 0.6 + [x, 0.1 * k, 0.0], f, process=False).export(tmp_path / f"m{k}.ply")
+        objects.append({"type": "mesh", "file": str(tmp_path / f"m{k}.ply"), "material": {"color": colors[k]}})
+    scene = raylume.scene_from_dict(
+        {
+            "camera": {"position": [0, 0, -3.5], "look_at": [0, 0, 0], "fov": 50},
+            "render": {"mode": "cast", "width": 96, "height": 64, "background": [0.25, 0.25, 0.25]},
+            "objects": objects,
+        }
+    )
+    image = raylume.render(scene)
+    obj = image.aovs["object"]
+    assert {-1, 0, 1} <= set(np.unique(obj).tolist())
+    expected = np.where(obj[..., None] >= 0, np.asarray(colors)[np.maximum(obj, 0)], 0.25)
+    np.testing.assert_allclose(image.rgb, expected, rtol=1e-6)

@@ -13,6 +13,7 @@ from .camera import CAM_CONE_SPREAD, CAM_LENS_RADIUS, camera_ray, obliquity, thi
 from .environment import environment_radiance
 from .film import add_sample, filter_sample, pixel_sums, store_sums
 from .materials import albedo
+from .packet import PACKET, packet_closest, packet_hit, packet_scratch, packet_setup, scene_extent, uses_packets
 from .path import finite_sample, path_ray
 from .sampler import lens_sample, pixel_sample, sample_key
 from .scene import emitters_of, environment_of, geometry_of, lights_of, surfaces_of
@@ -27,6 +28,12 @@ INF = np.inf
 @inline_function
 def _cast_ray(G, F, X, Env, o, d, spread, background, node_stack, t_stack):
     t, prim, b1, b2 = closest_hit(G, X, o, d, 0.0, INF, node_stack, t_stack)
+    return _cast_shade(G, F, X, Env, o, d, t, prim, b1, b2, spread, background)
+
+
+@inline_function
+def _cast_shade(G, F, X, Env, o, d, t, prim, b1, b2, spread, background):
+    """A cast ray's colour from its closest hit: the albedo there, or the background."""
     if prim == NO_HIT:
         if Env.present:
             return environment_radiance(Env, d)
@@ -128,30 +135,24 @@ def cast_lane(
 ):
     """Ray-cast samples (the closest hit's albedo) of the lane's rows into the film."""
     node_stack, t_stack = traversal_stacks()
+    packets = packet_scratch()
+    rays = camera_packet_scratch()
     bg = (background[0], background[1], background[2])
     G, F = geometry_of(S), surfaces_of(S)
     x0, y0, x1, y1 = window
     for j in range(y0 + lane, y1, lanes):
         if stop[0] != 0:
             break
-        rays_per_row[j - y0] += _cast_row(
-            G,
-            F,
-            X,
-            environment_of(S),
-            cam,
-            filt,
-            j,
-            window,
-            width,
-            height,
-            samples,
-            seed,
-            bg,
-            film,
-            node_stack,
-            t_stack,
-        )
+        if X is None and uses_packets(G):  # X is None: decided as the kernel compiles
+            rays_per_row[j - y0] += _cast_row_packets(
+                G, F, X, environment_of(S), cam, filt, j, window, width, height, samples, seed, bg, film,
+                node_stack, t_stack, packets, rays,
+            )  # fmt: skip
+        else:
+            rays_per_row[j - y0] += _cast_row(
+                G, F, X, environment_of(S), cam, filt, j, window, width, height, samples, seed, bg, film,
+                node_stack, t_stack,
+            )  # fmt: skip
         rows_done[lane * PROGRESS_STRIDE] += 1
 
 
@@ -192,6 +193,60 @@ def _cast_row(G, F, X, Env, cam, filt, j, window, width, height, samples, seed, 
             total = add_sample(total, _cast_ray(G, F, X, Env, o, d, cone, bg, node_stack, t_stack), w)
         store_sums(film, j - y0, i - x0, total)
     return (x1 - x0) * count
+
+
+@njit(cache=True)
+def camera_packet_scratch():
+    """One thread's buffer of a packet's camera samples: (origins, directions, weights)."""
+    return (
+        scratch_array(PACKET * 3, np.float64).reshape((PACKET, 3)),
+        scratch_array(PACKET * 3, np.float64).reshape((PACKET, 3)),
+        scratch_array(PACKET, np.float64),
+    )
+
+
+@kernel_function
+def _cast_row_packets(
+    G, F, X, Env, cam, filt, j, window, width, height, samples, seed, bg, film, node_stack, t_stack, packets, rays
+):
+    """_cast_row with the row's camera samples traced eight at a time (kernels/packet.py): the
+    samples in _cast_row's order (pixel by pixel, each pixel's samples in turn), so the film's
+    sums are added in the same order. Samples that are not coherent (a wide lens) are traced
+    one by one."""
+    first, count, total_spp = samples
+    x0, y0, x1, y1 = window
+    spread = cam[CAM_CONE_SPREAD]
+    box, lane, prim_lane, mask_stack = packets
+    origins, directions, weights = rays
+    extent = scene_extent(G)
+    total_samples = (x1 - x0) * count
+    q = 0
+    while q < total_samples:
+        n = min(PACKET, total_samples - q)
+        for k in range(n):
+            i = x0 + (q + k) // count
+            s = first + (q + k) % count
+            o, d, w, _ = camera_sample(cam, filt, seed, i, j, s, total_spp, width, height)
+            for c in range(3):
+                origins[k, c] = o[c]
+                directions[k, c] = d[c]
+            weights[k] = w
+        coherent, rows, axes = packet_setup(origins, directions, 0, n, 0.0, INF, extent, box, lane, prim_lane)
+        if coherent:
+            packet_closest(G, X, rows, axes, (1 << n) - 1, box, lane, prim_lane, node_stack, t_stack, mask_stack)
+        for k in range(n):
+            i = x0 + (q + k) // count
+            o = (origins[k, 0], origins[k, 1], origins[k, 2])
+            d = (directions[k, 0], directions[k, 1], directions[k, 2])
+            if coherent:
+                t, prim, b1, b2 = packet_hit(lane, prim_lane, k)
+            else:
+                t, prim, b1, b2 = closest_hit(G, X, o, d, 0.0, INF, node_stack, t_stack)
+            cone = spread * obliquity(cam, d)
+            col = _cast_shade(G, F, X, Env, o, d, t, prim, b1, b2, cone, bg)
+            store_sums(film, j - y0, i - x0, add_sample(pixel_sums(film, j - y0, i - x0), col, weights[k]))
+        q += n
+    return total_samples
 
 
 @kernel_function

@@ -341,10 +341,9 @@ def packet_triangles(typingctx, tri, row, count, first, axes, lane, prim, active
 
 
 @inline_function
-def uses_packets(G, X):
-    """Whether rays of this scene may be traced in packets (module docstring)."""
-    if X is not None:
-        return False
+def uses_packets(G):
+    """Whether rays of a scene without planes or instances (features X None) may be traced in
+    packets: its root is no leaf (module docstring)."""
     return not _root_is_a_leaf(G.node_index)
 
 

@@ -17,7 +17,7 @@ from .vec import FAST, inline_function, kernel_function
 def _intersect_chunk(G, X, origins, directions, t_out, object_out, prim_out, instance_out, start, end, stacks, packets):
     node_stack, t_stack = stacks
     box, lane, prim_lane, mask_stack = packets
-    if uses_packets(G, X):
+    if X is None and uses_packets(G):  # X is None: decided as the kernel compiles
         extent = scene_extent(G)
         k = start
         while k < end:
