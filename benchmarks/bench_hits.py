@@ -1,12 +1,14 @@
 """Hit rays against Embree: the issue-13 ratio, measured so that a busy machine does not decide it.
 
 The camera rays of bench_bvh.py (DESIGN.md camera, pixel centres) that hit the mesh, traced by
-raylume (`intersect_rays`, one thread) and by Embree (embreex's `run`, single-threaded), each
-timed in CPU time (`time.process_time`), alternating raylume, Embree, raylume, Embree in one
-process. CPU time leaves out the moments another process holds the core; alternation spreads
-the VM's drift over both engines. The ratio is Embree's time over raylume's: above 1, raylume
-is faster. Beside it, raylume's CPU time for the whole frame (all the camera rays, hits and
-misses) and its ratio to bumpy 40k's: how the cost of a frame grows with the triangle count.
+raylume (`intersect_rays`, one thread: coherent rays in packets of eight, kernels/packet.py),
+by raylume's single-ray traversal (`closest_hit` ray by ray, the same rays) and by Embree
+(embreex's `run`: `rtcIntersect1` ray by ray, single-threaded; embreex has no packet or stream
+call), each timed in CPU time (`time.process_time`), alternating them in one process. CPU time
+leaves out the moments another process holds the core; alternation spreads the VM's drift over
+the engines. The ratios are Embree's time over raylume's: above 1, raylume is faster. Beside
+them, raylume's CPU time for the whole frame (all the camera rays, hits and misses) and its
+ratio to bumpy 40k's: how the cost of a frame grows with the triangle count.
 
     python benchmarks/bench_hits.py [--size 1024] [--repeats 7] [MESH ...]
 
@@ -24,8 +26,11 @@ import numpy as np
 from bench_bvh import camera_rays, raylume_scene
 from common import SHARED_MODELS, machine, table
 
-from raylume.kernels.query import intersect_rays
+from raylume.kernels.query import _intersect_rays_singly, intersect_rays
+from raylume.kernels.scene import geometry_of
 from raylume.kernels.shapes import features
+from raylume.kernels.traverse import traversal_stacks
+from raylume.kernels.vec import kernel_function
 from raylume.scene.mesh import load_mesh
 from raylume.scene.procedural import bumpy_sphere
 
@@ -65,6 +70,19 @@ def _trace(compiled, o, d):
     return out
 
 
+@kernel_function
+def _single_rays(S, X, o, d, t, obj, prim, inst, stacks):
+    """intersect_rays' work without packets: closest_hit ray by ray."""
+    _intersect_rays_singly(geometry_of(S), X, o, d, t, obj, prim, inst, 0, o.shape[0], stacks)
+
+
+def _trace_singly(compiled, o, d, stacks):
+    n = len(o)
+    out = np.empty(n), np.empty(n, np.int32), np.empty(n, np.int32), np.empty(n, np.int32)
+    _single_rays(compiled.kernel, features(compiled.kernel), o, d, *out, stacks)
+    return out
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("meshes", nargs="*", default=DEFAULT)
@@ -75,6 +93,7 @@ def main() -> None:
     from embreex.mesh_construction import TriangleMesh
 
     numba.set_num_threads(1)
+    stacks = traversal_stacks()
     print(f"hit rays of a {args.size} x {args.size} frame, 1 thread, CPU time, medians of {args.repeats}")
     print(f"alternating raylume and Embree; {machine()}\n")
     rows = []
@@ -91,24 +110,27 @@ def main() -> None:
         TriangleMesh(embree, v.astype(np.float32), f.astype(np.int32))
         o32, d32 = o.astype(np.float32), d.astype(np.float32)
         embree.run(o32[:1], d32[:1], output=1)  # Embree builds on the first query
-        ours, theirs, frames = [], [], []
+        packed, single = _trace(compiled, o, d), _trace_singly(compiled, o, d, stacks)
+        assert all(np.array_equal(a, b) for a, b in zip(packed[:2], single[:2], strict=True))  # t, object
+        ours, singly, theirs, frames = [], [], [], []
         for _ in range(args.repeats):
             ours.append(cpu_seconds(lambda: _trace(compiled, o, d)))  # noqa: B023 (called at once)
             theirs.append(cpu_seconds(lambda: embree.run(o32, d32, output=1)))  # noqa: B023
+            singly.append(cpu_seconds(lambda: _trace_singly(compiled, o, d, stacks)))  # noqa: B023
             frames.append(cpu_seconds(lambda: _trace(compiled, fo, fd)))  # noqa: B023
-        r, e = np.median(ours), np.median(theirs)
+        r, e, r1 = np.median(ours), np.median(theirs), np.median(singly)
         frame[name] = np.median(frames)
         pairs = np.array(theirs) / np.array(ours)
         rows.append(
-            [name, f"{len(f):,}", f"{len(o):,}", f"{r * 1e3:.1f}", f"{e * 1e3:.1f}", f"{e / r:.2f}"]
-            + [f"{pairs.min():.2f}-{pairs.max():.2f}", f"{frame[name] * 1e3:.1f}"]
+            [name, f"{len(f):,}", f"{len(o):,}", f"{r * 1e3:.1f}", f"{r1 * 1e3:.1f}", f"{e * 1e3:.1f}", f"{e / r:.2f}"]
+            + [f"{pairs.min():.2f}-{pairs.max():.2f}", f"{e / r1:.2f}", f"{frame[name] * 1e3:.1f}"]
         )
         print(" | ".join(rows[-1]), flush=True)
     base = frame.get("40k")
     for row in rows:
         row.append(f"{frame[row[0]] / base:.2f}" if base else "-")
-    headers = ["mesh", "triangles", "hit rays", "raylume ms", "Embree ms", "Embree / raylume", "per pair"]
-    headers += ["raylume frame ms", "frame / 40k frame"]
+    headers = ["mesh", "triangles", "hit rays", "raylume ms", "single-ray ms", "Embree ms", "Embree / raylume"]
+    headers += ["per pair", "Embree / single-ray", "raylume frame ms", "frame / 40k frame"]
     print("\n" + table(headers, rows))
 
 
