@@ -498,6 +498,11 @@ def packet_closest(G, X, rows, axes, active, box, lane, prim, node_stack, t_stac
     bounds = G.node_bounds
     tri = G.triangles
     P = G.prims
+    # Every bounded primitive a triangle: compile.py numbers triangle rows in leaf order, so a
+    # leaf's first triangle row is its first primitive, known before the primitive table is
+    # read, and its triangles can be prefetched as it is pushed (bumpy 4M hit rays 5-12% faster;
+    # the primitive table's row is itself a cache miss there)
+    direct_rows = tri.shape[0] == G.n_bounded
     ref = 0
     mask = active
     top = 0
@@ -516,7 +521,12 @@ def packet_closest(G, X, rows, axes, active, box, lane, prim, node_stack, t_stac
                     child = index[np.uint64(ref), 0, u]
                 else:
                     child = -1 - ((ref << _LANE_SHIFT) + c)
-                    prefetch_row(P, index[np.uint64(ref), 0, u])
+                    f0 = index[np.uint64(ref), 0, u]
+                    if direct_rows:  # the leaf's triangles themselves, four rows
+                        for r in range(4):
+                            prefetch_row(tri, f0 + r)
+                    else:
+                        prefetch_row(P, f0)
                 # sorted insertion, the nearest on top; slots top + c' > top + k are still
                 # unread entry distances of lanes after c, so the shift stays below them
                 j = top + k
@@ -541,7 +551,8 @@ def packet_closest(G, X, rows, axes, active, box, lane, prim, node_stack, t_stac
             first = index[node, 0, c]
             count = index[node, 1, c]
             if -SPHERE_BLOCK <= count < 0:  # a block of triangles in consecutive rows
-                packet_triangles(tri, np.int64(P[first, PRIM_ROW]), -count, first, axes, lane, prim, mask)
+                row = np.int64(first) if direct_rows else np.int64(P[first, PRIM_ROW])
+                packet_triangles(tri, row, -count, first, axes, lane, prim, mask)
             else:
                 _leaf_ray_by_ray(G, X, first, count, axes, lane, prim, mask)
         found = False
