@@ -606,6 +606,7 @@ def compile_scene(scene: Scene, source="<scene>", accelerate: bool = True) -> Co
         env_rotation=environment.rotation,
         env_present=environment.present,
         has_transparency=bool((mat_rows[:, M.MAT_TRANSPARENCY] > 0).any()),
+        basic_shapes=bool(np.isin(prims[:, PRIM_KIND], (Shape.SPHERE, Shape.TRIANGLE)).all()),
         inst_node_bounds=inst.node_bounds,
         inst_node_index=inst.node_index,
         instance_inverse=inst.inverse,

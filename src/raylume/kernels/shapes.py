@@ -85,7 +85,7 @@ def features(S):
 
     basic = (
         S.instance_inverse.shape[0] == 0
-        and bool(np.isin(S.prims[:, PRIM_KIND], (SPHERE, TRIANGLE)).all())
+        and S.basic_shapes
         and not S.has_transparency
         and not (S.textures[:, textures.TEX_KIND] == textures.IMAGE).any()
         and not np.isin(S.light_kind, (lights.QUAD, lights.SPHERE)).any()
