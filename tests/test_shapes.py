@@ -303,3 +303,27 @@ def test_a_shape_lives_in_its_module_and_the_documented_registries(name, model):
     doc = (SRC.parents[1] / "docs" / "architecture.md").read_text()
     for place in PLACES:
         assert place in doc
+
+
+@pytest.mark.parametrize(
+    ("extra", "basic"),
+    [
+        ([], True),
+        ([{"type": "plane", "point": [0, -1, 0], "normal": [0, 1, 0]}], False),
+        ([{"type": "quad", "position": [0, 0, 4], "u": [2, 0, 0], "v": [1, 1, 0]}], False),
+        ([{"type": "cylinder", "p0": [0, 0, 0], "p1": [0, 2, 0], "radius": 0.5}], False),
+    ],
+)
+def test_the_basic_variant_is_for_spheres_and_triangles_alone(extra, basic):
+    """features(S) is None (the kernels' basic variant) exactly when every primitive is a sphere
+    or a triangle, as the primitive table's kinds say."""
+    objects = [
+        {"type": "sphere", "center": [0, 0, 3], "radius": 1},
+        {"type": "triangle", "vertices": [[0, 0, 2], [1, 0, 2], [0, 1, 2]]},
+        *extra,
+    ]
+    S = compile_scene(raylume.scene_from_dict({"objects": objects})).kernel
+    kinds = set(S.prims[:, 0].tolist())
+    assert (kinds <= {0, 1}) == basic
+    assert S.basic_shapes == basic
+    assert (features(S) is None) == basic
