@@ -7,8 +7,9 @@ by raylume's single-ray traversal (`closest_hit` ray by ray, the same rays) and 
 call), each timed in CPU time (`time.process_time`), alternating them in one process. CPU time
 leaves out the moments another process holds the core; alternation spreads the VM's drift over
 the engines. The ratios are Embree's time over raylume's: above 1, raylume is faster. Beside
-them, raylume's CPU time for the whole frame (all the camera rays, hits and misses) and its
-ratio to bumpy 40k's: how the cost of a frame grows with the triangle count.
+them, raylume's CPU time for the whole frame (all the camera rays, hits and misses), with
+packets and with single rays, and their ratios to bumpy 40k's: how the cost of a frame grows
+with the triangle count.
 
     python benchmarks/bench_hits.py [--size 1024] [--repeats 7] [MESH ...]
 
@@ -98,6 +99,7 @@ def main() -> None:
     print(f"alternating raylume and Embree; {machine()}\n")
     rows = []
     frame = {}  # CPU seconds of the whole frame, per mesh
+    single_frame = {}  # the same with single rays
     for name in args.meshes:
         vf = mesh(name)
         if vf is None:
@@ -112,25 +114,30 @@ def main() -> None:
         embree.run(o32[:1], d32[:1], output=1)  # Embree builds on the first query
         packed, single = _trace(compiled, o, d), _trace_singly(compiled, o, d, stacks)
         assert all(np.array_equal(a, b) for a, b in zip(packed[:2], single[:2], strict=True))  # t, object
-        ours, singly, theirs, frames = [], [], [], []
+        ours, singly, theirs, frames, single_frames = [], [], [], [], []
         for _ in range(args.repeats):
             ours.append(cpu_seconds(lambda: _trace(compiled, o, d)))  # noqa: B023 (called at once)
             theirs.append(cpu_seconds(lambda: embree.run(o32, d32, output=1)))  # noqa: B023
             singly.append(cpu_seconds(lambda: _trace_singly(compiled, o, d, stacks)))  # noqa: B023
             frames.append(cpu_seconds(lambda: _trace(compiled, fo, fd)))  # noqa: B023
+            single_frames.append(cpu_seconds(lambda: _trace_singly(compiled, fo, fd, stacks)))  # noqa: B023
         r, e, r1 = np.median(ours), np.median(theirs), np.median(singly)
         frame[name] = np.median(frames)
+        single_frame[name] = np.median(single_frames)
         pairs = np.array(theirs) / np.array(ours)
         rows.append(
             [name, f"{len(f):,}", f"{len(o):,}", f"{r * 1e3:.1f}", f"{r1 * 1e3:.1f}", f"{e * 1e3:.1f}", f"{e / r:.2f}"]
             + [f"{pairs.min():.2f}-{pairs.max():.2f}", f"{e / r1:.2f}", f"{frame[name] * 1e3:.1f}"]
+            + [f"{single_frame[name] * 1e3:.1f}"]
         )
         print(" | ".join(rows[-1]), flush=True)
-    base = frame.get("40k")
+    base, single_base = frame.get("40k"), single_frame.get("40k")
     for row in rows:
         row.append(f"{frame[row[0]] / base:.2f}" if base else "-")
+        row.append(f"{single_frame[row[0]] / single_base:.2f}" if base else "-")
     headers = ["mesh", "triangles", "hit rays", "raylume ms", "single-ray ms", "Embree ms", "Embree / raylume"]
-    headers += ["per pair", "Embree / single-ray", "raylume frame ms", "frame / 40k frame"]
+    headers += ["per pair", "Embree / single-ray", "raylume frame ms", "single-ray frame ms", "frame / 40k frame"]
+    headers += ["single-ray frame / 40k"]
     print("\n" + table(headers, rows))
 
 
