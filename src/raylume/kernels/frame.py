@@ -7,7 +7,8 @@ centre. Samples are added to the film's running sums; samples first..first+spp-1
 continue from whatever earlier passes left there."""
 
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.extending import overload
 
 from .camera import CAM_CONE_SPREAD, CAM_LENS_RADIUS, camera_ray, obliquity, thin_lens_ray
 from .environment import environment_radiance
@@ -20,7 +21,7 @@ from .scene import emitters_of, environment_of, geometry_of, lights_of, surfaces
 from .shapes import NO_HIT, instance_id, surface
 from .trace import RAY_WIDTH, stack_rows, trace_ray
 from .traverse import closest_hit, scratch_array, traversal_stacks
-from .vec import FAST, dot, inline_function, kernel_function, madd, mul
+from .vec import FAST, INLINE, dot, inline_function, kernel_function, madd, mul
 
 INF = np.inf
 
@@ -143,16 +144,10 @@ def cast_lane(
     for j in range(y0 + lane, y1, lanes):
         if stop[0] != 0:
             break
-        if X is None and uses_packets(G):  # X is None: decided as the kernel compiles
-            rays_per_row[j - y0] += _cast_row_packets(
-                G, F, X, environment_of(S), cam, filt, j, window, width, height, samples, seed, bg, film,
-                node_stack, t_stack, packets, rays,
-            )  # fmt: skip
-        else:
-            rays_per_row[j - y0] += _cast_row(
-                G, F, X, environment_of(S), cam, filt, j, window, width, height, samples, seed, bg, film,
-                node_stack, t_stack,
-            )  # fmt: skip
+        rays_per_row[j - y0] += _cast_row_of_variant(
+            G, F, X, environment_of(S), cam, filt, j, window, width, height, samples, seed, bg, film,
+            node_stack, t_stack, packets, rays,
+        )  # fmt: skip
         rows_done[lane * PROGRESS_STRIDE] += 1
 
 
@@ -195,6 +190,41 @@ def _cast_row(G, F, X, Env, cam, filt, j, window, width, height, samples, seed, 
     return (x1 - x0) * count
 
 
+def _cast_row_of_variant(
+    G, F, X, Env, cam, filt, j, window, width, height, samples, seed, bg, film, node_stack, t_stack, packets, rays
+):
+    """_cast_row_packets in the basic variant (X None), _cast_row in the others: each variant
+    compiles one of them (a branch on `X is None` would compile both for a non-None X)."""
+    raise NotImplementedError("a Numba overload")
+
+
+@overload(_cast_row_of_variant, jit_options=INLINE)
+def _cast_row_of_variant_impl(
+    G, F, X, Env, cam, filt, j, window, width, height, samples, seed, bg, film, node_stack, t_stack, packets, rays
+):
+    if isinstance(X, types.NoneType):
+
+        def packet_rows(
+            G, F, X, Env, cam, filt, j, window, width, height, samples, seed, bg, film, node_stack, t_stack, packets,
+            rays,
+        ):  # fmt: skip
+            return _cast_row_packets(
+                G, F, X, Env, cam, filt, j, window, width, height, samples, seed, bg, film, node_stack, t_stack,
+                packets, rays,
+            )  # fmt: skip
+
+        return packet_rows
+
+    def single_rows(
+        G, F, X, Env, cam, filt, j, window, width, height, samples, seed, bg, film, node_stack, t_stack, packets, rays
+    ):
+        return _cast_row(
+            G, F, X, Env, cam, filt, j, window, width, height, samples, seed, bg, film, node_stack, t_stack
+        )
+
+    return single_rows
+
+
 @njit(cache=True)
 def camera_packet_scratch():
     """One thread's buffer of a packet's camera samples: (origins, directions, weights)."""
@@ -212,13 +242,14 @@ def _cast_row_packets(
     """_cast_row with the row's camera samples traced eight at a time (kernels/packet.py): the
     samples in _cast_row's order (pixel by pixel, each pixel's samples in turn), so the film's
     sums are added in the same order. Samples that are not coherent (a wide lens) are traced
-    one by one."""
+    one by one, and so are all in a scene whose root is a leaf."""
     first, count, total_spp = samples
     x0, y0, x1, y1 = window
     spread = cam[CAM_CONE_SPREAD]
     box, lane, prim_lane, mask_stack = packets
     origins, directions, weights = rays
     extent = scene_extent(G)
+    packets_here = uses_packets(G)  # else (a root that is a leaf) every sample is traced alone
     total_samples = (x1 - x0) * count
     q = 0
     while q < total_samples:
@@ -231,7 +262,9 @@ def _cast_row_packets(
                 origins[k, c] = o[c]
                 directions[k, c] = d[c]
             weights[k] = w
-        coherent, rows, axes = packet_setup(origins, directions, 0, n, 0.0, INF, extent, box, lane, prim_lane)
+        coherent = False
+        if packets_here:
+            coherent, rows, axes = packet_setup(origins, directions, 0, n, 0.0, INF, extent, box, lane, prim_lane)
         if coherent:
             packet_closest(G, X, rows, axes, (1 << n) - 1, box, lane, prim_lane, node_stack, t_stack, mask_stack)
         for k in range(n):

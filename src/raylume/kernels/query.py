@@ -1,13 +1,14 @@
 """Batch ray queries over a compiled scene: closest hits for arrays of rays (benchmarks, tests,
 and users who want raylume as a ray-intersection library)."""
 
-from numba import njit, prange
+from numba import njit, prange, types
+from numba.extending import overload
 
 from .packet import PACKET, packet_closest, packet_hit, packet_scratch, packet_setup, scene_extent, uses_packets
 from .scene import geometry_of
 from .shapes import NO_HIT, PRIM_FACE, PRIM_OBJECT, instance_id, split_hit
 from .traverse import INF, closest_hit, traversal_stacks
-from .vec import FAST, inline_function, kernel_function
+from .vec import FAST, INLINE, inline_function, kernel_function
 
 
 # A call per chunk of rays, compiled without reference counting (KERNEL), as the frame kernels'
@@ -15,26 +16,45 @@ from .vec import FAST, inline_function, kernel_function
 # references to the BVH arrays for every ray (4 calls with atomic operations a ray).
 @kernel_function
 def _intersect_chunk(G, X, origins, directions, t_out, object_out, prim_out, instance_out, start, end, stacks, packets):
-    node_stack, t_stack = stacks
-    box, lane, prim_lane, mask_stack = packets
-    if X is None and uses_packets(G):  # X is None: decided as the kernel compiles
-        extent = scene_extent(G)
-        k = start
-        while k < end:
-            n = min(PACKET, end - k)
-            coherent, rows, axes = packet_setup(origins, directions, k, n, 0.0, INF, extent, box, lane, prim_lane)
-            if coherent:
-                packet_closest(G, X, rows, axes, (1 << n) - 1, box, lane, prim_lane, node_stack, t_stack, mask_stack)
-                for i in range(n):
-                    t, prim, _, _ = packet_hit(lane, prim_lane, i)
-                    _store_hit(G, X, k + i, t, prim, t_out, object_out, prim_out, instance_out)
-            else:
-                _intersect_rays_singly(
-                    G, X, origins, directions, t_out, object_out, prim_out, instance_out, k, k + n, stacks
-                )
-            k += n
-    else:
-        _intersect_rays_singly(G, X, origins, directions, t_out, object_out, prim_out, instance_out, start, end, stacks)
+    k = start
+    while k < end:
+        n = min(PACKET, end - k)
+        outputs = (t_out, object_out, prim_out, instance_out)
+        if not _packet_into(G, X, origins, directions, k, n, outputs, stacks, packets):
+            # one call site: the single-ray traversal is inlined once (a second copy cost ~1.5 s
+            # of cold compile)
+            _intersect_rays_singly(
+                G, X, origins, directions, t_out, object_out, prim_out, instance_out, k, k + n, stacks
+            )
+        k += n
+
+
+def _packet_into(G, X, origins, directions, k, n, outputs, stacks, packets):
+    """Rays k .. k + n - 1 traced as a packet into the outputs when they can be (packet.py);
+    False when not, and nothing written."""
+    raise NotImplementedError("a Numba overload")
+
+
+@overload(_packet_into, jit_options=INLINE)
+def _packet_into_impl(G, X, origins, directions, k, n, outputs, stacks, packets):
+    if not isinstance(X, types.NoneType):  # planes or instances: their variant compiles no packet code
+        return lambda G, X, origins, directions, k, n, outputs, stacks, packets: False
+
+    def impl(G, X, origins, directions, k, n, outputs, stacks, packets):
+        if not uses_packets(G):
+            return False
+        node_stack, t_stack = stacks
+        box, lane, prim_lane, mask_stack = packets
+        coherent, rows, axes = packet_setup(origins, directions, k, n, 0.0, INF, scene_extent(G), box, lane, prim_lane)
+        if coherent:
+            packet_closest(G, X, rows, axes, (1 << n) - 1, box, lane, prim_lane, node_stack, t_stack, mask_stack)
+            t_out, object_out, prim_out, instance_out = outputs
+            for i in range(n):
+                t, prim, _, _ = packet_hit(lane, prim_lane, i)
+                _store_hit(G, X, k + i, t, prim, t_out, object_out, prim_out, instance_out)
+        return coherent
+
+    return impl
 
 
 @inline_function
