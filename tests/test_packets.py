@@ -15,7 +15,16 @@ from numba import njit
 import raylume
 from raylume.compile import compile_scene
 from raylume.kernels.camera import camera_frame
-from raylume.kernels.packet import PACKET, packet_closest, packet_hit, packet_scratch, packet_setup, scene_extent
+from raylume.kernels.packet import (
+    PACKET,
+    packet_closest,
+    packet_finish,
+    packet_hit,
+    packet_scratch,
+    packet_setup,
+    packet_triangles,
+    scene_extent,
+)
 from raylume.kernels.query import intersect_rays
 from raylume.kernels.scene import geometry_of
 from raylume.kernels.shape_triangle import INF, intersect_triangle, ray_shear
@@ -286,3 +295,94 @@ def test_cast_mode_traces_packets_that_hit_what_single_rays_hit(tmp_path):
     assert {-1, 0, 1} <= set(np.unique(obj).tolist())
     expected = np.where(obj[..., None] >= 0, np.asarray(colors)[np.maximum(obj, 0)], 0.25)
     np.testing.assert_allclose(image.rgb, expected, rtol=1e-6)
+
+
+@PACKET_WORKER
+def test_packet_tests_are_vector_code(tmp_path):
+    """The packet's box test (8 rays per child box, float32) and triangle test (8 rays per
+    triangle, float64) run as vector instructions: fails loudly if a change makes them
+    scalar."""
+    import re
+
+    import llvmlite.binding as llvm
+
+    if "+avx2" not in llvm.get_host_cpu_features().flatten().split(","):
+        pytest.skip("the CPU has no AVX2: no 8-wide float32 registers to check for")
+    v, f = bumpy_sphere(500)
+    compiled = _compiled_mesh(tmp_path, v, f)
+    o, d = _camera_rays(np.zeros(3), 1.2, 16)
+    _packets(compiled.kernel, o, d, PACKET)
+    asm = "\n".join(_packets.inspect_asm().values())
+    for op in ("vmaxps", "vminps", "vcmp[a-z]*ps", "vsubps", "vmulps"):  # the box test
+        assert re.search(rf"\b{op}\s+[^\n]*%ymm", asm), f"no 8-wide {op}: the packet box test is scalar"
+    tris = np.random.default_rng(0).uniform(-1, 1, size=(8, 9)).astype(np.float32)
+    _triangle_block(tris, 0, 4, o[:PACKET], d[:PACKET])
+    asm = "\n".join(_triangle_block.inspect_asm().values())
+    for op in ("vsubpd", "vmulpd", "vdivpd", "vcmp[a-z]*pd"):  # the triangle test alone: 8 doubles are
+        # two ymm registers with AVX2, one zmm with AVX-512
+        assert re.search(rf"\b{op}\s+[^\n]*%[yz]mm", asm), f"no vector {op}: the packet triangle test is scalar"
+
+
+@njit
+def _triangle_block(tris, row, count, origins, dirs):
+    """packet_triangles on rows row .. row + count - 1 for a packet of eight rays: per ray
+    (t, prim, b1, b2), or NaNs when packet_setup refuses the rays."""
+    box, lane, prim, _ = packet_scratch()
+    out = np.full((PACKET, 4), np.nan)
+    ok, rows, axes = packet_setup(origins, dirs, 0, PACKET, 0.0, INF, 1e30, box, lane, prim)
+    if ok:
+        packet_triangles(tris, row, count, 0, axes, lane, prim, (1 << PACKET) - 1)
+        packet_finish(lane, prim)
+        for i in range(PACKET):
+            t, q, b1, b2 = packet_hit(lane, prim, i)
+            out[i, 0], out[i, 1], out[i, 2], out[i, 3] = t, q, b1, b2
+    return out
+
+
+@njit
+def _triangle_one_by_one(tris, row, count, origins, dirs):
+    """intersect_triangle row by row for each ray: the nearest (t, row - first row, b1, b2)."""
+    out = np.empty((origins.shape[0], 4))
+    for k in range(origins.shape[0]):
+        o = (origins[k, 0], origins[k, 1], origins[k, 2])
+        d = (dirs[k, 0], dirs[k, 1], dirs[k, 2])
+        shear = ray_shear(d)
+        best, j, u, v = INF, -1, 0.0, 0.0
+        for r in range(row, row + count):
+            t, b1, b2 = intersect_triangle(o, shear, tris, r, 0.0, best)
+            if t < best:
+                best, j, u, v = t, r - row, b1, b2
+        out[k, 0], out[k, 1], out[k, 2], out[k, 3] = best, j, u, v
+    return out
+
+
+@PACKET_WORKER
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), count=st.integers(1, 4), shared=st.booleans())
+def test_packet_triangle_test_equals_the_scalar_test_to_the_bit(seed, count, shared):
+    """packet_triangles against intersect_triangle, lane by lane: the same t, triangle and
+    barycentrics to the last bit, the first triangle on ties; with `shared`, the rays aim at
+    the triangles' vertices and edge midpoints and the triangles share vertices."""
+    rng = np.random.default_rng(seed)
+    # x, y in (0.2, 0.5) and z in (3, 3.5): every ray from near the origin points into one
+    # octant, z its dominant axis, all within a few degrees: the packet is always taken
+    tris = rng.uniform(0.2, 0.5, size=(4, 9)).astype(np.float32)
+    tris[:, 2::3] = rng.uniform(3, 3.5, size=(4, 3))
+    if shared:
+        tris[1, 0:6] = tris[0, 3:9]  # an edge shared with triangle 0
+        tris[2] = tris[1]  # a duplicate: the first of equal hits wins
+    picks = tris[rng.integers(0, count, size=PACKET)].reshape(PACKET, 3, 3).astype(np.float64)
+    if shared:
+        w = rng.choice([0.0, 0.5, 1.0], size=(PACKET, 3))
+        w[w.sum(axis=1) == 0, 0] = 1.0  # a vertex rather than no point at all
+    else:
+        w = rng.uniform(0.05, 1.0, size=(PACKET, 3))
+    targets = (picks * (w / w.sum(axis=1, keepdims=True))[:, :, None]).sum(axis=1)
+    origins = rng.normal(scale=1e-3, size=(PACKET, 3))
+    d = targets - origins
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    got = _triangle_block(tris, 0, count, origins, d)
+    assert not np.isnan(got).any()
+    ref = _triangle_one_by_one(tris, 0, count, origins, d)
+    ref[:, 1] = np.where(ref[:, 1] >= 0, ref[:, 1], -1)
+    np.testing.assert_array_equal(got, ref)
