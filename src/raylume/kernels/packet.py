@@ -15,11 +15,12 @@ the box test widens every slab as the single-ray one does, so no box a ray enter
 Only which of two triangles hit at exactly the same distance is reported can differ (a ray
 through a shared edge): the first one found, and the packet finds them in another order.
 
-A packet is taken only when it pays and is safe: every ray finite, every direction in one
-octant with one dominant axis (so the slab rows and the watertight test's axis permutation are
-the packet's, not each ray's), directions within a few degrees of each other and origins close
-together; and only in scenes the plain traversal covers (no planes or instances, a root that is
-not a leaf). Anything else is traced ray by ray.
+A packet is taken only when it pays and is safe (`packet_setup`): every ray finite, every
+direction in one octant with one dominant axis (so the slab rows and the watertight test's axis
+order are the packet's, not each ray's), the directions within 10 degrees of the first ray's
+and the origins within 1% of the scene's extent of its origin; and only in the kernels' basic
+variant (spheres and triangles alone: shapes.features gives X None) with a root that is no leaf.
+Anything else is traced ray by ray, by the caller.
 
 Packet state lives in one thread's scratch arrays (`packet_scratch`):
 
@@ -27,6 +28,8 @@ Packet state lives in one thread's scratch arrays (`packet_scratch`):
 * ``lane`` float64 (LANE_ROWS, 8): per lane the sheared-test constants, the best hit so far and
   the ray itself (rows below).
 * ``prim`` int64 (8,): per lane the primitive of the best hit (NO_HIT when none).
+* the mask stack, int32 (TRAVERSAL_STACK,): beside traverse.py's node and distance stacks, each
+  entry's mask of rays.
 """
 
 import math
@@ -75,8 +78,6 @@ LANE_ROWS = 17
 # of eight unrelated traversals.
 _MIN_COS = 0.985  # directions within 10 degrees of the first ray's
 _ORIGIN_SPREAD = 0.01  # origins within this fraction of the scene's extent of the first ray's
-
-_INF = math.inf
 
 
 @njit(cache=True)
@@ -342,8 +343,8 @@ def packet_triangles(typingctx, tri, row, count, first, axes, lane, prim, active
 
 @inline_function
 def uses_packets(G):
-    """Whether rays of a scene without planes or instances (features X None) may be traced in
-    packets: its root is no leaf (module docstring)."""
+    """Whether rays of a scene of the basic variant (features X None) may be traced in packets:
+    its root is no leaf (module docstring)."""
     return not _root_is_a_leaf(G.node_index)
 
 
