@@ -414,3 +414,27 @@ def test_cast_packets_give_the_single_ray_image(tmp_path, spp, aperture, filt):
     colours = len(np.unique(packets.rgb.reshape(-1, 3), axis=0))
     assert colours >= 3 if spp == 1 else colours > 3  # both meshes and the background; mixed edges
     np.testing.assert_array_equal(packets.rgb, single.rgb)
+
+
+def test_intersect_ignores_materials_and_lights_in_choosing_its_kernels(tmp_path):
+    """raylume.intersect on a mesh of glass under an area light (the render kernels' full
+    variant): the basic variant with its packets, since a hit depends on neither, and the same
+    hits as the opaque mesh's."""
+    from raylume.kernels.shapes import features, geometry_features
+
+    v, f = bumpy_sphere(5000)
+    trimesh.Trimesh(v, f, process=False).export(tmp_path / "m.ply")
+    glass = {"transparency": 0.9, "ior": 1.5}
+    fancy = {
+        "lights": [{"type": "quad", "position": [0, 3, 0], "u": [1, 0, 0], "v": [0, 0, 1]}],
+        "objects": [{"type": "mesh", "file": str(tmp_path / "m.ply"), "material": glass}],
+    }
+    plain = {"objects": [{"type": "mesh", "file": str(tmp_path / "m.ply")}]}
+    S = compile_scene(raylume.scene_from_dict(fancy)).kernel
+    assert features(S) is not None and geometry_features(S) is None
+    o, d = _camera_rays(np.zeros(3), 1.2, 64)
+    got = raylume.intersect(raylume.scene_from_dict(fancy), o, d)
+    ref = raylume.intersect(raylume.scene_from_dict(plain), o, d)
+    assert np.isfinite(got[0]).mean() > 0.2
+    for a, b in zip(got, ref, strict=True):
+        np.testing.assert_array_equal(a, b)

@@ -7,7 +7,7 @@ import numpy as np
 
 from .compile import CompiledScene, compile_scene
 from .kernels.query import intersect_rays
-from .kernels.shapes import features
+from .kernels.shapes import geometry_features
 from .scene.model import Scene
 
 
@@ -38,7 +38,7 @@ def intersect(scene: Scene | CompiledScene, origins: np.ndarray, directions: np.
     inst = np.empty(n, dtype=np.int32)
     # the ray offset floor of a camera at the origin: the scene's own extent
     S = compiled.for_camera((0.0, 0.0, 0.0))
-    intersect_rays(S, features(S), origins, directions, t, obj, prim, inst, numba.get_num_threads())
+    intersect_rays(S, geometry_features(S), origins, directions, t, obj, prim, inst, numba.get_num_threads())
     if instances:
         return t.reshape(shape), obj.reshape(shape), prim.reshape(shape), inst.reshape(shape)
     return t.reshape(shape), obj.reshape(shape), prim.reshape(shape)

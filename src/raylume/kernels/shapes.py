@@ -93,6 +93,13 @@ def features(S):
     return None if basic else instances_of(S)
 
 
+def geometry_features(S):
+    """X of geometry-only queries (raylume.intersect): None, the basic variant with its ray
+    packets, for every scene of spheres and triangles without instances. Materials, textures
+    and lights, which features(S) also weighs, change no hit."""
+    return None if S.basic_shapes and S.instance_inverse.shape[0] == 0 else instances_of(S)
+
+
 def path_features(S):
     """X of path mode: one variant for every scene (a path-mode compile is ~55 s), the scene's
     Instances as for any scene that is not basic."""
