@@ -42,7 +42,7 @@ from numba.core.errors import TypingError
 from numba.extending import intrinsic
 
 from ..accel.wide import SPHERE_BLOCK
-from .shape_triangle import EXACT, EXACT_DIVISION, exact_ops, ray_shear
+from .shape_triangle import EXACT, EXACT_DIVISION, exact_ops, ray_shear, watertight_lanes
 from .shapes import NO_HIT, PRIM_ROW
 from .traverse import (
     _F32_TINY,
@@ -282,11 +282,10 @@ def packet_triangles(typingctx, tri, row, count, first, axes, lane, prim, active
         ln = _array_data(context, builder, sig.args[5], args[5])
         pr = _array_data(context, builder, sig.args[6], args[6])
         act = _mask_vector(builder, context.cast(builder, args[7], sig.args[7], types.int64))
-        fadd, fsub, fmul, lt = exact_ops(builder)
+        _, fsub, _, _ = exact_ops(builder)
         ox, oy, oz = (_load_row(builder, ln, r, _V8D) for r in (OX, OY, OZ))
         sx, sy, sz = (_load_row(builder, ln, r, _V8D) for r in (SX, SY, SZ))
         tmin = _load_row(builder, ln, TMIN, _V8D)
-        fabs = cgutils.get_or_insert_function(builder.module, ir.FunctionType(_V8D, [_V8D]), "llvm.fabs.v8f64")
         prim_ptr = builder.bitcast(pr, _V8I64.as_pointer())
         c3, c6 = ir.Constant(_i64, 3), ir.Constant(_i64, 6)
         cols = (kx, ky, kz, builder.add(kx, c3), builder.add(ky, c3), builder.add(kz, c3))
@@ -302,31 +301,8 @@ def packet_triangles(typingctx, tri, row, count, first, axes, lane, prim, active
             ax, ay, az = fsub(vertex(cols[0]), ox), fsub(vertex(cols[1]), oy), fsub(vertex(cols[2]), oz)
             bx, by, bz = fsub(vertex(cols[3]), ox), fsub(vertex(cols[4]), oy), fsub(vertex(cols[5]), oz)
             cx, cy, cz = fsub(vertex(cols[6]), ox), fsub(vertex(cols[7]), oy), fsub(vertex(cols[8]), oz)
-            ax = fsub(ax, fmul(sx, az))
-            ay = fsub(ay, fmul(sy, az))
-            bx = fsub(bx, fmul(sx, bz))
-            by = fsub(by, fmul(sy, bz))
-            cx = fsub(cx, fmul(sx, cz))
-            cy = fsub(cy, fmul(sy, cz))
-            u = fsub(fmul(cx, by), fmul(cy, bx))
-            v = fsub(fmul(ax, cy), fmul(ay, cx))
-            w = fsub(fmul(bx, ay), fmul(by, ax))
-            tol = fmul(
-                ir.Constant(_V8D, [1e-12] * PACKET),
-                fadd(fadd(builder.call(fabs, [u]), builder.call(fabs, [v])), builder.call(fabs, [w])),
-            )
-            ntol = builder.fneg(tol, flags=EXACT)
-            neg = builder.or_(builder.or_(lt(u, ntol), lt(v, ntol)), lt(w, ntol))
-            pos = builder.or_(builder.or_(lt(tol, u), lt(tol, v)), lt(tol, w))
-            det = fadd(fadd(u, v), w)
-            num = fadd(fadd(fmul(u, az), fmul(v, bz)), fmul(w, cz))
-            t = builder.fdiv(fmul(num, sz), det, flags=EXACT_DIVISION)
             best = _load_row(builder, ln, BEST_T, _V8D)
-            ok = builder.and_(
-                builder.not_(builder.and_(neg, pos)),
-                builder.fcmp_unordered("!=", det, ir.Constant(_V8D, [0.0] * PACKET), flags=EXACT),
-            )
-            ok = builder.and_(ok, builder.and_(lt(tmin, t), lt(t, best)))
+            t, v, w, det, ok = watertight_lanes(builder, (ax, ay, az, bx, by, bz, cx, cy, cz), sx, sy, sz, tmin, best)
             ok = builder.and_(ok, act)
             _store_row(builder, builder.select(ok, t, best), ln, BEST_T, _V8D)
             for dest, value in ((BEST_V, v), (BEST_W, w), (BEST_DET, det)):

@@ -112,7 +112,7 @@ def _triangles_codegen(context, builder, sig, args):
     def splat(x):
         return builder.shuffle_vector(builder.insert_element(undef, x, ir.Constant(i32, 0)), undef, zero_idx)
 
-    fadd, fsub, fmul, lt = exact_ops(builder)
+    _, fsub, _, lt = exact_ops(builder)
 
     def pick(k):  # o[k] for a runtime k in 0..2
         return builder.select(
@@ -147,37 +147,10 @@ def _triangles_codegen(context, builder, sig, args):
     cx = fsub(column(builder.add(kx, c6)), ox)
     cy = fsub(column(builder.add(ky, c6)), oy)
     cz = fsub(column(builder.add(kz, c6)), oz)
-    vsx, vsy = splat(sx), splat(sy)
-    ax = fsub(ax, fmul(vsx, az))
-    ay = fsub(ay, fmul(vsy, az))
-    bx = fsub(bx, fmul(vsx, bz))
-    by = fsub(by, fmul(vsy, bz))
-    cx = fsub(cx, fmul(vsx, cz))
-    cy = fsub(cy, fmul(vsy, cz))
-    u = fsub(fmul(cx, by), fmul(cy, bx))
-    v = fsub(fmul(ax, cy), fmul(ay, cx))
-    w = fsub(fmul(bx, ay), fmul(by, ax))
-    fabs = cgutils.get_or_insert_function(builder.module, ir.FunctionType(v4, [v4]), "llvm.fabs.v4f64")
-    tol = fmul(
-        ir.Constant(v4, [1e-12] * n),
-        fadd(
-            fadd(builder.call(fabs, [u]), builder.call(fabs, [v])),
-            builder.call(fabs, [w]),
-        ),
+    t, v, w, det, ok = watertight_lanes(
+        builder, (ax, ay, az, bx, by, bz, cx, cy, cz), splat(sx), splat(sy), splat(sz), splat(tmin), splat(tmax)
     )
-    ntol = builder.fneg(tol, flags=EXACT)
-
-    neg = builder.or_(builder.or_(lt(u, ntol), lt(v, ntol)), lt(w, ntol))
-    pos = builder.or_(builder.or_(lt(tol, u), lt(tol, v)), lt(tol, w))
-    det = fadd(fadd(u, v), w)
-    num = fadd(fadd(fmul(u, az), fmul(v, bz)), fmul(w, cz))
-    t = builder.fdiv(fmul(num, splat(sz)), det, flags=EXACT_DIVISION)
     lanes = ir.Constant(ir.VectorType(i64, n), list(range(n)))
-    ok = builder.and_(
-        builder.not_(builder.and_(neg, pos)),
-        builder.fcmp_unordered("!=", det, ir.Constant(v4, [0.0] * n), flags=EXACT),
-    )
-    ok = builder.and_(ok, builder.and_(lt(splat(tmin), t), lt(t, splat(tmax))))
     ok = builder.and_(ok, builder.icmp_signed("<", lanes, splat_i64(builder, count, n)))
     inf = ir.Constant(v4, [float("inf")] * n)
     tt = builder.select(ok, t, inf)
@@ -197,6 +170,43 @@ def _triangles_codegen(context, builder, sig, args):
         return builder.select(found, q, zero)
 
     return context.make_tuple(builder, sig.return_type, [best_t, best_j, barycentric(vj), barycentric(wj)])
+
+
+def watertight_lanes(builder, rel, sx, sy, sz, tmin, tmax):
+    """intersect_triangle's arithmetic from the vertices relative to the origin onwards, on
+    float64 vectors (one triangle and ray pair a lane; this test's four triangles against one
+    ray, packet.py's one triangle against eight rays), in IEEE instructions that Numba's
+    fast-math pass leaves alone. rel: (ax, ay, az, bx, by, bz, cx, cy, cz), the vertices minus
+    the origin in the shear's axis order; sx, sy, sz, tmin, tmax vectors too. Returns
+    (t, v, w, det, ok): ok where the ray hits inside (tmin, tmax); b1, b2 are v / det, w / det."""
+    fadd, fsub, fmul, lt = exact_ops(builder)
+    ax, ay, az, bx, by, bz, cx, cy, cz = rel
+    vt = ax.type
+    ax = fsub(ax, fmul(sx, az))
+    ay = fsub(ay, fmul(sy, az))
+    bx = fsub(bx, fmul(sx, bz))
+    by = fsub(by, fmul(sy, bz))
+    cx = fsub(cx, fmul(sx, cz))
+    cy = fsub(cy, fmul(sy, cz))
+    u = fsub(fmul(cx, by), fmul(cy, bx))
+    v = fsub(fmul(ax, cy), fmul(ay, cx))
+    w = fsub(fmul(bx, ay), fmul(by, ax))
+    fabs = cgutils.get_or_insert_function(builder.module, ir.FunctionType(vt, [vt]), f"llvm.fabs.v{vt.count}f64")
+    tol = fmul(
+        ir.Constant(vt, [1e-12] * vt.count),
+        fadd(fadd(builder.call(fabs, [u]), builder.call(fabs, [v])), builder.call(fabs, [w])),
+    )
+    ntol = builder.fneg(tol, flags=EXACT)
+    neg = builder.or_(builder.or_(lt(u, ntol), lt(v, ntol)), lt(w, ntol))
+    pos = builder.or_(builder.or_(lt(tol, u), lt(tol, v)), lt(tol, w))
+    det = fadd(fadd(u, v), w)
+    num = fadd(fadd(fmul(u, az), fmul(v, bz)), fmul(w, cz))
+    t = builder.fdiv(fmul(num, sz), det, flags=EXACT_DIVISION)
+    ok = builder.and_(
+        builder.not_(builder.and_(neg, pos)),
+        builder.fcmp_unordered("!=", det, ir.Constant(vt, [0.0] * vt.count), flags=EXACT),
+    )
+    return t, v, w, det, builder.and_(ok, builder.and_(lt(tmin, t), lt(t, tmax)))
 
 
 # Flags that change nothing for these instructions: 'arcp' only matters to divisions, and
