@@ -135,6 +135,9 @@ component = st.one_of(st.sampled_from([0.0, -0.0]), st.floats(-1, 1, allow_nan=F
 )
 # an entry distance in the subnormal range (2.24e-45), once computed as 2.8e-45
 @example(a=(0.0, 2.0, 1.401298464324817e-45), b=(1.0, 0.0, 1.0), o=(0.0, 1.0, 0.0), d=(1.0, 0.0, 0.625), tmax=INF)
+# parallel to the z slab, 1.8e-38 inside its face at 0: the slab once ended at t = 6.2, before
+# the entry at 8
+@example(a=(0.0, 0.0, 0.0), b=(0.0, -2.0, -1.0), o=(4.0, -1.0, -1.8289849851155408e-38), d=(-0.5, 0.0, 0.0), tmax=INF)
 def test_box_test_agrees_with_the_textbook_slab_test(a, b, o, d, tmax):
     """Near/far planes picked by the direction's sign, against min/max of both slab distances
     with exact division and zero components handled explicitly; zero and negative-zero

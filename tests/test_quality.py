@@ -584,3 +584,34 @@ def test_samples_stay_in_the_unit_square_and_lens_strata_are_a_permutation(seed,
 def test_rgbe_never_fails(rgb):
     out = rgbe_encode(np.array([[rgb]], dtype=np.float32))
     assert out.dtype == np.uint8 and out.shape == (1, 1, 4)
+
+
+@pytest.mark.parametrize("pixel_filter", ["box", "mitchell"])
+def test_film_image_is_the_weighted_mean_of_its_sums(pixel_filter):
+    """Film.rgb against its definition written in numpy: each pixel's weighted mean (weights
+    below 0.5 count as 1), the plain mean of the samples where a negative-lobed filter's
+    weights cancel, negative values clipped to 0; NaN kept, -0.0 as 0.0."""
+    from raylume.kernels.film import FILM_ABS_RGB, FILM_COUNT, FILM_RGB, FILM_WEIGHT, FILM_WIDTH, Film
+
+    rng = np.random.default_rng(3)
+    film = Film(37, 23, pixel_filter, total_spp=8)
+    s = film.sums
+    s[...] = rng.normal(size=s.shape) * 3
+    s[..., FILM_WEIGHT] = rng.integers(-3, 9, size=s.shape[:2])
+    if s.shape[2] > FILM_WIDTH:
+        s[..., FILM_COUNT] = rng.integers(0, 9, size=s.shape[:2])
+    s[0, 0, FILM_RGB] = np.nan
+    s[0, 1, FILM_RGB] = -0.0
+    s[0, 1, FILM_WEIGHT] = 1.0
+    w = s[..., FILM_WEIGHT]
+    want = s[..., FILM_RGB : FILM_RGB + 3] * (1.0 / np.where(w < 0.5, 1.0, w))[..., None]
+    if s.shape[2] > FILM_WIDTH:
+        count = s[..., FILM_COUNT]
+        cancelled = (w < 0.5 * count) & (count > 0)
+        assert cancelled.any()
+        plain = s[..., FILM_ABS_RGB : FILM_ABS_RGB + 3] / np.maximum(count, 1.0)[..., None]
+        want = np.where(cancelled[..., None], plain, want)
+    want = np.maximum(want, 0.0).astype(np.float32)
+    got = film.rgb()
+    assert got.dtype == np.float32 and got.shape == (23, 37, 3)
+    np.testing.assert_array_equal(got.view(np.uint32), want.view(np.uint32))  # to the bit, NaN too

@@ -58,6 +58,9 @@ _F32_TINY = float(np.finfo(np.float32).tiny)
 # is never culled and its entry distance never overestimated (a popped entry is skipped when it
 # lies beyond the best hit); the origin is rounded outward in box_ray.
 _NEAR_SCALE = 1.0 - 2.0**-20
+# Smallest outward move of a ray's origin in the box test (box_ray): (face - origin) * 1/d is then
+# at least 2**-100 * 3.4e38 = 2.7e8 for a ray parallel to the slab that lies inside it.
+_ORIGIN_PAD = 2.0**-100
 _FAR_SCALE = 1.0 + 2.0**-20
 
 
@@ -217,8 +220,11 @@ def _ray_axis(o, d, k):
     inv32 = np.float32(mag if inv >= 0.0 else -mag)
     # The origin rounded to float32 outward, so that the near distance can only shrink and the
     # far one only grow: moved by |o| 2**-23 >= half a float32 ulp first, then rounded to nearest
-    # (branch-free; nextafter was a library call per axis).
-    pad = abs(o) * 2.0**-23
+    # (branch-free; nextafter was a library call per axis). And by at least _ORIGIN_PAD: for a
+    # ray parallel to a slab (1/d clamped to the float32 maximum), an origin 1.8e-38 inside a
+    # face at 0 put the slab's far end at 6.2, and the box was culled for the entry at 8 that
+    # the other axes gave (hypothesis found it).
+    pad = max(abs(o) * 2.0**-23, _ORIGIN_PAD)
     down = np.float32(o - pad)
     up = np.float32(o + pad)
     if inv >= 0.0:
