@@ -392,8 +392,8 @@ def test_packet_triangle_test_equals_the_scalar_test_to_the_bit(seed, count, sha
 def test_cast_packets_give_the_single_ray_image(tmp_path, spp, aperture, filt):
     """A cast render of meshes (the basic kernels: packets) against the same scene with a plane
     behind the camera, which the image never shows but which puts the render in the other
-    kernel variant, where every sample is traced alone: the same image and AOVs to the last bit,
-    with several samples per pixel, a negative-lobed filter and a lens (whose samples are
+    kernel variant, where every sample is traced alone: the same image (and AOVs) to the last
+    bit, with several samples per pixel, a negative-lobed filter and a lens (whose samples are
     coherent or not, packet by packet)."""
     v, f = bumpy_sphere(6000)
     trimesh.Trimesh(v, f, process=False).export(tmp_path / "m.ply")
@@ -414,7 +414,7 @@ def test_cast_packets_give_the_single_ray_image(tmp_path, spp, aperture, filt):
     colours = len(np.unique(packets.rgb.reshape(-1, 3), axis=0))
     assert colours >= 3 if spp == 1 else colours > 3  # both meshes and the background; mixed edges
     np.testing.assert_array_equal(packets.rgb, single.rgb)
-    # the AOVs' pixel-centre rays, traced in packets too
+    # the AOV pass (single rays in both variants) agrees too
     assert set(np.unique(packets.aovs["object"]).tolist()) == {-1, 0, 1}
     for name in ("depth", "normal", "object", "prim", "albedo", "instance"):
         np.testing.assert_array_equal(packets.aovs[name], single.aovs[name], err_msg=name)
