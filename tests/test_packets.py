@@ -30,6 +30,7 @@ from raylume.kernels.scene import geometry_of
 from raylume.kernels.shape_triangle import INF, intersect_triangle, ray_shear
 from raylume.kernels.shapes import features
 from raylume.kernels.traverse import TRAVERSAL_STACK, closest_hit
+from raylume.kernels.vec import FAST
 from raylume.scene.procedural import bumpy_sphere
 
 # compiled in the test process; the tests that call them share one xdist worker
@@ -442,3 +443,55 @@ def test_intersect_ignores_materials_and_lights_in_choosing_its_kernels(tmp_path
     assert np.isfinite(got[0]).mean() > 0.2
     for a, b in zip(got, ref, strict=True):
         np.testing.assert_array_equal(a, b)
+
+
+@njit(fastmath=FAST, error_model="numpy")
+def _single_x(S, X, origins, dirs):
+    """closest_hit ray by ray in the kernels' full variant (X the scene's Instances), with the
+    batch query's fast-math flags: the analytic shapes' tests round as they do there."""
+    n = origins.shape[0]
+    out = np.empty((n, 2))
+    node_stack = np.empty(TRAVERSAL_STACK, np.int32)
+    t_stack = np.empty(TRAVERSAL_STACK, np.float32)
+    G = geometry_of(S)
+    for k in range(n):
+        o = (origins[k, 0], origins[k, 1], origins[k, 2])
+        d = (dirs[k, 0], dirs[k, 1], dirs[k, 2])
+        t, prim, _, _ = closest_hit(G, X, o, d, 0.0, INF, node_stack, t_stack)
+        out[k, 0], out[k, 1] = t, prim
+    return out
+
+
+@PACKET_WORKER
+def test_intersect_takes_packets_beside_planes_and_other_shapes(tmp_path):
+    """raylume.intersect on a mesh with a ground plane, a quad and spheres (the full variant, no
+    instances): packets there too, with the plane tested ray by ray first and the quad in its
+    leaves; the same distances and objects as single rays."""
+    from raylume.kernels.scene import instances_of
+
+    v, f = bumpy_sphere(8000)
+    trimesh.Trimesh(v, f, process=False).export(tmp_path / "m.ply")
+    scene = raylume.scene_from_dict(
+        {
+            "objects": [
+                {"type": "mesh", "file": str(tmp_path / "m.ply")},
+                {"type": "plane", "point": [0, -1.05, 0], "normal": [0, 1, 0]},
+                {"type": "quad", "position": [1.3, 0.2, 0.4], "u": [0.5, 0, 0], "v": [0, 0.6, 0.2]},
+                {"type": "sphere", "center": [-1.3, 0.3, 0.2], "radius": 0.3},
+            ]
+        }
+    )
+    from raylume.kernels.shapes import geometry_features
+
+    S = compile_scene(scene).kernel
+    X = geometry_features(S)
+    assert X is not None  # the full variant
+    o, d = _camera_rays(np.array([0.0, -0.2, 0.0]), 1.5, 96)
+    n = len(o)
+    t, obj, prim, inst = np.empty(n), np.empty(n, np.int32), np.empty(n, np.int32), np.empty(n, np.int32)
+    intersect_rays(S, X, o, d, t, obj, prim, inst, 2)  # raylume.intersect's kernel
+    ref = _single_x(S, instances_of(S), o, d)
+    assert set(np.unique(obj).tolist()) == {-1, 0, 1, 2, 3}  # every object is seen, and the sky
+    np.testing.assert_array_equal(t, ref[:, 0])
+    hit = ref[:, 1] >= 0
+    assert (obj[hit] == S.prims[ref[hit, 1].astype(int), 3]).mean() > 0.999

@@ -18,9 +18,11 @@ through a shared edge): the first one found, and the packet finds them in anothe
 A packet is taken only when it pays and is safe (`packet_setup`): every ray finite, every
 direction in one octant with one dominant axis (so the slab rows and the watertight test's axis
 order are the packet's, not each ray's), the directions within 10 degrees of the first ray's
-and the origins within 1% of the scene's extent of its origin; and only in the kernels' basic
-variant (spheres and triangles alone: shapes.features gives X None) with a root that is no leaf.
-Anything else is traced ray by ray, by the caller.
+and the origins within 1% of the scene's extent of its origin; and only in scenes whose root
+is no leaf and that have no instances. Cast mode takes packets in the kernels' basic variant
+(spheres and triangles alone: shapes.features gives X None); the batch query in every scene
+without instances, testing planes ray by ray first (`packet_unbounded`). Anything else is
+traced ray by ray, by the caller.
 
 Packet state lives in one thread's scratch arrays (`packet_scratch`):
 
@@ -52,6 +54,7 @@ from .traverse import (
     BVH_WIDTH,
     TRAVERSAL_STACK,
     _root_is_a_leaf,
+    _unbounded_hit,
     box_ray,
     intersect_leaf,
     lowest_bit,
@@ -442,6 +445,24 @@ def _leaf_ray_by_ray(G, X, first, count, axes, lane, prim, active):
             G, X, first, count, o, d, shear, lane[TMIN, i], t0, p0, lane[BEST_V, i], lane[BEST_W, i]
         )
         if p != p0 or t != t0:
+            lane[BEST_T, i] = t
+            lane[BEST_V, i] = b1
+            lane[BEST_W, i] = b2
+            lane[BEST_DET, i] = 1.0
+            prim[i] = p
+
+
+@inline_function
+def packet_unbounded(G, X, axes, lane, prim, n):
+    """The unbounded shapes (planes, after the BVH's primitives in the table) against lanes
+    0 .. n - 1 ray by ray, before the traversal, as closest_hit tests them first; their hits
+    become the lanes' best (barycentrics 0, det 1)."""
+    for i in range(n):
+        o = (lane[RAY_O, i], lane[RAY_O + 1, i], lane[RAY_O + 2, i])
+        d = (lane[RAY_D, i], lane[RAY_D + 1, i], lane[RAY_D + 2, i])
+        shear = (axes[0], axes[1], axes[2], lane[SX, i], lane[SY, i], lane[SZ, i])
+        t, p, b1, b2 = _unbounded_hit(G, X, o, d, shear, lane[TMIN, i], lane[BEST_T, i])
+        if p != NO_HIT:
             lane[BEST_T, i] = t
             lane[BEST_V, i] = b1
             lane[BEST_W, i] = b2

@@ -4,7 +4,16 @@ and users who want raylume as a ray-intersection library)."""
 from numba import njit, prange, types
 from numba.extending import overload
 
-from .packet import PACKET, packet_closest, packet_hit, packet_scratch, packet_setup, scene_extent, uses_packets
+from .packet import (
+    PACKET,
+    packet_closest,
+    packet_hit,
+    packet_scratch,
+    packet_setup,
+    packet_unbounded,
+    scene_extent,
+    uses_packets,
+)
 from .scene import geometry_of
 from .shapes import NO_HIT, PRIM_FACE, PRIM_OBJECT, instance_id, split_hit
 from .traverse import INF, closest_hit, traversal_stacks
@@ -37,24 +46,41 @@ def _packet_into(G, X, origins, directions, k, n, outputs, stacks, packets):
 
 @overload(_packet_into, jit_options=INLINE)
 def _packet_into_impl(G, X, origins, directions, k, n, outputs, stacks, packets):
-    if not isinstance(X, types.NoneType):  # planes or instances: their variant compiles no packet code
-        return lambda G, X, origins, directions, k, n, outputs, stacks, packets: False
+    if isinstance(X, types.NoneType):
 
-    def impl(G, X, origins, directions, k, n, outputs, stacks, packets):
-        if not uses_packets(G):
+        def basic(G, X, origins, directions, k, n, outputs, stacks, packets):
+            if not uses_packets(G):
+                return False
+            return _packet_hits(G, X, origins, directions, k, n, outputs, stacks, packets)
+
+        return basic
+
+    # Planes and the other shapes, without instances: the unbounded shapes are tested ray by
+    # ray first, as closest_hit tests them, and the BVH's other shapes in the leaves, ray by ray
+    def other_shapes(G, X, origins, directions, k, n, outputs, stacks, packets):
+        if X.inverse.shape[0] > 0 or not uses_packets(G):
             return False
-        node_stack, t_stack = stacks
-        box, lane, prim_lane, mask_stack = packets
-        coherent, rows, axes = packet_setup(origins, directions, k, n, 0.0, INF, scene_extent(G), box, lane, prim_lane)
-        if coherent:
-            packet_closest(G, X, rows, axes, (1 << n) - 1, box, lane, prim_lane, node_stack, t_stack, mask_stack)
-            t_out, object_out, prim_out, instance_out = outputs
-            for i in range(n):
-                t, prim, _, _ = packet_hit(lane, prim_lane, i)
-                _store_hit(G, X, k + i, t, prim, t_out, object_out, prim_out, instance_out)
-        return coherent
+        return _packet_hits(G, X, origins, directions, k, n, outputs, stacks, packets)
 
-    return impl
+    return other_shapes
+
+
+@inline_function
+def _packet_hits(G, X, origins, directions, k, n, outputs, stacks, packets):
+    """_packet_into's work once the scene allows packets: False when the rays are refused."""
+    node_stack, t_stack = stacks
+    box, lane, prim_lane, mask_stack = packets
+    coherent, rows, axes = packet_setup(origins, directions, k, n, 0.0, INF, scene_extent(G), box, lane, prim_lane)
+    if coherent:
+        if X is not None:  # (pruned in the basic variant, which has no unbounded shapes)
+            if G.n_bounded < G.prims.shape[0]:
+                packet_unbounded(G, X, axes, lane, prim_lane, n)
+        packet_closest(G, X, rows, axes, (1 << n) - 1, box, lane, prim_lane, node_stack, t_stack, mask_stack)
+        t_out, object_out, prim_out, instance_out = outputs
+        for i in range(n):
+            t, prim, _, _ = packet_hit(lane, prim_lane, i)
+            _store_hit(G, X, k + i, t, prim, t_out, object_out, prim_out, instance_out)
+    return coherent
 
 
 @inline_function
