@@ -37,9 +37,11 @@ from raylume.scene.procedural import bumpy_sphere
 PACKET_WORKER = pytest.mark.xdist_group("packets")
 
 
-@njit
-def _single(S, origins, dirs):
-    """closest_hit ray by ray: (t, prim, b1, b2) arrays."""
+# Both with the kernels' fast-math flags, as intersect_rays and the frame kernels compile them:
+# the analytic shapes' tests (planes, quads) round alike only under the same flags.
+@njit(fastmath=FAST, error_model="numpy")
+def _single(S, origins, dirs, X=None):
+    """closest_hit ray by ray: (t, prim, b1, b2) arrays; X the kernels' variant (None: basic)."""
     n = origins.shape[0]
     out = np.empty((n, 4))
     node_stack = np.empty(TRAVERSAL_STACK, np.int32)
@@ -48,12 +50,12 @@ def _single(S, origins, dirs):
     for k in range(n):
         o = (origins[k, 0], origins[k, 1], origins[k, 2])
         d = (dirs[k, 0], dirs[k, 1], dirs[k, 2])
-        t, prim, b1, b2 = closest_hit(G, None, o, d, 0.0, INF, node_stack, t_stack)
+        t, prim, b1, b2 = closest_hit(G, X, o, d, 0.0, INF, node_stack, t_stack)
         out[k, 0], out[k, 1], out[k, 2], out[k, 3] = t, prim, b1, b2
     return out
 
 
-@njit
+@njit(fastmath=FAST, error_model="numpy")
 def _packets(S, origins, dirs, size):
     """The rays in packets of `size` (the last one may be smaller): (t, prim, b1, b2) arrays
     from packet_closest, and for each packet whether packet_setup took it (the rays of those
@@ -445,23 +447,6 @@ def test_intersect_ignores_materials_and_lights_in_choosing_its_kernels(tmp_path
         np.testing.assert_array_equal(a, b)
 
 
-@njit(fastmath=FAST, error_model="numpy")
-def _single_x(S, X, origins, dirs):
-    """closest_hit ray by ray in the kernels' full variant (X the scene's Instances), with the
-    batch query's fast-math flags: the analytic shapes' tests round as they do there."""
-    n = origins.shape[0]
-    out = np.empty((n, 2))
-    node_stack = np.empty(TRAVERSAL_STACK, np.int32)
-    t_stack = np.empty(TRAVERSAL_STACK, np.float32)
-    G = geometry_of(S)
-    for k in range(n):
-        o = (origins[k, 0], origins[k, 1], origins[k, 2])
-        d = (dirs[k, 0], dirs[k, 1], dirs[k, 2])
-        t, prim, _, _ = closest_hit(G, X, o, d, 0.0, INF, node_stack, t_stack)
-        out[k, 0], out[k, 1] = t, prim
-    return out
-
-
 @PACKET_WORKER
 def test_intersect_takes_packets_beside_planes_and_other_shapes(tmp_path):
     """raylume.intersect on a mesh with a ground plane, a quad and spheres (the full variant, no
@@ -490,7 +475,7 @@ def test_intersect_takes_packets_beside_planes_and_other_shapes(tmp_path):
     n = len(o)
     t, obj, prim, inst = np.empty(n), np.empty(n, np.int32), np.empty(n, np.int32), np.empty(n, np.int32)
     intersect_rays(S, X, o, d, t, obj, prim, inst, 2)  # raylume.intersect's kernel
-    ref = _single_x(S, instances_of(S), o, d)
+    ref = _single(S, o, d, instances_of(S))
     assert set(np.unique(obj).tolist()) == {-1, 0, 1, 2, 3}  # every object is seen, and the sky
     np.testing.assert_array_equal(t, ref[:, 0])
     hit = ref[:, 1] >= 0

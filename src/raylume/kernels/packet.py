@@ -428,46 +428,52 @@ def packet_hit(lane, prim, i):
 
 
 @inline_function
+def _lane_ray(lane, axes, i):
+    """Lane i's ray as the single-ray functions take it: (o, d, shear)."""
+    o = (lane[RAY_O, i], lane[RAY_O + 1, i], lane[RAY_O + 2, i])
+    d = (lane[RAY_D, i], lane[RAY_D + 1, i], lane[RAY_D + 2, i])
+    return o, d, (axes[0], axes[1], axes[2], lane[SX, i], lane[SY, i], lane[SZ, i])
+
+
+@inline_function
+def _set_lane_best(lane, prim, i, t, p, b1, b2):
+    """Lane i's best hit from a single-ray function: its barycentrics kept with det 1, which
+    packet_finish divides back exactly."""
+    lane[BEST_T, i] = t
+    lane[BEST_V, i] = b1
+    lane[BEST_W, i] = b2
+    lane[BEST_DET, i] = 1.0
+    prim[i] = p
+
+
+@inline_function
 def _leaf_ray_by_ray(G, X, first, count, axes, lane, prim, active):
     """A leaf that is not a block of triangles, tested for each active ray with the single-ray
     leaf test. The lane's (v, w) stand for the barycentrics it carries (handed back unchanged
-    when the ray finds nothing nearer); a nearer hit's are stored with det 1, which
-    packet_finish divides back exactly."""
+    when the ray finds nothing nearer)."""
     m = active
     while m != 0:
         i = lowest_bit(m)
         m &= m - 1
-        o = (lane[RAY_O, i], lane[RAY_O + 1, i], lane[RAY_O + 2, i])
-        d = (lane[RAY_D, i], lane[RAY_D + 1, i], lane[RAY_D + 2, i])
-        shear = (axes[0], axes[1], axes[2], lane[SX, i], lane[SY, i], lane[SZ, i])
+        o, d, shear = _lane_ray(lane, axes, i)
         t0, p0 = lane[BEST_T, i], prim[i]
         t, p, b1, b2 = intersect_leaf(
             G, X, first, count, o, d, shear, lane[TMIN, i], t0, p0, lane[BEST_V, i], lane[BEST_W, i]
         )
         if p != p0 or t != t0:
-            lane[BEST_T, i] = t
-            lane[BEST_V, i] = b1
-            lane[BEST_W, i] = b2
-            lane[BEST_DET, i] = 1.0
-            prim[i] = p
+            _set_lane_best(lane, prim, i, t, p, b1, b2)
 
 
 @inline_function
 def packet_unbounded(G, X, axes, lane, prim, n):
     """The unbounded shapes (planes, after the BVH's primitives in the table) against lanes
     0 .. n - 1 ray by ray, before the traversal, as closest_hit tests them first; their hits
-    become the lanes' best (barycentrics 0, det 1)."""
+    become the lanes' best."""
     for i in range(n):
-        o = (lane[RAY_O, i], lane[RAY_O + 1, i], lane[RAY_O + 2, i])
-        d = (lane[RAY_D, i], lane[RAY_D + 1, i], lane[RAY_D + 2, i])
-        shear = (axes[0], axes[1], axes[2], lane[SX, i], lane[SY, i], lane[SZ, i])
+        o, d, shear = _lane_ray(lane, axes, i)
         t, p, b1, b2 = _unbounded_hit(G, X, o, d, shear, lane[TMIN, i], lane[BEST_T, i])
         if p != NO_HIT:
-            lane[BEST_T, i] = t
-            lane[BEST_V, i] = b1
-            lane[BEST_W, i] = b2
-            lane[BEST_DET, i] = 1.0
-            prim[i] = p
+            _set_lane_best(lane, prim, i, t, p, b1, b2)
 
 
 @inline_function

@@ -25,11 +25,12 @@ from .vec import FAST, INLINE, inline_function, kernel_function
 # references to the BVH arrays for every ray (4 calls with atomic operations a ray).
 @kernel_function
 def _intersect_chunk(G, X, origins, directions, t_out, object_out, prim_out, instance_out, start, end, stacks, packets):
+    outputs = (t_out, object_out, prim_out, instance_out)
+    extent = scene_extent(G)
     k = start
     while k < end:
         n = min(PACKET, end - k)
-        outputs = (t_out, object_out, prim_out, instance_out)
-        if not _packet_into(G, X, origins, directions, k, n, outputs, stacks, packets):
+        if not _packet_into(G, X, origins, directions, k, n, extent, outputs, stacks, packets):
             # one call site: the single-ray traversal is inlined once (a second copy cost ~1.5 s
             # of cold compile)
             _intersect_rays_singly(
@@ -38,39 +39,39 @@ def _intersect_chunk(G, X, origins, directions, t_out, object_out, prim_out, ins
         k += n
 
 
-def _packet_into(G, X, origins, directions, k, n, outputs, stacks, packets):
-    """Rays k .. k + n - 1 traced as a packet into the outputs when they can be (packet.py);
-    False when not, and nothing written."""
+def _packet_into(G, X, origins, directions, k, n, extent, outputs, stacks, packets):
+    """Rays k .. k + n - 1 traced as a packet into the outputs when they can be (packet.py;
+    extent: scene_extent(G)); False when not, and nothing written."""
     raise NotImplementedError("a Numba overload")
 
 
 @overload(_packet_into, jit_options=INLINE)
-def _packet_into_impl(G, X, origins, directions, k, n, outputs, stacks, packets):
+def _packet_into_impl(G, X, origins, directions, k, n, extent, outputs, stacks, packets):
     if isinstance(X, types.NoneType):
 
-        def basic(G, X, origins, directions, k, n, outputs, stacks, packets):
+        def basic(G, X, origins, directions, k, n, extent, outputs, stacks, packets):
             if not uses_packets(G):
                 return False
-            return _packet_hits(G, X, origins, directions, k, n, outputs, stacks, packets)
+            return _packet_hits(G, X, origins, directions, k, n, extent, outputs, stacks, packets)
 
         return basic
 
     # Planes and the other shapes, without instances: the unbounded shapes are tested ray by
     # ray first, as closest_hit tests them, and the BVH's other shapes in the leaves, ray by ray
-    def other_shapes(G, X, origins, directions, k, n, outputs, stacks, packets):
+    def other_shapes(G, X, origins, directions, k, n, extent, outputs, stacks, packets):
         if X.inverse.shape[0] > 0 or not uses_packets(G):
             return False
-        return _packet_hits(G, X, origins, directions, k, n, outputs, stacks, packets)
+        return _packet_hits(G, X, origins, directions, k, n, extent, outputs, stacks, packets)
 
     return other_shapes
 
 
 @inline_function
-def _packet_hits(G, X, origins, directions, k, n, outputs, stacks, packets):
+def _packet_hits(G, X, origins, directions, k, n, extent, outputs, stacks, packets):
     """_packet_into's work once the scene allows packets: False when the rays are refused."""
     node_stack, t_stack = stacks
     box, lane, prim_lane, mask_stack = packets
-    coherent, rows, axes = packet_setup(origins, directions, k, n, 0.0, INF, scene_extent(G), box, lane, prim_lane)
+    coherent, rows, axes = packet_setup(origins, directions, k, n, 0.0, INF, extent, box, lane, prim_lane)
     if coherent:
         if X is not None:  # (pruned in the basic variant, which has no unbounded shapes)
             if G.n_bounded < G.prims.shape[0]:
