@@ -84,8 +84,7 @@ def features(S):
     from . import lights, textures
 
     basic = (
-        S.instance_inverse.shape[0] == 0
-        and S.basic_shapes
+        _basic_geometry(S)
         and not S.has_transparency
         and not (S.textures[:, textures.TEX_KIND] == textures.IMAGE).any()
         and not np.isin(S.light_kind, (lights.QUAD, lights.SPHERE)).any()
@@ -97,7 +96,12 @@ def geometry_features(S):
     """X of geometry-only queries (raylume.intersect): None, the basic variant with its ray
     packets, for every scene of spheres and triangles without instances. Materials, textures
     and lights, which features(S) also weighs, change no hit."""
-    return None if S.basic_shapes and S.instance_inverse.shape[0] == 0 else instances_of(S)
+    return None if _basic_geometry(S) else instances_of(S)
+
+
+def _basic_geometry(S) -> bool:
+    """Spheres and triangles alone, without instances."""
+    return S.basic_shapes and S.instance_inverse.shape[0] == 0
 
 
 def path_features(S):

@@ -58,10 +58,10 @@ _F32_TINY = float(np.finfo(np.float32).tiny)
 # is never culled and its entry distance never overestimated (a popped entry is skipped when it
 # lies beyond the best hit); the origin is rounded outward in box_ray.
 _NEAR_SCALE = 1.0 - 2.0**-20
+_FAR_SCALE = 1.0 + 2.0**-20
 # Smallest outward move of a ray's origin in the box test (box_ray): (face - origin) * 1/d is then
 # at least 2**-100 * 3.4e38 = 2.7e8 for a ray parallel to the slab that lies inside it.
 _ORIGIN_PAD = 2.0**-100
-_FAR_SCALE = 1.0 + 2.0**-20
 
 
 def stack_needed(depth: int) -> int:
