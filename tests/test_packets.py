@@ -22,6 +22,7 @@ from raylume.kernels.packet import (
     packet_hit,
     packet_scratch,
     packet_setup,
+    packet_shear,
     packet_triangles,
     scene_extent,
 )
@@ -334,6 +335,7 @@ def _triangle_block(tris, row, count, origins, dirs):
     out = np.full((PACKET, 4), np.nan)
     ok, rows, axes = packet_setup(origins, dirs, 0, PACKET, 0.0, INF, 1e30, box, lane, prim)
     if ok:
+        packet_shear(lane, axes)
         packet_triangles(tris, row, count, 0, axes, lane, prim, (1 << PACKET) - 1)
         packet_finish(lane, prim)
         for i in range(PACKET):

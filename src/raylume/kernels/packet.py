@@ -44,7 +44,7 @@ from numba.core.errors import TypingError
 from numba.extending import intrinsic
 
 from ..accel.wide import SPHERE_BLOCK
-from .shape_triangle import EXACT, EXACT_DIVISION, exact_ops, ray_shear, watertight_lanes
+from .shape_triangle import EXACT, EXACT_DIVISION, exact_ops, ray_shear, shear_axes, watertight_lanes
 from .shapes import NO_HIT, PRIM_ROW
 from .traverse import (
     _F32_TINY,
@@ -343,48 +343,64 @@ def scene_extent(G):
 def packet_setup(origins, directions, start, n, tmin, tmax, extent, box, lane, prim):
     """Load rays start .. start + n - 1 (n <= PACKET) into the packet's scratch, their unused
     lanes copies of the first. Returns (coherent, rows, axes): whether they can be traced as a
-    packet (module docstring), the packet's near-plane rows and its shear axes."""
+    packet (module docstring), the packet's near-plane rows and its shear axes. The lanes'
+    shear constants wait for packet_shear: a packet that reaches no leaf (most misses) never
+    needs them."""
     d0 = (float(directions[start, 0]), float(directions[start, 1]), float(directions[start, 2]))
     o0 = (float(origins[start, 0]), float(origins[start, 1]), float(origins[start, 2]))
     rows = box_ray(o0, d0)[1]
-    kx0, ky0, kz0, _, _, _ = ray_shear(d0)
-    n0 = d0[0] * d0[0] + d0[1] * d0[1] + d0[2] * d0[2]
+    axes = shear_axes(d0)
+    # within 10 degrees, compared squared: dd >= _MIN_COS |d| |d0| for dd >= 0
+    n0 = (d0[0] * d0[0] + d0[1] * d0[1] + d0[2] * d0[2]) * (_MIN_COS * _MIN_COS)
     for i in range(PACKET):
         k = start + (i if i < n else 0)
         o = (float(origins[k, 0]), float(origins[k, 1]), float(origins[k, 2]))
         d = (float(directions[k, 0]), float(directions[k, 1]), float(directions[k, 2]))
         if not traceable(o, d):
-            return False, rows, (kx0, ky0, kz0)
+            return False, rows, axes
         rf, r = box_ray(o, d)
         if r[0] != rows[0] or r[1] != rows[1] or r[2] != rows[2]:  # another octant
-            return False, rows, (kx0, ky0, kz0)
-        kx, ky, kz, sx, sy, sz = ray_shear(d)
-        if kz != kz0 or kx != kx0:
-            return False, rows, (kx0, ky0, kz0)
+            return False, rows, axes
+        kx, _, kz = shear_axes(d)
+        if kz != axes[2] or kx != axes[0]:
+            return False, rows, axes
         dd = d[0] * d0[0] + d[1] * d0[1] + d[2] * d0[2]
-        if not (dd >= _MIN_COS * math.sqrt((d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) * n0)):
-            return False, rows, (kx0, ky0, kz0)
+        if not (dd >= 0.0 and dd * dd >= (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) * n0):
+            return False, rows, axes
         spread = max(abs(o[0] - o0[0]), abs(o[1] - o0[1]), abs(o[2] - o0[2]))
         if spread > _ORIGIN_SPREAD * extent:
-            return False, rows, (kx0, ky0, kz0)
+            return False, rows, axes
         for j in range(9):
             box[j, i] = rf[j]
-        lane[OX, i] = o[kx]
-        lane[OY, i] = o[ky]
-        lane[OZ, i] = o[kz]
-        lane[SX, i] = sx
-        lane[SY, i] = sy
-        lane[SZ, i] = sz
         lane[TMIN, i] = tmin
         lane[BEST_T, i] = tmax
         lane[BEST_V, i] = 0.0
         lane[BEST_W, i] = 0.0
         lane[BEST_DET, i] = 1.0
-        for r in range(3):
-            lane[RAY_O + r, i] = o[r]
-            lane[RAY_D + r, i] = d[r]
+        for c in range(3):
+            lane[RAY_O + c, i] = o[c]
+            lane[RAY_D + c, i] = d[c]
         prim[i] = NO_HIT
-    return True, rows, (kx0, ky0, kz0)
+    lane[SZ, 0] = 0.0  # shear pending (1 / d[kz] is never 0)
+    return True, rows, axes
+
+
+@inline_function
+def packet_shear(lane, axes):
+    """The lanes' origins along the shear axes and shear constants (shape_triangle.ray_shear),
+    from their rays, once per packet: before its first leaf or plane."""
+    if lane[SZ, 0] != 0.0:
+        return
+    kx, ky, kz = axes
+    for i in range(PACKET):
+        d = (lane[RAY_D, i], lane[RAY_D + 1, i], lane[RAY_D + 2, i])
+        _, _, _, sx, sy, sz = ray_shear(d)
+        lane[OX, i] = lane[RAY_O + kx, i]
+        lane[OY, i] = lane[RAY_O + ky, i]
+        lane[OZ, i] = lane[RAY_O + kz, i]
+        lane[SX, i] = sx
+        lane[SY, i] = sy
+        lane[SZ, i] = sz
 
 
 @intrinsic
@@ -469,6 +485,7 @@ def packet_unbounded(G, X, axes, lane, prim, n):
     """The unbounded shapes (planes, after the BVH's primitives in the table) against lanes
     0 .. n - 1 ray by ray, before the traversal, as closest_hit tests them first; their hits
     become the lanes' best."""
+    packet_shear(lane, axes)
     for i in range(n):
         o, d, shear = _lane_ray(lane, axes, i)
         t, p, b1, b2 = _unbounded_hit(G, X, o, d, shear, lane[TMIN, i], lane[BEST_T, i])
@@ -533,6 +550,7 @@ def packet_closest(G, X, rows, axes, active, box, lane, prim, node_stack, t_stac
                 mask = mask_stack[np.uint64(top)]
                 continue
         else:
+            packet_shear(lane, axes)
             leaf = -1 - ref
             node = leaf >> _LANE_SHIFT
             c = leaf & (BVH_WIDTH - 1)

@@ -19,6 +19,15 @@ BOUNDED = True
 @kernel_function
 def ray_shear(d):
     """Per-ray constants of the watertight test."""
+    kx, ky, kz = shear_axes(d)
+    sz = 1.0 / d[kz]
+    return kx, ky, kz, d[kx] * sz, d[ky] * sz, sz
+
+
+@kernel_function
+def shear_axes(d):
+    """The watertight test's axis order for direction d: kz its dominant axis, (kx, ky) the
+    other two in the order that keeps the triangles' winding."""
     ax, ay, az = abs(d[0]), abs(d[1]), abs(d[2])
     kz = 0
     if ay > ax and ay >= az:
@@ -29,8 +38,7 @@ def ray_shear(d):
     ky = (kx + 1) % 3
     if d[kz] < 0.0:
         kx, ky = ky, kx
-    sz = 1.0 / d[kz]
-    return kx, ky, kz, d[kx] * sz, d[ky] * sz, sz
+    return kx, ky, kz
 
 
 # Shear constants for rays in scenes without triangles (never used, but typed alike).
