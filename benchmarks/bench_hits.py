@@ -9,7 +9,8 @@ leaves out the moments another process holds the core; alternation spreads the V
 the engines. The ratios are Embree's time over raylume's: above 1, raylume is faster. Beside
 them, raylume's CPU time for the whole frame (all the camera rays, hits and misses), with
 packets and with single rays, and their ratios to bumpy 40k's: how the cost of a frame grows
-with the triangle count.
+with the triangle count, beside Embree's (a miss costs Embree more than raylume, so its frames
+grow less in proportion).
 
     python benchmarks/bench_hits.py [--size 1024] [--repeats 7] [MESH ...]
 
@@ -100,6 +101,7 @@ def main() -> None:
     rows = []
     frame = {}  # CPU seconds of the whole frame, per mesh
     single_frame = {}  # the same with single rays
+    embree_frame = {}  # the same by Embree
     for name in args.meshes:
         vf = mesh(name)
         if vf is None:
@@ -111,33 +113,37 @@ def main() -> None:
         embree = rtcs.EmbreeScene()
         TriangleMesh(embree, v.astype(np.float32), f.astype(np.int32))
         o32, d32 = o.astype(np.float32), d.astype(np.float32)
+        fo32, fd32 = fo.astype(np.float32), fd.astype(np.float32)
         embree.run(o32[:1], d32[:1], output=1)  # Embree builds on the first query
         packed, single = _trace(compiled, o, d), _trace_singly(compiled, o, d, stacks)
         assert all(np.array_equal(a, b) for a, b in zip(packed[:2], single[:2], strict=True))  # t, object
-        ours, singly, theirs, frames, single_frames = [], [], [], [], []
+        ours, singly, theirs, frames, single_frames, embree_frames = [], [], [], [], [], []
         for _ in range(args.repeats):
             ours.append(cpu_seconds(lambda: _trace(compiled, o, d)))  # noqa: B023 (called at once)
             theirs.append(cpu_seconds(lambda: embree.run(o32, d32, output=1)))  # noqa: B023
             singly.append(cpu_seconds(lambda: _trace_singly(compiled, o, d, stacks)))  # noqa: B023
             frames.append(cpu_seconds(lambda: _trace(compiled, fo, fd)))  # noqa: B023
             single_frames.append(cpu_seconds(lambda: _trace_singly(compiled, fo, fd, stacks)))  # noqa: B023
+            embree_frames.append(cpu_seconds(lambda: embree.run(fo32, fd32, output=1)))  # noqa: B023
         r, e, r1 = np.median(ours), np.median(theirs), np.median(singly)
         frame[name] = np.median(frames)
         single_frame[name] = np.median(single_frames)
+        embree_frame[name] = np.median(embree_frames)
         pairs = np.array(theirs) / np.array(ours)
         rows.append(
             [name, f"{len(f):,}", f"{len(o):,}", f"{r * 1e3:.1f}", f"{r1 * 1e3:.1f}", f"{e * 1e3:.1f}", f"{e / r:.2f}"]
             + [f"{pairs.min():.2f}-{pairs.max():.2f}", f"{e / r1:.2f}", f"{frame[name] * 1e3:.1f}"]
-            + [f"{single_frame[name] * 1e3:.1f}"]
+            + [f"{single_frame[name] * 1e3:.1f}", f"{embree_frame[name] * 1e3:.1f}"]
         )
         print(" | ".join(rows[-1]), flush=True)
     base, single_base = frame.get("40k"), single_frame.get("40k")
     for row in rows:
         row.append(f"{frame[row[0]] / base:.2f}" if base else "-")
         row.append(f"{single_frame[row[0]] / single_base:.2f}" if base else "-")
+        row.append(f"{embree_frame[row[0]] / embree_frame['40k']:.2f}" if base else "-")
     headers = ["mesh", "triangles", "hit rays", "raylume ms", "single-ray ms", "Embree ms", "Embree / raylume"]
-    headers += ["per pair", "Embree / single-ray", "raylume frame ms", "single-ray frame ms", "frame / 40k frame"]
-    headers += ["single-ray frame / 40k"]
+    headers += ["per pair", "Embree / single-ray", "raylume frame ms", "single-ray frame ms", "Embree frame ms"]
+    headers += ["frame / 40k frame", "single-ray frame / 40k", "Embree frame / 40k"]
     print("\n" + table(headers, rows))
 
 

@@ -30,7 +30,7 @@ from raylume.kernels.query import intersect_rays
 from raylume.kernels.scene import geometry_of
 from raylume.kernels.shape_triangle import INF, intersect_triangle, ray_shear
 from raylume.kernels.shapes import features
-from raylume.kernels.traverse import TRAVERSAL_STACK, closest_hit
+from raylume.kernels.traverse import TRAVERSAL_STACK, box_ray, closest_hit
 from raylume.kernels.vec import FAST
 from raylume.scene.procedural import bumpy_sphere
 
@@ -218,6 +218,60 @@ def test_incoherent_rays_are_refused_as_packets(tmp_path):
     for origins, dirs in ((o[shuffled], d[shuffled]), (spread, d), (o, odd), (o, flipped)):
         _, taken = _packets(compiled.kernel, np.ascontiguousarray(origins), np.ascontiguousarray(dirs), PACKET)
         assert not taken.any()
+
+
+@njit(fastmath=FAST, error_model="numpy")
+def _setup_lanes(origins, dirs, n, extent):
+    """packet_setup on rays 0 .. n - 1: (taken, the box rows (9, 8), each lane's box_ray
+    constants (9, 8) and its near rows (3, 8) from the single-ray function)."""
+    box, lane, prim, _ = packet_scratch()
+    ok, rows, axes = packet_setup(origins, dirs, 0, n, 0.0, INF, extent, box, lane, prim)
+    single = np.empty((9, PACKET), np.float32)
+    near_rows = np.empty((3, PACKET), np.int64)
+    for i in range(PACKET):
+        k = i if i < n else 0
+        rf, r = box_ray((origins[k, 0], origins[k, 1], origins[k, 2]), (dirs[k, 0], dirs[k, 1], dirs[k, 2]))
+        for j in range(9):
+            single[j, i] = rf[j]
+        for j in range(3):
+            near_rows[j, i] = r[j]
+    return ok, box.copy(), single, near_rows, rows
+
+
+@PACKET_WORKER
+@settings(max_examples=80, deadline=None)
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    n=st.integers(1, PACKET),
+    scale=st.sampled_from([1e-30, 1e-3, 1.0, 1e6]),
+    zero_axis=st.sampled_from([None, 0, 1, 2]),
+)
+def test_packet_setup_gives_each_lane_the_single_ray_box_constants(seed, n, scale, zero_axis):
+    """The SIMD setup (packet_load) writes each lane's box-test constants exactly as box_ray
+    computes them for that ray alone (directions with a zero component included), and takes the
+    packet exactly when the module's rules say (checked with the single-ray functions: box_ray's
+    octant rows and shear_axes' dominant axis, away from the limits' rounding)."""
+    rng = np.random.default_rng(seed)
+    d0 = rng.normal(size=3)
+    d = d0 + rng.normal(scale=rng.choice([1e-4, 0.05, 0.5]), size=(PACKET, 3))
+    if zero_axis is not None:
+        d[:, zero_axis] = rng.choice([0.0, -0.0])
+    o = scale * (rng.normal(size=3) + rng.normal(scale=rng.choice([1e-5, 0.1]), size=(PACKET, 3)))
+    extent = scale
+    ok, box, single, near_rows, rows = _setup_lanes(o, d, n, extent)
+    assert np.array_equal(box.view(np.uint32), single.view(np.uint32))
+    lanes = [i if i < n else 0 for i in range(PACKET)]
+    dl, ol = d[lanes], o[lanes]
+    cos = dl @ dl[0] / (np.linalg.norm(dl, axis=1) * np.linalg.norm(dl[0]))
+    gap = np.abs(ol - ol[0]).max()
+    if np.any(np.abs(cos - 0.985) < 1e-9) or abs(gap - 0.01 * extent) < 1e-9 * extent:
+        return  # on a limit: rounding decides
+    axes = [ray_shear(tuple(x))[2] for x in dl]
+    expected = (
+        (near_rows == near_rows[:, :1]).all() and len(set(axes)) == 1 and (cos >= 0.985).all() and gap <= 0.01 * extent
+    )
+    assert ok == expected
+    assert tuple(rows) == tuple(near_rows[:, 0])
 
 
 def _clear_dominant_axis(t):
