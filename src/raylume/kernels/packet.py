@@ -162,6 +162,29 @@ def _vmax(builder, a, b):
     return builder.select(builder.fcmp_ordered(">", a, b), a, b)
 
 
+def _lane_minima(builder, vectors):
+    """The minimum of each of eight <8 x float> vectors, as one vector (lane c: vectors[c]'s):
+    the eight reductions share their shuffles, three levels of halving pairs of vectors, seven
+    minima instead of twenty-four."""
+    width = PACKET
+    level = list(vectors)
+    half = width // 2
+    while len(level) > 1:
+        # each vector holds groups of 2 * half partial minima, one group per original vector;
+        # the minimum of each group's two halves, the first vector's groups then the second's
+        starts = range(0, width, 2 * half)
+        lo_mask = [v + g + i for v in (0, width) for g in starts for i in range(half)]
+        hi_mask = [v + g + half + i for v in (0, width) for g in starts for i in range(half)]
+        lo_c = ir.Constant(ir.VectorType(_i32, width), lo_mask)
+        hi_c = ir.Constant(ir.VectorType(_i32, width), hi_mask)
+        level = [
+            _vmin(builder, builder.shuffle_vector(a, b, lo_c), builder.shuffle_vector(a, b, hi_c))
+            for a, b in zip(level[0::2], level[1::2], strict=True)
+        ]
+        half //= 2
+    return level[0]
+
+
 def _array_data(context, builder, ty, value):
     return context.make_array(ty)(context, builder, value).data
 
@@ -223,6 +246,7 @@ def packet_node(typingctx, bounds, node, box, rows, lane, active, t_out, at):
         inf = ir.Constant(_V8F, [math.inf] * PACKET)
         undef = ir.Constant(_V8F, ir.Undefined)
         result = ir.Constant(_i64, 0)
+        entries = []  # per child: each ray's entry distance, +inf where it misses
         for c in range(BVH_WIDTH):
             lane_c = ir.Constant(ir.VectorType(_i32, PACKET), [c] * PACKET)
             tn, tf = [], []
@@ -236,10 +260,11 @@ def packet_node(typingctx, bounds, node, box, rows, lane, active, t_out, at):
             tfar = _vmin(builder, _vmin(builder, tf[0], tf[1]), _vmin(builder, tf[2], tmax))
             tfar = builder.fadd(builder.fmul(tfar, ir.Constant(_V8F, [_FAR_SCALE] * PACKET)), tiny)
             hit = builder.and_(builder.fcmp_ordered("<=", tnear, tfar), act)
-            nearest = _reduce(builder, builder.select(hit, tnear, inf), _vmin)
-            builder.store(nearest, builder.gep(out, [ir.Constant(_i64, c)], inbounds=True), align=4)
+            entries.append(builder.select(hit, tnear, inf))
             bits = builder.shl(_mask_bits(builder, hit), ir.Constant(_i64, 8 * c))
             result = builder.or_(result, bits)
+        # hit entries are never NaN, so the minimum does not depend on the order of the rays
+        builder.store(_lane_minima(builder, entries), builder.bitcast(out, _V8F.as_pointer()), align=4)
         return result
 
     return types.int64(bounds, node, box, rows, lane, active, t_out, at), codegen
