@@ -250,7 +250,7 @@ def test_packet_setup_gives_each_lane_the_single_ray_box_constants(seed, n, scal
     """The SIMD setup (packet_load) writes each lane's box-test constants exactly as box_ray
     computes them for that ray alone (directions with a zero component included), and takes the
     packet exactly when the module's rules say (checked with the single-ray functions: box_ray's
-    octant rows and shear_axes' dominant axis, away from the limits' rounding)."""
+    octant rows and ray_shear's dominant axis, away from the limits' rounding)."""
     rng = np.random.default_rng(seed)
     d0 = rng.normal(size=3)
     d = d0 + rng.normal(scale=rng.choice([1e-4, 0.05, 0.5]), size=(PACKET, 3))

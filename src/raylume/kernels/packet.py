@@ -383,7 +383,7 @@ def packet_setup(origins, directions, start, n, tmin, tmax, extent, box, lane, p
 @intrinsic
 def packet_load(typingctx, origins, directions, start, n, kz0, tmin, tmax, limit, box, lane, prim):
     """packet_setup's work on the eight lanes at once (SIMD: the scalar loop over the lanes,
-    with box_ray's three divisions a ray, cost 11.7 ns a ray, as much as a miss's traversal).
+    with box_ray's three divisions a ray, cost 12 ns a ray, as much as a miss's traversal).
     Writes each lane's box_ray constants (traverse._ray_axis operation for operation, so each
     ray's boxes are the single-ray traversal's), its ray, bounds and empty best hit, and marks
     the shear pending; returns whether every lane is finite, in the first lane's octant, with

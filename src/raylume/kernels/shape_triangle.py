@@ -24,7 +24,7 @@ def ray_shear(d):
     return kx, ky, kz, d[kx] * sz, d[ky] * sz, sz
 
 
-@kernel_function
+@inline_function
 def shear_axes(d):
     """The watertight test's axis order for direction d: kz its dominant axis, (kx, ky) the
     other two in the order that keeps the triangles' winding."""
