@@ -24,6 +24,7 @@ from raylume.kernels.packet import (
     packet_setup,
     packet_shear,
     packet_triangles,
+    root_box,
     scene_extent,
 )
 from raylume.kernels.query import intersect_rays
@@ -69,13 +70,14 @@ def _packets(S, origins, dirs, size):
     t_stack = np.empty(TRAVERSAL_STACK, np.float32)
     G = geometry_of(S)
     extent = scene_extent(G)
+    root = root_box(G)
     for p in range(taken.shape[0]):
         start = p * size
         m = min(size, n - start)
         ok, rows, axes = packet_setup(origins, dirs, start, m, 0.0, INF, extent, box, lane, prim)
         taken[p] = ok
         if ok:
-            packet_closest(G, None, rows, axes, (1 << m) - 1, box, lane, prim, node_stack, t_stack, mask_stack)
+            packet_closest(G, None, root, rows, axes, (1 << m) - 1, box, lane, prim, node_stack, t_stack, mask_stack)
             for i in range(m):
                 t, q, b1, b2 = packet_hit(lane, prim, i)
                 out[start + i, 0], out[start + i, 1], out[start + i, 2], out[start + i, 3] = t, q, b1, b2

@@ -14,7 +14,16 @@ from .camera import CAM_CONE_SPREAD, CAM_LENS_RADIUS, camera_ray, obliquity, thi
 from .environment import environment_radiance
 from .film import add_sample, filter_sample, pixel_sums, store_sums
 from .materials import albedo
-from .packet import PACKET, packet_closest, packet_hit, packet_scratch, packet_setup, scene_extent, uses_packets
+from .packet import (
+    PACKET,
+    packet_closest,
+    packet_hit,
+    packet_scratch,
+    packet_setup,
+    root_box,
+    scene_extent,
+    uses_packets,
+)
 from .path import finite_sample, path_ray
 from .sampler import lens_sample, pixel_sample, sample_key
 from .scene import emitters_of, environment_of, geometry_of, lights_of, surfaces_of
@@ -249,6 +258,7 @@ def _cast_row_packets(
     box, lane, prim_lane, mask_stack = packets
     origins, directions, weights = rays
     extent = scene_extent(G)
+    root = root_box(G)
     packets_here = uses_packets(G)  # else (a root that is a leaf) every sample is traced alone
     total_samples = (x1 - x0) * count
     q = 0
@@ -266,7 +276,7 @@ def _cast_row_packets(
         if packets_here:
             coherent, rows, axes = packet_setup(origins, directions, 0, n, 0.0, INF, extent, box, lane, prim_lane)
         if coherent:
-            packet_closest(G, X, rows, axes, (1 << n) - 1, box, lane, prim_lane, node_stack, t_stack, mask_stack)
+            packet_closest(G, X, root, rows, axes, (1 << n) - 1, box, lane, prim_lane, node_stack, t_stack, mask_stack)
         for k in range(n):
             i = x0 + (q + k) // count
             o = (origins[k, 0], origins[k, 1], origins[k, 2])

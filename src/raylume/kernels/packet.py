@@ -271,6 +271,50 @@ def packet_node(typingctx, bounds, node, box, rows, lane, active, t_out, at):
 
 
 @intrinsic
+def packet_box(typingctx, planes, box, lane, active):
+    """The `active` rays of the packet that enter one box, given by its planes in the packet's
+    row order (near x, y, z, far x, y, z; float32): the bit mask, by packet_node's slab test."""
+    _check_array("packet_box", box, types.float32, 2)
+    _check_array("packet_box", lane, types.float64, 2)
+
+    def codegen(context, builder, sig, args):
+        values = cgutils.unpack_tuple(builder, args[0], 6)
+        bx = _array_data(context, builder, sig.args[1], args[1])
+        ln = _array_data(context, builder, sig.args[2], args[2])
+        act = _mask_vector(builder, context.cast(builder, args[3], sig.args[3], types.int64))
+        near = [_load_row(builder, bx, k, _V8F) for k in range(3)]
+        far = [_load_row(builder, bx, 3 + k, _V8F) for k in range(3)]
+        inv = [_load_row(builder, bx, 6 + k, _V8F) for k in range(3)]
+        tmax = builder.fptrunc(_load_row(builder, ln, BEST_T, _V8D), _V8F)
+        tn = [builder.fmul(builder.fsub(_splat(builder, values[k], _V8F), near[k]), inv[k]) for k in range(3)]
+        tf = [builder.fmul(builder.fsub(_splat(builder, values[3 + k], _V8F), far[k]), inv[k]) for k in range(3)]
+        tiny = ir.Constant(_V8F, [_F32_TINY] * PACKET)
+        tnear = builder.fsub(_vmax(builder, _vmax(builder, tn[0], tn[1]), tn[2]), tiny)
+        tnear = builder.fmul(
+            _vmax(builder, tnear, ir.Constant(_V8F, [0.0] * PACKET)), ir.Constant(_V8F, [_NEAR_SCALE] * PACKET)
+        )
+        tfar = _vmin(builder, _vmin(builder, tf[0], tf[1]), _vmin(builder, tf[2], tmax))
+        tfar = builder.fadd(builder.fmul(tfar, ir.Constant(_V8F, [_FAR_SCALE] * PACKET)), tiny)
+        return _mask_bits(builder, builder.and_(builder.fcmp_ordered("<=", tnear, tfar), act))
+
+    return types.int64(planes, box, lane, active), codegen
+
+
+@inline_function
+def root_box(G):
+    """The box around the root's children (float32 lo x, y, z, hi x, y, z; empty lanes are
+    +inf to -inf and leave it alone): a packet whose rays all miss it skips the root's eight
+    child tests."""
+    b = G.node_bounds
+    x0, y0, z0 = b[0, 0, 0], b[0, 1, 0], b[0, 2, 0]
+    x1, y1, z1 = b[0, 3, 0], b[0, 4, 0], b[0, 5, 0]
+    for c in range(1, BVH_WIDTH):
+        x0, y0, z0 = min(x0, b[0, 0, c]), min(y0, b[0, 1, c]), min(z0, b[0, 2, c])
+        x1, y1, z1 = max(x1, b[0, 3, c]), max(y1, b[0, 4, c]), max(z1, b[0, 5, c])
+    return (x0, y0, z0, x1, y1, z1)
+
+
+@intrinsic
 def packet_farthest(typingctx, lane, mask):
     """The farthest best hit so far (lane[BEST_T]) among the rays of `mask`."""
     _check_array("packet_farthest", lane, types.float64, 2)
@@ -600,7 +644,7 @@ def packet_unbounded(G, X, axes, lane, prim, n):
 
 
 @inline_function
-def packet_closest(G, X, rows, axes, active, box, lane, prim, node_stack, t_stack, mask_stack):
+def packet_closest(G, X, root, rows, axes, active, box, lane, prim, node_stack, t_stack, mask_stack):
     """The nearest hit of each active ray of the packet (set up by packet_setup) through the
     BVH, into lane[BEST_*] and prim (read them with packet_hit). Stack entries are
     traverse.py's, each with the mask of the rays that entered it, and the nearest of their entry
@@ -615,9 +659,11 @@ def packet_closest(G, X, rows, axes, active, box, lane, prim, node_stack, t_stac
     # the primitive table's row is itself a cache miss there)
     direct_rows = tri.shape[0] == G.n_bounded
     ref = 0
-    mask = active
+    # the root's box first (root: root_box(G)): most packets of a loosely framed frame miss it
+    planes = (root[rows[0]], root[rows[1]], root[rows[2]], root[3 - rows[0]], root[5 - rows[1]], root[7 - rows[2]])
+    mask = packet_box(planes, box, lane, active)
     top = 0
-    while True:
+    while mask != 0:
         if ref >= 0:
             prefetch_row(index, ref)
             masks = packet_node(bounds, ref, box, rows, lane, mask, t_stack, top)
