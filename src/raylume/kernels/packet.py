@@ -162,6 +162,22 @@ def _vmax(builder, a, b):
     return builder.select(builder.fcmp_ordered(">", a, b), a, b)
 
 
+def _slabs(builder, lo, hi, near, far, inv, tmax):
+    """traverse.box_hits' widened slab test on <8 x float> vectors, operation for operation:
+    (entry distance, i1 vector of the lanes that enter). lo, hi: the box's near and far planes
+    per axis; near, far, inv: the rays' box_ray constants; tmax: their best hits so far."""
+    tn = [builder.fmul(builder.fsub(lo[k], near[k]), inv[k]) for k in range(3)]
+    tf = [builder.fmul(builder.fsub(hi[k], far[k]), inv[k]) for k in range(3)]
+    tiny = ir.Constant(_V8F, [_F32_TINY] * PACKET)
+    tnear = builder.fsub(_vmax(builder, _vmax(builder, tn[0], tn[1]), tn[2]), tiny)
+    tnear = builder.fmul(
+        _vmax(builder, tnear, ir.Constant(_V8F, [0.0] * PACKET)), ir.Constant(_V8F, [_NEAR_SCALE] * PACKET)
+    )
+    tfar = _vmin(builder, _vmin(builder, tf[0], tf[1]), _vmin(builder, tf[2], tmax))
+    tfar = builder.fadd(builder.fmul(tfar, ir.Constant(_V8F, [_FAR_SCALE] * PACKET)), tiny)
+    return tnear, builder.fcmp_ordered("<=", tnear, tfar)
+
+
 def _lane_minima(builder, vectors):
     """The minimum of each of eight <8 x float> vectors, as one vector (lane c: vectors[c]'s):
     the eight reductions share their shuffles, three levels of halving pairs of vectors, seven
@@ -241,25 +257,16 @@ def packet_node(typingctx, bounds, node, box, rows, lane, active, t_out, at):
                     builder.load(builder.bitcast(builder.gep(b, [hi], inbounds=True), _V8F.as_pointer()), align=4),
                 )
             )
-        tiny = ir.Constant(_V8F, [_F32_TINY] * PACKET)
-        zero = ir.Constant(_V8F, [0.0] * PACKET)
         inf = ir.Constant(_V8F, [math.inf] * PACKET)
         undef = ir.Constant(_V8F, ir.Undefined)
         result = ir.Constant(_i64, 0)
         entries = []  # per child: each ray's entry distance, +inf where it misses
         for c in range(BVH_WIDTH):
             lane_c = ir.Constant(ir.VectorType(_i32, PACKET), [c] * PACKET)
-            tn, tf = [], []
-            for k in range(3):
-                lo = builder.shuffle_vector(planes[k][0], undef, lane_c)
-                hi = builder.shuffle_vector(planes[k][1], undef, lane_c)
-                tn.append(builder.fmul(builder.fsub(lo, near[k]), inv[k]))
-                tf.append(builder.fmul(builder.fsub(hi, far[k]), inv[k]))
-            tnear = builder.fsub(_vmax(builder, _vmax(builder, tn[0], tn[1]), tn[2]), tiny)
-            tnear = builder.fmul(_vmax(builder, tnear, zero), ir.Constant(_V8F, [_NEAR_SCALE] * PACKET))
-            tfar = _vmin(builder, _vmin(builder, tf[0], tf[1]), _vmin(builder, tf[2], tmax))
-            tfar = builder.fadd(builder.fmul(tfar, ir.Constant(_V8F, [_FAR_SCALE] * PACKET)), tiny)
-            hit = builder.and_(builder.fcmp_ordered("<=", tnear, tfar), act)
+            lo = [builder.shuffle_vector(planes[k][0], undef, lane_c) for k in range(3)]
+            hi = [builder.shuffle_vector(planes[k][1], undef, lane_c) for k in range(3)]
+            tnear, hit = _slabs(builder, lo, hi, near, far, inv, tmax)
+            hit = builder.and_(hit, act)
             entries.append(builder.select(hit, tnear, inf))
             bits = builder.shl(_mask_bits(builder, hit), ir.Constant(_i64, 8 * c))
             result = builder.or_(result, bits)
@@ -286,16 +293,10 @@ def packet_box(typingctx, planes, box, lane, active):
         far = [_load_row(builder, bx, 3 + k, _V8F) for k in range(3)]
         inv = [_load_row(builder, bx, 6 + k, _V8F) for k in range(3)]
         tmax = builder.fptrunc(_load_row(builder, ln, BEST_T, _V8D), _V8F)
-        tn = [builder.fmul(builder.fsub(_splat(builder, values[k], _V8F), near[k]), inv[k]) for k in range(3)]
-        tf = [builder.fmul(builder.fsub(_splat(builder, values[3 + k], _V8F), far[k]), inv[k]) for k in range(3)]
-        tiny = ir.Constant(_V8F, [_F32_TINY] * PACKET)
-        tnear = builder.fsub(_vmax(builder, _vmax(builder, tn[0], tn[1]), tn[2]), tiny)
-        tnear = builder.fmul(
-            _vmax(builder, tnear, ir.Constant(_V8F, [0.0] * PACKET)), ir.Constant(_V8F, [_NEAR_SCALE] * PACKET)
-        )
-        tfar = _vmin(builder, _vmin(builder, tf[0], tf[1]), _vmin(builder, tf[2], tmax))
-        tfar = builder.fadd(builder.fmul(tfar, ir.Constant(_V8F, [_FAR_SCALE] * PACKET)), tiny)
-        return _mask_bits(builder, builder.and_(builder.fcmp_ordered("<=", tnear, tfar), act))
+        lo = [_splat(builder, values[k], _V8F) for k in range(3)]
+        hi = [_splat(builder, values[3 + k], _V8F) for k in range(3)]
+        _, hit = _slabs(builder, lo, hi, near, far, inv, tmax)
+        return _mask_bits(builder, builder.and_(hit, act))
 
     return types.int64(planes, box, lane, active), codegen
 
@@ -646,7 +647,7 @@ def packet_unbounded(G, X, axes, lane, prim, n):
 @inline_function
 def packet_closest(G, X, root, rows, axes, active, box, lane, prim, node_stack, t_stack, mask_stack):
     """The nearest hit of each active ray of the packet (set up by packet_setup) through the
-    BVH, into lane[BEST_*] and prim (read them with packet_hit). Stack entries are
+    BVH, into lane[BEST_*] and prim (read them with packet_hit); root: root_box(G). Stack entries are
     traverse.py's, each with the mask of the rays that entered it, and the nearest of their entry
     distances: an entry is skipped when even that lies beyond the farthest best hit of its rays."""
     index = G.node_index
