@@ -57,7 +57,6 @@ from .traverse import (
     TRAVERSAL_STACK,
     _root_is_a_leaf,
     _unbounded_hit,
-    box_ray,
     intersect_leaf,
     lowest_bit,
     prefetch_row,
@@ -418,10 +417,11 @@ def packet_setup(origins, directions, start, n, tmin, tmax, extent, box, lane, p
     shear constants wait for packet_shear: a packet that reaches no leaf (most misses) never
     needs them."""
     d0 = (float(directions[start, 0]), float(directions[start, 1]), float(directions[start, 2]))
-    o0 = (float(origins[start, 0]), float(origins[start, 1]), float(origins[start, 2]))
-    rows = box_ray(o0, d0)[1]
     axes = shear_axes(d0)
     coherent = packet_load(origins, directions, start, n, axes[2], tmin, tmax, _ORIGIN_SPREAD * extent, box, lane, prim)
+    # the first lane's near rows, as box_ray gives them: row k where its 1 / d (box row 6 + k,
+    # never 0) is positive, else k + 3
+    rows = (0 if box[6, 0] > 0.0 else 3, 1 if box[7, 0] > 0.0 else 4, 2 if box[8, 0] > 0.0 else 5)
     return coherent, rows, axes
 
 
