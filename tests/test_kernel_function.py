@@ -43,6 +43,19 @@ def test_kernels_compile_no_python_wrapper():
     assert caller.fndesc.llvm_cpython_wrapper_name in caller.library.get_llvm_str()  # the check can see one
 
 
+def test_kernel_functions_are_linked_into_kernels_not_compiled_to_machine_code():
+    """A per-ray function's library is LLVM IR for its callers to link: no machine code of its
+    own (its function has no address), while the kernel that links it has its own, with the
+    helper's work inside it."""
+    a = np.arange(12.0).reshape(2, 6)
+    assert _two_columns(a) == 8.0
+    (helper,) = _pair_sum.overloads.values()
+    (caller,) = _two_columns.overloads.values()
+    assert helper.library.get_pointer_to_function(helper.fndesc.llvm_func_name) == 0
+    assert caller.library.get_pointer_to_function(caller.fndesc.llvm_func_name) != 0
+    assert helper.fndesc.llvm_func_name in helper.library.get_llvm_str()
+
+
 def test_a_python_call_gives_the_kernels_result():
     a = np.arange(12.0).reshape(2, 6)
     assert _pair_sum(a, 1, 3) == 9.0 + 10.0

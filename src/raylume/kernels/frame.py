@@ -30,7 +30,7 @@ from .scene import emitters_of, environment_of, geometry_of, lights_of, surfaces
 from .shapes import NO_HIT, instance_id, surface
 from .trace import RAY_WIDTH, stack_rows, trace_ray
 from .traverse import closest_hit, scratch_array, traversal_stacks
-from .vec import FAST, INLINE, dot, inline_function, kernel_function, madd, mul
+from .vec import FAST, INLINE_OVERLOAD, dot, inline_function, kernel_function, madd, mul
 
 INF = np.inf
 
@@ -207,7 +207,7 @@ def _cast_row_of_variant(
     raise NotImplementedError("a Numba overload")
 
 
-@overload(_cast_row_of_variant, jit_options=INLINE)
+@overload(_cast_row_of_variant, jit_options=INLINE_OVERLOAD)
 def _cast_row_of_variant_impl(
     G, F, X, Env, cam, filt, j, window, width, height, samples, seed, bg, film, node_stack, t_stack, packets, rays
 ):

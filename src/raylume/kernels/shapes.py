@@ -22,7 +22,7 @@ from numba.extending import overload
 
 from . import shape_cylinder, shape_disk, shape_plane, shape_quad, shape_sphere, shape_triangle
 from .scene import instances_of, is_instances
-from .vec import INLINE, inline_function, kernel_function, max_abs, normalize
+from .vec import INLINE_OVERLOAD, inline_function, kernel_function, max_abs, normalize
 
 
 class Shape(IntEnum):
@@ -136,7 +136,7 @@ def instance_id(X, hit):
     raise NotImplementedError("a Numba overload")
 
 
-@overload(split_hit, jit_options=INLINE)
+@overload(split_hit, jit_options=INLINE_OVERLOAD)
 def _split_hit_impl(X, hit):
     """(primitive row, instance row or -1) of a hit."""
     if is_instances(X):
@@ -157,7 +157,7 @@ def _to_world_normal(inv, inst, n):
     )
 
 
-@overload(world_normals, jit_options=INLINE)
+@overload(world_normals, jit_options=INLINE_OVERLOAD)
 def _world_normals_impl(X, inst, ng, ns):
     """(geometric, shading) normals of a hit in world space (those of an instance's mesh are
     computed in its object space)."""
@@ -172,7 +172,7 @@ def _world_normals_impl(X, inst, ng, ns):
     return lambda X, inst, ng, ns: (ng, ns)
 
 
-@overload(object_vector, jit_options=INLINE)
+@overload(object_vector, jit_options=INLINE_OVERLOAD)
 def _object_vector_impl(X, inst, a):
     """A world-space vector in the instance's object space (unchanged off instances)."""
     if is_instances(X):
@@ -191,7 +191,7 @@ def _object_vector_impl(X, inst, a):
     return lambda X, inst, a: a
 
 
-@overload(instance_id, jit_options=INLINE)
+@overload(instance_id, jit_options=INLINE_OVERLOAD)
 def _instance_id_impl(X, hit):
     """The `instance` AOV of a hit: the instance's index within its object, 0 off instances."""
     if is_instances(X):

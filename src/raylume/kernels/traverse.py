@@ -30,7 +30,7 @@ from .scene import is_instances
 from .shape_sphere import intersect_spheres
 from .shape_triangle import NO_SHEAR, intersect_triangles, ray_shear
 from .shapes import NO_HIT, PRIM_ROW, intersect
-from .vec import INLINE, inline_function, kernel_function
+from .vec import INLINE_OVERLOAD, inline_function, kernel_function
 
 INF = math.inf
 
@@ -345,7 +345,7 @@ def _instances_any(G, X, o, d, tmin, tmax, node_stack):
     raise NotImplementedError("a Numba overload")
 
 
-@overload(_instances_closest, jit_options=INLINE)
+@overload(_instances_closest, jit_options=INLINE_OVERLOAD)
 def _instances_closest_impl(G, X, o, d, tmin, best_t, prim, b1, b2, node_stack, t_stack):
     if is_instances(X):
         from .traverse_instances import instances_closest
@@ -365,7 +365,7 @@ def _instances_closest_impl(G, X, o, d, tmin, best_t, prim, b1, b2, node_stack, 
     return lambda G, X, o, d, tmin, best_t, prim, b1, b2, node_stack, t_stack: (best_t, prim, b1, b2)
 
 
-@overload(_instances_any, jit_options=INLINE)
+@overload(_instances_any, jit_options=INLINE_OVERLOAD)
 def _instances_any_impl(G, X, o, d, tmin, tmax, node_stack):
     if is_instances(X):
         from .traverse_instances import instances_any

@@ -4,7 +4,8 @@ decorators of every per-ray function (`kernel_function`, `inline_function`)."""
 import math
 
 from numba import njit
-from numba.core import config, types
+from numba.core import compiler, config, types
+from numba.core.codegen import JITCodeLibrary
 from numba.core.registry import CPUDispatcher
 
 # fastmath without 'nnan'/'ninf': traversal relies on +-inf behaving as IEEE says.
@@ -31,13 +32,73 @@ _NO_WRAPPERS = {"no_cpython_wrapper": True, "no_cfunc_wrapper": True}
 _NOT_FOR_NJIT = {"nopython", *_NO_WRAPPERS}
 
 
+# --- code that only kernels call: LLVM IR, optimised once in the kernel ------------------------
+# Numba makes a library of every function it compiles, optimises it with everything it links in
+# (its callees' libraries) and turns the result into machine code. For a per-ray function only
+# the kernels' copies ever run, so each level of the call tree repeated the optimisation of all
+# the code below it and made machine code that nothing called. These libraries are linked as
+# Numba hands them over (its function passes done) and optimised and compiled once, in the
+# kernel that links them: cold compiles of raylume.intersect and of a cast render ~1.5 s
+# shorter, every image and hit bit-identical (docs/architecture.md, "Compile time").
+
+
+class _LinkedOnlyLibrary(JITCodeLibrary):
+    """A library that is only ever linked into its callers': no module optimisation of its own
+    (the caller's covers it) and no machine code."""
+
+    def _optimize_final_module(self):
+        pass
+
+    def _finalize_final_module(self):
+        self._finalize_dynamic_globals()
+        self._verify_declare_only_symbols()
+        self._finalized = True
+
+    def get_pointer_to_function(self, name):
+        self._ensure_finalized()
+        return 0  # nothing to call from Python (KernelFunction.__call__ compiles an entry)
+
+    @property
+    def codegen(self):
+        return _WithoutEnvironment(self._codegen)
+
+
+class _WithoutEnvironment:
+    """The JIT code generator, less set_env: a library without machine code has no environment
+    variable to point at its Python environment (none of these functions uses one: they never
+    touch Python objects, which is also why kernels loaded from the disk cache need none)."""
+
+    def __init__(self, codegen):
+        self._codegen = codegen
+
+    def set_env(self, env_name, env) -> None:
+        pass
+
+    def __getattr__(self, name):
+        return getattr(self._codegen, name)
+
+
+class _LinkedOnlyCompiler(compiler.Compiler):
+    """Numba's compiler, writing into a _LinkedOnlyLibrary."""
+
+    def compile_extra(self, func):
+        if self.state.library is None:
+            self.state.library = _LinkedOnlyLibrary(self.state.targetctx.codegen(), func.__qualname__)
+        return super().compile_extra(func)
+
+
+# jit_options of @overload implementations that kernels inline (they are never called from
+# Python either)
+INLINE_OVERLOAD = dict(INLINE, **_NO_WRAPPERS, pipeline_class=_LinkedOnlyCompiler)
+
+
 class KernelFunction(CPUDispatcher):
     """A Numba function that kernels call: compiled without the wrappers that let Python call
     it, and once per argument types rather than once more per literal value (`row3(a, i, 3)`
     and `row3(a, i, 6)` share one compilation; LLVM sees the constant after inlining anyway).
-    Each compilation is a library of its own that LLVM optimises and turns into machine code
-    with its wrappers, and path mode compiles a few hundred of them: the warm-up's path job
-    compiled in 69 s instead of 113 s. A call from Python (tests, a notebook) goes to a plain
+    Each compilation is a library of LLVM IR that its callers link in (_LinkedOnlyLibrary):
+    with Python's wrappers, and machine code of its own, path mode's few hundred of them made
+    the warm-up's path job compile in 113 s instead of 69 s. A call from Python (tests, a notebook) goes to a plain
     Numba compilation of the same function, made on first use: without a wrapper, Numba's own
     call from Python would crash."""
 
@@ -77,7 +138,7 @@ def _kernel_function(py_func, options):
     if config.DISABLE_JIT:
         return py_func
     targetoptions = dict(options, nopython=True, **_NO_WRAPPERS)
-    return KernelFunction(py_func=py_func, locals={}, targetoptions=targetoptions)
+    return KernelFunction(py_func=py_func, locals={}, targetoptions=targetoptions, pipeline_class=_LinkedOnlyCompiler)
 
 
 @kernel_function
