@@ -27,7 +27,7 @@ from raylume.kernels.packet import (
     root_box,
     scene_extent,
 )
-from raylume.kernels.query import intersect_rays
+from raylume.kernels.query import CHUNK, intersect_rays
 from raylume.kernels.scene import geometry_of
 from raylume.kernels.shape_triangle import INF, intersect_triangle, ray_shear
 from raylume.kernels.shapes import features
@@ -311,6 +311,25 @@ def packet_soup(tmp_path_factory):
     centers = rng.uniform(-1, 1, size=(3000, 1, 3))
     v = (centers + rng.normal(scale=0.1, size=(3000, 3, 3))).reshape(-1, 3)
     return _compiled_mesh(tmp_path_factory.mktemp("soup"), v, np.arange(len(v)).reshape(-1, 3))
+
+
+@PACKET_WORKER
+@pytest.mark.parametrize(("n", "lanes"), [(3 * CHUNK + 17, 1), (3 * CHUNK + 17, 3), (3 * CHUNK + 17, 7), (5, 4)])
+def test_intersect_rays_writes_every_ray_once_whatever_the_lanes(packet_soup, n, lanes):
+    """The batch query shares the rays' chunks among its lanes (threads): every output element
+    is written, with the hits of the single-ray traversal, also with more lanes than chunks."""
+    rng = np.random.default_rng(n + lanes)
+    o = rng.uniform(-2, 2, size=(n, 3))
+    d = rng.normal(size=(n, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    t = np.full(n, np.nan)
+    obj, prim, inst = (np.full(n, -7, np.int32) for _ in range(3))
+    S = packet_soup.kernel
+    intersect_rays(S, features(S), o, d, t, obj, prim, inst, lanes)
+    ref = _single(S, o, d)
+    np.testing.assert_array_equal(t, ref[:, 0])
+    assert (obj >= -1).all() and (prim >= -1).all() and (inst >= -1).all()
+    assert np.isfinite(t).any() and np.isinf(t).any()  # hits and misses both
 
 
 @PACKET_WORKER

@@ -1,7 +1,9 @@
 """Batch ray queries over a compiled scene: closest hits for arrays of rays (benchmarks, tests,
 and users who want raylume as a ray-intersection library)."""
 
-from numba import njit, prange, types
+from concurrent.futures import ThreadPoolExecutor
+
+from numba import njit, types
 from numba.extending import overload
 
 from .packet import (
@@ -18,12 +20,12 @@ from .packet import (
 from .scene import geometry_of
 from .shapes import NO_HIT, PRIM_FACE, PRIM_OBJECT, instance_id, split_hit
 from .traverse import INF, closest_hit, traversal_stacks
-from .vec import FAST, INLINE, inline_function, kernel_function
+from .vec import FAST, INLINE_OVERLOAD, inline_function, kernel_function
 
 
 # A call per chunk of rays, compiled without reference counting (KERNEL), as the frame kernels'
-# row functions are: inlined into intersect_rays' parallel loop, the traversal took and dropped
-# references to the BVH arrays for every ray (4 calls with atomic operations a ray).
+# row functions are: inlined into the lane's loop (then a parfor's), the traversal took and
+# dropped references to the BVH arrays for every ray (4 calls with atomic operations a ray).
 @kernel_function
 def _intersect_chunk(G, X, origins, directions, t_out, object_out, prim_out, instance_out, start, end, stacks, packets):
     outputs = (t_out, object_out, prim_out, instance_out)
@@ -47,7 +49,7 @@ def _packet_into(G, X, origins, directions, k, n, extent, root, outputs, stacks,
     raise NotImplementedError("a Numba overload")
 
 
-@overload(_packet_into, jit_options=INLINE)
+@overload(_packet_into, jit_options=INLINE_OVERLOAD)
 def _packet_into_impl(G, X, origins, directions, k, n, extent, root, outputs, stacks, packets):
     if isinstance(X, types.NoneType):
 
@@ -110,22 +112,38 @@ def _store_hit(G, X, k, t, prim, t_out, object_out, prim_out, instance_out):
         instance_out[k] = instance_id(X, prim)
 
 
-@njit(parallel=True, fastmath=FAST, cache=True, error_model="numpy")
-def intersect_rays(S, X, origins, directions, t_out, object_out, prim_out, instance_out, lanes):
-    """Closest hit of each ray (unit directions). t = inf, object = prim = instance = -1 for
-    misses; instance is the instance's index within its object, 0 off instances.
-    X: the scene's `features(S)` (shapes.py).
-    `lanes`: parallel iterations, one per thread (numba.get_num_threads(); passed in because
-    calling it here would keep Numba from caching the function)."""
+# Rays per chunk: a lane takes every lanes-th chunk (neighbouring rays cost alike, distant ones
+# may not; see frame.py).
+CHUNK = 256
+
+
+@njit(nogil=True, fastmath=FAST, cache=True, error_model="numpy")
+def intersect_lane(S, X, origins, directions, t_out, object_out, prim_out, instance_out, lane, lanes):
+    """Closest hits of lane `lane` of `lanes`: chunks lane, lane + lanes, ... of the rays."""
     n = origins.shape[0]
-    chunk = 256
-    for lane in prange(lanes):
-        G = geometry_of(S)  # made inside the parallel loop: parfor cannot capture it from outside
-        stacks = traversal_stacks()
-        packets = packet_scratch()
-        # interleaved chunks: neighbouring rays cost alike, distant ones may not (see frame.py)
-        for c in range(lane, (n + chunk - 1) // chunk, lanes):
-            end = min(n, (c + 1) * chunk)
-            _intersect_chunk(
-                G, X, origins, directions, t_out, object_out, prim_out, instance_out, c * chunk, end, stacks, packets
-            )
+    G = geometry_of(S)
+    stacks = traversal_stacks()
+    packets = packet_scratch()
+    for c in range(lane, (n + CHUNK - 1) // CHUNK, lanes):
+        end = min(n, (c + 1) * CHUNK)
+        _intersect_chunk(
+            G, X, origins, directions, t_out, object_out, prim_out, instance_out, c * CHUNK, end, stacks, packets
+        )
+
+
+def intersect_rays(S, X, origins, directions, t_out, object_out, prim_out, instance_out, lanes: int) -> None:
+    """Closest hit of each ray (unit directions) into the outputs: t = inf, object = prim =
+    instance = -1 for misses; instance is the instance's index within its object, 0 off
+    instances. X: the scene's `features(S)` (shapes.py). The rays' chunks are shared among
+    `lanes` threads, each running the nogil intersect_lane, as a render runs its lanes: a
+    parfor (prange) did the same and cost ~1.7 s of cold compile."""
+    args = (S, X, origins, directions, t_out, object_out, prim_out, instance_out)
+    lanes = max(1, min(lanes, (origins.shape[0] + CHUNK - 1) // CHUNK))
+    if lanes == 1:
+        intersect_lane(*args, 0, 1)
+        return
+    with ThreadPoolExecutor(max_workers=lanes - 1, thread_name_prefix="raylume-intersect") as pool:
+        futures = [pool.submit(intersect_lane, *args, lane, lanes) for lane in range(1, lanes)]
+        intersect_lane(*args, 0, lanes)
+        for f in futures:
+            f.result()
