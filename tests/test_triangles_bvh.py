@@ -414,6 +414,26 @@ def test_collapsed_bvh_keeps_every_leaf_and_box(width):
     assert wide_depth(wide) <= int(np.ceil(np.log2(len(binary.node_axis)))) + 1
 
 
+@pytest.mark.parametrize("width", [4, 8])
+def test_wide_depth_is_the_longest_path_from_the_root(width):
+    """wide_depth against the recursive definition (a node is one level above its deepest inner
+    child), on a bushy tree, a deep one (boxes spaced geometrically) and a lone leaf."""
+    from raylume.accel.bvh import build_bvh
+    from raylume.accel.wide import collapse, single_leaf, wide_depth
+
+    def depth(ix, m):
+        inner = [int(ix[m, 0, k]) for k in range(ix.shape[2]) if ix[m, 1, k] == 0 and ix[m, 0, k] > m]
+        return 1 + max((depth(ix, c) for c in inner), default=0)
+
+    rng = np.random.default_rng(7)
+    lo = rng.uniform(-1, 1, size=(2000, 3))
+    deep = np.stack([1.3 ** np.arange(60.0)] * 3, axis=1)
+    for lo_, hi_ in ((lo, lo + 0.05), (deep, deep * 1.01)):
+        wide = collapse(build_bvh(lo_, hi_, max_leaf_size=1), width)
+        assert wide_depth(wide) == depth(wide.node_index, 0) > 1
+    assert wide_depth(single_leaf(lo[:3], lo[:3] + 0.1, width)) == 1
+
+
 @BRUTE_FORCE_WORKER
 def test_awkward_rays_against_brute_force(tmp_path):
     """A grid of coplanar triangles and degenerate ones: rays exactly through vertices and
