@@ -234,7 +234,7 @@ def _cast_row_of_variant_impl(
     return single_rows
 
 
-@njit(cache=True)
+@kernel_function(_nrt=True)
 def camera_packet_scratch():
     """One thread's buffer of a packet's camera samples: (origins, directions, weights)."""
     return (

@@ -38,7 +38,7 @@ import math
 
 import numpy as np
 from llvmlite import ir
-from numba import njit, types
+from numba import types
 from numba.core import cgutils
 from numba.core.errors import TypingError
 from numba.extending import intrinsic
@@ -62,7 +62,7 @@ from .traverse import (
     prefetch_row,
     scratch_array,
 )
-from .vec import inline_function
+from .vec import inline_function, kernel_function
 
 PACKET = 8  # rays per packet: eight float32 lanes in one AVX2 register
 assert PACKET == BVH_WIDTH  # a node's child mask and a child's ray mask are both one byte
@@ -83,7 +83,7 @@ _MIN_COS = 0.985  # directions within 10 degrees of the first ray's
 _ORIGIN_SPREAD = 0.01  # origins within this fraction of the scene's extent of the first ray's
 
 
-@njit(cache=True)
+@kernel_function(_nrt=True)
 def packet_scratch():
     """One thread's packet state: (box, lane, prim, mask stack) as the module docstring says."""
     return (

@@ -20,7 +20,7 @@ import math
 
 import numpy as np
 from llvmlite import ir
-from numba import njit, types
+from numba import types
 from numba.core import cgutils
 from numba.core.errors import TypingError
 from numba.extending import intrinsic, overload
@@ -69,7 +69,7 @@ def stack_needed(depth: int) -> int:
     return (BVH_WIDTH - 1) * depth + BVH_WIDTH + 1
 
 
-@njit(cache=True)
+@kernel_function(_nrt=True)
 def traversal_stacks():
     """One thread's (node_stack, t_stack) for closest_hit and any_hit."""
     # Entry distances as the box test computes them, float32: exactly the values (and order) a
@@ -77,7 +77,7 @@ def traversal_stacks():
     return scratch_array(TRAVERSAL_STACK, np.int32), scratch_array(TRAVERSAL_STACK, np.float32)
 
 
-@njit(cache=True)
+@kernel_function(_nrt=True)
 def scratch_array(n, dtype):
     """An array of n elements for one thread's scratch, with SCRATCH_PAD unused elements on
     either side against false sharing."""
