@@ -470,15 +470,19 @@ def test_packet_triangle_test_equals_the_scalar_test_to_the_bit(seed, count, sha
 
 @pytest.mark.parametrize(("spp", "aperture", "filt"), [(1, 0.0, "box"), (4, 0.0, "mitchell"), (4, 0.05, "gaussian")])
 def test_cast_packets_give_the_single_ray_image(tmp_path, spp, aperture, filt):
-    """A cast render of meshes (the basic kernels: packets) against the same scene with a plane
-    behind the camera, which the image never shows but which puts the render in the other
-    kernel variant, where every sample is traced alone: the same image (and AOVs) to the last
-    bit, with several samples per pixel, a negative-lobed filter and a lens (whose samples are
-    coherent or not, packet by packet)."""
+    """A cast render of meshes in packets, in both kernel variants: alone (the basic variant)
+    and with a plane behind the camera, which the image never shows but which puts the render
+    in the other variant, where the plane is tested ray by ray before each packet's traversal.
+    Against the same scene with an instanced triangle behind the camera instead, which that
+    variant traces one sample at a time: the same image (and AOVs) to the last bit, with
+    several samples per pixel, a negative-lobed filter and a lens (whose samples are coherent
+    or not, packet by packet)."""
     v, f = bumpy_sphere(6000)
     trimesh.Trimesh(v, f, process=False).export(tmp_path / "m.ply")
     v2, f2 = bumpy_sphere(3000)
     trimesh.Trimesh(v2 * 0.5 + [1.2, 0.4, 0.5], f2, process=False).export(tmp_path / "m2.ply")
+    trimesh.Trimesh([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]], process=False).export(tmp_path / "t.ply")
+    np.save(tmp_path / "behind.npy", np.array([[[1.0, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, -10]]]))
     objects = [
         {"type": "mesh", "file": str(tmp_path / "m.ply"), "material": {"color": [0.8, 0.3, 0.2]}},
         {"type": "mesh", "file": str(tmp_path / "m2.ply"), "material": {"color": [0.2, 0.6, 0.9]}},
@@ -488,16 +492,18 @@ def test_cast_packets_give_the_single_ray_image(tmp_path, spp, aperture, filt):
         "render": {"mode": "cast", "width": 80, "height": 60, "spp": spp, "filter": filt},
         "objects": objects,
     }
-    behind = [{"type": "plane", "point": [0, 0, -10], "normal": [0, 0, 1]}]  # behind the camera
-    packets = raylume.render(raylume.scene_from_dict(scene))
-    single = raylume.render(raylume.scene_from_dict({**scene, "objects": objects + behind}))
-    colours = len(np.unique(packets.rgb.reshape(-1, 3), axis=0))
+    plane = [{"type": "plane", "point": [0, 0, -10], "normal": [0, 0, 1]}]  # behind the camera
+    instance = [{"type": "mesh", "file": str(tmp_path / "t.ply"), "instances": str(tmp_path / "behind.npy")}]
+    single = raylume.render(raylume.scene_from_dict({**scene, "objects": objects + instance}))
+    colours = len(np.unique(single.rgb.reshape(-1, 3), axis=0))
     assert colours >= 3 if spp == 1 else colours > 3  # both meshes and the background; mixed edges
-    np.testing.assert_array_equal(packets.rgb, single.rgb)
-    # the AOV pass (single rays in both variants) agrees too
-    assert set(np.unique(packets.aovs["object"]).tolist()) == {-1, 0, 1}
-    for name in ("depth", "normal", "object", "prim", "albedo", "instance"):
-        np.testing.assert_array_equal(packets.aovs[name], single.aovs[name], err_msg=name)
+    assert set(np.unique(single.aovs["object"]).tolist()) == {-1, 0, 1}
+    for extra in ([], plane):
+        packets = raylume.render(raylume.scene_from_dict({**scene, "objects": objects + extra}))
+        np.testing.assert_array_equal(packets.rgb, single.rgb)
+        # the AOV pass (single rays in both variants) agrees too
+        for name in ("depth", "normal", "object", "prim", "albedo", "instance"):
+            np.testing.assert_array_equal(packets.aovs[name], single.aovs[name], err_msg=name)
 
 
 def test_intersect_ignores_materials_and_lights_in_choosing_its_kernels(tmp_path):

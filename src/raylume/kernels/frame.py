@@ -7,8 +7,7 @@ centre. Samples are added to the film's running sums; samples first..first+spp-1
 continue from whatever earlier passes left there."""
 
 import numpy as np
-from numba import njit, types
-from numba.extending import overload
+from numba import njit
 
 from .camera import CAM_CONE_SPREAD, CAM_LENS_RADIUS, camera_ray, obliquity, thin_lens_ray
 from .environment import environment_radiance
@@ -20,6 +19,7 @@ from .packet import (
     packet_hit,
     packet_scratch,
     packet_setup,
+    packet_unbounded,
     root_box,
     scene_extent,
     uses_packets,
@@ -30,15 +30,9 @@ from .scene import emitters_of, environment_of, geometry_of, lights_of, surfaces
 from .shapes import NO_HIT, instance_id, surface
 from .trace import RAY_WIDTH, stack_rows, trace_ray
 from .traverse import closest_hit, scratch_array, traversal_stacks
-from .vec import FAST, INLINE_OVERLOAD, dot, inline_function, kernel_function, madd, mul
+from .vec import FAST, dot, inline_function, kernel_function, madd, mul
 
 INF = np.inf
-
-
-@inline_function
-def _cast_ray(G, F, X, Env, o, d, spread, background, node_stack, t_stack):
-    t, prim, b1, b2 = closest_hit(G, X, o, d, 0.0, INF, node_stack, t_stack)
-    return _cast_shade(G, F, X, Env, o, d, t, prim, b1, b2, spread, background)
 
 
 @inline_function
@@ -153,7 +147,7 @@ def cast_lane(
     for j in range(y0 + lane, y1, lanes):
         if stop[0] != 0:
             break
-        rays_per_row[j - y0] += _cast_row_of_variant(
+        rays_per_row[j - y0] += _cast_row(
             G, F, X, environment_of(S), cam, filt, j, window, width, height, samples, seed, bg, film,
             node_stack, t_stack, packets, rays,
         )  # fmt: skip
@@ -179,61 +173,6 @@ def aov_lane(
         rows_done[lane * PROGRESS_STRIDE] += 1
 
 
-# The row loops below are two copies of one skeleton on purpose: each holds its per-ray work
-# inlined. A call per ray passes the scene's views (two dozen array descriptors, ~200 machine
-# words): that cost ~40 ns per pixel, a fifth of the seed scene's time.
-
-
-@kernel_function
-def _cast_row(G, F, X, Env, cam, filt, j, window, width, height, samples, seed, bg, film, node_stack, t_stack):
-    first, count, total_spp = samples
-    x0, y0, x1, y1 = window
-    spread = cam[CAM_CONE_SPREAD]
-    for i in range(x0, x1):
-        total = pixel_sums(film, j - y0, i - x0)
-        for s in range(first, first + count):
-            o, d, w, key = camera_sample(cam, filt, seed, i, j, s, total_spp, width, height)
-            cone = spread * obliquity(cam, d)
-            total = add_sample(total, _cast_ray(G, F, X, Env, o, d, cone, bg, node_stack, t_stack), w)
-        store_sums(film, j - y0, i - x0, total)
-    return (x1 - x0) * count
-
-
-def _cast_row_of_variant(
-    G, F, X, Env, cam, filt, j, window, width, height, samples, seed, bg, film, node_stack, t_stack, packets, rays
-):
-    """_cast_row_packets in the basic variant (X None), _cast_row in the others: each variant
-    compiles one of them (a branch on `X is None` would compile both for a non-None X)."""
-    raise NotImplementedError("a Numba overload")
-
-
-@overload(_cast_row_of_variant, jit_options=INLINE_OVERLOAD)
-def _cast_row_of_variant_impl(
-    G, F, X, Env, cam, filt, j, window, width, height, samples, seed, bg, film, node_stack, t_stack, packets, rays
-):
-    if isinstance(X, types.NoneType):
-
-        def packet_rows(
-            G, F, X, Env, cam, filt, j, window, width, height, samples, seed, bg, film, node_stack, t_stack, packets,
-            rays,
-        ):  # fmt: skip
-            return _cast_row_packets(
-                G, F, X, Env, cam, filt, j, window, width, height, samples, seed, bg, film, node_stack, t_stack,
-                packets, rays,
-            )  # fmt: skip
-
-        return packet_rows
-
-    def single_rows(
-        G, F, X, Env, cam, filt, j, window, width, height, samples, seed, bg, film, node_stack, t_stack, packets, rays
-    ):
-        return _cast_row(
-            G, F, X, Env, cam, filt, j, window, width, height, samples, seed, bg, film, node_stack, t_stack
-        )
-
-    return single_rows
-
-
 @kernel_function(_nrt=True)
 def camera_packet_scratch():
     """One thread's buffer of a packet's camera samples: (origins, directions, weights)."""
@@ -245,50 +184,77 @@ def camera_packet_scratch():
 
 
 @kernel_function
-def _cast_row_packets(
+def _cast_row(
     G, F, X, Env, cam, filt, j, window, width, height, samples, seed, bg, film, node_stack, t_stack, packets, rays
 ):
-    """_cast_row with the row's camera samples traced eight at a time (kernels/packet.py): the
-    samples in _cast_row's order (pixel by pixel, each pixel's samples in turn), so the film's
-    sums are added in the same order. Samples that are not coherent (a wide lens) are traced
-    one by one, and so are all in a scene whose root is a leaf."""
+    """Ray-cast samples of row j: the row's camera samples in pixel order (each pixel's samples
+    in turn), traced eight at a time as a packet (kernels/packet.py) where they are coherent.
+    Samples that are not (a wide lens) are traced one by one, and so are all in a scene whose
+    root is a leaf and in one with instances. The film's sums are added in sample order, the
+    pixel's sums kept while its samples last, so the image is the same bit for bit whichever
+    way a sample was traced."""
     first, count, total_spp = samples
     x0, y0, x1, y1 = window
+    total_samples = (x1 - x0) * count
+    if total_samples == 0:
+        return 0
     spread = cam[CAM_CONE_SPREAD]
     box, lane, prim_lane, mask_stack = packets
     origins, directions, weights = rays
     extent = scene_extent(G)
     root = root_box(G)
-    packets_here = uses_packets(G)  # else (a root that is a leaf) every sample is traced alone
-    total_samples = (x1 - x0) * count
+    packets_here = uses_packets(G)
+    if X is not None:  # (pruned in the basic variant, which has no instances)
+        packets_here = packets_here and X.inverse.shape[0] == 0
+    pixel = x0  # the pixel whose sums are being added to
+    total = pixel_sums(film, j - y0, 0)
+    i = x0  # the next sample's pixel and sample number
+    s = first
     q = 0
     while q < total_samples:
         n = min(PACKET, total_samples - q)
-        for k in range(n):
-            i = x0 + (q + k) // count
-            s = first + (q + k) % count
-            o, d, w, _ = camera_sample(cam, filt, seed, i, j, s, total_spp, width, height)
-            for c in range(3):
-                origins[k, c] = o[c]
-                directions[k, c] = d[c]
-            weights[k] = w
         coherent = False
         if packets_here:
+            pi, ps = i, s
+            for k in range(n):
+                o, d, w, _ = camera_sample(cam, filt, seed, pi, j, ps, total_spp, width, height)
+                for c in range(3):
+                    origins[k, c] = o[c]
+                    directions[k, c] = d[c]
+                weights[k] = w
+                ps += 1
+                if ps == first + count:
+                    pi, ps = pi + 1, first
             coherent, rows, axes = packet_setup(origins, directions, 0, n, 0.0, INF, extent, box, lane, prim_lane)
-        if coherent:
-            packet_closest(G, X, root, rows, axes, (1 << n) - 1, box, lane, prim_lane, node_stack, t_stack, mask_stack)
+            if coherent:
+                if X is not None:  # the unbounded shapes first, ray by ray, as closest_hit tests them
+                    if G.n_bounded < G.prims.shape[0]:
+                        packet_unbounded(G, X, axes, lane, prim_lane, n)
+                packet_closest(
+                    G, X, root, rows, axes, (1 << n) - 1, box, lane, prim_lane, node_stack, t_stack, mask_stack
+                )
         for k in range(n):
-            i = x0 + (q + k) // count
-            o = (origins[k, 0], origins[k, 1], origins[k, 2])
-            d = (directions[k, 0], directions[k, 1], directions[k, 2])
+            if packets_here:
+                o = (origins[k, 0], origins[k, 1], origins[k, 2])
+                d = (directions[k, 0], directions[k, 1], directions[k, 2])
+                w = weights[k]
+            else:
+                o, d, w, _ = camera_sample(cam, filt, seed, i, j, s, total_spp, width, height)
             if coherent:
                 t, prim, b1, b2 = packet_hit(lane, prim_lane, k)
             else:
                 t, prim, b1, b2 = closest_hit(G, X, o, d, 0.0, INF, node_stack, t_stack)
-            cone = spread * obliquity(cam, d)
-            col = _cast_shade(G, F, X, Env, o, d, t, prim, b1, b2, cone, bg)
-            store_sums(film, j - y0, i - x0, add_sample(pixel_sums(film, j - y0, i - x0), col, weights[k]))
+            col = _cast_shade(G, F, X, Env, o, d, t, prim, b1, b2, spread * obliquity(cam, d), bg)
+            if i != pixel:
+                store_sums(film, j - y0, pixel - x0, total)
+                pixel = i
+                total = pixel_sums(film, j - y0, i - x0)
+            total = add_sample(total, col, w)
+            s += 1
+            if s == first + count:
+                i, s = i + 1, first
         q += n
+    store_sums(film, j - y0, pixel - x0, total)
     return total_samples
 
 

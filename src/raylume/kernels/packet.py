@@ -392,8 +392,8 @@ def packet_triangles(typingctx, tri, row, count, first, axes, lane, prim, active
 
 @inline_function
 def uses_packets(G):
-    """Whether rays of a scene of the basic variant (features X None) may be traced in packets:
-    its root is no leaf (module docstring)."""
+    """Whether rays of a scene may be traced in packets: its root is no leaf (module
+    docstring). (Scenes with instances never are: their callers check X.)"""
     return not _root_is_a_leaf(G.node_index)
 
 
