@@ -38,8 +38,8 @@ _NOT_FOR_NJIT = {"nopython", *_NO_WRAPPERS}
 # the kernels' copies ever run, so each level of the call tree repeated the optimisation of all
 # the code below it and made machine code that nothing called. These libraries are linked as
 # Numba hands them over (its function passes done) and optimised and compiled once, in the
-# kernel that links them: cold compiles of raylume.intersect and of a cast render ~1.5 s
-# shorter, every image and hit bit-identical (docs/architecture.md, "Compile time").
+# kernel that links them: a cold compile of raylume.intersect ~1.4 s shorter, every image and
+# hit bit-identical (README, "Cold compile"; docs/architecture.md, "_LinkedOnlyLibrary").
 
 
 class _LinkedOnlyLibrary(JITCodeLibrary):
@@ -87,18 +87,27 @@ class _LinkedOnlyCompiler(compiler.Compiler):
         return super().compile_extra(func)
 
 
+# The library overrides Numba's internals (as of Numba 0.68): a Numba without them compiles
+# these functions its own way, slower to compile but correct (test_kernel_function.py notices).
+_LINKABLE = all(
+    hasattr(JITCodeLibrary, name)
+    for name in ("_optimize_final_module", "_finalize_final_module", "_finalize_dynamic_globals",
+                 "_verify_declare_only_symbols", "_ensure_finalized")
+)  # fmt: skip
+_PIPELINE = _LinkedOnlyCompiler if _LINKABLE else compiler.Compiler
+
 # jit_options of @overload implementations that kernels inline (they are never called from
 # Python either)
-INLINE_OVERLOAD = dict(INLINE, **_NO_WRAPPERS, pipeline_class=_LinkedOnlyCompiler)
+INLINE_OVERLOAD = dict(INLINE, **_NO_WRAPPERS, pipeline_class=_PIPELINE)
 
 
 class KernelFunction(CPUDispatcher):
     """A Numba function that kernels call: compiled without the wrappers that let Python call
     it, and once per argument types rather than once more per literal value (`row3(a, i, 3)`
     and `row3(a, i, 6)` share one compilation; LLVM sees the constant after inlining anyway).
-    Each compilation is a library of LLVM IR that its callers link in (_LinkedOnlyLibrary):
-    with Python's wrappers, and machine code of its own, path mode's few hundred of them made
-    the warm-up's path job compile in 113 s instead of 69 s. A call from Python (tests, a notebook) goes to a plain
+    Each compilation is a library of LLVM IR that its callers link in (_LinkedOnlyLibrary).
+    Compiled with Python's wrappers, path mode's few hundred of them had made the warm-up's
+    path job take 113 s instead of 69 s. A call from Python (tests, a notebook) goes to a plain
     Numba compilation of the same function, made on first use: without a wrapper, Numba's own
     call from Python would crash."""
 
@@ -138,7 +147,7 @@ def _kernel_function(py_func, options):
     if config.DISABLE_JIT:
         return py_func
     targetoptions = dict(options, nopython=True, **_NO_WRAPPERS)
-    return KernelFunction(py_func=py_func, locals={}, targetoptions=targetoptions, pipeline_class=_LinkedOnlyCompiler)
+    return KernelFunction(py_func=py_func, locals={}, targetoptions=targetoptions, pipeline_class=_PIPELINE)
 
 
 @kernel_function
