@@ -13,17 +13,7 @@ from .camera import CAM_CONE_SPREAD, CAM_LENS_RADIUS, camera_ray, obliquity, thi
 from .environment import environment_radiance
 from .film import add_sample, filter_sample, pixel_sums, store_sums
 from .materials import albedo
-from .packet import (
-    PACKET,
-    packet_closest,
-    packet_hit,
-    packet_scratch,
-    packet_setup,
-    packet_unbounded,
-    root_box,
-    scene_extent,
-    uses_packets,
-)
+from .packet import PACKET, packet_hit, packet_scratch, packet_trace, root_box, scene_extent, uses_packets
 from .path import finite_sample, path_ray
 from .sampler import lens_sample, pixel_sample, sample_key
 from .scene import emitters_of, environment_of, geometry_of, lights_of, surfaces_of
@@ -199,13 +189,11 @@ def _cast_row(
     if total_samples == 0:
         return 0
     spread = cam[CAM_CONE_SPREAD]
-    box, lane, prim_lane, mask_stack = packets
+    _, lane, prim_lane, _ = packets
     origins, directions, weights = rays
     extent = scene_extent(G)
     root = root_box(G)
-    packets_here = uses_packets(G)
-    if X is not None:  # (pruned in the basic variant, which has no instances)
-        packets_here = packets_here and X.inverse.shape[0] == 0
+    packets_here = uses_packets(G, X)
     pixel = x0  # the pixel whose sums are being added to
     total = pixel_sums(film, j - y0, 0)
     i = x0  # the next sample's pixel and sample number
@@ -225,14 +213,7 @@ def _cast_row(
                 ps += 1
                 if ps == first + count:
                     pi, ps = pi + 1, first
-            coherent, rows, axes = packet_setup(origins, directions, 0, n, 0.0, INF, extent, box, lane, prim_lane)
-            if coherent:
-                if X is not None:  # the unbounded shapes first, ray by ray, as closest_hit tests them
-                    if G.n_bounded < G.prims.shape[0]:
-                        packet_unbounded(G, X, axes, lane, prim_lane, n)
-                packet_closest(
-                    G, X, root, rows, axes, (1 << n) - 1, box, lane, prim_lane, node_stack, t_stack, mask_stack
-                )
+            coherent = packet_trace(G, X, root, origins, directions, 0, n, extent, packets, node_stack, t_stack)
         for k in range(n):
             if packets_here:
                 o = (origins[k, 0], origins[k, 1], origins[k, 2])

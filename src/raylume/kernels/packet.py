@@ -391,10 +391,14 @@ def packet_triangles(typingctx, tri, row, count, first, axes, lane, prim, active
 
 
 @inline_function
-def uses_packets(G):
+def uses_packets(G, X):
     """Whether rays of a scene may be traced in packets: its root is no leaf (module
-    docstring). (Scenes with instances never are: their callers check X.)"""
-    return not _root_is_a_leaf(G.node_index)
+    docstring), and it has no instances (X: the kernels' variant, shapes.features)."""
+    if _root_is_a_leaf(G.node_index):
+        return False
+    if X is not None:  # (pruned in the basic variant, which has no instances)
+        return X.inverse.shape[0] == 0
+    return True
 
 
 @inline_function
@@ -642,6 +646,22 @@ def packet_unbounded(G, X, axes, lane, prim, n):
         t, p, b1, b2 = _unbounded_hit(G, X, o, d, shear, lane[TMIN, i], lane[BEST_T, i])
         if p != NO_HIT:
             _set_lane_best(lane, prim, i, t, p, b1, b2)
+
+
+@inline_function
+def packet_trace(G, X, root, origins, directions, start, n, extent, packets, node_stack, t_stack):
+    """Rays start .. start + n - 1 as one packet, when they are coherent (packet_setup): their
+    nearest hits into the packet's lanes (read them with packet_hit), the unbounded shapes
+    first, ray by ray, as closest_hit tests them. extent: scene_extent(G), root: root_box(G),
+    packets: packet_scratch(). Returns whether the rays were traced (coherent)."""
+    box, lane, prim, mask_stack = packets
+    coherent, rows, axes = packet_setup(origins, directions, start, n, 0.0, math.inf, extent, box, lane, prim)
+    if coherent:
+        if X is not None:  # (pruned in the basic variant, which has no unbounded shapes)
+            if G.n_bounded < G.prims.shape[0]:
+                packet_unbounded(G, X, axes, lane, prim, n)
+        packet_closest(G, X, root, rows, axes, (1 << n) - 1, box, lane, prim, node_stack, t_stack, mask_stack)
+    return coherent
 
 
 @inline_function

@@ -3,24 +3,13 @@ and users who want raylume as a ray-intersection library)."""
 
 from concurrent.futures import ThreadPoolExecutor
 
-from numba import njit, types
-from numba.extending import overload
+from numba import njit
 
-from .packet import (
-    PACKET,
-    packet_closest,
-    packet_hit,
-    packet_scratch,
-    packet_setup,
-    packet_unbounded,
-    root_box,
-    scene_extent,
-    uses_packets,
-)
+from .packet import PACKET, packet_hit, packet_scratch, packet_trace, root_box, scene_extent, uses_packets
 from .scene import geometry_of
 from .shapes import NO_HIT, PRIM_FACE, PRIM_OBJECT, instance_id, split_hit
 from .traverse import INF, closest_hit, traversal_stacks
-from .vec import FAST, INLINE_OVERLOAD, inline_function, kernel_function
+from .vec import FAST, inline_function, kernel_function
 
 
 # A call per chunk of rays, compiled without reference counting (KERNEL), as the frame kernels'
@@ -31,10 +20,11 @@ def _intersect_chunk(G, X, origins, directions, t_out, object_out, prim_out, ins
     outputs = (t_out, object_out, prim_out, instance_out)
     extent = scene_extent(G)
     root = root_box(G)
+    packets_here = uses_packets(G, X)
     k = start
     while k < end:
         n = min(PACKET, end - k)
-        if not _packet_into(G, X, origins, directions, k, n, extent, root, outputs, stacks, packets):
+        if not (packets_here and _packet_hits(G, X, origins, directions, k, n, extent, root, outputs, stacks, packets)):
             # one call site: the single-ray traversal is inlined once (a second copy cost ~1.5 s
             # of cold compile)
             _intersect_rays_singly(
@@ -43,44 +33,14 @@ def _intersect_chunk(G, X, origins, directions, t_out, object_out, prim_out, ins
         k += n
 
 
-def _packet_into(G, X, origins, directions, k, n, extent, root, outputs, stacks, packets):
-    """Rays k .. k + n - 1 traced as a packet into the outputs when they can be (packet.py;
-    extent: scene_extent(G), root: root_box(G)); False when not, and nothing written."""
-    raise NotImplementedError("a Numba overload")
-
-
-@overload(_packet_into, jit_options=INLINE_OVERLOAD)
-def _packet_into_impl(G, X, origins, directions, k, n, extent, root, outputs, stacks, packets):
-    if isinstance(X, types.NoneType):
-
-        def basic(G, X, origins, directions, k, n, extent, root, outputs, stacks, packets):
-            if not uses_packets(G):
-                return False
-            return _packet_hits(G, X, origins, directions, k, n, extent, root, outputs, stacks, packets)
-
-        return basic
-
-    # Planes and the other shapes, without instances: the unbounded shapes are tested ray by
-    # ray first, as closest_hit tests them, and the BVH's other shapes in the leaves, ray by ray
-    def other_shapes(G, X, origins, directions, k, n, extent, root, outputs, stacks, packets):
-        if X.inverse.shape[0] > 0 or not uses_packets(G):
-            return False
-        return _packet_hits(G, X, origins, directions, k, n, extent, root, outputs, stacks, packets)
-
-    return other_shapes
-
-
 @inline_function
 def _packet_hits(G, X, origins, directions, k, n, extent, root, outputs, stacks, packets):
-    """_packet_into's work once the scene allows packets: False when the rays are refused."""
+    """Rays k .. k + n - 1 traced as a packet into the outputs (packet.py; extent:
+    scene_extent(G), root: root_box(G)); False when they are refused, and nothing written."""
     node_stack, t_stack = stacks
-    box, lane, prim_lane, mask_stack = packets
-    coherent, rows, axes = packet_setup(origins, directions, k, n, 0.0, INF, extent, box, lane, prim_lane)
+    _, lane, prim_lane, _ = packets
+    coherent = packet_trace(G, X, root, origins, directions, k, n, extent, packets, node_stack, t_stack)
     if coherent:
-        if X is not None:  # (pruned in the basic variant, which has no unbounded shapes)
-            if G.n_bounded < G.prims.shape[0]:
-                packet_unbounded(G, X, axes, lane, prim_lane, n)
-        packet_closest(G, X, root, rows, axes, (1 << n) - 1, box, lane, prim_lane, node_stack, t_stack, mask_stack)
         t_out, object_out, prim_out, instance_out = outputs
         for i in range(n):
             t, prim, _, _ = packet_hit(lane, prim_lane, i)
