@@ -8,7 +8,8 @@ import math
 
 import numpy as np
 
-from .sampler import concentric_disk
+from .film import filter_sample
+from .sampler import concentric_disk, lens_sample, pixel_sample, sample_key
 from .vec import inline_function, kernel_function, madd, normalize, sub
 
 CAM_POSITION = 0  # 3 columns
@@ -109,3 +110,22 @@ def thin_lens_ray(cam, o, d, u1, u2):
     t = cam[CAM_FOCUS_DISTANCE] / (d[0] * cam[CAM_FORWARD] + d[1] * cam[CAM_FORWARD + 1] + d[2] * cam[CAM_FORWARD + 2])
     focus = madd(o, d, t)
     return lens, normalize(sub(focus, lens))
+
+
+@inline_function
+def camera_sample(cam, filt, seed, i, j, s, total_spp, width, height):
+    """Camera sample s (of total_spp per pixel) of pixel (i, j): (origin, direction, filter
+    weight, random key)."""
+    key = sample_key(seed, j * width + i, s)
+    weight = 1.0
+    if total_spp == 1:
+        x = i + 0.5
+        y = j + 0.5
+    else:
+        ux, uy = pixel_sample(key, s, total_spp)
+        x, y, weight = filter_sample(filt, i, j, ux, uy)
+    o, d = camera_ray(cam, x, y, width, height)
+    if cam[CAM_LENS_RADIUS] > 0.0:
+        lu, lv = lens_sample(key, s, total_spp)
+        o, d = thin_lens_ray(cam, o, d, lu, lv)
+    return o, d, weight, key

@@ -9,18 +9,18 @@ continue from whatever earlier passes left there."""
 import numpy as np
 from numba import njit
 
-from .camera import CAM_CONE_SPREAD, CAM_LENS_RADIUS, camera_ray, obliquity, thin_lens_ray
+from .camera import CAM_CONE_SPREAD, camera_ray, camera_sample, obliquity
 from .environment import environment_radiance
-from .film import add_sample, filter_sample, pixel_sums, store_sums
+from .film import add_sample, pixel_sums, store_sums
 from .materials import albedo
 from .packet import PACKET, packet_hit, packet_scratch, packet_trace, root_box, scene_extent, uses_packets
 from .path import finite_sample, path_ray
-from .sampler import lens_sample, pixel_sample, sample_key
 from .scene import emitters_of, environment_of, geometry_of, lights_of, surfaces_of
 from .shapes import NO_HIT, instance_id, surface
 from .trace import RAY_WIDTH, stack_rows, trace_ray
 from .traverse import closest_hit, scratch_array, traversal_stacks
 from .vec import FAST, dot, inline_function, kernel_function, madd, mul
+from .wavefront import wavefront_row, wavefront_scratch
 
 INF = np.inf
 
@@ -35,25 +35,6 @@ def _cast_shade(G, F, X, Env, o, d, t, prim, b1, b2, spread, background):
     p = madd(o, d, t)
     ng, ns, m, obj, face = surface(G, X, prim, b1, b2, p)
     return albedo(G, F, X, m, prim, b1, b2, p, d, ng, spread * t)
-
-
-@inline_function
-def camera_sample(cam, filt, seed, i, j, s, total_spp, width, height):
-    """Camera sample s (of total_spp per pixel) of pixel (i, j): (origin, direction, filter
-    weight, random key)."""
-    key = sample_key(seed, j * width + i, s)
-    weight = 1.0
-    if total_spp == 1:
-        x = i + 0.5
-        y = j + 0.5
-    else:
-        ux, uy = pixel_sample(key, s, total_spp)
-        x, y, weight = filter_sample(filt, i, j, ux, uy)
-    o, d = camera_ray(cam, x, y, width, height)
-    if cam[CAM_LENS_RADIUS] > 0.0:
-        lu, lv = lens_sample(key, s, total_spp)
-        o, d = thin_lens_ray(cam, o, d, lu, lv)
-    return o, d, weight, key
 
 
 # Entry points, one per kind of work, so a render compiles only what it runs. Each renders one
@@ -85,6 +66,7 @@ def trace_lane(
     node_stack, t_stack = traversal_stacks()
     slots = stack_rows(max_depth)
     work = scratch_array(slots * RAY_WIDTH, np.float64).reshape((slots, RAY_WIDTH))
+    wave = wavefront_scratch()  # (a branch on X would not type: Numba unifies both arms)
     bg = (background[0], background[1], background[2])
     G, F, L = geometry_of(S), surfaces_of(S), lights_of(S)
     Env = environment_of(S)
@@ -93,7 +75,7 @@ def trace_lane(
         if stop[0] != 0:
             break
         rays_per_row[j - y0] += _trace_row(
-            G, F, L, X, Env, cam, filt, j, window, width, height, samples, seed, max_depth, bg, film, work,
+            G, F, L, X, Env, cam, filt, j, window, width, height, samples, seed, max_depth, bg, film, work, wave,
             node_stack, t_stack,
         )  # fmt: skip
         rows_done[lane * PROGRESS_STRIDE] += 1
@@ -241,8 +223,16 @@ def _cast_row(
 
 @kernel_function
 def _trace_row(
-    G, F, L, X, Env, cam, filt, j, window, width, height, samples, seed, max_depth, bg, film, work, node_stack, t_stack
-):
+    G, F, L, X, Env, cam, filt, j, window, width, height, samples, seed, max_depth, bg, film, work, wave, node_stack,
+    t_stack,
+):  # fmt: skip
+    """Whitted-traced samples of row j into the film; returns the rays traced. Basic scenes go
+    through the wavefront (kernels/wavefront.py), the others ray by ray (trace.py)."""
+    if X is None:
+        return wavefront_row(
+            G, F, L, X, Env, cam, filt, j, window, width, height, samples, seed, max_depth, bg, film, wave,
+            node_stack, t_stack,
+        )  # fmt: skip
     first, count, total_spp = samples
     x0, y0, x1, y1 = window
     spread = cam[CAM_CONE_SPREAD]

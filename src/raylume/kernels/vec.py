@@ -138,6 +138,21 @@ def kernel_function(py_func=None, /, **options):
     return _kernel_function(py_func, KERNEL)
 
 
+def vector_loop(py_func=None, /, fastmath=False):
+    """Decorator of loops over arrays of rays meant to run SIMD (kernels/wavefront.py): no
+    bounds checks, exact arithmetic unless `fastmath` says otherwise, and Numba's own compiler,
+    whose library is optimised on its own, so LLVM's loop vectoriser sees the loop with its
+    arrays as separate arguments. Linked into a kernel and only optimised there, inlined first,
+    the loops stayed scalar."""
+    if py_func is None:
+        return lambda f: vector_loop(f, fastmath=fastmath)
+    if config.DISABLE_JIT:
+        return py_func
+    options = dict(fastmath=fastmath, error_model="numpy", _nrt=False, forceinline=False, boundscheck=False)
+    targetoptions = dict(options, nopython=True, **_NO_WRAPPERS)
+    return KernelFunction(py_func=py_func, locals={}, targetoptions=targetoptions, pipeline_class=compiler.Compiler)
+
+
 def inline_function(py_func):
     """Decorator of per-ray functions inlined by LLVM into every caller (the options INLINE)."""
     return _kernel_function(py_func, INLINE)

@@ -1,0 +1,166 @@
+"""Trace mode's wavefront (kernels/wavefront.py), which renders every basic scene (spheres and
+opaque triangles): its images and ray counts are those of the ray-by-ray Whitted tracer
+(trace.py), to the last bit, on scenes that take each of its paths; and its vector loops are
+vector code in the machine code."""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+import trimesh
+from numba import typeof
+
+import raylume
+import raylume.session as session
+from raylume.image import Image
+from raylume.kernels import wavefront
+from raylume.kernels.scene import instances_of
+from raylume.kernels.shapes import features
+
+LIGHTS = [
+    {"type": "ambient", "intensity": 0.15},
+    {"type": "point", "position": [2, 3, -2], "intensity": [0.6, 0.5, 0.4]},
+    {"type": "directional", "direction": [-1, 4, -2], "intensity": 0.25},
+    {"type": "spot", "position": [-2, 4, -1], "direction": [0.5, -1, 0.8], "angle": 35, "inner_angle": 20},
+]
+
+
+def _render_both(scene, monkeypatch, **overrides):
+    """(wavefront image, ray-by-ray image): the second forces the scene into the kernels' full
+    variant, which traces it with trace.py's trace_ray."""
+    compiled = raylume.Session(scene).compiled
+    assert features(compiled.kernel) is None, "the scene must be basic to take the wavefront"
+    wave = raylume.render(scene, aovs=False, **overrides)
+    monkeypatch.setattr(session, "features", instances_of)
+    single = raylume.render(scene, aovs=False, **overrides)
+    monkeypatch.undo()
+    return wave, single
+
+
+def _assert_same(wave, single):
+    assert wave.stats["rays"] == single.stats["rays"]
+    np.testing.assert_array_equal(wave.rgb, single.rgb)
+    assert np.isfinite(wave.rgb).all()
+
+
+def test_seed_scene_is_the_ray_by_ray_image(monkeypatch):
+    # 300 wide: a row is two tiles, the second partial
+    wave, single = _render_both(raylume.builtin_scene("seed"), monkeypatch, width=300, height=120)
+    _assert_same(wave, single)
+    assert wave.rgb.max() > 0.5
+
+
+def test_many_samples_filters_and_a_lens_straddle_tiles(monkeypatch):
+    """3 samples a pixel (256 is no multiple of 3: pixels straddle tiles), a filter with negative
+    lobes, a thin lens and a crop window."""
+    scene = raylume.builtin_scene("seed").with_render(width=200, height=60, spp=3, filter="mitchell", seed=7)
+    scene = scene.model_copy(update={"camera": scene.camera.model_copy(update={"aperture": 0.05})})
+    wave, single = _render_both(scene, monkeypatch, crop=(13, 187, 5, 41))
+    _assert_same(wave, single)
+
+
+def _mesh_scene(tmp_path, spheres):
+    """An icosphere mesh beside spheres, every light kind of a basic scene, a checker texture,
+    a matte and an emissive material; the BVH has inner nodes."""
+    mesh = trimesh.creation.icosphere(subdivisions=3, radius=0.8)
+    mesh.apply_translation([0.6, 0.2, 4.5])
+    mesh.export(tmp_path / "ico.ply")
+    objects = [
+        {"type": "mesh", "file": str(tmp_path / "ico.ply"), "material": {"color": [0.9, 0.6, 0.3], "specular": 40}},
+        {"type": "sphere", "center": [0, -1001, 0], "radius": 1000,
+         "material": {"texture": {"type": "checker", "scale": 0.5}, "reflective": 0.3, "specular": 200}},
+    ]  # fmt: skip
+    objects += spheres
+    return raylume.scene_from_dict(
+        {
+            "render": {"width": 160, "height": 90, "max_depth": 4, "background": [0.1, 0.2, 0.3]},
+            "camera": {"position": [0, 0.5, -1], "look_at": [0, 0, 4], "fov": 60},
+            "lights": LIGHTS,
+            "objects": objects,
+        }
+    )
+
+
+def test_a_mesh_beside_spheres_takes_the_bvh_path(monkeypatch, tmp_path):
+    spheres = [
+        {"type": "sphere", "center": [-1.2, 0, 4], "radius": 0.7,
+         "material": {"color": [0.2, 0.4, 1], "reflective": 0.5}},
+        {"type": "sphere", "center": [1.5, -0.5, 3], "radius": 0.4, "material": {"emission": [0.5, 0.1, 0.1]}},
+        {"type": "sphere", "center": [0, 1.5, 6], "radius": 0.9, "material": {"color": [1, 1, 1]}},
+    ]  # fmt: skip
+    scene = _mesh_scene(tmp_path, spheres)
+    assert raylume.Session(scene).compiled.kernel.node_index.shape[0] > 1
+    _assert_same(*_render_both(scene, monkeypatch))
+
+
+@pytest.mark.parametrize("count", [1, 3, 6])
+def test_one_leaf_of_spheres_any_count(monkeypatch, count):
+    """A root leaf of one sphere (tested alone), of three (a block of spheres) and of six (more
+    than a block); every light kind; reflections to depth 5."""
+    rng = np.random.default_rng(count)
+    objects = [
+        {
+            "type": "sphere",
+            "center": [float(x) for x in rng.uniform([-2, -1, 3], [2, 1, 7])],
+            "radius": float(rng.uniform(0.4, 1.2)),
+            "material": {"color": [float(c) for c in rng.uniform(0, 1, 3)], "specular": 300, "reflective": 0.4},
+        }
+        for _ in range(count)
+    ]
+    scene = raylume.scene_from_dict(
+        {
+            "render": {"width": 90, "height": 70, "max_depth": 5},
+            "camera": {"position": [0, 0, 0], "look_at": [0, 0, 4]},
+            "lights": LIGHTS,
+            "objects": objects,
+        }
+    )
+    index = raylume.Session(scene).compiled.kernel.node_index
+    assert index.shape[0] == 1 or count == 6
+    _assert_same(*_render_both(scene, monkeypatch))
+
+
+def test_from_inside_an_absorbing_sphere_under_an_environment(monkeypatch, tmp_path):
+    """The camera inside a reflective sphere whose material absorbs (rays leave it: Beer-Lambert),
+    a second sphere outside, and an image environment for the rays that miss."""
+    rng = np.random.default_rng(1)
+    Image(rng.uniform(0.1, 2.0, (8, 16, 3)).astype(np.float32), {}, {}, "clamp").save(tmp_path / "sky.exr")
+    scene = raylume.scene_from_dict(
+        {
+            "render": {"width": 80, "height": 60, "max_depth": 3},
+            "camera": {"position": [0, 0, 0], "look_at": [0, 0, 1]},
+            "lights": LIGHTS,
+            "environment": {"file": str(tmp_path / "sky.exr")},
+            "objects": [
+                {"type": "sphere", "center": [0, 0, 0.5], "radius": 2,
+                 "material": {"color": [0.8, 0.8, 0.8], "reflective": 0.6, "absorption": [0.1, 0.3, 0.5]}},
+                {"type": "sphere", "center": [0, 0, 5], "radius": 1, "material": {"color": [1, 0.2, 0.2]}},
+            ],
+        }
+    )  # fmt: skip
+    _assert_same(*_render_both(scene, monkeypatch))
+
+
+def _asm(function, *args) -> str:
+    function.compile(tuple(typeof(a) for a in args))
+    cres = function.overloads[tuple(typeof(a) for a in args)]
+    return cres.library.get_asm_str()
+
+
+def test_the_vector_loops_are_vector_code():
+    """8 float64 lanes on AVX-512 (zmm), 4 on AVX2 (ymm): packed square roots and divisions.
+    Should LLVM stop vectorising a loop, this fails (the images would not change)."""
+    n = 16
+    f = [np.zeros(n) for _ in range(12)]
+    i = np.zeros(n, dtype=np.int64)
+    loops = {
+        "_sphere_closest": (wavefront._sphere_closest, (*f[:7], i, n, 0.0, 0.0, 0.0, 1.0, 0)),
+        "_sphere_blocks": (wavefront._sphere_blocks, (*f[:7], i, n, 0.0, 0.0, 0.0, 1.0)),
+        "_light_directions": (wavefront._light_directions, (*f[:10], *f[:6], i, n, False, 0.0, 0.0, 0.0)),
+    }
+    for name, (function, args) in loops.items():
+        asm = _asm(function, *args)
+        for op in ("vsqrtpd", "vdivpd"):
+            assert re.search(rf"{op}\s+[^\n]*%[yz]mm", asm), f"no packed {op} in {name}"
