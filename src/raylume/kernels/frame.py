@@ -66,9 +66,9 @@ def trace_lane(
     node_stack, t_stack = traversal_stacks()
     slots = stack_rows(max_depth)
     work = scratch_array(slots * RAY_WIDTH, np.float64).reshape((slots, RAY_WIDTH))
-    wave = wavefront_scratch()  # (a branch on X would not type: Numba unifies both arms)
-    bg = (background[0], background[1], background[2])
     G, F, L = geometry_of(S), surfaces_of(S), lights_of(S)
+    wave = wavefront_scratch(G, F)  # (a branch on X would not type: Numba unifies both arms)
+    bg = (background[0], background[1], background[2])
     Env = environment_of(S)
     x0, y0, x1, y1 = window
     for j in range(y0 + lane, y1, lanes):
