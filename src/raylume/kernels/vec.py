@@ -63,6 +63,13 @@ class _LinkedOnlyLibrary(JITCodeLibrary):
         return _WithoutEnvironment(self._codegen)
 
 
+class _OptimisedLinkedOnlyLibrary(_LinkedOnlyLibrary):
+    """A _LinkedOnlyLibrary optimised by itself before its callers link it (vector_loop: LLVM's
+    loop vectoriser must see the loop alone), still without machine code of its own."""
+
+    _optimize_final_module = JITCodeLibrary._optimize_final_module
+
+
 class _WithoutEnvironment:
     """The JIT code generator, less set_env: a library without machine code has no environment
     variable to point at its Python environment (none of these functions uses one: they never
@@ -81,10 +88,16 @@ class _WithoutEnvironment:
 class _LinkedOnlyCompiler(compiler.Compiler):
     """Numba's compiler, writing into a _LinkedOnlyLibrary."""
 
+    library_class = _LinkedOnlyLibrary
+
     def compile_extra(self, func):
         if self.state.library is None:
-            self.state.library = _LinkedOnlyLibrary(self.state.targetctx.codegen(), func.__qualname__)
+            self.state.library = self.library_class(self.state.targetctx.codegen(), func.__qualname__)
         return super().compile_extra(func)
+
+
+class _VectorLoopCompiler(_LinkedOnlyCompiler):
+    library_class = _OptimisedLinkedOnlyLibrary
 
 
 # The library overrides Numba's internals (as of Numba 0.68): a Numba without them compiles
@@ -95,6 +108,7 @@ _LINKABLE = all(
                  "_verify_declare_only_symbols", "_ensure_finalized")
 )  # fmt: skip
 _PIPELINE = _LinkedOnlyCompiler if _LINKABLE else compiler.Compiler
+_VECTOR_PIPELINE = _VectorLoopCompiler if _LINKABLE else compiler.Compiler
 
 # jit_options of @overload implementations that kernels inline (they are never called from
 # Python either)
@@ -140,17 +154,17 @@ def kernel_function(py_func=None, /, **options):
 
 def vector_loop(py_func=None, /, fastmath=False):
     """Decorator of loops over arrays of rays meant to run SIMD (kernels/wavefront.py): no
-    bounds checks, exact arithmetic unless `fastmath` says otherwise, and Numba's own compiler,
-    whose library is optimised on its own, so LLVM's loop vectoriser sees the loop with its
-    arrays as separate arguments. Linked into a kernel and only optimised there, inlined first,
-    the loops stayed scalar."""
+    bounds checks, exact arithmetic unless `fastmath` says otherwise, and a library optimised on
+    its own before a kernel links it (_OptimisedLinkedOnlyLibrary), so LLVM's loop vectoriser
+    sees the loop with its arrays as separate arguments. Linked into a kernel and only optimised
+    there, inlined first, the loops stayed scalar."""
     if py_func is None:
         return lambda f: vector_loop(f, fastmath=fastmath)
     if config.DISABLE_JIT:
         return py_func
     options = dict(fastmath=fastmath, error_model="numpy", _nrt=False, forceinline=False, boundscheck=False)
     targetoptions = dict(options, nopython=True, **_NO_WRAPPERS)
-    return KernelFunction(py_func=py_func, locals={}, targetoptions=targetoptions, pipeline_class=compiler.Compiler)
+    return KernelFunction(py_func=py_func, locals={}, targetoptions=targetoptions, pipeline_class=_VECTOR_PIPELINE)
 
 
 def inline_function(py_func):
