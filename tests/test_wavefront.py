@@ -98,7 +98,7 @@ def test_a_mesh_beside_spheres_takes_the_bvh_path(monkeypatch, tmp_path):
 @pytest.mark.parametrize("count", [1, 3, 6])
 def test_one_leaf_of_spheres_any_count(monkeypatch, count):
     """A root leaf of one sphere (tested alone), of three (a block of spheres) and of six (more
-    than a block); every light kind; reflections to depth 5."""
+    than a block); every light kind; a textured sphere; reflections to depth 5."""
     rng = np.random.default_rng(count)
     objects = [
         {
@@ -109,6 +109,7 @@ def test_one_leaf_of_spheres_any_count(monkeypatch, count):
         }
         for _ in range(count)
     ]
+    objects[0]["material"]["texture"] = {"type": "checker", "scale": 0.3}  # looked up ray by ray
     scene = raylume.scene_from_dict(
         {
             "render": {"width": 90, "height": 70, "max_depth": 5},
