@@ -160,6 +160,7 @@ def test_the_vector_loops_are_vector_code():
         "_sphere_closest": (wavefront._sphere_closest, (*f[:7], i, n, 0.0, 0.0, 0.0, 1.0, 0)),
         "_sphere_blocks": (wavefront._sphere_blocks, (*f[:7], i, n, 0.0, 0.0, 0.0, 1.0)),
         "_light_directions": (wavefront._light_directions, (*f[:10], *f[:6], i, n, False, 0.0, 0.0, 0.0)),
+        "_pinhole_directions": (wavefront._pinhole_directions, (*f[:4], n, np.zeros(17), 0, 0, n, n, 0.1)),
     }
     for name, (function, args) in loops.items():
         asm = _asm(function, *args)

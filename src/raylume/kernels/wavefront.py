@@ -24,7 +24,16 @@ import math
 import numpy as np
 
 from ..accel.wide import SPHERE_BLOCK
-from .camera import CAM_CONE_SPREAD, CAM_LENS_RADIUS, camera_ray, camera_sample, obliquity
+from .camera import (
+    CAM_CONE_SPREAD,
+    CAM_FORWARD,
+    CAM_LENS_RADIUS,
+    CAM_POSITION,
+    CAM_RIGHT,
+    CAM_UP,
+    camera_sample,
+    obliquity,
+)
 from .environment import environment_radiance
 from .film import add_sample, pixel_sums, store_sums
 from .lights import AMBIENT, DIRECTIONAL, LIGHT_DIRECTION, LIGHT_INTENSITY, LIGHT_POSITION, SPOT, spot_falloff
@@ -502,6 +511,29 @@ def _reflect(ox, oy, oz, dx, dy, dz, qx, qy, qz, nx, ny, nz, wr, wg, wb, refl, g
         goes_on[i] = 0 if last else (1 if max(max(w0, w1), w2) > MIN_WEIGHT else 0)
 
 
+@vector_loop(fastmath=FAST)
+def _pinhole_directions(dx, dy, dz, spread_out, n, cam, i0, j, width, height, spread):
+    """camera.camera_ray's directions through the centres of pixels i0..i0+n-1 of row j, and
+    their cones' spread (camera.obliquity), as trace mode's row gives them."""
+    fx, fy, fz = cam[CAM_FORWARD], cam[CAM_FORWARD + 1], cam[CAM_FORWARD + 2]
+    rx, ry, rz = cam[CAM_RIGHT], cam[CAM_RIGHT + 1], cam[CAM_RIGHT + 2]
+    ux, uy, uz = cam[CAM_UP], cam[CAM_UP + 1], cam[CAM_UP + 2]
+    b = 1.0 - (j + 0.5) / height * 2.0
+    for k in range(n):
+        a = ((i0 + k) + 0.5) / width * 2.0 - 1.0
+        x = fx + rx * a + ux * b
+        y = fy + ry * a + uy * b
+        z = fz + rz * a + uz * b
+        length = math.sqrt(x * x + y * y + z * z)
+        if length == 0.0:
+            x, y, z = 0.0, 0.0, 0.0
+        else:
+            inv = 1.0 / length
+            x, y, z = x * inv, y * inv, z * inv
+        dx[k], dy[k], dz[k] = x, y, z
+        spread_out[k] = spread * abs(x * fx + y * fy + z * fz)
+
+
 @kernel_function
 def wavefront_row(
     G, F, L, X, Env, cam, filt, j, window, width, height, samples, seed, max_depth, bg, film, scratch, node_stack,
@@ -523,15 +555,18 @@ def wavefront_row(
     q = 0
     while q < total_samples:
         n = min(TILE, total_samples - q)
+        if pinhole_centres:  # camera_sample's rays through pixels i0.., without the unused random key
+            _pinhole_directions(R[DX], R[DY], R[DZ], R[SPREAD], n, cam, i0, j, width, height, spread)
         pi, ps = i0, s0
         for k in range(n):
-            if pinhole_centres:  # camera_sample's ray, without the random key it would not use
-                o, d = camera_ray(cam, pi + 0.5, j + 0.5, width, height)
+            if pinhole_centres:
+                o = (cam[CAM_POSITION], cam[CAM_POSITION + 1], cam[CAM_POSITION + 2])
                 w = 1.0
             else:
                 o, d, w, _ = camera_sample(cam, filt, seed, pi, j, ps, total_spp, width, height)
+                R[DX, k], R[DY, k], R[DZ, k] = d
+                R[SPREAD, k] = spread * obliquity(cam, d)
             R[OX, k], R[OY, k], R[OZ, k] = o
-            R[DX, k], R[DY, k], R[DZ, k] = d
             R[WR, k] = 1.0
             R[WG, k] = 1.0
             R[WB, k] = 1.0
@@ -540,7 +575,6 @@ def wavefront_row(
             R[CG, k] = 0.0
             R[CB, k] = 0.0
             R[S_W, k] = w
-            R[SPREAD, k] = spread * obliquity(cam, d)
             I[SAMPLE, k] = k
             ps += 1
             if ps == first + count:
