@@ -204,6 +204,17 @@ def _move(R, i, k, a, b, c):
 
 
 @inline_function
+def _move_ray(R, I, i, k):
+    """A ray's state (origin, direction, weight, colour, cone, sample) from slot i to k < i."""
+    _move(R, i, k, OX, OY, OZ)
+    _move(R, i, k, DX, DY, DZ)
+    _move(R, i, k, WR, WG, WB)
+    _move(R, i, k, CR, CG, CB)
+    _move(R, i, k, CONE, SPREAD, SPREAD)
+    I[SAMPLE, k] = I[SAMPLE, i]
+
+
+@inline_function
 def _finish_ray(R, I, i, col):
     """A ray that ends: its sample's colour is final."""
     s = I[SAMPLE, i]
@@ -225,14 +236,9 @@ def _compact_hits(G, Env, R, I, M, C, m, bg, spheres):
             _finish_ray(R, I, i, (R[CR, i] + w[0] * sky[0], R[CG, i] + w[1] * sky[1], R[CB, i] + w[2] * sky[2]))
             continue
         if k < i:
-            _move(R, i, k, OX, OY, OZ)
-            _move(R, i, k, DX, DY, DZ)
-            _move(R, i, k, WR, WG, WB)
-            _move(R, i, k, CR, CG, CB)
-            _move(R, i, k, CONE, SPREAD, T)
-            _move(R, i, k, B1, B2, B2)
+            _move_ray(R, I, i, k)
+            _move(R, i, k, T, B1, B2)
             I[PRIM, k] = prim
-            I[SAMPLE, k] = I[SAMPLE, i]
         mm = np.int64(G.prims[prim, PRIM_MATERIAL])
         I[MATERIAL, k] = mm
         for c in range(M_WIDTH):
@@ -253,12 +259,7 @@ def _compact_reflected(R, I, m):
             _finish_ray(R, I, i, (R[CR, i], R[CG, i], R[CB, i]))
             continue
         if k < i:
-            _move(R, i, k, OX, OY, OZ)
-            _move(R, i, k, DX, DY, DZ)
-            _move(R, i, k, WR, WG, WB)
-            _move(R, i, k, CR, CG, CB)
-            _move(R, i, k, CONE, SPREAD, SPREAD)
-            I[SAMPLE, k] = I[SAMPLE, i]
+            _move_ray(R, I, i, k)
         k += 1
     return k
 
