@@ -101,6 +101,29 @@ def store_sums(film, j, i, total):
         film[j, i, FILM_COUNT] = unsigned[3]
 
 
+@inline_function
+def next_sample(i, s, samples):
+    """The sample after sample s of pixel i, a row's samples coming in pixel order (each pixel's
+    samples first..first+count-1 of this pass, samples = (first, count, total)): (pixel, sample)."""
+    first, count, _ = samples
+    if s + 1 == first + count:
+        return i + 1, first
+    return i, s + 1
+
+
+@inline_function
+def add_in_pixel_order(film, j, x0, pixel, total, i, col, w):
+    """Sample col (filter weight w) of pixel i into row j of the film, a row's samples coming in
+    pixel order: the running sums `total` of the pixel being added to are kept until its samples
+    end. Returns the (pixel, total) to go on with; store_sums(film, j, pixel - x0, total) after
+    the row's last sample."""
+    if i != pixel:
+        store_sums(film, j, pixel - x0, total)
+        pixel = i
+        total = pixel_sums(film, j, i - x0)
+    return pixel, add_sample(total, col, w)
+
+
 class Film:
     """Sums of samples for (a window of) a width x height image that will receive `total_spp`
     samples per pixel, in one pass or several (the sampler stratifies over the total: one

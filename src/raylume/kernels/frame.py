@@ -11,7 +11,7 @@ from numba import njit
 
 from .camera import CAM_CONE_SPREAD, camera_ray, camera_sample, obliquity
 from .environment import environment_radiance
-from .film import add_sample, pixel_sums, store_sums
+from .film import add_in_pixel_order, add_sample, next_sample, pixel_sums, store_sums
 from .materials import albedo
 from .packet import PACKET, packet_hit, packet_scratch, packet_trace, root_box, scene_extent, uses_packets
 from .path import finite_sample, path_ray
@@ -192,9 +192,7 @@ def _cast_row(
                     origins[k, c] = o[c]
                     directions[k, c] = d[c]
                 weights[k] = w
-                ps += 1
-                if ps == first + count:
-                    pi, ps = pi + 1, first
+                pi, ps = next_sample(pi, ps, samples)
             coherent = packet_trace(G, X, root, origins, directions, 0, n, extent, packets, node_stack, t_stack)
         for k in range(n):
             if packets_here:
@@ -208,14 +206,8 @@ def _cast_row(
             else:
                 t, prim, b1, b2 = closest_hit(G, X, o, d, 0.0, INF, node_stack, t_stack)
             col = _cast_shade(G, F, X, Env, o, d, t, prim, b1, b2, spread * obliquity(cam, d), bg)
-            if i != pixel:
-                store_sums(film, j - y0, pixel - x0, total)
-                pixel = i
-                total = pixel_sums(film, j - y0, i - x0)
-            total = add_sample(total, col, w)
-            s += 1
-            if s == first + count:
-                i, s = i + 1, first
+            pixel, total = add_in_pixel_order(film, j - y0, x0, pixel, total, i, col, w)
+            i, s = next_sample(i, s, samples)
         q += n
     store_sums(film, j - y0, pixel - x0, total)
     return total_samples

@@ -35,14 +35,14 @@ from .camera import (
     obliquity,
 )
 from .environment import environment_radiance
-from .film import add_sample, pixel_sums, store_sums
+from .film import add_in_pixel_order, next_sample, pixel_sums, store_sums
 from .lights import AMBIENT, DIRECTIONAL, LIGHT_DIRECTION, LIGHT_INTENSITY, LIGHT_POSITION, SPOT, spot_falloff
 from .materials import MAT_COLOR, MAT_EMISSION, MAT_REFLECTIVE, MAT_SPECULAR, MAT_TEXTURE, albedo, beer_lambert
 from .shape_sphere import CENTER, RADIUS
 from .shapes import NO_HIT, PRIM_KIND, PRIM_MATERIAL, PRIM_ROW, SPHERE, offset_epsilon, surface
 from .trace import MIN_WEIGHT
 from .traverse import _root_is_a_leaf, any_hit, closest_hit, scratch_array
-from .vec import FAST, dot, inline_function, kernel_function, madd, mul, row3, vector_loop
+from .vec import FAST, dot, inline_function, kernel_function, length, madd, mul, normalize, row3, vector_loop
 
 INF = math.inf
 # Samples per wavefront: its ~45 rows of float64 (90 KB) stay in the L2 cache.
@@ -311,12 +311,7 @@ def _sphere_surfaces(
         ax = px - qx[i]
         ay = py - qy[i]
         az = pz - qz[i]
-        length = math.sqrt(ax * ax + ay * ay + az * az)
-        if length == 0.0:
-            ux, uy, uz = 0.0, 0.0, 0.0
-        else:
-            inv = 1.0 / length
-            ux, uy, uz = ax * inv, ay * inv, az * inv
+        ux, uy, uz = normalize((ax, ay, az))
         out = not ux * dx[i] + uy * dy[i] + uz * dz[i] < 0.0
         if out:
             ux, uy, uz = ux * -1.0, uy * -1.0, uz * -1.0
@@ -376,12 +371,8 @@ def _light_directions(
             tx, ty, tz = x, y, z
         else:
             tx, ty, tz = x - qx[i], y - qy[i], z - qz[i]
-        distance = math.sqrt(tx * tx + ty * ty + tz * tz)
-        if distance == 0.0:
-            ux, uy, uz = 0.0, 0.0, 0.0
-        else:
-            inv = 1.0 / distance
-            ux, uy, uz = tx * inv, ty * inv, tz * inv
+        distance = length((tx, ty, tz))
+        ux, uy, uz = normalize((tx, ty, tz))  # the same square root, which LLVM computes once
         n_dot_l = nx[i] * ux + ny[i] * uy + nz[i] * uz
         twice = 2.0 * n_dot_l
         rx, ry, rz = nx[i] * twice - ux, ny[i] * twice - uy, nz[i] * twice - uz
@@ -525,12 +516,7 @@ def _pinhole_directions(dx, dy, dz, spread_out, n, cam, i0, j, width, height, sp
         x = fx + rx * a + ux * b
         y = fy + ry * a + uy * b
         z = fz + rz * a + uz * b
-        length = math.sqrt(x * x + y * y + z * z)
-        if length == 0.0:
-            x, y, z = 0.0, 0.0, 0.0
-        else:
-            inv = 1.0 / length
-            x, y, z = x * inv, y * inv, z * inv
+        x, y, z = normalize((x, y, z))
         dx[k], dy[k], dz[k] = x, y, z
         spread_out[k] = spread * abs(x * fx + y * fy + z * fz)
 
@@ -577,9 +563,7 @@ def wavefront_row(
             R[CB, k] = 0.0
             R[S_W, k] = w
             I[SAMPLE, k] = k
-            ps += 1
-            if ps == first + count:
-                pi, ps = pi + 1, first
+            pi, ps = next_sample(pi, ps, samples)
         m = n
         depth = max_depth
         while m > 0:
@@ -600,14 +584,9 @@ def wavefront_row(
             m = _compact_reflected(R, I, m)
             depth -= 1
         for k in range(n):
-            if i0 != pixel:
-                store_sums(film, j - y0, pixel - x0, total)
-                pixel = i0
-                total = pixel_sums(film, j - y0, i0 - x0)
-            total = add_sample(total, (R[S_R, k], R[S_G, k], R[S_B, k]), R[S_W, k])
-            s0 += 1
-            if s0 == first + count:
-                i0, s0 = i0 + 1, first
+            col = (R[S_R, k], R[S_G, k], R[S_B, k])
+            pixel, total = add_in_pixel_order(film, j - y0, x0, pixel, total, i0, col, R[S_W, k])
+            i0, s0 = next_sample(i0, s0, samples)
         q += n
     store_sums(film, j - y0, pixel - x0, total)
     return rays
