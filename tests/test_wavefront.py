@@ -15,7 +15,7 @@ from numba import typeof
 import raylume
 import raylume.session as session
 from raylume.image import Image
-from raylume.kernels import wavefront
+from raylume.kernels import wavefront, wavefront_spheres
 from raylume.kernels.scene import instances_of
 from raylume.kernels.shapes import features
 
@@ -151,18 +151,30 @@ def _asm(function, *args) -> str:
 
 
 def test_the_vector_loops_are_vector_code():
-    """8 float64 lanes on AVX-512 (zmm), 4 on AVX2 (ymm): packed square roots and divisions.
-    Should LLVM stop vectorising a loop, this fails (the images would not change)."""
+    """8 float64 lanes on AVX-512 (zmm), 4 on AVX2 (ymm): packed square roots and divisions
+    where a stage has them, packed arithmetic in the others. Should LLVM stop vectorising a
+    loop, this fails (the images would not change)."""
     n = 16
-    f = [np.zeros(n) for _ in range(12)]
-    i = np.zeros(n, dtype=np.int64)
-    loops = {
-        "_sphere_closest": (wavefront._sphere_closest, (*f[:7], i, n, 0.0, 0.0, 0.0, 1.0, 0)),
-        "_sphere_blocks": (wavefront._sphere_blocks, (*f[:7], i, n, 0.0, 0.0, 0.0, 1.0)),
-        "_light_directions": (wavefront._light_directions, (*f[:10], *f[:6], i, n, False, 0.0, 0.0, 0.0)),
-        "_pinhole_directions": (wavefront._pinhole_directions, (*f[:4], n, np.zeros(17), 0, 0, n, n, 0.1)),
+    R = np.zeros(wavefront.WAVE_ROWS * wavefront.STRIDE)
+    I = np.zeros(wavefront.WAVE_INT_ROWS * wavefront.STRIDE, dtype=np.int64)
+    rows = (wavefront.OX, wavefront.OY, wavefront.OZ, wavefront.DX, wavefront.DY, wavefront.DZ, wavefront.T, 0)
+    spheres = np.zeros((2, 4))
+    dividing = {
+        "tile_closest": (wavefront_spheres.tile_closest, (R, I, rows, n, spheres, 0, 2)),
+        "tile_blocks": (wavefront_spheres.tile_blocks, (R, I, rows, n, spheres, 0, 2, False)),
+        "_light_directions": (wavefront._light_directions, (R, I, n, False, 0.0, 0.0, 0.0)),
+        "_pinhole_directions": (wavefront._pinhole_directions, (R, n, np.zeros(17), 0, 0, n, n, 0.1)),
+        "_sphere_surfaces": (wavefront._sphere_surfaces, (R, I, n, 0.0)),
     }
-    for name, (function, args) in loops.items():
+    for name, (function, args) in dividing.items():
         asm = _asm(function, *args)
         for op in ("vsqrtpd", "vdivpd"):
             assert re.search(rf"{op}\s+[^\n]*%[yz]mm", asm), f"no packed {op} in {name}"
+    others = {
+        "_add_local": (wavefront._add_local, (R, n, False), "vmulpd"),
+        "_reflect": (wavefront._reflect, (R, I, n, False), "vmulpd"),
+        "_gather_light": (wavefront._gather_light, (R, I, n, 0.0, 0.0, 0.0), "vmulpd"),
+        "_needs_shadow": (wavefront._needs_shadow, (R, I, n), "vcmp"),
+    }
+    for name, (function, args, op) in others.items():
+        assert re.search(rf"{op}\w*\s+[^\n]*%[yz]mm", _asm(function, *args)), f"no packed {op} in {name}"

@@ -124,6 +124,24 @@ def add_in_pixel_order(film, j, x0, pixel, total, i, col, w):
     return pixel, add_sample(total, col, w)
 
 
+@inline_function
+def add_one_each(flat, at, samples, rows, n):
+    """Samples 0..n-1 into n pixels in a row, one each, of a film without the unsigned half:
+    add_in_pixel_order's sums for pixels of one sample, without its running sums and pixel
+    checks. `flat` is film.reshape(film.size) and `at` the first pixel's index into it; the
+    samples' colours and filter weights are slots 0..n-1 of the rows of `samples` at the offsets
+    rows = (r, g, b, weight)."""
+    r0, g0, b0, w0 = rows
+    for k in range(n):
+        p = at + k * FILM_WIDTH
+        r, g, b, w = samples[r0 + k], samples[g0 + k], samples[b0 + k], samples[w0 + k]
+        positive = w > 0.0
+        flat[p + FILM_RGB] = flat[p + FILM_RGB] + r if positive else flat[p + FILM_RGB] - r
+        flat[p + FILM_RGB + 1] = flat[p + FILM_RGB + 1] + g if positive else flat[p + FILM_RGB + 1] - g
+        flat[p + FILM_RGB + 2] = flat[p + FILM_RGB + 2] + b if positive else flat[p + FILM_RGB + 2] - b
+        flat[p + FILM_WEIGHT] = flat[p + FILM_WEIGHT] + w
+
+
 class Film:
     """Sums of samples for (a window of) a width x height image that will receive `total_spp`
     samples per pixel, in one pass or several (the sampler stratifies over the total: one

@@ -179,6 +179,20 @@ def _kernel_function(py_func, options):
     return KernelFunction(py_func=py_func, locals={}, targetoptions=targetoptions, pipeline_class=_PIPELINE)
 
 
+@vector_loop
+def fill(row, n, value):
+    """row[0..n-1] = value"""
+    for k in range(n):
+        row[k] = value
+
+
+@vector_loop
+def count_up(row, n):
+    """row[k] = k for k in 0..n-1"""
+    for k in range(n):
+        row[k] = k
+
+
 @kernel_function
 def add(a, b):
     return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
