@@ -43,7 +43,7 @@ from .materials import MAT_COLOR, MAT_EMISSION, MAT_REFLECTIVE, MAT_SPECULAR, MA
 from .shape_sphere import CENTER, RADIUS
 from .shapes import NO_HIT, PRIM_KIND, PRIM_MATERIAL, PRIM_ROW, SPHERE, offset_epsilon, surface
 from .trace import MIN_WEIGHT
-from .traverse import _root_is_a_leaf, any_hit, closest_hit, scratch_array
+from .traverse import _root_is_a_leaf, any_hit, closest_hit, prefetch_row, scratch_array
 from .vec import (
     FAST,
     count_up,
@@ -157,13 +157,11 @@ def _sphere_leaf(G):
 
 @inline_function
 def _closest_hits(G, X, R, I, C, m, leaf_first, leaf_count, node_stack, t_stack):
-    """Closest hits of rays 0..m-1 into T, PRIM, B1, B2."""
+    """Closest hits of rays 0..m-1 into T, PRIM, B1, B2 (a sphere's barycentrics are 0, as the
+    rows start)."""
     if leaf_count > 0:
-        for i in range(m):
-            R[T + i] = INF
-            I[PRIM + i] = NO_HIT
-            R[B1 + i] = 0.0
-            R[B2 + i] = 0.0
+        fill(R[T : T + STRIDE], m, INF)
+        fill(I[PRIM : PRIM + STRIDE], m, NO_HIT)
         tile_closest(R, I, (OX, OY, OZ, DX, DY, DZ, T, PRIM), m, C, leaf_first, leaf_count)
         return
     for i in range(m):
@@ -177,69 +175,92 @@ def _closest_hits(G, X, R, I, C, m, leaf_first, leaf_count, node_stack, t_stack)
 
 
 @inline_function
-def _move(R, i, k, a, b, c):
-    """Rows a, b, c of slot i into slot k (k < i), loaded before any is stored."""
-    va, vb, vc = R[a + i], R[b + i], R[c + i]
-    R[a + k], R[b + k], R[c + k] = va, vb, vc
+def at(row, slot):
+    """The index of a slot of a row, unsigned: Numba wraps negative indices around, a compare
+    and a conditional move on every scalar access that LLVM cannot prove non-negative (a
+    counter of kept rays, an index loaded from a table)."""
+    return np.uint64(row + slot)
 
 
 @inline_function
-def _move_ray(R, I, i, k):
-    """A ray's state (origin, direction, weight, colour, cone, sample) from slot i to k < i."""
+def _move(R, i, k, a, b, c):
+    """Rows a, b, c of slot i into slot k (k < i), loaded before any is stored."""
+    va, vb, vc = R[at(a, i)], R[at(b, i)], R[at(c, i)]
+    R[at(a, k)], R[at(b, k)], R[at(c, k)] = va, vb, vc
+
+
+@inline_function
+def _move_ray(R, I, i, k, textured):
+    """A ray's state (origin, direction, weight, colour, sample; the cone only for textures)
+    from slot i to k < i."""
     _move(R, i, k, OX, OY, OZ)
     _move(R, i, k, DX, DY, DZ)
     _move(R, i, k, WR, WG, WB)
     _move(R, i, k, CR, CG, CB)
-    _move(R, i, k, CONE, SPREAD, SPREAD)
-    I[SAMPLE + k] = I[SAMPLE + i]
+    if textured:
+        _move(R, i, k, CONE, SPREAD, SPREAD)
+    I[at(SAMPLE, k)] = I[at(SAMPLE, i)]
 
 
 @inline_function
 def _finish_ray(R, I, i, col):
     """A ray that ends: its sample's colour is final."""
-    s = I[SAMPLE + i]
-    R[S_R + s], R[S_G + s], R[S_B + s] = col
+    s = I[at(SAMPLE, i)]
+    R[at(S_R, s)], R[at(S_G, s)], R[at(S_B, s)] = col
 
 
 @inline_function
-def _compact_hits(G, Env, R, I, M, C, m, bg, spheres):
+def _compact_hits(G, Env, R, I, M, C, m, bg, spheres, textured, emissive):
     """The rays that hit something move to slots 0..k-1 (in order) and take their hit's
     material (and, in a leaf of `spheres`, the sphere's centre into QX..QZ); the others add the
-    sky (the environment, else the background) and end. Returns k."""
+    sky (the environment, else the background) and end. Returns k. What no later stage reads is
+    left: a sphere's barycentrics (always 0), the ray cone without textures, emission where no
+    material emits (the rows stay 0)."""
     k = 0
     for i in range(m):
-        prim = I[PRIM + i]
+        prim = I[at(PRIM, i)]
         if prim == NO_HIT:
-            d = (R[DX + i], R[DY + i], R[DZ + i])
-            w = (R[WR + i], R[WG + i], R[WB + i])
+            d = (R[at(DX, i)], R[at(DY, i)], R[at(DZ, i)])
+            w = (R[at(WR, i)], R[at(WG, i)], R[at(WB, i)])
             sky = environment_radiance(Env, d) if Env.present else bg
-            _finish_ray(R, I, i, (R[CR + i] + w[0] * sky[0], R[CG + i] + w[1] * sky[1], R[CB + i] + w[2] * sky[2]))
+            _finish_ray(
+                R, I, i, (R[at(CR, i)] + w[0] * sky[0], R[at(CG, i)] + w[1] * sky[1], R[at(CB, i)] + w[2] * sky[2])
+            )
             continue
         if k < i:
-            _move_ray(R, I, i, k)
-            _move(R, i, k, T, B1, B2)
-            I[PRIM + k] = prim
-        mm = np.int64(G.prims[prim, PRIM_MATERIAL])
-        I[MATERIAL + k] = mm
-        for c in range(M_WIDTH):
-            R[AR + c * STRIDE + k] = M[mm, c]
+            _move_ray(R, I, i, k, textured)
+            if spheres:
+                R[at(T, k)] = R[at(T, i)]
+            else:
+                _move(R, i, k, T, B1, B2)
+            I[at(PRIM, k)] = prim
+        mm = np.int64(G.prims[np.uint64(prim), PRIM_MATERIAL])
+        I[at(MATERIAL, k)] = mm
+        R[at(AR, k)], R[at(AG, k)], R[at(AB, k)] = M[np.uint64(mm), 0], M[np.uint64(mm), 1], M[np.uint64(mm), 2]
+        if emissive:
+            R[at(ER, k)], R[at(EG, k)], R[at(EB, k)] = M[np.uint64(mm), 3], M[np.uint64(mm), 4], M[np.uint64(mm), 5]
+        R[at(SPEC, k)], R[at(REFL, k)] = M[np.uint64(mm), 6], M[np.uint64(mm), 7]
         if spheres:
-            R[QX + k], R[QY + k], R[QZ + k] = C[prim, 0], C[prim, 1], C[prim, 2]
+            R[at(QX, k)], R[at(QY, k)], R[at(QZ, k)] = (
+                C[np.uint64(prim), 0],
+                C[np.uint64(prim), 1],
+                C[np.uint64(prim), 2],
+            )
         k += 1
     return k
 
 
 @inline_function
-def _compact_reflected(R, I, m):
+def _compact_reflected(R, I, m, textured):
     """The reflected rays that go on (FLAG) move to slots 0..k-1 (in order); the others end.
     Returns k."""
     k = 0
     for i in range(m):
-        if I[FLAG + i] == 0:
-            _finish_ray(R, I, i, (R[CR + i], R[CG + i], R[CB + i]))
+        if I[at(FLAG, i)] == 0:
+            _finish_ray(R, I, i, (R[at(CR, i)], R[at(CG, i)], R[at(CB, i)]))
             continue
         if k < i:
-            _move_ray(R, I, i, k)
+            _move_ray(R, I, i, k, textured)
         k += 1
     return k
 
@@ -514,9 +535,11 @@ def wavefront_row(
     x0, y0, x1, y1 = window
     spread = cam[CAM_CONE_SPREAD]
     leaf_first, leaf_count = _sphere_leaf(G)
-    textured = False
+    textured = False  # any material with a texture; any that emits
+    emissive = False
     for mm in range(F.materials.shape[0]):
         textured = textured or F.materials[mm, MAT_TEXTURE] >= 0
+        emissive = emissive or max(row3(F.materials, mm, MAT_EMISSION)) != 0.0
     pinhole_centres = total_spp == 1 and not cam[CAM_LENS_RADIUS] > 0.0
     total_samples = (x1 - x0) * count
     one_each = count == 1 and film.shape[2] == FILM_WIDTH  # one sample a pixel: the film's vector loop
@@ -527,6 +550,11 @@ def wavefront_row(
     q = 0
     while q < total_samples:
         n = min(TILE, total_samples - q)
+        if one_each:  # the film's pixels of this tile, fetched while the tile is traced
+            flat = film.reshape(film.size)
+            at = ((j - y0) * film.shape[1] + i0 - x0) * FILM_WIDTH
+            for k in range(at, at + n * FILM_WIDTH, 8):
+                prefetch_row(flat, k)
         if pinhole_centres:  # camera_sample's rays through pixels i0.., without the unused random key
             _pinhole_directions(R, n, cam, i0, j, width, height, spread)
         if pinhole_centres:
@@ -552,13 +580,13 @@ def wavefront_row(
         while m > 0:
             _closest_hits(G, X, R, I, C, m, leaf_first, leaf_count, node_stack, t_stack)
             rays += m
-            m = _compact_hits(G, Env, R, I, M, C, m, bg, leaf_count > 0)
+            m = _compact_hits(G, Env, R, I, M, C, m, bg, leaf_count > 0, textured, emissive)
             _find_surfaces(G, F, X, R, I, m, leaf_count, textured)
             rays += _lighting(G, X, L, R, I, C, m, leaf_first, leaf_count, node_stack)
             last = depth <= 0
             _add_local(R, m, last)
             _reflect(R, I, m, last)
-            m = _compact_reflected(R, I, m)
+            m = _compact_reflected(R, I, m, textured)
             depth -= 1
         if one_each:
             at = ((j - y0) * film.shape[1] + i0 - x0) * FILM_WIDTH
