@@ -15,7 +15,7 @@ from __future__ import annotations
 import os
 import time
 from collections.abc import Callable
-from concurrent.futures import ThreadPoolExecutor, wait
+from concurrent.futures import wait
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -30,6 +30,7 @@ from .kernels.camera import camera_of, set_cone_spread
 from .kernels.film import Film
 from .kernels.frame import PROGRESS_STRIDE, aov_lane, cast_lane, path_lane, trace_lane
 from .kernels.shapes import features, path_features
+from .lanes import lane_pool
 from .scene.checks import warn_about
 from .scene.model import Camera, RenderSettings, Scene
 from .scene.open import SceneLike, open_scene
@@ -452,23 +453,23 @@ def _ray_render(S, cam, film: Film, spp: int, settings, aov: dict, progress, lan
     lane_job(0, (window[0], window[1], window[2], window[1]))  # compile (or load from the cache): no rows
     status("rendering")
     total = rows * (2 if aov else 1)
-    with ThreadPoolExecutor(max_workers=lanes, thread_name_prefix="raylume") as pool:
-        t0 = time.perf_counter()
-        futures = [pool.submit(lane_job, lane, window) for lane in range(lanes)]
-        try:
-            while True:
-                finished, pending = wait(futures, timeout=POLL_SECONDS)
-                if progress is not None:
-                    progress(int(rows_done.sum()), total)
-                if not pending:
-                    break
-        except KeyboardInterrupt:
-            stop[0] = 1
-            wait(futures)
-            partial = Image(film.rgb(), aov, {}, settings.encoding, exposure=settings.exposure)
-            done = int(rows_done.sum()) - (rows if aov else 0)
-            raise RenderInterrupted(partial, max(done, 0)) from None
-        kernel_seconds = time.perf_counter() - t0
+    pool = lane_pool(lanes)
+    t0 = time.perf_counter()
+    futures = [pool.submit(lane_job, lane, window) for lane in range(lanes)]
+    try:
+        while True:
+            finished, pending = wait(futures, timeout=POLL_SECONDS)
+            if progress is not None:
+                progress(int(rows_done.sum()), total)
+            if not pending:
+                break
+    except KeyboardInterrupt:
+        stop[0] = 1
+        wait(futures)
+        partial = Image(film.rgb(), aov, {}, settings.encoding, exposure=settings.exposure)
+        done = int(rows_done.sum()) - (rows if aov else 0)
+        raise RenderInterrupted(partial, max(done, 0)) from None
+    kernel_seconds = time.perf_counter() - t0
     for future in futures:
         future.result()  # re-raises a lane's exception
     film.spp += spp

@@ -1,10 +1,9 @@
 """Batch ray queries over a compiled scene: closest hits for arrays of rays (benchmarks, tests,
 and users who want raylume as a ray-intersection library)."""
 
-from concurrent.futures import ThreadPoolExecutor
-
 from numba import njit
 
+from ..lanes import lane_pool
 from .packet import PACKET, packet_hit, packet_scratch, packet_trace, root_box, scene_extent, uses_packets
 from .scene import geometry_of
 from .shapes import NO_HIT, PRIM_FACE, PRIM_OBJECT, instance_id, split_hit
@@ -102,8 +101,7 @@ def intersect_rays(S, X, origins, directions, t_out, object_out, prim_out, insta
     if lanes == 1:
         intersect_lane(*args, 0, 1)
         return
-    with ThreadPoolExecutor(max_workers=lanes - 1, thread_name_prefix="raylume-intersect") as pool:
-        futures = [pool.submit(intersect_lane, *args, lane, lanes) for lane in range(1, lanes)]
-        intersect_lane(*args, 0, lanes)
-        for f in futures:
-            f.result()
+    futures = [lane_pool(lanes - 1).submit(intersect_lane, *args, lane, lanes) for lane in range(1, lanes)]
+    intersect_lane(*args, 0, lanes)
+    for f in futures:
+        f.result()
