@@ -22,6 +22,7 @@ from raylume.kernels.shapes import features
 LIGHTS = [
     {"type": "ambient", "intensity": 0.15},
     {"type": "point", "position": [2, 3, -2], "intensity": [0.6, 0.5, 0.4]},
+    {"type": "ambient", "intensity": [0.05, 0.03, 0.011]},  # after another light: added in its turn
     {"type": "directional", "direction": [-1, 4, -2], "intensity": 0.25},
     {"type": "spot", "position": [-2, 4, -1], "direction": [0.5, -1, 0.8], "angle": 35, "inner_angle": 20},
 ]
@@ -171,8 +172,7 @@ def test_the_vector_loops_are_vector_code():
         for op in ("vsqrtpd", "vdivpd"):
             assert re.search(rf"{op}\s+[^\n]*%[yz]mm", asm), f"no packed {op} in {name}"
     others = {
-        "_add_local": (wavefront._add_local, (R, n, False), "vmulpd"),
-        "_reflect": (wavefront._reflect, (R, I, n, False), "vmulpd"),
+        "_add_local_and_reflect": (wavefront._add_local_and_reflect, (R, I, n, False), "vmulpd"),
         "_gather_light": (wavefront._gather_light, (R, I, n, 0.0, 0.0, 0.0), "vmulpd"),
         "_needs_shadow": (wavefront._needs_shadow, (R, I, n), "vcmp"),
     }

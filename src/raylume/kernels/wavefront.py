@@ -452,12 +452,18 @@ def _gather_light(R, I, m, r, g, b):
 def _lighting(G, X, L, R, I, C, m, leaf_first, leaf_count, node_stack):
     """Ambient + diffuse + specular light at every slot from every light; returns the shadow
     rays traced."""
+    # The ambient lights before any other are the same sum for every slot (in trace_ray's order:
+    # from 0, light by light), which the rows start from.
+    ambient = (0.0, 0.0, 0.0)
+    first = 0
+    while first < L.kind.shape[0] and L.kind[first] == AMBIENT:
+        a = row3(L.data, first, LIGHT_INTENSITY)
+        ambient = (ambient[0] + a[0], ambient[1] + a[1], ambient[2] + a[2])
+        first += 1
+    for c, row in enumerate((IR, IG, IB)):
+        fill(R[row : row + STRIDE], m, ambient[c])
     rays = 0
-    for i in range(m):
-        R[IR + i] = 0.0
-        R[IG + i] = 0.0
-        R[IB + i] = 0.0
-    for j in range(L.kind.shape[0]):
+    for j in range(first, L.kind.shape[0]):
         if L.kind[j] == AMBIENT:
             intensity = row3(L.data, j, LIGHT_INTENSITY)
             for i in range(m):
@@ -473,28 +479,24 @@ def _lighting(G, X, L, R, I, C, m, leaf_first, leaf_count, node_stack):
 
 
 @vector_loop(fastmath=FAST)
-def _add_local(R, m, last):
+def _add_local_and_reflect(R, I, m, last):
     """Each ray's local colour (albedo x light + emission) into its colour, weighted as
     trace_ray weighs it: whole on the `last` bounce, else times 1 - reflectivity (trace_ray's
-    factors 1 - transparency are exactly 1 here)."""
+    factors 1 - transparency are exactly 1 here); then its reflection (from the offset point,
+    in place), and whether it goes on (FLAG): not after the `last` bounce, nor once its weight
+    cannot matter."""
     for i in range(m):
         lr = R[AR + i] * R[IR + i] + R[ER + i]
         lg = R[AG + i] * R[IG + i] + R[EG + i]
         lb = R[AB + i] * R[IB + i] + R[EB + i]
-        k_local = 1.0 if last else 1.0 - R[REFL + i]
-        R[CR + i] = R[CR + i] + R[WR + i] * k_local * lr
-        R[CG + i] = R[CG + i] + R[WG + i] * k_local * lg
-        R[CB + i] = R[CB + i] + R[WB + i] * k_local * lb
-
-
-@vector_loop(fastmath=FAST)
-def _reflect(R, I, m, last):
-    """The reflection of each ray (from the offset point, in place), and whether it goes on
-    (FLAG): not after the `last` bounce, nor once its weight cannot matter."""
-    for i in range(m):
         r = R[REFL + i]
+        k_local = 1.0 if last else 1.0 - r
+        wr, wg, wb = R[WR + i], R[WG + i], R[WB + i]
+        R[CR + i] = R[CR + i] + wr * k_local * lr
+        R[CG + i] = R[CG + i] + wg * k_local * lg
+        R[CB + i] = R[CB + i] + wb * k_local * lb
         R[OX + i], R[OY + i], R[OZ + i] = R[QX + i], R[QY + i], R[QZ + i]
-        w0, w1, w2 = R[WR + i] * r, R[WG + i] * r, R[WB + i] * r
+        w0, w1, w2 = wr * r, wg * r, wb * r
         dx, dy, dz = R[DX + i], R[DY + i], R[DZ + i]
         nx, ny, nz = R[NX + i], R[NY + i], R[NZ + i]
         twice = -2.0 * (dx * nx + dy * ny + dz * nz)
@@ -584,8 +586,7 @@ def wavefront_row(
             _find_surfaces(G, F, X, R, I, m, leaf_count, textured)
             rays += _lighting(G, X, L, R, I, C, m, leaf_first, leaf_count, node_stack)
             last = depth <= 0
-            _add_local(R, m, last)
-            _reflect(R, I, m, last)
+            _add_local_and_reflect(R, I, m, last)
             m = _compact_reflected(R, I, m, textured)
             depth -= 1
         if one_each:
