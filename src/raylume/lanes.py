@@ -26,11 +26,10 @@ def lane_pool(workers: int) -> ThreadPoolExecutor:
     global _pool, _size
     with _lock:
         if _pool is None or _size < workers:
-            old = _pool
+            # A render still holding the smaller pool submits its lanes to it; once no render
+            # holds it, it is collected and its idle threads end.
             _size = max(workers, os.cpu_count() or 1)
             _pool = ThreadPoolExecutor(max_workers=_size, thread_name_prefix="raylume")
-            if old is not None:
-                old.shutdown(wait=False)  # its running jobs finish; it takes no more
         return _pool
 
 
