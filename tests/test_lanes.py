@@ -1,16 +1,19 @@
 """The threads that run renders' lanes (raylume/lanes.py): kept from one render to the next,
-shared by renders running at once, and made anew in a forked child."""
+shared by renders running at once, and made anew in a forked child; and the rows the lanes
+claim (kernels/frame.py, claim_row): each row to exactly one lane."""
 
 from __future__ import annotations
 
 import multiprocessing
 import threading
 
+import numba
 import numpy as np
 import pytest
 
 import raylume
 from raylume import lanes
+from raylume.kernels.frame import AOV_ROWS, CONTROL_SIZE, PASS_ROWS, STOP, claim_row
 
 
 def _lane_threads() -> set[int]:
@@ -70,3 +73,33 @@ def test_a_forked_child_renders_on_threads_of_its_own():
         child.join()
     assert child.exitcode == 0
     assert queue.get(timeout=5) == expected
+
+
+@numba.njit(nogil=True)
+def _claim_all(control, counter, seen, n):
+    """Claims rows until n are handed out, marking each one claimed in `seen` (per claimer)."""
+    while True:
+        j = claim_row(control, counter)
+        if j >= n:
+            return
+        seen[j] += 1
+
+
+def test_every_row_is_claimed_by_exactly_one_lane():
+    """Lanes claim rows with an atomic counter: four threads racing over 5 million rows hand out
+    each row once (a plain read-increment-write would lose and repeat rows). So many that the
+    threads overlap even when a busy machine starts them late."""
+    n = 5_000_000
+    control = np.zeros(CONTROL_SIZE, dtype=np.int64)
+    seen = [np.zeros(n, dtype=np.int8) for _ in range(4)]
+    _claim_all(control, PASS_ROWS, np.zeros(n, dtype=np.int8), 0)  # compile (it claims a row)
+    control[:] = 0
+    workers = [threading.Thread(target=_claim_all, args=(control, PASS_ROWS, s, n)) for s in seen]
+    for t in workers:
+        t.start()
+    for t in workers:
+        t.join()
+    total = sum(seen)
+    assert (total == 1).all()
+    assert sum(int(s.sum() > 0) for s in seen) >= 2  # the threads did share the rows
+    assert control[STOP] == 0 and control[AOV_ROWS] == 0

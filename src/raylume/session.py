@@ -4,8 +4,9 @@ Compiling (model -> arrays, mesh loading, the BVH) happens in the constructor; e
 only makes a camera array and a film, then runs the mode's kernels. The viewer, the cluster and
 animations render through a Session; `raylume.render` is the one-shot form.
 
-Ray modes run one *lane* per thread over the whole image (kernels/frame.py: lane k renders
-rows k, k + lanes, ...). The calling thread only waits and watches: it polls the lanes' row
+Ray modes run one *lane* per thread over the whole image (kernels/frame.py: each lane claims
+the next row left, so a lane slowed by the machine takes fewer; lanes.py keeps the threads from
+one render to the next). The calling thread only waits and watches: it polls the lanes' row
 counters for the progress bar, and on Ctrl-C raises a flag that every lane checks before each
 row, so the render stops within a row's time and keeps the rows that are done.
 """
@@ -28,7 +29,17 @@ from .errors import RaylumeError, SceneError
 from .image import Image
 from .kernels.camera import camera_of, set_cone_spread
 from .kernels.film import Film
-from .kernels.frame import PROGRESS_STRIDE, aov_lane, cast_lane, path_lane, trace_lane
+from .kernels.frame import (
+    AOV_ROWS,
+    CONTROL_SIZE,
+    PASS_ROWS,
+    PROGRESS_STRIDE,
+    STOP,
+    aov_lane,
+    cast_lane,
+    path_lane,
+    trace_lane,
+)
 from .kernels.shapes import features, path_features
 from .lanes import lane_pool
 from .scene.checks import warn_about
@@ -422,7 +433,8 @@ def _ray_render(S, cam, film: Film, spp: int, settings, aov: dict, progress, lan
     rows = window[3] - window[1]
     rays_per_row = np.zeros(rows, dtype=np.int64)
     rows_done = np.zeros(lanes * PROGRESS_STRIDE, dtype=np.int64)  # one padded counter per lane
-    stop = np.zeros(1, dtype=np.int64)  # set to 1 to stop every lane before its next row
+    # control[STOP] = 1 stops every lane before its next row; the lanes claim rows from counters in it
+    control = np.zeros(CONTROL_SIZE, dtype=np.int64)
     background = np.asarray(settings.background, dtype=np.float64)
     samples = (film.spp, spp, film.total_spp)  # first, count, total
     X = features(S)  # None: the kernels' variant for spheres and opaque triangles only
@@ -435,22 +447,23 @@ def _ray_render(S, cam, film: Film, spp: int, settings, aov: dict, progress, lan
         if aov:
             depth, normal, obj, prim, albedo, instance = (aov[k] for k in AOV_NAMES)
             aov_lane(
-                S, X, cam, W, H, window, lane, lanes, depth, normal, obj, prim, albedo, instance, rays_per_row,
-                rows_done, stop,
+                S, X, cam, W, H, window, lane, AOV_ROWS, depth, normal, obj, prim, albedo, instance, rays_per_row,
+                rows_done, control,
             )  # fmt: skip
         if settings.mode == "cast":
-            cast_lane(S, X, cam, film.filter, W, H, window, lane, lanes, samples, settings.seed, background, film.sums,
-                      rays_per_row, rows_done, stop)  # fmt: skip
+            cast_lane(S, X, cam, film.filter, W, H, window, lane, PASS_ROWS, samples, settings.seed, background,
+                      film.sums, rays_per_row, rows_done, control)  # fmt: skip
         elif settings.mode == "path":
-            path_lane(S, X, cam, film.filter, W, H, window, lane, lanes, samples, settings.seed, settings.depth,
-                      background, film.sums, rays_per_row, rows_done, stop, rejected, strategy)  # fmt: skip
+            path_lane(S, X, cam, film.filter, W, H, window, lane, PASS_ROWS, samples, settings.seed, settings.depth,
+                      background, film.sums, rays_per_row, rows_done, control, rejected, strategy)  # fmt: skip
         else:
-            trace_lane(S, X, cam, film.filter, W, H, window, lane, lanes, samples, settings.seed, settings.depth,
-                       background, film.sums, rays_per_row, rows_done, stop)  # fmt: skip
+            trace_lane(S, X, cam, film.filter, W, H, window, lane, PASS_ROWS, samples, settings.seed, settings.depth,
+                       background, film.sums, rays_per_row, rows_done, control)  # fmt: skip
 
     status = status or (lambda what: None)
     status("compiling")
     lane_job(0, (window[0], window[1], window[2], window[1]))  # compile (or load from the cache): no rows
+    control[:] = 0  # (that claimed a row of the empty window)
     status("rendering")
     total = rows * (2 if aov else 1)
     pool = lane_pool(lanes)
@@ -464,7 +477,7 @@ def _ray_render(S, cam, film: Film, spp: int, settings, aov: dict, progress, lan
             if not pending:
                 break
     except KeyboardInterrupt:
-        stop[0] = 1
+        control[STOP] = 1
         wait(futures)
         partial = Image(film.rgb(), aov, {}, settings.encoding, exposure=settings.exposure)
         done = int(rows_done.sum()) - (rows if aov else 0)

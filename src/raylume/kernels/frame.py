@@ -7,7 +7,10 @@ centre. Samples are added to the film's running sums; samples first..first+spp-1
 continue from whatever earlier passes left there."""
 
 import numpy as np
-from numba import njit
+from llvmlite import ir
+from numba import njit, types
+from numba.core.errors import TypingError
+from numba.extending import intrinsic
 
 from .camera import CAM_CONE_SPREAD, camera_ray, camera_sample, obliquity
 from .environment import environment_radiance
@@ -39,11 +42,15 @@ def _cast_shade(G, F, X, Env, o, d, t, prim, b1, b2, spread, background):
 
 # Entry points, one per kind of work, so a render compiles only what it runs. Each renders one
 # lane of a window of the image: window = (x0, y0, x1, y1) holds columns x0..x1-1 and rows
-# y0..y1-1 of the width x height image (the whole image, or a --crop); lane k of `lanes` takes
-# every lanes-th row, from y0 + k. The Session runs the lanes on threads (the kernels release
-# the GIL). Rows differ widely in cost (sky against floor); interleaving them balances the
-# threads, where contiguous blocks of rows left one thread the sky and two threads were only
-# 1.4x faster than one on the seed scene. The film, the AOVs and rays_per_row cover the window:
+# y0..y1-1 of the width x height image (the whole image, or a --crop). The Session runs the
+# lanes on threads (the kernels release the GIL), and each lane claims the next row not yet
+# claimed (`claim_row`, one counter per pass, control[counter]) until none is left. Rows differ
+# widely in cost (sky against floor): contiguous blocks of rows left one thread the sky and two
+# threads were only 1.4x faster than one on the seed scene. Every lane's n-th row had balanced
+# the rows' costs but not the threads' speeds: a lane whose core the machine slowed (another
+# process, a virtual CPU descheduled, a thread woken late) finished last while the others
+# waited; claimed rows go to whichever lane is free. Which lane renders a row changes nothing
+# in it. The film, the AOVs and rays_per_row cover the window:
 # pixel (i, j) of the image is their element (j - y0, i - x0), and its samples are those of
 # the full image (the same keys), so a window equals that part of the full render.
 # `samples` is (first, count, total): this pass adds samples first..first+count-1 of total.
@@ -51,16 +58,37 @@ def _cast_shade(G, F, X, Env, o, d, t, prim, b1, b2, spread, background):
 # (see shapes.py, "features"): with None, Numba compiles no code for the other shapes, planes,
 # transparent shadows or instances.
 # Every lane counts the rows it finished in rows_done[lane * PROGRESS_STRIDE] (counters a cache
-# line apart, against false sharing) and checks stop[0] before each row: the waiting thread
-# shows progress from the counters and stops a render within a row's time.
+# line apart, against false sharing) and checks control[STOP] before each row: the waiting
+# thread shows progress from the counters and stops a render within a row's time.
 LANE = dict(nogil=True, cache=True, fastmath=FAST, error_model="numpy")
 PROGRESS_STRIDE = 16
+# The lanes' int64 control array: the stop flag, then a row counter per pass (a render with AOVs
+# makes two passes), each in a cache line of its own.
+STOP = 0
+AOV_ROWS, PASS_ROWS = PROGRESS_STRIDE, 2 * PROGRESS_STRIDE
+CONTROL_SIZE = 3 * PROGRESS_STRIDE
+
+
+@intrinsic
+def claim_row(typingctx, control, counter):
+    """The number of the next row of a pass, counted from the window's first: counter `counter`
+    of `control` (an int64 array), raised by one atomically, as it was before."""
+    if not (isinstance(control, types.Array) and control.dtype == types.int64 and control.layout == "C"):
+        raise TypingError("claim_row: control must be a C-contiguous int64 array")
+
+    def codegen(context, builder, sig, args):
+        arr = context.make_array(sig.args[0])(context, builder, args[0])
+        at = context.cast(builder, args[1], sig.args[1], types.int64)
+        p = builder.gep(arr.data, [at], inbounds=True)
+        return builder.atomic_rmw("add", p, ir.Constant(ir.IntType(64), 1), "monotonic")
+
+    return types.int64(control, counter), codegen
 
 
 @njit(**LANE)
 def trace_lane(
-    S, X, cam, filt, width, height, window, lane, lanes, samples, seed, max_depth, background, film, rays_per_row,
-    rows_done, stop,
+    S, X, cam, filt, width, height, window, lane, counter, samples, seed, max_depth, background, film, rays_per_row,
+    rows_done, control,
 ):  # fmt: skip
     """Whitted-traced samples of the lane's rows into the film; rays traced per row into rays_per_row."""
     node_stack, t_stack = traversal_stacks()
@@ -71,8 +99,9 @@ def trace_lane(
     bg = (background[0], background[1], background[2])
     Env = environment_of(S)
     x0, y0, x1, y1 = window
-    for j in range(y0 + lane, y1, lanes):
-        if stop[0] != 0:
+    while True:
+        j = y0 + claim_row(control, counter)
+        if j >= y1 or control[STOP] != 0:
             break
         rays_per_row[j - y0] += _trace_row(
             G, F, L, X, Env, cam, filt, j, window, width, height, samples, seed, max_depth, bg, film, work, wave,
@@ -83,8 +112,8 @@ def trace_lane(
 
 @njit(**LANE)
 def path_lane(
-    S, X, cam, filt, width, height, window, lane, lanes, samples, seed, max_depth, background, film, rays_per_row,
-    rows_done, stop, rejected, strategy,
+    S, X, cam, filt, width, height, window, lane, counter, samples, seed, max_depth, background, film, rays_per_row,
+    rows_done, control, rejected, strategy,
 ):  # fmt: skip
     """Path-traced samples of the lane's rows into the film; rays per row into rays_per_row, and
     samples rejected as NaN, infinite or negative into rejected[lane * PROGRESS_STRIDE]."""
@@ -93,8 +122,9 @@ def path_lane(
     G, F, Em = geometry_of(S), surfaces_of(S), emitters_of(S)
     Env = environment_of(S)
     x0, y0, x1, y1 = window
-    for j in range(y0 + lane, y1, lanes):
-        if stop[0] != 0:
+    while True:
+        j = y0 + claim_row(control, counter)
+        if j >= y1 or control[STOP] != 0:
             break
         rays, bad = _path_row(
             G, F, Em, Env, X, cam, filt, j, window, width, height, samples, seed, max_depth, bg, film, node_stack,
@@ -107,8 +137,9 @@ def path_lane(
 
 @njit(**LANE)
 def cast_lane(
-    S, X, cam, filt, width, height, window, lane, lanes, samples, seed, background, film, rays_per_row, rows_done, stop
-):
+    S, X, cam, filt, width, height, window, lane, counter, samples, seed, background, film, rays_per_row, rows_done,
+    control,
+):  # fmt: skip
     """Ray-cast samples (the closest hit's albedo) of the lane's rows into the film."""
     node_stack, t_stack = traversal_stacks()
     packets = packet_scratch()
@@ -116,8 +147,9 @@ def cast_lane(
     bg = (background[0], background[1], background[2])
     G, F = geometry_of(S), surfaces_of(S)
     x0, y0, x1, y1 = window
-    for j in range(y0 + lane, y1, lanes):
-        if stop[0] != 0:
+    while True:
+        j = y0 + claim_row(control, counter)
+        if j >= y1 or control[STOP] != 0:
             break
         rays_per_row[j - y0] += _cast_row(
             G, F, X, environment_of(S), cam, filt, j, window, width, height, samples, seed, bg, film,
@@ -128,15 +160,16 @@ def cast_lane(
 
 @njit(**LANE)
 def aov_lane(
-    S, X, cam, width, height, window, lane, lanes, depth, normal, obj_id, prim_id, albedo_out, inst_id,
-    rays_per_row, rows_done, stop,
+    S, X, cam, width, height, window, lane, counter, depth, normal, obj_id, prim_id, albedo_out, inst_id,
+    rays_per_row, rows_done, control,
 ):  # fmt: skip
     """Primary-hit AOVs (depth, normal, object, prim, albedo, instance) of the lane's rows."""
     node_stack, t_stack = traversal_stacks()
     G, F = geometry_of(S), surfaces_of(S)
     x0, y0, x1, y1 = window
-    for j in range(y0 + lane, y1, lanes):
-        if stop[0] != 0:
+    while True:
+        j = y0 + claim_row(control, counter)
+        if j >= y1 or control[STOP] != 0:
             break
         rays_per_row[j - y0] += _primary_aovs_row(
             G, F, X, cam, j, window, width, height, node_stack, t_stack, depth, normal, obj_id, prim_id, albedo_out,
