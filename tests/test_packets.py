@@ -17,6 +17,7 @@ from raylume.compile import compile_scene
 from raylume.kernels.camera import camera_frame
 from raylume.kernels.packet import (
     PACKET,
+    packet_blocked,
     packet_closest,
     packet_finish,
     packet_hit,
@@ -31,7 +32,7 @@ from raylume.kernels.query import CHUNK, intersect_rays
 from raylume.kernels.scene import geometry_of
 from raylume.kernels.shape_triangle import INF, intersect_triangle, ray_shear
 from raylume.kernels.shapes import features
-from raylume.kernels.traverse import TRAVERSAL_STACK, box_ray, closest_hit
+from raylume.kernels.traverse import TRAVERSAL_STACK, any_hit, box_ray, closest_hit
 from raylume.kernels.vec import FAST
 from raylume.scene.procedural import bumpy_sphere
 
@@ -563,3 +564,82 @@ def test_intersect_takes_packets_beside_planes_and_other_shapes(tmp_path):
     np.testing.assert_array_equal(t, ref[:, 0])
     hit = ref[:, 1] >= 0
     assert (obj[hit] == S.prims[ref[hit, 1].astype(int), 3]).mean() > 0.999
+
+
+@njit(fastmath=FAST, error_model="numpy")
+def _shadow_packets(S, origins, dirs, tmax, need):
+    """Shadow rays in packets of eight (need[p]: the mask of packet p's rays to trace) through
+    packet_blocked: (whether each packet was taken, the blocked mask of each)."""
+    n = origins.shape[0]
+    packets = packet_scratch()
+    node_stack = np.empty(TRAVERSAL_STACK, np.int32)
+    t_stack = np.empty(TRAVERSAL_STACK, np.float32)
+    G = geometry_of(S)
+    extent, root = scene_extent(G), root_box(G)
+    count = (n + PACKET - 1) // PACKET
+    taken = np.zeros(count, np.bool_)
+    blocked = np.zeros(count, np.int64)
+    for p in range(count):
+        start = p * PACKET
+        m = min(PACKET, n - start)
+        ok, mask = packet_blocked(
+            G, None, root, origins[start:], dirs[start:], tmax[start:], 0, m, need[p], extent, packets, node_stack,
+            t_stack,
+        )  # fmt: skip
+        taken[p], blocked[p] = ok, mask
+    return taken, blocked
+
+
+@njit(fastmath=FAST, error_model="numpy")
+def _any_hits(S, origins, dirs, tmax):
+    node_stack = np.empty(TRAVERSAL_STACK, np.int32)
+    G = geometry_of(S)
+    out = np.zeros(origins.shape[0], np.bool_)
+    for k in range(origins.shape[0]):
+        o = (origins[k, 0], origins[k, 1], origins[k, 2])
+        d = (dirs[k, 0], dirs[k, 1], dirs[k, 2])
+        out[k] = any_hit(G, None, o, d, 0.0, tmax[k], node_stack)
+    return out
+
+
+@PACKET_WORKER
+@pytest.mark.parametrize("light", ["point", "directional"])
+def test_shadow_packets_block_what_any_hit_blocks(tmp_path, light):
+    """Shadow rays from the hit points of rows of camera rays on a bumpy sphere, towards a point
+    light (each ray its own tmax; a second sphere lies beyond the light) and along a directional
+    one, eight neighbours a packet, some lanes not traced: the packets are taken, and each
+    traced lane is blocked exactly when any_hit says so (the sphere shadows itself: both
+    answers occur)."""
+    v, f = bumpy_sphere(20_000)
+    # a second sphere beyond the point light: a ray's hits past its own tmax must not count
+    S = _compiled_mesh(tmp_path, np.concatenate([v, v + [6.0, 0.0, 0.0]]), np.concatenate([f, f + len(v)])).kernel
+    cam = camera_frame(np.array([0.0, 0.0, -3.0]), np.zeros(3), (0, 1, 0), 53.13, 512, 512)
+    a = (np.arange(512) + 0.5) / 512 * 2 - 1
+    rows = []
+    for b in np.linspace(-0.5, 0.5, 9):
+        d = cam[3:6] + a[:, None] * cam[6:9] + b * cam[9:12]
+        rows.append(d / np.linalg.norm(d, axis=1, keepdims=True))
+    dirs = np.concatenate(rows)
+    eye = np.broadcast_to([0.0, 0.0, -3.0], dirs.shape).copy()
+    hits = _single(S, eye, dirs)
+    hit = np.isfinite(hits[:, 0])
+    points = eye[hit] + dirs[hit] * hits[hit, :1] * (1 - 1e-6)  # just above the surface, on the eye's side
+    if light == "point":
+        to_light = np.array([3.0, 0.3, -0.3]) - points
+        tmax = np.linalg.norm(to_light, axis=1)
+        ldirs = to_light / tmax[:, None]
+    else:
+        ldirs = np.broadcast_to(np.array([1.0, 2.0, -0.5]) / np.linalg.norm([1.0, 2.0, -0.5]), points.shape).copy()
+        tmax = np.full(len(points), INF)
+    expected = _any_hits(S, points, ldirs, tmax)
+    count = (len(points) + PACKET - 1) // PACKET
+    need = np.array([0xFF if p % 3 else 0b10110101 for p in range(count)], dtype=np.int64)
+    taken, blocked = _shadow_packets(S, points, ldirs, tmax, need)
+    assert taken.mean() > 0.9, taken.mean()
+    assert 0.05 < expected.mean() < 0.95  # lit and shadowed points both
+    for p in np.flatnonzero(taken):
+        for k in range(min(PACKET, len(points) - p * PACKET)):
+            if (need[p] >> k) & 1:
+                assert bool((blocked[p] >> k) & 1) == expected[p * PACKET + k], (p, k)
+            else:
+                assert not (blocked[p] >> k) & 1

@@ -81,6 +81,10 @@ LANE_ROWS = 17
 # of eight unrelated traversals.
 _MIN_COS = 0.985  # directions within 10 degrees of the first ray's
 _ORIGIN_SPREAD = 0.01  # origins within this fraction of the scene's extent of the first ray's
+# Shadow rays of neighbouring pixels start on the surface a few pixels' width apart (bunny at
+# 600 x 600: eight pixels span ~5% of its size) but run side by side to one light: their
+# traversals overlap as a camera packet's do.
+_SHADOW_ORIGIN_SPREAD = 0.1
 
 
 @kernel_function(_nrt=True)
@@ -662,6 +666,31 @@ def packet_trace(G, X, root, origins, directions, start, n, extent, packets, nod
                 packet_unbounded(G, X, axes, lane, prim, n)
         packet_closest(G, X, root, rows, axes, (1 << n) - 1, box, lane, prim, node_stack, t_stack, mask_stack)
     return coherent
+
+
+@inline_function
+def packet_blocked(G, X, root, origins, directions, tmax, start, n, need, extent, packets, node_stack, t_stack):
+    """Shadow rays start .. start + n - 1, lane k's ending at tmax[k], as one packet when they
+    are coherent (packet_setup, origins up to _SHADOW_ORIGIN_SPREAD of the extent apart): only
+    the lanes of the mask `need` are traced. Returns (coherent, the mask of the lanes that
+    something blocks in (0, tmax)): any_hit's answers, found by the closest-hit traversal with
+    each lane's best hit starting at its tmax (a hit nearer than tmax is one any_hit finds)."""
+    box, lane, prim, mask_stack = packets
+    spread = extent * (_SHADOW_ORIGIN_SPREAD / _ORIGIN_SPREAD)
+    coherent, rows, axes = packet_setup(origins, directions, start, n, 0.0, math.inf, spread, box, lane, prim)
+    if not coherent:
+        return False, 0
+    for i in range(n):
+        lane[BEST_T, i] = tmax[i]
+    if X is not None:  # (pruned in the basic variant, which has no unbounded shapes)
+        if G.n_bounded < G.prims.shape[0]:
+            packet_unbounded(G, X, axes, lane, prim, n)
+    packet_closest(G, X, root, rows, axes, need, box, lane, prim, node_stack, t_stack, mask_stack)
+    blocked = 0
+    for i in range(n):
+        if (need >> i) & 1 and prim[i] != NO_HIT:
+            blocked |= 1 << i
+    return True, blocked
 
 
 @inline_function

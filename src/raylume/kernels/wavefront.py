@@ -40,6 +40,16 @@ from .environment import environment_radiance
 from .film import FILM_WIDTH, add_in_pixel_order, add_one_each, next_sample, pixel_sums, store_sums
 from .lights import AMBIENT, DIRECTIONAL, LIGHT_DIRECTION, LIGHT_INTENSITY, LIGHT_POSITION, SPOT, spot_falloff
 from .materials import MAT_COLOR, MAT_EMISSION, MAT_REFLECTIVE, MAT_SPECULAR, MAT_TEXTURE, albedo, beer_lambert
+from .packet import (
+    PACKET,
+    packet_blocked,
+    packet_hit,
+    packet_scratch,
+    packet_trace,
+    root_box,
+    scene_extent,
+    uses_packets,
+)
 from .shape_sphere import CENTER, RADIUS
 from .shapes import NO_HIT, PRIM_KIND, PRIM_MATERIAL, PRIM_ROW, SPHERE, offset_epsilon, surface
 from .trace import MIN_WEIGHT
@@ -107,10 +117,12 @@ M_WIDTH = (REFL - AR) // STRIDE + 1
 @kernel_function(_nrt=True)
 def wavefront_scratch(G, F):
     """One thread's wavefront arrays: float64 (WAVE_ROWS * STRIDE) and int64 (WAVE_INT_ROWS *
-    STRIDE), flat as the rows' offsets say; the materials table (materials, M_WIDTH); and each primitive's
-    sphere row (primitives, 4: centre, radius; wavefront_spheres.py) when the root is a leaf
-    of spheres. The rows start zeroed: the sphere tests compute whole vectors of eight slots,
-    past the live ones too, and garbage there could be subnormal (slow) numbers."""
+    STRIDE), flat as the rows' offsets say; the materials table (materials, M_WIDTH); each
+    primitive's sphere row (primitives, 4: centre, radius; wavefront_spheres.py) when the root
+    is a leaf of spheres; the packets' scratch (packet.py) and eight rays' origins, directions
+    and ends as a packet takes them, (8, 3), (8, 3) and (8,). The rows start zeroed: the sphere tests
+    compute whole vectors of eight slots, past the live ones too, and garbage there could be
+    subnormal (slow) numbers."""
     mat = F.materials
     M = np.empty((mat.shape[0], M_WIDTH))
     for m in range(mat.shape[0]):
@@ -128,7 +140,9 @@ def wavefront_scratch(G, F):
     I = scratch_array(WAVE_INT_ROWS * STRIDE, np.int64)
     R[:] = 0.0
     I[:] = 0
-    return R, I, M, C
+    origins = scratch_array(PACKET * 3, np.float64).reshape((PACKET, 3))
+    directions = scratch_array(PACKET * 3, np.float64).reshape((PACKET, 3))
+    return R, I, M, C, packet_scratch(), (origins, directions, scratch_array(PACKET, np.float64))
 
 
 # --- the stages --------------------------------------------------------------------------
@@ -156,22 +170,51 @@ def _sphere_leaf(G):
 
 
 @inline_function
-def _closest_hits(G, X, R, I, C, m, leaf_first, leaf_count, node_stack, t_stack):
+def _closest_hits(G, X, R, I, C, m, leaf_first, leaf_count, node_stack, t_stack, scratch):
     """Closest hits of rays 0..m-1 into T, PRIM, B1, B2 (a sphere's barycentrics are 0, as the
-    rows start)."""
+    rows start). In a BVH that takes packets (packet.uses_packets), eight rays at a time where
+    they are coherent (camera rays: neighbouring pixels), as cast mode traces them; others ray
+    by ray. The hits are closest_hit's either way."""
     if leaf_count > 0:
         fill(R[T : T + STRIDE], m, INF)
         fill(I[PRIM : PRIM + STRIDE], m, NO_HIT)
         tile_closest(R, I, (OX, OY, OZ, DX, DY, DZ, T, PRIM), m, C, leaf_first, leaf_count)
         return
-    for i in range(m):
-        o = (R[OX + i], R[OY + i], R[OZ + i])
-        d = (R[DX + i], R[DY + i], R[DZ + i])
-        t, prim, b1, b2 = closest_hit(G, X, o, d, 0.0, INF, node_stack, t_stack)
-        R[T + i] = t
-        I[PRIM + i] = prim
-        R[B1 + i] = b1
-        R[B2 + i] = b2
+    _bvh_closest_hits(G, X, R, I, m, node_stack, t_stack, scratch)
+
+
+# Calls, not inlined, which find their packets' scratch and the root's box themselves: the
+# scenes of the sphere tests (the seed) never take them, and the values they need, kept live
+# through the row function, made its loops 3-5% slower.
+@kernel_function
+def _bvh_closest_hits(G, X, R, I, m, node_stack, t_stack, scratch):
+    """_closest_hits through the BVH."""
+    packets, (origins, directions, _) = scratch[4], scratch[5]
+    _, lane, prim_lane, _ = packets
+    root, extent = root_box(G), scene_extent(G) if uses_packets(G, X) else 0.0  # 0: no packets
+    i0 = 0
+    while i0 < m:
+        n = min(PACKET, m - i0)
+        coherent = False
+        if extent > 0.0:
+            for k in range(n):
+                i = i0 + k
+                origins[k, 0], origins[k, 1], origins[k, 2] = R[OX + i], R[OY + i], R[OZ + i]
+                directions[k, 0], directions[k, 1], directions[k, 2] = R[DX + i], R[DY + i], R[DZ + i]
+            coherent = packet_trace(G, X, root, origins, directions, 0, n, extent, packets, node_stack, t_stack)
+        for k in range(n):
+            i = i0 + k
+            if coherent:
+                t, prim, b1, b2 = packet_hit(lane, prim_lane, k)
+            else:
+                o = (R[OX + i], R[OY + i], R[OZ + i])
+                d = (R[DX + i], R[DY + i], R[DZ + i])
+                t, prim, b1, b2 = closest_hit(G, X, o, d, 0.0, INF, node_stack, t_stack)
+            R[T + i] = t
+            I[PRIM + i] = prim
+            R[B1 + i] = b1
+            R[B2 + i] = b2
+        i0 += n
 
 
 @inline_function
@@ -420,18 +463,52 @@ def _needs_shadow(R, I, m):
 
 
 @inline_function
-def _shadows(G, X, R, I, C, m, leaf_first, leaf_count, node_stack, directional):
+def _shadows(G, X, R, I, C, m, leaf_first, leaf_count, node_stack, t_stack, directional, scratch):
     """Shadow rays of the slots that need one (BLOCKED 0): BLOCKED becomes 1 where something
-    lies between the point and the light."""
+    lies between the point and the light. In a BVH that takes packets, eight slots at a time
+    where their rays are coherent (neighbouring points towards one light), others ray by ray;
+    any_hit's answers either way."""
     if leaf_count > 0:
         tile_blocks(R, I, (QX, QY, QZ, LX, LY, LZ, TMAX, BLOCKED), m, C, leaf_first, leaf_count, directional)
         return
-    for i in range(m):
-        if I[BLOCKED + i] == 0:
-            o = (R[QX + i], R[QY + i], R[QZ + i])
-            d = (R[LX + i], R[LY + i], R[LZ + i])
-            if any_hit(G, X, o, d, 0.0, R[TMAX + i], node_stack):
-                I[BLOCKED + i] = 1
+    _bvh_shadows(G, X, R, I, m, node_stack, t_stack, scratch)
+
+
+@kernel_function
+def _bvh_shadows(G, X, R, I, m, node_stack, t_stack, scratch):
+    """_shadows through the BVH."""
+    packets, (origins, directions, tmax) = scratch[4], scratch[5]
+    root, extent = root_box(G), scene_extent(G) if uses_packets(G, X) else 0.0
+    i0 = 0
+    while i0 < m:
+        n = min(PACKET, m - i0)
+        need = 0
+        for k in range(n):
+            if I[BLOCKED + i0 + k] == 0:
+                need |= 1 << k
+        coherent = False
+        if need != 0 and extent > 0.0:
+            for k in range(n):
+                i = i0 + k
+                origins[k, 0], origins[k, 1], origins[k, 2] = R[QX + i], R[QY + i], R[QZ + i]
+                directions[k, 0], directions[k, 1], directions[k, 2] = R[LX + i], R[LY + i], R[LZ + i]
+                tmax[k] = R[TMAX + i]
+            coherent, blocked = packet_blocked(
+                G, X, root, origins, directions, tmax, 0, n, need, extent, packets, node_stack, t_stack
+            )
+            if coherent:
+                for k in range(n):
+                    if (blocked >> k) & 1:
+                        I[BLOCKED + i0 + k] = 1
+        if not coherent:
+            for k in range(n):
+                i = i0 + k
+                if I[BLOCKED + i] == 0:
+                    o = (R[QX + i], R[QY + i], R[QZ + i])
+                    d = (R[LX + i], R[LY + i], R[LZ + i])
+                    if any_hit(G, X, o, d, 0.0, R[TMAX + i], node_stack):
+                        I[BLOCKED + i] = 1
+        i0 += n
 
 
 @vector_loop(fastmath=FAST)
@@ -449,7 +526,7 @@ def _gather_light(R, I, m, r, g, b):
 
 
 @inline_function
-def _lighting(G, X, L, R, I, C, m, leaf_first, leaf_count, node_stack):
+def _lighting(G, X, L, R, I, C, m, leaf_first, leaf_count, node_stack, t_stack, scratch):
     """Ambient + diffuse + specular light at every slot from every light; returns the shadow
     rays traced."""
     # The ambient lights before any other are the same sum for every slot (in trace_ray's order:
@@ -472,7 +549,8 @@ def _lighting(G, X, L, R, I, C, m, leaf_first, leaf_count, node_stack):
                 R[IB + i] += intensity[2]
             continue
         rays += _towards_light(L, R, I, m, j)
-        _shadows(G, X, R, I, C, m, leaf_first, leaf_count, node_stack, L.kind[j] == DIRECTIONAL)
+        directional = L.kind[j] == DIRECTIONAL
+        _shadows(G, X, R, I, C, m, leaf_first, leaf_count, node_stack, t_stack, directional, scratch)
         r, g, b = row3(L.data, j, LIGHT_INTENSITY)
         _gather_light(R, I, m, r, g, b)
     return rays
@@ -532,7 +610,7 @@ def wavefront_row(
 ):  # fmt: skip
     """trace mode's _trace_row for a basic scene: the row's samples, in pixel order, through the
     Whitted loop TILE at a time, then into the film in order. Returns the rays traced."""
-    R, I, M, C = scratch
+    R, I, M, C = scratch[0], scratch[1], scratch[2], scratch[3]
     first, count, total_spp = samples
     x0, y0, x1, y1 = window
     spread = cam[CAM_CONE_SPREAD]
@@ -580,11 +658,11 @@ def wavefront_row(
         m = n
         depth = max_depth
         while m > 0:
-            _closest_hits(G, X, R, I, C, m, leaf_first, leaf_count, node_stack, t_stack)
+            _closest_hits(G, X, R, I, C, m, leaf_first, leaf_count, node_stack, t_stack, scratch)
             rays += m
             m = _compact_hits(G, Env, R, I, M, C, m, bg, leaf_count > 0, textured, emissive)
             _find_surfaces(G, F, X, R, I, m, leaf_count, textured)
-            rays += _lighting(G, X, L, R, I, C, m, leaf_first, leaf_count, node_stack)
+            rays += _lighting(G, X, L, R, I, C, m, leaf_first, leaf_count, node_stack, t_stack, scratch)
             last = depth <= 0
             _add_local_and_reflect(R, I, m, last)
             m = _compact_reflected(R, I, m, textured)
