@@ -189,7 +189,7 @@ def _closest_hits(G, X, R, I, C, m, leaf_first, leaf_count, node_stack, t_stack,
 @kernel_function
 def _bvh_closest_hits(G, X, R, I, m, node_stack, t_stack, scratch):
     """_closest_hits through the BVH."""
-    packets, (origins, directions, _) = scratch[4], scratch[5]
+    _, _, _, _, packets, (origins, directions, _) = scratch
     _, lane, prim_lane, _ = packets
     root, extent = root_box(G), scene_extent(G) if uses_packets(G, X) else 0.0  # 0: no packets
     i0 = 0
@@ -477,7 +477,7 @@ def _shadows(G, X, R, I, C, m, leaf_first, leaf_count, node_stack, t_stack, dire
 @kernel_function
 def _bvh_shadows(G, X, R, I, m, node_stack, t_stack, scratch):
     """_shadows through the BVH."""
-    packets, (origins, directions, tmax) = scratch[4], scratch[5]
+    _, _, _, _, packets, (origins, directions, tmax) = scratch
     root, extent = root_box(G), scene_extent(G) if uses_packets(G, X) else 0.0
     i0 = 0
     while i0 < m:
@@ -610,7 +610,7 @@ def wavefront_row(
 ):  # fmt: skip
     """trace mode's _trace_row for a basic scene: the row's samples, in pixel order, through the
     Whitted loop TILE at a time, then into the film in order. Returns the rays traced."""
-    R, I, M, C = scratch[0], scratch[1], scratch[2], scratch[3]
+    R, I, M, C, _, _ = scratch
     first, count, total_spp = samples
     x0, y0, x1, y1 = window
     spread = cam[CAM_CONE_SPREAD]
