@@ -132,14 +132,13 @@ def add_one_each(flat, at, samples, rows, n):
     samples' colours and filter weights are slots 0..n-1 of the rows of `samples` at the offsets
     rows = (r, g, b, weight)."""
     r0, g0, b0, w0 = rows
+    no_unsigned = (0.0, 0.0, 0.0, 0.0)
     for k in range(n):
         p = at + k * FILM_WIDTH
-        r, g, b, w = samples[r0 + k], samples[g0 + k], samples[b0 + k], samples[w0 + k]
-        positive = w > 0.0
-        flat[p + FILM_RGB] = flat[p + FILM_RGB] + r if positive else flat[p + FILM_RGB] - r
-        flat[p + FILM_RGB + 1] = flat[p + FILM_RGB + 1] + g if positive else flat[p + FILM_RGB + 1] - g
-        flat[p + FILM_RGB + 2] = flat[p + FILM_RGB + 2] + b if positive else flat[p + FILM_RGB + 2] - b
-        flat[p + FILM_WEIGHT] = flat[p + FILM_WEIGHT] + w
+        signed = (flat[p + FILM_RGB], flat[p + FILM_RGB + 1], flat[p + FILM_RGB + 2], flat[p + FILM_WEIGHT])
+        col = (samples[r0 + k], samples[g0 + k], samples[b0 + k])
+        signed, _ = add_sample((signed, no_unsigned), col, samples[w0 + k])
+        flat[p + FILM_RGB], flat[p + FILM_RGB + 1], flat[p + FILM_RGB + 2], flat[p + FILM_WEIGHT] = signed
 
 
 class Film:

@@ -101,7 +101,8 @@ def intersect_rays(S, X, origins, directions, t_out, object_out, prim_out, insta
     if lanes == 1:
         intersect_lane(*args, 0, 1)
         return
-    futures = [lane_pool(lanes - 1).submit(intersect_lane, *args, lane, lanes) for lane in range(1, lanes)]
+    pool = lane_pool(lanes - 1)
+    futures = [pool.submit(intersect_lane, *args, lane, lanes) for lane in range(1, lanes)]
     intersect_lane(*args, 0, lanes)
     for f in futures:
         f.result()

@@ -120,9 +120,9 @@ def wavefront_scratch(G, F):
     STRIDE), flat as the rows' offsets say; the materials table (materials, M_WIDTH); each
     primitive's sphere row (primitives, 4: centre, radius; wavefront_spheres.py) when the root
     is a leaf of spheres; the packets' scratch (packet.py) and eight rays' origins, directions
-    and ends as a packet takes them, (8, 3), (8, 3) and (8,). The rows start zeroed: the sphere tests
-    compute whole vectors of eight slots, past the live ones too, and garbage there could be
-    subnormal (slow) numbers."""
+    and ends as a packet takes them, (8, 3), (8, 3) and (8,). The rows start zeroed: the sphere
+    tests compute whole vectors of eight slots, past the live ones too, and garbage there could
+    be subnormal (slow) numbers."""
     mat = F.materials
     M = np.empty((mat.shape[0], M_WIDTH))
     for m in range(mat.shape[0]):
@@ -191,16 +191,13 @@ def _bvh_closest_hits(G, X, R, I, m, node_stack, t_stack, scratch):
     """_closest_hits through the BVH."""
     _, _, _, _, packets, (origins, directions, _) = scratch
     _, lane, prim_lane, _ = packets
-    root, extent = root_box(G), scene_extent(G) if uses_packets(G, X) else 0.0  # 0: no packets
+    root, extent = _packet_bounds(G, X)
     i0 = 0
     while i0 < m:
         n = min(PACKET, m - i0)
         coherent = False
         if extent > 0.0:
-            for k in range(n):
-                i = i0 + k
-                origins[k, 0], origins[k, 1], origins[k, 2] = R[OX + i], R[OY + i], R[OZ + i]
-                directions[k, 0], directions[k, 1], directions[k, 2] = R[DX + i], R[DY + i], R[DZ + i]
+            _load_packet(R, i0, n, OX, DX, origins, directions)
             coherent = packet_trace(G, X, root, origins, directions, 0, n, extent, packets, node_stack, t_stack)
         for k in range(n):
             i = i0 + k
@@ -215,6 +212,23 @@ def _bvh_closest_hits(G, X, R, I, m, node_stack, t_stack, scratch):
             R[B1 + i] = b1
             R[B2 + i] = b2
         i0 += n
+
+
+@inline_function
+def _packet_bounds(G, X):
+    """(root_box, scene_extent) for the packets through the BVH; extent 0 where the scene
+    takes none (packet.uses_packets)."""
+    return root_box(G), scene_extent(G) if uses_packets(G, X) else 0.0
+
+
+@inline_function
+def _load_packet(R, i0, n, origin, direction, origins, directions):
+    """Slots i0..i0+n-1's rays into the (8, 3) arrays a packet takes: their origins from the
+    three rows from `origin` (x, y, z: OX or QX), their directions from those from `direction`."""
+    for k in range(n):
+        for c in range(3):
+            origins[k, c] = R[origin + c * STRIDE + i0 + k]
+            directions[k, c] = R[direction + c * STRIDE + i0 + k]
 
 
 @inline_function
@@ -478,7 +492,7 @@ def _shadows(G, X, R, I, C, m, leaf_first, leaf_count, node_stack, t_stack, dire
 def _bvh_shadows(G, X, R, I, m, node_stack, t_stack, scratch):
     """_shadows through the BVH."""
     _, _, _, _, packets, (origins, directions, tmax) = scratch
-    root, extent = root_box(G), scene_extent(G) if uses_packets(G, X) else 0.0
+    root, extent = _packet_bounds(G, X)
     i0 = 0
     while i0 < m:
         n = min(PACKET, m - i0)
@@ -488,11 +502,9 @@ def _bvh_shadows(G, X, R, I, m, node_stack, t_stack, scratch):
                 need |= 1 << k
         coherent = False
         if need != 0 and extent > 0.0:
+            _load_packet(R, i0, n, QX, LX, origins, directions)
             for k in range(n):
-                i = i0 + k
-                origins[k, 0], origins[k, 1], origins[k, 2] = R[QX + i], R[QY + i], R[QZ + i]
-                directions[k, 0], directions[k, 1], directions[k, 2] = R[LX + i], R[LY + i], R[LZ + i]
-                tmax[k] = R[TMAX + i]
+                tmax[k] = R[TMAX + i0 + k]
             coherent, blocked = packet_blocked(
                 G, X, root, origins, directions, tmax, 0, n, need, extent, packets, node_stack, t_stack
             )

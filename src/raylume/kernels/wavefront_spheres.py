@@ -30,6 +30,7 @@ from numba.core import cgutils
 from numba.core.errors import TypingError
 from numba.extending import intrinsic
 
+from .packet import _array_data, _splat
 from .shape_triangle import EXACT, EXACT_DIVISION, exact_ops
 from .vec import kernel_function
 
@@ -43,15 +44,9 @@ _VD = ir.VectorType(_f64, LANES)
 _VI = ir.VectorType(_i64, LANES)
 
 
-def _splat(builder, x, vt):
-    undef = ir.Constant(vt, ir.Undefined)
-    zeros = ir.Constant(ir.VectorType(_i32, LANES), [0] * LANES)
-    return builder.shuffle_vector(builder.insert_element(undef, x, ir.Constant(_i32, 0)), undef, zeros)
-
-
 def _pointer(context, builder, arr_type, arr, at, vt):
     """Pointer to elements at..at+7 of the 1-D array `arr`, as a vector."""
-    data = context.make_array(arr_type)(context, builder, arr).data
+    data = _array_data(context, builder, arr_type, arr)
     return builder.bitcast(builder.gep(data, [at], inbounds=True), vt.as_pointer())
 
 
@@ -126,7 +121,7 @@ def _check(name, R, I, rows, spheres, n_rows):
 
 def _sphere_row(context, builder, spheres_type, spheres, k):
     """The centre (three splats) and radius (a splat) of row k of the sphere table."""
-    data = context.make_array(spheres_type)(context, builder, spheres).data
+    data = _array_data(context, builder, spheres_type, spheres)
     base = builder.mul(k, ir.Constant(_i64, 4))
 
     def column(c):
