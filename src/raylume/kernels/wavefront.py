@@ -634,7 +634,8 @@ def wavefront_row(
         emissive = emissive or max(row3(F.materials, mm, MAT_EMISSION)) != 0.0
     pinhole_centres = total_spp == 1 and not cam[CAM_LENS_RADIUS] > 0.0
     total_samples = (x1 - x0) * count
-    one_each = count == 1 and film.shape[2] == FILM_WIDTH  # one sample a pixel: the film's vector loop
+    one_each = count == 1 and film.shape[2] == FILM_WIDTH  # one sample a pixel: film.add_one_each
+    flat = film.reshape(film.size)
     rays = 0
     pixel = x0
     total = pixel_sums(film, j - y0, 0)
@@ -642,14 +643,12 @@ def wavefront_row(
     q = 0
     while q < total_samples:
         n = min(TILE, total_samples - q)
+        film_at = ((j - y0) * film.shape[1] + i0 - x0) * FILM_WIDTH  # the tile's first pixel in flat
         if one_each:  # the film's pixels of this tile, fetched while the tile is traced
-            flat = film.reshape(film.size)
-            at = ((j - y0) * film.shape[1] + i0 - x0) * FILM_WIDTH
-            for k in range(at, at + n * FILM_WIDTH, 8):
+            for k in range(film_at, film_at + n * FILM_WIDTH, 8):
                 prefetch_row(flat, k)
         if pinhole_centres:  # camera_sample's rays through pixels i0.., without the unused random key
             _pinhole_directions(R, n, cam, i0, j, width, height, spread)
-        if pinhole_centres:
             for c, row in enumerate((OX, OY, OZ)):
                 fill(R[row : row + STRIDE], n, cam[CAM_POSITION + c])
             fill(R[S_W : S_W + STRIDE], n, 1.0)
@@ -680,8 +679,7 @@ def wavefront_row(
             m = _compact_reflected(R, I, m, textured)
             depth -= 1
         if one_each:
-            at = ((j - y0) * film.shape[1] + i0 - x0) * FILM_WIDTH
-            add_one_each(film.reshape(film.size), at, R, (S_R, S_G, S_B, S_W), n)
+            add_one_each(flat, film_at, R, (S_R, S_G, S_B, S_W), n)
             i0 += n
         else:
             for k in range(n):
