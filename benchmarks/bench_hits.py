@@ -10,7 +10,11 @@ the engines. The ratios are Embree's time over raylume's: above 1, raylume is fa
 them, raylume's CPU time for the whole frame (all the camera rays, hits and misses), with
 packets and with single rays, and their ratios to bumpy 40k's: how the cost of a frame grows
 with the triangle count, beside Embree's (a miss costs Embree more than raylume, so its frames
-grow less in proportion).
+grow less in proportion). Last, the frame's cost with its data in cache: the frame's rays in
+32 x 32 pixel blocks, each block traced twice in a row, less the same blocks traced once. The
+repeat finds the block's nodes and triangles in cache (a block's ~1,000 rays touch well under
+the L2's 2 MB), so what is left is the traversal's work without its waits for memory: how far
+from 40k's a large mesh's frame would stay with memory free.
 
     python benchmarks/bench_hits.py [--size 1024] [--repeats 7] [MESH ...]
 
@@ -59,6 +63,18 @@ def frame_rays(vertices, faces, size):
     return compiled, o, d, np.isfinite(t)
 
 
+def block_orders(size: int, block: int = 32) -> tuple[np.ndarray, np.ndarray]:
+    """Ray indices of a row-major size x size frame in block x block pixel blocks, and the same
+    with each block repeated at once."""
+    y, x = np.mgrid[0:size, 0:size]
+    per_row = -(-size // block)  # blocks across (the last may be partial)
+    key = ((y // block) * per_row + x // block) * block * block + (y % block) * block + x % block
+    blocks = np.argsort(key.ravel(), kind="stable")
+    n = block * block
+    twice = np.concatenate([np.concatenate([blocks[i : i + n]] * 2) for i in range(0, size * size, n)])
+    return blocks, twice
+
+
 def cpu_seconds(fn) -> float:
     c0 = time.process_time()
     fn()
@@ -102,6 +118,8 @@ def main() -> None:
     frame = {}  # CPU seconds of the whole frame, per mesh
     single_frame = {}  # the same with single rays
     embree_frame = {}  # the same by Embree
+    in_cache = {}  # the frame with its data in cache (block_orders)
+    blocks, twice = block_orders(args.size)
     for name in args.meshes:
         vf = mesh(name)
         if vf is None:
@@ -110,6 +128,8 @@ def main() -> None:
         v, f = vf
         compiled, fo, fd, hit = frame_rays(v, f, args.size)
         o, d = np.ascontiguousarray(fo[hit]), np.ascontiguousarray(fd[hit])
+        bo, bd = np.ascontiguousarray(fo[blocks]), np.ascontiguousarray(fd[blocks])
+        to, td = np.ascontiguousarray(fo[twice]), np.ascontiguousarray(fd[twice])
         embree = rtcs.EmbreeScene()
         TriangleMesh(embree, v.astype(np.float32), f.astype(np.int32))
         o32, d32 = o.astype(np.float32), d.astype(np.float32)
@@ -117,7 +137,7 @@ def main() -> None:
         embree.run(o32[:1], d32[:1], output=1)  # Embree builds on the first query
         packed, single = _trace(compiled, o, d), _trace_singly(compiled, o, d, stacks)
         assert all(np.array_equal(a, b) for a, b in zip(packed[:2], single[:2], strict=True))  # t, object
-        ours, singly, theirs, frames, single_frames, embree_frames = [], [], [], [], [], []
+        ours, singly, theirs, frames, single_frames, embree_frames, repeats = [], [], [], [], [], [], []
         for _ in range(args.repeats):
             ours.append(cpu_seconds(lambda: _trace(compiled, o, d)))  # noqa: B023 (called at once)
             theirs.append(cpu_seconds(lambda: embree.run(o32, d32, output=1)))  # noqa: B023
@@ -125,15 +145,18 @@ def main() -> None:
             frames.append(cpu_seconds(lambda: _trace(compiled, fo, fd)))  # noqa: B023
             single_frames.append(cpu_seconds(lambda: _trace_singly(compiled, fo, fd, stacks)))  # noqa: B023
             embree_frames.append(cpu_seconds(lambda: embree.run(fo32, fd32, output=1)))  # noqa: B023
+            once = cpu_seconds(lambda: _trace(compiled, bo, bd))  # noqa: B023
+            repeats.append(cpu_seconds(lambda: _trace(compiled, to, td)) - once)  # noqa: B023
         r, e, r1 = np.median(ours), np.median(theirs), np.median(singly)
         frame[name] = np.median(frames)
         single_frame[name] = np.median(single_frames)
         embree_frame[name] = np.median(embree_frames)
+        in_cache[name] = np.median(repeats)
         pairs = np.array(theirs) / np.array(ours)
         rows.append(
             [name, f"{len(f):,}", f"{len(o):,}", f"{r * 1e3:.1f}", f"{r1 * 1e3:.1f}", f"{e * 1e3:.1f}", f"{e / r:.2f}"]
             + [f"{pairs.min():.2f}-{pairs.max():.2f}", f"{e / r1:.2f}", f"{frame[name] * 1e3:.1f}"]
-            + [f"{single_frame[name] * 1e3:.1f}", f"{embree_frame[name] * 1e3:.1f}"]
+            + [f"{single_frame[name] * 1e3:.1f}", f"{embree_frame[name] * 1e3:.1f}", f"{in_cache[name] * 1e3:.1f}"]
         )
         print(" | ".join(rows[-1]), flush=True)
     base, single_base = frame.get("40k"), single_frame.get("40k")
@@ -141,9 +164,11 @@ def main() -> None:
         row.append(f"{frame[row[0]] / base:.2f}" if base else "-")
         row.append(f"{single_frame[row[0]] / single_base:.2f}" if base else "-")
         row.append(f"{embree_frame[row[0]] / embree_frame['40k']:.2f}" if base else "-")
+        row.append(f"{in_cache[row[0]] / in_cache['40k']:.2f}" if base else "-")
     headers = ["mesh", "triangles", "hit rays", "raylume ms", "single-ray ms", "Embree ms", "Embree / raylume"]
     headers += ["per pair", "Embree / single-ray", "raylume frame ms", "single-ray frame ms", "Embree frame ms"]
-    headers += ["frame / 40k frame", "single-ray frame / 40k", "Embree frame / 40k"]
+    headers += ["in-cache frame ms", "frame / 40k frame", "single-ray frame / 40k", "Embree frame / 40k"]
+    headers += ["in-cache frame / 40k"]
     print("\n" + table(headers, rows))
 
 
