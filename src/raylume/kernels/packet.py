@@ -9,6 +9,9 @@ leaf's triangles are loaded once for eight rays rather than once each, the stack
 popped once for eight (Wald, Slusallek, Benthin and Wagner 2001, "Interactive rendering with
 coherent ray tracing"; Embree's packet kernels).
 
+A leaf that only one or two of the packet's rays reach is tested ray by ray with the
+single-ray block test (four triangles per vector) rather than eight float64 lanes at once.
+
 Each ray's result is the single-ray traversal's to the last bit: the triangle test is the same
 watertight test (shape_triangle.py) operation for operation, one ray per lane in float64, and
 the box test widens every slab as the single-ray one does, so no box a ray enters is culled.
@@ -44,7 +47,15 @@ from numba.core.errors import TypingError
 from numba.extending import intrinsic
 
 from ..accel.wide import SPHERE_BLOCK
-from .shape_triangle import EXACT, EXACT_DIVISION, exact_ops, ray_shear, shear_axes, watertight_lanes
+from .shape_triangle import (
+    EXACT,
+    EXACT_DIVISION,
+    exact_ops,
+    intersect_triangles,
+    ray_shear,
+    shear_axes,
+    watertight_lanes,
+)
 from .shapes import NO_HIT, PRIM_ROW
 from .traverse import (
     _F32_MAX,
@@ -367,6 +378,15 @@ def packet_triangles(typingctx, tri, row, count, first, axes, lane, prim, active
         c3, c6 = ir.Constant(_i64, 3), ir.Constant(_i64, 6)
         cols = (kx, ky, kz, builder.add(kx, c3), builder.add(ky, c3), builder.add(kz, c3))
         cols += (builder.add(kx, c6), builder.add(ky, c6), builder.add(kz, c6))
+        # The best hits are carried through the leaf in registers (stack slots that LLVM
+        # promotes) and stored once after it, with plain stores. Stored back triangle by
+        # triangle, each `store(select(ok, new, load(row)), row)` became a masked store
+        # (vmaskmovpd) on AVX2, which AMD's Zen 3 runs microcoded at tens of cycles: the
+        # packet traversal took 3-4x its time there (an AVX-512 machine's masked stores
+        # are cheap, which is why it went unseen).
+        rows = (BEST_T, BEST_V, BEST_W, BEST_DET)
+        best_slots = {r: cgutils.alloca_once_value(builder, _load_row(builder, ln, r, _V8D)) for r in rows}
+        prim_slot = cgutils.alloca_once_value(builder, builder.load(prim_ptr, align=8))
         with cgutils.for_range(builder, n) as loop:
             r = builder.add(row0, loop.index)
             base = builder.mul(r, ir.Constant(_i64, 9))
@@ -378,14 +398,17 @@ def packet_triangles(typingctx, tri, row, count, first, axes, lane, prim, active
             ax, ay, az = fsub(vertex(cols[0]), ox), fsub(vertex(cols[1]), oy), fsub(vertex(cols[2]), oz)
             bx, by, bz = fsub(vertex(cols[3]), ox), fsub(vertex(cols[4]), oy), fsub(vertex(cols[5]), oz)
             cx, cy, cz = fsub(vertex(cols[6]), ox), fsub(vertex(cols[7]), oy), fsub(vertex(cols[8]), oz)
-            best = _load_row(builder, ln, BEST_T, _V8D)
+            best = builder.load(best_slots[BEST_T])
             t, v, w, det, ok = watertight_lanes(builder, (ax, ay, az, bx, by, bz, cx, cy, cz), sx, sy, sz, tmin, best)
             ok = builder.and_(ok, act)
-            _store_row(builder, builder.select(ok, t, best), ln, BEST_T, _V8D)
-            for dest, value in ((BEST_V, v), (BEST_W, w), (BEST_DET, det)):
-                _store_row(builder, builder.select(ok, value, _load_row(builder, ln, dest, _V8D)), ln, dest, _V8D)
+            for dest, value in ((BEST_T, t), (BEST_V, v), (BEST_W, w), (BEST_DET, det)):
+                slot = best_slots[dest]
+                builder.store(builder.select(ok, value, builder.load(slot)), slot)
             here = _splat(builder, builder.add(first, loop.index), _V8I64)
-            builder.store(builder.select(ok, here, builder.load(prim_ptr, align=8)), prim_ptr, align=8)
+            builder.store(builder.select(ok, here, builder.load(prim_slot)), prim_slot)
+        for r in rows:
+            _store_row(builder, builder.load(best_slots[r]), ln, r, _V8D)
+        builder.store(builder.load(prim_slot), prim_ptr, align=8)
         return context.get_dummy_value()
 
     return types.void(tri, row, count, first, axes, lane, prim, active), codegen
@@ -640,6 +663,21 @@ def _leaf_ray_by_ray(G, X, first, count, axes, lane, prim, active):
 
 
 @inline_function
+def _triangles_ray_by_ray(tri, row, n, first, axes, lane, prim, active):
+    """Triangles row .. row + n - 1 (a block leaf) against each active ray in turn, with the
+    single-ray block test (four triangles per vector): packet_triangles' results, to the last
+    bit, for a leaf that few of the packet's rays reach."""
+    m = active
+    while m != 0:
+        i = lowest_bit(m)
+        m &= m - 1
+        o, _, shear = _lane_ray(lane, axes, i)
+        t, j, b1, b2 = intersect_triangles(o, shear, tri, row, n, lane[TMIN, i], lane[BEST_T, i])
+        if t < lane[BEST_T, i]:
+            _set_lane_best(lane, prim, i, t, first + j, b1, b2)
+
+
+@inline_function
 def packet_unbounded(G, X, axes, lane, prim, n):
     """The unbounded shapes (planes, after the BVH's primitives in the table) against lanes
     0 .. n - 1 ray by ray, before the traversal, as closest_hit tests them first; their hits
@@ -760,7 +798,16 @@ def packet_closest(G, X, root, rows, axes, active, box, lane, prim, node_stack, 
             count = index[node, 1, c]
             if -SPHERE_BLOCK <= count < 0:  # a block of triangles in consecutive rows
                 row = np.int64(first) if direct_rows else np.int64(P[first, PRIM_ROW])
-                packet_triangles(tri, row, -count, first, axes, lane, prim, mask)
+                # A leaf that one or two rays reach is tested ray by ray, four triangles per
+                # vector: the packet test computes all eight lanes in float64 (two ymm
+                # registers on AVX2) however few are active. On a mesh with several triangles
+                # under each pixel most leaves are reached by one ray (bumpy 1M hit rays on
+                # a Zen 3: 91 -> 77 ms, 4M 149 -> 106; the same hits)
+                few = mask & (mask - 1)  # the mask less its lowest ray
+                if (few & (few - 1)) == 0:  # one or two rays
+                    _triangles_ray_by_ray(tri, row, -count, first, axes, lane, prim, mask)
+                else:
+                    packet_triangles(tri, row, -count, first, axes, lane, prim, mask)
             else:
                 _leaf_ray_by_ray(G, X, first, count, axes, lane, prim, mask)
         found = False

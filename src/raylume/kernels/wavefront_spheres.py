@@ -132,45 +132,56 @@ def _sphere_row(context, builder, spheres_type, spheres, k):
 
 
 @intrinsic
-def closest8(typingctx, R, I, rows, i, m, spheres, k):
-    """Rays i..i+7 (those below m) against sphere k of `spheres` (float64 (n, 4): centre,
-    radius): a hit nearer than t replaces (t, prim) with (its distance, k). `rows` gives the
-    offsets in the flat scratch of the rows ox, oy, oz, dx, dy, dz, t (in R) and prim (in I);
-    intersect_sphere's result, to the last bit."""
+def closest8(typingctx, R, I, rows, i, m, spheres, first, count):
+    """Rays i..i+7 (those below m) against spheres first..first+count-1 of `spheres` (float64
+    (n, 4): centre, radius), in order: a hit nearer than t replaces (t, prim) with (its
+    distance, k). `rows` gives the offsets in the flat scratch of the rows ox, oy, oz, dx, dy,
+    dz, t (in R) and prim (in I); intersect_sphere's result, to the last bit."""
     _check("closest8", R, I, rows, spheres, 8)
 
     def codegen(context, builder, sig, args):
         fadd, fsub, fmul, lt = exact_ops(builder)
-        i, m, k = args[3], args[4], args[6]
+        i, m, first, count = args[3], args[4], args[6], args[7]
         slots = _Rows(context, builder, sig, args, i)
         o, d = [slots.load(n) for n in range(3)], [slots.load(n) for n in range(3, 6)]
-        centre, radius = _sphere_row(context, builder, sig.args[5], args[5], k)
-        sphere = _Sphere(builder, o, d, centre, radius, _live(builder, i, m))
-        with builder.if_then(_any(builder, sphere.candidates), likely=False):
-            t_ptr = slots.pointer(6)
-            prim_ptr = slots.pointer(7, ints=True)
-            best = builder.load(t_ptr, align=8)
-            q = sphere.q()
-            t0 = builder.fdiv(sphere.c, q, flags=EXACT_DIVISION)
-            swap = lt(q, t0)
-            near = builder.select(swap, q, t0)
-            far = builder.select(swap, t0, q)
-            zero = sphere.zero
+        live = _live(builder, i, m)
+        t_ptr = slots.pointer(6)
+        prim_ptr = slots.pointer(7, ints=True)
+        # (t, prim) carried over the spheres in registers (stack slots LLVM promotes) and
+        # stored once, plainly: stored sphere by sphere, `store(select(nearer, tk,
+        # load(t)), t)` became a masked store (vmaskmovpd), which AMD's Zen 3 runs
+        # microcoded at tens of cycles
+        t_slot = cgutils.alloca_once_value(builder, builder.load(t_ptr, align=8))
+        prim_slot = cgutils.alloca_once_value(builder, builder.load(prim_ptr, align=8))
+        with cgutils.for_range(builder, count) as loop:
+            k = builder.add(first, loop.index)
+            centre, radius = _sphere_row(context, builder, sig.args[5], args[5], k)
+            sphere = _Sphere(builder, o, d, centre, radius, live)
+            with builder.if_then(_any(builder, sphere.candidates), likely=False):
+                best = builder.load(t_slot)
+                q = sphere.q()
+                t0 = builder.fdiv(sphere.c, q, flags=EXACT_DIVISION)
+                swap = lt(q, t0)
+                near = builder.select(swap, q, t0)
+                far = builder.select(swap, t0, q)
+                zero = sphere.zero
 
-            def ahead(s):
-                return builder.and_(lt(zero, s), lt(s, best))
+                def ahead(s):
+                    return builder.and_(lt(zero, s), lt(s, best))
 
-            inf = ir.Constant(_VD, [math.inf] * LANES)
-            tk = builder.select(ahead(near), near, builder.select(ahead(far), far, inf))
-            found = builder.and_(sphere.candidates, builder.fcmp_unordered("!=", q, zero, flags=EXACT))
-            tk = builder.select(found, tk, inf)
-            nearer = lt(tk, best)
-            builder.store(builder.select(nearer, tk, best), t_ptr, align=8)
-            old = builder.load(prim_ptr, align=8)
-            builder.store(builder.select(nearer, _splat(builder, k, _VI), old), prim_ptr, align=8)
+                inf = ir.Constant(_VD, [math.inf] * LANES)
+                tk = builder.select(ahead(near), near, builder.select(ahead(far), far, inf))
+                found = builder.and_(sphere.candidates, builder.fcmp_unordered("!=", q, zero, flags=EXACT))
+                tk = builder.select(found, tk, inf)
+                nearer = lt(tk, best)
+                builder.store(builder.select(nearer, tk, best), t_slot)
+                builder.store(builder.select(nearer, _splat(builder, k, _VI), builder.load(prim_slot)), prim_slot)
+        builder.store(builder.load(t_slot), t_ptr, align=8)
+        builder.store(builder.load(prim_slot), prim_ptr, align=8)
         return context.get_dummy_value()
 
-    return types.none(R, I, rows, types.int64, types.int64, spheres, types.int64), codegen
+    sig = types.none(R, I, rows, types.int64, types.int64, spheres, types.int64, types.int64)
+    return sig, codegen
 
 
 @intrinsic
@@ -237,8 +248,7 @@ def tile_closest(R, I, rows, m, spheres, first, count):
     replaces (t, prim), as closest_hit's leaf test finds it (the lowest index on ties). `rows`:
     as closest8's."""
     for i in range(0, m, LANES):
-        for k in range(first, first + count):
-            closest8(R, I, rows, i, m, spheres, k)
+        closest8(R, I, rows, i, m, spheres, first, count)
 
 
 @kernel_function
