@@ -7,7 +7,7 @@ from ..lanes import lane_pool
 from .packet import PACKET, packet_hit, packet_scratch, packet_trace, root_box, scene_extent, uses_packets
 from .scene import geometry_of
 from .shapes import NO_HIT, PRIM_FACE, PRIM_OBJECT, instance_id, split_hit
-from .traverse import INF, closest_hit, traversal_stacks
+from .traverse import INF, closest_hit, prefetch_row, traversal_stacks
 from .vec import FAST, inline_function, kernel_function
 
 
@@ -41,6 +41,12 @@ def _packet_hits(G, X, origins, directions, k, n, extent, root, outputs, stacks,
     coherent = packet_trace(G, X, root, origins, directions, k, n, extent, packets, node_stack, t_stack)
     if coherent:
         t_out, object_out, prim_out, instance_out = outputs
+        # The hits' rows of the primitive table (object and face ids), each a cache miss on a
+        # large mesh, requested together so that they overlap: bumpy 4M hit rays on a Zen 3
+        # 119 -> 96 and 135 -> 125 ms (medians of two alternating runs, 10 of 11 rounds faster)
+        for i in range(n):
+            if prim_lane[i] != NO_HIT:
+                prefetch_row(G.prims, split_hit(X, prim_lane[i])[0])
         for i in range(n):
             t, prim, _, _ = packet_hit(lane, prim_lane, i)
             _store_hit(G, X, k + i, t, prim, t_out, object_out, prim_out, instance_out)
