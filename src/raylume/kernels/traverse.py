@@ -305,7 +305,12 @@ def intersect_leaf(G, X, first, count, o, d, shear, tmin, best_t, prim, b1, b2):
             return t, first + j, 0.0, 0.0
         return best_t, prim, b1, b2
     if count < 0:  # -count triangles in consecutive rows
-        row = np.int64(G.prims[first, PRIM_ROW])
+        # In a scene of triangles alone compile.py numbers triangle rows in leaf order: the
+        # leaf's first row is its first primitive, and the triangles' load need not wait for
+        # the primitive table's (a cache miss of its own on a large mesh): bumpy 4M hit rays
+        # by single rays on a Zen 3 187.5 -> 139.4 ms (alternating; 40k 52.9 -> 50.3)
+        direct = G.triangles.shape[0] == G.n_bounded
+        row = np.int64(first) if direct else np.int64(G.prims[first, PRIM_ROW])
         t, j, u, v = intersect_triangles(o, shear, G.triangles, row, -count, tmin, best_t)
         if t < best_t:
             return t, first + j, u, v
