@@ -140,7 +140,7 @@ def closest8(typingctx, R, I, rows, i, m, spheres, first, count):
     _check("closest8", R, I, rows, spheres, 8)
 
     def codegen(context, builder, sig, args):
-        fadd, fsub, fmul, lt = exact_ops(builder)
+        _, _, _, lt = exact_ops(builder)
         i, m, first, count = args[3], args[4], args[6], args[7]
         slots = _Rows(context, builder, sig, args, i)
         o, d = [slots.load(n) for n in range(3)], [slots.load(n) for n in range(3, 6)]
@@ -194,7 +194,7 @@ def blocks8(typingctx, R, I, rows, i, m, spheres, k, directional):
     _check("blocks8", R, I, rows, spheres, 8)
 
     def codegen(context, builder, sig, args):
-        fadd, fsub, fmul, lt = exact_ops(builder)
+        _, _, _, lt = exact_ops(builder)
         i, m, k, directional = args[3], args[4], args[6], args[7]
         slots = _Rows(context, builder, sig, args, i)
         blocked_ptr = slots.pointer(7, ints=True)
