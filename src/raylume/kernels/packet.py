@@ -56,7 +56,7 @@ from .shape_triangle import (
     shear_axes,
     watertight_lanes,
 )
-from .shapes import NO_HIT, PRIM_ROW
+from .shapes import NO_HIT
 from .traverse import (
     _F32_MAX,
     _F32_TINY,
@@ -68,9 +68,11 @@ from .traverse import (
     TRAVERSAL_STACK,
     _root_is_a_leaf,
     _unbounded_hit,
+    block_row,
     intersect_leaf,
     lowest_bit,
     prefetch_row,
+    rows_in_leaf_order,
     scratch_array,
 )
 from .vec import inline_function, kernel_function
@@ -741,11 +743,10 @@ def packet_closest(G, X, root, rows, axes, active, box, lane, prim, node_stack, 
     bounds = G.node_bounds
     tri = G.triangles
     P = G.prims
-    # Every bounded primitive a triangle: compile.py numbers triangle rows in leaf order, so a
-    # leaf's first triangle row is its first primitive, known before the primitive table is
-    # read, and its triangles can be prefetched as it is pushed (bumpy 4M hit rays 5-12% faster;
-    # the primitive table's row is itself a cache miss there)
-    direct_rows = tri.shape[0] == G.n_bounded
+    # Where a leaf's first triangle row is its first primitive (traverse.rows_in_leaf_order),
+    # known before the primitive table is read, its triangles are prefetched as it is pushed
+    # (bumpy 4M hit rays 5-12% faster; the primitive table's row is itself a cache miss there)
+    direct_rows = rows_in_leaf_order(G)
     ref = 0
     # the root's box first (root: root_box(G)): most packets of a loosely framed frame miss it
     planes = (root[rows[0]], root[rows[1]], root[rows[2]], root[3 - rows[0]], root[5 - rows[1]], root[7 - rows[2]])
@@ -797,7 +798,7 @@ def packet_closest(G, X, root, rows, axes, active, box, lane, prim, node_stack, 
             first = index[node, 0, c]
             count = index[node, 1, c]
             if -SPHERE_BLOCK <= count < 0:  # a block of triangles in consecutive rows
-                row = np.int64(first) if direct_rows else np.int64(P[first, PRIM_ROW])
+                row = block_row(G, first)
                 # A leaf that one or two rays reach is tested ray by ray, four triangles per
                 # vector: the packet test computes all eight lanes in float64 (two ymm
                 # registers on AVX2) however few are active. On a mesh with several triangles
