@@ -6,6 +6,7 @@ quality against a naive object-median tree built here, and completeness by
 comparing a BVH traversal with a brute-force slab test over all primitives.
 """
 
+import itertools
 import time
 from unittest.mock import patch
 
@@ -544,69 +545,54 @@ def test_random_boxes_parallel(boxes, max_leaf, n_bins):
 # ---------------------------------------------------------------------------
 
 
-def reference_collapse(bvh, width=8):
-    """Greedy collapse in plain Python: a wide node starts from a binary node's two children
-    and opens the inner child of largest surface area (first on ties) until it has `width`
-    children or only leaves; inner children are numbered consecutively when their parent is
-    filled, the first child's subtree first."""
+def _area(box):
+    e = np.maximum(box[3:].astype(np.float64) - box[:3], 0.0)
+    return e[0] * e[1] + e[1] * e[2] + e[2] * e[0]
+
+
+def least_collapse_area(bvh, width):
+    """The least summed surface area of the wide nodes over every way to collapse the binary
+    tree, by brute force: every subset of its inner nodes (the root always in) that leaves each
+    chosen node at most `width` lanes (the leaves and chosen nodes first met below it)."""
     nb_, ni, na, _ = bvh
-    b64 = nb_.astype(np.float64)
+    inner = [n for n in range(len(na)) if na[n] >= 0]
 
-    def area(c):
-        big = float(np.finfo(np.float32).max)
-        e = np.maximum(np.minimum(b64[c, 3:], big) - np.maximum(b64[c, :3], -big), 0.0)
-        return e[0] * e[1] + e[1] * e[2] + e[2] * e[0]
+    def lanes(n, chosen):
+        out = []
+        for c in (n + 1, int(ni[n, 0])):
+            out += [c] if na[c] < 0 or c in chosen else lanes(c, chosen)
+        return out
 
-    rows = {}
-    stack, n_wide = [(0, 0)], 1
-    while stack:
-        b, w = stack.pop()
-        kids = [b + 1, int(ni[b, 0])]
-        while len(kids) < width:
-            inner = [i for i, c in enumerate(kids) if na[c] >= 0]
-            if not inner:
-                break
-            best = max(inner, key=lambda i: (area(kids[i]), -i))
-            c = kids[best]
-            kids[best] = c + 1
-            kids.append(int(ni[c, 0]))
-        lanes = []
-        for c in kids:
-            if na[c] < 0:
-                lanes.append((c, int(ni[c, 0]), int(ni[c, 1])))
-            else:
-                lanes.append((c, n_wide, 0))
-                n_wide += 1
-        rows[w] = lanes
-        for c, link, _ in reversed(lanes):
-            if na[c] >= 0:
-                stack.append((c, link))
-    bounds = np.empty((n_wide, 6, width), np.float32)
-    bounds[:, :3], bounds[:, 3:] = np.inf, -np.inf
-    index = np.zeros((n_wide, 2, width), np.int32)
-    for w, lanes in rows.items():
-        for lane, (c, link, count) in enumerate(lanes):
-            bounds[w, :, lane] = nb_[c]
-            index[w, :, lane] = (link, count)
-    return bounds, index
+    best = np.inf
+    for bits in itertools.product((False, True), repeat=len(inner) - 1):
+        chosen = {0} | {n for n, keep in zip(inner[1:], bits, strict=True) if keep}
+        if all(len(lanes(n, chosen)) <= width for n in chosen):
+            best = min(best, sum(_area(nb_[n]) for n in chosen))
+    return best
 
 
-def test_collapse_is_the_plain_greedy():
+@pytest.mark.parametrize("width", [2, 3, 4, 8])
+def test_collapse_has_the_least_summed_node_area(width):
+    """The optimal collapse against all collapses of small trees: its wide nodes' summed area
+    (each node's box: the union of its lanes') is the least possible, and every lane, leaf or
+    node, is used by exactly one parent."""
     from raylume.accel import wide
 
-    rng = np.random.default_rng(12)
-    lo, hi = clustered_boxes(rng, 3000)
-    chain = np.arange(300.0)[:, None] * [1.0, 0.0, 0.0] * np.logspace(0, 3, 300)[:, None]
-    for a, b in ((lo, hi), (chain, chain + 0.5), (lo[:3], hi[:3]), (lo[:9], hi[:9])):
-        bvh = build_bvh(a, b, max_leaf_size=4, c_trav=2.0)
-        got = wide.collapse(bvh)
-        if bvh.node_axis[0] < 0:  # a root leaf: one node with one leaf lane
-            assert got.node_index.shape == (1, 2, 8) and got.node_index[0, 1, 0] == len(a)
-            continue
-        bounds, index = reference_collapse(bvh)
-        assert np.array_equal(got.node_bounds, bounds)
-        assert np.array_equal(got.node_index, index)
-        assert got.prim_order is bvh.prim_order
+    rng = np.random.default_rng(width)
+    for trial in range(6):
+        n = int(rng.integers(9, 15))
+        lo = rng.uniform(-1, 1, size=(n, 3)) * rng.uniform(0.1, 3, size=3)
+        bvh = build_bvh(lo, lo + rng.uniform(0.01, 0.3, size=(n, 3)), max_leaf_size=1)
+        got = wide.collapse(bvh, width)
+        used = got.node_bounds[:, 0, :] <= got.node_bounds[:, 3, :]
+        total = 0.0
+        for m in range(len(got.node_index)):
+            lanes = got.node_bounds[m][:, used[m]]  # (6, lanes used)
+            box = np.concatenate([lanes[:3].min(axis=1), lanes[3:].max(axis=1)])
+            total += _area(box)
+        assert total == pytest.approx(least_collapse_area(bvh, width), rel=1e-6), trial
+        assert used.sum(axis=1).max() <= width
+        assert used.sum() == (bvh.node_axis < 0).sum() + len(got.node_index) - 1
 
 
 @pytest.mark.parametrize("kernel", [None, 16])
