@@ -587,7 +587,7 @@ def test_collapse_has_the_least_summed_node_area(width):
         used = got.node_bounds[:, 0, :] <= got.node_bounds[:, 3, :]
         total = 0.0
         for m in range(len(got.node_index)):
-            lanes = got.node_bounds[m][:, used[m]]  # (6, lanes used)
+            lanes = got.node_bounds[m, :6][:, used[m]]  # (6, lanes used)
             box = np.concatenate([lanes[:3].min(axis=1), lanes[3:].max(axis=1)])
             total += _area(box)
         assert total == pytest.approx(least_collapse_area(bvh, width), rel=1e-6), trial

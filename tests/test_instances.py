@@ -12,6 +12,7 @@ import trimesh
 from typer.testing import CliRunner
 
 import raylume
+from raylume.accel.wide import NODE_COUNT, NODE_FIRST
 from raylume.cli import app
 from raylume.scene.mesh import transform_matrix
 
@@ -362,17 +363,17 @@ def test_top_level_lanes_hold_one_instance_each_and_bound_it(scenes):
     k = compile_scene(inst).kernel
     bounds, index = k.inst_node_bounds, k.inst_node_index
     n_tlas = int(k.instance_index[:, 0].min())  # the BLASes' nodes follow the TLAS's
-    lanes = [(m, j) for m in range(n_tlas) for j in range(index.shape[2]) if index[m, 1, j] != 0]
-    assert sorted(int(index[m, 0, j]) for m, j in lanes) == list(range(len(mats)))
-    assert all(index[m, 1, j] == 1 for m, j in lanes)
+    lanes = [(m, j) for m in range(n_tlas) for j in range(index.shape[2]) if index[m, NODE_COUNT, j] != 0]
+    assert sorted(int(index[m, NODE_FIRST, j]) for m, j in lanes) == list(range(len(mats)))
+    assert all(index[m, NODE_COUNT, j] == 1 for m, j in lanes)
     v = np.asarray(mesh.vertices).astype(np.float32).astype(np.float64)  # as the scene stores them
     corners = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)])
     corners = v.min(axis=0) + corners * (v.max(axis=0) - v.min(axis=0))
     tighter = 0
     for m, j in lanes:
-        row = int(index[m, 0, j])
+        row = int(index[m, NODE_FIRST, j])
         a = mats[k.instance_index[row, 1]]
-        lo, hi = bounds[m, :3, j].astype(np.float64), bounds[m, 3:, j].astype(np.float64)
+        lo, hi = bounds[m, :3, j].astype(np.float64), bounds[m, 3:6, j].astype(np.float64)
         placed = v @ a[:3, :3].T + a[:3, 3]
         assert (placed >= lo).all() and (placed <= hi).all()
         moved = corners @ a[:3, :3].T + a[:3, 3]

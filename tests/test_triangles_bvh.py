@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 from numba import njit
 
 import raylume
+from raylume.accel.wide import NODE_COUNT, NODE_FIRST, NODE_ROWS
 from raylume.compile import compile_scene
 from raylume.kernels.scene import geometry_of
 from raylume.kernels.shape_triangle import INF, intersect_triangle, ray_shear
@@ -395,22 +396,26 @@ def test_collapsed_bvh_keeps_every_leaf_and_box(width):
     binary = build_bvh(lo, hi, max_leaf_size=4)
     wide = collapse(binary, width)
     b, ix = wide.node_bounds, wide.node_index
-    assert b.shape == (len(ix), 6, width) and b.dtype == np.float32 and ix.dtype == np.int32
+    assert b.shape == (len(ix), NODE_ROWS, width) and b.dtype == np.float32 and ix.dtype == np.int32
+    assert np.shares_memory(b, ix)  # one record per node
     leaves = sorted(
-        (int(ix[m, 0, k]), int(ix[m, 1, k])) for m in range(len(ix)) for k in range(width) if ix[m, 1, k] > 0
+        (int(ix[m, NODE_FIRST, k]), int(ix[m, NODE_COUNT, k]))
+        for m in range(len(ix))
+        for k in range(width)
+        if ix[m, NODE_COUNT, k] > 0
     )
     leaf = binary.node_axis < 0
     assert leaves == sorted(map(tuple, binary.node_index[leaf].tolist()))
     used = np.isfinite(b[:, 0, :]) & (b[:, 0, :] <= b[:, 3, :])
     assert (used.sum(axis=1) >= 2).all() or len(ix) == 1
     assert np.all(b[:, :3][~np.broadcast_to(used[:, None], b[:, :3].shape)] == np.inf)
-    inner = used & (ix[:, 1, :] == 0)
+    inner = used & (ix[:, NODE_COUNT, :] == 0)
     m_of = np.nonzero(inner)
-    children = ix[:, 0, :][inner]
+    children = ix[:, NODE_FIRST, :][inner]
     assert (children > m_of[0]).all() and sorted(children.tolist()) == list(range(1, len(ix)))
     for m, k, c in zip(*m_of, children, strict=True):  # a child's lanes lie within its box
         sub = used[c]
-        assert (b[c, :3][:, sub] >= b[m, :3, k : k + 1]).all() and (b[c, 3:][:, sub] <= b[m, 3:, k : k + 1]).all()
+        assert (b[c, :3][:, sub] >= b[m, :3, k : k + 1]).all() and (b[c, 3:6][:, sub] <= b[m, 3:6, k : k + 1]).all()
     assert wide_depth(wide) <= int(np.ceil(np.log2(len(binary.node_axis)))) + 1
 
 
@@ -422,7 +427,11 @@ def test_wide_depth_is_the_longest_path_from_the_root(width):
     from raylume.accel.wide import collapse, single_leaf, wide_depth
 
     def depth(ix, m):
-        inner = [int(ix[m, 0, k]) for k in range(ix.shape[2]) if ix[m, 1, k] == 0 and ix[m, 0, k] > m]
+        inner = [
+            int(ix[m, NODE_FIRST, k])
+            for k in range(ix.shape[2])
+            if ix[m, NODE_COUNT, k] == 0 and ix[m, NODE_FIRST, k] > m
+        ]
         return 1 + max((depth(ix, c) for c in inner), default=0)
 
     rng = np.random.default_rng(7)

@@ -22,7 +22,17 @@ import numba as nb
 import numpy as np
 
 from .accel.bvh import build_bvh
-from .accel.wide import WideBVH, collapse, mark_triangle_leaves, single_leaf, wide_depth, wide_nbytes
+from .accel.wide import (
+    NODE_COUNT,
+    NODE_FIRST,
+    WideBVH,
+    as_node_records,
+    collapse,
+    mark_triangle_leaves,
+    single_leaf,
+    wide_depth,
+    wide_nbytes,
+)
 from .kernels.shape_triangle import TRIANGLES_PER_TEST
 from .kernels.shapes import PRIM_FACE, PRIM_KIND, PRIM_LIGHT, PRIM_MATERIAL, PRIM_OBJECT, PRIM_ROW, PRIM_WIDTH, Shape
 from .kernels.traverse import BVH_WIDTH, stack_needed
@@ -57,9 +67,9 @@ class InstanceArrays(NamedTuple):
     normals: np.ndarray | None  # float32 (T, 9), None when no instanced mesh is smooth
     smooth: np.ndarray  # bool (T,)
     uvs: np.ndarray | None  # float32 (T, 6), None when none needs UVs
-    node_bounds: np.ndarray  # float32 (M, 6, W): the TLAS (root 0), then every BLAS
-    node_index: np.ndarray  # int32 (M, 2, W); BLAS leaves' first rows relative to `prims`
-    blas_leaf: np.ndarray  # bool (M, W): lanes of node_index[:, 0] that are BLAS leaves' first rows
+    node_bounds: np.ndarray  # float32 (M, NODE_ROWS, W) node records: the TLAS (root 0), then every BLAS
+    node_index: np.ndarray  # the same records as int32 (wide.py); BLAS leaves' first rows relative to `prims`
+    blas_leaf: np.ndarray  # bool (M, W): lanes of node_index[:, NODE_FIRST] that are BLAS leaves' first rows
     inverse: np.ndarray  # float32 (N, 12): world-to-object matrices, TLAS leaf order
     index: np.ndarray  # int32 (N, 2): BLAS root node, index within its object
     meshes: np.ndarray  # int64 (K, 3): each instanced mesh's first row of `prims`, rows, BLAS root
@@ -218,7 +228,7 @@ def build_tlas(lo: np.ndarray, hi: np.ndarray, accelerate: bool = True) -> WideB
     order = bvh.prim_order.astype(np.int64)
     box = outward_f32(np.asarray(lo, np.float64)[order], np.asarray(hi, np.float64)[order])
     wb, wi = _collapse_tlas(bvh.node_bounds, bvh.node_index, bvh.node_axis, box, BVH_WIDTH, TLAS_SPLIT_MIN)
-    return WideBVH(wb, wi, bvh.prim_order)
+    return WideBVH(*as_node_records(wb, wi), bvh.prim_order)
 
 
 def blas_boxes(blas: WideBVH, levels: int) -> tuple[np.ndarray, np.ndarray]:
@@ -234,11 +244,11 @@ def blas_boxes(blas: WideBVH, levels: int) -> tuple[np.ndarray, np.ndarray]:
             for lane in range(BVH_WIDTH):
                 if not b[m, 0, lane] <= b[m, 3, lane]:
                     continue  # an unused lane
-                if idx[m, 1, lane] == 0 and level + 1 < levels:
-                    deeper.append(int(idx[m, 0, lane]))
+                if idx[m, NODE_COUNT, lane] == 0 and level + 1 < levels:
+                    deeper.append(int(idx[m, NODE_FIRST, lane]))
                 else:
                     lo.append(b[m, :3, lane])
-                    hi.append(b[m, 3:, lane])
+                    hi.append(b[m, 3:6, lane])
         nodes = deeper
     return np.array(lo, np.float64).reshape(-1, 3), np.array(hi, np.float64).reshape(-1, 3)
 
@@ -282,7 +292,7 @@ def build_instances(meshes: list, accelerate: bool = True) -> InstanceArrays:
     if not meshes:
         return empty_instances()
     prims, tris, normals, smooth, uvs = [], [], [], [], []
-    blas_bounds, blas_index = [], []
+    blas_records = []
     box_lo, box_hi, roots, ids, inverses, firsts = [], [], [], [], [], []
     prim_base = 0
     node_base = 0  # nodes of the BLASes before this one (the TLAS's are added below)
@@ -312,11 +322,11 @@ def build_instances(meshes: list, accelerate: bool = True) -> InstanceArrays:
         normals.append(mesh.normals[order] if mesh.normals is not None else None)
         smooth.append(np.full(n, mesh.normals is not None))
         uvs.append(mesh.uvs[order] if mesh.uvs is not None else None)
-        index = blas.node_index.copy()
-        leaf = index[:, 1, :] != 0
-        index[:, 0, :] += np.where(leaf, prim_base, node_base).astype(np.int32)
-        blas_bounds.append(blas.node_bounds)
-        blas_index.append(index)
+        records = blas.node_bounds.copy()
+        index = records.view(np.int32)
+        leaf = index[:, NODE_COUNT, :] != 0
+        index[:, NODE_FIRST, :] += np.where(leaf, prim_base, node_base).astype(np.int32)
+        blas_records.append(records)
         # the instances of this mesh: world boxes of the mesh's box
         if BOX_LEVELS and accelerate and len(lo) > SMALL_BLAS:
             wlo, whi = world_boxes(*blas_boxes(blas, BOX_LEVELS), mesh.matrices)
@@ -337,18 +347,18 @@ def build_instances(meshes: list, accelerate: bool = True) -> InstanceArrays:
     tlas_depth = wide_depth(tlas) if accelerate else 1
     order = tlas.prim_order.astype(np.int64)
     n_tlas = len(tlas.node_index)
-    node_bounds = np.concatenate([tlas.node_bounds, *blas_bounds])
-    node_index = np.concatenate([tlas.node_index, *blas_index])
-    blas_leaf = node_index[:, 1, :] != 0
+    node_bounds = np.concatenate([tlas.node_bounds, *blas_records])
+    node_index = node_bounds.view(np.int32)
+    blas_leaf = node_index[:, NODE_COUNT, :] != 0
     blas_leaf[:n_tlas] = False
-    node_index[n_tlas:, 0, :] += np.where(blas_leaf[n_tlas:], 0, n_tlas).astype(np.int32)
+    node_index[n_tlas:, NODE_FIRST, :] += np.where(blas_leaf[n_tlas:], 0, n_tlas).astype(np.int32)
     index = np.empty((len(order), 2), np.int32)
     index[:, 0] = (np.concatenate(roots) + n_tlas)[order]
     index[:, 1] = np.concatenate(ids)[order]
     inverse = np.ascontiguousarray(np.concatenate(inverses)[order])
     n_inst = len(order)
     all_prims = np.concatenate(prims)
-    node_bytes = int(node_bounds.nbytes + node_index.nbytes + 8 * len(all_prims))
+    node_bytes = int(node_bounds.nbytes + 8 * len(all_prims))
     record = int(inverse.nbytes + index.nbytes)
     tlas_bytes = wide_nbytes(tlas)
     return InstanceArrays(
@@ -363,8 +373,8 @@ def build_instances(meshes: list, accelerate: bool = True) -> InstanceArrays:
         uvs=np.concatenate([u if u is not None else np.zeros((len(t), 6), np.float32) for u, t in zip(uvs, tris)])
         if any_uvs
         else None,
-        node_bounds=np.ascontiguousarray(node_bounds),
-        node_index=np.ascontiguousarray(node_index),
+        node_bounds=node_bounds,
+        node_index=node_index,
         blas_leaf=blas_leaf,
         inverse=inverse,
         index=index,
@@ -390,7 +400,7 @@ def place_instanced(inst: InstanceArrays, n_world: int, n_world_tris: int) -> No
     """Point the instanced rows at their final places, in place: BLAS leaves at primitive rows
     after the world's n_world, PRIM_ROW at triangle rows after the world's n_world_tris (and
     `meshes`' first rows at the primitive table's)."""
-    inst.node_index[:, 0, :][inst.blas_leaf] += np.int32(n_world)
+    inst.node_index[:, NODE_FIRST, :][inst.blas_leaf] += np.int32(n_world)
     inst.prims[:, PRIM_ROW] += np.int32(n_world_tris)
     inst.meshes[:, 0] += n_world
 

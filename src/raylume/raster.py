@@ -25,6 +25,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from .accel.wide import NODE_COUNT, NODE_FIRST
 from .kernels.camera import CAM_POSITION, CAM_UP
 from .kernels.raster_kernel import rasterize_arrays
 from .kernels.shapes import PRIM_KIND, PRIM_ROW, Shape
@@ -148,8 +149,8 @@ def flatten_instances(S):
     ranges = {}
     ends = [*roots[1:], len(index)]
     for r, e in zip(roots, ends, strict=True):
-        count = index[r:e, 1, :]
-        first = index[r:e, 0, :][count != 0].astype(np.int64)
+        count = index[r:e, NODE_COUNT, :]
+        first = index[r:e, NODE_FIRST, :][count != 0].astype(np.int64)
         last = first + np.abs(count[count != 0])
         ranges[int(r)] = (int(first.min()), int(last.max()))
     n_world = min(a for a, _ in ranges.values())

@@ -1,15 +1,20 @@
 """Wide BVH: the binned-SAH binary tree (bvh.py) collapsed into nodes of up to W children.
 
-Each wide node stores its children's boxes structure-of-arrays, one float32 lane per child, so
-that traversal tests all of them with one vector instruction per plane (kernels/traverse.py):
+Each wide node is one record of NODE_ROWS rows of W 32-bit lanes, one lane per child (256
+bytes for W = 8, as Embree's BVH8 node), its children's boxes structure-of-arrays so that
+traversal tests all of them with one vector instruction per plane (kernels/traverse.py):
 
-* ``node_bounds[m]``  float32 ``(6, W)``: rows lo_x, lo_y, lo_z, hi_x, hi_y, hi_z, one column
-                      per child. Unused lanes hold the empty box (lo = +inf, hi = -inf), which
-                      no ray can enter (its entry distance is +inf or NaN on every axis).
-* ``node_index[m]``   int32 ``(2, W)``: row 0 the child's wide node (inner child) or its first
-                      primitive (leaf child); row 1 the leaf's primitive count, 0 for an inner
-                      child (and for unused lanes), negated for a leaf of 2 to 4 triangles that
-                      traversal tests together (mark_triangle_leaves).
+* rows 0-5, float32: lo_x, lo_y, lo_z, hi_x, hi_y, hi_z. Unused lanes hold the empty box
+  (lo = +inf, hi = -inf), which no ray can enter (its entry distance is +inf or NaN on every
+  axis).
+* row NODE_FIRST, int32: the child's wide node (inner child) or its first primitive (leaf
+  child); row NODE_COUNT, int32: the leaf's primitive count, 0 for an inner child (and for
+  unused lanes), negated for a leaf of 2 to 4 triangles that traversal tests together
+  (mark_triangle_leaves).
+
+``node_bounds`` (float32) and ``node_index`` (int32) are two views of the same records: a node's
+child indices lie in the cache line after its boxes, not in a second array (docs/architecture.md:
+bumpy 4M frames on a Zen 3 3-11% faster in each of 4 alternating runs).
 
 Children come after their parent (node 0 is the root), and siblings' nodes are consecutive.
 Leaves are the binary tree's leaves, unchanged: ranges of the primitive table. A root that is
@@ -34,15 +39,48 @@ import numpy as np
 from ..kernels.vec import kernel_function
 from .bvh import BVH
 
-__all__ = ["WideBVH", "collapse", "mark_triangle_leaves", "single_leaf", "wide_depth", "wide_nbytes"]
+__all__ = [
+    "NODE_COUNT",
+    "NODE_FIRST",
+    "NODE_ROWS",
+    "WideBVH",
+    "as_node_records",
+    "collapse",
+    "mark_triangle_leaves",
+    "node_records",
+    "single_leaf",
+    "wide_depth",
+    "wide_nbytes",
+]
 
 _F32_MAX = float(np.finfo(np.float32).max)
 
 
+NODE_ROWS = 8  # rows of a node record: six planes, first, count
+NODE_FIRST, NODE_COUNT = 6, 7
+
+
 class WideBVH(NamedTuple):
-    node_bounds: np.ndarray  # (M, 6, W) float32
-    node_index: np.ndarray  # (M, 2, W) int32
+    node_bounds: np.ndarray  # (M, NODE_ROWS, W) float32: the node records
+    node_index: np.ndarray  # (M, NODE_ROWS, W) int32: the same records (node_records)
     prim_order: np.ndarray  # (N,) int32, as the binary tree's
+
+
+def node_records(m: int, width: int) -> tuple[np.ndarray, np.ndarray]:
+    """Uninitialised records of m wide nodes, as (node_bounds, node_index): float32 and int32
+    views of one array."""
+    bounds = np.empty((m, NODE_ROWS, width), np.float32)
+    return bounds, bounds.view(np.int32)
+
+
+def as_node_records(bounds: np.ndarray, index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Records of nodes given as boxes (M, 6, W) float32 and indices (M, 2, W) int32 (first,
+    count)."""
+    records, view = node_records(len(bounds), bounds.shape[2])
+    records[:, :6] = bounds
+    view[:, NODE_FIRST] = index[:, 0]
+    view[:, NODE_COUNT] = index[:, 1]
+    return records, view
 
 
 @kernel_function()  # linked into _lane_table, its one caller (kernels/vec.py)
@@ -100,7 +138,7 @@ def _lane_table(nbounds, nindex, naxis, width, split):
 
 @nb.njit(cache=True, nogil=True)
 def _walk(nbounds, nindex, naxis, width, split, wb, wi, stack):
-    """The collapse from the root into rows of ``wb``, ``wi``, numbering wide nodes depth-first,
+    """The collapse from the root into the records ``wb``, ``wi`` (node_records), numbering wide nodes depth-first,
     a node's inner children consecutive, the first child's subtree first. The wide node made
     from binary node b holds the lanes that split (_lane_table) gives b's two subtrees in
     `width` lanes, in tree order. ``stack`` (K, 2): work rows, K above the number of inner
@@ -142,11 +180,11 @@ def _walk(nbounds, nindex, naxis, width, split, wb, wi, stack):
             for d in range(6):
                 wb[w, d, i] = nbounds[c, d]
             if naxis[c] < 0:
-                wi[w, 0, i] = nindex[c, 0]
-                wi[w, 1, i] = nindex[c, 1]
+                wi[w, NODE_FIRST, i] = nindex[c, 0]
+                wi[w, NODE_COUNT, i] = nindex[c, 1]
             else:
-                wi[w, 0, i] = n_wide
-                wi[w, 1, i] = 0
+                wi[w, NODE_FIRST, i] = n_wide
+                wi[w, NODE_COUNT, i] = 0
                 n_wide += 1
         # Rows are filled when made (lanes past the children: the empty box), so rows never
         # made are never touched.
@@ -154,8 +192,8 @@ def _walk(nbounds, nindex, naxis, width, split, wb, wi, stack):
             for d in range(3):
                 wb[w, d, i] = np.inf
                 wb[w, 3 + d, i] = -np.inf
-            wi[w, 0, i] = 0
-            wi[w, 1, i] = 0
+            wi[w, NODE_FIRST, i] = 0
+            wi[w, NODE_COUNT, i] = 0
         # pushed in reverse: the first child's subtree is collapsed (and numbered) first
         child = n_wide
         for i in range(nk - 1, -1, -1):
@@ -173,11 +211,11 @@ def collapse(bvh: BVH, width: int = 8) -> WideBVH:
         raise ValueError("width must be in 2..32")
     nbounds, nindex, naxis = bvh.node_bounds, bvh.node_index, bvh.node_axis
     if naxis[0] < 0:  # the root is a leaf
-        wb = np.empty((1, 6, width), np.float32)
-        wb[0, :3], wb[0, 3:] = np.inf, -np.inf
-        wb[0, :, 0] = nbounds[0]
-        wi = np.zeros((1, 2, width), np.int32)
-        wi[0, :, 0] = nindex[0]
+        wb, wi = node_records(1, width)
+        wb[0, :3], wb[0, 3:6] = np.inf, -np.inf
+        wb[0, :6, 0] = nbounds[0]
+        wi[0, NODE_FIRST:] = 0
+        wi[0, NODE_FIRST:, 0] = nindex[0]
         return WideBVH(wb, wi, bvh.prim_order)
     split = np.empty((naxis.shape[0], width), np.int8)
     _lane_table(nbounds, nindex, naxis, int(width), split)
@@ -185,8 +223,7 @@ def collapse(bvh: BVH, width: int = 8) -> WideBVH:
     # are at most half the binary nodes; np.empty's untouched rows cost no memory. (Before,
     # a row per binary inner node was initialised, then the result trimmed: 2x slower.)
     cap = naxis.shape[0] // 2 + 2
-    wb = np.empty((cap, 6, width), np.float32)
-    wi = np.empty((cap, 2, width), np.int32)
+    wb, wi = node_records(cap, width)
     m = _walk(nbounds, nindex, naxis, int(width), split, wb, wi, np.empty((cap, 2), np.int64))
     # The rows written, as views: no copy (it cost a fifth of the collapse at bumpy 4M, and
     # its memory), and the rows past m were never touched, so they take none.
@@ -197,19 +234,19 @@ def wide_depth(wide: WideBVH) -> int:
     """Levels of wide nodes (a root with only leaves has depth 1). Level by level in numpy
     (a few array operations a level): a compiled loop cost a cold build ~0.25 s of JIT."""
     index = wide.node_index
-    inner = index[:, 1, :] == 0  # inner children's lanes, and unused lanes (pointing at node 0)
+    inner = index[:, NODE_COUNT, :] == 0  # inner children's lanes, and unused lanes (pointing at node 0)
     level = np.zeros(1, np.int64)  # the root
     depth = 0
     while level.size:
         depth += 1
-        children = index[level, 0, :][inner[level]]
+        children = index[level, NODE_FIRST, :][inner[level]]
         level = children[children > 0]  # node 0 is the root, no one's child
     return depth
 
 
 def wide_nbytes(wide: WideBVH) -> int:
-    """Bytes of the node arrays (what traversal reads beside the primitive table)."""
-    return int(wide.node_bounds.nbytes + wide.node_index.nbytes)
+    """Bytes of the node records (what traversal reads beside the primitive table)."""
+    return int(wide.node_bounds.nbytes)
 
 
 def single_leaf(lo: np.ndarray, hi: np.ndarray, width: int = 8) -> WideBVH:
@@ -217,18 +254,18 @@ def single_leaf(lo: np.ndarray, hi: np.ndarray, width: int = 8) -> WideBVH:
     never trace rays); its box is rounded outward to float32. Pure numpy: small scenes need no
     BVH code compiled."""
     n = len(lo)
-    bounds = np.empty((1, 6, width), np.float32)
+    bounds, index = node_records(1, width)
     bounds[:, :3] = np.inf
-    bounds[:, 3:] = -np.inf
+    bounds[:, 3:6] = -np.inf
     if n:
         lo64, hi64 = np.asarray(lo, np.float64).min(axis=0), np.asarray(hi, np.float64).max(axis=0)
         lo32, hi32 = lo64.astype(np.float32), hi64.astype(np.float32)
         lo32 = np.where(lo32 > lo64, np.nextafter(lo32, np.float32(-np.inf)), lo32)
         hi32 = np.where(hi32 < hi64, np.nextafter(hi32, np.float32(np.inf)), hi32)
         bounds[0, :3, 0] = lo32
-        bounds[0, 3:, 0] = hi32
-    index = np.zeros((1, 2, width), np.int32)
-    index[0, 1, 0] = n
+        bounds[0, 3:6, 0] = hi32
+    index[:, NODE_FIRST:] = 0
+    index[0, NODE_COUNT, 0] = n
     return WideBVH(bounds, index, np.arange(n, dtype=np.int32))
 
 
@@ -241,8 +278,8 @@ SPHERE_BLOCK = 8
 def _leaves_of_one_kind(wide: WideBVH, of_kind: np.ndarray, most: int) -> np.ndarray:
     """bool (N, W): the lanes whose leaf holds 2 .. `most` primitives, all of the kind
     (`of_kind`: bool per primitive-table row, in leaf order)."""
-    count = wide.node_index[:, 1, :]
-    first = wide.node_index[:, 0, :]
+    count = wide.node_index[:, NODE_COUNT, :]
+    first = wide.node_index[:, NODE_FIRST, :]
     prefix = np.concatenate([[0], np.cumsum(of_kind, dtype=np.int64)])
     leaf = (count >= 2) & (count <= most)
     end = np.where(leaf, first.astype(np.int64) + count, 0)
@@ -254,7 +291,7 @@ def mark_triangle_leaves(wide: WideBVH, is_triangle: np.ndarray, most: int = 4) 
     """Leaves of 2 .. `most` primitives that are all triangles get their count negated in place:
     traversal tests them together (shape_triangle.intersect_triangles), reading consecutive
     rows of the triangle table. `is_triangle`: bool per primitive-table row, in leaf order."""
-    count = wide.node_index[:, 1, :]
+    count = wide.node_index[:, NODE_COUNT, :]
     block = _leaves_of_one_kind(wide, is_triangle, most)
     count[block] = -count[block]
 
@@ -264,6 +301,6 @@ def mark_sphere_leaves(wide: WideBVH, is_sphere: np.ndarray, most: int = 4) -> N
     count) in place: traversal tests them together (shape_sphere.intersect_spheres). The seed
     scene's four spheres are one such leaf. `is_sphere`: bool per primitive-table row, in leaf
     order."""
-    count = wide.node_index[:, 1, :]
+    count = wide.node_index[:, NODE_COUNT, :]
     block = _leaves_of_one_kind(wide, is_sphere, most)
     count[block] = -(SPHERE_BLOCK + count[block])

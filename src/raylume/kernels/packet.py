@@ -46,7 +46,7 @@ from numba.core import cgutils
 from numba.core.errors import TypingError
 from numba.extending import intrinsic
 
-from ..accel.wide import SPHERE_BLOCK
+from ..accel.wide import NODE_COUNT, NODE_FIRST, NODE_ROWS, SPHERE_BLOCK
 from .shape_triangle import (
     EXACT,
     EXACT_DIVISION,
@@ -71,6 +71,7 @@ from .traverse import (
     block_row,
     intersect_leaf,
     lowest_bit,
+    prefetch_child_rows,
     prefetch_row,
     rows_in_leaf_order,
     scratch_array,
@@ -260,7 +261,7 @@ def packet_node(typingctx, bounds, node, box, rows, lane, active, t_out, at):
         far = [_load_row(builder, bx, 3 + k, _V8F) for k in range(3)]
         inv = [_load_row(builder, bx, 6 + k, _V8F) for k in range(3)]
         tmax = builder.fptrunc(_load_row(builder, ln, BEST_T, _V8D), _V8F)
-        base = builder.mul(n, ir.Constant(_i64, 6 * BVH_WIDTH))
+        base = builder.mul(n, ir.Constant(_i64, NODE_ROWS * BVH_WIDTH))
         # the node's rows: one vector of the eight children's planes each
         planes = []
         for k in range(3):
@@ -754,7 +755,7 @@ def packet_closest(G, X, root, rows, axes, active, box, lane, prim, node_stack, 
     top = 0
     while mask != 0:
         if ref >= 0:
-            prefetch_row(index, ref)
+            prefetch_child_rows(index, ref)
             masks = packet_node(bounds, ref, box, rows, lane, mask, t_stack, top)
             k = 0
             for c in range(BVH_WIDTH):
@@ -763,11 +764,11 @@ def packet_closest(G, X, root, rows, axes, active, box, lane, prim, node_stack, 
                     continue
                 u = np.uint64(c)
                 t = t_stack[np.uint64(top + c)]
-                if index[np.uint64(ref), 1, u] == 0:
-                    child = index[np.uint64(ref), 0, u]
+                if index[np.uint64(ref), NODE_COUNT, u] == 0:
+                    child = index[np.uint64(ref), NODE_FIRST, u]
                 else:
                     child = -1 - ((ref << _LANE_SHIFT) + c)
-                    f0 = index[np.uint64(ref), 0, u]
+                    f0 = index[np.uint64(ref), NODE_FIRST, u]
                     if direct_rows:  # the leaf's triangles themselves, four rows
                         for r in range(4):
                             prefetch_row(tri, f0 + r)
@@ -795,8 +796,8 @@ def packet_closest(G, X, root, rows, axes, active, box, lane, prim, node_stack, 
             leaf = -1 - ref
             node = leaf >> _LANE_SHIFT
             c = leaf & (BVH_WIDTH - 1)
-            first = index[node, 0, c]
-            count = index[node, 1, c]
+            first = index[node, NODE_FIRST, c]
+            count = index[node, NODE_COUNT, c]
             if -SPHERE_BLOCK <= count < 0:  # a block of triangles in consecutive rows
                 row = block_row(G, first)
                 # A leaf that one or two rays reach is tested ray by ray, four triangles per

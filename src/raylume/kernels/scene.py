@@ -17,8 +17,10 @@ class KernelScene(NamedTuple):
     triangle_normals: np.ndarray  # float32 (T, 9) vertex normals, or (1, 9) when no mesh is smooth
     triangle_smooth: np.ndarray  # bool (T,)
     triangle_uvs: np.ndarray  # float32 (T, 6): uv0, uv1, uv2, or (1, 6) when no triangle needs UVs
-    node_bounds: np.ndarray  # float32 (N, 6, W): W-wide BVH nodes' child boxes, SoA (accel/wide.py)
-    node_index: np.ndarray  # int32 (N, 2, W): child node / first prim, 0 / prim count
+    # W-wide BVH nodes (accel/wide.py): float32 (N, NODE_ROWS, W) records, the child boxes SoA,
+    # then child node / first prim and 0 / prim count; node_index is the same records as int32
+    node_bounds: np.ndarray
+    node_index: np.ndarray
     materials: np.ndarray  # float64 (M, MAT_WIDTH), materials.py
     textures: np.ndarray  # float64 (X, TEX_WIDTH), textures.py
     texels: np.ndarray  # float32 (N, 3): every image texture's linear texels, row by row
@@ -49,13 +51,24 @@ class KernelScene(NamedTuple):
     # inverse matrix (world to object, 3 x 4 row-major) and (BLAS root node, index within its
     # object), in top-level leaf order. Instanced meshes' triangles and primitive rows lie in
     # the shared tables (prims[n_world:n_bounded]). Zero instances: no top-level BVH.
-    inst_node_bounds: np.ndarray  # float32 (M, 6, W)
-    inst_node_index: np.ndarray  # int32 (M, 2, W)
+    inst_node_bounds: np.ndarray  # float32 (M, NODE_ROWS, W) node records
+    inst_node_index: np.ndarray  # the same records as int32
     instance_inverse: np.ndarray  # float32 (N, 12)
     instance_index: np.ndarray  # int32 (N, 2)
     # Smallest ray offset: a tiny fraction of the scene's extent, camera included (set per
     # render by the Session, since the camera may move).
     epsilon_floor: float
+
+    def __reduce__(self):
+        # node_index is node_bounds' memory seen as int32: pickled as they are, each would be
+        # copied, doubling the nodes' memory where the scene is unpickled (cluster workers) and
+        # splitting each node record in two
+        return _unpickle_scene, (tuple(self._replace(node_index=None, inst_node_index=None)),)
+
+
+def _unpickle_scene(fields: tuple) -> KernelScene:
+    s = KernelScene(*fields)
+    return s._replace(node_index=s.node_bounds.view(np.int32), inst_node_index=s.inst_node_bounds.view(np.int32))
 
 
 # Hot kernels take small views of the scene instead of the whole KernelScene: Numba passes a

@@ -1,7 +1,8 @@
 """BVH traversal: closest hit (nearest children first) and any hit (for shadow rays).
 
 The BVH is wide (accel/wide.py): each node holds up to BVH_WIDTH children, their boxes stored
-structure-of-arrays (float32 (6, W) per node: one row per slab plane, one lane per child).
+structure-of-arrays (a record of rows of W lanes per node: one row per slab plane, then the
+children's indices; one lane per child).
 `box_hits` tests a ray against all W boxes of a node at once, in explicit LLVM vector code
 (one ymm register per plane row on AVX2: vsubps, vmulps, vmaxps, vminps, vcmpps), so it
 vectorises whatever Numba's SLP vectoriser setting, and the on-disk cache cannot hold a scalar
@@ -13,7 +14,7 @@ Primitives are tested through one leaf loop (`intersect_range`) over the primiti
 that table and are tested before traversal.
 
 Stack entries: an inner node's index (>= 0), or -1 - (node * BVH_WIDTH + lane) for the leaf in
-that lane of that node (its range is node_index[node, :, lane]).
+that lane of that node (its range is node_index[node, NODE_FIRST:, lane]).
 """
 
 import math
@@ -25,7 +26,7 @@ from numba.core import cgutils
 from numba.core.errors import TypingError
 from numba.extending import intrinsic, overload
 
-from ..accel.wide import SPHERE_BLOCK
+from ..accel.wide import NODE_COUNT, NODE_FIRST, NODE_ROWS, SPHERE_BLOCK
 from .scene import is_instances
 from .shape_sphere import intersect_spheres
 from .shape_triangle import NO_SHEAR, intersect_triangles, ray_shear
@@ -109,7 +110,7 @@ def _box_codegen(width, store):
         def splat(x):
             return builder.shuffle_vector(builder.insert_element(undef, x, ir.Constant(i32, 0)), undef, broadcast)
 
-        base = builder.mul(node, ir.Constant(i64, 6 * width))
+        base = builder.mul(node, ir.Constant(i64, NODE_ROWS * width))
 
         def row(r):
             p = builder.gep(bounds.data, [builder.add(base, builder.mul(r, ir.Constant(i64, width)))], inbounds=True)
@@ -155,12 +156,13 @@ def _box_codegen(width, store):
 @intrinsic
 def box_hits(typingctx, bounds, node, rf, rows, tmax, out, at):
     """Ray (box_ray's (rf, rows)) against the BVH_WIDTH child boxes of wide node `node`
-    (bounds float32 (M, 6, BVH_WIDTH), C-contiguous), up to distance tmax: a bit mask of the
+    (bounds: the float32 node records (M, NODE_ROWS, BVH_WIDTH), C-contiguous; rows 0-5 the
+    boxes), up to distance tmax: a bit mask of the
     lanes the ray enters. With an array `out` (float32 or float64, C-contiguous), the lanes' entry
     distances are written to out[at : at + BVH_WIDTH] (meaningful for hit lanes only; never
     beyond the exact entry distance); with out None, nothing is written."""
     if not (isinstance(bounds, types.Array) and bounds.ndim == 3 and bounds.dtype == types.float32):
-        raise TypingError("box_hits: bounds must be a float32 (M, 6, W) array")
+        raise TypingError("box_hits: bounds must be a float32 (M, NODE_ROWS, W) array")
     if bounds.layout != "C":
         raise TypingError("box_hits: bounds must be C-contiguous")
     store = not isinstance(out, (types.NoneType, types.Omitted))
@@ -186,6 +188,31 @@ def prefetch_row(typingctx, array, i):
         stride = builder.extract_value(arr.strides, 0)
         base = builder.ptrtoint(arr.data, ir.IntType(64))
         addr = builder.inttoptr(builder.add(base, builder.mul(row, stride)), ir.IntType(8).as_pointer())
+        i32 = ir.IntType(32)
+        fn = cgutils.get_or_insert_function(
+            builder.module, ir.FunctionType(ir.VoidType(), [ir.IntType(8).as_pointer(), i32, i32, i32]), "llvm.prefetch"
+        )
+        builder.call(fn, [addr, ir.Constant(i32, 0), ir.Constant(i32, 3), ir.Constant(i32, 1)])
+        return context.get_dummy_value()
+
+    return sig, codegen
+
+
+@intrinsic
+def prefetch_child_rows(typingctx, index, node):
+    """prefetch_row for the cache line of node `node`'s child indices (node_index[node,
+    NODE_FIRST:]): the last of its record's lines, which the box test does not read."""
+    if not (isinstance(index, types.Array) and index.layout == "C" and index.ndim == 3):
+        raise TypingError("prefetch_child_rows: the C-contiguous node records")
+    sig = types.void(index, node)
+
+    def codegen(context, builder, sig, args):
+        arr = context.make_array(sig.args[0])(context, builder, args[0])
+        m = context.cast(builder, args[1], sig.args[1], types.int64)
+        i64 = ir.IntType(64)
+        strides = cgutils.unpack_tuple(builder, arr.strides, 3)
+        offset = builder.add(builder.mul(m, strides[0]), builder.mul(ir.Constant(i64, NODE_FIRST), strides[1]))
+        addr = builder.inttoptr(builder.add(builder.ptrtoint(arr.data, i64), offset), ir.IntType(8).as_pointer())
         i32 = ir.IntType(32)
         fn = cgutils.get_or_insert_function(
             builder.module, ir.FunctionType(ir.VoidType(), [ir.IntType(8).as_pointer(), i32, i32, i32]), "llvm.prefetch"
@@ -398,7 +425,7 @@ def _instances_any_impl(G, X, o, d, tmin, tmax, node_stack):
 @inline_function
 def stack_entry(index, ref, i):
     """Stack entry of lane i of node ref: the child node, or -1 - (node * W + lane) for a leaf."""
-    return index[ref, 0, i] if index[ref, 1, i] == 0 else -1 - ((ref << _LANE_SHIFT) + i)
+    return index[ref, NODE_FIRST, i] if index[ref, NODE_COUNT, i] == 0 else -1 - ((ref << _LANE_SHIFT) + i)
 
 
 @inline_function
@@ -408,7 +435,7 @@ def push_children(bounds, index, leaf_rows, ref, rf, rows, best_t, node_stack, t
     indices are prefetched beside its boxes, not loaded after the box test, so the two cache
     misses of a node overlap (hit rays on a 1M-triangle mesh: ~12% less time); a pushed leaf's
     first row of `leaf_rows` (what testing it reads first) too."""
-    prefetch_row(index, ref)
+    prefetch_child_rows(index, ref)
     # entry distances land at t_stack[top:]; they are moved down to t_stack[top:top + k] (lane
     # i >= k is read before slot top + k is written)
     mask = box_hits(bounds, ref, rf, rows, best_t, t_stack, top)
@@ -420,11 +447,11 @@ def push_children(bounds, index, leaf_rows, ref, rf, rows, best_t, node_stack, t
         mask &= mask - 1
         u = np.uint64(i)
         t = t_stack[np.uint64(top + i)]
-        if index[np.uint64(ref), 1, u] == 0:
-            child = index[np.uint64(ref), 0, u]
+        if index[np.uint64(ref), NODE_COUNT, u] == 0:
+            child = index[np.uint64(ref), NODE_FIRST, u]
         else:
             child = -1 - ((ref << _LANE_SHIFT) + i)
-            prefetch_row(leaf_rows, index[np.uint64(ref), 0, u])
+            prefetch_row(leaf_rows, index[np.uint64(ref), NODE_FIRST, u])
         j = top + k
         while j > top and t_stack[np.uint64(j - 1)] < t:
             t_stack[np.uint64(j)] = t_stack[np.uint64(j - 1)]
@@ -466,7 +493,7 @@ def pop_nearer(node_stack, t_stack, top, base, best_t):
 def _root_is_a_leaf(index):
     """A root node with one leaf lane (small scenes; one node has no inner children, so an
     unused lane 1 means lane 0 alone)."""
-    return index.shape[0] == 1 and index[0, 1, 1] == 0
+    return index.shape[0] == 1 and index[0, NODE_COUNT, 1] == 0
 
 
 @inline_function
@@ -493,7 +520,9 @@ def closest_hit(G, X, o, d, tmin, tmax, node_stack, t_stack):
         # kernel was 20-60% slower (1 thread)
         if lazy_shear:
             shear = ray_shear(d)
-        return intersect_leaf(G, X, index[0, 0, 0], index[0, 1, 0], o, d, shear, tmin, best_t, prim, b1, b2)
+        return intersect_leaf(
+            G, X, index[0, NODE_FIRST, 0], index[0, NODE_COUNT, 0], o, d, shear, tmin, best_t, prim, b1, b2
+        )
     if not traceable(o, d):
         return best_t, prim, b1, b2
     rf, rows = box_ray(o, d)
@@ -514,7 +543,18 @@ def closest_hit(G, X, o, d, tmin, tmax, node_stack, t_stack):
             node = leaf >> _LANE_SHIFT
             lane = leaf & (BVH_WIDTH - 1)
             best_t, prim, b1, b2 = intersect_leaf(
-                G, X, index[node, 0, lane], index[node, 1, lane], o, d, shear, tmin, best_t, prim, b1, b2
+                G,
+                X,
+                index[node, NODE_FIRST, lane],
+                index[node, NODE_COUNT, lane],
+                o,
+                d,
+                shear,
+                tmin,
+                best_t,
+                prim,
+                b1,
+                b2,
             )
         found, top, ref = pop_nearer(node_stack, t_stack, top, 0, best_t)
         if not found:
@@ -537,7 +577,7 @@ def any_hit(G, X, o, d, tmin, tmax, node_stack):
     if _root_is_a_leaf(index):  # as in closest_hit
         if lazy_shear:
             shear = ray_shear(d)
-        return _leaf_blocks(G, X, index[0, 0, 0], index[0, 1, 0], o, d, shear, tmin, tmax)
+        return _leaf_blocks(G, X, index[0, NODE_FIRST, 0], index[0, NODE_COUNT, 0], o, d, shear, tmin, tmax)
     if not traceable(o, d):
         return False
     rf, rows = box_ray(o, d)
@@ -553,7 +593,9 @@ def any_hit(G, X, o, d, tmin, tmax, node_stack):
             leaf = -1 - ref
             node = leaf >> _LANE_SHIFT
             lane = leaf & (BVH_WIDTH - 1)
-            if _leaf_blocks(G, X, index[node, 0, lane], index[node, 1, lane], o, d, shear, tmin, tmax):
+            if _leaf_blocks(
+                G, X, index[node, NODE_FIRST, lane], index[node, NODE_COUNT, lane], o, d, shear, tmin, tmax
+            ):
                 return True
             continue
         top = push_entered(bounds, index, ref, rf, rows, tmax, node_stack, top)

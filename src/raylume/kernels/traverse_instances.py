@@ -19,6 +19,7 @@ kernel's compile time.
 
 import numpy as np
 
+from ..accel.wide import NODE_COUNT, NODE_FIRST
 from .shape_triangle import intersect_triangle, intersect_triangles, ray_shear
 from .shapes import INSTANCE_SHIFT, NO_HIT, PRIM_ROW
 from .traverse import (
@@ -54,8 +55,8 @@ def _leaf_triangles(prims, tris, index, leaf, o, shear, tmin, best_t):
     """The nearest hit in a BLAS leaf: (t, primitive or NO_HIT, b1, b2)."""
     node = leaf >> _LANE_SHIFT
     lane = leaf & (BVH_WIDTH - 1)
-    first = index[node, 0, lane]
-    count = index[node, 1, lane]
+    first = index[node, NODE_FIRST, lane]
+    count = index[node, NODE_COUNT, lane]
     if count < 0:  # 2 to 4 triangles in consecutive rows, tested together
         row = np.int64(prims[first, PRIM_ROW])
         t, j, u, v = intersect_triangles(o, shear, tris, row, -count, tmin, best_t)
@@ -122,8 +123,8 @@ def instances_closest(G, X, o, d, tmin, best_t, hit, b1, b2, node_stack, t_stack
             leaf = -1 - ref
             node = leaf >> _LANE_SHIFT
             lane = leaf & (BVH_WIDTH - 1)
-            first = index[node, 0, lane]
-            for i in range(first, first + abs(index[node, 1, lane])):
+            first = index[node, NODE_FIRST, lane]
+            for i in range(first, first + abs(index[node, NODE_COUNT, lane])):
                 oo, dd = _to_object(inv, i, o, d)
                 root = X.index[i, 0]
                 t, j, u, v = _blas_closest(
@@ -176,8 +177,8 @@ def instances_any(G, X, o, d, tmin, tmax, node_stack):
             leaf = -1 - ref
             node = leaf >> _LANE_SHIFT
             lane = leaf & (BVH_WIDTH - 1)
-            first = index[node, 0, lane]
-            for i in range(first, first + abs(index[node, 1, lane])):
+            first = index[node, NODE_FIRST, lane]
+            for i in range(first, first + abs(index[node, NODE_COUNT, lane])):
                 oo, dd = _to_object(X.inverse, i, o, d)
                 if _blas_any(G.prims, G.triangles, bounds, index, X.index[i, 0], oo, dd, tmin, tmax, node_stack, top):
                     return True

@@ -25,7 +25,7 @@ import math
 
 import numpy as np
 
-from ..accel.wide import SPHERE_BLOCK
+from ..accel.wide import NODE_COUNT, NODE_FIRST, SPHERE_BLOCK
 from .camera import (
     CAM_CONE_SPREAD,
     CAM_FORWARD,
@@ -155,8 +155,8 @@ def _sphere_leaf(G):
     index = G.node_index
     if not _root_is_a_leaf(index):
         return 0, 0
-    first = index[0, 0, 0]
-    count = index[0, 1, 0]
+    first = index[0, NODE_FIRST, 0]
+    count = index[0, NODE_COUNT, 0]
     if count < 0:  # a block (accel/wide.py): spheres when below -SPHERE_BLOCK, else triangles
         if G.prims[first, PRIM_KIND] != SPHERE:
             return 0, 0
