@@ -91,8 +91,8 @@ def _area(b, c):
     return ex * ey + ey * ez + ez * ex
 
 
-@nb.njit(cache=True, nogil=True)
-def _lane_table(nbounds, nindex, naxis, width, split):
+@nb.njit(cache=True, nogil=True, _nrt=False)
+def _lane_table(nbounds, nindex, naxis, width, split, stack, pair, pair_k):
     """The optimal collapse's choices, bottom up over the binary nodes, into `split` (int8
     (nodes, width)). The cost of a binary node's subtree given at most i lanes of its wide
     parent is the least summed surface area of the wide nodes below it (leaves are the same in
@@ -102,17 +102,15 @@ def _lane_table(nbounds, nindex, naxis, width, split):
 
     Nodes come parent first, left subtree, right subtree, so in reverse order each node comes
     right after its left subtree, which came right after its right subtree: the costs wait on
-    a stack, the node's two children's on top, and only one row per level is kept."""
-    stack = np.empty((64, width), np.float64)
+    `stack` (float64 (K, width), K above the tree's depth), the node's two children's rows on
+    top. `pair`, `pair_k`: (width + 1,) scratch. It allocates nothing: without reference
+    counting, less to compile in a cold build."""
     sp = 0
-    pair = np.empty(width + 1, np.float64)
-    pair_k = np.empty(width + 1, np.int64)
     for n in range(naxis.shape[0] - 1, -1, -1):
         if naxis[n] < 0:
-            split[n, :] = 0
-            if sp == stack.shape[0]:
-                stack = np.concatenate((stack, np.empty_like(stack)))
-            stack[sp, :] = 0.0
+            for i in range(width):
+                split[n, i] = 0
+                stack[sp, i] = 0.0
             sp += 1
             continue
         left, right = sp - 1, sp - 2  # rows of n + 1's and nindex[n, 0]'s costs
@@ -136,15 +134,15 @@ def _lane_table(nbounds, nindex, naxis, width, split):
                 split[n, i - 1] = 0
 
 
-@nb.njit(cache=True, nogil=True)
-def _walk(nbounds, nindex, naxis, width, split, wb, wi, stack):
-    """The collapse from the root into the records ``wb``, ``wi`` (node_records), numbering wide nodes depth-first,
-    a node's inner children consecutive, the first child's subtree first. The wide node made
-    from binary node b holds the lanes that split (_lane_table) gives b's two subtrees in
-    `width` lanes, in tree order. ``stack`` (K, 2): work rows, K above the number of inner
-    nodes (each is pushed once). Returns the number of rows written."""
-    kids = np.empty(width, np.int64)
-    parts = np.empty((width + 1, 2), np.int64)  # (binary node, lanes it may take) to place
+@nb.njit(cache=True, nogil=True, _nrt=False)
+def _walk(nbounds, nindex, naxis, width, split, wb, wi, stack, kids, parts):
+    """The collapse from the root into the records ``wb``, ``wi`` (node_records), numbering wide
+    nodes depth-first, a node's inner children consecutive, the first child's subtree first.
+    The wide node made from binary node b holds the lanes that split (_lane_table) gives b's
+    two subtrees in `width` lanes, in tree order. ``stack`` (K, 2): work rows, K above the
+    number of inner nodes (each is pushed once); ``kids`` (width,) and ``parts`` (width + 1, 2)
+    int64 scratch: a node's children, and the (binary node, lanes it may take) still to place.
+    Returns the number of rows written."""
     stack[0, 0] = 0
     stack[0, 1] = 0
     sp = 1
@@ -217,14 +215,16 @@ def collapse(bvh: BVH, width: int = 8) -> WideBVH:
         wi[0, NODE_FIRST:] = 0
         wi[0, NODE_FIRST:, 0] = nindex[0]
         return WideBVH(wb, wi, bvh.prim_order)
-    split = np.empty((naxis.shape[0], width), np.int8)
-    _lane_table(nbounds, nindex, naxis, int(width), split)
-    # Bounds, not counts: the wide nodes, the inner nodes (each consumes one) and the stack
+    # Bounds, not counts: the wide nodes, the inner nodes (each consumes one) and the stacks
     # are at most half the binary nodes; np.empty's untouched rows cost no memory. (Before,
     # a row per binary inner node was initialised, then the result trimmed: 2x slower.)
     cap = naxis.shape[0] // 2 + 2
+    split = np.empty((naxis.shape[0], width), np.int8)
+    pair, pair_k = np.empty(width + 1), np.empty(width + 1, np.int64)
+    _lane_table(nbounds, nindex, naxis, int(width), split, np.empty((cap, width)), pair, pair_k)
     wb, wi = node_records(cap, width)
-    m = _walk(nbounds, nindex, naxis, int(width), split, wb, wi, np.empty((cap, 2), np.int64))
+    kids, parts = np.empty(width, np.int64), np.empty((width + 1, 2), np.int64)
+    m = _walk(nbounds, nindex, naxis, int(width), split, wb, wi, np.empty((cap, 2), np.int64), kids, parts)
     # The rows written, as views: no copy (it cost a fifth of the collapse at bumpy 4M, and
     # its memory), and the rows past m were never touched, so they take none.
     return WideBVH(wb[:m], wi[:m], bvh.prim_order)
