@@ -91,6 +91,10 @@ def test_a_pickled_compiled_scene_renders_the_same_image(scene):
     session = Session(scene)
     shipped = pickle.loads(pickle.dumps(session.compiled))
     assert "Path" not in repr(shipped) and "PosixPath" not in pickle.dumps(session.compiled).decode("latin1")
+    # the BVH's node records arrive once, as the two views of one array that they were
+    k = shipped.kernel
+    assert np.shares_memory(k.node_bounds, k.node_index) and np.shares_memory(k.inst_node_bounds, k.inst_node_index)
+    assert np.array_equal(k.node_index, session.compiled.kernel.node_index)
     elsewhere = Session.from_compiled(scene, shipped)
     for mode in ("trace", "cast"):
         assert elsewhere.render(mode=mode, spp=3).rgb.tobytes() == session.render(mode=mode, spp=3).rgb.tobytes()
