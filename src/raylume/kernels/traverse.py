@@ -157,10 +157,10 @@ def _box_codegen(width, store):
 def box_hits(typingctx, bounds, node, rf, rows, tmax, out, at):
     """Ray (box_ray's (rf, rows)) against the BVH_WIDTH child boxes of wide node `node`
     (bounds: the float32 node records (M, NODE_ROWS, BVH_WIDTH), C-contiguous; rows 0-5 the
-    boxes), up to distance tmax: a bit mask of the
-    lanes the ray enters. With an array `out` (float32 or float64, C-contiguous), the lanes' entry
-    distances are written to out[at : at + BVH_WIDTH] (meaningful for hit lanes only; never
-    beyond the exact entry distance); with out None, nothing is written."""
+    boxes), up to distance tmax: a bit mask of the lanes the ray enters. With an array `out`
+    (float32 or float64, C-contiguous), the lanes' entry distances are written to out[at : at +
+    BVH_WIDTH] (meaningful for hit lanes only; never beyond the exact entry distance); with out
+    None, nothing is written."""
     if not (isinstance(bounds, types.Array) and bounds.ndim == 3 and bounds.dtype == types.float32):
         raise TypingError("box_hits: bounds must be a float32 (M, NODE_ROWS, W) array")
     if bounds.layout != "C":
