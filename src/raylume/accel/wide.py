@@ -151,13 +151,11 @@ def _walk(nbounds, nindex, naxis, width, split, wb, wi, stack, kids, parts):
         sp -= 1
         b = stack[sp, 0]
         w = stack[sp, 1]
-        k = split[b, width - 1]
-        # the right part below the left: the leftmost is placed first
-        parts[0, 0] = nindex[b, 0]
-        parts[0, 1] = width - k
-        parts[1, 0] = b + 1
-        parts[1, 1] = k
-        n_parts = 2
+        # b in `width` lanes: an inner node there always splits (its own lane would cost its
+        # area on top), so the loop starts with its two subtrees
+        parts[0, 0] = b
+        parts[0, 1] = width
+        n_parts = 1
         nk = 0
         while n_parts > 0:
             n_parts -= 1
@@ -167,7 +165,7 @@ def _walk(nbounds, nindex, naxis, width, split, wb, wi, stack, kids, parts):
             if j == 0:
                 kids[nk] = c
                 nk += 1
-            else:
+            else:  # the right part below the left: the leftmost is placed first
                 parts[n_parts, 0] = nindex[c, 0]
                 parts[n_parts, 1] = i - j
                 parts[n_parts + 1, 0] = c + 1

@@ -186,16 +186,20 @@ def prefetch_row(typingctx, array, i):
         arr = context.make_array(sig.args[0])(context, builder, args[0])
         row = context.cast(builder, args[1], sig.args[1], types.int64)
         stride = builder.extract_value(arr.strides, 0)
-        base = builder.ptrtoint(arr.data, ir.IntType(64))
-        addr = builder.inttoptr(builder.add(base, builder.mul(row, stride)), ir.IntType(8).as_pointer())
-        i32 = ir.IntType(32)
-        fn = cgutils.get_or_insert_function(
-            builder.module, ir.FunctionType(ir.VoidType(), [ir.IntType(8).as_pointer(), i32, i32, i32]), "llvm.prefetch"
-        )
-        builder.call(fn, [addr, ir.Constant(i32, 0), ir.Constant(i32, 3), ir.Constant(i32, 1)])
+        _prefetch(builder, arr.data, builder.mul(row, stride))
         return context.get_dummy_value()
 
     return sig, codegen
+
+
+def _prefetch(builder, data, offset):
+    """llvm.prefetch (a read, kept in all cache levels) of the byte `offset` after `data`."""
+    i32, i64 = ir.IntType(32), ir.IntType(64)
+    addr = builder.inttoptr(builder.add(builder.ptrtoint(data, i64), offset), ir.IntType(8).as_pointer())
+    fn = cgutils.get_or_insert_function(
+        builder.module, ir.FunctionType(ir.VoidType(), [ir.IntType(8).as_pointer(), i32, i32, i32]), "llvm.prefetch"
+    )
+    builder.call(fn, [addr, ir.Constant(i32, 0), ir.Constant(i32, 3), ir.Constant(i32, 1)])
 
 
 @intrinsic
@@ -212,12 +216,7 @@ def prefetch_child_rows(typingctx, index, node):
         i64 = ir.IntType(64)
         strides = cgutils.unpack_tuple(builder, arr.strides, 3)
         offset = builder.add(builder.mul(m, strides[0]), builder.mul(ir.Constant(i64, NODE_FIRST), strides[1]))
-        addr = builder.inttoptr(builder.add(builder.ptrtoint(arr.data, i64), offset), ir.IntType(8).as_pointer())
-        i32 = ir.IntType(32)
-        fn = cgutils.get_or_insert_function(
-            builder.module, ir.FunctionType(ir.VoidType(), [ir.IntType(8).as_pointer(), i32, i32, i32]), "llvm.prefetch"
-        )
-        builder.call(fn, [addr, ir.Constant(i32, 0), ir.Constant(i32, 3), ir.Constant(i32, 1)])
+        _prefetch(builder, arr.data, offset)
         return context.get_dummy_value()
 
     return sig, codegen
