@@ -26,9 +26,9 @@ from .accel.wide import (
     NODE_COUNT,
     NODE_FIRST,
     WideBVH,
-    as_node_records,
     collapse,
     mark_triangle_leaves,
+    node_records,
     single_leaf,
     wide_depth,
     wide_nbytes,
@@ -116,20 +116,21 @@ def _area(b, c):
 
 
 @nb.njit(cache=True)
-def _collapse_tlas(nbounds, nindex, naxis, box, width, split_min):
+def _collapse_tlas(nbounds, nindex, naxis, box, width, split_min, wb, wi):
     """The binary TLAS as wide nodes whose leaf lanes hold one instance each where there is
     room: a wide node opens its largest child, inner node (one more lane) or leaf of k
     instances (k - 1 more lanes, when they fit), until it is full. Leaves that do not fit stay
     ranges of instances, or, with split_min instances or more, nodes of their own with one lane
-    each. `box`: float32 (N, 6) instance boxes (rounded outward), in leaf order."""
+    each. `box`: float32 (N, 6) instance boxes (rounded outward), in leaf order. Into the node
+    records (wb, wi) = wide.node_records(binary nodes, width); returns how many it made."""
     cap = naxis.shape[0]
-    wb = np.empty((cap, 6, width), np.float32)
-    wi = np.zeros((cap, 2, width), np.int32)
     for m in range(cap):
         for lane in range(width):
             for d in range(3):
                 wb[m, d, lane] = np.inf
                 wb[m, 3 + d, lane] = -np.inf
+            wi[m, NODE_FIRST, lane] = 0
+            wi[m, NODE_COUNT, lane] = 0
     work_b = np.empty(cap, np.int64)
     work_w = np.empty(cap, np.int64)
     kids = np.empty(width, np.int64)  # binary node c >= 0, or -1 - i for instance i alone
@@ -178,36 +179,36 @@ def _collapse_tlas(nbounds, nindex, naxis, box, width, split_min):
             if c < 0:
                 for d in range(6):
                     wb[w, d, i] = box[-1 - c, d]
-                wi[w, 0, i] = -1 - c
-                wi[w, 1, i] = 1
+                wi[w, NODE_FIRST, i] = -1 - c
+                wi[w, NODE_COUNT, i] = 1
                 continue
             for d in range(6):
                 wb[w, d, i] = nbounds[c, d]
             if naxis[c] < 0 and nindex[c, 1] >= split_min:
                 # a leaf of several instances: a node of its own, one lane each
-                wi[w, 0, i] = n_wide
-                wi[w, 1, i] = 0
+                wi[w, NODE_FIRST, i] = n_wide
+                wi[w, NODE_COUNT, i] = 0
                 first = nindex[c, 0]
                 for j in range(nindex[c, 1]):
                     for d in range(6):
                         wb[n_wide, d, j] = box[first + j, d]
-                    wi[n_wide, 0, j] = first + j
-                    wi[n_wide, 1, j] = 1
+                    wi[n_wide, NODE_FIRST, j] = first + j
+                    wi[n_wide, NODE_COUNT, j] = 1
                 n_wide += 1
             elif naxis[c] < 0:
-                wi[w, 0, i] = nindex[c, 0]
-                wi[w, 1, i] = nindex[c, 1]
+                wi[w, NODE_FIRST, i] = nindex[c, 0]
+                wi[w, NODE_COUNT, i] = nindex[c, 1]
             else:
-                wi[w, 0, i] = n_wide
-                wi[w, 1, i] = 0
+                wi[w, NODE_FIRST, i] = n_wide
+                wi[w, NODE_COUNT, i] = 0
                 n_wide += 1
         for i in range(nk - 1, -1, -1):
             c = kids[i]
             if c >= 0 and naxis[c] >= 0:
                 work_b[sp] = c
-                work_w[sp] = wi[w, 0, i]
+                work_w[sp] = wi[w, NODE_FIRST, i]
                 sp += 1
-    return wb[:n_wide].copy(), wi[:n_wide].copy()
+    return n_wide
 
 
 def outward_f32(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
@@ -227,8 +228,10 @@ def build_tlas(lo: np.ndarray, hi: np.ndarray, accelerate: bool = True) -> WideB
     bvh = build_bvh(lo, hi, max_leaf_size=TLAS_MAX_LEAF, c_trav=TLAS_TRAVERSAL_COST)
     order = bvh.prim_order.astype(np.int64)
     box = outward_f32(np.asarray(lo, np.float64)[order], np.asarray(hi, np.float64)[order])
-    wb, wi = _collapse_tlas(bvh.node_bounds, bvh.node_index, bvh.node_axis, box, BVH_WIDTH, TLAS_SPLIT_MIN)
-    return WideBVH(*as_node_records(wb, wi), bvh.prim_order)
+    wb, wi = node_records(len(bvh.node_axis), BVH_WIDTH)
+    n = _collapse_tlas(bvh.node_bounds, bvh.node_index, bvh.node_axis, box, BVH_WIDTH, TLAS_SPLIT_MIN, wb, wi)
+    records = wb[:n].copy()  # the rows written (the binary node count bounds them)
+    return WideBVH(records, records.view(np.int32), bvh.prim_order)
 
 
 def blas_boxes(blas: WideBVH, levels: int) -> tuple[np.ndarray, np.ndarray]:

@@ -44,7 +44,6 @@ __all__ = [
     "NODE_FIRST",
     "NODE_ROWS",
     "WideBVH",
-    "as_node_records",
     "collapse",
     "mark_triangle_leaves",
     "node_records",
@@ -71,16 +70,6 @@ def node_records(m: int, width: int) -> tuple[np.ndarray, np.ndarray]:
     views of one array."""
     bounds = np.empty((m, NODE_ROWS, width), np.float32)
     return bounds, bounds.view(np.int32)
-
-
-def as_node_records(bounds: np.ndarray, index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Records of nodes given as boxes (M, 6, W) float32 and indices (M, 2, W) int32 (first,
-    count)."""
-    records, view = node_records(len(bounds), bounds.shape[2])
-    records[:, :6] = bounds
-    view[:, NODE_FIRST] = index[:, 0]
-    view[:, NODE_COUNT] = index[:, 1]
-    return records, view
 
 
 @kernel_function()  # linked into _lane_table, its one caller (kernels/vec.py)
