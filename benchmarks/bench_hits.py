@@ -32,7 +32,7 @@ import numpy as np
 from bench_bvh import camera_rays, raylume_scene
 from common import SHARED_MODELS, machine, table
 
-from raylume.kernels.query import _intersect_rays_singly, intersect_rays
+from raylume.kernels.query import CHUNK, intersect_rays, intersect_singly
 from raylume.kernels.scene import geometry_of
 from raylume.kernels.shapes import features
 from raylume.kernels.traverse import traversal_stacks
@@ -89,15 +89,17 @@ def _trace(compiled, o, d):
 
 
 @kernel_function
-def _single_rays(S, X, o, d, t, obj, prim, inst, stacks):
-    """intersect_rays' work without packets: closest_hit ray by ray."""
-    _intersect_rays_singly(geometry_of(S), X, o, d, t, obj, prim, inst, 0, o.shape[0], stacks)
+def _single_rays(S, X, o, d, outputs, stacks, hits):
+    """intersect_rays' work without packets: closest_hit ray by ray, a chunk at a time."""
+    G = geometry_of(S)
+    for start in range(0, o.shape[0], CHUNK):
+        intersect_singly(G, X, o, d, outputs, start, min(o.shape[0], start + CHUNK), stacks, hits)
 
 
 def _trace_singly(compiled, o, d, stacks):
     n = len(o)
     out = np.empty(n), np.empty(n, np.int32), np.empty(n, np.int32), np.empty(n, np.int32)
-    _single_rays(compiled.kernel, features(compiled.kernel), o, d, *out, stacks)
+    _single_rays(compiled.kernel, features(compiled.kernel), o, d, out, stacks, np.empty(CHUNK, np.int64))
     return out
 
 
