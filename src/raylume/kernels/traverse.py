@@ -428,7 +428,7 @@ def stack_entry(index, ref, i):
 
 
 @inline_function
-def push_children(bounds, index, leaf_rows, ref, rf, rows, best_t, node_stack, t_stack, top):
+def push_children(bounds, index, leaf_rows, ref, rf, rows, best_t, node_stack, t_stack, top, tri, direct):
     """Push the children of node `ref` that the ray enters nearer than best_t onto the stacks
     from `top`, sorted farthest first (the nearest on top); returns how many. The node's child
     indices are prefetched beside its boxes, not loaded after the box test, so the two cache
@@ -450,7 +450,13 @@ def push_children(bounds, index, leaf_rows, ref, rf, rows, best_t, node_stack, t
             child = index[np.uint64(ref), NODE_FIRST, u]
         else:
             child = -1 - ((ref << _LANE_SHIFT) + i)
-            prefetch_row(leaf_rows, index[np.uint64(ref), NODE_FIRST, u])
+            first = index[np.uint64(ref), NODE_FIRST, u]
+            if direct:
+                prefetch_row(tri, first)
+                prefetch_row(tri, first + 2)
+                prefetch_row(tri, first + 3)
+            else:
+                prefetch_row(leaf_rows, first)
         j = top + k
         while j > top and t_stack[np.uint64(j - 1)] < t:
             t_stack[np.uint64(j)] = t_stack[np.uint64(j - 1)]
@@ -525,11 +531,13 @@ def closest_hit(G, X, o, d, tmin, tmax, node_stack, t_stack):
     if not traceable(o, d):
         return best_t, prim, b1, b2
     rf, rows = box_ray(o, d)
+    tri = G.triangles
+    direct = rows_in_leaf_order(G)
     ref = 0
     top = 0
     while True:
         if ref >= 0:
-            k = push_children(bounds, index, G.prims, ref, rf, rows, best_t, node_stack, t_stack, top)
+            k = push_children(bounds, index, G.prims, ref, rf, rows, best_t, node_stack, t_stack, top, tri, direct)
             if k > 0:  # descend into the nearest
                 top += k - 1
                 ref = node_stack[top]

@@ -84,7 +84,7 @@ def _blas_closest(prims, tris, bounds, index, root, o, d, tmin, best_t, node_sta
     top = base
     while True:
         if ref >= 0:
-            k = push_children(bounds, index, prims, ref, rf, rows, best_t, node_stack, t_stack, top)
+            k = push_children(bounds, index, prims, ref, rf, rows, best_t, node_stack, t_stack, top, prims, False)
             if k > 0:
                 top += k - 1
                 ref = np.int64(node_stack[top])
@@ -114,7 +114,7 @@ def instances_closest(G, X, o, d, tmin, best_t, hit, b1, b2, node_stack, t_stack
     top = 0
     while True:
         if ref >= 0:
-            k = push_children(bounds, index, inv, ref, rf, rows, best_t, node_stack, t_stack, top)
+            k = push_children(bounds, index, inv, ref, rf, rows, best_t, node_stack, t_stack, top, inv, False)
             if k > 0:
                 top += k - 1
                 ref = np.int64(node_stack[top])
