@@ -318,7 +318,8 @@ def packet_soup(tmp_path_factory):
 @pytest.mark.parametrize(("n", "lanes"), [(3 * CHUNK + 17, 1), (3 * CHUNK + 17, 3), (3 * CHUNK + 17, 7), (5, 4)])
 def test_intersect_rays_writes_every_ray_once_whatever_the_lanes(packet_soup, n, lanes):
     """The batch query shares the rays' chunks among its lanes (threads): every output element
-    is written, with the hits of the single-ray traversal, also with more lanes than chunks."""
+    is written, with the hits of the single-ray traversal and their ids (looked up after each
+    chunk is traced), also with more lanes than chunks."""
     rng = np.random.default_rng(n + lanes)
     o = rng.uniform(-2, 2, size=(n, 3))
     d = rng.normal(size=(n, 3))
@@ -329,8 +330,11 @@ def test_intersect_rays_writes_every_ray_once_whatever_the_lanes(packet_soup, n,
     intersect_rays(S, features(S), o, d, t, obj, prim, inst, lanes)
     ref = _single(S, o, d)
     np.testing.assert_array_equal(t, ref[:, 0])
-    assert (obj >= -1).all() and (prim >= -1).all() and (inst >= -1).all()
-    assert np.isfinite(t).any() and np.isinf(t).any()  # hits and misses both
+    hit = np.isfinite(ref[:, 0])
+    np.testing.assert_array_equal(prim, np.where(hit, S.prims[np.maximum(ref[:, 1], 0).astype(int), 4], -1))
+    np.testing.assert_array_equal(obj, np.where(hit, 0, -1))
+    np.testing.assert_array_equal(inst, np.where(hit, 0, -1))
+    assert hit.any() and not hit.all()  # hits and misses both
 
 
 @PACKET_WORKER
