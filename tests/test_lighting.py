@@ -3,10 +3,14 @@
 from __future__ import annotations
 
 import math
+from decimal import Decimal, localcontext
 
+import numba
 import numpy as np
+import pytest
 
 import raylume
+from raylume.kernels.materials import highlight
 
 
 def centre_pixel(objects, lights, materials=None, max_depth=3, background=(0, 0, 0), mode="trace"):
@@ -96,3 +100,26 @@ def test_cast_mode_is_unlit_material_colour():
         [SPHERE], [{"type": "ambient", "intensity": 0.1}], {"m": {"color": [0.3, 0.6, 0.9]}}, mode="cast"
     )
     np.testing.assert_allclose(rgb, [0.3, 0.6, 0.9], rtol=1e-6)
+
+
+@numba.njit
+def _highlight(c, s):
+    return highlight(c, s)
+
+
+@pytest.mark.parametrize("specular", [1, 2, 3, 10, 500, 1000, 4097, 65536, 0.5, 2.5, 99.9, 65537, 1e6])
+def test_highlight_power_is_pow_within_its_rounding(specular):
+    """cos^s by repeated squaring for whole exponents: each product rounds once (relative error
+    at most u = 2**-53), and squaring k times grows a relative error e to 2**k e + u, so c**n is
+    within (n + 2 log2 n + 1) u of the exact power; other exponents go to pow itself."""
+    rng = np.random.default_rng(int(specular * 10))
+    cos = 1.0 - rng.uniform(0, min(50.0 / specular, 1.0), 200)  # phong asks above 0 and 1 - 50 / s
+    got = np.array([_highlight(c, float(specular)) for c in cos])
+    if float(specular).is_integer() and specular <= 65536:
+        with localcontext() as ctx:
+            ctx.prec = 80  # Decimal(c) is c exactly; its integer power, to 80 digits
+            exact = np.array([float(Decimal(c) ** int(specular)) for c in cos])
+        bound = (specular + 2 * math.log2(specular) + 1) * 2.0**-53
+        assert np.all(np.abs(got - exact) <= bound * exact)
+    else:
+        np.testing.assert_array_equal(got, [math.pow(c, specular) for c in cos])

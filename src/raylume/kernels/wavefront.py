@@ -39,7 +39,16 @@ from .camera import (
 from .environment import environment_radiance
 from .film import FILM_WIDTH, add_in_pixel_order, add_one_each, next_sample, pixel_sums, store_sums
 from .lights import AMBIENT, DIRECTIONAL, LIGHT_DIRECTION, LIGHT_INTENSITY, LIGHT_POSITION, SPOT, spot_falloff
-from .materials import MAT_COLOR, MAT_EMISSION, MAT_REFLECTIVE, MAT_SPECULAR, MAT_TEXTURE, albedo, beer_lambert
+from .materials import (
+    MAT_COLOR,
+    MAT_EMISSION,
+    MAT_REFLECTIVE,
+    MAT_SPECULAR,
+    MAT_TEXTURE,
+    albedo,
+    beer_lambert,
+    highlight,
+)
 from .packet import (
     PACKET,
     packet_blocked,
@@ -457,7 +466,7 @@ def _towards_light(L, R, I, m, j):
     # underflowing into libm's slow path (a quarter of the seed's time).
     for i in range(m):
         if I[HIGHLIGHT + i] != 0:
-            R[SCALE + i] += R[COS_RV + i] ** R[SPEC + i]
+            R[SCALE + i] += highlight(R[COS_RV + i], R[SPEC + i])
     if L.kind[j] == SPOT:
         for i in range(m):
             R[SCALE + i] *= spot_falloff(L.data, j, (R[LX + i], R[LY + i], R[LZ + i]))
