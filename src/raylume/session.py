@@ -432,6 +432,9 @@ def _ray_render(S, cam, film: Film, spp: int, settings, aov: dict, progress, lan
     window = film.kernel_window
     rows = window[3] - window[1]
     rays_per_row = np.zeros(rows, dtype=np.int64)
+    # the AOV pass counts apart: a lane still in it and one already in the image pass may add to
+    # the same row's count at once, and one of the two additions was lost
+    aov_rays_per_row = np.zeros(rows, dtype=np.int64)
     rows_done = np.zeros(lanes * PROGRESS_STRIDE, dtype=np.int64)  # one padded counter per lane
     # control[STOP] = 1 stops every lane before its next row; the lanes claim rows from counters in it
     control = np.zeros(CONTROL_SIZE, dtype=np.int64)
@@ -447,7 +450,7 @@ def _ray_render(S, cam, film: Film, spp: int, settings, aov: dict, progress, lan
         if aov:
             depth, normal, obj, prim, albedo, instance = (aov[k] for k in AOV_NAMES)
             aov_lane(
-                S, X, cam, W, H, window, lane, AOV_ROWS, depth, normal, obj, prim, albedo, instance, rays_per_row,
+                S, X, cam, W, H, window, lane, AOV_ROWS, depth, normal, obj, prim, albedo, instance, aov_rays_per_row,
                 rows_done, control,
             )  # fmt: skip
         if settings.mode == "cast":
@@ -487,4 +490,4 @@ def _ray_render(S, cam, film: Film, spp: int, settings, aov: dict, progress, lan
         future.result()  # re-raises a lane's exception
     film.spp += spp
     film.rejected += int(rejected.sum())
-    return kernel_seconds, rays_per_row.sum()
+    return kernel_seconds, rays_per_row.sum() + aov_rays_per_row.sum()
