@@ -511,6 +511,33 @@ def test_cast_packets_give_the_single_ray_image(tmp_path, spp, aperture, filt):
             np.testing.assert_array_equal(packets.aovs[name], single.aovs[name], err_msg=name)
 
 
+@pytest.mark.parametrize(("width", "height", "crop"), [(83, 61, None), (64, 48, (5, 60, 3, 40)), (41, 3, None)])
+def test_cast_rows_in_pairs_give_the_single_ray_image(tmp_path, width, height, crop):
+    """At one sample a pixel cast mode claims rows in pairs and traces 4 x 2 pixel packets
+    (frame._cast_two_rows); an odd last row of the window goes alone. The image and the ray
+    count equal the single-ray render's (an instance behind the camera puts the scene in the
+    variant without packets), also in a crop and a three-row image."""
+    v, f = bumpy_sphere(6000)
+    trimesh.Trimesh(v, f, process=False).export(tmp_path / "m.ply")
+    trimesh.Trimesh([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]], process=False).export(tmp_path / "t.ply")
+    np.save(tmp_path / "behind.npy", np.array([[[1.0, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, -10]]]))
+    mesh = {"type": "mesh", "file": str(tmp_path / "m.ply"), "material": {"color": [0.8, 0.3, 0.2]}}
+    instance = {"type": "mesh", "file": str(tmp_path / "t.ply"), "instances": str(tmp_path / "behind.npy")}
+    scene = {
+        "camera": {"position": [0, 0, -3.2], "look_at": [0, 0, 0], "fov": 45},
+        "render": {"mode": "cast", "width": width, "height": height, "spp": 1},
+    }
+    single = raylume.render(raylume.scene_from_dict({**scene, "objects": [mesh, instance]}), crop=crop, aovs=False)
+    for threads in (1, 2):
+        packets = raylume.render(
+            raylume.scene_from_dict({**scene, "objects": [mesh]}), crop=crop, aovs=False, threads=threads
+        )
+        np.testing.assert_array_equal(packets.rgb, single.rgb)
+        assert packets.stats["rays"] == single.stats["rays"] == single.rgb.shape[0] * single.rgb.shape[1]
+    hit = single.rgb.any(axis=2)
+    assert hit.any() and not hit.all()  # the mesh's outline is in the picture
+
+
 def test_intersect_ignores_materials_and_lights_in_choosing_its_kernels(tmp_path):
     """raylume.intersect on a mesh of glass under an area light (the render kernels' full
     variant): the basic variant with its packets, since a hit depends on neither, and the same

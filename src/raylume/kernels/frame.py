@@ -147,10 +147,23 @@ def cast_lane(
     bg = (background[0], background[1], background[2])
     G, F = geometry_of(S), surfaces_of(S)
     x0, y0, x1, y1 = window
+    # One sample a pixel in packets: rows are claimed in pairs and traced in packets of 4 x 2
+    # pixels, more coherent than 8 x 1 (_cast_two_rows)
+    pairs = samples[1] == 1 and uses_packets(G, X)
+    step = 2 if pairs else 1
     while True:
-        j = y0 + claim_row(control, counter)
+        j = y0 + step * claim_row(control, counter)
         if j >= y1 or control[STOP] != 0:
             break
+        if pairs and j + 1 < y1:
+            n = _cast_two_rows(
+                G, F, X, environment_of(S), cam, filt, j, window, width, height, samples, seed, bg, film,
+                node_stack, t_stack, packets, rays,
+            )  # fmt: skip
+            rays_per_row[j - y0] += n
+            rays_per_row[j + 1 - y0] += n
+            rows_done[lane * PROGRESS_STRIDE] += 2
+            continue
         rays_per_row[j - y0] += _cast_row(
             G, F, X, environment_of(S), cam, filt, j, window, width, height, samples, seed, bg, film,
             node_stack, t_stack, packets, rays,
@@ -244,6 +257,48 @@ def _cast_row(
         q += n
     store_sums(film, j - y0, pixel - x0, total)
     return total_samples
+
+
+@kernel_function
+def _cast_two_rows(
+    G, F, X, Env, cam, filt, j, window, width, height, samples, seed, bg, film, node_stack, t_stack, packets, rays
+):
+    """Rows j and j + 1 at one sample a pixel (a pass of count 1), in packets of 4 x 2 pixels:
+    neighbours in both directions, so a packet's rays spread less than along one row (on a
+    mesh with several triangles under each pixel they soon need leaves of their own). Each
+    pixel's sample is added as _cast_row adds it, so the image is the same to the bit. Returns
+    the samples of one row."""
+    first, count, total_spp = samples
+    x0, y0, x1, y1 = window
+    spread = cam[CAM_CONE_SPREAD]
+    _, lane, prim_lane, _ = packets
+    origins, directions, weights = rays
+    extent = scene_extent(G)
+    root = root_box(G)
+    half = PACKET // 2
+    x = x0
+    while x < x1:
+        m = min(half, x1 - x)  # pixels of each row in this packet
+        n = 2 * m
+        for k in range(n):
+            o, d, w, _ = camera_sample(cam, filt, seed, x + k % m, j + k // m, first, total_spp, width, height)
+            for c in range(3):
+                origins[k, c] = o[c]
+                directions[k, c] = d[c]
+            weights[k] = w
+        coherent = packet_trace(G, X, root, origins, directions, 0, n, extent, packets, node_stack, t_stack)
+        for k in range(n):
+            o = (origins[k, 0], origins[k, 1], origins[k, 2])
+            d = (directions[k, 0], directions[k, 1], directions[k, 2])
+            if coherent:
+                t, prim, b1, b2 = packet_hit(lane, prim_lane, k)
+            else:
+                t, prim, b1, b2 = closest_hit(G, X, o, d, 0.0, INF, node_stack, t_stack)
+            col = _cast_shade(G, F, X, Env, o, d, t, prim, b1, b2, spread * obliquity(cam, d), bg)
+            row, i = j + k // m - y0, x + k % m - x0
+            store_sums(film, row, i, add_sample(pixel_sums(film, row, i), col, weights[k]))
+        x += m
+    return x1 - x0
 
 
 @kernel_function
