@@ -514,7 +514,7 @@ def test_cast_packets_give_the_single_ray_image(tmp_path, spp, aperture, filt):
 @pytest.mark.parametrize(("width", "height", "crop"), [(83, 61, None), (64, 48, (5, 60, 3, 40)), (41, 3, None)])
 def test_cast_rows_in_pairs_give_the_single_ray_image(tmp_path, width, height, crop):
     """At one sample a pixel cast mode claims rows in pairs and traces 4 x 2 pixel packets
-    (frame._cast_two_rows); an odd last row of the window goes alone. The image and the ray
+    (frame._cast_row with pair); an odd last row of the window goes alone. The image and the ray
     count equal the single-ray render's (an instance behind the camera puts the scene in the
     variant without packets), also in a crop and a three-row image."""
     v, f = bumpy_sphere(6000)

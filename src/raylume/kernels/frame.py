@@ -148,27 +148,22 @@ def cast_lane(
     G, F = geometry_of(S), surfaces_of(S)
     x0, y0, x1, y1 = window
     # One sample a pixel in packets: rows are claimed in pairs and traced in packets of 4 x 2
-    # pixels, more coherent than 8 x 1 (_cast_two_rows)
+    # pixels, more coherent than 8 x 1 (_cast_row)
     pairs = samples[1] == 1 and uses_packets(G, X)
     step = 2 if pairs else 1
     while True:
         j = y0 + step * claim_row(control, counter)
         if j >= y1 or control[STOP] != 0:
             break
-        if pairs and j + 1 < y1:
-            n = _cast_two_rows(
-                G, F, X, environment_of(S), cam, filt, j, window, width, height, samples, seed, bg, film,
-                node_stack, t_stack, packets, rays,
-            )  # fmt: skip
-            rays_per_row[j - y0] += n
-            rays_per_row[j + 1 - y0] += n
-            rows_done[lane * PROGRESS_STRIDE] += 2
-            continue
-        rays_per_row[j - y0] += _cast_row(
-            G, F, X, environment_of(S), cam, filt, j, window, width, height, samples, seed, bg, film,
+        pair = pairs and j + 1 < y1  # a window's odd last row goes alone
+        n = _cast_row(
+            G, F, X, environment_of(S), cam, filt, j, pair, window, width, height, samples, seed, bg, film,
             node_stack, t_stack, packets, rays,
         )  # fmt: skip
-        rows_done[lane * PROGRESS_STRIDE] += 1
+        rays_per_row[j - y0] += n
+        if pair:
+            rays_per_row[j + 1 - y0] += n
+        rows_done[lane * PROGRESS_STRIDE] += 2 if pair else 1
 
 
 @njit(**LANE)
@@ -203,14 +198,19 @@ def camera_packet_scratch():
 
 @kernel_function
 def _cast_row(
-    G, F, X, Env, cam, filt, j, window, width, height, samples, seed, bg, film, node_stack, t_stack, packets, rays
-):
+    G, F, X, Env, cam, filt, j, pair, window, width, height, samples, seed, bg, film, node_stack, t_stack, packets,
+    rays,
+):  # fmt: skip
     """Ray-cast samples of row j: the row's camera samples in pixel order (each pixel's samples
     in turn), traced eight at a time as a packet (kernels/packet.py) where they are coherent.
     Samples that are not (a wide lens) are traced one by one, and so are all in a scene whose
     root is a leaf and in one with instances. The film's sums are added in sample order, the
     pixel's sums kept while its samples last, so the image is the same bit for bit whichever
-    way a sample was traced."""
+    way a sample was traced. With `pair` (a pass of one sample a pixel, in a scene that takes
+    packets), rows j and j + 1 together in packets of 4 x 2 pixels: neighbours in both
+    directions spread less than eight along a row (on a mesh with several triangles under each
+    pixel they soon need leaves of their own); each pixel's one sample is added as alone.
+    Returns the samples of one row."""
     first, count, total_spp = samples
     x0, y0, x1, y1 = window
     total_samples = (x1 - x0) * count
@@ -222,18 +222,22 @@ def _cast_row(
     extent = scene_extent(G)
     root = root_box(G)
     packets_here = uses_packets(G, X)
+    per_row = PACKET // 2 if pair else PACKET  # a packet's samples of each row
     pixel = x0  # the pixel whose sums are being added to
     total = pixel_sums(film, j - y0, 0)
     i = x0  # the next sample's pixel and sample number
     s = first
     q = 0
     while q < total_samples:
-        n = min(PACKET, total_samples - q)
+        m = min(per_row, total_samples - q)
+        n = 2 * m if pair else m
         coherent = False
         if packets_here:
             pi, ps = i, s
             for k in range(n):
-                o, d, w, _ = camera_sample(cam, filt, seed, pi, j, ps, total_spp, width, height)
+                if k == m:  # the second row: the same pixels, one row down
+                    pi, ps = i, s
+                o, d, w, _ = camera_sample(cam, filt, seed, pi, j + k // m, ps, total_spp, width, height)
                 for c in range(3):
                     origins[k, c] = o[c]
                     directions[k, c] = d[c]
@@ -252,53 +256,18 @@ def _cast_row(
             else:
                 t, prim, b1, b2 = closest_hit(G, X, o, d, 0.0, INF, node_stack, t_stack)
             col = _cast_shade(G, F, X, Env, o, d, t, prim, b1, b2, spread * obliquity(cam, d), bg)
-            pixel, total = add_in_pixel_order(film, j - y0, x0, pixel, total, i, col, w)
-            i, s = next_sample(i, s, samples)
-        q += n
-    store_sums(film, j - y0, pixel - x0, total)
-    return total_samples
-
-
-@kernel_function
-def _cast_two_rows(
-    G, F, X, Env, cam, filt, j, window, width, height, samples, seed, bg, film, node_stack, t_stack, packets, rays
-):
-    """Rows j and j + 1 at one sample a pixel (a pass of count 1), in packets of 4 x 2 pixels:
-    neighbours in both directions, so a packet's rays spread less than along one row (on a
-    mesh with several triangles under each pixel they soon need leaves of their own). Each
-    pixel's sample is added as _cast_row adds it, so the image is the same to the bit. Returns
-    the samples of one row."""
-    first, count, total_spp = samples
-    x0, y0, x1, y1 = window
-    spread = cam[CAM_CONE_SPREAD]
-    _, lane, prim_lane, _ = packets
-    origins, directions, weights = rays
-    extent = scene_extent(G)
-    root = root_box(G)
-    half = PACKET // 2
-    x = x0
-    while x < x1:
-        m = min(half, x1 - x)  # pixels of each row in this packet
-        n = 2 * m
-        for k in range(n):
-            o, d, w, _ = camera_sample(cam, filt, seed, x + k % m, j + k // m, first, total_spp, width, height)
-            for c in range(3):
-                origins[k, c] = o[c]
-                directions[k, c] = d[c]
-            weights[k] = w
-        coherent = packet_trace(G, X, root, origins, directions, 0, n, extent, packets, node_stack, t_stack)
-        for k in range(n):
-            o = (origins[k, 0], origins[k, 1], origins[k, 2])
-            d = (directions[k, 0], directions[k, 1], directions[k, 2])
-            if coherent:
-                t, prim, b1, b2 = packet_hit(lane, prim_lane, k)
+            if pair:  # one sample a pixel: pixel i + k % m of row j + k // m
+                row, c = j + k // m - y0, i + k % m - x0
+                store_sums(film, row, c, add_sample(pixel_sums(film, row, c), col, w))
             else:
-                t, prim, b1, b2 = closest_hit(G, X, o, d, 0.0, INF, node_stack, t_stack)
-            col = _cast_shade(G, F, X, Env, o, d, t, prim, b1, b2, spread * obliquity(cam, d), bg)
-            row, i = j + k // m - y0, x + k % m - x0
-            store_sums(film, row, i, add_sample(pixel_sums(film, row, i), col, weights[k]))
-        x += m
-    return x1 - x0
+                pixel, total = add_in_pixel_order(film, j - y0, x0, pixel, total, i, col, w)
+                i, s = next_sample(i, s, samples)
+        if pair:
+            i += m
+        q += m
+    if not pair:
+        store_sums(film, j - y0, pixel - x0, total)
+    return total_samples
 
 
 @kernel_function
