@@ -8,7 +8,9 @@ call), each timed in CPU time (`time.process_time`), alternating them in one pro
 leaves out the moments another process holds the core; alternation spreads the VM's drift over
 the engines. The ratios are Embree's time over raylume's: above 1, raylume is faster. Beside
 them, raylume's CPU time for the whole frame (all the camera rays, hits and misses), with
-packets and with single rays, and their ratios to bumpy 40k's: how the cost of a frame grows
+packets and with single rays (and through `raylume.intersect` itself, as a user calls it: the
+directions made unit vectors in the kernel, the output arrays allocated), and their ratios to
+bumpy 40k's: how the cost of a frame grows
 with the triangle count, beside Embree's (a miss costs Embree more than raylume, so its frames
 grow less in proportion). Last, the frame's cost with its data in cache: the frame's rays in
 32 x 32 pixel blocks, each block traced twice in a row, less the same blocks traced once. The
@@ -32,6 +34,7 @@ import numpy as np
 from bench_bvh import camera_rays, raylume_scene
 from common import SHARED_MODELS, machine, table
 
+import raylume
 from raylume.kernels.query import CHUNK, intersect_rays, intersect_singly
 from raylume.kernels.scene import geometry_of
 from raylume.kernels.shapes import features
@@ -140,11 +143,13 @@ def main() -> None:
         packed, single = _trace(compiled, o, d), _trace_singly(compiled, o, d, stacks)
         assert all(np.array_equal(a, b) for a, b in zip(packed[:2], single[:2], strict=True))  # t, object
         ours, singly, theirs, frames, single_frames, embree_frames, repeats = [], [], [], [], [], [], []
+        api_frames = []
         for _ in range(args.repeats):
             ours.append(cpu_seconds(lambda: _trace(compiled, o, d)))  # noqa: B023 (called at once)
             theirs.append(cpu_seconds(lambda: embree.run(o32, d32, output=1)))  # noqa: B023
             singly.append(cpu_seconds(lambda: _trace_singly(compiled, o, d, stacks)))  # noqa: B023
             frames.append(cpu_seconds(lambda: _trace(compiled, fo, fd)))  # noqa: B023
+            api_frames.append(cpu_seconds(lambda: raylume.intersect(compiled, fo, fd)))  # noqa: B023
             single_frames.append(cpu_seconds(lambda: _trace_singly(compiled, fo, fd, stacks)))  # noqa: B023
             embree_frames.append(cpu_seconds(lambda: embree.run(fo32, fd32, output=1)))  # noqa: B023
             once = cpu_seconds(lambda: _trace(compiled, bo, bd))  # noqa: B023
@@ -158,6 +163,7 @@ def main() -> None:
         rows.append(
             [name, f"{len(f):,}", f"{len(o):,}", f"{r * 1e3:.1f}", f"{r1 * 1e3:.1f}", f"{e * 1e3:.1f}", f"{e / r:.2f}"]
             + [f"{pairs.min():.2f}-{pairs.max():.2f}", f"{e / r1:.2f}", f"{frame[name] * 1e3:.1f}"]
+            + [f"{np.median(api_frames) * 1e3:.1f}"]
             + [f"{single_frame[name] * 1e3:.1f}", f"{embree_frame[name] * 1e3:.1f}", f"{in_cache[name] * 1e3:.1f}"]
         )
         print(" | ".join(rows[-1]), flush=True)
@@ -168,7 +174,8 @@ def main() -> None:
         row.append(f"{embree_frame[row[0]] / embree_frame['40k']:.2f}" if base else "-")
         row.append(f"{in_cache[row[0]] / in_cache['40k']:.2f}" if base else "-")
     headers = ["mesh", "triangles", "hit rays", "raylume ms", "single-ray ms", "Embree ms", "Embree / raylume"]
-    headers += ["per pair", "Embree / single-ray", "raylume frame ms", "single-ray frame ms", "Embree frame ms"]
+    headers += ["per pair", "Embree / single-ray", "raylume frame ms", "raylume.intersect frame ms"]
+    headers += ["single-ray frame ms", "Embree frame ms"]
     headers += ["in-cache frame ms", "frame / 40k frame", "single-ray frame / 40k", "Embree frame / 40k"]
     headers += ["in-cache frame / 40k"]
     print("\n" + table(headers, rows))

@@ -1,12 +1,19 @@
 """Batch ray queries over a compiled scene: closest hits for arrays of rays (benchmarks, tests,
 and users who want raylume as a ray-intersection library)."""
 
+import math
+
 import numpy as np
-from numba import njit
+from llvmlite import ir
+from numba import njit, types
+from numba.core import cgutils
+from numba.core.errors import TypingError
+from numba.extending import intrinsic
 
 from ..lanes import lane_pool
 from .packet import PACKET, packet_hit, packet_scratch, packet_trace, root_box, scene_extent, uses_packets
 from .scene import geometry_of
+from .shape_triangle import EXACT_DIVISION, exact_ops
 from .shapes import NO_HIT, PRIM_FACE, PRIM_OBJECT, instance_id, split_hit
 from .traverse import INF, closest_hit, prefetch_row, scratch_array, traversal_stacks
 from .vec import FAST, inline_function, kernel_function
@@ -16,8 +23,9 @@ from .vec import FAST, inline_function, kernel_function
 # row functions are: inlined into the lane's loop (then a parfor's), the traversal took and
 # dropped references to the BVH arrays for every ray (4 calls with atomic operations a ray).
 @kernel_function
-def _intersect_chunk(G, X, origins, directions, outputs, start, end, stacks, packets, hits):
-    """Rays start .. end - 1 (at most CHUNK) into the outputs: traced first, their distances
+def _intersect_chunk(G, X, origins, directions, base, outputs, start, end, stacks, packets, hits):
+    """Rays start .. end - 1 (at most CHUNK; ray k at origins[k - base], directions[k - base])
+    into the outputs: traced first, their distances
     stored and their hits kept in `hits` (one per ray of the chunk), then their ids looked up.
     A hit's object and face ids lie in its row of the primitive table, a cache miss of its own
     on a large mesh; the row is prefetched when the hit is found and read after the whole
@@ -32,23 +40,23 @@ def _intersect_chunk(G, X, origins, directions, outputs, start, end, stacks, pac
         n = min(PACKET, end - k)
         if not (
             packets_here
-            and _packet_hits(G, X, origins, directions, k, n, extent, root, t_out, hits, start, stacks, packets)
+            and _packet_hits(G, X, origins, directions, base, k, n, extent, root, t_out, hits, start, stacks, packets)
         ):
             # one call site: the single-ray traversal is inlined once (a second copy cost ~1.5 s
             # of cold compile)
-            _closest_hits_singly(G, X, origins, directions, k, k + n, t_out, hits, start, stacks)
+            _closest_hits_singly(G, X, origins, directions, base, k, k + n, t_out, hits, start, stacks)
         k += n
     store_ids(G, X, start, end, hits, outputs)
 
 
 @inline_function
-def _packet_hits(G, X, origins, directions, k, n, extent, root, t_out, hits, start, stacks, packets):
-    """Rays k .. k + n - 1 traced as a packet: distances into t_out, hits into hits[k - start
-    ...] (extent: scene_extent(G), root: root_box(G)); False when they are refused, and nothing
-    written."""
+def _packet_hits(G, X, origins, directions, base, k, n, extent, root, t_out, hits, start, stacks, packets):
+    """Rays k .. k + n - 1 (at origins[k - base] ...) traced as a packet: distances into t_out,
+    hits into hits[k - start ...] (extent: scene_extent(G), root: root_box(G)); False when they
+    are refused, and nothing written."""
     node_stack, t_stack = stacks
     _, lane, prim_lane, _ = packets
-    coherent = packet_trace(G, X, root, origins, directions, k, n, extent, packets, node_stack, t_stack)
+    coherent = packet_trace(G, X, root, origins, directions, k - base, n, extent, packets, node_stack, t_stack)
     if coherent:
         for i in range(n):
             t, prim, _, _ = packet_hit(lane, prim_lane, i)
@@ -57,13 +65,14 @@ def _packet_hits(G, X, origins, directions, k, n, extent, root, t_out, hits, sta
 
 
 @inline_function
-def _closest_hits_singly(G, X, origins, directions, first, end, t_out, hits, start, stacks):
-    """Rays first .. end - 1 ray by ray (closest_hit): distances into t_out, hits into
-    hits[k - start]."""
+def _closest_hits_singly(G, X, origins, directions, base, first, end, t_out, hits, start, stacks):
+    """Rays first .. end - 1 (ray k at origins[k - base] ...) ray by ray (closest_hit):
+    distances into t_out, hits into hits[k - start]."""
     node_stack, t_stack = stacks
     for k in range(first, end):
-        o = (float(origins[k, 0]), float(origins[k, 1]), float(origins[k, 2]))
-        d = (float(directions[k, 0]), float(directions[k, 1]), float(directions[k, 2]))
+        r = k - base
+        o = (float(origins[r, 0]), float(origins[r, 1]), float(origins[r, 2]))
+        d = (float(directions[r, 0]), float(directions[r, 1]), float(directions[r, 2]))
         t, prim, b1, b2 = closest_hit(G, X, o, d, 0.0, INF, node_stack, t_stack)
         _keep_hit(G, X, k, t, prim, t_out, hits, start)
 
@@ -98,8 +107,114 @@ def store_ids(G, X, start, end, hits, outputs):
 def intersect_singly(G, X, origins, directions, outputs, start, end, stacks, hits):
     """intersect_lane's work for rays start .. end - 1 (at most CHUNK) without packets: the
     single-ray traversal alone (benchmarks/bench_hits.py)."""
-    _closest_hits_singly(G, X, origins, directions, start, end, outputs[0], hits, start, stacks)
+    _closest_hits_singly(G, X, origins, directions, 0, start, end, outputs[0], hits, start, stacks)
     store_ids(G, X, start, end, hits, outputs)
+
+
+_F64 = ir.DoubleType()
+_I32, _I64 = ir.IntType(32), ir.IntType(64)
+_V4D = ir.VectorType(_F64, 4)
+
+
+@intrinsic
+def _unit_rays4(typingctx, origins, directions, k, chunk_origins, chunk_directions, r):
+    """Rays k .. k + 3 into rows r .. r + 3 of the chunk's scratch, four rays per vector
+    (C-contiguous float64 (N, 3) arrays): the origins copied, the directions divided by their
+    lengths, and the number of those rays _unit_rays counts as bad."""
+    arrays = (("origins", origins), ("directions", directions), ("chunk", chunk_origins), ("chunk", chunk_directions))
+    for name, a in arrays:
+        if not (isinstance(a, types.Array) and a.dtype == types.float64 and a.ndim == 2 and a.layout == "C"):
+            raise TypingError(f"_unit_rays4: {name} must be a C-contiguous float64 (N, 3) array")
+
+    def codegen(context, builder, sig, args):
+        fadd, _, fmul, lt = exact_ops(builder)
+        data = [context.make_array(sig.args[i])(context, builder, args[i]).data for i in (0, 1, 3, 4)]
+        k3 = builder.mul(context.cast(builder, args[2], sig.args[2], types.int64), ir.Constant(_I64, 3))
+        r3 = builder.mul(context.cast(builder, args[5], sig.args[5], types.int64), ir.Constant(_I64, 3))
+
+        def vectors(ptr, at):  # the 12 doubles at ptr[at:at + 12] as three <4 x double>
+            return [
+                builder.load(
+                    builder.bitcast(builder.gep(ptr, [builder.add(at, ir.Constant(_I64, 4 * v))]), _V4D.as_pointer()),
+                    align=8,
+                )
+                for v in range(3)
+            ]
+
+        def store(values, ptr, at):
+            for v, value in enumerate(values):
+                p = builder.gep(ptr, [builder.add(at, ir.Constant(_I64, 4 * v))])
+                builder.store(value, builder.bitcast(p, _V4D.as_pointer()), align=8)
+
+        def shuffle(a, b, lanes):
+            return builder.shuffle_vector(a, b, ir.Constant(ir.VectorType(_I32, len(lanes)), lanes))
+
+        # rays as rows x0 y0 z0 x1 | y1 z1 x2 y2 | z2 x3 y3 z3: lane j of x is element 3 j
+        def to_xyz(v):
+            ab = [shuffle(v[0], v[1], lanes) for lanes in ([0, 3, 6, 0], [1, 4, 7, 0], [2, 5, 0, 0])]
+            return (
+                shuffle(ab[0], v[2], [0, 1, 2, 5]),
+                shuffle(ab[1], v[2], [0, 1, 2, 6]),
+                shuffle(ab[2], v[2], [0, 1, 4, 7]),
+            )
+
+        def from_xyz(x, y, z):
+            xy = shuffle(x, y, [0, 4, 1, 5])  # x0 y0 x1 y1
+            zx = shuffle(z, x, [0, 6, 1, 7])  # z0 x2 z1 x3
+            yz = shuffle(y, z, [2, 6, 3, 7])  # y2 z2 y3 z3
+            return (
+                shuffle(xy, zx, [0, 1, 4, 2]),  # x0 y0 z0 x1
+                shuffle(xy, shuffle(zx, yz, [2, 1, 4, 0]), [3, 4, 5, 6]),  # y1 z1 x2 y2
+                shuffle(yz, zx, [1, 7, 2, 3]),  # z2 x3 y3 z3
+            )
+
+        o = vectors(data[0], k3)
+        store(o, data[2], r3)
+        x, y, z = to_xyz(vectors(data[1], k3))
+        sqrt = cgutils.get_or_insert_function(builder.module, ir.FunctionType(_V4D, [_V4D]), "llvm.sqrt.v4f64")
+        n = builder.call(sqrt, [fadd(fadd(fmul(x, x), fmul(y, y)), fmul(z, z))])
+        store(from_xyz(*(builder.fdiv(c, n, flags=EXACT_DIVISION) for c in (x, y, z))), data[3], r3)
+        fabs = cgutils.get_or_insert_function(builder.module, ir.FunctionType(_V4D, [_V4D]), "llvm.fabs.v4f64")
+        inf = ir.Constant(_V4D, [math.inf] * 4)
+        ok = lt(ir.Constant(_V4D, [0.0] * 4), n)
+        for c in (x, y, z, *to_xyz(o)):
+            ok = builder.and_(ok, lt(builder.call(fabs, [c]), inf))
+        i4 = ir.IntType(4)
+        ctpop = cgutils.get_or_insert_function(builder.module, ir.FunctionType(i4, [i4]), "llvm.ctpop.i4")
+        good = builder.call(ctpop, [builder.bitcast(ok, i4)])
+        return builder.sub(ir.Constant(_I64, 4), builder.zext(good, _I64))
+
+    return types.int64(origins, directions, k, chunk_origins, chunk_directions, r), codegen
+
+
+@kernel_function(error_model="numpy", _nrt=False, fastmath=False)
+def _unit_rays(origins, directions, start, end, chunk_origins, chunk_directions):
+    """Rays start .. end - 1 copied into the chunk's scratch (ray k at row k - start), each
+    direction divided by its length: numpy's d / np.linalg.norm(d, axis=1) to the bit (IEEE,
+    (x^2 + y^2) + z^2, no FMA: fastmath off), four rays per vector (a scalar loop took ~14 ns a
+    ray, as much as a frame's miss, against ~5). Returns how many rays have a component that is not
+    finite or a direction of length 0 (or one whose square underflows to it); they are traced
+    all the same, as misses, and raylume.intersect refuses the call."""
+    bad = 0
+    k = start
+    while k + 4 <= end:
+        bad += _unit_rays4(origins, directions, k, chunk_origins, chunk_directions, k - start)
+        k += 4
+    while k < end:
+        r = k - start
+        x, y, z = directions[k, 0], directions[k, 1], directions[k, 2]
+        n = math.sqrt(x * x + y * y + z * z)
+        chunk_directions[r, 0] = x / n
+        chunk_directions[r, 1] = y / n
+        chunk_directions[r, 2] = z / n
+        ok = n > 0.0 and abs(x) < math.inf and abs(y) < math.inf and abs(z) < math.inf
+        for c in range(3):
+            chunk_origins[r, c] = origins[k, c]
+            ok = ok and abs(origins[k, c]) < math.inf
+        if not ok:
+            bad += 1
+        k += 1
+    return bad
 
 
 # Rays per chunk: a lane takes every lanes-th chunk (neighbouring rays cost alike, distant ones
@@ -108,31 +223,51 @@ CHUNK = 256
 
 
 @njit(nogil=True, fastmath=FAST, cache=True, error_model="numpy")
-def intersect_lane(S, X, origins, directions, t_out, object_out, prim_out, instance_out, lane, lanes):
-    """Closest hits of lane `lane` of `lanes`: chunks lane, lane + lanes, ... of the rays."""
+def intersect_lane(S, X, origins, directions, t_out, object_out, prim_out, instance_out, lane, lanes, unit, bad):
+    """Closest hits of lane `lane` of `lanes`: chunks lane, lane + lanes, ... of the rays. With
+    `unit`, directions of any length, made unit vectors chunk by chunk (_unit_rays), and the
+    rays that cannot be (or have an origin that is not finite) counted in bad[lane]."""
     n = origins.shape[0]
     G = geometry_of(S)
     stacks = traversal_stacks()
     packets = packet_scratch()
     hits = scratch_array(CHUNK, np.int64)
+    chunk_origins = scratch_array(CHUNK * 3, np.float64).reshape((CHUNK, 3))
+    chunk_directions = scratch_array(CHUNK * 3, np.float64).reshape((CHUNK, 3))
     outputs = (t_out, object_out, prim_out, instance_out)
+    refused = 0
     for c in range(lane, (n + CHUNK - 1) // CHUNK, lanes):
-        _intersect_chunk(G, X, origins, directions, outputs, c * CHUNK, min(n, (c + 1) * CHUNK), stacks, packets, hits)
+        start, end = c * CHUNK, min(n, (c + 1) * CHUNK)
+        # one call site, one signature: the traversal is compiled once (a second cost ~2.5 s)
+        o, d, base = origins, directions, 0
+        if unit:
+            refused += _unit_rays(origins, directions, start, end, chunk_origins, chunk_directions)
+            o, d, base = chunk_origins, chunk_directions, start
+        _intersect_chunk(G, X, o, d, base, outputs, start, end, stacks, packets, hits)
+    bad[lane] = refused
 
 
-def intersect_rays(S, X, origins, directions, t_out, object_out, prim_out, instance_out, lanes: int) -> None:
-    """Closest hit of each ray (unit directions) into the outputs: t = inf, object = prim =
-    instance = -1 for misses; instance is the instance's index within its object, 0 off
-    instances. X: the scene's `features(S)` (shapes.py). The rays' chunks are shared among
-    `lanes` threads, each running the nogil intersect_lane, as a render runs its lanes: a
-    parfor (prange) did the same and cost ~1.7 s of cold compile."""
+def intersect_rays(
+    S, X, origins, directions, t_out, object_out, prim_out, instance_out, lanes: int, unit: bool = False
+) -> int:
+    """Closest hit of each ray into the outputs: t = inf, object = prim = instance = -1 for
+    misses; instance is the instance's index within its object, 0 off instances. X: the
+    scene's `features(S)` (shapes.py). Directions are unit vectors, or with `unit` of any
+    length: each lane then divides its chunk's directions by their lengths as it reaches them
+    (raylume.intersect: in numpy, before the kernel, that had taken ~80% of the kernel's own
+    time), and the count of rays with a component that is not finite or a zero direction is
+    returned (0 without `unit`). The rays' chunks are shared among `lanes` threads, each
+    running the nogil intersect_lane, as a render runs its lanes: a parfor (prange) did the
+    same and cost ~1.7 s of cold compile."""
+    bad = np.zeros(max(1, lanes), dtype=np.int64)
     args = (S, X, origins, directions, t_out, object_out, prim_out, instance_out)
     lanes = max(1, min(lanes, (origins.shape[0] + CHUNK - 1) // CHUNK))
     if lanes == 1:
-        intersect_lane(*args, 0, 1)
-        return
+        intersect_lane(*args, 0, 1, unit, bad)
+        return int(bad.sum())
     pool = lane_pool(lanes - 1)
-    futures = [pool.submit(intersect_lane, *args, lane, lanes) for lane in range(1, lanes)]
-    intersect_lane(*args, 0, lanes)
+    futures = [pool.submit(intersect_lane, *args, lane, lanes, unit, bad) for lane in range(1, lanes)]
+    intersect_lane(*args, 0, lanes, unit, bad)
     for f in futures:
         f.result()
+    return int(bad.sum())
