@@ -19,6 +19,7 @@ BENCHMARKS = [
     ["bench_bvh.py"]
     + (["--quick", "--size", "512"] if QUICK else ["--plot", str(HERE.parent / "docs/images/bvh_scaling.png")]),
     ["bench_hits.py"] + (["stanford-bunny", "10k", "1M", "--size", "512"] if QUICK else []),
+    ["bench_shadows.py"] + (["stanford-bunny", "10k", "1M", "--size", "512"] if QUICK else []),
     ["bench_scaling.py"] + (["--quick"] if QUICK else []),
     ["bench_path.py"] + (["--quick"] if QUICK else ["--plot", str(HERE.parent / "docs/images/path_rmse.png")]),
 ]

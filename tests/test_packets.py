@@ -614,8 +614,8 @@ def _shadow_packets(S, origins, dirs, tmax, need):
         start = p * PACKET
         m = min(PACKET, n - start)
         ok, mask = packet_blocked(
-            G, None, root, origins[start:], dirs[start:], tmax[start:], 0, m, need[p], extent, packets, node_stack,
-            t_stack,
+            G, None, root, origins[start:], dirs[start:], None, tmax[start:], 0, m, need[p], extent, packets,
+            node_stack, t_stack,
         )  # fmt: skip
         taken[p], blocked[p] = ok, mask
     return taken, blocked

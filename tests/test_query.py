@@ -1,5 +1,6 @@
-"""raylume.intersect's rays: directions of any length made unit vectors in the kernel, chunk by
-chunk, exactly as numpy's d / np.linalg.norm(d) makes them, and rays it cannot trace refused."""
+"""raylume.intersect's and raylume.occluded's rays: directions of any length made unit vectors in
+the kernel, chunk by chunk, exactly as numpy's d / np.linalg.norm(d) makes them, rays they cannot
+trace refused; occlusion between tmin and tmax against closest hits and the single-ray any-hit."""
 
 from __future__ import annotations
 
@@ -14,7 +15,9 @@ from numba import njit
 import raylume
 from raylume.compile import compile_scene
 from raylume.kernels.query import CHUNK, _unit_rays, intersect_rays
+from raylume.kernels.scene import geometry_of
 from raylume.kernels.shapes import geometry_features
+from raylume.kernels.traverse import TRAVERSAL_STACK, any_hit
 from raylume.scene.procedural import bumpy_sphere
 
 
@@ -114,3 +117,67 @@ def test_intersect_refuses_rays_it_cannot_trace(bumpy, where, value):
         raylume.intersect(bumpy, o, d)
     t, obj, _ = raylume.intersect(bumpy, o[:-1], d[:-1])  # the others are fine
     assert (obj == 0).all() and np.allclose(t, 2.0, atol=0.1)
+
+
+@njit
+def _any_hits(S, origins, directions, tmin, tmax):
+    """any_hit ray by ray on unit directions: the single-ray answers the packets must give."""
+    node_stack = np.empty(TRAVERSAL_STACK, np.int32)
+    G = geometry_of(S)
+    out = np.zeros(origins.shape[0], np.bool_)
+    for k in range(origins.shape[0]):
+        o = (origins[k, 0], origins[k, 1], origins[k, 2])
+        d = (directions[k, 0], directions[k, 1], directions[k, 2])
+        out[k] = any_hit(G, None, o, d, tmin[k], tmax[k], node_stack)
+    return out
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_occluded_is_a_hit_between_tmin_and_tmax(bumpy, threads):
+    """raylume.occluded on a camera's rays (packets) and the same rays shuffled (ray by ray):
+    with tmin 0, blocked exactly where intersect's nearest hit lies before tmax; with tmin
+    past that hit, blocked where the ray meets the far side of the closed mesh; and every
+    answer the single-ray any_hit's, ray for ray, for spans that start and end anywhere."""
+    rng = np.random.default_rng(threads + 10)
+    n = 4 * CHUNK + 5
+    ys, xs = np.divmod(np.arange(n), 37)
+    d = np.stack([xs / 37 - 0.5, ys / 28 - 0.5, np.ones(n)], axis=1) * 2.0
+    o = np.broadcast_to([0.0, 0.0, -3.0], d.shape).copy()
+    t, _, _ = raylume.intersect(bumpy, o, d)
+    hit = np.isfinite(t)
+    assert 0.2 < hit.mean() < 0.9
+    previous = numba.get_num_threads()
+    numba.set_num_threads(threads)
+    try:
+        for order in (np.arange(n), rng.permutation(n)):
+            oo, dd, tt, hh = o[order], d[order], t[order], hit[order]
+            tmax = np.where(hh, tt * rng.choice([0.999, 1.001], size=n), 10.0)
+            np.testing.assert_array_equal(raylume.occluded(bumpy, oo, dd, tmax=tmax), hh & (tt < tmax))
+            assert raylume.occluded(bumpy, oo, dd).tolist() == hh.tolist()  # tmax inf by default
+            behind = raylume.occluded(bumpy, oo, dd, tmin=np.where(hh, tt * 1.0001, 0.0))
+            assert behind[hh].mean() > 0.99 and not behind[~hh].any()
+            tmin = rng.uniform(0, 4, size=n)
+            tmax = tmin + rng.uniform(0, 2, size=n)
+            unit = dd / np.linalg.norm(dd, axis=1, keepdims=True)
+            got = raylume.occluded(bumpy, oo, dd, tmin=tmin, tmax=tmax)
+            want = _any_hits(bumpy.for_camera((0.0, 0.0, 0.0)), oo, unit, tmin, tmax)
+            np.testing.assert_array_equal(got, want)
+            assert 0.05 < want.mean() < 0.95
+    finally:
+        numba.set_num_threads(previous)
+
+
+def test_occluded_keeps_the_rays_shape_and_refuses_what_intersect_refuses(bumpy):
+    o = np.zeros((2, 3, 3))
+    o[..., 2] = -3.0
+    d = np.zeros((2, 3, 3))
+    d[..., 2] = 1.0
+    d[1, 2] = [0.0, 1.0, 0.0]  # up: misses
+    blocked = raylume.occluded(bumpy, o, d, tmax=[[5.0], [1.0]])  # tmax per row, broadcast
+    assert blocked.shape == (2, 3) and blocked.dtype == np.bool_
+    assert blocked.tolist() == [[True, True, True], [False, False, False]]
+    with pytest.raises(ValueError, match="broadcast"):
+        raylume.occluded(bumpy, o, d, tmax=np.ones(4))
+    d[0, 1] = 0.0
+    with pytest.raises(ValueError, match="directions must be finite and non-zero"):
+        raylume.occluded(bumpy, o, d)

@@ -32,6 +32,7 @@ _HOMES = {
     "builtin_scene": ".scene.builtin",
     "intersect": ".query",
     "load_scene": ".scene.load",
+    "occluded": ".query",
     "scene_from_dict": ".scene.load",
     "view": ".viewer",
 }
@@ -59,7 +60,7 @@ def __dir__() -> list[str]:
 if TYPE_CHECKING:
     from .image import Image
     from .kernels.film import Film
-    from .query import intersect
+    from .query import intersect, occluded
     from .scene.builtin import builtin_names, builtin_scene
     from .scene.checks import SceneWarning
     from .scene.load import load_scene, scene_from_dict
@@ -80,6 +81,7 @@ __all__ = [
     "builtin_scene",
     "intersect",
     "load_scene",
+    "occluded",
     "render",
     "scene_from_dict",
     "view",

@@ -11,11 +11,20 @@ from numba.core.errors import TypingError
 from numba.extending import intrinsic
 
 from ..lanes import lane_pool
-from .packet import PACKET, packet_hit, packet_scratch, packet_trace, root_box, scene_extent, uses_packets
+from .packet import (
+    PACKET,
+    packet_blocked,
+    packet_hit,
+    packet_scratch,
+    packet_trace,
+    root_box,
+    scene_extent,
+    uses_packets,
+)
 from .scene import geometry_of
 from .shape_triangle import EXACT_DIVISION, exact_ops
 from .shapes import NO_HIT, PRIM_FACE, PRIM_OBJECT, instance_id, split_hit
-from .traverse import INF, closest_hit, prefetch_row, scratch_array, traversal_stacks
+from .traverse import INF, any_hit, closest_hit, prefetch_row, scratch_array, traversal_stacks
 from .vec import FAST, inline_function, kernel_function
 
 
@@ -247,6 +256,80 @@ def intersect_lane(S, X, origins, directions, t_out, object_out, prim_out, insta
     bad[lane] = refused
 
 
+@kernel_function
+def _occluded_chunk(G, X, origins, directions, base, tmin, tmax, out, start, end, stacks, packets, spans):
+    """Rays start .. end - 1 (ray k at origins[k - base], directions[k - base]): out[k] whether
+    anything lies along ray k in (tmin[k], tmax[k]). Coherent runs of eight (neighbouring
+    pixels' shadow rays) go as packets (packet_blocked, its lanes' tmin and tmax in `spans`),
+    the others ray by ray (any_hit, which stops at the first blocker)."""
+    extent = scene_extent(G)
+    root = root_box(G)
+    packets_here = uses_packets(G, X)
+    node_stack, t_stack = stacks
+    lane_tmin, lane_tmax = spans
+    k = start
+    while k < end:
+        n = min(PACKET, end - k)
+        coherent = False
+        if packets_here:
+            for i in range(n):
+                lane_tmin[i] = tmin[k + i]
+                lane_tmax[i] = tmax[k + i]
+            coherent, blocked = packet_blocked(
+                G, X, root, origins, directions, lane_tmin, lane_tmax, k - base, n, (1 << n) - 1, extent, packets,
+                node_stack, t_stack,
+            )  # fmt: skip
+            if coherent:
+                for i in range(n):
+                    out[k + i] = (blocked >> i) & 1 != 0
+        if not coherent:
+            for q in range(k, k + n):
+                r = q - base
+                o = (float(origins[r, 0]), float(origins[r, 1]), float(origins[r, 2]))
+                d = (float(directions[r, 0]), float(directions[r, 1]), float(directions[r, 2]))
+                out[q] = any_hit(G, X, o, d, tmin[q], tmax[q], node_stack)
+        k += n
+
+
+@njit(nogil=True, fastmath=FAST, cache=True, error_model="numpy")
+def occluded_lane(S, X, origins, directions, tmin, tmax, out, lane, lanes, unit, bad):
+    """Occlusion of lane `lane` of `lanes`'s chunks, as intersect_lane shares them and makes
+    their directions unit vectors."""
+    n = origins.shape[0]
+    G = geometry_of(S)
+    stacks = traversal_stacks()
+    packets = packet_scratch()
+    spans = scratch_array(PACKET, np.float64), scratch_array(PACKET, np.float64)
+    chunk_origins = scratch_array(CHUNK * 3, np.float64).reshape((CHUNK, 3))
+    chunk_directions = scratch_array(CHUNK * 3, np.float64).reshape((CHUNK, 3))
+    refused = 0
+    for c in range(lane, (n + CHUNK - 1) // CHUNK, lanes):
+        start, end = c * CHUNK, min(n, (c + 1) * CHUNK)
+        o, d, base = origins, directions, 0
+        if unit:
+            refused += _unit_rays(origins, directions, start, end, chunk_origins, chunk_directions)
+            o, d, base = chunk_origins, chunk_directions, start
+        _occluded_chunk(G, X, o, d, base, tmin, tmax, out, start, end, stacks, packets, spans)
+    bad[lane] = refused
+
+
+def _run_lanes(kernel, args, n: int, lanes: int, unit: bool) -> int:
+    """kernel(*args, lane, lanes, unit, bad) on `lanes` threads (the calling one and the kept
+    pool's, as a render runs its lanes: a parfor (prange) did the same and cost ~1.7 s of cold
+    compile), at most one per chunk; returns the rays the lanes refused (bad's sum)."""
+    bad = np.zeros(max(1, lanes), dtype=np.int64)
+    lanes = max(1, min(lanes, (n + CHUNK - 1) // CHUNK))
+    if lanes == 1:
+        kernel(*args, 0, 1, unit, bad)
+        return int(bad.sum())
+    pool = lane_pool(lanes - 1)
+    futures = [pool.submit(kernel, *args, lane, lanes, unit, bad) for lane in range(1, lanes)]
+    kernel(*args, 0, lanes, unit, bad)
+    for f in futures:
+        f.result()
+    return int(bad.sum())
+
+
 def intersect_rays(
     S, X, origins, directions, t_out, object_out, prim_out, instance_out, lanes: int, unit: bool = False
 ) -> int:
@@ -257,17 +340,14 @@ def intersect_rays(
     (raylume.intersect: in numpy, before the kernel, that had taken ~80% of the kernel's own
     time), and the count of rays with a component that is not finite or a zero direction is
     returned (0 without `unit`). The rays' chunks are shared among `lanes` threads, each
-    running the nogil intersect_lane, as a render runs its lanes: a parfor (prange) did the
-    same and cost ~1.7 s of cold compile."""
-    bad = np.zeros(max(1, lanes), dtype=np.int64)
+    running the nogil intersect_lane."""
     args = (S, X, origins, directions, t_out, object_out, prim_out, instance_out)
-    lanes = max(1, min(lanes, (origins.shape[0] + CHUNK - 1) // CHUNK))
-    if lanes == 1:
-        intersect_lane(*args, 0, 1, unit, bad)
-        return int(bad.sum())
-    pool = lane_pool(lanes - 1)
-    futures = [pool.submit(intersect_lane, *args, lane, lanes, unit, bad) for lane in range(1, lanes)]
-    intersect_lane(*args, 0, lanes, unit, bad)
-    for f in futures:
-        f.result()
-    return int(bad.sum())
+    return _run_lanes(intersect_lane, args, origins.shape[0], lanes, unit)
+
+
+def occluded_rays(S, X, origins, directions, tmin, tmax, out, lanes: int, unit: bool = False) -> int:
+    """Whether anything lies along each ray between tmin[k] and tmax[k] (float64 arrays, one
+    per ray) into `out` (bool): shadow and visibility rays, each stopping at the first blocker
+    found. Directions, `unit` and the returned count as intersect_rays says."""
+    args = (S, X, origins, directions, tmin, tmax, out)
+    return _run_lanes(occluded_lane, args, origins.shape[0], lanes, unit)

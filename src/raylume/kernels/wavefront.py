@@ -515,7 +515,7 @@ def _bvh_shadows(G, X, R, I, m, node_stack, t_stack, scratch):
             for k in range(n):
                 tmax[k] = R[TMAX + i0 + k]
             coherent, blocked = packet_blocked(
-                G, X, root, origins, directions, tmax, 0, n, need, extent, packets, node_stack, t_stack
+                G, X, root, origins, directions, None, tmax, 0, n, need, extent, packets, node_stack, t_stack
             )
             if coherent:
                 for k in range(n):
