@@ -4,7 +4,7 @@ numpy's and trimesh's imports left out; the renders are tiny).
 
     python benchmarks/bench_compile.py [--repeats 3] [--src DIR --src DIR ...] [WORK ...]
 
-WORK: intersect, cast, cast-full, seed, glass, path, raster (default: all). With --src, each DIR
+WORK: intersect, occluded, cast, cast-full, seed, glass, path, raster (default: all). With --src, each DIR
 is a checkout of raylume (its src/ is imported instead of this one's): the builds run in turn,
 A, B, A, B, so that the machine's drift is shared among them (an older build must understand
 the same calls: `raylume.load_scene`, `raylume.scene_from_dict`, `raylume.intersect`). Issue 13's
@@ -30,6 +30,11 @@ WORK = {
         f"{MESH}; from raylume.compile import compile_scene; import numpy as np; "
         f"raylume.intersect(compile_scene({MESH_SCENE}), np.zeros((4, 3)) + [0, 0, -5], np.tile([0, 0, 1.0], (4, 1)))",
         "raylume.intersect on a 1,280-triangle mesh",
+    ),
+    "occluded": (
+        f"{MESH}; from raylume.compile import compile_scene; import numpy as np; "
+        f"raylume.occluded(compile_scene({MESH_SCENE}), np.zeros((4, 3)) + [0, 0, -5], np.tile([0, 0, 1.0], (4, 1)))",
+        "raylume.occluded on that mesh (a build without it fails)",
     ),
     "cast": (
         f"{MESH}; raylume.render({MESH_SCENE}, width=32, height=32, mode='cast', aovs=False)",

@@ -1,5 +1,5 @@
-"""Batch ray queries over a compiled scene: closest hits for arrays of rays (benchmarks, tests,
-and users who want raylume as a ray-intersection library)."""
+"""Batch ray queries over a compiled scene: closest hits and occlusion for arrays of rays
+(benchmarks, tests, and users who want raylume as a ray-intersection library)."""
 
 import math
 
@@ -231,6 +231,15 @@ def _unit_rays(origins, directions, start, end, chunk_origins, chunk_directions)
 CHUNK = 256
 
 
+@kernel_function(_nrt=True)
+def chunk_scratch():
+    """One lane's copy of a chunk's rays: (origins, unit directions), (CHUNK, 3) each."""
+    return (
+        scratch_array(CHUNK * 3, np.float64).reshape((CHUNK, 3)),
+        scratch_array(CHUNK * 3, np.float64).reshape((CHUNK, 3)),
+    )
+
+
 @njit(nogil=True, fastmath=FAST, cache=True, error_model="numpy")
 def intersect_lane(S, X, origins, directions, t_out, object_out, prim_out, instance_out, lane, lanes, unit, bad):
     """Closest hits of lane `lane` of `lanes`: chunks lane, lane + lanes, ... of the rays. With
@@ -241,17 +250,20 @@ def intersect_lane(S, X, origins, directions, t_out, object_out, prim_out, insta
     stacks = traversal_stacks()
     packets = packet_scratch()
     hits = scratch_array(CHUNK, np.int64)
-    chunk_origins = scratch_array(CHUNK * 3, np.float64).reshape((CHUNK, 3))
-    chunk_directions = scratch_array(CHUNK * 3, np.float64).reshape((CHUNK, 3))
+    scratch = chunk_scratch()
     outputs = (t_out, object_out, prim_out, instance_out)
     refused = 0
     for c in range(lane, (n + CHUNK - 1) // CHUNK, lanes):
         start, end = c * CHUNK, min(n, (c + 1) * CHUNK)
-        # one call site, one signature: the traversal is compiled once (a second cost ~2.5 s)
+        # ray k at row k - base of o and d: the caller's arrays, or with `unit` the lane's copy
+        # of the chunk, its directions made unit vectors. One call site, one signature: the
+        # traversal is compiled once (a second cost ~2.5 s). (Not a helper that returns the
+        # arrays: compiled without reference counting, its returned arrays would be released
+        # by this function once too often.)
         o, d, base = origins, directions, 0
         if unit:
-            refused += _unit_rays(origins, directions, start, end, chunk_origins, chunk_directions)
-            o, d, base = chunk_origins, chunk_directions, start
+            refused += _unit_rays(origins, directions, start, end, scratch[0], scratch[1])
+            o, d, base = scratch[0], scratch[1], start
         _intersect_chunk(G, X, o, d, base, outputs, start, end, stacks, packets, hits)
     bad[lane] = refused
 
@@ -300,15 +312,14 @@ def occluded_lane(S, X, origins, directions, tmin, tmax, out, lane, lanes, unit,
     stacks = traversal_stacks()
     packets = packet_scratch()
     spans = scratch_array(PACKET, np.float64), scratch_array(PACKET, np.float64)
-    chunk_origins = scratch_array(CHUNK * 3, np.float64).reshape((CHUNK, 3))
-    chunk_directions = scratch_array(CHUNK * 3, np.float64).reshape((CHUNK, 3))
+    scratch = chunk_scratch()
     refused = 0
     for c in range(lane, (n + CHUNK - 1) // CHUNK, lanes):
         start, end = c * CHUNK, min(n, (c + 1) * CHUNK)
-        o, d, base = origins, directions, 0
+        o, d, base = origins, directions, 0  # as in intersect_lane
         if unit:
-            refused += _unit_rays(origins, directions, start, end, chunk_origins, chunk_directions)
-            o, d, base = chunk_origins, chunk_directions, start
+            refused += _unit_rays(origins, directions, start, end, scratch[0], scratch[1])
+            o, d, base = scratch[0], scratch[1], start
         _occluded_chunk(G, X, o, d, base, tmin, tmax, out, start, end, stacks, packets, spans)
     bad[lane] = refused
 
