@@ -92,17 +92,18 @@ def _trace(compiled, o, d):
 
 
 @kernel_function
-def _single_rays(S, X, o, d, outputs, stacks, hits):
+def _single_rays(S, X, o, d, spans, outputs, stacks, hits):
     """intersect_rays' work without packets: closest_hit ray by ray, a chunk at a time."""
     G = geometry_of(S)
     for start in range(0, o.shape[0], CHUNK):
-        intersect_singly(G, X, o, d, outputs, start, min(o.shape[0], start + CHUNK), stacks, hits)
+        intersect_singly(G, X, o, d, spans, outputs, start, min(o.shape[0], start + CHUNK), stacks, hits)
 
 
 def _trace_singly(compiled, o, d, stacks):
     n = len(o)
     out = np.empty(n), np.empty(n, np.int32), np.empty(n, np.int32), np.empty(n, np.int32)
-    _single_rays(compiled.kernel, features(compiled.kernel), o, d, out, stacks, np.empty(CHUNK, np.int64))
+    spans = np.zeros(1), np.full(1, np.inf)  # every ray from 0 to infinity
+    _single_rays(compiled.kernel, features(compiled.kernel), o, d, spans, out, stacks, np.empty(CHUNK, np.int64))
     return out
 
 

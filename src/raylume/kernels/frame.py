@@ -243,7 +243,7 @@ def _cast_row(
                     directions[k, c] = d[c]
                 weights[k] = w
                 pi, ps = next_sample(pi, ps, samples)
-            coherent = packet_trace(G, X, root, origins, directions, 0, n, extent, packets, node_stack, t_stack)
+            coherent = packet_trace(G, X, root, origins, directions, 0, n, extent, packets, node_stack, t_stack, None)
         for k in range(n):
             if packets_here:
                 o = (origins[k, 0], origins[k, 1], origins[k, 2])

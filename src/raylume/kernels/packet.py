@@ -694,14 +694,25 @@ def packet_unbounded(G, X, axes, lane, prim, n):
 
 
 @inline_function
-def packet_trace(G, X, root, origins, directions, start, n, extent, packets, node_stack, t_stack):
+def packet_trace(G, X, root, origins, directions, start, n, extent, packets, node_stack, t_stack, spans):
     """Rays start .. start + n - 1 as one packet, when they are coherent (packet_setup): their
     nearest hits into the packet's lanes (read them with packet_hit), the unbounded shapes
     first, ray by ray, as closest_hit tests them. extent: scene_extent(G), root: root_box(G),
-    packets: packet_scratch(). Returns whether the rays were traced (coherent)."""
+    packets: packet_scratch(); spans: None (each ray from 0 to infinity) or (tmin, tmax, k):
+    arrays of one value for every ray or of one per ray, ray k the packet's first (a lane
+    without a hit keeps its tmax as its t). Returns whether the rays were traced (coherent)."""
     box, lane, prim, mask_stack = packets
-    coherent, rows, axes = packet_setup(origins, directions, start, n, 0.0, math.inf, extent, box, lane, prim)
+    t0, t1 = 0.0, math.inf
+    if spans is not None:  # (pruned in the renders)
+        t0, t1 = spans[0][0], spans[1][0]
+    coherent, rows, axes = packet_setup(origins, directions, start, n, t0, t1, extent, box, lane, prim)
     if coherent:
+        if spans is not None:
+            tmin, tmax, k = spans
+            if tmin.shape[0] > 1 or tmax.shape[0] > 1:  # one per ray: the lanes' own (else set above)
+                for i in range(n):
+                    lane[TMIN, i] = tmin[k + i] if tmin.shape[0] > 1 else t0
+                    lane[BEST_T, i] = tmax[k + i] if tmax.shape[0] > 1 else t1
         if X is not None:  # (pruned in the basic variant, which has no unbounded shapes)
             if G.n_bounded < G.prims.shape[0]:
                 packet_unbounded(G, X, axes, lane, prim, n)

@@ -31,10 +31,18 @@ from .vec import FAST, inline_function, kernel_function
 # A call per chunk of rays, compiled without reference counting (KERNEL), as the frame kernels'
 # row functions are: inlined into the lane's loop (then a parfor's), the traversal took and
 # dropped references to the BVH arrays for every ray (4 calls with atomic operations a ray).
+@inline_function
+def span_of(values, k):
+    """Ray k's tmin or tmax: values[k], or values[0] where one value (an array of one) serves
+    every ray."""
+    return values[k] if values.shape[0] > 1 else values[0]
+
+
 @kernel_function
-def _intersect_chunk(G, X, origins, directions, base, outputs, start, end, stacks, packets, hits):
-    """Rays start .. end - 1 (at most CHUNK; ray k at origins[k - base], directions[k - base])
-    into the outputs: traced first, their distances
+def _intersect_chunk(G, X, origins, directions, base, spans, outputs, start, end, stacks, packets, hits):
+    """Rays start .. end - 1 (at most CHUNK; ray k at origins[k - base], directions[k - base],
+    its hits between span_of(spans[0], k) and span_of(spans[1], k)) into the outputs: traced
+    first, their distances
     stored and their hits kept in `hits` (one per ray of the chunk), then their ids looked up.
     A hit's object and face ids lie in its row of the primitive table, a cache miss of its own
     on a large mesh; the row is prefetched when the hit is found and read after the whole
@@ -49,23 +57,27 @@ def _intersect_chunk(G, X, origins, directions, base, outputs, start, end, stack
         n = min(PACKET, end - k)
         if not (
             packets_here
-            and _packet_hits(G, X, origins, directions, base, k, n, extent, root, t_out, hits, start, stacks, packets)
+            and _packet_hits(
+                G, X, origins, directions, base, spans, k, n, extent, root, t_out, hits, start, stacks, packets
+            )
         ):
             # one call site: the single-ray traversal is inlined once (a second copy cost ~1.5 s
             # of cold compile)
-            _closest_hits_singly(G, X, origins, directions, base, k, k + n, t_out, hits, start, stacks)
+            _closest_hits_singly(G, X, origins, directions, base, spans, k, k + n, t_out, hits, start, stacks)
         k += n
     store_ids(G, X, start, end, hits, outputs)
 
 
 @inline_function
-def _packet_hits(G, X, origins, directions, base, k, n, extent, root, t_out, hits, start, stacks, packets):
+def _packet_hits(G, X, origins, directions, base, spans, k, n, extent, root, t_out, hits, start, stacks, packets):
     """Rays k .. k + n - 1 (at origins[k - base] ...) traced as a packet: distances into t_out,
     hits into hits[k - start ...] (extent: scene_extent(G), root: root_box(G)); False when they
     are refused, and nothing written."""
     node_stack, t_stack = stacks
     _, lane, prim_lane, _ = packets
-    coherent = packet_trace(G, X, root, origins, directions, k - base, n, extent, packets, node_stack, t_stack)
+    coherent = packet_trace(
+        G, X, root, origins, directions, k - base, n, extent, packets, node_stack, t_stack, (spans[0], spans[1], k)
+    )
     if coherent:
         for i in range(n):
             t, prim, _, _ = packet_hit(lane, prim_lane, i)
@@ -74,24 +86,29 @@ def _packet_hits(G, X, origins, directions, base, k, n, extent, root, t_out, hit
 
 
 @inline_function
-def _closest_hits_singly(G, X, origins, directions, base, first, end, t_out, hits, start, stacks):
-    """Rays first .. end - 1 (ray k at origins[k - base] ...) ray by ray (closest_hit):
-    distances into t_out, hits into hits[k - start]."""
+def _closest_hits_singly(G, X, origins, directions, base, spans, first, end, t_out, hits, start, stacks):
+    """Rays first .. end - 1 (ray k at origins[k - base] ..., between span_of(spans[0], k) and
+    span_of(spans[1], k)) ray by ray (closest_hit): distances into t_out, hits into
+    hits[k - start]."""
     node_stack, t_stack = stacks
+    tmin, tmax = spans[0], spans[1]
     for k in range(first, end):
         r = k - base
         o = (float(origins[r, 0]), float(origins[r, 1]), float(origins[r, 2]))
         d = (float(directions[r, 0]), float(directions[r, 1]), float(directions[r, 2]))
-        t, prim, b1, b2 = closest_hit(G, X, o, d, 0.0, INF, node_stack, t_stack)
+        t, prim, b1, b2 = closest_hit(G, X, o, d, span_of(tmin, k), span_of(tmax, k), node_stack, t_stack)
         _keep_hit(G, X, k, t, prim, t_out, hits, start)
 
 
 @inline_function
 def _keep_hit(G, X, k, t, prim, t_out, hits, start):
-    t_out[k] = t
+    """Ray k's hit: its distance (inf for a miss, which the traversal leaves at its tmax)."""
     hits[k - start] = prim
     if prim != NO_HIT:
+        t_out[k] = t
         prefetch_row(G.prims, split_hit(X, prim)[0])
+    else:
+        t_out[k] = INF
 
 
 @inline_function
@@ -113,10 +130,11 @@ def store_ids(G, X, start, end, hits, outputs):
 
 
 @inline_function
-def intersect_singly(G, X, origins, directions, outputs, start, end, stacks, hits):
-    """intersect_lane's work for rays start .. end - 1 (at most CHUNK) without packets: the
-    single-ray traversal alone (benchmarks/bench_hits.py)."""
-    _closest_hits_singly(G, X, origins, directions, 0, start, end, outputs[0], hits, start, stacks)
+def intersect_singly(G, X, origins, directions, spans, outputs, start, end, stacks, hits):
+    """intersect_lane's work for rays start .. end - 1 (at most CHUNK; spans: (tmin, tmax) as
+    span_of reads them) without packets: the single-ray traversal alone
+    (benchmarks/bench_hits.py)."""
+    _closest_hits_singly(G, X, origins, directions, 0, spans, start, end, outputs[0], hits, start, stacks)
     store_ids(G, X, start, end, hits, outputs)
 
 
@@ -241,16 +259,20 @@ def chunk_scratch():
 
 
 @njit(nogil=True, fastmath=FAST, cache=True, error_model="numpy")
-def intersect_lane(S, X, origins, directions, t_out, object_out, prim_out, instance_out, lane, lanes, unit, bad):
-    """Closest hits of lane `lane` of `lanes`: chunks lane, lane + lanes, ... of the rays. With
-    `unit`, directions of any length, made unit vectors chunk by chunk (_unit_rays), and the
-    rays that cannot be (or have an origin that is not finite) counted in bad[lane]."""
+def intersect_lane(
+    S, X, origins, directions, tmin, tmax, t_out, object_out, prim_out, instance_out, lane, lanes, unit, bad
+):
+    """Closest hits of lane `lane` of `lanes` between tmin and tmax (span_of): chunks lane,
+    lane + lanes, ... of the rays. With `unit`, directions of any length, made unit vectors chunk
+    by chunk (_unit_rays), and the rays that cannot be (or have an origin that is not finite)
+    counted in bad[lane]."""
     n = origins.shape[0]
     G = geometry_of(S)
     stacks = traversal_stacks()
     packets = packet_scratch()
     hits = scratch_array(CHUNK, np.int64)
     scratch = chunk_scratch()
+    spans = (tmin, tmax)
     outputs = (t_out, object_out, prim_out, instance_out)
     refused = 0
     for c in range(lane, (n + CHUNK - 1) // CHUNK, lanes):
@@ -264,7 +286,7 @@ def intersect_lane(S, X, origins, directions, t_out, object_out, prim_out, insta
         if unit:
             refused += _unit_rays(origins, directions, start, end, scratch[0], scratch[1])
             o, d, base = scratch[0], scratch[1], start
-        _intersect_chunk(G, X, o, d, base, outputs, start, end, stacks, packets, hits)
+        _intersect_chunk(G, X, o, d, base, spans, outputs, start, end, stacks, packets, hits)
     bad[lane] = refused
 
 
@@ -285,8 +307,8 @@ def _occluded_chunk(G, X, origins, directions, base, tmin, tmax, out, start, end
         coherent = False
         if packets_here:
             for i in range(n):
-                lane_tmin[i] = tmin[k + i]
-                lane_tmax[i] = tmax[k + i]
+                lane_tmin[i] = span_of(tmin, k + i)
+                lane_tmax[i] = span_of(tmax, k + i)
             coherent, blocked = packet_blocked(
                 G, X, root, origins, directions, lane_tmin, lane_tmax, k - base, n, (1 << n) - 1, extent, packets,
                 node_stack, t_stack,
@@ -299,7 +321,7 @@ def _occluded_chunk(G, X, origins, directions, base, tmin, tmax, out, start, end
                 r = q - base
                 o = (float(origins[r, 0]), float(origins[r, 1]), float(origins[r, 2]))
                 d = (float(directions[r, 0]), float(directions[r, 1]), float(directions[r, 2]))
-                out[q] = any_hit(G, X, o, d, tmin[q], tmax[q], node_stack)
+                out[q] = any_hit(G, X, o, d, span_of(tmin, q), span_of(tmax, q), node_stack)
         k += n
 
 
@@ -341,24 +363,56 @@ def _run_lanes(kernel, args, n: int, lanes: int, unit: bool) -> int:
     return int(bad.sum())
 
 
+def ray_spans(tmin, tmax, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """tmin and tmax (numbers, or arrays of one value per ray) as the kernels read them
+    (span_of): arrays of one value where both are one number (no array the size of the rays),
+    else 1-D arrays of n."""
+    tmin, tmax = (np.asarray(v, dtype=np.float64) for v in (tmin, tmax))
+    if tmin.size == 1 and tmax.size == 1:
+        return tmin.reshape(1).copy(), tmax.reshape(1).copy()
+    return tuple(np.ascontiguousarray(np.broadcast_to(v.reshape(-1), (n,))) for v in (tmin, tmax))
+
+
 def intersect_rays(
-    S, X, origins, directions, t_out, object_out, prim_out, instance_out, lanes: int, unit: bool = False
+    S,
+    X,
+    origins,
+    directions,
+    t_out,
+    object_out,
+    prim_out,
+    instance_out,
+    lanes: int,
+    unit: bool = False,
+    tmin=0.0,
+    tmax=np.inf,
 ) -> int:
-    """Closest hit of each ray into the outputs: t = inf, object = prim = instance = -1 for
-    misses; instance is the instance's index within its object, 0 off instances. X: the
-    scene's `features(S)` (shapes.py). Directions are unit vectors, or with `unit` of any
+    """Closest hit of each ray between tmin and tmax (numbers, or arrays of one per ray) into
+    the outputs: t = inf, object = prim = instance = -1 for misses; instance is the instance's
+    index within its object, 0 off instances. X: the scene's `features(S)` (shapes.py).
+    Directions are unit vectors, or with `unit` of any
     length: each lane then divides its chunk's directions by their lengths as it reaches them
     (raylume.intersect: in numpy, before the kernel, that had taken ~80% of the kernel's own
     time), and the count of rays with a component that is not finite or a zero direction is
     returned (0 without `unit`). The rays' chunks are shared among `lanes` threads, each
     running the nogil intersect_lane."""
-    args = (S, X, origins, directions, t_out, object_out, prim_out, instance_out)
+    args = (
+        S,
+        X,
+        origins,
+        directions,
+        *ray_spans(tmin, tmax, origins.shape[0]),
+        t_out,
+        object_out,
+        prim_out,
+        instance_out,
+    )
     return _run_lanes(intersect_lane, args, origins.shape[0], lanes, unit)
 
 
 def occluded_rays(S, X, origins, directions, tmin, tmax, out, lanes: int, unit: bool = False) -> int:
-    """Whether anything lies along each ray between tmin[k] and tmax[k] (float64 arrays, one
+    """Whether anything lies along each ray between tmin and tmax (numbers, or arrays of one
     per ray) into `out` (bool): shadow and visibility rays, each stopping at the first blocker
     found. Directions, `unit` and the returned count as intersect_rays says."""
-    args = (S, X, origins, directions, tmin, tmax, out)
+    args = (S, X, origins, directions, *ray_spans(tmin, tmax, origins.shape[0]), out)
     return _run_lanes(occluded_lane, args, origins.shape[0], lanes, unit)

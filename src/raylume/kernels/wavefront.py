@@ -207,7 +207,7 @@ def _bvh_closest_hits(G, X, R, I, m, node_stack, t_stack, scratch):
         coherent = False
         if extent > 0.0:
             _load_packet(R, i0, n, OX, DX, origins, directions)
-            coherent = packet_trace(G, X, root, origins, directions, 0, n, extent, packets, node_stack, t_stack)
+            coherent = packet_trace(G, X, root, origins, directions, 0, n, extent, packets, node_stack, t_stack, None)
         for k in range(n):
             i = i0 + k
             if coherent:
