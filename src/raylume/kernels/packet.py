@@ -694,6 +694,13 @@ def packet_unbounded(G, X, axes, lane, prim, n):
 
 
 @inline_function
+def span_of(values, k):
+    """Ray k's tmin or tmax: values[k], or values[0] where one value (an array of one) serves
+    every ray."""
+    return values[k] if values.shape[0] > 1 else values[0]
+
+
+@inline_function
 def packet_trace(G, X, root, origins, directions, start, n, extent, packets, node_stack, t_stack, spans):
     """Rays start .. start + n - 1 as one packet, when they are coherent (packet_setup): their
     nearest hits into the packet's lanes (read them with packet_hit), the unbounded shapes
@@ -711,8 +718,8 @@ def packet_trace(G, X, root, origins, directions, start, n, extent, packets, nod
             tmin, tmax, k = spans
             if tmin.shape[0] > 1 or tmax.shape[0] > 1:  # one per ray: the lanes' own (else set above)
                 for i in range(n):
-                    lane[TMIN, i] = tmin[k + i] if tmin.shape[0] > 1 else t0
-                    lane[BEST_T, i] = tmax[k + i] if tmax.shape[0] > 1 else t1
+                    lane[TMIN, i] = span_of(tmin, k + i)
+                    lane[BEST_T, i] = span_of(tmax, k + i)
         if X is not None:  # (pruned in the basic variant, which has no unbounded shapes)
             if G.n_bounded < G.prims.shape[0]:
                 packet_unbounded(G, X, axes, lane, prim, n)

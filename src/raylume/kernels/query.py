@@ -19,6 +19,7 @@ from .packet import (
     packet_trace,
     root_box,
     scene_extent,
+    span_of,
     uses_packets,
 )
 from .scene import geometry_of
@@ -31,13 +32,6 @@ from .vec import FAST, inline_function, kernel_function
 # A call per chunk of rays, compiled without reference counting (KERNEL), as the frame kernels'
 # row functions are: inlined into the lane's loop (then a parfor's), the traversal took and
 # dropped references to the BVH arrays for every ray (4 calls with atomic operations a ray).
-@inline_function
-def span_of(values, k):
-    """Ray k's tmin or tmax: values[k], or values[0] where one value (an array of one) serves
-    every ray."""
-    return values[k] if values.shape[0] > 1 else values[0]
-
-
 @kernel_function
 def _intersect_chunk(G, X, origins, directions, base, spans, outputs, start, end, stacks, packets, hits):
     """Rays start .. end - 1 (at most CHUNK; ray k at origins[k - base], directions[k - base],
@@ -363,14 +357,17 @@ def _run_lanes(kernel, args, n: int, lanes: int, unit: bool) -> int:
     return int(bad.sum())
 
 
-def ray_spans(tmin, tmax, n: int) -> tuple[np.ndarray, np.ndarray]:
-    """tmin and tmax (numbers, or arrays of one value per ray) as the kernels read them
-    (span_of): arrays of one value where both are one number (no array the size of the rays),
-    else 1-D arrays of n."""
+def ray_spans(tmin, tmax, shape: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:
+    """tmin and tmax (numbers, or arrays that broadcast to the rays' leading shape) as the
+    kernels read them (span_of): arrays of one value where both are one number (no array the
+    size of the rays), else C-contiguous 1-D arrays of one per ray, in the rays' order."""
     tmin, tmax = (np.asarray(v, dtype=np.float64) for v in (tmin, tmax))
     if tmin.size == 1 and tmax.size == 1:
-        return tmin.reshape(1).copy(), tmax.reshape(1).copy()
-    return tuple(np.ascontiguousarray(np.broadcast_to(v.reshape(-1), (n,))) for v in (tmin, tmax))
+        return tmin.reshape(1), tmax.reshape(1)
+    try:
+        return tuple(np.ascontiguousarray(np.broadcast_to(v, shape).reshape(-1)) for v in (tmin, tmax))
+    except ValueError:
+        raise ValueError(f"tmin and tmax must broadcast to the rays' shape {shape}") from None
 
 
 def intersect_rays(
@@ -390,18 +387,17 @@ def intersect_rays(
     """Closest hit of each ray between tmin and tmax (numbers, or arrays of one per ray) into
     the outputs: t = inf, object = prim = instance = -1 for misses; instance is the instance's
     index within its object, 0 off instances. X: the scene's `features(S)` (shapes.py).
-    Directions are unit vectors, or with `unit` of any
-    length: each lane then divides its chunk's directions by their lengths as it reaches them
-    (raylume.intersect: in numpy, before the kernel, that had taken ~80% of the kernel's own
-    time), and the count of rays with a component that is not finite or a zero direction is
-    returned (0 without `unit`). The rays' chunks are shared among `lanes` threads, each
-    running the nogil intersect_lane."""
+    Directions are unit vectors, or with `unit` of any length: each lane then divides its
+    chunk's directions by their lengths as it reaches them (raylume.intersect: in numpy, before
+    the kernel, that had taken ~80% of the kernel's own time), and the count of rays with a
+    component that is not finite or a zero direction is returned (0 without `unit`). The rays'
+    chunks are shared among `lanes` threads, each running the nogil intersect_lane."""
     args = (
         S,
         X,
         origins,
         directions,
-        *ray_spans(tmin, tmax, origins.shape[0]),
+        *ray_spans(tmin, tmax, origins.shape[:1]),
         t_out,
         object_out,
         prim_out,
@@ -414,5 +410,5 @@ def occluded_rays(S, X, origins, directions, tmin, tmax, out, lanes: int, unit: 
     """Whether anything lies along each ray between tmin and tmax (numbers, or arrays of one
     per ray) into `out` (bool): shadow and visibility rays, each stopping at the first blocker
     found. Directions, `unit` and the returned count as intersect_rays says."""
-    args = (S, X, origins, directions, *ray_spans(tmin, tmax, origins.shape[0]), out)
+    args = (S, X, origins, directions, *ray_spans(tmin, tmax, origins.shape[:1]), out)
     return _run_lanes(occluded_lane, args, origins.shape[0], lanes, unit)
