@@ -52,18 +52,18 @@ def _blocked(compiled, o, d, tmax):
 
 
 @kernel_function
-def _any_hits(S, X, o, d, tmax, out, node_stack):
+def _any_hits(S, X, o, d, tmax, out, node_stack, t_stack):
     """occluded_rays' work without packets: any_hit ray by ray."""
     G = geometry_of(S)
     for k in range(o.shape[0]):
         ray_o = (o[k, 0], o[k, 1], o[k, 2])
         ray_d = (d[k, 0], d[k, 1], d[k, 2])
-        out[k] = any_hit(G, X, ray_o, ray_d, 0.0, tmax[k], node_stack)
+        out[k] = any_hit(G, X, ray_o, ray_d, 0.0, tmax[k], node_stack, t_stack)
 
 
 def _blocked_singly(compiled, o, d, tmax, stacks):
     out = np.empty(len(o), dtype=np.bool_)
-    _any_hits(compiled.kernel, features(compiled.kernel), o, d, tmax, out, stacks[0])
+    _any_hits(compiled.kernel, features(compiled.kernel), o, d, tmax, out, *stacks)
     return out
 
 

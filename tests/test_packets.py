@@ -624,12 +624,13 @@ def _shadow_packets(S, origins, dirs, tmax, need):
 @njit(fastmath=FAST, error_model="numpy")
 def _any_hits(S, origins, dirs, tmax):
     node_stack = np.empty(TRAVERSAL_STACK, np.int32)
+    t_stack = np.empty(TRAVERSAL_STACK, np.float32)
     G = geometry_of(S)
     out = np.zeros(origins.shape[0], np.bool_)
     for k in range(origins.shape[0]):
         o = (origins[k, 0], origins[k, 1], origins[k, 2])
         d = (dirs[k, 0], dirs[k, 1], dirs[k, 2])
-        out[k] = any_hit(G, None, o, d, 0.0, tmax[k], node_stack)
+        out[k] = any_hit(G, None, o, d, 0.0, tmax[k], node_stack, t_stack)
     return out
 
 

@@ -129,12 +129,13 @@ def test_intersect_refuses_rays_it_cannot_trace(bumpy, where, value):
 def _any_hits(S, origins, directions, tmin, tmax):
     """any_hit ray by ray on unit directions: the single-ray answers the packets must give."""
     node_stack = np.empty(TRAVERSAL_STACK, np.int32)
+    t_stack = np.empty(TRAVERSAL_STACK, np.float32)
     G = geometry_of(S)
     out = np.zeros(origins.shape[0], np.bool_)
     for k in range(origins.shape[0]):
         o = (origins[k, 0], origins[k, 1], origins[k, 2])
         d = (directions[k, 0], directions[k, 1], directions[k, 2])
-        out[k] = any_hit(G, None, o, d, tmin[k], tmax[k], node_stack)
+        out[k] = any_hit(G, None, o, d, tmin[k], tmax[k], node_stack, t_stack)
     return out
 
 

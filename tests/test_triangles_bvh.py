@@ -125,6 +125,7 @@ def _any_all(S, origins, dirs, tmax, X=None):
     n = origins.shape[0]
     out = np.empty(n, np.bool_)
     node_stack = np.empty(TRAVERSAL_STACK, np.int32)
+    t_stack = np.empty(TRAVERSAL_STACK, np.float32)
     G = geometry_of(S)
     for k in range(n):
         out[k] = any_hit(
@@ -135,6 +136,7 @@ def _any_all(S, origins, dirs, tmax, X=None):
             0.0,
             tmax[k],
             node_stack,
+            t_stack,
         )
     return out
 

@@ -80,7 +80,7 @@ def shadow_transmittance(G, F, X, o, d, tmax, node_stack, t_stack):
     if X is not None:
         if F.has_transparency:
             return _transparent_shadow(G, F, X, o, d, tmax, node_stack, t_stack)
-    if any_hit(G, X, o, d, 0.0, tmax, node_stack):
+    if any_hit(G, X, o, d, 0.0, tmax, node_stack, t_stack):
         return (0.0, 0.0, 0.0), 1
     return (1.0, 1.0, 1.0), 1
 

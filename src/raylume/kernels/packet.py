@@ -659,7 +659,7 @@ def _leaf_ray_by_ray(G, X, first, count, axes, lane, prim, active):
         o, d, shear = _lane_ray(lane, axes, i)
         t0, p0 = lane[BEST_T, i], prim[i]
         t, p, b1, b2 = intersect_leaf(
-            G, X, first, count, o, d, shear, lane[TMIN, i], t0, p0, lane[BEST_V, i], lane[BEST_W, i]
+            G, X, first, count, o, d, shear, lane[TMIN, i], t0, p0, lane[BEST_V, i], lane[BEST_W, i], False
         )
         if p != p0 or t != t0:
             _set_lane_best(lane, prim, i, t, p, b1, b2)

@@ -192,7 +192,7 @@ def path_ray(G, F, X, Em, Env, o, d, spread, max_depth, background, key, node_st
                         origin = madd(p, ng, eps if up else -eps)
                         tmax = dist * (1.0 - SHADOW_SHORTEN) if dist < INF else INF
                         rays += 1
-                        if not any_hit(G, X, origin, wi, 0.0, tmax, node_stack):
+                        if not any_hit(G, X, origin, wi, 0.0, tmax, node_stack, t_stack):
                             w = 1.0 if delta_l or strategy == LIGHT_ONLY else power_heuristic(p_pick * pdf_l, pdf_b)
                             scale = abs(wi_local[2]) * w / (p_pick * pdf_l)
                             L = _add_light(L, hadamard(beta, f), li, scale)

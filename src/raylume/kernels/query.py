@@ -315,7 +315,7 @@ def _occluded_chunk(G, X, origins, directions, base, tmin, tmax, out, start, end
                 r = q - base
                 o = (float(origins[r, 0]), float(origins[r, 1]), float(origins[r, 2]))
                 d = (float(directions[r, 0]), float(directions[r, 1]), float(directions[r, 2]))
-                out[q] = any_hit(G, X, o, d, span_of(tmin, q), span_of(tmax, q), node_stack)
+                out[q] = any_hit(G, X, o, d, span_of(tmin, q), span_of(tmax, q), node_stack, t_stack)
         k += n
 
 

@@ -527,7 +527,7 @@ def _bvh_shadows(G, X, R, I, m, node_stack, t_stack, scratch):
                 if I[BLOCKED + i] == 0:
                     o = (R[QX + i], R[QY + i], R[QZ + i])
                     d = (R[LX + i], R[LY + i], R[LZ + i])
-                    if any_hit(G, X, o, d, 0.0, R[TMAX + i], node_stack):
+                    if any_hit(G, X, o, d, 0.0, R[TMAX + i], node_stack, t_stack):
                         I[BLOCKED + i] = 1
         i0 += n
 
