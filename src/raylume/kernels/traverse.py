@@ -370,44 +370,29 @@ def _unbounded_hit(G, X, o, d, shear, tmin, tmax):
 # world BVH (traverse_instances.py); every other variant compiles nothing for them.
 
 
-def _instances_closest(G, X, o, d, tmin, best_t, prim, b1, b2, node_stack, t_stack):
+def _instances_hit(G, X, o, d, tmin, best_t, prim, b1, b2, node_stack, t_stack, stop_at_first):
     raise NotImplementedError("a Numba overload")
 
 
-def _instances_any(G, X, o, d, tmin, tmax, node_stack):
-    raise NotImplementedError("a Numba overload")
-
-
-@overload(_instances_closest, jit_options=INLINE_OVERLOAD)
-def _instances_closest_impl(G, X, o, d, tmin, best_t, prim, b1, b2, node_stack, t_stack):
+@overload(_instances_hit, jit_options=INLINE_OVERLOAD)
+def _instances_hit_impl(G, X, o, d, tmin, best_t, prim, b1, b2, node_stack, t_stack, stop_at_first):
     if is_instances(X):
-        from .traverse_instances import instances_closest
+        from .traverse_instances import instances_hit
 
         # The empty test inlined, before the call: path mode passes Instances for every scene,
         # and a call per ray passing the views slowed Cornell path mode (1.85 -> 2.24 s). The primitive as
         # int64 and distances as floats: a literal (NO_HIT) at some call sites would compile
         # the function once more per literal.
-        def impl(G, X, o, d, tmin, best_t, prim, b1, b2, node_stack, t_stack):
+        def impl(G, X, o, d, tmin, best_t, prim, b1, b2, node_stack, t_stack, stop_at_first):
             if X.inverse.shape[0] == 0:
                 return float(best_t), np.int64(prim), float(b1), float(b2)
-            return instances_closest(
-                G, X, o, d, float(tmin), float(best_t), np.int64(prim), float(b1), float(b2), node_stack, t_stack
-            )
+            return instances_hit(
+                G, X, o, d, float(tmin), float(best_t), np.int64(prim), float(b1), float(b2), node_stack, t_stack,
+                bool(stop_at_first),
+            )  # fmt: skip
 
         return impl
-    return lambda G, X, o, d, tmin, best_t, prim, b1, b2, node_stack, t_stack: (best_t, prim, b1, b2)
-
-
-@overload(_instances_any, jit_options=INLINE_OVERLOAD)
-def _instances_any_impl(G, X, o, d, tmin, tmax, node_stack):
-    if is_instances(X):
-        from .traverse_instances import instances_any
-
-        def impl(G, X, o, d, tmin, tmax, node_stack):
-            return X.inverse.shape[0] > 0 and instances_any(G, X, o, d, float(tmin), float(tmax), node_stack)
-
-        return impl
-    return lambda G, X, o, d, tmin, tmax, node_stack: False
+    return lambda G, X, o, d, tmin, best_t, prim, b1, b2, node_stack, t_stack, stop_at_first: (best_t, prim, b1, b2)
 
 
 # --- the stack (shared with traverse_instances.py) -------------------------------------------
@@ -464,19 +449,6 @@ def push_children(bounds, index, leaf_rows, ref, rf, rows, best_t, node_stack, t
 
 
 @inline_function
-def push_entered(bounds, index, ref, rf, rows, tmax, node_stack, top):
-    """Push the children of node `ref` that the ray enters before tmax, unsorted (the instance
-    BVHs' any-hit queries, traverse_instances.py); returns the new top."""
-    mask = box_hits(bounds, ref, rf, rows, tmax, None, 0)
-    while mask != 0:
-        i = lowest_bit(mask)
-        mask &= mask - 1
-        node_stack[top] = stack_entry(index, ref, i)
-        top += 1
-    return top
-
-
-@inline_function
 def pop_nearer(node_stack, t_stack, top, base, best_t):
     """The next entry above `base` still nearer than best_t: (found, new top, entry)."""
     while top > base:
@@ -511,7 +483,7 @@ def closest_hit(G, X, o, d, tmin, tmax, node_stack, t_stack):
     if X is not None:
         if G.n_bounded < G.prims.shape[0]:
             best_t, prim, b1, b2 = _unbounded_hit(G, X, o, d, shear, tmin, tmax)
-        best_t, prim, b1, b2 = _instances_closest(G, X, o, d, tmin, best_t, prim, b1, b2, node_stack, t_stack)
+        best_t, prim, b1, b2 = _instances_hit(G, X, o, d, tmin, best_t, prim, b1, b2, node_stack, t_stack, False)
     return _bvh_hit(G, X, o, d, shear, lazy_shear, tmin, best_t, prim, b1, b2, node_stack, t_stack, False)
 
 
@@ -523,7 +495,7 @@ def any_hit(G, X, o, d, tmin, tmax, node_stack, t_stack):
     if X is not None:
         if G.n_bounded < G.prims.shape[0] and _unbounded_hit(G, X, o, d, shear, tmin, tmax)[1] >= 0:
             return True
-        if _instances_any(G, X, o, d, tmin, tmax, node_stack):
+        if _instances_hit(G, X, o, d, tmin, tmax, NO_HIT, 0.0, 0.0, node_stack, t_stack, True)[1] != NO_HIT:
             return True
     hit = _bvh_hit(G, X, o, d, shear, lazy_shear, tmin, tmax, NO_HIT, 0.0, 0.0, node_stack, t_stack, True)
     return hit[1] != NO_HIT

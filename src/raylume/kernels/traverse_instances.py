@@ -28,7 +28,6 @@ from .traverse import (
     box_ray,
     pop_nearer,
     push_children,
-    push_entered,
     traceable,
 )
 from .vec import inline_function, kernel_function
@@ -72,9 +71,10 @@ def _leaf_triangles(prims, tris, index, leaf, o, shear, tmin, best_t):
 
 
 @inline_function
-def _blas_closest(prims, tris, bounds, index, root, o, d, tmin, best_t, node_stack, t_stack, base):
+def _blas_hit(prims, tris, bounds, index, root, o, d, tmin, best_t, node_stack, t_stack, base, stop_at_first):
     """Nearest hit of the object-space ray in the BLAS rooted at `root`, nearer than best_t,
-    using the stacks from `base` up: (t, primitive or NO_HIT, b1, b2)."""
+    using the stacks from `base` up: (t, primitive or NO_HIT, b1, b2). With stop_at_first, the
+    first leaf's hit (any-hit queries), children nearest first as in traverse._bvh_hit."""
     prim, b1, b2 = np.int64(NO_HIT), 0.0, 0.0
     if not traceable(o, d):
         return best_t, prim, b1, b2
@@ -93,6 +93,8 @@ def _blas_closest(prims, tris, bounds, index, root, o, d, tmin, best_t, node_sta
             t, j, u, v = _leaf_triangles(prims, tris, index, -1 - ref, o, shear, tmin, best_t)
             if j != NO_HIT:
                 best_t, prim, b1, b2 = t, j, u, v
+                if stop_at_first:
+                    break
         found, top, entry = pop_nearer(node_stack, t_stack, top, base, best_t)
         ref = np.int64(entry)
         if not found:
@@ -101,9 +103,10 @@ def _blas_closest(prims, tris, bounds, index, root, o, d, tmin, best_t, node_sta
 
 
 @kernel_function
-def instances_closest(G, X, o, d, tmin, best_t, hit, b1, b2, node_stack, t_stack):
-    """The nearest instance hit nearer than best_t, else (best_t, hit, b1, b2) unchanged. A hit
-    is `(instance + 1) << INSTANCE_SHIFT | primitive` (shapes.split_hit)."""
+def instances_hit(G, X, o, d, tmin, best_t, hit, b1, b2, node_stack, t_stack, stop_at_first):
+    """The nearest instance hit nearer than best_t, else (best_t, hit, b1, b2) unchanged; with
+    stop_at_first, the first one found (any-hit queries). A hit is `(instance + 1) <<
+    INSTANCE_SHIFT | primitive` (shapes.split_hit)."""
     if X.inverse.shape[0] == 0 or not traceable(o, d):
         return best_t, hit, b1, b2
     bounds = X.node_bounds
@@ -127,61 +130,17 @@ def instances_closest(G, X, o, d, tmin, best_t, hit, b1, b2, node_stack, t_stack
             for i in range(first, first + abs(index[node, NODE_COUNT, lane])):
                 oo, dd = _to_object(inv, i, o, d)
                 root = X.index[i, 0]
-                t, j, u, v = _blas_closest(
-                    G.prims, G.triangles, bounds, index, root, oo, dd, tmin, best_t, node_stack, t_stack, top
-                )
+                t, j, u, v = _blas_hit(
+                    G.prims, G.triangles, bounds, index, root, oo, dd, tmin, best_t, node_stack, t_stack, top,
+                    stop_at_first,
+                )  # fmt: skip
                 if j != NO_HIT:
                     best_t, b1, b2 = t, u, v
                     hit = ((np.int64(i) + 1) << INSTANCE_SHIFT) | j
+                    if stop_at_first:
+                        return best_t, hit, b1, b2
         found, top, entry = pop_nearer(node_stack, t_stack, top, 0, best_t)
         ref = np.int64(entry)
         if not found:
             break
     return best_t, hit, b1, b2
-
-
-@inline_function
-def _blas_any(prims, tris, bounds, index, root, o, d, tmin, tmax, node_stack, base):
-    """True when the object-space ray meets a triangle of the BLAS in (tmin, tmax)."""
-    if not traceable(o, d):
-        return False
-    shear = ray_shear(d)
-    rf, rows = box_ray(o, d)
-    node_stack[base] = root
-    top = base + 1
-    while top > base:
-        top -= 1
-        ref = np.int64(node_stack[top])
-        if ref < 0:
-            if _leaf_triangles(prims, tris, index, -1 - ref, o, shear, tmin, tmax)[1] != NO_HIT:
-                return True
-            continue
-        top = push_entered(bounds, index, ref, rf, rows, tmax, node_stack, top)
-    return False
-
-
-@kernel_function
-def instances_any(G, X, o, d, tmin, tmax, node_stack):
-    """True when an instance blocks the ray in (tmin, tmax)."""
-    if X.inverse.shape[0] == 0 or not traceable(o, d):
-        return False
-    bounds = X.node_bounds
-    index = X.node_index
-    rf, rows = box_ray(o, d)
-    node_stack[0] = 0
-    top = 1
-    while top > 0:
-        top -= 1
-        ref = np.int64(node_stack[top])
-        if ref < 0:
-            leaf = -1 - ref
-            node = leaf >> _LANE_SHIFT
-            lane = leaf & (BVH_WIDTH - 1)
-            first = index[node, NODE_FIRST, lane]
-            for i in range(first, first + abs(index[node, NODE_COUNT, lane])):
-                oo, dd = _to_object(X.inverse, i, o, d)
-                if _blas_any(G.prims, G.triangles, bounds, index, X.index[i, 0], oo, dd, tmin, tmax, node_stack, top):
-                    return True
-            continue
-        top = push_entered(bounds, index, ref, rf, rows, tmax, node_stack, top)
-    return False
