@@ -614,7 +614,7 @@ def _shadow_packets(S, origins, dirs, tmax, need):
         start = p * PACKET
         m = min(PACKET, n - start)
         ok, mask = packet_blocked(
-            G, None, root, origins[start:], dirs[start:], None, tmax[start:], 0, m, need[p], extent, packets,
+            G, None, root, origins, dirs, None, tmax, start, start, m, need[p], extent, packets,
             node_stack, t_stack,
         )  # fmt: skip
         taken[p], blocked[p] = ok, mask

@@ -728,23 +728,25 @@ def packet_trace(G, X, root, origins, directions, start, n, extent, packets, nod
 
 
 @inline_function
-def packet_blocked(G, X, root, origins, directions, tmin, tmax, start, n, need, extent, packets, node_stack, t_stack):
-    """Shadow rays start .. start + n - 1, lane k's ending at tmax[k] (and starting at tmin[k];
-    tmin None: at 0), as one packet when they are coherent (packet_setup, origins up to
-    _SHADOW_ORIGIN_SPREAD of the extent apart): only the lanes of the mask `need` are traced.
-    Returns (coherent, the mask of the lanes that something blocks in (tmin, tmax)): any_hit's
-    answers, found by the closest-hit traversal with each lane's best hit starting at its tmax
-    (a hit nearer than tmax is one any_hit finds)."""
+def packet_blocked(
+    G, X, root, origins, directions, tmin, tmax, k, start, n, need, extent, packets, node_stack, t_stack
+):
+    """Shadow rays start .. start + n - 1, lane i's ending at span_of(tmax, k + i) and starting
+    at span_of(tmin, k + i) (tmin None: at 0), as one packet when they are coherent
+    (packet_setup, origins up to _SHADOW_ORIGIN_SPREAD of the extent apart): only the lanes of
+    the mask `need` are traced. Returns (coherent, the mask of the lanes that something blocks
+    in (tmin, tmax)): any_hit's answers, found by the closest-hit traversal with each lane's
+    best hit starting at its tmax (a hit nearer than tmax is one any_hit finds)."""
     box, lane, prim, mask_stack = packets
     spread = extent * (_SHADOW_ORIGIN_SPREAD / _ORIGIN_SPREAD)
     coherent, rows, axes = packet_setup(origins, directions, start, n, 0.0, math.inf, spread, box, lane, prim)
     if not coherent:
         return False, 0
     for i in range(n):
-        lane[BEST_T, i] = tmax[i]
+        lane[BEST_T, i] = span_of(tmax, k + i)
     if tmin is not None:  # (pruned where the rays start at 0: the wavefront's)
         for i in range(n):
-            lane[TMIN, i] = tmin[i]
+            lane[TMIN, i] = span_of(tmin, k + i)
     if X is not None:  # (pruned in the basic variant, which has no unbounded shapes)
         if G.n_bounded < G.prims.shape[0]:
             packet_unbounded(G, X, axes, lane, prim, n)

@@ -285,26 +285,22 @@ def intersect_lane(
 
 
 @kernel_function
-def _occluded_chunk(G, X, origins, directions, base, tmin, tmax, out, start, end, stacks, packets, spans):
+def _occluded_chunk(G, X, origins, directions, base, tmin, tmax, out, start, end, stacks, packets):
     """Rays start .. end - 1 (ray k at origins[k - base], directions[k - base]): out[k] whether
     anything lies along ray k in (tmin[k], tmax[k]). Coherent runs of eight (neighbouring
-    pixels' shadow rays) go as packets (packet_blocked, its lanes' tmin and tmax in `spans`),
+    pixels' shadow rays) go as packets (packet_blocked),
     the others ray by ray (any_hit, which stops at the first blocker)."""
     extent = scene_extent(G)
     root = root_box(G)
     packets_here = uses_packets(G, X)
     node_stack, t_stack = stacks
-    lane_tmin, lane_tmax = spans
     k = start
     while k < end:
         n = min(PACKET, end - k)
         coherent = False
         if packets_here:
-            for i in range(n):
-                lane_tmin[i] = span_of(tmin, k + i)
-                lane_tmax[i] = span_of(tmax, k + i)
             coherent, blocked = packet_blocked(
-                G, X, root, origins, directions, lane_tmin, lane_tmax, k - base, n, (1 << n) - 1, extent, packets,
+                G, X, root, origins, directions, tmin, tmax, k, k - base, n, (1 << n) - 1, extent, packets,
                 node_stack, t_stack,
             )  # fmt: skip
             if coherent:
@@ -327,7 +323,6 @@ def occluded_lane(S, X, origins, directions, tmin, tmax, out, lane, lanes, unit,
     G = geometry_of(S)
     stacks = traversal_stacks()
     packets = packet_scratch()
-    spans = scratch_array(PACKET, np.float64), scratch_array(PACKET, np.float64)
     scratch = chunk_scratch()
     refused = 0
     for c in range(lane, (n + CHUNK - 1) // CHUNK, lanes):
@@ -336,7 +331,7 @@ def occluded_lane(S, X, origins, directions, tmin, tmax, out, lane, lanes, unit,
         if unit:
             refused += _unit_rays(origins, directions, start, end, scratch[0], scratch[1])
             o, d, base = scratch[0], scratch[1], start
-        _occluded_chunk(G, X, o, d, base, tmin, tmax, out, start, end, stacks, packets, spans)
+        _occluded_chunk(G, X, o, d, base, tmin, tmax, out, start, end, stacks, packets)
     bad[lane] = refused
 
 

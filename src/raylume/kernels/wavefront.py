@@ -151,7 +151,7 @@ def wavefront_scratch(G, F):
     I[:] = 0
     origins = scratch_array(PACKET * 3, np.float64).reshape((PACKET, 3))
     directions = scratch_array(PACKET * 3, np.float64).reshape((PACKET, 3))
-    return R, I, M, C, packet_scratch(), (origins, directions, scratch_array(PACKET, np.float64))
+    return R, I, M, C, packet_scratch(), (origins, directions)
 
 
 # --- the stages --------------------------------------------------------------------------
@@ -198,7 +198,7 @@ def _closest_hits(G, X, R, I, C, m, leaf_first, leaf_count, node_stack, t_stack,
 @kernel_function
 def _bvh_closest_hits(G, X, R, I, m, node_stack, t_stack, scratch):
     """_closest_hits through the BVH."""
-    _, _, _, _, packets, (origins, directions, _) = scratch
+    _, _, _, _, packets, (origins, directions) = scratch
     _, lane, prim_lane, _ = packets
     root, extent = _packet_bounds(G, X)
     i0 = 0
@@ -500,7 +500,7 @@ def _shadows(G, X, R, I, C, m, leaf_first, leaf_count, node_stack, t_stack, dire
 @kernel_function
 def _bvh_shadows(G, X, R, I, m, node_stack, t_stack, scratch):
     """_shadows through the BVH."""
-    _, _, _, _, packets, (origins, directions, tmax) = scratch
+    _, _, _, _, packets, (origins, directions) = scratch
     root, extent = _packet_bounds(G, X)
     i0 = 0
     while i0 < m:
@@ -512,10 +512,8 @@ def _bvh_shadows(G, X, R, I, m, node_stack, t_stack, scratch):
         coherent = False
         if need != 0 and extent > 0.0:
             _load_packet(R, i0, n, QX, LX, origins, directions)
-            for k in range(n):
-                tmax[k] = R[TMAX + i0 + k]
             coherent, blocked = packet_blocked(
-                G, X, root, origins, directions, None, tmax, 0, n, need, extent, packets, node_stack, t_stack
+                G, X, root, origins, directions, None, R, TMAX + i0, 0, n, need, extent, packets, node_stack, t_stack
             )
             if coherent:
                 for k in range(n):
