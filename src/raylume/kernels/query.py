@@ -288,8 +288,8 @@ def intersect_lane(
 def _occluded_chunk(G, X, origins, directions, base, tmin, tmax, out, start, end, stacks, packets):
     """Rays start .. end - 1 (ray k at origins[k - base], directions[k - base]): out[k] whether
     anything lies along ray k in (tmin[k], tmax[k]). Coherent runs of eight (neighbouring
-    pixels' shadow rays) go as packets (packet_blocked),
-    the others ray by ray (any_hit, which stops at the first blocker)."""
+    pixels' shadow rays) go as packets (packet_blocked), the others ray by ray (any_hit, which
+    stops at the first blocker)."""
     extent = scene_extent(G)
     root = root_box(G)
     packets_here = uses_packets(G, X)
