@@ -116,6 +116,26 @@ def test_ids_and_depths_match_the_flattened_scene(scenes):
     np.testing.assert_array_equal(ids[~hit], -1)
 
 
+def test_occluded_is_the_nearest_hit_between_tmin_and_tmax(scenes):
+    """raylume.occluded through the two-level BVH (any-hit: instances and their meshes nearest
+    first, stopping at the first hit) against intersect's nearest hit beyond tmin: blocked
+    exactly when that hit lies before tmax; and the flattened scene's answers."""
+    inst, flat, _, _ = scenes
+    o, d = grid_rays()
+    rng = np.random.default_rng(3)
+    tmin = rng.uniform(0.0, 6.5, len(o))  # the instances lie at t = 4.7 to ~9
+    tmax = tmin + rng.uniform(0.2, 3.0, len(o))
+    on_instances = raylume.intersect(inst, o, d)[1] == 1
+    t = raylume.intersect(inst, o, d, tmin=tmin)[0]
+    blocked = raylume.occluded(inst, o, d, tmin=tmin, tmax=tmax)
+    assert on_instances.sum() > 400 and 0.2 < blocked[on_instances].mean() < 0.8
+    clear = np.abs(t - tmax) > 1e-6 * tmax  # the nearest hit not at tmax itself (rounding)
+    assert clear.mean() > 0.99
+    np.testing.assert_array_equal(blocked[clear], (t < tmax)[clear])
+    flat_blocked = raylume.occluded(flat, o, d, tmin=tmin, tmax=tmax)
+    assert (blocked == flat_blocked).mean() > 0.999
+
+
 def test_normals_albedo_and_image_match_the_flattened_scene(scenes):
     """Cast mode's AOVs (normals by the inverse transpose; mirrored copies outward) and a trace
     image (shadow rays through any-hit) against the flattened scene."""
