@@ -622,7 +622,9 @@ def _shadow_packets(S, origins, dirs, tmax, need):
 
 
 @njit(fastmath=FAST, error_model="numpy")
-def _any_hits(S, origins, dirs, tmax):
+def _any_hits(S, origins, dirs, tmin, tmax):
+    """any_hit ray by ray (unit directions), ray k in (tmin[k], tmax[k]): the single-ray answers
+    the packets must give (test_query's occlusion tests use it too)."""
     node_stack = np.empty(TRAVERSAL_STACK, np.int32)
     t_stack = np.empty(TRAVERSAL_STACK, np.float32)
     G = geometry_of(S)
@@ -630,7 +632,7 @@ def _any_hits(S, origins, dirs, tmax):
     for k in range(origins.shape[0]):
         o = (origins[k, 0], origins[k, 1], origins[k, 2])
         d = (dirs[k, 0], dirs[k, 1], dirs[k, 2])
-        out[k] = any_hit(G, None, o, d, 0.0, tmax[k], node_stack, t_stack)
+        out[k] = any_hit(G, None, o, d, tmin[k], tmax[k], node_stack, t_stack)
     return out
 
 
@@ -663,7 +665,7 @@ def test_shadow_packets_block_what_any_hit_blocks(tmp_path, light):
     else:
         ldirs = np.broadcast_to(np.array([1.0, 2.0, -0.5]) / np.linalg.norm([1.0, 2.0, -0.5]), points.shape).copy()
         tmax = np.full(len(points), INF)
-    expected = _any_hits(S, points, ldirs, tmax)
+    expected = _any_hits(S, points, ldirs, np.zeros(len(points)), tmax)
     count = (len(points) + PACKET - 1) // PACKET
     need = np.array([0xFF if p % 3 else 0b10110101 for p in range(count)], dtype=np.int64)
     taken, blocked = _shadow_packets(S, points, ldirs, tmax, need)

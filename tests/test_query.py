@@ -11,13 +11,14 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 from numba import njit
+from test_packets import _any_hits  # the single-ray answers, ray by ray
 
 import raylume
 from raylume.compile import compile_scene
 from raylume.kernels.query import CHUNK, _unit_rays, intersect_rays
 from raylume.kernels.scene import geometry_of
 from raylume.kernels.shapes import geometry_features
-from raylume.kernels.traverse import TRAVERSAL_STACK, any_hit, closest_hit
+from raylume.kernels.traverse import TRAVERSAL_STACK, closest_hit
 from raylume.scene.procedural import bumpy_sphere
 
 
@@ -123,20 +124,6 @@ def test_intersect_refuses_rays_it_cannot_trace(bumpy, where, value):
         raylume.intersect(bumpy, o, d)
     t, obj, _ = raylume.intersect(bumpy, o[:-1], d[:-1])  # the others are fine
     assert (obj == 0).all() and np.allclose(t, 2.0, atol=0.1)
-
-
-@njit
-def _any_hits(S, origins, directions, tmin, tmax):
-    """any_hit ray by ray on unit directions: the single-ray answers the packets must give."""
-    node_stack = np.empty(TRAVERSAL_STACK, np.int32)
-    t_stack = np.empty(TRAVERSAL_STACK, np.float32)
-    G = geometry_of(S)
-    out = np.zeros(origins.shape[0], np.bool_)
-    for k in range(origins.shape[0]):
-        o = (origins[k, 0], origins[k, 1], origins[k, 2])
-        d = (directions[k, 0], directions[k, 1], directions[k, 2])
-        out[k] = any_hit(G, None, o, d, tmin[k], tmax[k], node_stack, t_stack)
-    return out
 
 
 @pytest.mark.parametrize("threads", [1, 2])
