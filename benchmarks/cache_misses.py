@@ -1,0 +1,212 @@
+"""Where a large mesh's frame waits for memory: the cache lines its camera rays miss.
+
+The camera hit rays of bench_hits.py's frame (1024 x 1024, pixel order) are traced one by one
+through a copy of the single-ray closest-hit loop (kernels/traverse.py `_bvh_hit`, built from
+the same helpers: box test and sorted push, pop, leaf test) that logs every node record and
+every leaf's triangle rows it reads. The log is then replayed through simulated caches (LRU,
+16-way set-associative, 64-byte lines; hardware prefetchers not modelled), one size at a time,
+and the misses are counted a ray: the lines missed, and the visits that missed at least one
+line (each such visit waits for memory once at least, as nothing prefetches it far enough
+ahead). `--node-bytes 128` replays the same visits with node records of half the size, as
+quantized child boxes (Embree's compressed nodes) would make them.
+
+On bumpy 4M the misses are compulsory: a cache of 32 MB misses as many lines as one of 512 KB
+(every hit ray reads triangles no ray before it read; 10 triangles lie under each pixel).
+A diagnostic, not a benchmark against peers: it measures no time.
+
+    python benchmarks/cache_misses.py [--size 1024] [--node-bytes 256] [MESH ...]
+"""
+
+from __future__ import annotations
+
+import argparse
+
+import numba
+import numpy as np
+from bench_hits import frame_rays, mesh
+from common import table
+
+from raylume.accel.wide import NODE_COUNT, NODE_FIRST, NODE_ROWS
+from raylume.kernels import traverse
+from raylume.kernels.scene import geometry_of
+from raylume.kernels.shape_triangle import ray_shear
+from raylume.kernels.traverse import _LANE_SHIFT, BVH_WIDTH
+
+NODE, LEAF = 0, 1
+CACHES_KB = (512, 4096, 32768)  # this VM's L2 a core, and two L3 sizes
+LINE = 64
+WAYS = 16
+ROW_BYTES = 36  # a float32 triangle row: 3 vertices
+
+
+@numba.njit(cache=True)
+def log_reads(G, O, D, log, node_stack, t_stack):
+    """The single-ray closest-hit loop of kernels/traverse.py (no planes or instances, rows in
+    leaf order), logging (NODE, node, 0) at each node visit and (LEAF, first row, rows) at each
+    leaf; returns the number of entries."""
+    index, bounds, tri = G.node_index, G.node_bounds, G.triangles
+    n = 0
+    for r in range(O.shape[0]):
+        o = (O[r, 0], O[r, 1], O[r, 2])
+        d = (D[r, 0], D[r, 1], D[r, 2])
+        shear = ray_shear(d)
+        rf, rows = traverse.box_ray(o, d)
+        best_t, prim, b1, b2 = np.inf, np.int64(-1), 0.0, 0.0
+        ref, top = 0, 0
+        while True:
+            if ref >= 0:
+                log[n, 0], log[n, 1], log[n, 2] = NODE, ref, 0
+                n += 1
+                k = traverse.push_children(
+                    bounds, index, G.prims, ref, rf, rows, best_t, node_stack, t_stack, top, tri, True
+                )
+                if k > 0:
+                    top += k - 1
+                    ref = node_stack[top]
+                    continue
+            else:
+                leaf = -1 - ref
+                node, lane = leaf >> _LANE_SHIFT, leaf & (BVH_WIDTH - 1)
+                first, count = index[node, NODE_FIRST, lane], index[node, NODE_COUNT, lane]
+                log[n, 0], log[n, 1], log[n, 2] = LEAF, first, abs(count)
+                n += 1
+                best_t, prim, b1, b2 = traverse.intersect_leaf(
+                    G, None, first, count, o, d, shear, 1e-9, best_t, prim, b1, b2, False
+                )
+            found, top, ref = traverse.pop_nearer(node_stack, t_stack, top, 0, best_t)
+            if not found:
+                break
+    return n
+
+
+@numba.njit(cache=True)
+def lines_read(log, node_bytes, tri_base):
+    """Every line the log reads, in order, with its kind."""
+    n = 0
+    for e in range(log.shape[0]):
+        lo, hi = _span(log, e, node_bytes, tri_base)
+        n += hi // LINE - lo // LINE + 1
+    lines = np.empty(n, np.int64)
+    kinds = np.empty(n, np.int64)
+    n = 0
+    for e in range(log.shape[0]):
+        lo, hi = _span(log, e, node_bytes, tri_base)
+        for line in range(lo // LINE, hi // LINE + 1):
+            lines[n], kinds[n] = line, log[e, 0]
+            n += 1
+    return lines, kinds
+
+
+@numba.njit(inline="always")
+def _span(log, e, node_bytes, tri_base):
+    """The first and last byte a log entry reads."""
+    if log[e, 0] == NODE:
+        lo = log[e, 1] * node_bytes
+        return lo, lo + node_bytes - 1
+    lo = tri_base + log[e, 1] * ROW_BYTES
+    return lo, lo + log[e, 2] * ROW_BYTES - 1
+
+
+@numba.njit(cache=True)
+def replay(log, node_bytes, tri_base, cache_lines):
+    """Replays the log through an LRU cache of cache_lines lines (WAYS-way set-associative):
+    (lines missed, visits with a miss), each per kind (NODE, LEAF)."""
+    sets = cache_lines // WAYS
+    tags = np.full((sets, WAYS), -1, np.int64)
+    stamp = np.zeros((sets, WAYS), np.int64)
+    missed = np.zeros(2, np.int64)
+    visits_missed = np.zeros(2, np.int64)
+    clock = 0
+    for e in range(log.shape[0]):
+        kind = log[e, 0]
+        lo, hi = _span(log, e, node_bytes, tri_base)
+        any_miss = False
+        for line in range(lo // LINE, hi // LINE + 1):
+            clock += 1
+            s = line % sets
+            way = -1
+            oldest = 0
+            for w in range(WAYS):
+                if tags[s, w] == line:
+                    way = w
+                    break
+                if stamp[s, w] < stamp[s, oldest]:
+                    oldest = w
+            if way < 0:
+                missed[kind] += 1
+                any_miss = True
+                way = oldest
+                tags[s, way] = line
+            stamp[s, way] = clock
+        if any_miss:
+            visits_missed[kind] += 1
+    return missed, visits_missed
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--size", type=int, default=1024)
+    ap.add_argument("--node-bytes", type=int, default=NODE_ROWS * BVH_WIDTH * 4)
+    ap.add_argument("meshes", nargs="*", default=["40k", "4M"])
+    args = ap.parse_args()
+    numba.set_num_threads(1)
+    rows = []
+    for name in args.meshes:
+        vf = mesh(name)
+        if vf is None:
+            print(f"{name}: not found, skipped")
+            continue
+        compiled, o, d, hit = frame_rays(*vf, args.size)
+        G = geometry_of(compiled.kernel)
+        O, D = np.ascontiguousarray(o[hit]), np.ascontiguousarray(d[hit])
+        log = np.empty((O.shape[0] * 64, 3), np.int64)
+        node_stack, t_stack = traverse.traversal_stacks()
+        log = log[: log_reads(G, O, D, log, node_stack, t_stack)]
+        rays = O.shape[0]
+        nodes = np.count_nonzero(log[:, 0] == NODE) / rays
+        leaves = np.count_nonzero(log[:, 0] == LEAF) / rays
+        # the triangle table after the nodes, a page apart
+        tri_base = -(-G.node_index.shape[0] * args.node_bytes // 4096) * 4096 + 4096
+        # an unbounded cache misses each line once: the compulsory misses
+        lines, kinds = lines_read(log, args.node_bytes, tri_base)
+        distinct, first = np.unique(lines, return_index=True)
+        compulsory = [np.count_nonzero(kinds[first] == k) / rays for k in (NODE, LEAF)]
+        rows.append([name, f"{rays:,}", f"{nodes:.2f}", f"{leaves:.2f}", f"{args.node_bytes}", "unbounded",
+                     f"{compulsory[NODE]:.2f}", f"{compulsory[LEAF]:.2f}", "", ""])  # fmt: skip
+        for kb in CACHES_KB:
+            missed, visits = replay(log, args.node_bytes, tri_base, kb * 1024 // LINE)
+            rows.append(
+                [
+                    name,
+                    f"{rays:,}",
+                    f"{nodes:.2f}",
+                    f"{leaves:.2f}",
+                    f"{args.node_bytes}",
+                    f"{kb:,} KB",
+                    f"{missed[NODE] / rays:.2f}",
+                    f"{missed[LEAF] / rays:.2f}",
+                    f"{visits[NODE] / rays:.2f}",
+                    f"{visits[LEAF] / rays:.2f}",
+                ]
+            )
+    print(
+        table(
+            [
+                "mesh",
+                "hit rays",
+                "node visits a ray",
+                "leaf visits a ray",
+                "node bytes",
+                "cache",
+                "node lines missed a ray",
+                "leaf lines missed a ray",
+                "node visits that miss a ray",
+                "leaf visits that miss a ray",
+            ],
+            rows,
+        )
+    )
+
+
+if __name__ == "__main__":
+    main()
