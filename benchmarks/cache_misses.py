@@ -8,18 +8,24 @@ every leaf's triangle rows it reads. The log is then replayed through simulated 
 and the misses are counted a ray: the lines missed, and the visits that missed at least one
 line (each such visit waits for memory once at least, as nothing prefetches it far enough
 ahead). `--node-bytes 128` replays the same visits with node records of half the size, as
-quantized child boxes (Embree's compressed nodes) would make them.
+quantized child boxes (Embree's compressed nodes) would make them; `--neighbours 4` with the
+lines beside each leaf prefetched, as the traversal does on large meshes
+(traverse.prefetch_neighbours).
 
 On bumpy 4M the misses are compulsory: a cache of 32 MB misses as many lines as one of 512 KB
 (every hit ray reads triangles no ray before it read; 10 triangles lie under each pixel).
 A diagnostic, not a benchmark against peers: it measures no time.
 
-    python benchmarks/cache_misses.py [--size 1024] [--node-bytes 256] [MESH ...]
+    python benchmarks/cache_misses.py [--size 1024] [--node-bytes 256] [--neighbours 0] [--latency] [MESH ...]
+
+`--latency` adds what a miss costs on this machine: a pointer chase (each load waits for the
+one before) over 0.25 to 256 MB.
 """
 
 from __future__ import annotations
 
 import argparse
+import time
 
 import numba
 import numpy as np
@@ -108,9 +114,12 @@ def _span(log, e, node_bytes, tri_base):
 
 
 @numba.njit(cache=True)
-def replay(log, node_bytes, tri_base, cache_lines):
+def replay(log, node_bytes, tri_base, cache_lines, neighbours):
     """Replays the log through an LRU cache of cache_lines lines (WAYS-way set-associative):
-    (lines missed, visits with a miss), each per kind (NODE, LEAF)."""
+    (lines missed, visits with a miss), each per kind (NODE, LEAF). With `neighbours`, each leaf
+    visit also brings in the lines traverse.prefetch_around prefetches (that many before its
+    first row's first byte and from the byte after its rows on), counted as no miss: they
+    serve later visits."""
     sets = cache_lines // WAYS
     tags = np.full((sets, WAYS), -1, np.int64)
     stamp = np.zeros((sets, WAYS), np.int64)
@@ -123,31 +132,72 @@ def replay(log, node_bytes, tri_base, cache_lines):
         any_miss = False
         for line in range(lo // LINE, hi // LINE + 1):
             clock += 1
-            s = line % sets
-            way = -1
-            oldest = 0
-            for w in range(WAYS):
-                if tags[s, w] == line:
-                    way = w
-                    break
-                if stamp[s, w] < stamp[s, oldest]:
-                    oldest = w
-            if way < 0:
+            if not _touch(tags, stamp, line, clock):
                 missed[kind] += 1
                 any_miss = True
-                way = oldest
-                tags[s, way] = line
-            stamp[s, way] = clock
         if any_miss:
             visits_missed[kind] += 1
+        if kind == LEAF:
+            for j in range(neighbours):
+                clock += 1
+                _touch(tags, stamp, (lo - LINE * (j + 1)) // LINE, clock)
+                clock += 1
+                _touch(tags, stamp, (hi + 1 + LINE * j) // LINE, clock)
     return missed, visits_missed
+
+
+@numba.njit(inline="always")
+def _touch(tags, stamp, line, clock):
+    """Reads `line` through the cache: whether it was there (else it replaces its set's least
+    recently used line)."""
+    s = line % tags.shape[0]
+    way = -1
+    oldest = 0
+    for w in range(WAYS):
+        if tags[s, w] == line:
+            way = w
+            break
+        if stamp[s, w] < stamp[s, oldest]:
+            oldest = w
+    found = way >= 0
+    if not found:
+        way = oldest
+        tags[s, way] = line
+    stamp[s, way] = clock
+    return found
+
+
+@numba.njit(cache=True)
+def _chase(following, steps):
+    i = 0
+    for _ in range(steps):
+        i = following[i]
+    return i
+
+
+def load_latency(megabytes: float, steps: int = 2_000_000) -> float:
+    """Nanoseconds a load takes when each waits for the one before (a pointer chase over one
+    random cycle through the lines of `megabytes`): what a miss costs at that size."""
+    lines = int(megabytes * 1e6) // LINE
+    order = np.random.default_rng(0).permutation(lines)
+    following = np.zeros(lines * (LINE // 8), np.int64)  # one int64 read a line
+    following[order * (LINE // 8)] = np.roll(order, -1) * (LINE // 8)
+    _chase(following, 1000)
+    best = np.inf
+    for _ in range(3):
+        t0 = time.perf_counter()
+        _chase(following, steps)
+        best = min(best, time.perf_counter() - t0)
+    return best / steps * 1e9
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--size", type=int, default=1024)
     ap.add_argument("--node-bytes", type=int, default=NODE_ROWS * BVH_WIDTH * 4)
+    ap.add_argument("--neighbours", type=int, default=0, help="lines prefetched on either side of each leaf")
     ap.add_argument("meshes", nargs="*", default=["40k", "4M"])
+    ap.add_argument("--latency", action="store_true", help="also time a dependent load at 0.25 to 256 MB")
     args = ap.parse_args()
     numba.set_num_threads(1)
     rows = []
@@ -171,10 +221,10 @@ def main() -> None:
         lines, kinds = lines_read(log, args.node_bytes, tri_base)
         distinct, first = np.unique(lines, return_index=True)
         compulsory = [np.count_nonzero(kinds[first] == k) / rays for k in (NODE, LEAF)]
-        rows.append([name, f"{rays:,}", f"{nodes:.2f}", f"{leaves:.2f}", f"{args.node_bytes}", "unbounded",
+        rows.append([name, f"{rays:,}", f"{nodes:.2f}", f"{leaves:.2f}", f"{args.node_bytes}", "", "unbounded",
                      f"{compulsory[NODE]:.2f}", f"{compulsory[LEAF]:.2f}", "", ""])  # fmt: skip
         for kb in CACHES_KB:
-            missed, visits = replay(log, args.node_bytes, tri_base, kb * 1024 // LINE)
+            missed, visits = replay(log, args.node_bytes, tri_base, kb * 1024 // LINE, args.neighbours)
             rows.append(
                 [
                     name,
@@ -182,6 +232,7 @@ def main() -> None:
                     f"{nodes:.2f}",
                     f"{leaves:.2f}",
                     f"{args.node_bytes}",
+                    f"{args.neighbours}",
                     f"{kb:,} KB",
                     f"{missed[NODE] / rays:.2f}",
                     f"{missed[LEAF] / rays:.2f}",
@@ -197,6 +248,7 @@ def main() -> None:
                 "node visits a ray",
                 "leaf visits a ray",
                 "node bytes",
+                "neighbours",
                 "cache",
                 "node lines missed a ray",
                 "leaf lines missed a ray",
@@ -206,6 +258,11 @@ def main() -> None:
             rows,
         )
     )
+    if args.latency:
+        sizes = (0.25, 4, 32, 256)
+        print(
+            table(["working set", "ns a dependent load"], [[f"{mb:g} MB", f"{load_latency(mb):.1f}"] for mb in sizes])
+        )
 
 
 if __name__ == "__main__":

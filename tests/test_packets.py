@@ -32,7 +32,7 @@ from raylume.kernels.query import CHUNK, intersect_rays
 from raylume.kernels.scene import geometry_of
 from raylume.kernels.shape_triangle import INF, intersect_triangle, ray_shear
 from raylume.kernels.shapes import features
-from raylume.kernels.traverse import TRAVERSAL_STACK, any_hit, box_ray, closest_hit
+from raylume.kernels.traverse import NEIGHBOURS_FROM, TRAVERSAL_STACK, any_hit, box_ray, closest_hit
 from raylume.kernels.vec import FAST
 from raylume.scene.procedural import bumpy_sphere
 
@@ -677,3 +677,40 @@ def test_shadow_packets_block_what_any_hit_blocks(tmp_path, light):
                 assert bool((blocked[p] >> k) & 1) == expected[p * PACKET + k], (p, k)
             else:
                 assert not (blocked[p] >> k) & 1
+
+
+@PACKET_WORKER
+def test_large_meshes_hit_alike_with_their_neighbours_prefetched(tmp_path):
+    """From NEIGHBOURS_FROM triangles on, the traversals also prefetch the triangle rows beside
+    each leaf they test (traverse.prefetch_neighbours, a hint that reaches beyond both ends of
+    the table at its first and last leaves): no answer changes. Packets, single rays and the
+    brute force agree on the camera rays, and shadow packets on what any_hit blocks."""
+    v, f = bumpy_sphere(300_000)
+    S = _compiled_mesh(tmp_path, v, f).kernel
+    assert S.triangles.shape[0] >= NEIGHBOURS_FROM
+    o, d = _camera_rays(np.zeros(3), 1.2, 64)
+    got, taken = _packets(S, o, d, PACKET)
+    assert taken.all()
+    ref = _single(S, o, d)
+    hit = np.isfinite(ref[:, 0])
+    assert 0.2 < hit.mean() < 0.95
+    _assert_same_hits(got, ref)
+    sample = np.random.default_rng(3).choice(len(o), 96, replace=False)
+    np.testing.assert_array_equal(ref[sample, 0], _brute(v.astype(np.float32)[f].reshape(-1, 9), o[sample], d[sample]))
+    # shadow rays from the hits of rows of 512 camera rays (neighbours close enough for packets)
+    o, d = _camera_rays(np.zeros(3), 1.2, 512)
+    o, d = o[200 * 512 : 203 * 512], d[200 * 512 : 203 * 512]
+    t = _single(S, o, d)[:, :1]
+    hit = np.isfinite(t[:, 0])
+    points = o[hit] + d[hit] * t[hit] * (1 - 1e-6)  # just above the surface, on the eye's side
+    to_light = np.array([3.0, 0.3, -0.3]) - points
+    tmax = np.linalg.norm(to_light, axis=1)
+    ldirs = to_light / tmax[:, None]
+    expected = _any_hits(S, points, ldirs, np.zeros(len(points)), tmax)
+    assert 0.05 < expected.mean() < 0.95  # lit and shadowed points both
+    count = (len(points) + PACKET - 1) // PACKET
+    taken, blocked = _shadow_packets(S, points, ldirs, tmax, np.full(count, 0xFF, np.int64))
+    assert taken.mean() > 0.9
+    for p in np.flatnonzero(taken):
+        for k in range(min(PACKET, len(points) - p * PACKET)):
+            assert bool((blocked[p] >> k) & 1) == expected[p * PACKET + k], (p, k)

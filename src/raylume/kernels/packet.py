@@ -72,6 +72,7 @@ from .traverse import (
     intersect_leaf,
     lowest_bit,
     prefetch_child_rows,
+    prefetch_neighbours,
     prefetch_row,
     rows_in_leaf_order,
     scratch_array,
@@ -824,6 +825,8 @@ def packet_closest(G, X, root, rows, axes, active, box, lane, prim, node_stack, 
             count = index[node, NODE_COUNT, c]
             if -SPHERE_BLOCK <= count < 0:  # a block of triangles in consecutive rows
                 row = block_row(G, first)
+                if direct_rows:
+                    prefetch_neighbours(tri, row, row - count)
                 # A leaf that one to three rays reach is tested ray by ray, four triangles per
                 # vector: the packet test computes all eight lanes in float64 (two ymm
                 # registers on AVX2) however few are active. On a mesh with several triangles
@@ -838,6 +841,8 @@ def packet_closest(G, X, root, rows, axes, active, box, lane, prim, node_stack, 
                 else:
                     packet_triangles(tri, row, -count, first, axes, lane, prim, mask)
             else:
+                if direct_rows:  # one triangle
+                    prefetch_neighbours(tri, first, first + count)
                 _leaf_ray_by_ray(G, X, first, count, axes, lane, prim, mask)
         found = False
         while top > 0:
