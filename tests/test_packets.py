@@ -665,9 +665,16 @@ def test_shadow_packets_block_what_any_hit_blocks(tmp_path, light):
     else:
         ldirs = np.broadcast_to(np.array([1.0, 2.0, -0.5]) / np.linalg.norm([1.0, 2.0, -0.5]), points.shape).copy()
         tmax = np.full(len(points), INF)
-    expected = _any_hits(S, points, ldirs, np.zeros(len(points)), tmax)
     count = (len(points) + PACKET - 1) // PACKET
     need = np.array([0xFF if p % 3 else 0b10110101 for p in range(count)], dtype=np.int64)
+    _assert_shadow_packets_block_what_any_hit_blocks(S, points, ldirs, tmax, need)
+
+
+def _assert_shadow_packets_block_what_any_hit_blocks(S, points, ldirs, tmax, need):
+    """Shadow packets of eight neighbours (need[p]: the lanes of packet p to trace) are taken,
+    and each traced lane is blocked exactly when any_hit says so, untraced lanes never; lit and
+    shadowed points both occur."""
+    expected = _any_hits(S, points, ldirs, np.zeros(len(points)), tmax)
     taken, blocked = _shadow_packets(S, points, ldirs, tmax, need)
     assert taken.mean() > 0.9, taken.mean()
     assert 0.05 < expected.mean() < 0.95  # lit and shadowed points both
@@ -682,9 +689,9 @@ def test_shadow_packets_block_what_any_hit_blocks(tmp_path, light):
 @PACKET_WORKER
 def test_large_meshes_hit_alike_with_their_neighbours_prefetched(tmp_path):
     """From NEIGHBOURS_FROM triangles on, the traversals also prefetch the triangle rows beside
-    each leaf they test (traverse.prefetch_neighbours, a hint that reaches beyond both ends of
-    the table at its first and last leaves): no answer changes. Packets, single rays and the
-    brute force agree on the camera rays, and shadow packets on what any_hit blocks."""
+    each leaf they test (traverse.prefetch_neighbours: a hint, which at the table's first and
+    last leaves reaches beyond its ends): no answer changes. Packets, single rays and the brute
+    force agree on the camera rays, and shadow packets on what any_hit blocks."""
     v, f = bumpy_sphere(300_000)
     S = _compiled_mesh(tmp_path, v, f).kernel
     assert S.triangles.shape[0] >= NEIGHBOURS_FROM
@@ -706,11 +713,5 @@ def test_large_meshes_hit_alike_with_their_neighbours_prefetched(tmp_path):
     to_light = np.array([3.0, 0.3, -0.3]) - points
     tmax = np.linalg.norm(to_light, axis=1)
     ldirs = to_light / tmax[:, None]
-    expected = _any_hits(S, points, ldirs, np.zeros(len(points)), tmax)
-    assert 0.05 < expected.mean() < 0.95  # lit and shadowed points both
-    count = (len(points) + PACKET - 1) // PACKET
-    taken, blocked = _shadow_packets(S, points, ldirs, tmax, np.full(count, 0xFF, np.int64))
-    assert taken.mean() > 0.9
-    for p in np.flatnonzero(taken):
-        for k in range(min(PACKET, len(points) - p * PACKET)):
-            assert bool((blocked[p] >> k) & 1) == expected[p * PACKET + k], (p, k)
+    need = np.full((len(points) + PACKET - 1) // PACKET, 0xFF, np.int64)
+    _assert_shadow_packets_block_what_any_hit_blocks(S, points, ldirs, tmax, need)
