@@ -232,6 +232,27 @@ def _check_array(name, a, dtype, ndim):
 # --- a node: its eight child boxes against the packet ----------------------------------------------
 
 
+def _check_node_test(name, bounds, box, lane, t_out):
+    _check_array(name, bounds, types.float32, 3)
+    _check_array(name, box, types.float32, 2)
+    _check_array(name, lane, types.float64, 2)
+    _check_array(name, t_out, types.float32, 1)
+
+
+def _node_test_args(context, builder, sig, args):
+    """The arguments of a node test (bounds, node, box, rows, lane, an integer, t_out, at) as IR:
+    the arrays' data pointers, node and the integer as i64, rows as three i64, and the pointer
+    to t_out[at]."""
+    data = [_array_data(context, builder, sig.args[k], args[k]) for k in (0, 2, 4, 6)]
+    node, number, at = (context.cast(builder, args[k], sig.args[k], types.int64) for k in (1, 5, 7))
+    rows = [
+        context.cast(builder, r, t, types.int64)
+        for r, t in zip(cgutils.unpack_tuple(builder, args[3], 3), sig.args[3], strict=True)
+    ]
+    out = builder.gep(data[3], [at], inbounds=True)
+    return data[0], node, data[1], rows, data[2], number, out
+
+
 def _node_planes(builder, bounds, node, rows):
     """Node `node`'s slab planes as the rays meet them, per axis k: (near plane, far plane), each
     one <8 x float> vector of the eight children's (rows: the packet's near-plane rows)."""
@@ -251,26 +272,11 @@ def packet_node(typingctx, bounds, node, box, rows, lane, active, t_out, at):
     (lane[BEST_T]): an i64 of BVH_WIDTH bytes, byte c the mask of the `active` rays that enter
     child c; t_out[at + c] (float32) the nearest entry distance over those rays (+inf for none).
     The slabs are widened as traverse.box_hits widens them: no ray's entered box is culled."""
-    _check_array("packet_node", bounds, types.float32, 3)
-    _check_array("packet_node", box, types.float32, 2)
-    _check_array("packet_node", lane, types.float64, 2)
-    _check_array("packet_node", t_out, types.float32, 1)
+    _check_node_test("packet_node", bounds, box, lane, t_out)
 
     def codegen(context, builder, sig, args):
-        b = _array_data(context, builder, sig.args[0], args[0])
-        n = context.cast(builder, args[1], sig.args[1], types.int64)
-        bx = _array_data(context, builder, sig.args[2], args[2])
-        rows = [
-            context.cast(builder, r, t, types.int64)
-            for r, t in zip(cgutils.unpack_tuple(builder, args[3], 3), sig.args[3], strict=True)
-        ]
-        ln = _array_data(context, builder, sig.args[4], args[4])
-        act = _mask_vector(builder, context.cast(builder, args[5], sig.args[5], types.int64))
-        out = builder.gep(
-            _array_data(context, builder, sig.args[6], args[6]),
-            [context.cast(builder, args[7], sig.args[7], types.int64)],
-            inbounds=True,
-        )
+        b, n, bx, rows, ln, active, out = _node_test_args(context, builder, sig, args)
+        act = _mask_vector(builder, active)
         near = [_load_row(builder, bx, k, _V8F) for k in range(3)]
         far = [_load_row(builder, bx, 3 + k, _V8F) for k in range(3)]
         inv = [_load_row(builder, bx, 6 + k, _V8F) for k in range(3)]
@@ -766,29 +772,11 @@ def packet_node_ray(typingctx, bounds, node, box, rows, lane, i, t_out, at):
     in one vector: the children it enters as an i64 whose byte c is 1 << i where it enters child
     c; t_out[at + c] lowered to its entry distance where that is nearer. packet_node's per
     (ray, child) arithmetic to the bit, for a node that few of the packet's rays reach."""
-    _check_array("packet_node_ray", bounds, types.float32, 3)
-    _check_array("packet_node_ray", box, types.float32, 2)
-    _check_array("packet_node_ray", lane, types.float64, 2)
-    _check_array("packet_node_ray", t_out, types.float32, 1)
+    _check_node_test("packet_node_ray", bounds, box, lane, t_out)
 
     def codegen(context, builder, sig, args):
-        b = _array_data(context, builder, sig.args[0], args[0])
-        n = context.cast(builder, args[1], sig.args[1], types.int64)
-        bx = _array_data(context, builder, sig.args[2], args[2])
-        rows = [
-            context.cast(builder, r, t, types.int64)
-            for r, t in zip(cgutils.unpack_tuple(builder, args[3], 3), sig.args[3], strict=True)
-        ]
-        ln = _array_data(context, builder, sig.args[4], args[4])
-        ray = context.cast(builder, args[5], sig.args[5], types.int64)
-        out = builder.bitcast(
-            builder.gep(
-                _array_data(context, builder, sig.args[6], args[6]),
-                [context.cast(builder, args[7], sig.args[7], types.int64)],
-                inbounds=True,
-            ),
-            _V8F.as_pointer(),
-        )
+        b, n, bx, rows, ln, ray, out = _node_test_args(context, builder, sig, args)
+        out = builder.bitcast(out, _V8F.as_pointer())
 
         def element(data, row):  # data[row, ray] of a (R, PACKET) array
             return builder.load(builder.gep(data, [builder.add(ir.Constant(_i64, row * PACKET), ray)], inbounds=True))
