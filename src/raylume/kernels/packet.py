@@ -303,6 +303,53 @@ def packet_node(typingctx, bounds, node, box, rows, lane, active, t_out, at):
 
 
 @intrinsic
+def packet_node_ray(typingctx, bounds, node, box, rows, lane, i, t_out, at):
+    """Ray i of the packet alone against the BVH_WIDTH child boxes of node `node`, all children
+    in one vector: the children it enters as an i64 whose byte c is 1 << i where it enters child
+    c; t_out[at + c] lowered to its entry distance where that is nearer. packet_node's per
+    (ray, child) arithmetic to the bit, for a node that few of the packet's rays reach."""
+    _check_node_test("packet_node_ray", bounds, box, lane, t_out)
+
+    def codegen(context, builder, sig, args):
+        b, n, bx, rows, ln, ray, out = _node_test_args(context, builder, sig, args)
+        out = builder.bitcast(out, _V8F.as_pointer())
+
+        def element(data, row):  # data[row, ray] of a (R, PACKET) array
+            return builder.load(builder.gep(data, [builder.add(ir.Constant(_i64, row * PACKET), ray)], inbounds=True))
+
+        # the ray's box_ray constants and best hit, each in every lane
+        near = [_splat(builder, element(bx, k), _V8F) for k in range(3)]
+        far = [_splat(builder, element(bx, 3 + k), _V8F) for k in range(3)]
+        inv = [_splat(builder, element(bx, 6 + k), _V8F) for k in range(3)]
+        tmax = _splat(builder, builder.fptrunc(element(ln, BEST_T), _f32), _V8F)
+        planes = _node_planes(builder, b, n, rows)
+        lo, hi = [p[0] for p in planes], [p[1] for p in planes]
+        tnear, hit = _slabs(builder, lo, hi, near, far, inv, tmax)
+        inf = ir.Constant(_V8F, [math.inf] * PACKET)
+        entries = builder.select(hit, tnear, inf)
+        builder.store(_vmin(builder, builder.load(out, align=4), entries), out, align=4)
+        bytes_ = builder.bitcast(builder.zext(hit, ir.VectorType(_i8, BVH_WIDTH)), _i64)
+        return builder.shl(bytes_, ray)
+
+    return types.int64(bounds, node, box, rows, lane, i, t_out, at), codegen
+
+
+@inline_function
+def packet_node_rays(bounds, node, box, rows, lane, active, t_out, at):
+    """packet_node's answer computed ray by ray (packet_node_ray), for a packet of which few rays
+    are active."""
+    for c in range(BVH_WIDTH):
+        t_out[np.uint64(at + c)] = np.float32(math.inf)
+    masks = np.int64(0)
+    m = active
+    while m != 0:
+        i = lowest_bit(m)
+        m &= m - 1
+        masks |= packet_node_ray(bounds, node, box, rows, lane, i, t_out, at)
+    return masks
+
+
+@intrinsic
 def packet_box(typingctx, planes, box, lane, active):
     """The `active` rays of the packet that enter one box, given by its planes in the packet's
     row order (near x, y, z, far x, y, z; float32): the bit mask, by packet_node's slab test."""
@@ -764,53 +811,6 @@ def packet_blocked(
         if (need >> i) & 1 and prim[i] != NO_HIT:
             blocked |= 1 << i
     return True, blocked
-
-
-@intrinsic
-def packet_node_ray(typingctx, bounds, node, box, rows, lane, i, t_out, at):
-    """Ray i of the packet alone against the BVH_WIDTH child boxes of node `node`, all children
-    in one vector: the children it enters as an i64 whose byte c is 1 << i where it enters child
-    c; t_out[at + c] lowered to its entry distance where that is nearer. packet_node's per
-    (ray, child) arithmetic to the bit, for a node that few of the packet's rays reach."""
-    _check_node_test("packet_node_ray", bounds, box, lane, t_out)
-
-    def codegen(context, builder, sig, args):
-        b, n, bx, rows, ln, ray, out = _node_test_args(context, builder, sig, args)
-        out = builder.bitcast(out, _V8F.as_pointer())
-
-        def element(data, row):  # data[row, ray] of a (R, PACKET) array
-            return builder.load(builder.gep(data, [builder.add(ir.Constant(_i64, row * PACKET), ray)], inbounds=True))
-
-        # the ray's box_ray constants and best hit, each in every lane
-        near = [_splat(builder, element(bx, k), _V8F) for k in range(3)]
-        far = [_splat(builder, element(bx, 3 + k), _V8F) for k in range(3)]
-        inv = [_splat(builder, element(bx, 6 + k), _V8F) for k in range(3)]
-        tmax = _splat(builder, builder.fptrunc(element(ln, BEST_T), _f32), _V8F)
-        planes = _node_planes(builder, b, n, rows)
-        lo, hi = [p[0] for p in planes], [p[1] for p in planes]
-        tnear, hit = _slabs(builder, lo, hi, near, far, inv, tmax)
-        inf = ir.Constant(_V8F, [math.inf] * PACKET)
-        entries = builder.select(hit, tnear, inf)
-        builder.store(_vmin(builder, builder.load(out, align=4), entries), out, align=4)
-        bytes_ = builder.bitcast(builder.zext(hit, ir.VectorType(_i8, BVH_WIDTH)), _i64)
-        return builder.shl(bytes_, ray)
-
-    return types.int64(bounds, node, box, rows, lane, i, t_out, at), codegen
-
-
-@inline_function
-def packet_node_rays(bounds, node, box, rows, lane, active, t_out, at):
-    """packet_node's answer computed ray by ray (packet_node_ray), for a packet of which few rays
-    are active."""
-    for c in range(BVH_WIDTH):
-        t_out[np.uint64(at + c)] = np.float32(math.inf)
-    masks = np.int64(0)
-    m = active
-    while m != 0:
-        i = lowest_bit(m)
-        m &= m - 1
-        masks |= packet_node_ray(bounds, node, box, rows, lane, i, t_out, at)
-    return masks
 
 
 @inline_function
