@@ -16,14 +16,11 @@ import raylume
 from raylume.compile import compile_scene
 from raylume.kernels.camera import camera_frame
 from raylume.kernels.packet import (
-    BEST_T,
     PACKET,
     packet_blocked,
     packet_closest,
     packet_finish,
     packet_hit,
-    packet_node,
-    packet_node_rays,
     packet_scratch,
     packet_setup,
     packet_shear,
@@ -278,54 +275,6 @@ def test_packet_setup_gives_each_lane_the_single_ray_box_constants(seed, n, scal
     )
     assert ok == expected
     assert tuple(rows) == tuple(near_rows[:, 0])
-
-
-@njit(fastmath=FAST, error_model="numpy")
-def _node_tests(S, origins, dirs, best, actives):
-    """The packet of rays 0..7 (packet_setup) with best hits `best`, against every node of S's
-    BVH for every mask of `actives`: the masks and entry minima of packet_node and of
-    packet_node_rays, (nodes, masks, 8) each."""
-    box, lane, prim, _ = packet_scratch()
-    G = geometry_of(S)
-    ok, rows, _ = packet_setup(origins, dirs, 0, PACKET, 0.0, INF, scene_extent(G), box, lane, prim)
-    nodes = G.node_bounds.shape[0]
-    masks = np.zeros((2, nodes, actives.shape[0]), np.int64)
-    entries = np.zeros((2, nodes, actives.shape[0], 8), np.float32)
-    t_out = np.empty(16, np.float32)
-    for i in range(PACKET):
-        lane[BEST_T, i] = best[i]
-    for n in range(nodes):
-        for a in range(actives.shape[0]):
-            masks[0, n, a] = packet_node(G.node_bounds, n, box, rows, lane, actives[a], t_out, 3)
-            entries[0, n, a] = t_out[3:11]
-            masks[1, n, a] = packet_node_rays(G.node_bounds, n, box, rows, lane, actives[a], t_out, 3)
-            entries[1, n, a] = t_out[3:11]
-    return ok, masks, entries
-
-
-@PACKET_WORKER
-@settings(max_examples=25, deadline=None)
-@given(seed=st.integers(0, 2**32 - 1))
-def test_a_node_tested_ray_by_ray_gives_the_packet_test_to_the_bit(packet_soup, seed):
-    """packet_node_rays (a node that few of a packet's rays reach, on large meshes) against
-    packet_node: for every node of a BVH, coherent packets with best hits from none to near,
-    and masks of one, two, three and more active rays, the same masks of children entered and
-    the same nearest entry distances, bit for bit."""
-    rng = np.random.default_rng(seed)
-    S = packet_soup.kernel
-    # one octant, z dominant, across the soup: a packet that packet_setup takes
-    side = rng.choice([-1.0, 1.0], 2)
-    d = np.append(side * rng.uniform(0.05, 0.3, 2), 1.0)
-    dirs = d + rng.uniform(-0.01, 0.01, size=(PACKET, 3))
-    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
-    origins = np.append(-side * rng.uniform(0.0, 0.8, 2), -3.0) + rng.uniform(-0.005, 0.005, size=(PACKET, 3))
-    best = np.where(rng.random(PACKET) < 0.5, INF, rng.uniform(1.5, 4.0, PACKET))
-    actives = np.array([1 << rng.integers(8), 0b101, 0b10010001, 0b1110000, 0xFF, int(rng.integers(1, 256))])
-    ok, masks, entries = _node_tests(S, origins, dirs, best, actives)
-    assert ok
-    assert (masks[0] != 0).any()  # some nodes are entered
-    np.testing.assert_array_equal(masks[1], masks[0])
-    np.testing.assert_array_equal(entries[1].view(np.uint32), entries[0].view(np.uint32))
 
 
 def _clear_dominant_axis(t):

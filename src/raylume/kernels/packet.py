@@ -65,7 +65,6 @@ from .traverse import (
     _NEAR_SCALE,
     _ORIGIN_PAD,
     BVH_WIDTH,
-    NEIGHBOURS_FROM,
     TRAVERSAL_STACK,
     _root_is_a_leaf,
     _unbounded_hit,
@@ -232,39 +231,6 @@ def _check_array(name, a, dtype, ndim):
 # --- a node: its eight child boxes against the packet ----------------------------------------------
 
 
-def _check_node_test(name, bounds, box, lane, t_out):
-    _check_array(name, bounds, types.float32, 3)
-    _check_array(name, box, types.float32, 2)
-    _check_array(name, lane, types.float64, 2)
-    _check_array(name, t_out, types.float32, 1)
-
-
-def _node_test_args(context, builder, sig, args):
-    """The arguments of a node test (bounds, node, box, rows, lane, an integer, t_out, at) as IR:
-    the arrays' data pointers, node and the integer as i64, rows as three i64, and the pointer
-    to t_out[at]."""
-    data = [_array_data(context, builder, sig.args[k], args[k]) for k in (0, 2, 4, 6)]
-    node, number, at = (context.cast(builder, args[k], sig.args[k], types.int64) for k in (1, 5, 7))
-    rows = [
-        context.cast(builder, r, t, types.int64)
-        for r, t in zip(cgutils.unpack_tuple(builder, args[3], 3), sig.args[3], strict=True)
-    ]
-    out = builder.gep(data[3], [at], inbounds=True)
-    return data[0], node, data[1], rows, data[2], number, out
-
-
-def _node_planes(builder, bounds, node, rows):
-    """Node `node`'s slab planes as the rays meet them, per axis k: (near plane, far plane), each
-    one <8 x float> vector of the eight children's (rows: the packet's near-plane rows)."""
-    base = builder.mul(node, ir.Constant(_i64, NODE_ROWS * BVH_WIDTH))
-
-    def row(r):
-        at = builder.add(base, builder.mul(r, ir.Constant(_i64, BVH_WIDTH)))
-        return builder.load(builder.bitcast(builder.gep(bounds, [at], inbounds=True), _V8F.as_pointer()), align=4)
-
-    return [(row(rows[k]), row(builder.sub(ir.Constant(_i64, 2 * k + 3), rows[k]))) for k in range(3)]
-
-
 @intrinsic
 def packet_node(typingctx, bounds, node, box, rows, lane, active, t_out, at):
     """The packet's rays (box: box_ray's constants per lane; rows: the packet's near-plane rows)
@@ -272,16 +238,43 @@ def packet_node(typingctx, bounds, node, box, rows, lane, active, t_out, at):
     (lane[BEST_T]): an i64 of BVH_WIDTH bytes, byte c the mask of the `active` rays that enter
     child c; t_out[at + c] (float32) the nearest entry distance over those rays (+inf for none).
     The slabs are widened as traverse.box_hits widens them: no ray's entered box is culled."""
-    _check_node_test("packet_node", bounds, box, lane, t_out)
+    _check_array("packet_node", bounds, types.float32, 3)
+    _check_array("packet_node", box, types.float32, 2)
+    _check_array("packet_node", lane, types.float64, 2)
+    _check_array("packet_node", t_out, types.float32, 1)
 
     def codegen(context, builder, sig, args):
-        b, n, bx, rows, ln, active, out = _node_test_args(context, builder, sig, args)
-        act = _mask_vector(builder, active)
+        b = _array_data(context, builder, sig.args[0], args[0])
+        n = context.cast(builder, args[1], sig.args[1], types.int64)
+        bx = _array_data(context, builder, sig.args[2], args[2])
+        rows = [
+            context.cast(builder, r, t, types.int64)
+            for r, t in zip(cgutils.unpack_tuple(builder, args[3], 3), sig.args[3], strict=True)
+        ]
+        ln = _array_data(context, builder, sig.args[4], args[4])
+        act = _mask_vector(builder, context.cast(builder, args[5], sig.args[5], types.int64))
+        out = builder.gep(
+            _array_data(context, builder, sig.args[6], args[6]),
+            [context.cast(builder, args[7], sig.args[7], types.int64)],
+            inbounds=True,
+        )
         near = [_load_row(builder, bx, k, _V8F) for k in range(3)]
         far = [_load_row(builder, bx, 3 + k, _V8F) for k in range(3)]
         inv = [_load_row(builder, bx, 6 + k, _V8F) for k in range(3)]
         tmax = builder.fptrunc(_load_row(builder, ln, BEST_T, _V8D), _V8F)
-        planes = _node_planes(builder, b, n, rows)
+        base = builder.mul(n, ir.Constant(_i64, NODE_ROWS * BVH_WIDTH))
+        # the node's rows: one vector of the eight children's planes each
+        planes = []
+        for k in range(3):
+            far_row = builder.sub(ir.Constant(_i64, 2 * k + 3), rows[k])
+            lo = builder.add(base, builder.mul(rows[k], ir.Constant(_i64, BVH_WIDTH)))
+            hi = builder.add(base, builder.mul(far_row, ir.Constant(_i64, BVH_WIDTH)))
+            planes.append(
+                (
+                    builder.load(builder.bitcast(builder.gep(b, [lo], inbounds=True), _V8F.as_pointer()), align=4),
+                    builder.load(builder.bitcast(builder.gep(b, [hi], inbounds=True), _V8F.as_pointer()), align=4),
+                )
+            )
         inf = ir.Constant(_V8F, [math.inf] * PACKET)
         undef = ir.Constant(_V8F, ir.Undefined)
         result = ir.Constant(_i64, 0)
@@ -300,53 +293,6 @@ def packet_node(typingctx, bounds, node, box, rows, lane, active, t_out, at):
         return result
 
     return types.int64(bounds, node, box, rows, lane, active, t_out, at), codegen
-
-
-@intrinsic
-def packet_node_ray(typingctx, bounds, node, box, rows, lane, i, t_out, at):
-    """Ray i of the packet alone against the BVH_WIDTH child boxes of node `node`, all children
-    in one vector: the children it enters as an i64 whose byte c is 1 << i where it enters child
-    c; t_out[at + c] lowered to its entry distance where that is nearer. packet_node's per
-    (ray, child) arithmetic to the bit, for a node that few of the packet's rays reach."""
-    _check_node_test("packet_node_ray", bounds, box, lane, t_out)
-
-    def codegen(context, builder, sig, args):
-        b, n, bx, rows, ln, ray, out = _node_test_args(context, builder, sig, args)
-        out = builder.bitcast(out, _V8F.as_pointer())
-
-        def element(data, row):  # data[row, ray] of a (R, PACKET) array
-            return builder.load(builder.gep(data, [builder.add(ir.Constant(_i64, row * PACKET), ray)], inbounds=True))
-
-        # the ray's box_ray constants and best hit, each in every lane
-        near = [_splat(builder, element(bx, k), _V8F) for k in range(3)]
-        far = [_splat(builder, element(bx, 3 + k), _V8F) for k in range(3)]
-        inv = [_splat(builder, element(bx, 6 + k), _V8F) for k in range(3)]
-        tmax = _splat(builder, builder.fptrunc(element(ln, BEST_T), _f32), _V8F)
-        planes = _node_planes(builder, b, n, rows)
-        lo, hi = [p[0] for p in planes], [p[1] for p in planes]
-        tnear, hit = _slabs(builder, lo, hi, near, far, inv, tmax)
-        inf = ir.Constant(_V8F, [math.inf] * PACKET)
-        entries = builder.select(hit, tnear, inf)
-        builder.store(_vmin(builder, builder.load(out, align=4), entries), out, align=4)
-        bytes_ = builder.bitcast(builder.zext(hit, ir.VectorType(_i8, BVH_WIDTH)), _i64)
-        return builder.shl(bytes_, ray)
-
-    return types.int64(bounds, node, box, rows, lane, i, t_out, at), codegen
-
-
-@inline_function
-def packet_node_rays(bounds, node, box, rows, lane, active, t_out, at):
-    """packet_node's answer computed ray by ray (packet_node_ray), for a packet of which few rays
-    are active."""
-    for c in range(BVH_WIDTH):
-        t_out[np.uint64(at + c)] = np.float32(math.inf)
-    masks = np.int64(0)
-    m = active
-    while m != 0:
-        i = lowest_bit(m)
-        m &= m - 1
-        masks |= packet_node_ray(bounds, node, box, rows, lane, i, t_out, at)
-    return masks
 
 
 @intrinsic
@@ -827,7 +773,6 @@ def packet_closest(G, X, root, rows, axes, active, box, lane, prim, node_stack, 
     # known before the primitive table is read, its triangles are prefetched as it is pushed
     # (bumpy 4M hit rays 5-12% faster; the primitive table's row is itself a cache miss there)
     direct_rows = rows_in_leaf_order(G)
-    large = tri.shape[0] >= NEIGHBOURS_FROM  # a mesh whose triangles can be smaller than pixels
     ref = 0
     # the root's box first (root: root_box(G)): most packets of a loosely framed frame miss it
     planes = (root[rows[0]], root[rows[1]], root[rows[2]], root[3 - rows[0]], root[5 - rows[1]], root[7 - rows[2]])
@@ -836,21 +781,7 @@ def packet_closest(G, X, root, rows, axes, active, box, lane, prim, node_stack, 
     while mask != 0:
         if ref >= 0:
             prefetch_child_rows(index, ref)
-            # On a large mesh, a node that one to three rays reach is tested ray by ray, its
-            # eight children in one vector: packet_node computes all 64 ray and child pairs
-            # however few rays are active, and where triangles are smaller than pixels the
-            # rays of a packet part near the leaves. Bumpy 4M hit rays took -2 to 8% less time
-            # in six rounds of alternating builds in one process, both orders (~3.5% on
-            # average; across alternating processes within the noise, medians 85.4 -> 83.4
-            # ms), 1M frames 3-9%; the same hits. Up to two rays gained less, four no more.
-            # Below the gate there is nothing to gain (the bunny and bumpy 10k without it: -1
-            # to +9% hit rays, noise; an earlier variant was 3-5% slower there).
-            few = mask & (mask - 1)  # the mask less its lowest ray
-            few &= few - 1  # ... and its second lowest
-            if large and (few & (few - 1)) == 0:  # one to three rays
-                masks = packet_node_rays(bounds, ref, box, rows, lane, mask, t_stack, top)
-            else:
-                masks = packet_node(bounds, ref, box, rows, lane, mask, t_stack, top)
+            masks = packet_node(bounds, ref, box, rows, lane, mask, t_stack, top)
             k = 0
             for c in range(BVH_WIDTH):
                 m = (masks >> (8 * c)) & 0xFF
