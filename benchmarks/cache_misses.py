@@ -42,7 +42,6 @@ NODE, LEAF = 0, 1
 CACHES_KB = (512, 4096, 32768)  # this VM's L2 a core, and two L3 sizes
 LINE = 64
 WAYS = 16
-ROW_BYTES = 36  # a float32 triangle row: 3 vertices
 
 
 @numba.njit(cache=True)
@@ -86,17 +85,17 @@ def log_reads(G, O, D, log, node_stack, t_stack):
 
 
 @numba.njit(cache=True)
-def lines_read(log, node_bytes, tri_base):
+def lines_read(log, layout):
     """Every line the log reads, in order, with its kind."""
     n = 0
     for e in range(log.shape[0]):
-        lo, hi = _span(log, e, node_bytes, tri_base)
+        lo, hi = _span(log, e, layout)
         n += hi // LINE - lo // LINE + 1
     lines = np.empty(n, np.int64)
     kinds = np.empty(n, np.int64)
     n = 0
     for e in range(log.shape[0]):
-        lo, hi = _span(log, e, node_bytes, tri_base)
+        lo, hi = _span(log, e, layout)
         for line in range(lo // LINE, hi // LINE + 1):
             lines[n], kinds[n] = line, log[e, 0]
             n += 1
@@ -104,17 +103,19 @@ def lines_read(log, node_bytes, tri_base):
 
 
 @numba.njit(inline="always")
-def _span(log, e, node_bytes, tri_base):
-    """The first and last byte a log entry reads."""
+def _span(log, e, layout):
+    """The first and last byte a log entry reads; layout: (bytes a node record, the triangle
+    table's first byte, bytes a triangle row)."""
+    node_bytes, tri_base, row_bytes = layout
     if log[e, 0] == NODE:
         lo = log[e, 1] * node_bytes
         return lo, lo + node_bytes - 1
-    lo = tri_base + log[e, 1] * ROW_BYTES
-    return lo, lo + log[e, 2] * ROW_BYTES - 1
+    lo = tri_base + log[e, 1] * row_bytes
+    return lo, lo + log[e, 2] * row_bytes - 1
 
 
 @numba.njit(cache=True)
-def replay(log, node_bytes, tri_base, cache_lines, neighbours):
+def replay(log, layout, cache_lines, neighbours):
     """Replays the log through an LRU cache of cache_lines lines (WAYS-way set-associative):
     (lines missed, visits with a miss), each per kind (NODE, LEAF). With `neighbours`, each leaf
     visit also brings in the lines traverse.prefetch_around prefetches (that many before its
@@ -128,7 +129,7 @@ def replay(log, node_bytes, tri_base, cache_lines, neighbours):
     clock = 0
     for e in range(log.shape[0]):
         kind = log[e, 0]
-        lo, hi = _span(log, e, node_bytes, tri_base)
+        lo, hi = _span(log, e, layout)
         any_miss = False
         for line in range(lo // LINE, hi // LINE + 1):
             clock += 1
@@ -191,6 +192,11 @@ def load_latency(megabytes: float, steps: int = 2_000_000) -> float:
     return best / steps * 1e9
 
 
+def per_ray(counts, rays):
+    """Table cells: the NODE and LEAF counts, each a ray."""
+    return [f"{counts[NODE] / rays:.2f}", f"{counts[LEAF] / rays:.2f}"]
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--size", type=int, default=1024)
@@ -217,29 +223,17 @@ def main() -> None:
         leaves = np.count_nonzero(log[:, 0] == LEAF) / rays
         # the triangle table after the nodes, a page apart
         tri_base = -(-G.node_index.shape[0] * args.node_bytes // 4096) * 4096 + 4096
+        layout = (args.node_bytes, tri_base, G.triangles.strides[0])
+        visits = [name, f"{rays:,}", f"{nodes:.2f}", f"{leaves:.2f}", f"{args.node_bytes}"]
+
         # an unbounded cache misses each line once: the compulsory misses
-        lines, kinds = lines_read(log, args.node_bytes, tri_base)
-        distinct, first = np.unique(lines, return_index=True)
-        compulsory = [np.count_nonzero(kinds[first] == k) / rays for k in (NODE, LEAF)]
-        rows.append([name, f"{rays:,}", f"{nodes:.2f}", f"{leaves:.2f}", f"{args.node_bytes}", "", "unbounded",
-                     f"{compulsory[NODE]:.2f}", f"{compulsory[LEAF]:.2f}", "", ""])  # fmt: skip
+        lines, kinds = lines_read(log, layout)
+        first = np.unique(lines, return_index=True)[1]
+        compulsory = [np.count_nonzero(kinds[first] == k) for k in (NODE, LEAF)]
+        rows.append([*visits, "", "unbounded", *per_ray(compulsory, rays), "", ""])
         for kb in CACHES_KB:
-            missed, visits = replay(log, args.node_bytes, tri_base, kb * 1024 // LINE, args.neighbours)
-            rows.append(
-                [
-                    name,
-                    f"{rays:,}",
-                    f"{nodes:.2f}",
-                    f"{leaves:.2f}",
-                    f"{args.node_bytes}",
-                    f"{args.neighbours}",
-                    f"{kb:,} KB",
-                    f"{missed[NODE] / rays:.2f}",
-                    f"{missed[LEAF] / rays:.2f}",
-                    f"{visits[NODE] / rays:.2f}",
-                    f"{visits[LEAF] / rays:.2f}",
-                ]
-            )
+            missed, waits = replay(log, layout, kb * 1024 // LINE, args.neighbours)
+            rows.append([*visits, f"{args.neighbours}", f"{kb:,} KB", *per_ray(missed, rays), *per_ray(waits, rays)])
     print(
         table(
             [

@@ -37,10 +37,11 @@ def _intersect_chunk(G, X, origins, directions, base, spans, outputs, start, end
     """Rays start .. end - 1 (at most CHUNK; ray k at origins[k - base], directions[k - base],
     its hits between span_of(spans[0], k) and span_of(spans[1], k)) into the outputs: traced
     first, their distances stored and their hits kept in `hits` (one per ray of the chunk),
-    then their ids looked up. A hit's object and face ids lie in its row of the primitive table, a cache miss of its own
-    on a large mesh; the row is prefetched when the hit is found and read after the whole
-    chunk is traced, when it has long arrived (bumpy 4M hit rays on a Zen 3 71.4 -> 67.5 ms, 1M
-    56.5 -> 50.0, against the eight rows requested together after each packet)."""
+    then their ids looked up. A hit's object and face ids lie in its row of the primitive
+    table, a cache miss of its own on a large mesh; the row is prefetched when the hit is found
+    and read after the whole chunk is traced, when it has long arrived (bumpy 4M hit rays on a
+    Zen 3 71.4 -> 67.5 ms, 1M 56.5 -> 50.0, against the eight rows requested together after
+    each packet)."""
     extent = scene_extent(G)
     root = root_box(G)
     packets_here = uses_packets(G, X)
