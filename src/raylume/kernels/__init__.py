@@ -1,13 +1,16 @@
 """Numba kernels. Importing this package points Numba's on-disk cache at a folder named after
 a hash of the kernel sources: Numba checks only the timestamp of the file holding a cached
 entry point, so an edit to a function it calls (in another module) would otherwise run stale
-machine code."""
+machine code. It also makes Python's garbage collector run less often while Numba compiles
+(compile_gc.py)."""
 
 import hashlib
 import os
 from pathlib import Path
 
 import numba
+
+from .compile_gc import collect_less_while_compiling
 
 
 def _kernel_source_hash() -> str:
@@ -26,3 +29,4 @@ def _configure_cache() -> None:
 
 
 _configure_cache()
+collect_less_while_compiling()
