@@ -18,6 +18,7 @@ from .accel.wide import collapse, mark_sphere_leaves, mark_triangle_leaves, sing
 from .compile_instances import build_instances, join_triangles, place_instanced
 from .emitters_table import build_emitters, scene_environment
 from .errors import SceneError
+from .frame_stack import roomy_frame_stack
 from .kernels import materials as M
 from .kernels import textures as X
 from .kernels.lights import LIGHT_WIDTH, pack_light
@@ -442,6 +443,7 @@ class SceneGeometry:
         self.instanced.append(_InstancedMesh(tris, normals, uv6, material, obj, m, ids))
 
 
+@roomy_frame_stack  # the BVH builder's kernels compile on first use (frame_stack.py)
 def compile_scene(scene: Scene, source="<scene>", accelerate: bool = True) -> CompiledScene:
     """Flatten the scene into arrays. `accelerate=False` skips the BVH (the rasterizer needs
     none: at 4M triangles that saves about 9 s)."""

@@ -26,6 +26,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .accel.wide import NODE_COUNT, NODE_FIRST
+from .frame_stack import roomy_frame_stack
 from .kernels.camera import CAM_POSITION, CAM_UP
 from .kernels.raster_kernel import rasterize_arrays
 from .kernels.shapes import PRIM_KIND, PRIM_ROW, Shape
@@ -102,6 +103,7 @@ def rasterize(
     return rgb, (arrays if aovs else {}), kernel_seconds, 0
 
 
+@roomy_frame_stack  # (frame_stack.py)
 def _warm_up(S, cam, near, background):
     """Compile the kernels (or load them from the cache) on empty input, outside the timing."""
     empty = S._replace(triangles=S.triangles[:0])

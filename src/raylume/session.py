@@ -26,6 +26,7 @@ from pydantic import ValidationError
 
 from .compile import CompiledScene, compile_scene
 from .errors import RaylumeError, SceneError
+from .frame_stack import on_roomy_frame_stack
 from .image import Image
 from .kernels.camera import camera_of, set_cone_spread
 from .kernels.film import Film
@@ -465,7 +466,8 @@ def _ray_render(S, cam, film: Film, spp: int, settings, aov: dict, progress, lan
 
     status = status or (lambda what: None)
     status("compiling")
-    lane_job(0, (window[0], window[1], window[2], window[1]))  # compile (or load from the cache): no rows
+    # compile (or load from the cache): no rows; with room on the frame stack (frame_stack.py)
+    on_roomy_frame_stack(lane_job, 0, (window[0], window[1], window[2], window[1]))
     control[:] = 0  # (that claimed a row of the empty window)
     status("rendering")
     total = rows * (2 if aov else 1)

@@ -10,6 +10,7 @@ from numba.core import cgutils
 from numba.core.errors import TypingError
 from numba.extending import intrinsic
 
+from ..frame_stack import on_roomy_frame_stack
 from ..lanes import lane_pool
 from .packet import (
     PACKET,
@@ -341,12 +342,13 @@ def _run_lanes(kernel, args, n: int, lanes: int, unit: bool) -> int:
     compile), at most one per chunk; returns the rays the lanes refused (bad's sum)."""
     bad = np.zeros(max(1, lanes), dtype=np.int64)
     lanes = max(1, min(lanes, (n + CHUNK - 1) // CHUNK))
+    # Each lane from a roomy frame (frame_stack.py): whichever one calls first compiles the kernel.
     if lanes == 1:
-        kernel(*args, 0, 1, unit, bad)
+        on_roomy_frame_stack(kernel, *args, 0, 1, unit, bad)
         return int(bad.sum())
     pool = lane_pool(lanes - 1)
-    futures = [pool.submit(kernel, *args, lane, lanes, unit, bad) for lane in range(1, lanes)]
-    kernel(*args, 0, lanes, unit, bad)
+    futures = [pool.submit(on_roomy_frame_stack, kernel, *args, lane, lanes, unit, bad) for lane in range(1, lanes)]
+    on_roomy_frame_stack(kernel, *args, 0, lanes, unit, bad)
     for f in futures:
         f.result()
     return int(bad.sum())
