@@ -5,12 +5,12 @@ import math
 
 import numpy as np
 from llvmlite import ir
-from numba import njit, types
+from numba import types
 from numba.core import cgutils
 from numba.core.errors import TypingError
 from numba.extending import intrinsic
 
-from ..frame_stack import on_roomy_frame_stack
+from ..frame_stack import roomy_njit
 from ..lanes import lane_pool
 from .packet import (
     PACKET,
@@ -253,7 +253,7 @@ def chunk_scratch():
     )
 
 
-@njit(nogil=True, fastmath=FAST, cache=True, error_model="numpy")
+@roomy_njit(nogil=True, fastmath=FAST, cache=True, error_model="numpy")
 def intersect_lane(
     S, X, origins, directions, tmin, tmax, t_out, object_out, prim_out, instance_out, lane, lanes, unit, bad
 ):
@@ -316,7 +316,7 @@ def _occluded_chunk(G, X, origins, directions, base, tmin, tmax, out, start, end
         k += n
 
 
-@njit(nogil=True, fastmath=FAST, cache=True, error_model="numpy")
+@roomy_njit(nogil=True, fastmath=FAST, cache=True, error_model="numpy")
 def occluded_lane(S, X, origins, directions, tmin, tmax, out, lane, lanes, unit, bad):
     """Occlusion of lane `lane` of `lanes`'s chunks, as intersect_lane shares them and makes
     their directions unit vectors."""
@@ -342,13 +342,12 @@ def _run_lanes(kernel, args, n: int, lanes: int, unit: bool) -> int:
     compile), at most one per chunk; returns the rays the lanes refused (bad's sum)."""
     bad = np.zeros(max(1, lanes), dtype=np.int64)
     lanes = max(1, min(lanes, (n + CHUNK - 1) // CHUNK))
-    # Each lane from a roomy frame (frame_stack.py): whichever one calls first compiles the kernel.
     if lanes == 1:
-        on_roomy_frame_stack(kernel, *args, 0, 1, unit, bad)
+        kernel(*args, 0, 1, unit, bad)
         return int(bad.sum())
     pool = lane_pool(lanes - 1)
-    futures = [pool.submit(on_roomy_frame_stack, kernel, *args, lane, lanes, unit, bad) for lane in range(1, lanes)]
-    on_roomy_frame_stack(kernel, *args, 0, lanes, unit, bad)
+    futures = [pool.submit(kernel, *args, lane, lanes, unit, bad) for lane in range(1, lanes)]
+    kernel(*args, 0, lanes, unit, bad)
     for f in futures:
         f.result()
     return int(bad.sum())
