@@ -9,10 +9,11 @@ leaves out the moments another process holds the core; alternation spreads the V
 the engines. The ratios are Embree's time over raylume's: above 1, raylume is faster. Beside
 them, raylume's CPU time for the whole frame (all the camera rays, hits and misses), with
 packets and with single rays (and through `raylume.intersect` itself, as a user calls it: the
-directions made unit vectors in the kernel, the output arrays allocated), and their ratios to
-bumpy 40k's: how the cost of a frame grows
-with the triangle count, beside Embree's (a miss costs Embree more than raylume, so its frames
-grow less in proportion). Last, the frame's cost with its data in cache: the frame's rays in
+directions made unit vectors in the kernel, the output arrays allocated; once with the rays in
+a row, shape (N, 3), once as the image they are, shape (size, size, 3), which it traces in
+packets of 4 x 2 pixels), and their ratios to bumpy 40k's: how the cost of a frame grows with
+the triangle count, beside Embree's (a miss costs Embree more than raylume, so its frames grow
+less in proportion). Last, the frame's cost with its data in cache: the frame's rays in
 32 x 32 pixel blocks, each block traced twice in a row, less the same blocks traced once. The
 repeat finds the block's nodes and triangles in cache (a block's ~1,000 rays touch well under
 the L2's 2 MB), so what is left is the traversal's work without its waits for memory: how far
@@ -103,7 +104,8 @@ def _trace_singly(compiled, o, d, stacks):
     n = len(o)
     out = np.empty(n), np.empty(n, np.int32), np.empty(n, np.int32), np.empty(n, np.int32)
     spans = np.zeros(1), np.full(1, np.inf)  # every ray from 0 to infinity
-    _single_rays(compiled.kernel, features(compiled.kernel), o, d, spans, out, stacks, np.empty(CHUNK, np.int64))
+    hits = np.empty(CHUNK, np.int64), np.empty(CHUNK)
+    _single_rays(compiled.kernel, features(compiled.kernel), o, d, spans, out, stacks, hits)
     return out
 
 
@@ -125,6 +127,7 @@ def main() -> None:
     single_frame = {}  # the same with single rays
     embree_frame = {}  # the same by Embree
     in_cache = {}  # the frame with its data in cache (block_orders)
+    image_frame = {}  # raylume.intersect on the frame's rays as an image
     blocks, twice = block_orders(args.size)
     for name in args.meshes:
         vf = mesh(name)
@@ -143,20 +146,25 @@ def main() -> None:
         embree.run(o32[:1], d32[:1], output=1)  # Embree builds on the first query
         packed, single = _trace(compiled, o, d), _trace_singly(compiled, o, d, stacks)
         assert all(np.array_equal(a, b) for a, b in zip(packed[:2], single[:2], strict=True))  # t, object
+        io, idir = fo.reshape(args.size, args.size, 3), fd.reshape(args.size, args.size, 3)  # the image
+        in_rows, as_image = raylume.intersect(compiled, fo, fd), raylume.intersect(compiled, io, idir)
+        assert all(np.array_equal(a, b.reshape(-1)) for a, b in zip(in_rows, as_image, strict=True))
         ours, singly, theirs, frames, single_frames, embree_frames, repeats = [], [], [], [], [], [], []
-        api_frames = []
+        api_frames, image_frames = [], []
         for _ in range(args.repeats):
             ours.append(cpu_seconds(lambda: _trace(compiled, o, d)))  # noqa: B023 (called at once)
             theirs.append(cpu_seconds(lambda: embree.run(o32, d32, output=1)))  # noqa: B023
             singly.append(cpu_seconds(lambda: _trace_singly(compiled, o, d, stacks)))  # noqa: B023
             frames.append(cpu_seconds(lambda: _trace(compiled, fo, fd)))  # noqa: B023
             api_frames.append(cpu_seconds(lambda: raylume.intersect(compiled, fo, fd)))  # noqa: B023
+            image_frames.append(cpu_seconds(lambda: raylume.intersect(compiled, io, idir)))  # noqa: B023
             single_frames.append(cpu_seconds(lambda: _trace_singly(compiled, fo, fd, stacks)))  # noqa: B023
             embree_frames.append(cpu_seconds(lambda: embree.run(fo32, fd32, output=1)))  # noqa: B023
             once = cpu_seconds(lambda: _trace(compiled, bo, bd))  # noqa: B023
             repeats.append(cpu_seconds(lambda: _trace(compiled, to, td)) - once)  # noqa: B023
         r, e, r1 = np.median(ours), np.median(theirs), np.median(singly)
         frame[name] = np.median(frames)
+        image_frame[name] = np.median(image_frames)
         single_frame[name] = np.median(single_frames)
         embree_frame[name] = np.median(embree_frames)
         in_cache[name] = np.median(repeats)
@@ -164,20 +172,22 @@ def main() -> None:
         rows.append(
             [name, f"{len(f):,}", f"{len(o):,}", f"{r * 1e3:.1f}", f"{r1 * 1e3:.1f}", f"{e * 1e3:.1f}", f"{e / r:.2f}"]
             + [f"{pairs.min():.2f}-{pairs.max():.2f}", f"{e / r1:.2f}", f"{frame[name] * 1e3:.1f}"]
-            + [f"{np.median(api_frames) * 1e3:.1f}"]
+            + [f"{np.median(api_frames) * 1e3:.1f}", f"{image_frame[name] * 1e3:.1f}"]
             + [f"{single_frame[name] * 1e3:.1f}", f"{embree_frame[name] * 1e3:.1f}", f"{in_cache[name] * 1e3:.1f}"]
         )
         print(" | ".join(rows[-1]), flush=True)
     base, single_base = frame.get("40k"), single_frame.get("40k")
     for row in rows:
         row.append(f"{frame[row[0]] / base:.2f}" if base else "-")
+        row.append(f"{image_frame[row[0]] / image_frame['40k']:.2f}" if base else "-")
         row.append(f"{single_frame[row[0]] / single_base:.2f}" if base else "-")
         row.append(f"{embree_frame[row[0]] / embree_frame['40k']:.2f}" if base else "-")
         row.append(f"{in_cache[row[0]] / in_cache['40k']:.2f}" if base else "-")
     headers = ["mesh", "triangles", "hit rays", "raylume ms", "single-ray ms", "Embree ms", "Embree / raylume"]
     headers += ["per pair", "Embree / single-ray", "raylume frame ms", "raylume.intersect frame ms"]
-    headers += ["single-ray frame ms", "Embree frame ms"]
-    headers += ["in-cache frame ms", "frame / 40k frame", "single-ray frame / 40k", "Embree frame / 40k"]
+    headers += ["raylume.intersect image ms", "single-ray frame ms", "Embree frame ms"]
+    headers += ["in-cache frame ms", "frame / 40k frame", "image / 40k image", "single-ray frame / 40k"]
+    headers += ["Embree frame / 40k"]
     headers += ["in-cache frame / 40k"]
     print("\n" + table(headers, rows))
 

@@ -15,7 +15,16 @@ from test_packets import _any_hits  # the single-ray answers, ray by ray
 
 import raylume
 from raylume.compile import compile_scene
-from raylume.kernels.query import CHUNK, _unit_rays, intersect_rays
+from raylume.kernels.query import (
+    CHUNK,
+    PACKET,
+    _unit_rays,
+    chunk_count,
+    chunk_scratch,
+    grid_width,
+    intersect_rays,
+    load_chunk,
+)
 from raylume.kernels.scene import geometry_of
 from raylume.kernels.shapes import geometry_features
 from raylume.kernels.traverse import TRAVERSAL_STACK, closest_hit
@@ -26,7 +35,7 @@ from raylume.scene.procedural import bumpy_sphere
 def _unit_chunk(origins, directions, start, end):
     chunk_origins = np.full((CHUNK, 3), -1.0)
     chunk_directions = np.full((CHUNK, 3), -1.0)
-    bad = _unit_rays(origins, directions, start, end, chunk_origins, chunk_directions)
+    bad = _unit_rays(origins, directions, start, end - start, 1, 0, chunk_origins, chunk_directions)
     return chunk_origins[: end - start], chunk_directions[: end - start], bad
 
 
@@ -224,3 +233,112 @@ def test_intersect_finds_the_nearest_hit_between_tmin_and_tmax(bumpy):
     np.testing.assert_array_equal(
         t, np.where([[True], [False]] & (t0[:m].reshape(2, -1) >= 2.5), np.inf, t0[:m].reshape(2, -1))
     )
+
+
+@njit
+def _image_chunks(origins, directions, width, chunks):
+    """Every chunk of an image's rays as intersect_lane loads them: (their copied origins and
+    unit directions, in the order they are traced, the chunks' sizes, the bad rays counted)."""
+    n = origins.shape[0]
+    scratch = chunk_scratch()
+    got_o, got_d = np.empty((n, 3)), np.empty((n, 3))
+    sizes = np.empty(chunks, np.int64)
+    at = bad = 0
+    for c in range(chunks):
+        _, m, _, _, b = load_chunk(origins, directions, True, width, c, scratch[0], scratch[1])
+        got_o[at : at + m] = scratch[0][:m]
+        got_d[at : at + m] = scratch[1][:m]
+        sizes[c] = m
+        at += m
+        bad += b
+    return got_o[:at], got_d[:at], sizes, bad
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(1, 7), st.integers(8, 300), st.integers(0, 2**32 - 1))
+def test_an_images_rays_go_in_packets_of_4_by_2(rows, width, seed):
+    """The chunks of an image of rows x width rays hold every ray once (each known by its
+    origin), at most CHUNK each; each packet (eight rays in a row of the chunk) is four
+    neighbours in one row above four in the next (eight along a lone last row; narrower at a
+    band's right end), each with numpy's unit vector of its direction, bad rays counted as
+    _unit_rays counts them."""
+    rng = np.random.default_rng(seed)
+    n = rows * width
+    origins = np.stack([np.arange(n, dtype=np.float64), rng.normal(size=n), rng.normal(size=n)], axis=1)
+    directions = rng.normal(size=(n, 3)) * 10.0 ** rng.uniform(-3, 3, size=(n, 1))
+    directions[rng.random(n) < 0.02] = 0.0
+    got_o, got_d, sizes, bad = _image_chunks(origins, directions, width, chunk_count(n, width))
+    ids = got_o[:, 0].astype(np.int64)  # the ray each row of the chunks holds
+    assert sorted(ids.tolist()) == list(range(n)) and (sizes <= CHUNK).all()
+    np.testing.assert_array_equal(got_o, origins[ids])
+    with np.errstate(all="ignore"):
+        want = directions / np.linalg.norm(directions, axis=1, keepdims=True)
+    np.testing.assert_array_equal(got_d, want[ids])
+    assert bad == int((np.linalg.norm(directions, axis=1) == 0).sum())
+    at = 0
+    for m in sizes:
+        for p in range(at, at + m, PACKET):
+            y, x = np.divmod(ids[p : min(p + PACKET, at + m)], width)
+            if y.min() == y.max():  # a lone last row: neighbours along it
+                assert rows % 2 == 1 and y[0] == rows - 1 and x.max() - x.min() == len(x) - 1
+            else:  # two rows: the same columns in both, at most four
+                assert y.max() - y.min() == 1 and x.max() - x.min() < PACKET // 2
+                assert sorted(x[y == y.min()].tolist()) == sorted(x[y == y.max()].tolist())
+        at += m
+
+
+def test_rays_trace_as_an_image_when_they_form_one():
+    """grid_width: the last axis of rays in rows of at least eight, at least two rows of them."""
+    assert grid_width((480, 640)) == 640
+    assert grid_width((2, 3, 8)) == 8 and grid_width((2, 1, 8)) == 8
+    assert grid_width((1000,)) == 0 and grid_width((1, 640)) == 0 and grid_width((640, 7)) == 0
+    assert grid_width((0, 640)) == 0
+
+
+def _image_rays(rows, width):
+    """A rows x width image of camera rays 3 units in front of the mesh, the mesh in its middle
+    (its directions not unit vectors)."""
+    y, x = np.mgrid[0:rows, 0:width] + 0.5
+    pitch = 1.2 / max(rows, width)
+    d = np.stack([(x - width / 2) * pitch, (y - rows / 2) * pitch, np.full(x.shape, 1.0)], axis=-1)
+    return np.broadcast_to([0.0, 0.0, -3.0], d.shape).copy(), 2.0 * d
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+@pytest.mark.parametrize(("rows", "width"), [(37, 45), (6, 300), (1, 64)])
+def test_an_images_rays_find_what_single_rays_find(bumpy, threads, rows, width):
+    """raylume.intersect on rays of shape (rows, width, 3), traced in 4 x 2 packets (a lone last
+    row, a band's narrower right end, a second band) and stored in the image's order: ray for
+    ray, the single-ray closest_hit's hits, with tmin and tmax numbers (and with per-pixel
+    ones, which keep the rays in their order); raylume.occluded on them, any_hit's answers; a
+    zero direction in a whole group of four or in a narrower one is refused."""
+    rng = np.random.default_rng(rows)
+    o, d = _image_rays(rows, width)
+    flat_o, flat_d = o.reshape(-1, 3), d.reshape(-1, 3)
+    unit = flat_d / np.linalg.norm(flat_d, axis=1, keepdims=True)
+    S = bumpy.for_camera((0.0, 0.0, 0.0))
+    spans = ((0.0, np.inf), (1.0, 2.9), (rng.uniform(0, 3, (rows, width)), rng.uniform(2.5, 5, (rows, width))))
+    previous = numba.get_num_threads()
+    numba.set_num_threads(threads)
+    try:
+        for tmin, tmax in spans:
+            t, obj, prim = raylume.intersect(bumpy, o, d, tmin=tmin, tmax=tmax)
+            assert t.shape == obj.shape == prim.shape == (rows, width)
+            per_ray = [np.broadcast_to(v, (rows, width)).reshape(-1) for v in (tmin, tmax)]
+            want = _closest(S, flat_o, unit, *per_ray)
+            found = want[:, 1] >= 0
+            np.testing.assert_array_equal(t.reshape(-1), np.where(found, want[:, 0], np.inf))
+            np.testing.assert_array_equal(prim.reshape(-1) >= 0, found)
+            np.testing.assert_array_equal(obj.reshape(-1) == 0, found)
+            assert 0.1 < found.mean() < 0.95
+            blocked = raylume.occluded(bumpy, o, d, tmin=tmin, tmax=tmax)
+            np.testing.assert_array_equal(blocked.reshape(-1), _any_hits(S, flat_o, unit, *per_ray))
+        faces = raylume.intersect(bumpy, flat_o, flat_d)[2]  # in a row: the faces hit
+        np.testing.assert_array_equal(raylume.intersect(bumpy, o, d)[2].reshape(-1), faces)
+        for column in (width // 2 & ~3, width - 1):  # a whole group, and the last (narrower) one
+            bad = d.copy()
+            bad[rows - 1, column] = 0.0
+            with pytest.raises(ValueError, match="directions must be finite and non-zero"):
+                raylume.intersect(bumpy, o, bad)
+    finally:
+        numba.set_num_threads(previous)

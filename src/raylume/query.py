@@ -7,7 +7,7 @@ import numba
 import numpy as np
 
 from .compile import CompiledScene, compile_scene
-from .kernels.query import intersect_rays, occluded_rays, ray_spans
+from .kernels.query import grid_width, intersect_rays, occluded_rays, ray_spans
 from .kernels.shapes import geometry_features
 from .scene.model import Scene
 
@@ -50,7 +50,9 @@ def intersect(
     Directions need not be unit vectors: t is a distance (each is divided by its length, as
     numpy's d / norm(d) would). Misses give t = inf and -1 indices. A direction that is zero or
     not finite, or an origin that is not finite, is a ValueError. Pass a CompiledScene
-    (raylume.compile.compile_scene) to reuse its BVH across calls."""
+    (raylume.compile.compile_scene) to reuse its BVH across calls. Rays shaped like an image,
+    (..., H, W, 3) with W >= 8, are traced in packets of 4 x 2 neighbours (with one tmin and one
+    tmax for all), faster on large meshes than rows of eight; the answers are the same."""
     S, X, origins, directions, tmin, tmax, shape = _query(scene, origins, directions, tmin, tmax)
     n = len(origins)
     t = np.empty(n)
@@ -60,7 +62,8 @@ def intersect(
     # the kernel makes the directions unit vectors as it goes and counts the rays it cannot
     # trace (numpy's passes over the arrays for it had cost ~80% of the kernel's time)
     lanes = numba.get_num_threads()
-    if intersect_rays(S, X, origins, directions, t, obj, prim, inst, lanes, unit=True, tmin=tmin, tmax=tmax):
+    width = grid_width(shape)  # an image's rays go in 4 x 2 packets
+    if intersect_rays(S, X, origins, directions, t, obj, prim, inst, lanes, True, tmin, tmax, width):
         raise ValueError(_REFUSED)
     if instances:
         return t.reshape(shape), obj.reshape(shape), prim.reshape(shape), inst.reshape(shape)

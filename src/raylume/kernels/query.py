@@ -34,40 +34,37 @@ from .vec import FAST, inline_function, kernel_function
 # row functions are: inlined into the lane's loop (then a parfor's), the traversal took and
 # dropped references to the BVH arrays for every ray (4 calls with atomic operations a ray).
 @kernel_function
-def _intersect_chunk(G, X, origins, directions, base, spans, outputs, start, end, stacks, packets, hits):
+def _intersect_chunk(G, X, origins, directions, base, spans, outputs, tiles, start, end, stacks, packets, hits):
     """Rays start .. end - 1 (at most CHUNK; ray k at origins[k - base], directions[k - base],
     its hits between span_of(spans[0], k) and span_of(spans[1], k)) into the outputs: traced
-    first, their distances stored and their hits kept in `hits` (one per ray of the chunk),
-    then their ids looked up. A hit's object and face ids lie in its row of the primitive
-    table, a cache miss of its own on a large mesh; the row is prefetched when the hit is found
-    and read after the whole chunk is traced, when it has long arrived (bumpy 4M hit rays on a
-    Zen 3 71.4 -> 67.5 ms, 1M 56.5 -> 50.0, against the eight rows requested together after
-    each packet)."""
+    first, each hit and distance kept in `hits` (chunk_hits: one of each per ray of the chunk),
+    then stored with their ids (store_hits; tiles: the chunk's layout, load_chunk). A hit's
+    object and face ids lie in its row of the primitive table, a cache miss of its own on a
+    large mesh; the row is prefetched when the hit is found and read after the whole chunk is
+    traced, when it has long arrived (bumpy 4M hit rays on a Zen 3 71.4 -> 67.5 ms, 1M 56.5 ->
+    50.0, against the eight rows requested together after each packet)."""
     extent = scene_extent(G)
     root = root_box(G)
     packets_here = uses_packets(G, X)
-    t_out = outputs[0]
     k = start
     while k < end:
         n = min(PACKET, end - k)
         if not (
             packets_here
-            and _packet_hits(
-                G, X, origins, directions, base, spans, k, n, extent, root, t_out, hits, start, stacks, packets
-            )
+            and _packet_hits(G, X, origins, directions, base, spans, k, n, extent, root, hits, start, stacks, packets)
         ):
             # one call site: the single-ray traversal is inlined once (a second copy cost ~1.5 s
             # of cold compile)
-            _closest_hits_singly(G, X, origins, directions, base, spans, k, k + n, t_out, hits, start, stacks)
+            _closest_hits_singly(G, X, origins, directions, base, spans, k, k + n, hits, start, stacks)
         k += n
-    store_ids(G, X, start, end, hits, outputs)
+    store_hits(G, X, tiles, start, end, hits, outputs)
 
 
 @inline_function
-def _packet_hits(G, X, origins, directions, base, spans, k, n, extent, root, t_out, hits, start, stacks, packets):
-    """Rays k .. k + n - 1 (at origins[k - base] ...) traced as a packet: distances into t_out,
-    hits into hits[k - start ...] (extent: scene_extent(G), root: root_box(G)); False when they
-    are refused, and nothing written."""
+def _packet_hits(G, X, origins, directions, base, spans, k, n, extent, root, hits, start, stacks, packets):
+    """Rays k .. k + n - 1 (at origins[k - base] ...) traced as a packet, their hits kept at
+    k - start ... (extent: scene_extent(G), root: root_box(G)); False when they are refused,
+    and nothing kept."""
     node_stack, t_stack = stacks
     _, lane, prim_lane, _ = packets
     coherent = packet_trace(
@@ -76,15 +73,14 @@ def _packet_hits(G, X, origins, directions, base, spans, k, n, extent, root, t_o
     if coherent:
         for i in range(n):
             t, prim, _, _ = packet_hit(lane, prim_lane, i)
-            _keep_hit(G, X, k + i, t, prim, t_out, hits, start)
+            _keep_hit(G, X, k + i - start, t, prim, hits)
     return coherent
 
 
 @inline_function
-def _closest_hits_singly(G, X, origins, directions, base, spans, first, end, t_out, hits, start, stacks):
+def _closest_hits_singly(G, X, origins, directions, base, spans, first, end, hits, start, stacks):
     """Rays first .. end - 1 (ray k at origins[k - base] ..., between span_of(spans[0], k) and
-    span_of(spans[1], k)) ray by ray (closest_hit): distances into t_out, hits into
-    hits[k - start]."""
+    span_of(spans[1], k)) ray by ray (closest_hit), their hits kept at k - start."""
     node_stack, t_stack = stacks
     tmin, tmax = spans[0], spans[1]
     for k in range(first, end):
@@ -92,45 +88,75 @@ def _closest_hits_singly(G, X, origins, directions, base, spans, first, end, t_o
         o = (float(origins[r, 0]), float(origins[r, 1]), float(origins[r, 2]))
         d = (float(directions[r, 0]), float(directions[r, 1]), float(directions[r, 2]))
         t, prim, b1, b2 = closest_hit(G, X, o, d, span_of(tmin, k), span_of(tmax, k), node_stack, t_stack)
-        _keep_hit(G, X, k, t, prim, t_out, hits, start)
+        _keep_hit(G, X, k - start, t, prim, hits)
+
+
+@kernel_function(_nrt=True)
+def chunk_hits():
+    """One lane's hits of a chunk's rays, kept until they are stored: (primitive, distance)."""
+    return scratch_array(CHUNK, np.int64), scratch_array(CHUNK, np.float64)
 
 
 @inline_function
-def _keep_hit(G, X, k, t, prim, t_out, hits, start):
-    """Ray k's hit: its distance (inf for a miss, which the traversal leaves at its tmax)."""
-    hits[k - start] = prim
+def _keep_hit(G, X, q, t, prim, hits):
+    """The hit of the chunk's ray q and its distance (inf for a miss, which the traversal leaves
+    at its tmax)."""
+    hits[0][q] = prim
     if prim != NO_HIT:
-        t_out[k] = t
+        hits[1][q] = t
         prefetch_row(G.prims, split_hit(X, prim)[0])
     else:
-        t_out[k] = INF
+        hits[1][q] = INF
+
+
+# A chunk's layout in the call's rays (load_chunk): (first, rows, width, groups, rest) for an
+# image's chunk, rows of `width` rays, each of its `rows` rows with groups * TILE + rest of
+# them from ray first + row * width on; all 0 for rays in their own order.
+IN_ORDER = (0, 0, 0, 0, 0)
 
 
 @inline_function
-def store_ids(G, X, start, end, hits, outputs):
-    """The object, face and instance ids of rays start .. end - 1 from their hits (hits[k -
-    start]; -1 for a miss)."""
-    _, object_out, prim_out, instance_out = outputs
-    for k in range(start, end):
-        prim = hits[k - start]
-        if prim == NO_HIT:
-            object_out[k] = -1
-            prim_out[k] = -1
-            instance_out[k] = -1
-        else:
-            row, _ = split_hit(X, prim)
-            object_out[k] = G.prims[row, PRIM_OBJECT]
-            prim_out[k] = G.prims[row, PRIM_FACE]
-            instance_out[k] = instance_id(X, prim)
+def store_hits(G, X, tiles, start, end, hits, outputs):
+    """The distances, object, face and instance ids of rays start .. end - 1 from their hits
+    (hits at k - start; -1 for a miss), into the outputs in their own order (tiles: the chunk's
+    layout): an image's chunk is traced in packet order (_unit_rays), and its outputs written
+    in that order, eight streams interleaved four elements at a time, had cost ~3 ns a ray more
+    than rays in rows (bumpy 10k and 40k frames as images 5-7% slower than in rows)."""
+    first, rows, width, groups, rest = tiles
+    count = groups * TILE + rest
+    if rows == 0:  # rays in their own order: one row of them
+        first, rows, count = start, 1, end - start
+    shift = rows + 1  # an image's whole group of rays: TILE a row, 1 << shift in all
+    t_out, object_out, prim_out, instance_out = outputs
+    for row in range(rows):
+        for col in range(count):
+            q = col  # where the ray is in the chunk
+            if tiles[1] != 0:
+                if col < groups * TILE:
+                    q = ((col >> 2) << shift) + (row << 2) + (col & 3)
+                else:
+                    q = (groups << shift) + row * rest + col - groups * TILE
+            at = first + row * width + col
+            prim = hits[0][q]
+            t_out[at] = hits[1][q]
+            if prim == NO_HIT:
+                object_out[at] = -1
+                prim_out[at] = -1
+                instance_out[at] = -1
+            else:
+                hit_row, _ = split_hit(X, prim)
+                object_out[at] = G.prims[hit_row, PRIM_OBJECT]
+                prim_out[at] = G.prims[hit_row, PRIM_FACE]
+                instance_out[at] = instance_id(X, prim)
 
 
 @inline_function
 def intersect_singly(G, X, origins, directions, spans, outputs, start, end, stacks, hits):
     """intersect_lane's work for rays start .. end - 1 (at most CHUNK; spans: (tmin, tmax) as
     span_of reads them) without packets: the single-ray traversal alone
-    (benchmarks/bench_hits.py)."""
-    _closest_hits_singly(G, X, origins, directions, 0, spans, start, end, outputs[0], hits, start, stacks)
-    store_ids(G, X, start, end, hits, outputs)
+    (benchmarks/bench_hits.py; hits: as chunk_hits makes them)."""
+    _closest_hits_singly(G, X, origins, directions, 0, spans, start, end, hits, start, stacks)
+    store_hits(G, X, IN_ORDER, start, end, hits, outputs)
 
 
 _F64 = ir.DoubleType()
@@ -210,38 +236,70 @@ def _unit_rays4(typingctx, origins, directions, k, chunk_origins, chunk_directio
 
 
 @kernel_function(error_model="numpy", _nrt=False, fastmath=False)
-def _unit_rays(origins, directions, start, end, chunk_origins, chunk_directions):
-    """Rays start .. end - 1 copied into the chunk's scratch (ray k at row k - start), each
-    direction divided by its length: numpy's d / np.linalg.norm(d, axis=1) to the bit (IEEE,
-    (x^2 + y^2) + z^2, no FMA: fastmath off), four rays per vector (a scalar loop took ~14 ns a
-    ray, as much as a frame's miss, against ~5). Returns how many rays have a component that is not
-    finite or a direction of length 0 (or one whose square underflows to it); they are traced
-    all the same, as misses, and raylume.intersect refuses the call."""
+def _unit_rays(origins, directions, first, count, rows, width, chunk_origins, chunk_directions):
+    """`rows` rows (1 or 2) of `count` rays each (row r's i-th: ray first + r * width + i)
+    copied into the chunk's scratch in packet order: four rays of the first row, the four below
+    them, and so on, then the rows' last few (one row: in its order; store_hits undoes the
+    order). Each direction is divided by its length: numpy's d / np.linalg.norm(d, axis=1) to
+    the bit (IEEE, (x^2 + y^2) + z^2, no FMA: fastmath off), four rays per vector (a scalar
+    loop took ~14 ns a ray, as much as a frame's miss, against ~5). Each row is read in turn,
+    as one stream. Returns how many rays have a component that is not finite or a direction of
+    length 0 (or one whose square underflows to it); they are traced all the same, as misses,
+    and raylume.intersect refuses the call."""
+    groups = count // TILE  # whole groups of TILE rays, then a narrower one
+    rest = count - groups * TILE
     bad = 0
-    k = start
-    while k + 4 <= end:
-        bad += _unit_rays4(origins, directions, k, chunk_origins, chunk_directions, k - start)
-        k += 4
-    while k < end:
-        r = k - start
-        x, y, z = directions[k, 0], directions[k, 1], directions[k, 2]
-        n = math.sqrt(x * x + y * y + z * z)
-        chunk_directions[r, 0] = x / n
-        chunk_directions[r, 1] = y / n
-        chunk_directions[r, 2] = z / n
-        ok = n > 0.0 and abs(x) < math.inf and abs(y) < math.inf and abs(z) < math.inf
-        for c in range(3):
-            chunk_origins[r, c] = origins[k, c]
-            ok = ok and abs(origins[k, c]) < math.inf
-        if not ok:
-            bad += 1
-        k += 1
+    for row in range(rows):
+        k0 = first + row * width
+        for g in range(groups):
+            k, p = k0 + g * TILE, (g * rows + row) * TILE
+            bad += _unit_rays4(origins, directions, k, chunk_origins, chunk_directions, p)
+        for i in range(rest):
+            k, r = k0 + groups * TILE + i, groups * rows * TILE + row * rest + i
+            x, y, z = directions[k, 0], directions[k, 1], directions[k, 2]
+            n = math.sqrt(x * x + y * y + z * z)
+            chunk_directions[r, 0] = x / n
+            chunk_directions[r, 1] = y / n
+            chunk_directions[r, 2] = z / n
+            ok = n > 0.0 and abs(x) < math.inf and abs(y) < math.inf and abs(z) < math.inf
+            for c in range(3):
+                chunk_origins[r, c] = origins[k, c]
+                ok = ok and abs(origins[k, c]) < math.inf
+            if not ok:
+                bad += 1
     return bad
 
 
 # Rays per chunk: a lane takes every lanes-th chunk (neighbouring rays cost alike, distant ones
 # may not; see frame.py).
 CHUNK = 256
+
+# Rays that form an image (raylume.intersect's rays of shape (..., H, W, 3)) go in chunks of two
+# rows of BAND rays, traced in packets of 4 x 2 neighbours instead of 8 along a row, as cast mode
+# traces its pixels: neighbours in both directions spread less, so on a mesh with several
+# triangles under each pixel they share more of their way down the tree (bench_hits.py's frame
+# as an image on a Zen 3: bumpy 4M 83.2 -> 78.5 ms, 1M 64.8 -> 61.3, 40k 45.0 -> 45.1). Rows
+# shorter than GRID_MIN_WIDTH keep their order.
+BAND = CHUNK // 2
+TILE = PACKET // 2  # a packet's rays along each of its two rows
+GRID_MIN_WIDTH = 2 * TILE
+
+
+def grid_width(shape: tuple[int, ...]) -> int:
+    """The row length by which rays of leading shape `shape` are traced as an image (4 x 2
+    packets): its last axis where there are at least two rows of at least GRID_MIN_WIDTH rays,
+    else 0 (the rays in their own order)."""
+    if len(shape) < 2 or shape[-1] < GRID_MIN_WIDTH or math.prod(shape) < 2 * shape[-1]:
+        return 0
+    return shape[-1]
+
+
+def chunk_count(n: int, width: int) -> int:
+    """The chunks of n rays: of CHUNK rays in their order (width 0), or of two rows of an image of
+    rows of `width` rays, BAND of each (load_chunk)."""
+    if width == 0:
+        return (n + CHUNK - 1) // CHUNK
+    return (n // width + 1) // 2 * ((width + BAND - 1) // BAND)
 
 
 @kernel_function(_nrt=True)
@@ -253,35 +311,56 @@ def chunk_scratch():
     )
 
 
+@kernel_function
+def load_chunk(origins, directions, unit, width, c, chunk_origins, chunk_directions):
+    """Chunk c of the rays (chunk_count) as intersect_lane traces it: returns (start, end, base,
+    tiles, bad). Its rays are start .. end - 1, ray k read at row k - base of the caller's
+    origins and directions, or with `unit` of the chunk's copy (chunk_origins ...), where
+    _unit_rays makes their directions unit vectors and counts the bad ones (bad). tiles: the
+    chunk's layout (store_hits). An image's chunk (width > 0, with `unit`) is two rows of up to
+    BAND rays, copied in packet order."""
+    n = origins.shape[0]
+    if width == 0:
+        start, end = c * CHUNK, min(n, (c + 1) * CHUNK)
+        if not unit:
+            return start, end, 0, IN_ORDER, 0
+        bad = _unit_rays(origins, directions, start, end - start, 1, 0, chunk_origins, chunk_directions)
+        return start, end, start, IN_ORDER, bad
+    bands = (width + BAND - 1) // BAND
+    y0, x0 = 2 * (c // bands), (c % bands) * BAND
+    rows, x1 = min(2, n // width - y0), min(width, x0 + BAND)
+    first = y0 * width + x0
+    bad = _unit_rays(origins, directions, first, x1 - x0, rows, width, chunk_origins, chunk_directions)
+    return 0, rows * (x1 - x0), 0, (first, rows, width, (x1 - x0) // TILE, (x1 - x0) % TILE), bad
+
+
 @roomy_njit(nogil=True, fastmath=FAST, cache=True, error_model="numpy")
 def intersect_lane(
-    S, X, origins, directions, tmin, tmax, t_out, object_out, prim_out, instance_out, lane, lanes, unit, bad
-):
+    S, X, origins, directions, tmin, tmax, t_out, object_out, prim_out, instance_out, width, chunks, lane, lanes, unit,
+    bad,
+):  # fmt: skip
     """Closest hits of lane `lane` of `lanes` between tmin and tmax (span_of): chunks lane,
-    lane + lanes, ... of the rays. With `unit`, directions of any length, made unit vectors chunk
-    by chunk (_unit_rays), and the rays that cannot be (or have an origin that is not finite)
-    counted in bad[lane]."""
-    n = origins.shape[0]
+    lane + lanes, ... of the rays (chunk_count; width: grid_width). With `unit`, directions of any
+    length, made unit vectors chunk by chunk (_unit_rays), and the rays that cannot be (or have
+    an origin that is not finite) counted in bad[lane]."""
     G = geometry_of(S)
     stacks = traversal_stacks()
     packets = packet_scratch()
-    hits = scratch_array(CHUNK, np.int64)
+    hits = chunk_hits()
     scratch = chunk_scratch()
     spans = (tmin, tmax)
     outputs = (t_out, object_out, prim_out, instance_out)
     refused = 0
-    for c in range(lane, (n + CHUNK - 1) // CHUNK, lanes):
-        start, end = c * CHUNK, min(n, (c + 1) * CHUNK)
+    for c in range(lane, chunks, lanes):
         # ray k at row k - base of o and d: the caller's arrays, or with `unit` the lane's copy
-        # of the chunk, its directions made unit vectors. One call site, one signature: the
-        # traversal is compiled once (a second cost ~2.5 s). (Not a helper that returns the
-        # arrays: compiled without reference counting, its returned arrays would be released
-        # by this function once too often.)
-        o, d, base = origins, directions, 0
-        if unit:
-            refused += _unit_rays(origins, directions, start, end, scratch[0], scratch[1])
-            o, d, base = scratch[0], scratch[1], start
-        _intersect_chunk(G, X, o, d, base, spans, outputs, start, end, stacks, packets, hits)
+        # of the chunk (load_chunk). One call site, one signature: the traversal is compiled
+        # once (a second cost ~2.5 s). (Not a helper that returns the arrays: compiled without
+        # reference counting, its returned arrays would be released by this function once too
+        # often.)
+        start, end, base, tiles, bad_here = load_chunk(origins, directions, unit, width, c, scratch[0], scratch[1])
+        refused += bad_here
+        o, d = (scratch[0], scratch[1]) if unit else (origins, directions)
+        _intersect_chunk(G, X, o, d, base, spans, outputs, tiles, start, end, stacks, packets, hits)
     bad[lane] = refused
 
 
@@ -318,8 +397,8 @@ def _occluded_chunk(G, X, origins, directions, base, tmin, tmax, out, start, end
 
 @roomy_njit(nogil=True, fastmath=FAST, cache=True, error_model="numpy")
 def occluded_lane(S, X, origins, directions, tmin, tmax, out, lane, lanes, unit, bad):
-    """Occlusion of lane `lane` of `lanes`'s chunks, as intersect_lane shares them and makes
-    their directions unit vectors."""
+    """Occlusion of lane `lane` of `lanes`'s chunks, as intersect_lane shares rays in their own
+    order and makes their directions unit vectors."""
     n = origins.shape[0]
     G = geometry_of(S)
     stacks = traversal_stacks()
@@ -330,18 +409,18 @@ def occluded_lane(S, X, origins, directions, tmin, tmax, out, lane, lanes, unit,
         start, end = c * CHUNK, min(n, (c + 1) * CHUNK)
         o, d, base = origins, directions, 0  # as in intersect_lane
         if unit:
-            refused += _unit_rays(origins, directions, start, end, scratch[0], scratch[1])
+            refused += _unit_rays(origins, directions, start, end - start, 1, 0, scratch[0], scratch[1])
             o, d, base = scratch[0], scratch[1], start
         _occluded_chunk(G, X, o, d, base, tmin, tmax, out, start, end, stacks, packets)
     bad[lane] = refused
 
 
-def _run_lanes(kernel, args, n: int, lanes: int, unit: bool) -> int:
+def _run_lanes(kernel, args, chunks: int, lanes: int, unit: bool) -> int:
     """kernel(*args, lane, lanes, unit, bad) on `lanes` threads (the calling one and the kept
     pool's, as a render runs its lanes: a parfor (prange) did the same and cost ~1.7 s of cold
     compile), at most one per chunk; returns the rays the lanes refused (bad's sum)."""
     bad = np.zeros(max(1, lanes), dtype=np.int64)
-    lanes = max(1, min(lanes, (n + CHUNK - 1) // CHUNK))
+    lanes = max(1, min(lanes, chunks))
     if lanes == 1:
         kernel(*args, 0, 1, unit, bad)
         return int(bad.sum())
@@ -379,6 +458,7 @@ def intersect_rays(
     unit: bool = False,
     tmin=0.0,
     tmax=np.inf,
+    width: int = 0,
 ) -> int:
     """Closest hit of each ray between tmin and tmax (numbers, or arrays of one per ray) into
     the outputs: t = inf, object = prim = instance = -1 for misses; instance is the instance's
@@ -386,20 +466,17 @@ def intersect_rays(
     Directions are unit vectors, or with `unit` of any length: each lane then divides its
     chunk's directions by their lengths as it reaches them (raylume.intersect: in numpy, before
     the kernel, that had taken ~80% of the kernel's own time), and the count of rays with a
-    component that is not finite or a zero direction is returned (0 without `unit`). The rays'
-    chunks are shared among `lanes` threads, each running the nogil intersect_lane."""
-    args = (
-        S,
-        X,
-        origins,
-        directions,
-        *ray_spans(tmin, tmax, origins.shape[:1]),
-        t_out,
-        object_out,
-        prim_out,
-        instance_out,
-    )
-    return _run_lanes(intersect_lane, args, origins.shape[0], lanes, unit)
+    component that is not finite or a zero direction is returned (0 without `unit`). width:
+    the rays' row length where they form an image (grid_width), traced then in packets of
+    4 x 2 neighbours where the lanes copy their chunks anyway (`unit`) and one tmin and one
+    tmax serve every ray; 0: the rays in their own order. The rays' chunks are shared among
+    `lanes` threads, each running the nogil intersect_lane."""
+    tmin, tmax = ray_spans(tmin, tmax, origins.shape[:1])
+    if not unit or tmin.shape[0] > 1 or tmax.shape[0] > 1:
+        width = 0
+    chunks = chunk_count(origins.shape[0], width)
+    args = (S, X, origins, directions, tmin, tmax, t_out, object_out, prim_out, instance_out, width, chunks)
+    return _run_lanes(intersect_lane, args, chunks, lanes, unit)
 
 
 def occluded_rays(S, X, origins, directions, tmin, tmax, out, lanes: int, unit: bool = False) -> int:
@@ -407,4 +484,4 @@ def occluded_rays(S, X, origins, directions, tmin, tmax, out, lanes: int, unit: 
     per ray) into `out` (bool): shadow and visibility rays, each stopping at the first blocker
     found. Directions, `unit` and the returned count as intersect_rays says."""
     args = (S, X, origins, directions, *ray_spans(tmin, tmax, origins.shape[:1]), out)
-    return _run_lanes(occluded_lane, args, origins.shape[0], lanes, unit)
+    return _run_lanes(occluded_lane, args, chunk_count(origins.shape[0], 0), lanes, unit)
