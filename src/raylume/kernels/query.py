@@ -340,9 +340,10 @@ def intersect_lane(
     bad,
 ):  # fmt: skip
     """Closest hits of lane `lane` of `lanes` between tmin and tmax (span_of): chunks lane,
-    lane + lanes, ... of the rays (chunk_count; width: grid_width). With `unit`, directions of any
-    length, made unit vectors chunk by chunk (_unit_rays), and the rays that cannot be (or have
-    an origin that is not finite) counted in bad[lane]."""
+    lane + lanes, ... of the rays (chunk_count), or of an image's (width: grid_width) the
+    chunks of its bands lane, lane + lanes, ... With `unit`, directions of any length, made unit
+    vectors chunk by chunk (_unit_rays), and the rays that cannot be (or have an origin that is
+    not finite) counted in bad[lane]."""
     G = geometry_of(S)
     stacks = traversal_stacks()
     packets = packet_scratch()
@@ -351,16 +352,21 @@ def intersect_lane(
     spans = (tmin, tmax)
     outputs = (t_out, object_out, prim_out, instance_out)
     refused = 0
-    for c in range(lane, chunks, lanes):
-        # ray k at row k - base of o and d: the caller's arrays, or with `unit` the lane's copy
-        # of the chunk (load_chunk). One call site, one signature: the traversal is compiled
-        # once (a second cost ~2.5 s). (Not a helper that returns the arrays: compiled without
-        # reference counting, its returned arrays would be released by this function once too
-        # often.)
-        start, end, base, tiles, bad_here = load_chunk(origins, directions, unit, width, c, scratch[0], scratch[1])
-        refused += bad_here
-        o, d = (scratch[0], scratch[1]) if unit else (origins, directions)
-        _intersect_chunk(G, X, o, d, base, spans, outputs, tiles, start, end, stacks, packets, hits)
+    # An image's lane takes whole bands (two rows) in turn, their chunks side by side: bumpy 4M
+    # frames on 2 threads 3-4% faster than with the chunks dealt out one by one, as rays in
+    # their own order are.
+    per_band = 1 if width == 0 else (width + BAND - 1) // BAND
+    for band in range(lane, chunks // per_band, lanes):
+        for c in range(band * per_band, (band + 1) * per_band):
+            # ray k at row k - base of o and d: the caller's arrays, or with `unit` the lane's
+            # copy of the chunk (load_chunk). One call site, one signature: the traversal is
+            # compiled once (a second cost ~2.5 s). (Not a helper that returns the arrays:
+            # compiled without reference counting, its returned arrays would be released by
+            # this function once too often.)
+            start, end, base, tiles, bad_here = load_chunk(origins, directions, unit, width, c, scratch[0], scratch[1])
+            refused += bad_here
+            o, d = (scratch[0], scratch[1]) if unit else (origins, directions)
+            _intersect_chunk(G, X, o, d, base, spans, outputs, tiles, start, end, stacks, packets, hits)
     bad[lane] = refused
 
 
@@ -415,12 +421,13 @@ def occluded_lane(S, X, origins, directions, tmin, tmax, out, lane, lanes, unit,
     bad[lane] = refused
 
 
-def _run_lanes(kernel, args, chunks: int, lanes: int, unit: bool) -> int:
+def _run_lanes(kernel, args, shares: int, lanes: int, unit: bool) -> int:
     """kernel(*args, lane, lanes, unit, bad) on `lanes` threads (the calling one and the kept
     pool's, as a render runs its lanes: a parfor (prange) did the same and cost ~1.7 s of cold
-    compile), at most one per chunk; returns the rays the lanes refused (bad's sum)."""
+    compile), at most one per share of the work (a chunk, or an image's band); returns the rays
+    the lanes refused (bad's sum)."""
     bad = np.zeros(max(1, lanes), dtype=np.int64)
-    lanes = max(1, min(lanes, chunks))
+    lanes = max(1, min(lanes, shares))
     if lanes == 1:
         kernel(*args, 0, 1, unit, bad)
         return int(bad.sum())
@@ -476,7 +483,8 @@ def intersect_rays(
         width = 0
     chunks = chunk_count(origins.shape[0], width)
     args = (S, X, origins, directions, tmin, tmax, t_out, object_out, prim_out, instance_out, width, chunks)
-    return _run_lanes(intersect_lane, args, chunks, lanes, unit)
+    bands = chunks if width == 0 else chunks // ((width + BAND - 1) // BAND)  # what the lanes share
+    return _run_lanes(intersect_lane, args, bands, lanes, unit)
 
 
 def occluded_rays(S, X, origins, directions, tmin, tmax, out, lanes: int, unit: bool = False) -> int:
