@@ -100,6 +100,12 @@ def test_ids_and_depths_match_the_flattened_scene(scenes):
     o, d = grid_rays()
     t, obj, prim, ids = raylume.intersect(inst, o, d, instances=True)
     tf, objf, primf, idsf = raylume.intersect(flat, o, d, instances=True)
+    # the same rays as the image they are (kernels/query.py: 4 x 2 packets where the scene takes
+    # packets; the instanced one ray by ray): every array the same, stored in the image's order
+    for scene, want in ((inst, (t, obj, prim, ids)), (flat, (tf, objf, primf, idsf))):
+        image = raylume.intersect(scene, o.reshape(64, 64, 3), d.reshape(64, 64, 3), instances=True)
+        for got, expected in zip(image, want, strict=True):
+            np.testing.assert_array_equal(got.reshape(-1), expected)
     hit = np.isfinite(tf)
     assert hit.sum() > 1000 and (obj == 1).sum() > 400  # the instances and the plane are both seen
     np.testing.assert_array_equal(np.isfinite(t), hit)
