@@ -19,7 +19,7 @@ from raylume.kernels.query import (
     CHUNK,
     PACKET,
     _unit_rays,
-    chunk_count,
+    chunk_layout,
     chunk_scratch,
     grid_width,
     intersect_rays,
@@ -236,21 +236,22 @@ def test_intersect_finds_the_nearest_hit_between_tmin_and_tmax(bumpy):
 
 
 @njit
-def _image_chunks(origins, directions, width, chunks):
+def _image_chunks(origins, directions, width, shares, per_share):
     """Every chunk of an image's rays as intersect_lane loads them: (their copied origins and
     unit directions, in the order they are traced, the chunks' sizes, the bad rays counted)."""
     n = origins.shape[0]
     scratch = chunk_scratch()
     got_o, got_d = np.empty((n, 3)), np.empty((n, 3))
-    sizes = np.empty(chunks, np.int64)
+    sizes = np.empty(shares * per_share, np.int64)
     at = bad = 0
-    for c in range(chunks):
-        _, m, _, _, b = load_chunk(origins, directions, True, width, c, scratch[0], scratch[1])
-        got_o[at : at + m] = scratch[0][:m]
-        got_d[at : at + m] = scratch[1][:m]
-        sizes[c] = m
-        at += m
-        bad += b
+    for share in range(shares):
+        for segment in range(per_share):
+            _, m, _, _, b = load_chunk(origins, directions, True, width, share, segment, scratch[0], scratch[1])
+            got_o[at : at + m] = scratch[0][:m]
+            got_d[at : at + m] = scratch[1][:m]
+            sizes[share * per_share + segment] = m
+            at += m
+            bad += b
     return got_o[:at], got_d[:at], sizes, bad
 
 
@@ -267,7 +268,7 @@ def test_an_images_rays_go_in_packets_of_4_by_2(rows, width, seed):
     origins = np.stack([np.arange(n, dtype=np.float64), rng.normal(size=n), rng.normal(size=n)], axis=1)
     directions = rng.normal(size=(n, 3)) * 10.0 ** rng.uniform(-3, 3, size=(n, 1))
     directions[rng.random(n) < 0.02] = 0.0
-    got_o, got_d, sizes, bad = _image_chunks(origins, directions, width, chunk_count(n, width))
+    got_o, got_d, sizes, bad = _image_chunks(origins, directions, width, *chunk_layout(n, width))
     ids = got_o[:, 0].astype(np.int64)  # the ray each row of the chunks holds
     assert sorted(ids.tolist()) == list(range(n)) and (sizes <= CHUNK).all()
     np.testing.assert_array_equal(got_o, origins[ids])

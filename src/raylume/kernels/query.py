@@ -123,15 +123,16 @@ def store_hits(G, X, tiles, start, end, hits, outputs):
     in that order, eight streams interleaved four elements at a time, had cost ~3 ns a ray more
     than rays in rows (bumpy 10k and 40k frames as images 5-7% slower than in rows)."""
     first, rows, width, groups, rest = tiles
+    image = rows != 0
     count = groups * TILE + rest
-    if rows == 0:  # rays in their own order: one row of them
+    if not image:  # rays in their own order: one row of them
         first, rows, count = start, 1, end - start
     shift = rows + 1  # an image's whole group of rays: TILE a row, 1 << shift in all
     t_out, object_out, prim_out, instance_out = outputs
     for row in range(rows):
         for col in range(count):
             q = col  # where the ray is in the chunk
-            if tiles[1] != 0:
+            if image:
                 if col < groups * TILE:
                     q = ((col >> 2) << shift) + (row << 2) + (col & 3)
                 else:
@@ -294,12 +295,13 @@ def grid_width(shape: tuple[int, ...]) -> int:
     return shape[-1]
 
 
-def chunk_count(n: int, width: int) -> int:
-    """The chunks of n rays: of CHUNK rays in their order (width 0), or of two rows of an image of
-    rows of `width` rays, BAND of each (load_chunk)."""
+def chunk_layout(n: int, width: int) -> tuple[int, int]:
+    """How the lanes share n rays: (shares, chunks a share). Rays in their own order (width 0):
+    chunks of CHUNK, one a share; an image's, in rows of `width` (grid_width): bands of two
+    rows, each of them the chunks of BAND columns side by side (load_chunk)."""
     if width == 0:
-        return (n + CHUNK - 1) // CHUNK
-    return (n // width + 1) // 2 * ((width + BAND - 1) // BAND)
+        return (n + CHUNK - 1) // CHUNK, 1
+    return (n // width + 1) // 2, (width + BAND - 1) // BAND
 
 
 @kernel_function(_nrt=True)
@@ -312,22 +314,21 @@ def chunk_scratch():
 
 
 @kernel_function
-def load_chunk(origins, directions, unit, width, c, chunk_origins, chunk_directions):
-    """Chunk c of the rays (chunk_count) as intersect_lane traces it: returns (start, end, base,
-    tiles, bad). Its rays are start .. end - 1, ray k read at row k - base of the caller's
-    origins and directions, or with `unit` of the chunk's copy (chunk_origins ...), where
-    _unit_rays makes their directions unit vectors and counts the bad ones (bad). tiles: the
-    chunk's layout (store_hits). An image's chunk (width > 0, with `unit`) is two rows of up to
-    BAND rays, copied in packet order."""
+def load_chunk(origins, directions, unit, width, share, segment, chunk_origins, chunk_directions):
+    """Chunk `segment` of share `share` of the rays (chunk_layout) as intersect_lane traces it:
+    returns (start, end, base, tiles, bad). Its rays are start .. end - 1, ray k read at row
+    k - base of the caller's origins and directions, or with `unit` of the chunk's copy
+    (chunk_origins ...), where _unit_rays makes their directions unit vectors and counts the
+    bad ones (bad). tiles: the chunk's layout (store_hits). An image's chunk (width > 0, with
+    `unit`) is two rows of up to BAND rays, copied in packet order."""
     n = origins.shape[0]
     if width == 0:
-        start, end = c * CHUNK, min(n, (c + 1) * CHUNK)
+        start, end = share * CHUNK, min(n, (share + 1) * CHUNK)
         if not unit:
             return start, end, 0, IN_ORDER, 0
         bad = _unit_rays(origins, directions, start, end - start, 1, 0, chunk_origins, chunk_directions)
         return start, end, start, IN_ORDER, bad
-    bands = (width + BAND - 1) // BAND
-    y0, x0 = 2 * (c // bands), (c % bands) * BAND
+    y0, x0 = 2 * share, segment * BAND
     rows, x1 = min(2, n // width - y0), min(width, x0 + BAND)
     first = y0 * width + x0
     bad = _unit_rays(origins, directions, first, x1 - x0, rows, width, chunk_origins, chunk_directions)
@@ -336,14 +337,14 @@ def load_chunk(origins, directions, unit, width, c, chunk_origins, chunk_directi
 
 @roomy_njit(nogil=True, fastmath=FAST, cache=True, error_model="numpy")
 def intersect_lane(
-    S, X, origins, directions, tmin, tmax, t_out, object_out, prim_out, instance_out, width, chunks, lane, lanes, unit,
-    bad,
+    S, X, origins, directions, tmin, tmax, t_out, object_out, prim_out, instance_out, width, layout, lane, lanes,
+    unit, bad,
 ):  # fmt: skip
-    """Closest hits of lane `lane` of `lanes` between tmin and tmax (span_of): chunks lane,
-    lane + lanes, ... of the rays (chunk_count), or of an image's (width: grid_width) the
-    chunks of its bands lane, lane + lanes, ... With `unit`, directions of any length, made unit
-    vectors chunk by chunk (_unit_rays), and the rays that cannot be (or have an origin that is
-    not finite) counted in bad[lane]."""
+    """Closest hits of lane `lane` of `lanes` between tmin and tmax (span_of): the chunks of
+    shares lane, lane + lanes, ... of the rays (layout: chunk_layout(n, width); width:
+    grid_width or 0). With `unit`, directions of any length, made unit vectors chunk by chunk
+    (_unit_rays), and the rays that cannot be (or have an origin that is not finite) counted in
+    bad[lane]."""
     G = geometry_of(S)
     stacks = traversal_stacks()
     packets = packet_scratch()
@@ -355,15 +356,17 @@ def intersect_lane(
     # An image's lane takes whole bands (two rows) in turn, their chunks side by side: bumpy 4M
     # frames on 2 threads 3-4% faster than with the chunks dealt out one by one, as rays in
     # their own order are.
-    per_band = 1 if width == 0 else (width + BAND - 1) // BAND
-    for band in range(lane, chunks // per_band, lanes):
-        for c in range(band * per_band, (band + 1) * per_band):
+    shares, per_share = layout
+    for share in range(lane, shares, lanes):
+        for segment in range(per_share):
             # ray k at row k - base of o and d: the caller's arrays, or with `unit` the lane's
             # copy of the chunk (load_chunk). One call site, one signature: the traversal is
             # compiled once (a second cost ~2.5 s). (Not a helper that returns the arrays:
             # compiled without reference counting, its returned arrays would be released by
             # this function once too often.)
-            start, end, base, tiles, bad_here = load_chunk(origins, directions, unit, width, c, scratch[0], scratch[1])
+            start, end, base, tiles, bad_here = load_chunk(
+                origins, directions, unit, width, share, segment, scratch[0], scratch[1]
+            )
             refused += bad_here
             o, d = (scratch[0], scratch[1]) if unit else (origins, directions)
             _intersect_chunk(G, X, o, d, base, spans, outputs, tiles, start, end, stacks, packets, hits)
@@ -481,10 +484,9 @@ def intersect_rays(
     tmin, tmax = ray_spans(tmin, tmax, origins.shape[:1])
     if not unit or tmin.shape[0] > 1 or tmax.shape[0] > 1:
         width = 0
-    chunks = chunk_count(origins.shape[0], width)
-    args = (S, X, origins, directions, tmin, tmax, t_out, object_out, prim_out, instance_out, width, chunks)
-    bands = chunks if width == 0 else chunks // ((width + BAND - 1) // BAND)  # what the lanes share
-    return _run_lanes(intersect_lane, args, bands, lanes, unit)
+    layout = chunk_layout(origins.shape[0], width)
+    args = (S, X, origins, directions, tmin, tmax, t_out, object_out, prim_out, instance_out, width, layout)
+    return _run_lanes(intersect_lane, args, layout[0], lanes, unit)
 
 
 def occluded_rays(S, X, origins, directions, tmin, tmax, out, lanes: int, unit: bool = False) -> int:
@@ -492,4 +494,4 @@ def occluded_rays(S, X, origins, directions, tmin, tmax, out, lanes: int, unit: 
     per ray) into `out` (bool): shadow and visibility rays, each stopping at the first blocker
     found. Directions, `unit` and the returned count as intersect_rays says."""
     args = (S, X, origins, directions, *ray_spans(tmin, tmax, origins.shape[:1]), out)
-    return _run_lanes(occluded_lane, args, chunk_count(origins.shape[0], 0), lanes, unit)
+    return _run_lanes(occluded_lane, args, chunk_layout(origins.shape[0], 0)[0], lanes, unit)
