@@ -66,3 +66,50 @@ def test_left_handed_frame_for_arbitrary_camera():
     # looking down -z with y up, +x appears on the left (DESIGN.md)
     _, d_left = _ray((0, 0, 0), (0, 0, -1), (0, 1, 0), 60, 64, 64, 0, 32)
     assert d_left[0] > 0
+
+
+# --- raylume.camera_rays: the same rays for the caller's own queries ---------------------------
+
+
+def test_camera_rays_are_designs_rays_shaped_as_the_image():
+    """Every pixel's ray by DESIGN.md's formula, written out in plain Python for each pixel."""
+    import raylume
+
+    pos, look, up, fov, W, H = (1.0, 2.0, 3.0), (4.0, 0.0, -1.0), (0.0, 1.0, 0.2), 60.0, 7, 5
+    origins, directions = raylume.camera_rays(raylume.Camera(position=pos, look_at=look, up=up, fov=fov), W, H)
+    assert origins.shape == directions.shape == (H, W, 3)
+    assert origins.dtype == directions.dtype == np.float64
+
+    def unit(v):
+        n = math.sqrt(sum(c * c for c in v))
+        return [c / n for c in v]
+
+    f = unit([b - a for a, b in zip(pos, look)])
+    r = unit([up[1] * f[2] - up[2] * f[1], up[2] * f[0] - up[0] * f[2], up[0] * f[1] - up[1] * f[0]])
+    u = [f[1] * r[2] - f[2] * r[1], f[2] * r[0] - f[0] * r[2], f[0] * r[1] - f[1] * r[0]]
+    h = math.tan(math.radians(fov) / 2)
+    w = h * W / H
+    for j in range(H):
+        for i in range(W):
+            a = (i + 0.5) / W * 2 - 1
+            b = 1 - (j + 0.5) / H * 2
+            expected = unit([f[k] + r[k] * a * w + u[k] * b * h for k in range(3)])
+            np.testing.assert_allclose(directions[j, i], expected, rtol=0, atol=1e-15)
+            assert tuple(origins[j, i]) == pos
+
+
+def test_camera_rays_take_a_scenes_camera_and_size_and_refuse_what_is_not_an_image():
+    import raylume
+
+    scene = raylume.scene_from_dict({"render": {"width": 12, "height": 9}, "camera": {"position": [0, 1, -4]}})
+    origins, directions = raylume.camera_rays(scene)
+    assert directions.shape == (9, 12, 3)
+    np.testing.assert_array_equal(directions, raylume.camera_rays(scene.camera, 12, 9)[1])
+    assert raylume.camera_rays(scene, 4, 3)[1].shape == (3, 4, 3)  # the arguments win
+    with pytest.raises(TypeError, match="width and height"):
+        raylume.camera_rays(scene.camera)
+    with pytest.raises(TypeError, match="Camera or raylume.Scene"):
+        raylume.camera_rays({"position": [0, 0, 0]}, 4, 4)
+    for bad in (0, -3, 2.5, True):
+        with pytest.raises(ValueError, match="width"):
+            raylume.camera_rays(scene, bad, 4)

@@ -343,3 +343,20 @@ def test_an_images_rays_find_what_single_rays_find(bumpy, threads, rows, width):
                 raylume.intersect(bumpy, o, bad)
     finally:
         numba.set_num_threads(previous)
+
+
+@pytest.mark.parametrize("example", ["seed.toml", "meshes.toml"])
+def test_camera_rays_find_what_a_cast_render_sees(example):
+    """raylume.camera_rays through raylume.intersect (an image: 4 x 2 packets) against the AOVs
+    of a one-sample cast render, which makes its rays in its own kernels: the same object and
+    primitive at every pixel, and the same distance to float32 (the AOV's precision)."""
+    from pathlib import Path
+
+    scene = raylume.load_scene(Path(__file__).parents[1] / "examples" / example)
+    image = raylume.render(scene, width=64, height=48, spp=1, mode="cast")
+    t, obj, prim = raylume.intersect(scene, *raylume.camera_rays(scene, 64, 48))
+    assert t.shape == (48, 64)
+    np.testing.assert_array_equal(obj, image.aovs["object"])
+    np.testing.assert_array_equal(prim, image.aovs["prim"])
+    assert 0 < np.isfinite(t).sum() < t.size  # something hit, something missed
+    np.testing.assert_allclose(t.astype(np.float32), image.aovs["depth"], rtol=2.0**-23, atol=0)

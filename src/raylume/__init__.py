@@ -30,6 +30,7 @@ _HOMES = {
     "Session": ".session",
     "builtin_names": ".scene.builtin",
     "builtin_scene": ".scene.builtin",
+    "camera_rays": ".query",
     "intersect": ".query",
     "load_scene": ".scene.load",
     "occluded": ".query",
@@ -60,7 +61,7 @@ def __dir__() -> list[str]:
 if TYPE_CHECKING:
     from .image import Image
     from .kernels.film import Film
-    from .query import intersect, occluded
+    from .query import camera_rays, intersect, occluded
     from .scene.builtin import builtin_names, builtin_scene
     from .scene.checks import SceneWarning
     from .scene.load import load_scene, scene_from_dict
@@ -79,6 +80,7 @@ __all__ = [
     "Session",
     "builtin_names",
     "builtin_scene",
+    "camera_rays",
     "intersect",
     "load_scene",
     "occluded",
