@@ -7,7 +7,8 @@ the frame), the same lights, the same camera, the same thread count. For each si
 `mode="cast"` (one primary ray per pixel through the BVH), using each image's
 stats["render_seconds"]: the kernels alone, without loading the mesh, building the BVH or
 compiling. Medians of --repeats frames. Prints a table and the crossover, the triangle count
-beyond which ray casting is faster than rasterization, and draws a log-log plot.
+beyond which ray casting is faster than rasterization, and draws a log-log plot (the README's
+with the default sizes; with --sizes or --quick only where --plot says).
 
     python benchmarks/bench_scaling.py [--sizes 1000,10000,...] [--quick] [--width 1024]
         [--height 1024] [--repeats 5] [--threads N] [--threading-layer workqueue]
@@ -153,8 +154,15 @@ def main() -> None:
         "other busy processes, OpenMP's spinning barriers can stall a frame by a "
         "time slice; 'workqueue' does not",
     )
-    parser.add_argument("--plot", default=str(REPO / "docs" / "images" / "scaling.png"), help="PNG path")
+    parser.add_argument(
+        "--plot",
+        default=None,
+        help="PNG path (default: docs/images/scaling.png, the README's, for the default sizes only: "
+        "a run of chosen sizes does not replace it)",
+    )
     args = parser.parse_args()
+    if args.plot is None and not (args.sizes or args.quick):
+        args.plot = str(REPO / "docs" / "images" / "scaling.png")
     if args.threading_layer:
         import numba
 
