@@ -17,7 +17,6 @@ around by reference.
 import math
 
 import numpy as np
-from numba import njit
 
 from .vec import kernel_function
 
@@ -55,12 +54,13 @@ def sample_key(seed, pixel, sample):
     return mix64(key + np.uint64(sample) * _GOLDEN)
 
 
-# Explicit signatures here and on light_sample: a literal event 0 at one call site would be a
-# second compilation.
-@njit("uint64(uint64, uint64, int64)", cache=True, error_model="numpy", _nrt=False)
+# Compiled on first use like the other samplers (a kernel_function takes a literal event 0 as
+# any int64): explicit signatures here and on light_sample had compiled both at the import of
+# this module, which every kernel imports, 0.24 s of every cold start's compile.
+@kernel_function(error_model="numpy", _nrt=False)
 def dimension_key(key, dim, event):
     """The key of dimension `dim` of a camera sample, for its `event`-th use along the path."""
-    return mix64((key ^ dim) + np.uint64(event) * _GOLDEN)
+    return mix64((np.uint64(key) ^ dim) + np.uint64(event) * _GOLDEN)  # the types the signature gave
 
 
 @kernel_function(error_model="numpy", _nrt=False)
@@ -119,7 +119,7 @@ def lens_sample(key, sample, spp):
     return stratum(s, spp, jx, jy)
 
 
-@njit("UniTuple(float64, 2)(uint64, int64, int64, int64, int64)", cache=True, error_model="numpy", _nrt=False)
+@kernel_function(error_model="numpy", _nrt=False)
 def light_sample(key, event, light, s, count):
     """Stratified point s of `count` in [0, 1)^2 on light `light`, at the `event`-th surface the
     camera sample shades (dimension LIGHT)."""
