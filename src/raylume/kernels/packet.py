@@ -439,8 +439,10 @@ def scene_extent(G):
     b = G.node_bounds
     e = 0.0
     for c in range(BVH_WIDTH):
-        if b[0, 0, c] <= b[0, 3, c]:
-            e = max(e, float(b[0, 3, c] - b[0, 0, c]), float(b[0, 4, c] - b[0, 1, c]), float(b[0, 5, c] - b[0, 2, c]))
+        if b[0, 0, c] <= b[0, 3, c]:  # not an empty lane
+            for k in range(3):
+                side = np.float64(b[0, 3 + k, c] - b[0, k, c])
+                e = side if side > e else e  # not max(): its overload for these types compiles apart
     return e
 
 
