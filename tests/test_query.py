@@ -4,6 +4,8 @@ trace refused; occlusion between tmin and tmax against closest hits and the sing
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numba
 import numpy as np
 import pytest
@@ -350,8 +352,6 @@ def test_camera_rays_find_what_a_cast_render_sees(example):
     """raylume.camera_rays through raylume.intersect (an image: 4 x 2 packets) against the AOVs
     of a one-sample cast render, which makes its rays in its own kernels: the same object and
     primitive at every pixel, and the same distance to float32 (the AOV's precision)."""
-    from pathlib import Path
-
     scene = raylume.load_scene(Path(__file__).parents[1] / "examples" / example)
     image = raylume.render(scene, width=64, height=48, spp=1, mode="cast")
     t, obj, prim = raylume.intersect(scene, *raylume.camera_rays(scene, 64, 48))
