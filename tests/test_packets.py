@@ -689,9 +689,8 @@ def _assert_shadow_packets_block_what_any_hit_blocks(S, points, ldirs, tmax, nee
 @PACKET_WORKER
 def test_large_meshes_hit_alike_with_their_neighbours_prefetched(tmp_path):
     """From NEIGHBOURS_FROM triangles on, the traversals also prefetch the triangle rows beside
-    each leaf they test (traverse.prefetch_neighbours), and packets the node records beside each
-    node they visit (hints, which at the tables' first and last rows reach beyond their ends,
-    the root's record before the first): no answer changes. Packets, single rays and the brute
+    each leaf they test (traverse.prefetch_neighbours: a hint, which at the table's first and
+    last leaves reaches beyond its ends): no answer changes. Packets, single rays and the brute
     force agree on the camera rays, and shadow packets on what any_hit blocks."""
     v, f = bumpy_sphere(300_000)
     S = _compiled_mesh(tmp_path, v, f).kernel

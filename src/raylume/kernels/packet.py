@@ -65,15 +65,12 @@ from .traverse import (
     _NEAR_SCALE,
     _ORIGIN_PAD,
     BVH_WIDTH,
-    NEIGHBOURS_FROM,
-    NODE_LINES,
     TRAVERSAL_STACK,
     _root_is_a_leaf,
     _unbounded_hit,
     block_row,
     intersect_leaf,
     lowest_bit,
-    prefetch_around,
     prefetch_child_rows,
     prefetch_neighbours,
     prefetch_row,
@@ -786,12 +783,6 @@ def packet_closest(G, X, root, rows, axes, active, box, lane, prim, node_stack, 
     while mask != 0:
         if ref >= 0:
             prefetch_child_rows(index, ref)
-            if tri.shape[0] >= NEIGHBOURS_FROM:
-                # the records on either side of this node's, its siblings, as prefetch_neighbours
-                # takes a leaf's: the next packets of the frame reach them (bumpy 4M frames and
-                # hit rays ~2% faster, 3 of 3 alternating rounds; one record each side beat a
-                # half and two)
-                prefetch_around(bounds, ref, ref + 1, NODE_LINES)
             masks = packet_node(bounds, ref, box, rows, lane, mask, t_stack, top)
             k = 0
             for c in range(BVH_WIDTH):

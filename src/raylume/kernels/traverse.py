@@ -69,7 +69,6 @@ _LINE = 64  # bytes in a cache line
 # from which they are prefetched
 NEIGHBOUR_LINES = 4
 NEIGHBOURS_FROM = 1 << 18
-NODE_LINES = NODE_ROWS * BVH_WIDTH * 4 // _LINE  # a node record's lines (packet.packet_closest)
 
 
 def stack_needed(depth: int) -> int:
