@@ -35,18 +35,12 @@ from raylume.scene.procedural import bumpy_sphere
 
 
 def camera_rays(center, radius, size):
-    """DESIGN.md camera 2.4 radii in front of the mesh, looking at its centre, pixel centres."""
-    from raylume.kernels.camera import camera_frame
-
+    """DESIGN.md camera 2.4 radii in front of the mesh, looking at its centre, pixel centres:
+    raylume.camera_rays' rays, as (N, 3) rows in pixel order."""
     position = center - np.array([0.0, 0.0, 2.4 * radius])
-    cam = camera_frame(position, center, (0, 1, 0), 53.13, size, size)
-    i, j = np.meshgrid(np.arange(size) + 0.5, np.arange(size) + 0.5)
-    a = (i / size * 2 - 1).reshape(-1, 1)
-    b = (1 - j / size * 2).reshape(-1, 1)
-    d = cam[3:6] + a * cam[6:9] + b * cam[9:12]
-    d /= np.linalg.norm(d, axis=1, keepdims=True)
-    o = np.broadcast_to(position, d.shape).copy()
-    return o, d
+    camera = raylume.Camera(position=tuple(position), look_at=tuple(center), fov=53.13)
+    o, d = raylume.camera_rays(camera, size, size)
+    return o.reshape(-1, 3), d.reshape(-1, 3)
 
 
 def meshes(quick: bool):
