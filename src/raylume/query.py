@@ -27,12 +27,13 @@ def camera_rays(
 
     Shaped as their image, they go to intersect as they are, which traces them in 4 x 2 pixel
     packets: faster on large meshes than the same rays reshaped to (N, 3)."""
-    camera = view.camera if isinstance(view, Scene) else view
-    if not isinstance(camera, Camera):
-        raise TypeError(f"camera_rays takes a raylume.Camera or raylume.Scene, not {type(view).__name__}")
+    camera = view
     if isinstance(view, Scene):
+        camera = view.camera
         width = view.render.width if width is None else width
         height = view.render.height if height is None else height
+    if not isinstance(camera, Camera):
+        raise TypeError(f"camera_rays takes a raylume.Camera or raylume.Scene, not {type(view).__name__}")
     if width is None or height is None:
         raise TypeError("camera_rays: width and height are needed with a Camera")
     for name, n in (("width", width), ("height", height)):
