@@ -28,8 +28,8 @@ from common import SHARED_MODELS, machine, median_of, table
 
 import raylume
 from raylume.compile import compile_scene
-from raylume.kernels.query import intersect_rays
-from raylume.kernels.shapes import features
+from raylume.kernels.variants import features
+from raylume.query_lanes import intersect_rays
 from raylume.scene.mesh import load_mesh
 from raylume.scene.procedural import bumpy_sphere
 

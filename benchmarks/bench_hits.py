@@ -36,11 +36,12 @@ from bench_bvh import camera_rays, raylume_scene
 from common import SHARED_MODELS, machine, table
 
 import raylume
-from raylume.kernels.query import CHUNK, intersect_rays, intersect_singly
+from raylume.kernels.geometry.query import CHUNK, intersect_singly
+from raylume.kernels.geometry.wide_nodes import traversal_stacks
 from raylume.kernels.scene import geometry_of
-from raylume.kernels.shapes import features
-from raylume.kernels.traverse import traversal_stacks
+from raylume.kernels.variants import features
 from raylume.kernels.vec import kernel_function
+from raylume.query_lanes import intersect_rays
 from raylume.scene.mesh import load_mesh
 from raylume.scene.procedural import bumpy_sphere
 

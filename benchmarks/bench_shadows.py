@@ -25,11 +25,13 @@ import numpy as np
 from bench_hits import DEFAULT, _trace, cpu_seconds, frame_rays, mesh
 from common import SHARED_MODELS, machine, table
 
-from raylume.kernels.query import CHUNK, occluded_rays
+from raylume.kernels.geometry.query import CHUNK
+from raylume.kernels.geometry.traverse import any_hit
+from raylume.kernels.geometry.wide_nodes import traversal_stacks
 from raylume.kernels.scene import geometry_of
-from raylume.kernels.shapes import features
-from raylume.kernels.traverse import any_hit, traversal_stacks
+from raylume.kernels.variants import features
 from raylume.kernels.vec import kernel_function
+from raylume.query_lanes import occluded_rays
 
 
 def shadow_rays(vertices, faces, size):

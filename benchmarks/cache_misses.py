@@ -33,10 +33,10 @@ from bench_hits import frame_rays, mesh
 from common import table
 
 from raylume.accel.wide import NODE_COUNT, NODE_FIRST, NODE_ROWS
-from raylume.kernels import traverse
+from raylume.kernels.geometry import traverse
+from raylume.kernels.geometry.shape_triangle import ray_shear
+from raylume.kernels.geometry.wide_nodes import _LANE_SHIFT, BVH_WIDTH
 from raylume.kernels.scene import geometry_of
-from raylume.kernels.shape_triangle import ray_shear
-from raylume.kernels.traverse import _LANE_SHIFT, BVH_WIDTH
 
 NODE, LEAF = 0, 1
 CACHES_KB = (512, 4096, 32768)  # this VM's L2 a core, and two L3 sizes

@@ -1,4 +1,4 @@
-"""The path tracer's BSDFs (kernels/bsdf.py) against independent checks: chi-square tests of
+"""The path tracer's BSDFs (kernels/shading/materials/) against independent checks: chi-square tests of
 bsdf_sample's directions against bsdf_eval's density (what pbrt's and Mitsuba's BSDF test
 suites do), sample weights against f |cos| / pdf, reciprocity, energy (albedo) bounds and
 closed forms (Fresnel equations written here with complex numbers, Snell's law, Lambert),
@@ -12,12 +12,8 @@ import pytest
 from numba import njit
 from scipy import stats
 
-from raylume.kernels import bsdf
-from raylume.kernels.bsdf import bsdf_eval, bsdf_sample, coat_terms, fresnel_conductor, fresnel_diffuse_reflectance
-from raylume.kernels.materials import (
-    CONDUCTOR,
-    DIELECTRIC,
-    DIFFUSE,
+from raylume.kernels.shading.materials import (
+    BY_NAME,
     MAT_COLOR,
     MAT_ETA,
     MAT_HAS_ETA,
@@ -29,8 +25,15 @@ from raylume.kernels.materials import (
     MAT_SPECULAR,
     MAT_TRANSPARENCY,
     MAT_WIDTH,
-    PHONG,
-    PLASTIC,
+    bsdf_eval,
+    bsdf_sample,
+)
+from raylume.kernels.shading.materials import coating as bsdf
+from raylume.kernels.shading.materials.coating import coat_terms, fresnel_diffuse_reflectance
+from raylume.kernels.shading.materials.conductor import fresnel_conductor
+
+PHONG, DIFFUSE, CONDUCTOR, DIELECTRIC, PLASTIC = (
+    BY_NAME[name].KIND for name in ("phong", "diffuse", "conductor", "dielectric", "plastic")
 )
 
 # The checks below share njit helpers (cached, but compiled on a fresh machine): one xdist worker

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from raylume.kernels.camera import camera_frame, camera_ray
+from raylume.kernels.film.camera import camera_frame, camera_ray
 
 
 def _ray(pos, look, up, fov, W, H, i, j):

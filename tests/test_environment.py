@@ -14,16 +14,13 @@ import pytest
 from numba import njit
 from scipy import stats
 
+from raylume.environment_file import MAX_TEXELS, build_environment, load_environment_image, rgbe_decode
 from raylume.errors import SceneError
 from raylume.image import rgbe_encode, save_array
-from raylume.kernels.environment import (
-    MAX_TEXELS,
-    build_environment,
+from raylume.kernels.shading.environment import (
     environment_pdf,
     environment_radiance,
-    load_environment_image,
     no_environment,
-    rgbe_decode,
     sample_environment,
 )
 from raylume.scene.mesh import transform_matrix

@@ -7,8 +7,9 @@ import numpy as np
 import pytest
 
 import raylume
-from raylume.kernels.camera import camera_frame, camera_ray
-from raylume.kernels.environment import build_environment, environment_radiance
+from raylume.environment_file import build_environment
+from raylume.kernels.film.camera import camera_frame, camera_ray
+from raylume.kernels.shading.environment import environment_radiance
 
 W, H = 24, 16
 CAMERA = {"position": [0, 0, -3], "look_at": [0, 0.5, 0], "fov": 70}

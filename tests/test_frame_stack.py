@@ -8,7 +8,7 @@ import types
 
 import pytest
 
-from raylume.frame_stack import on_roomy_frame_stack, roomy_frame_stack
+from raylume.kernels.frame_stack import on_roomy_frame_stack, roomy_frame_stack
 
 resource = pytest.importorskip("resource")
 

@@ -9,9 +9,9 @@ import pytest
 from hypothesis import assume, example, given, settings
 from hypothesis import strategies as st
 
-from raylume.kernels.shape_plane import intersect_plane
-from raylume.kernels.shape_sphere import intersect_sphere
-from raylume.kernels.traverse import BVH_WIDTH, INF, box_entries
+from raylume.kernels.geometry.shape_plane import intersect_plane
+from raylume.kernels.geometry.shape_sphere import intersect_sphere
+from raylume.kernels.geometry.wide_nodes import BVH_WIDTH, INF, box_entries
 
 O = (0.0, 0.0, 0.0)
 Z = (0.0, 0.0, 1.0)

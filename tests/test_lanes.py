@@ -13,7 +13,7 @@ import pytest
 
 import raylume
 from raylume import lanes
-from raylume.kernels.frame import AOV_ROWS, CONTROL_SIZE, PASS_ROWS, STOP, claim_row
+from raylume.kernels.integrators.frame import AOV_ROWS, CONTROL_SIZE, PASS_ROWS, STOP, claim_row
 
 
 def _lane_threads() -> set[int]:

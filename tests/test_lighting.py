@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import raylume
-from raylume.kernels.materials import highlight
+from raylume.kernels.shading.materials.seed_response import highlight
 
 
 def centre_pixel(objects, lights, materials=None, max_depth=3, background=(0, 0, 0), mode="trace"):

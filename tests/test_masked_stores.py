@@ -17,7 +17,8 @@ import pytest
 from numba import typeof
 from test_packets import PACKET_WORKER, _camera_rays, _compiled_mesh, _packets
 
-from raylume.kernels import wavefront, wavefront_spheres
+from raylume.kernels.geometry import wavefront_spheres
+from raylume.kernels.integrators import wavefront
 from raylume.scene.procedural import bumpy_sphere
 
 # AT&T order: source register, mask register, memory destination (the load form starts with

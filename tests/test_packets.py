@@ -14,8 +14,8 @@ from numba import njit
 
 import raylume
 from raylume.compile import compile_scene
-from raylume.kernels.camera import camera_frame
-from raylume.kernels.packet import (
+from raylume.kernels.film.camera import camera_frame
+from raylume.kernels.geometry.packet import (
     PACKET,
     packet_blocked,
     packet_closest,
@@ -28,12 +28,14 @@ from raylume.kernels.packet import (
     root_box,
     scene_extent,
 )
-from raylume.kernels.query import CHUNK, intersect_rays
+from raylume.kernels.geometry.query import CHUNK
+from raylume.kernels.geometry.shape_triangle import INF, intersect_triangle, ray_shear
+from raylume.kernels.geometry.traverse import any_hit, closest_hit
+from raylume.kernels.geometry.wide_nodes import NEIGHBOURS_FROM, TRAVERSAL_STACK, box_ray
 from raylume.kernels.scene import geometry_of
-from raylume.kernels.shape_triangle import INF, intersect_triangle, ray_shear
-from raylume.kernels.shapes import features
-from raylume.kernels.traverse import NEIGHBOURS_FROM, TRAVERSAL_STACK, any_hit, box_ray, closest_hit
+from raylume.kernels.variants import features
 from raylume.kernels.vec import FAST
+from raylume.query_lanes import intersect_rays
 from raylume.scene.procedural import bumpy_sphere
 
 # compiled in the test process; the tests that call them share one xdist worker
@@ -542,7 +544,7 @@ def test_intersect_ignores_materials_and_lights_in_choosing_its_kernels(tmp_path
     """raylume.intersect on a mesh of glass under an area light (the render kernels' full
     variant): the basic variant with its packets, since a hit depends on neither, and the same
     hits as the opaque mesh's."""
-    from raylume.kernels.shapes import features, geometry_features
+    from raylume.kernels.variants import features, geometry_features
 
     v, f = bumpy_sphere(5000)
     trimesh.Trimesh(v, f, process=False).export(tmp_path / "m.ply")
@@ -581,7 +583,7 @@ def test_intersect_takes_packets_beside_planes_and_other_shapes(tmp_path):
             ]
         }
     )
-    from raylume.kernels.shapes import geometry_features
+    from raylume.kernels.variants import geometry_features
 
     S = compile_scene(scene).kernel
     X = geometry_features(S)

@@ -88,7 +88,7 @@ def test_pbrt_analytic_scenes_inside_a_diffuse_sphere(case):
 
 def _four_lights_direct(img) -> np.ndarray:
     """The direct radiance per pixel of the four-lights scene (pixel centres, pinhole)."""
-    from raylume.kernels.camera import camera_frame, camera_ray
+    from raylume.kernels.film.camera import camera_frame, camera_ray
 
     cam = camera_frame((0, 0, 0), (0, 0, 1), (0, 1, 0), 60, SIDE, SIDE)
     out = np.zeros((SIDE, SIDE))
@@ -252,7 +252,7 @@ def test_spot_light_lights_only_its_cone():
     depth = img.aovs["depth"]
     hit = np.isfinite(depth)
     # the floor point of each pixel, from the depth along the pinhole ray
-    from raylume.kernels.camera import camera_frame, camera_ray
+    from raylume.kernels.film.camera import camera_frame, camera_ray
 
     cam = camera_frame((0, 6, -0.001), (0, 0, 0), (0, 1, 0), 60, SIDE, SIDE)
     radius = np.zeros((SIDE, SIDE))
@@ -318,7 +318,7 @@ intensity = 6
         "--stats", "s.json", cwd=tmp_path,
     )  # fmt: skip
     assert result.returncode == 0, result.stderr
-    from raylume.kernels.environment import load_environment_image
+    from raylume.environment_file import load_environment_image
 
     denoised = load_environment_image(tmp_path / "out.exr")
     noisy = np.load(tmp_path / "noisy.npy")

@@ -14,7 +14,7 @@ from PIL import Image as PILImage
 import raylume
 from raylume.errors import SceneError
 from raylume.image import Image, rgbe_encode
-from raylume.kernels.film import FILTER_TABLE_SIZE
+from raylume.kernels.film.film import FILTER_TABLE_SIZE
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -127,7 +127,7 @@ def test_filters_keep_flat_colour_and_are_deterministic():
 
 
 def test_gaussian_filter_table_is_the_truncated_gaussian_inverse_cdf():
-    from raylume.kernels.film import filter_table
+    from raylume.kernels.film.film import filter_table
 
     radius, sigma = 1.5, 0.5
     edge = math.exp(-(radius**2) / (2 * sigma**2))
@@ -240,7 +240,7 @@ def _srgb_to_linear(x):
 
 
 def test_texture_lookup_returns_texels_at_centres_and_blends_between():
-    from raylume.kernels.textures import texture_lookup
+    from raylume.kernels.shading.textures import texture_lookup
 
     rng = np.random.default_rng(1)
     w, h = 5, 3
@@ -311,8 +311,9 @@ material = { texture = { type = "image", file = "tex.png" } }
 
 def test_sphere_and_plane_uvs():
     from raylume.compile import compile_scene
+    from raylume.kernels.geometry.shapes import uv
     from raylume.kernels.scene import geometry_of
-    from raylume.kernels.shapes import features, uv
+    from raylume.kernels.variants import features
 
     s = scene(
         objects=[
@@ -556,7 +557,7 @@ _FLOATS = st.floats(min_value=-1e6, max_value=1e6, allow_nan=False)
 @settings(max_examples=300, deadline=None)
 @given(u=_FLOATS | st.just(float("nan")), v=_FLOATS, w=st.integers(1, 5), h=st.integers(1, 5))
 def test_texture_lookup_is_a_convex_blend_of_texels(u, v, w, h):
-    from raylume.kernels.textures import texture_lookup
+    from raylume.kernels.shading.textures import texture_lookup
 
     texels = np.random.default_rng(w * 7 + h).random((w * h, 3)).astype(np.float32)
     got = np.array(texture_lookup(texels, 0, w, h, u, v))
@@ -567,7 +568,7 @@ def test_texture_lookup_is_a_convex_blend_of_texels(u, v, w, h):
 @settings(max_examples=300, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1), pixel=st.integers(0, 2**40), n=st.integers(1, 4096), data=st.data())
 def test_samples_stay_in_the_unit_square_and_lens_strata_are_a_permutation(seed, pixel, n, data):
-    from raylume.kernels.sampler import concentric_disk, lens_sample, permute, sample_key, stratified_key
+    from raylume.kernels.film.sampler import concentric_disk, lens_sample, permute, sample_key, stratified_key
 
     s = data.draw(st.integers(0, n - 1))
     key = np.uint64(sample_key(seed, pixel, s))  # back from Python as an int, which may not fit int64
@@ -591,7 +592,7 @@ def test_film_image_is_the_weighted_mean_of_its_sums(pixel_filter):
     """Film.rgb against its definition written in numpy: each pixel's weighted mean (weights
     below 0.5 count as 1), the plain mean of the samples where a negative-lobed filter's
     weights cancel, negative values clipped to 0; NaN kept, -0.0 as 0.0."""
-    from raylume.kernels.film import FILM_ABS_RGB, FILM_COUNT, FILM_RGB, FILM_WEIGHT, FILM_WIDTH, Film
+    from raylume.kernels.film.film import FILM_ABS_RGB, FILM_COUNT, FILM_RGB, FILM_WEIGHT, FILM_WIDTH, Film
 
     rng = np.random.default_rng(3)
     film = Film(37, 23, pixel_filter, total_spp=8)

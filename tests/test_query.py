@@ -17,19 +17,20 @@ from test_packets import _any_hits  # the single-ray answers, ray by ray
 
 import raylume
 from raylume.compile import compile_scene
-from raylume.kernels.query import (
+from raylume.kernels.geometry.query import (
     CHUNK,
     PACKET,
     _unit_rays,
     chunk_layout,
     chunk_scratch,
     grid_width,
-    intersect_rays,
     load_chunk,
 )
+from raylume.kernels.geometry.traverse import closest_hit
+from raylume.kernels.geometry.wide_nodes import TRAVERSAL_STACK
 from raylume.kernels.scene import geometry_of
-from raylume.kernels.shapes import geometry_features
-from raylume.kernels.traverse import TRAVERSAL_STACK, closest_hit
+from raylume.kernels.variants import geometry_features
+from raylume.query_lanes import intersect_rays
 from raylume.scene.procedural import bumpy_sphere
 
 

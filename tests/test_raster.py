@@ -19,9 +19,9 @@ from hypothesis import strategies as st
 from scipy.ndimage import binary_dilation, binary_fill_holes
 
 import raylume
-from raylume.kernels.camera import camera_of
-from raylume.kernels.raster_kernel import coverage_count, view_matrix
-from raylume.kernels.shape_sphere import sphere_cap
+from raylume.kernels.film.camera import camera_of
+from raylume.kernels.geometry.shape_sphere import sphere_cap
+from raylume.kernels.raster.raster_kernel import coverage_count, view_matrix
 from raylume.scene.procedural import bumpy_sphere
 
 LIGHTS = [

@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import raylume
-from raylume.kernels.optics import fresnel_dielectric, reflect, refract
+from raylume.kernels.shading.optics import fresnel_dielectric, reflect, refract
 
 
 def _refract_at(theta_i, n1, n2):

@@ -13,8 +13,9 @@ import pytest
 
 import raylume
 from raylume.compile import compile_scene
+from raylume.kernels.geometry.shapes import normals, uv
 from raylume.kernels.scene import geometry_of
-from raylume.kernels.shapes import features, normals, uv
+from raylume.kernels.variants import features
 
 RNG = np.random.default_rng(20261128)
 
@@ -150,8 +151,8 @@ def test_normals_and_uvs_of_the_new_shapes():
 def test_bounds_are_tight_boxes_of_the_shapes():
     """Points on the rims (disk, cylinder) or the corners (quad) lie inside the box and reach
     each of its faces."""
-    from raylume.kernels import shape_cylinder, shape_disk, shape_quad
-    from raylume.kernels.shapes import ANALYTIC, Shape
+    from raylume.kernels.geometry import shape_cylinder, shape_disk, shape_quad
+    from raylume.kernels.geometry.shapes import ANALYTIC, Shape
 
     for obj in [
         {"type": "disk", "center": [1, 2, 3], "normal": [1, 2, 2], "radius": 1.5},
@@ -289,7 +290,7 @@ def test_degenerate_shapes_are_refused_naming_the_key(obj, key):
 
 SRC = Path(raylume.__file__).parent
 # docs/architecture.md, "Adding a shape": its module, the switches, the model and compile's registry.
-PLACES = {"kernels/shapes.py", "scene/model.py", "compile.py"}
+PLACES = {"kernels/geometry/shapes.py", "scene/model.py", "compile.py"}
 
 
 @pytest.mark.parametrize("name, model", [("disk", "Disk"), ("quad", "Quad"), ("cylinder", "Cylinder")])
@@ -297,9 +298,9 @@ def test_a_shape_lives_in_its_module_and_the_documented_registries(name, model):
     pattern = re.compile(rf"\bshape_{name}\b|\b{model}\b")
     touched = {str(p.relative_to(SRC)) for p in SRC.rglob("*.py") if pattern.search(p.read_text())}
     # other shape modules may reuse its helpers (the cylinder draws its caps as disks)
-    touched = {p for p in touched if not re.fullmatch(r"kernels/shape_\w+\.py", p)}
+    touched = {p for p in touched if not re.fullmatch(r"kernels/geometry/shape_\w+\.py", p)}
     assert touched <= PLACES, touched - PLACES
-    assert (SRC / "kernels" / f"shape_{name}.py").exists()
+    assert (SRC / "kernels" / "geometry" / f"shape_{name}.py").exists()
     doc = (SRC.parents[1] / "docs" / "architecture.md").read_text()
     for place in PLACES:
         assert place in doc

@@ -10,7 +10,7 @@ from numba import njit
 import raylume
 from raylume.accel.wide import NODE_COUNT, SPHERE_BLOCK
 from raylume.compile import compile_scene
-from raylume.kernels.shape_sphere import intersect_sphere, intersect_spheres
+from raylume.kernels.geometry.shape_sphere import intersect_sphere, intersect_spheres
 from raylume.kernels.vec import FAST
 
 

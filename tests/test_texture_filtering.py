@@ -10,7 +10,7 @@ from PIL import Image as PILImage
 
 import raylume
 from raylume.compile import mip_levels
-from raylume.kernels.textures import TEX_CELL, TEX_COLOR_A, TEX_COLOR_B, TEX_WIDTH, filtered_checker, mip_lookup
+from raylume.kernels.shading.textures import TEX_CELL, TEX_COLOR_A, TEX_COLOR_B, TEX_WIDTH, filtered_checker, mip_lookup
 
 A = (0.9, 0.8, 0.7)
 B = (0.1, 0.2, 0.3)

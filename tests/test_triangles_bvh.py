@@ -14,10 +14,11 @@ from numba import njit
 import raylume
 from raylume.accel.wide import NODE_COUNT, NODE_FIRST, NODE_ROWS
 from raylume.compile import compile_scene
+from raylume.kernels.geometry.shape_triangle import INF, intersect_triangle, ray_shear
+from raylume.kernels.geometry.shapes import PRIM_FACE, PRIM_KIND, TRIANGLE
+from raylume.kernels.geometry.traverse import any_hit, closest_hit
+from raylume.kernels.geometry.wide_nodes import BVH_WIDTH, TRAVERSAL_STACK
 from raylume.kernels.scene import geometry_of
-from raylume.kernels.shape_triangle import INF, intersect_triangle, ray_shear
-from raylume.kernels.shapes import PRIM_FACE, PRIM_KIND, TRIANGLE
-from raylume.kernels.traverse import BVH_WIDTH, TRAVERSAL_STACK, any_hit, closest_hit
 from raylume.scene.procedural import bumpy_sphere
 
 
@@ -493,7 +494,7 @@ def test_four_triangles_at_once_equal_the_scalar_test_to_the_bit():
     """intersect_triangles (BVH leaves of 2-4 triangles, one vector test) gives the scalar
     test's nearest hit row by row: the same t, lane and barycentrics to the last bit, the
     first row on ties; degenerate rows and rays through shared edges and vertices included."""
-    from raylume.kernels.shape_triangle import intersect_triangles
+    from raylume.kernels.geometry.shape_triangle import intersect_triangles
 
     rng = np.random.default_rng(4)
     tris = rng.uniform(-1, 1, size=(400, 9)).astype(np.float32)

@@ -15,7 +15,7 @@ import pytest
 import raylume
 from raylume.errors import SceneError
 from raylume.image import encode_8bit
-from raylume.kernels.film import Film
+from raylume.kernels.film.film import Film
 from raylume.viewer import renderer as vr
 
 

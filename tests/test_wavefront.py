@@ -15,9 +15,10 @@ from numba import typeof
 import raylume
 import raylume.session as session
 from raylume.image import Image
-from raylume.kernels import wavefront, wavefront_spheres
+from raylume.kernels.geometry import wavefront_spheres
+from raylume.kernels.integrators import wavefront
 from raylume.kernels.scene import instances_of
-from raylume.kernels.shapes import features
+from raylume.kernels.variants import features
 
 LIGHTS = [
     {"type": "ambient", "intensity": 0.15},

@@ -13,9 +13,9 @@ import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
-from raylume.kernels.shape_sphere import intersect_sphere
-from raylume.kernels.wavefront import STRIDE
-from raylume.kernels.wavefront_spheres import tile_blocks, tile_closest
+from raylume.kernels.geometry.shape_sphere import intersect_sphere
+from raylume.kernels.geometry.wavefront_spheres import tile_blocks, tile_closest
+from raylume.kernels.integrators.wavefront import STRIDE
 
 INF = math.inf
 OX, OY, OZ, DX, DY, DZ, T = (r * STRIDE for r in range(7))

@@ -20,7 +20,17 @@ ROOT = Path(__file__).resolve().parent.parent
 MODES = ("cast", "trace", "path", "raster")
 
 
-def _save(out: Path, name: str, image) -> None:
+def _save(out: Path, name: str, render, *args, **kwargs) -> None:
+    """Saves what render(*args, **kwargs) returns (an Image), or the one-line error it raises
+    (a scene that a mode refuses, such as a billion instanced triangles in raster mode)."""
+    import raylume
+
+    try:
+        image = render(*args, **kwargs)
+    except raylume.RaylumeError as exc:
+        (out / f"{name}.error.txt").write_text(str(exc))
+        np.save(out / f"{name}.npy", np.zeros(0))
+        return
     np.save(out / f"{name}.npy", np.asarray(image.rgb))
     for aov, value in (getattr(image, "aovs", None) or {}).items():
         np.save(out / f"{name}.{aov}.npy", np.asarray(value))
@@ -28,30 +38,29 @@ def _save(out: Path, name: str, image) -> None:
 
 def render_all(out: Path, quick: bool) -> None:
     import raylume
+    from raylume.animation import camera_at
 
     warnings.simplefilter("ignore")
     out.mkdir(parents=True, exist_ok=True)
     examples = sorted((ROOT / "examples").glob("*.toml")) + [ROOT / "examples/gltf/room.glb"]
-    builtins = ["seed"]
+    render = raylume.render
     for path in examples:
         scene = raylume.load_scene(path) if path.suffix == ".toml" else str(path)
         label = path.stem
+        if (out / f"{label}.t1.npy").exists():  # rendered by an earlier run into this folder
+            continue
         print(label, flush=True)
-        if not quick:
-            if label == "flight":
-                from raylume.animation import camera_at
-
-                for frame in (0, 12):
-                    session = raylume.Session(scene)
-                    _save(out, f"{label}.file.frame{frame}", session.render(camera_at(scene, frame), aovs=False))
-            else:
-                _save(out, f"{label}.file", raylume.render(scene, aovs=False))
+        if not quick and label == "flight":
+            session = raylume.Session(scene)
+            for frame in (0, 12):
+                _save(out, f"{label}.file.frame{frame}", session.render, camera_at(scene, frame), aovs=False)
+        elif not quick:
+            _save(out, f"{label}.file", render, scene, aovs=False)
         for mode in MODES:
-            _save(out, f"{label}.{mode}", raylume.render(scene, mode=mode, width=48, height=32, spp=4, seed=7))
-        _save(out, f"{label}.crop", raylume.render(scene, mode="path", width=48, height=32, spp=2, crop=(5, 29, 3, 19)))
-        _save(out, f"{label}.t1", raylume.render(scene, mode="trace", width=40, height=24, spp=2, threads=1))
-    for name in builtins:
-        _save(out, f"builtin.{name}", raylume.render(name))
+            _save(out, f"{label}.{mode}", render, scene, mode=mode, width=48, height=32, spp=4, seed=7)
+        _save(out, f"{label}.crop", render, scene, mode="path", width=48, height=32, spp=2, crop=(5, 29, 3, 19))
+        _save(out, f"{label}.t1", render, scene, mode="trace", width=40, height=24, spp=2, threads=1)
+    _save(out, "builtin.seed", render, "seed")
 
 
 def compare(a: Path, b: Path) -> int:

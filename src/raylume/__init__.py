@@ -60,7 +60,7 @@ def __dir__() -> list[str]:
 
 if TYPE_CHECKING:
     from .image import Image
-    from .kernels.film import Film
+    from .kernels.film.film import Film
     from .query import camera_rays, intersect, occluded
     from .scene.builtin import builtin_names, builtin_scene
     from .scene.checks import SceneWarning

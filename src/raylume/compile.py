@@ -18,13 +18,9 @@ from .accel.wide import collapse, mark_sphere_leaves, mark_triangle_leaves, sing
 from .compile_instances import build_instances, join_triangles, place_instanced
 from .emitters_table import build_emitters, scene_environment
 from .errors import SceneError
-from .frame_stack import roomy_frame_stack
-from .kernels import materials as M
-from .kernels import textures as X
-from .kernels.lights import LIGHT_WIDTH, pack_light
-from .kernels.scene import KernelScene
-from .kernels.shape_triangle import TRIANGLES_PER_TEST
-from .kernels.shapes import (
+from .kernels.frame_stack import roomy_frame_stack
+from .kernels.geometry.shape_triangle import TRIANGLES_PER_TEST
+from .kernels.geometry.shapes import (
     ANALYTIC,
     PRIM_FACE,
     PRIM_KIND,
@@ -37,11 +33,15 @@ from .kernels.shapes import (
     Shape,
     is_bounded,
 )
-from .kernels.shapes import bounds as shape_bounds
-from .kernels.traverse import BVH_WIDTH, TRAVERSAL_STACK, stack_needed
+from .kernels.geometry.shapes import bounds as shape_bounds
+from .kernels.geometry.wide_nodes import BVH_WIDTH, TRAVERSAL_STACK, stack_needed
+from .kernels.scene import KernelScene
+from .kernels.shading import materials as M
+from .kernels.shading import textures as X
+from .kernels.shading.lights import LIGHT_WIDTH, pack_light
 from .scene.gltf import flatten, load_gltf_object
 from .scene.instances import InstanceError, instance_matrices
-from .scene.mesh import MeshData, MeshError
+from .scene.mesh import MeshData, MeshError, transform_matrix
 from .scene.model import (
     DEFAULT_MATERIAL,
     Cylinder,
@@ -92,11 +92,11 @@ class CompiledScene(NamedTuple):
         return self.kernel._replace(epsilon_floor=float(max(1e-3 * extent, 1e-30)))
 
 
-def unit_vector(v) -> np.ndarray:
-    """v / |v|, scaled first so that tiny but non-zero vectors (1e-200) do not underflow."""
-    v = np.asarray(v, dtype=np.float64)
-    v = v / np.abs(v).max()
-    return v / np.linalg.norm(v)
+def object_matrix(obj) -> np.ndarray:
+    """4x4 object-to-world matrix of an analytic shape's `transform` (the identity for shapes
+    without one): what its module's `pack` applies."""
+    t = getattr(obj, "transform", None)
+    return np.eye(4) if t is None else transform_matrix(t.translate, t.rotate, t.scale3)
 
 
 def srgb_to_linear(x: np.ndarray) -> np.ndarray:
@@ -208,52 +208,13 @@ class TextureTable:
         return np.ascontiguousarray(np.concatenate(self.parts), dtype=np.float32)
 
 
-MATERIAL_KINDS = {
-    "phong": M.PHONG,
-    "diffuse": M.DIFFUSE,
-    "conductor": M.CONDUCTOR,
-    "dielectric": M.DIELECTRIC,
-    "plastic": M.PLASTIC,
-}
-
-
-def phong_exponent(roughness: float) -> float:
-    """The Phong exponent whose lobe is about as wide as GGX of this alpha (2 / alpha^2 - 2,
-    Walter et al. 2007), a sharp 1000 for smooth surfaces."""
-    return 1000.0 if roughness < 0.0447 else max(2.0 / roughness**2 - 2.0, 1.0)
-
-
-def trace_approximation(mat: Material) -> tuple[float, float, float]:
-    """(specular exponent or -1, reflective, transparency) under which trace mode (the seed's
-    model) shows a path-mode material: diffuse is matte; a conductor a tinted mirror (reflective
-    1 - alpha, its colour on the rest); a dielectric fully transparent with Fresnel; plastic
-    matte with a highlight and the coating's normal-incidence reflectance as a mirror."""
-    if mat.type == "phong":
-        return (mat.specular if mat.specular is not None else -1.0), mat.reflective, mat.transparency
-    if mat.type == "diffuse":
-        return -1.0, 0.0, 0.0
-    if mat.type == "conductor":
-        return phong_exponent(mat.roughness), max(0.0, 1.0 - mat.roughness), 0.0
-    if mat.type == "dielectric":
-        return phong_exponent(mat.roughness), 0.0, 1.0
-    f0 = ((mat.ior - 1.0) / (mat.ior + 1.0)) ** 2
-    return phong_exponent(mat.roughness), f0 if mat.roughness < 0.0447 else 0.0, 0.0
-
-
 def material_row(mat: Material, textures: TextureTable | None = None, where: str = "material") -> np.ndarray:
-    """The material's row of the materials table; its texture is added to `textures`. The
-    phong columns hold the trace-mode approximation of the other types (trace_approximation)."""
+    """The material's row of the materials table: the columns of its kind, packed by the kind's
+    module (its trace-mode approximation in the phong columns), then those every kind has;
+    its texture is added to `textures`."""
     row = np.zeros(M.MAT_WIDTH, dtype=np.float64)
-    row[M.MAT_KIND] = MATERIAL_KINDS[mat.type]
+    M.kind_module(mat.type).pack(mat, row)
     row[M.MAT_COLOR : M.MAT_COLOR + 3] = mat.color
-    row[M.MAT_SPECULAR], row[M.MAT_REFLECTIVE], row[M.MAT_TRANSPARENCY] = trace_approximation(mat)
-    row[M.MAT_IOR] = mat.ior
-    row[M.MAT_ABSORPTION : M.MAT_ABSORPTION + 3] = mat.absorption
-    row[M.MAT_ROUGHNESS] = mat.roughness
-    if mat.eta is not None and mat.k is not None:
-        row[M.MAT_ETA : M.MAT_ETA + 3] = mat.eta
-        row[M.MAT_K : M.MAT_K + 3] = mat.k
-        row[M.MAT_HAS_ETA] = 1.0
     row[M.MAT_EMISSION : M.MAT_EMISSION + 3] = mat.emission
     row[M.MAT_TEXTURE] = -1
     if mat.texture is not None:
@@ -478,7 +439,7 @@ def compile_scene(scene: Scene, source="<scene>", accelerate: bool = True) -> Co
                 m = materials.setdefault(mat, len(materials))
                 _add_gltf_part(geometry, part, m, k, mat.texture is not None)
         elif kind is not None:
-            analytic.add(kind, ANALYTIC[kind].pack(obj), m, k)
+            analytic.add(kind, ANALYTIC[kind].pack(obj, object_matrix(obj)), m, k)
         elif isinstance(obj, Triangle):
             uvs = np.array([[0, 0, 1, 0, 0, 1]], dtype=np.float32) if needs_uvs(obj) else None
             soup.add(np.asarray(obj.vertices, dtype=np.float32).reshape(1, 9), None, m, k, uvs)

@@ -33,9 +33,18 @@ from .accel.wide import (
     wide_depth,
     wide_nbytes,
 )
-from .kernels.shape_triangle import TRIANGLES_PER_TEST
-from .kernels.shapes import PRIM_FACE, PRIM_KIND, PRIM_LIGHT, PRIM_MATERIAL, PRIM_OBJECT, PRIM_ROW, PRIM_WIDTH, Shape
-from .kernels.traverse import BVH_WIDTH, stack_needed
+from .kernels.geometry.shape_triangle import TRIANGLES_PER_TEST
+from .kernels.geometry.shapes import (
+    PRIM_FACE,
+    PRIM_KIND,
+    PRIM_LIGHT,
+    PRIM_MATERIAL,
+    PRIM_OBJECT,
+    PRIM_ROW,
+    PRIM_WIDTH,
+    Shape,
+)
+from .kernels.geometry.wide_nodes import BVH_WIDTH, stack_needed
 from .scene.instances import inverse_rows
 
 # BLASes are built as the world BVH is (compile.py's constants). The TLAS: binned SAH with

@@ -7,12 +7,13 @@ import math
 
 import numpy as np
 
-from .kernels import emitters as EM
-from .kernels import lights as LI
-from .kernels.environment import Environment, build_environment, no_environment
-from .kernels.materials import MAT_EMISSION
-from .kernels.shape_triangle import area as shape_triangle_area
-from .kernels.shapes import EMISSION_SAMPLED, PRIM_KIND, PRIM_LIGHT, PRIM_MATERIAL, PRIM_ROW, surface_areas
+from .environment_file import build_environment
+from .kernels.geometry.shape_triangle import area as shape_triangle_area
+from .kernels.geometry.shapes import EMISSION_SAMPLED, PRIM_KIND, PRIM_LIGHT, PRIM_MATERIAL, PRIM_ROW, surface_areas
+from .kernels.shading import emitters as EM
+from .kernels.shading import lights as LI
+from .kernels.shading.environment import Environment, no_environment
+from .kernels.shading.materials import MAT_EMISSION
 
 
 def scene_environment(scene, source: str) -> Environment:

@@ -7,9 +7,10 @@ import numba
 import numpy as np
 
 from .compile import CompiledScene, compile_scene
-from .kernels.camera import CAM_FORWARD, CAM_POSITION, CAM_RIGHT, CAM_UP, camera_of
-from .kernels.query import grid_width, intersect_rays, occluded_rays, ray_spans
-from .kernels.shapes import geometry_features
+from .kernels.film.camera import CAM_FORWARD, CAM_POSITION, CAM_RIGHT, CAM_UP, camera_of
+from .kernels.geometry.query import grid_width
+from .kernels.variants import geometry_features
+from .query_lanes import intersect_rays, occluded_rays, ray_spans
 from .scene.model import Camera, Scene
 
 _REFUSED = "directions must be finite and non-zero, origins finite"

@@ -26,11 +26,11 @@ from typing import NamedTuple
 import numpy as np
 
 from .accel.wide import NODE_COUNT, NODE_FIRST
-from .frame_stack import roomy_frame_stack
-from .kernels.camera import CAM_POSITION, CAM_UP
-from .kernels.raster_kernel import rasterize_arrays
-from .kernels.shapes import PRIM_KIND, PRIM_ROW, Shape
-from .kernels.shapes import tessellate as tessellate_shape
+from .kernels.film.camera import CAM_POSITION, CAM_UP
+from .kernels.frame_stack import roomy_frame_stack
+from .kernels.geometry.shapes import PRIM_KIND, PRIM_ROW, Shape
+from .kernels.geometry.shapes import tessellate as tessellate_shape
+from .kernels.raster.raster_kernel import rasterize_arrays
 
 NEAR_FRACTION = 1e-30  # near plane distance, as a fraction of the scene's extent
 

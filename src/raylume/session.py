@@ -26,11 +26,11 @@ from pydantic import ValidationError
 
 from .compile import CompiledScene, compile_scene
 from .errors import RaylumeError, SceneError
-from .frame_stack import on_roomy_frame_stack
 from .image import Image
-from .kernels.camera import camera_of, set_cone_spread
-from .kernels.film import Film
-from .kernels.frame import (
+from .kernels.film.camera import camera_of, set_cone_spread
+from .kernels.film.film import Film
+from .kernels.frame_stack import on_roomy_frame_stack
+from .kernels.integrators.frame import (
     AOV_ROWS,
     CONTROL_SIZE,
     PASS_ROWS,
@@ -41,7 +41,7 @@ from .kernels.frame import (
     path_lane,
     trace_lane,
 )
-from .kernels.shapes import features, path_features
+from .kernels.variants import features, path_features
 from .lanes import lane_pool
 from .scene.checks import warn_about
 from .scene.model import Camera, RenderSettings, Scene

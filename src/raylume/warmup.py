@@ -2,7 +2,7 @@
 
 A cold start compiles each kernel the first time a render needs it (seconds to a minute per
 mode). `warm_kernels()` renders tiny images that need every variant (each mode with the two
-variants of shapes.features: a basic scene, and one with other shapes and instances), so that
+variants of variants.features: a basic scene, and one with other shapes and instances), so that
 later renders, and other processes sharing the cache folder, start at once:
 
     python -m raylume.warmup              # everything, in this process
@@ -105,7 +105,7 @@ def _intersect(kind: str) -> Callable[[], None]:
 
 # (job, its relative cost: seconds of a cold compile / 10, measured with the two parts side by
 # side on a busy 2-core machine). Every mode has two variants, the basic one and the Instances
-# one (shapes.features), which any other scene uses, whichever shapes it has; path mode and the
+# one (variants.features), which any other scene uses, whichever shapes it has; path mode and the
 # rasterizer's shading pass have only the latter (raster draws instances as plain triangles:
 # their Instances are empty).
 JOBS: list[tuple[Callable[[], None], float]] = [

@@ -36,6 +36,7 @@ from typing import NamedTuple
 import numba as nb
 import numpy as np
 
+from ..kernels.geometry.layout import NODE_COUNT, NODE_FIRST, NODE_ROWS, SPHERE_BLOCK
 from ..kernels.vec import kernel_function
 from .bvh import BVH
 
@@ -53,10 +54,6 @@ __all__ = [
 ]
 
 _F32_MAX = float(np.finfo(np.float32).max)
-
-
-NODE_ROWS = 8  # rows of a node record: six planes, first, count
-NODE_FIRST, NODE_COUNT = 6, 7
 
 
 class WideBVH(NamedTuple):
@@ -254,12 +251,6 @@ def single_leaf(lo: np.ndarray, hi: np.ndarray, width: int = 8) -> WideBVH:
     index[:, NODE_FIRST:] = 0
     index[0, NODE_COUNT, 0] = n
     return WideBVH(bounds, index, np.arange(n, dtype=np.int32))
-
-
-# A leaf's count field tells how traversal tests it: count > 0, primitives first .. first +
-# count - 1 one by one; -4 .. -2, that many triangles at once (mark_triangle_leaves); below
-# -SPHERE_BLOCK, -count - SPHERE_BLOCK spheres at once (mark_sphere_leaves).
-SPHERE_BLOCK = 8
 
 
 def _leaves_of_one_kind(wide: WideBVH, of_kind: np.ndarray, most: int) -> np.ndarray:

@@ -1,8 +1,10 @@
-"""Numba kernels. Importing this package points Numba's on-disk cache at a folder named after
-a hash of the kernel sources: Numba checks only the timestamp of the file holding a cached
+"""Numba kernels, in rooms: geometry, shading, integrators, film, raster (docs/architecture.md).
+Importing this package points Numba's on-disk cache at a folder named after a hash of the
+kernel sources, every room's: Numba checks only the timestamp of the file holding a cached
 entry point, so an edit to a function it calls (in another module) would otherwise run stale
-machine code. It also makes Python's garbage collector run less often while Numba compiles
-(compile_gc.py)."""
+machine code. Kernels import only kernels (tests/test_architecture.py), so everything compiled
+into a kernel, constants included, is in this hash. It also makes Python's garbage collector
+run less often while Numba compiles (compile_gc.py)."""
 
 import hashlib
 import os
@@ -13,10 +15,11 @@ import numba
 from .compile_gc import collect_less_while_compiling
 
 
-def _kernel_source_hash() -> str:
+def _kernel_source_hash(root: Path = Path(__file__).parent) -> str:
+    """A hash of every kernel module's path and source, in every room below `root`."""
     digest = hashlib.sha1()
-    for path in sorted(Path(__file__).parent.glob("*.py")):
-        digest.update(path.name.encode())
+    for path in sorted(root.rglob("*.py")):
+        digest.update(path.relative_to(root).as_posix().encode())
         digest.update(path.read_bytes())
     return digest.hexdigest()[:12]
 

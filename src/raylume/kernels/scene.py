@@ -5,7 +5,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .environment import Environment
+from .shading.environment import Environment
 from .vec import kernel_function
 
 
@@ -21,7 +21,7 @@ class KernelScene(NamedTuple):
     # then child node / first prim and 0 / prim count; node_index is the same records as int32
     node_bounds: np.ndarray
     node_index: np.ndarray
-    materials: np.ndarray  # float64 (M, MAT_WIDTH), materials.py
+    materials: np.ndarray  # float64 (M, MAT_WIDTH), shading/materials/table.py
     textures: np.ndarray  # float64 (X, TEX_WIDTH), textures.py
     texels: np.ndarray  # float32 (N, 3): every image texture's linear texels, row by row
     light_kind: np.ndarray  # int32 (L,)
@@ -43,7 +43,7 @@ class KernelScene(NamedTuple):
     env_rotation: np.ndarray
     env_present: bool
     has_transparency: bool
-    # every primitive a sphere or a triangle (shapes.features): found once here, since a scan
+    # every primitive a sphere or a triangle (variants.features): found once here, since a scan
     # of the primitive table cost 12 ms at 4 M triangles on every query
     basic_shapes: bool
     # Instances (traverse_instances.py): the top-level BVH (node 0, over the instances' world
@@ -106,7 +106,7 @@ class Lights(NamedTuple):
 
 
 class Instances(NamedTuple):
-    """The kernels' feature argument X for scenes with instances (shapes.features), holding
+    """The kernels' feature argument X for scenes with instances (variants.features), holding
     what the two-level traversal needs beside the Geometry view. Its type selects the kernels'
     variant with instance code; scenes without instances compile none of it."""
 

@@ -49,7 +49,7 @@ import numpy as np
 
 from .gltf_file import GltfError, GltfFile
 from .mesh import MeshData, _apply, _smooth_normals, strips_to_triangles, transform_matrix
-from .model import Material
+from .model import Material, parse_material
 
 HANDEDNESS = np.diag([1.0, 1.0, -1.0, 1.0])
 SUPPORTED_EXTENSIONS = (
@@ -529,7 +529,7 @@ class _Importer:
             del table["roughness"]
         else:
             table.update(type="plastic", ior=ior)
-        return Material.model_validate(table)
+        return parse_material(table)
 
 
 def is_gltf_file(path: str | Path) -> bool:

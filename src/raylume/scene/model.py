@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Annotated, Literal, Union
+from typing import Annotated, ClassVar, Literal, Union
 
 from pydantic import (
     BaseModel,
@@ -18,6 +18,7 @@ from pydantic import (
     Field,
     PrivateAttr,
     Tag,
+    TypeAdapter,
     ValidationError,
     field_validator,
     model_validator,
@@ -220,34 +221,12 @@ Texture = Annotated[
 ]
 
 
-# Keys that only some material types read; any other type given one is an error.
-_TYPE_KEYS = {
-    "specular": ("phong",),
-    "reflective": ("phong",),
-    "transparency": ("phong",),
-    "roughness": ("conductor", "dielectric", "plastic"),
-    "eta": ("conductor",),
-    "k": ("conductor",),
-    "ior": ("phong", "dielectric", "plastic"),
-    "absorption": ("phong", "dielectric"),
-}
+class _MaterialBase(Strict):
+    """What every material type has: `color`, a reflectance (or a transmittance tint), so at
+    most 1; `emission`, emitted radiance that makes the surface a light in path mode; and an
+    optional texture replacing the colour."""
 
-
-class Material(Strict):
-    """A material: `type` "phong" (the seed's model), "diffuse", "conductor", "dielectric" or
-    "plastic" (DESIGN.md section 6); `color` is a reflectance (or a transmittance tint), so at
-    most 1; `emission` makes the surface a light in path mode."""
-
-    type: Literal["phong", "diffuse", "conductor", "dielectric", "plastic"] = "phong"
     color: Color = (1.0, 1.0, 1.0)
-    specular: FiniteFloat | None = Field(None, gt=0)
-    reflective: FiniteFloat = Field(0.0, ge=0, le=1)
-    transparency: FiniteFloat = Field(0.0, ge=0, le=1)
-    ior: FiniteFloat = Field(1.5, gt=0)
-    absorption: Color = (0.0, 0.0, 0.0)
-    roughness: FiniteFloat = Field(0.0, ge=0, le=1)  # GGX alpha, as Mitsuba's rough plugins
-    eta: Color | None = None  # a conductor's complex index of refraction, eta + i k, per RGB
-    k: Color | None = None
     emission: Color = (0.0, 0.0, 0.0)  # emitted radiance
     texture: Texture | None = None
 
@@ -256,21 +235,139 @@ class Material(Strict):
     def _col(cls, v):
         return _colour(v, upper=1.0)
 
-    @field_validator("absorption", "emission", "eta", "k", mode="before")
+    @field_validator("emission", mode="before")
+    @classmethod
+    def _emitted(cls, v):
+        return _colour(v, upper=None)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _keys_of_other_types(cls, data):
+        """A key of another material type is named as such, not only as unknown."""
+        if isinstance(data, dict):
+            for key in data:
+                owners = [name for name, model in MATERIAL_TYPES.items() if key in model.model_fields]
+                if key not in cls.model_fields and owners:
+                    kind = data.get("type", "phong")
+                    raise ValueError(f"{key!r} is not a key of a {kind} material (it belongs to {', '.join(owners)})")
+        return data
+
+
+class PhongMaterial(_MaterialBase):
+    """The seed's model, the default type: a Phong exponent `specular` (none: matte), mirror
+    `reflective`, `transparency` with an index `ior` and Beer-Lambert `absorption` inside."""
+
+    type: Literal["phong"] = "phong"
+    specular: FiniteFloat | None = Field(None, gt=0)
+    reflective: FiniteFloat = Field(0.0, ge=0, le=1)
+    transparency: FiniteFloat = Field(0.0, ge=0, le=1)
+    ior: FiniteFloat = Field(1.5, gt=0)
+    absorption: Color = (0.0, 0.0, 0.0)
+
+    @field_validator("absorption", mode="before")
     @classmethod
     def _unbounded(cls, v):
-        return None if v is None else _colour(v, upper=None)
+        return _colour(v, upper=None)
 
     @model_validator(mode="after")
     def _energy(self):
         if self.reflective + self.transparency > 1 + 1e-9:
             raise ValueError("reflective + transparency must not exceed 1")
-        for key, types in _TYPE_KEYS.items():
-            if getattr(self, key) != type(self).model_fields[key].default and self.type not in types:
-                raise ValueError(f"{key!r} is not a key of a {self.type} material (it belongs to {', '.join(types)})")
+        return self
+
+
+class DiffuseMaterial(_MaterialBase):
+    """Lambertian reflection of reflectance `color`."""
+
+    type: Literal["diffuse"]
+
+
+class ConductorMaterial(_MaterialBase):
+    """A metal: `color` times the Fresnel reflectance of the complex index `eta` + i `k` (per
+    RGB; neither: a perfect mirror times color), GGX `roughness` (alpha; 0 is smooth)."""
+
+    type: Literal["conductor"]
+    roughness: FiniteFloat = Field(0.0, ge=0, le=1)  # GGX alpha, as Mitsuba's rough plugins
+    eta: Color | None = None
+    k: Color | None = None
+
+    @field_validator("eta", "k", mode="before")
+    @classmethod
+    def _unbounded(cls, v):
+        return None if v is None else _colour(v, upper=None)
+
+    @model_validator(mode="after")
+    def _fresnel(self):
         if (self.eta is None) != (self.k is None):
             raise ValueError("a conductor's Fresnel needs both eta and k (or neither: a perfect mirror times color)")
         return self
+
+
+class DielectricMaterial(_MaterialBase):
+    """Glass: index `ior` inside, `color` the transmittance tint, Beer-Lambert `absorption`
+    inside, GGX `roughness`."""
+
+    type: Literal["dielectric"]
+    ior: FiniteFloat = Field(1.5, gt=0)
+    roughness: FiniteFloat = Field(0.0, ge=0, le=1)
+    absorption: Color = (0.0, 0.0, 0.0)
+
+    @field_validator("absorption", mode="before")
+    @classmethod
+    def _unbounded(cls, v):
+        return _colour(v, upper=None)
+
+
+class PlasticMaterial(_MaterialBase):
+    """Diffuse reflectance `color` under a dielectric coating of index `ior`, GGX `roughness`."""
+
+    type: Literal["plastic"]
+    ior: FiniteFloat = Field(1.5, gt=0)
+    roughness: FiniteFloat = Field(0.0, ge=0, le=1)
+
+
+class NullMaterial(Strict):
+    """A boundary that does not bend or reflect light (DESIGN.md section 7): no other key. It
+    is white where a mode shows the boundary alone (cast, raster)."""
+
+    type: Literal["null"]
+    color: ClassVar[tuple[float, float, float]] = (1.0, 1.0, 1.0)
+    emission: ClassVar[tuple[float, float, float]] = (0.0, 0.0, 0.0)
+    texture: ClassVar[None] = None
+
+
+# Material types: the scene's `type` -> its model class (kernels/shading/materials/ has a module
+# of the same name for each).
+MATERIAL_TYPES = {
+    "phong": PhongMaterial,
+    "diffuse": DiffuseMaterial,
+    "conductor": ConductorMaterial,
+    "dielectric": DielectricMaterial,
+    "plastic": PlasticMaterial,
+    "null": NullMaterial,
+}
+
+
+def _material_type(value):
+    """The union tag of a material: its `type`, phong where it has none."""
+    kind = value.get("type", "phong") if isinstance(value, dict) else getattr(value, "type", None)
+    return f"<{kind}>" if isinstance(kind, str) else None
+
+
+Material = Annotated[
+    Union[tuple(Annotated[model, Tag(f"<{name}>")] for name, model in MATERIAL_TYPES.items())],
+    Discriminator(
+        _material_type,
+        custom_error_type="unknown_type",
+        custom_error_message=f"type must be one of: {', '.join(MATERIAL_TYPES)}",
+    ),
+]
+MATERIAL_MODELS = tuple(MATERIAL_TYPES.values())
+
+
+def parse_material(table: dict):
+    """A material table (with or without `type`) as its model; a pydantic ValidationError."""
+    return TypeAdapter(Material).validate_python(table)
 
 
 def tagged_union(kinds: dict):
@@ -290,7 +387,7 @@ def tagged_union(kinds: dict):
 def _material_tag(value):
     if isinstance(value, str):
         return "<name>"
-    if isinstance(value, (dict, Material)):
+    if isinstance(value, (dict, *MATERIAL_MODELS)):
         return "<inline>"
     return None
 
@@ -609,7 +706,7 @@ OBJECT_TYPES = {
 }
 SceneObject = tagged_union(OBJECT_TYPES)
 
-DEFAULT_MATERIAL = Material()
+DEFAULT_MATERIAL = PhongMaterial()
 
 
 class Environment(Strict):
@@ -706,7 +803,7 @@ class Scene(Strict):
 
     def material_of(self, obj) -> Material:
         ref = obj.material
-        if isinstance(ref, Material):
+        if isinstance(ref, MATERIAL_MODELS):
             return ref
         return self.materials.get(ref, DEFAULT_MATERIAL)
 

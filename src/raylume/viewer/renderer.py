@@ -31,7 +31,7 @@ import numpy as np
 
 from ..errors import SceneError
 from ..image import encode_8bit
-from ..kernels.film import Film
+from ..kernels.film.film import Film
 from ..scene.model import Camera
 from ..session import Session, resolve_settings
 from . import camera_control

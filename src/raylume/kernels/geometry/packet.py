@@ -1,0 +1,856 @@
+"""Ray packets: eight coherent rays traced through the wide BVH together (SIMD across rays).
+
+Single-ray traversal (traverse.py) tests one ray against a node's eight child boxes in one
+vector instruction per plane. A packet turns that around: eight rays that start close together
+and point the same way (neighbouring camera pixels) visit nearly the same nodes, so one pass
+over the tree serves all eight. Each child box is tested against the eight rays at once, each
+triangle of a leaf against the eight rays at once, and a node's boxes, its child list and a
+leaf's triangles are loaded once for eight rays rather than once each, the stack pushed and
+popped once for eight (Wald, Slusallek, Benthin and Wagner 2001, "Interactive rendering with
+coherent ray tracing"; Embree's packet kernels).
+
+A leaf that only one to three of the packet's rays reach is tested ray by ray with the
+single-ray block test (four triangles per vector) rather than eight float64 lanes at once.
+
+Each ray's result is the single-ray traversal's to the last bit: the triangle test is the same
+watertight test (shape_triangle.py) operation for operation, one ray per lane in float64, and
+the box test widens every slab as the single-ray one does, so no box a ray enters is culled.
+Only which of two triangles hit at exactly the same distance is reported can differ (a ray
+through a shared edge): the first one found, and the packet finds them in another order.
+
+A packet is taken only when it pays and is safe (`packet_setup`): every ray finite, every
+direction in one octant with one dominant axis (so the slab rows and the watertight test's axis
+order are the packet's, not each ray's), the directions within 10 degrees of the first ray's
+and the origins within 1% of the scene's extent of its origin; and only in scenes whose root
+is no leaf and that have no instances. Cast mode takes packets in the kernels' basic variant
+(spheres and triangles alone: variants.features gives X None); the batch query in every scene
+without instances, testing planes ray by ray first (`packet_unbounded`). Anything else is
+traced ray by ray, by the caller.
+
+Packet state lives in one thread's scratch arrays (`packet_scratch`):
+
+* ``box`` float32 (9, 8): per lane, box_ray's near origins x, y, z, far origins, 1 / d.
+* ``lane`` float64 (LANE_ROWS, 8): per lane the sheared-test constants, the best hit so far and
+  the ray itself (rows below).
+* ``prim`` int64 (8,): per lane the primitive of the best hit (NO_HIT when none).
+* the mask stack, int32 (TRAVERSAL_STACK,): beside traverse.py's node and distance stacks, each
+  entry's mask of rays.
+"""
+
+import math
+
+import numpy as np
+from llvmlite import ir
+from numba import types
+from numba.core import cgutils
+from numba.core.errors import TypingError
+from numba.extending import intrinsic
+
+from ..vec import inline_function, kernel_function
+from .layout import NODE_COUNT, NODE_FIRST, NODE_ROWS, SPHERE_BLOCK
+from .shape_triangle import (
+    EXACT,
+    EXACT_DIVISION,
+    exact_ops,
+    intersect_triangles,
+    ray_shear,
+    shear_axes,
+    watertight_lanes,
+)
+from .shapes import NO_HIT
+from .traverse import _root_is_a_leaf, _unbounded_hit, block_row, intersect_leaf, rows_in_leaf_order
+from .wide_nodes import (
+    _F32_MAX,
+    _F32_TINY,
+    _FAR_SCALE,
+    _LANE_SHIFT,
+    _NEAR_SCALE,
+    _ORIGIN_PAD,
+    BVH_WIDTH,
+    TRAVERSAL_STACK,
+    lowest_bit,
+    prefetch_child_rows,
+    prefetch_neighbours,
+    prefetch_row,
+    scratch_array,
+)
+
+PACKET = 8  # rays per packet: eight float32 lanes in one AVX2 register
+assert PACKET == BVH_WIDTH  # a node's child mask and a child's ray mask are both one byte
+
+# Rows of the `lane` scratch (float64, one column per ray)
+OX, OY, OZ = 0, 1, 2  # the origin's components along the shear axes kx, ky, kz
+SX, SY, SZ = 3, 4, 5  # the watertight test's shear constants
+TMIN = 6
+BEST_T, BEST_V, BEST_W, BEST_DET = 7, 8, 9, 10  # the best hit: t and its unnormalised barycentrics
+RAY_O, RAY_D = 11, 14  # the ray as given (x, y, z rows), for leaves tested ray by ray
+LANE_ROWS = 17
+
+# How close a packet's rays must be to be traced together. Neighbouring pixels of any camera
+# at any usual resolution differ by far less than this; rays of a path tracer's bounces, or
+# random rays, fail it and take the single-ray path, where a packet would only visit the union
+# of eight unrelated traversals.
+_MIN_COS = 0.985  # directions within 10 degrees of the first ray's
+_ORIGIN_SPREAD = 0.01  # origins within this fraction of the scene's extent of the first ray's
+# Shadow rays of neighbouring pixels start on the surface a few pixels' width apart (bunny at
+# 600 x 600: eight pixels span ~5% of its size) but run side by side to one light: their
+# traversals overlap as a camera packet's do.
+_SHADOW_ORIGIN_SPREAD = 0.1
+
+
+@kernel_function(_nrt=True)
+def packet_scratch():
+    """One thread's packet state: (box, lane, prim, mask stack) as the module docstring says."""
+    return (
+        scratch_array(9 * PACKET, np.float32).reshape((9, PACKET)),
+        scratch_array(LANE_ROWS * PACKET, np.float64).reshape((LANE_ROWS, PACKET)),
+        scratch_array(PACKET, np.int64),
+        scratch_array(TRAVERSAL_STACK, np.int32),
+    )
+
+
+# --- LLVM IR helpers ------------------------------------------------------------------------------
+
+_f32, _f64, _i1 = ir.FloatType(), ir.DoubleType(), ir.IntType(1)
+_i8, _i32, _i64 = ir.IntType(8), ir.IntType(32), ir.IntType(64)
+_V8F = ir.VectorType(_f32, PACKET)
+_V8D = ir.VectorType(_f64, PACKET)
+_V8I64 = ir.VectorType(_i64, PACKET)
+
+
+def _splat(builder, x, vt):
+    undef = ir.Constant(vt, ir.Undefined)
+    zeros = ir.Constant(ir.VectorType(_i32, vt.count), [0] * vt.count)
+    return builder.shuffle_vector(builder.insert_element(undef, x, ir.Constant(_i32, 0)), undef, zeros)
+
+
+def _row_pointer(builder, data, row, vt):
+    """Pointer to row `row` (an i64) of a C-contiguous (R, PACKET) array, as a vector."""
+    p = builder.gep(data, [builder.mul(row, ir.Constant(_i64, PACKET))], inbounds=True)
+    return builder.bitcast(p, vt.as_pointer())
+
+
+def _align(vt):
+    """The element's alignment: numpy guarantees no more for a scratch row."""
+    return 4 if vt.element == _f32 else 8
+
+
+def _load_row(builder, data, row, vt):
+    return builder.load(_row_pointer(builder, data, ir.Constant(_i64, row), vt), align=_align(vt))
+
+
+def _store_row(builder, value, data, row, vt):
+    builder.store(value, _row_pointer(builder, data, ir.Constant(_i64, row), vt), align=_align(vt))
+
+
+def _mask_vector(builder, mask):
+    """The low PACKET bits of the i64 `mask` as a <PACKET x i1> vector (bit i: lane i)."""
+    return builder.bitcast(builder.trunc(mask, ir.IntType(PACKET)), ir.VectorType(_i1, PACKET))
+
+
+def _mask_bits(builder, vec):
+    """A <PACKET x i1> vector as the low bits of an i64."""
+    return builder.zext(builder.bitcast(vec, ir.IntType(PACKET)), _i64)
+
+
+def _reduce(builder, v, pick):
+    """A horizontal reduction of the vector v by pick(builder, a, b) (a shuffle tree)."""
+    n = v.type.count
+    undef = ir.Constant(v.type, ir.Undefined)
+    while n > 1:
+        n //= 2
+        hi = builder.shuffle_vector(
+            v,
+            undef,
+            ir.Constant(ir.VectorType(_i32, v.type.count), [n + i for i in range(n)] + [0] * (v.type.count - n)),
+        )
+        v = pick(builder, v, hi)
+    return builder.extract_element(v, ir.Constant(_i32, 0))
+
+
+def _vmin(builder, a, b):
+    return builder.select(builder.fcmp_ordered("<", a, b), a, b)
+
+
+def _vmax(builder, a, b):
+    return builder.select(builder.fcmp_ordered(">", a, b), a, b)
+
+
+def _slabs(builder, lo, hi, near, far, inv, tmax):
+    """traverse.box_hits' widened slab test on <8 x float> vectors, operation for operation:
+    (entry distance, i1 vector of the lanes that enter). lo, hi: the box's near and far planes
+    per axis; near, far, inv: the rays' box_ray constants; tmax: their best hits so far."""
+    tn = [builder.fmul(builder.fsub(lo[k], near[k]), inv[k]) for k in range(3)]
+    tf = [builder.fmul(builder.fsub(hi[k], far[k]), inv[k]) for k in range(3)]
+    tiny = ir.Constant(_V8F, [_F32_TINY] * PACKET)
+    tnear = builder.fsub(_vmax(builder, _vmax(builder, tn[0], tn[1]), tn[2]), tiny)
+    tnear = builder.fmul(
+        _vmax(builder, tnear, ir.Constant(_V8F, [0.0] * PACKET)), ir.Constant(_V8F, [_NEAR_SCALE] * PACKET)
+    )
+    tfar = _vmin(builder, _vmin(builder, tf[0], tf[1]), _vmin(builder, tf[2], tmax))
+    tfar = builder.fadd(builder.fmul(tfar, ir.Constant(_V8F, [_FAR_SCALE] * PACKET)), tiny)
+    return tnear, builder.fcmp_ordered("<=", tnear, tfar)
+
+
+def _lane_minima(builder, vectors):
+    """The minimum of each of eight <8 x float> vectors, as one vector (lane c: vectors[c]'s):
+    the eight reductions share their shuffles, three levels of halving pairs of vectors, seven
+    minima instead of twenty-four."""
+    width = PACKET
+    level = list(vectors)
+    half = width // 2
+    while len(level) > 1:
+        # each vector holds groups of 2 * half partial minima, one group per original vector;
+        # the minimum of each group's two halves, the first vector's groups then the second's
+        starts = range(0, width, 2 * half)
+        lo_mask = [v + g + i for v in (0, width) for g in starts for i in range(half)]
+        hi_mask = [v + g + half + i for v in (0, width) for g in starts for i in range(half)]
+        lo_c = ir.Constant(ir.VectorType(_i32, width), lo_mask)
+        hi_c = ir.Constant(ir.VectorType(_i32, width), hi_mask)
+        level = [
+            _vmin(builder, builder.shuffle_vector(a, b, lo_c), builder.shuffle_vector(a, b, hi_c))
+            for a, b in zip(level[0::2], level[1::2], strict=True)
+        ]
+        half //= 2
+    return level[0]
+
+
+def _array_data(context, builder, ty, value):
+    return context.make_array(ty)(context, builder, value).data
+
+
+def _check_array(name, a, dtype, ndim):
+    if not (isinstance(a, types.Array) and a.dtype == dtype and a.ndim == ndim and a.layout == "C"):
+        raise TypingError(f"{name}: a C-contiguous {dtype} array of {ndim} dimensions")
+
+
+# --- a node: its eight child boxes against the packet ----------------------------------------------
+
+
+@intrinsic
+def packet_node(typingctx, bounds, node, box, rows, lane, active, t_out, at):
+    """The packet's rays (box: box_ray's constants per lane; rows: the packet's near-plane rows)
+    against the BVH_WIDTH child boxes of wide node `node`, each ray up to its best hit so far
+    (lane[BEST_T]): an i64 of BVH_WIDTH bytes, byte c the mask of the `active` rays that enter
+    child c; t_out[at + c] (float32) the nearest entry distance over those rays (+inf for none).
+    The slabs are widened as traverse.box_hits widens them: no ray's entered box is culled."""
+    _check_array("packet_node", bounds, types.float32, 3)
+    _check_array("packet_node", box, types.float32, 2)
+    _check_array("packet_node", lane, types.float64, 2)
+    _check_array("packet_node", t_out, types.float32, 1)
+
+    def codegen(context, builder, sig, args):
+        b = _array_data(context, builder, sig.args[0], args[0])
+        n = context.cast(builder, args[1], sig.args[1], types.int64)
+        bx = _array_data(context, builder, sig.args[2], args[2])
+        rows = [
+            context.cast(builder, r, t, types.int64)
+            for r, t in zip(cgutils.unpack_tuple(builder, args[3], 3), sig.args[3], strict=True)
+        ]
+        ln = _array_data(context, builder, sig.args[4], args[4])
+        act = _mask_vector(builder, context.cast(builder, args[5], sig.args[5], types.int64))
+        out = builder.gep(
+            _array_data(context, builder, sig.args[6], args[6]),
+            [context.cast(builder, args[7], sig.args[7], types.int64)],
+            inbounds=True,
+        )
+        near = [_load_row(builder, bx, k, _V8F) for k in range(3)]
+        far = [_load_row(builder, bx, 3 + k, _V8F) for k in range(3)]
+        inv = [_load_row(builder, bx, 6 + k, _V8F) for k in range(3)]
+        tmax = builder.fptrunc(_load_row(builder, ln, BEST_T, _V8D), _V8F)
+        base = builder.mul(n, ir.Constant(_i64, NODE_ROWS * BVH_WIDTH))
+        # the node's rows: one vector of the eight children's planes each
+        planes = []
+        for k in range(3):
+            far_row = builder.sub(ir.Constant(_i64, 2 * k + 3), rows[k])
+            lo = builder.add(base, builder.mul(rows[k], ir.Constant(_i64, BVH_WIDTH)))
+            hi = builder.add(base, builder.mul(far_row, ir.Constant(_i64, BVH_WIDTH)))
+            planes.append(
+                (
+                    builder.load(builder.bitcast(builder.gep(b, [lo], inbounds=True), _V8F.as_pointer()), align=4),
+                    builder.load(builder.bitcast(builder.gep(b, [hi], inbounds=True), _V8F.as_pointer()), align=4),
+                )
+            )
+        inf = ir.Constant(_V8F, [math.inf] * PACKET)
+        undef = ir.Constant(_V8F, ir.Undefined)
+        result = ir.Constant(_i64, 0)
+        entries = []  # per child: each ray's entry distance, +inf where it misses
+        for c in range(BVH_WIDTH):
+            lane_c = ir.Constant(ir.VectorType(_i32, PACKET), [c] * PACKET)
+            lo = [builder.shuffle_vector(planes[k][0], undef, lane_c) for k in range(3)]
+            hi = [builder.shuffle_vector(planes[k][1], undef, lane_c) for k in range(3)]
+            tnear, hit = _slabs(builder, lo, hi, near, far, inv, tmax)
+            hit = builder.and_(hit, act)
+            entries.append(builder.select(hit, tnear, inf))
+            bits = builder.shl(_mask_bits(builder, hit), ir.Constant(_i64, 8 * c))
+            result = builder.or_(result, bits)
+        # hit entries are never NaN, so the minimum does not depend on the order of the rays
+        builder.store(_lane_minima(builder, entries), builder.bitcast(out, _V8F.as_pointer()), align=4)
+        return result
+
+    return types.int64(bounds, node, box, rows, lane, active, t_out, at), codegen
+
+
+@intrinsic
+def packet_box(typingctx, planes, box, lane, active):
+    """The `active` rays of the packet that enter one box, given by its planes in the packet's
+    row order (near x, y, z, far x, y, z; float32): the bit mask, by packet_node's slab test."""
+    _check_array("packet_box", box, types.float32, 2)
+    _check_array("packet_box", lane, types.float64, 2)
+
+    def codegen(context, builder, sig, args):
+        values = cgutils.unpack_tuple(builder, args[0], 6)
+        bx = _array_data(context, builder, sig.args[1], args[1])
+        ln = _array_data(context, builder, sig.args[2], args[2])
+        act = _mask_vector(builder, context.cast(builder, args[3], sig.args[3], types.int64))
+        near = [_load_row(builder, bx, k, _V8F) for k in range(3)]
+        far = [_load_row(builder, bx, 3 + k, _V8F) for k in range(3)]
+        inv = [_load_row(builder, bx, 6 + k, _V8F) for k in range(3)]
+        tmax = builder.fptrunc(_load_row(builder, ln, BEST_T, _V8D), _V8F)
+        lo = [_splat(builder, values[k], _V8F) for k in range(3)]
+        hi = [_splat(builder, values[3 + k], _V8F) for k in range(3)]
+        _, hit = _slabs(builder, lo, hi, near, far, inv, tmax)
+        return _mask_bits(builder, builder.and_(hit, act))
+
+    return types.int64(planes, box, lane, active), codegen
+
+
+@inline_function
+def root_box(G):
+    """The box around the root's children (float32 lo x, y, z, hi x, y, z; empty lanes are
+    +inf to -inf and leave it alone): a packet whose rays all miss it skips the root's eight
+    child tests."""
+    b = G.node_bounds
+    x0, y0, z0 = b[0, 0, 0], b[0, 1, 0], b[0, 2, 0]
+    x1, y1, z1 = b[0, 3, 0], b[0, 4, 0], b[0, 5, 0]
+    for c in range(1, BVH_WIDTH):
+        x0, y0, z0 = min(x0, b[0, 0, c]), min(y0, b[0, 1, c]), min(z0, b[0, 2, c])
+        x1, y1, z1 = max(x1, b[0, 3, c]), max(y1, b[0, 4, c]), max(z1, b[0, 5, c])
+    return (x0, y0, z0, x1, y1, z1)
+
+
+@intrinsic
+def packet_farthest(typingctx, lane, mask):
+    """The farthest best hit so far (lane[BEST_T]) among the rays of `mask`."""
+    _check_array("packet_farthest", lane, types.float64, 2)
+
+    def codegen(context, builder, sig, args):
+        ln = _array_data(context, builder, sig.args[0], args[0])
+        m = _mask_vector(builder, context.cast(builder, args[1], sig.args[1], types.int64))
+        best = _load_row(builder, ln, BEST_T, _V8D)
+        return _reduce(builder, builder.select(m, best, ir.Constant(_V8D, [-math.inf] * PACKET)), _vmax)
+
+    return types.float64(lane, mask), codegen
+
+
+# --- a leaf of triangles against the packet ----------------------------------------------------------
+
+
+@intrinsic
+def packet_triangles(typingctx, tri, row, count, first, axes, lane, prim, active):
+    """Triangles row .. row + count - 1 of tri (float32 (T, 9)) against the `active` rays of the
+    packet, one ray per float64 lane: shape_triangle.intersect_triangle's arithmetic operation
+    for operation (IEEE, no FMA contraction), with the packet's shear axes `axes` (kx, ky, kz)
+    and each lane's origin and shear constants. A hit nearer than a ray's best replaces it in
+    lane[BEST_*] and prim (first + the triangle's place in the leaf): as the single-ray test,
+    the first of equal hits is kept."""
+    _check_array("packet_triangles", tri, types.float32, 2)
+    _check_array("packet_triangles", lane, types.float64, 2)
+    _check_array("packet_triangles", prim, types.int64, 1)
+
+    def codegen(context, builder, sig, args):
+        t_data = _array_data(context, builder, sig.args[0], args[0])
+        row0 = context.cast(builder, args[1], sig.args[1], types.int64)
+        n = context.cast(builder, args[2], sig.args[2], types.int64)
+        first = context.cast(builder, args[3], sig.args[3], types.int64)
+        kx, ky, kz = (
+            context.cast(builder, a, t, types.int64)
+            for a, t in zip(cgutils.unpack_tuple(builder, args[4], 3), sig.args[4], strict=True)
+        )
+        ln = _array_data(context, builder, sig.args[5], args[5])
+        pr = _array_data(context, builder, sig.args[6], args[6])
+        act = _mask_vector(builder, context.cast(builder, args[7], sig.args[7], types.int64))
+        _, fsub, _, _ = exact_ops(builder)
+        ox, oy, oz = (_load_row(builder, ln, r, _V8D) for r in (OX, OY, OZ))
+        sx, sy, sz = (_load_row(builder, ln, r, _V8D) for r in (SX, SY, SZ))
+        tmin = _load_row(builder, ln, TMIN, _V8D)
+        prim_ptr = builder.bitcast(pr, _V8I64.as_pointer())
+        c3, c6 = ir.Constant(_i64, 3), ir.Constant(_i64, 6)
+        cols = (kx, ky, kz, builder.add(kx, c3), builder.add(ky, c3), builder.add(kz, c3))
+        cols += (builder.add(kx, c6), builder.add(ky, c6), builder.add(kz, c6))
+        # The best hits are carried through the leaf in registers (stack slots that LLVM
+        # promotes) and stored once after it, with plain stores. Stored back triangle by
+        # triangle, each `store(select(ok, new, load(row)), row)` became a masked store
+        # (vmaskmovpd) on AVX2, which AMD's Zen 3 runs microcoded at tens of cycles: the
+        # packet traversal took 3-4x its time there (an AVX-512 machine's masked stores
+        # are cheap, which is why it went unseen).
+        rows = (BEST_T, BEST_V, BEST_W, BEST_DET)
+        best_slots = {r: cgutils.alloca_once_value(builder, _load_row(builder, ln, r, _V8D)) for r in rows}
+        prim_slot = cgutils.alloca_once_value(builder, builder.load(prim_ptr, align=8))
+        with cgutils.for_range(builder, n) as loop:
+            r = builder.add(row0, loop.index)
+            base = builder.mul(r, ir.Constant(_i64, 9))
+
+            def vertex(c):  # tri[r, c] as a float64 splat
+                x = builder.load(builder.gep(t_data, [builder.add(base, c)], inbounds=True), align=4)
+                return _splat(builder, builder.fpext(x, _f64), _V8D)
+
+            ax, ay, az = fsub(vertex(cols[0]), ox), fsub(vertex(cols[1]), oy), fsub(vertex(cols[2]), oz)
+            bx, by, bz = fsub(vertex(cols[3]), ox), fsub(vertex(cols[4]), oy), fsub(vertex(cols[5]), oz)
+            cx, cy, cz = fsub(vertex(cols[6]), ox), fsub(vertex(cols[7]), oy), fsub(vertex(cols[8]), oz)
+            best = builder.load(best_slots[BEST_T])
+            t, v, w, det, ok = watertight_lanes(builder, (ax, ay, az, bx, by, bz, cx, cy, cz), sx, sy, sz, tmin, best)
+            ok = builder.and_(ok, act)
+            for dest, value in ((BEST_T, t), (BEST_V, v), (BEST_W, w), (BEST_DET, det)):
+                slot = best_slots[dest]
+                builder.store(builder.select(ok, value, builder.load(slot)), slot)
+            here = _splat(builder, builder.add(first, loop.index), _V8I64)
+            builder.store(builder.select(ok, here, builder.load(prim_slot)), prim_slot)
+        for r in rows:
+            _store_row(builder, builder.load(best_slots[r]), ln, r, _V8D)
+        builder.store(builder.load(prim_slot), prim_ptr, align=8)
+        return context.get_dummy_value()
+
+    return types.void(tri, row, count, first, axes, lane, prim, active), codegen
+
+
+# --- setting a packet up --------------------------------------------------------------------------
+
+
+@inline_function
+def uses_packets(G, X):
+    """Whether rays of a scene may be traced in packets: its root is no leaf (module
+    docstring), and it has no instances (X: the kernels' variant, variants.features)."""
+    if _root_is_a_leaf(G.node_index):
+        return False
+    if X is not None:  # (pruned in the basic variant, which has no instances)
+        return X.inverse.shape[0] == 0
+    return True
+
+
+@inline_function
+def scene_extent(G):
+    """The largest side of the root node's children's boxes (what "close together" is measured
+    against)."""
+    b = G.node_bounds
+    e = 0.0
+    for c in range(BVH_WIDTH):
+        if b[0, 0, c] <= b[0, 3, c]:  # not an empty lane
+            for k in range(3):
+                side = np.float64(b[0, 3 + k, c] - b[0, k, c])
+                e = side if side > e else e  # not max(): its overload for these types compiles apart
+    return e
+
+
+@inline_function
+def packet_setup(origins, directions, start, n, tmin, tmax, extent, box, lane, prim):
+    """Load rays start .. start + n - 1 (n <= PACKET) into the packet's scratch, their unused
+    lanes copies of the first. Returns (coherent, rows, axes): whether they can be traced as a
+    packet (module docstring), the packet's near-plane rows and its shear axes. The lanes'
+    shear constants wait for packet_shear: a packet that reaches no leaf (most misses) never
+    needs them."""
+    d0 = (float(directions[start, 0]), float(directions[start, 1]), float(directions[start, 2]))
+    axes = shear_axes(d0)
+    coherent = packet_load(origins, directions, start, n, axes[2], tmin, tmax, _ORIGIN_SPREAD * extent, box, lane, prim)
+    # the first lane's near rows, as box_ray gives them: row k where its 1 / d (box row 6 + k,
+    # never 0) is positive, else k + 3
+    rows = (0 if box[6, 0] > 0.0 else 3, 1 if box[7, 0] > 0.0 else 4, 2 if box[8, 0] > 0.0 else 5)
+    return coherent, rows, axes
+
+
+@intrinsic
+def packet_load(typingctx, origins, directions, start, n, kz0, tmin, tmax, limit, box, lane, prim):
+    """packet_setup's work on the eight lanes at once (SIMD: the scalar loop over the lanes,
+    with box_ray's three divisions a ray, cost 12 ns a ray, as much as a miss's traversal).
+    Writes each lane's box_ray constants (traverse._ray_axis operation for operation, so each
+    ray's boxes are the single-ray traversal's), its ray, bounds and empty best hit, and marks
+    the shear pending; returns whether every lane is finite, in the first lane's octant, with
+    dominant axis kz0, within 10 degrees of its direction and `limit` of its origin."""
+    for name, a in (("origins", origins), ("directions", directions)):
+        if not (isinstance(a, types.Array) and a.dtype == types.float64 and a.ndim == 2):
+            raise TypingError(f"packet_load: {name} must be a float64 (N, 3) array")
+    _check_array("packet_load", box, types.float32, 2)
+    _check_array("packet_load", lane, types.float64, 2)
+    _check_array("packet_load", prim, types.int64, 1)
+
+    def codegen(context, builder, sig, args):
+        arrays = [context.make_array(sig.args[i])(context, builder, args[i]) for i in (0, 1)]
+        first, count, kz_first = (context.cast(builder, args[i], sig.args[i], types.int64) for i in (2, 3, 4))
+        t_min, t_max, spread_limit = (context.cast(builder, args[i], sig.args[i], types.float64) for i in (5, 6, 7))
+        bx = _array_data(context, builder, sig.args[8], args[8])
+        ln = _array_data(context, builder, sig.args[9], args[9])
+        pr = _array_data(context, builder, sig.args[10], args[10])
+        undef = ir.Constant(_V8D, ir.Undefined)
+        # lane i holds ray start + i, or the first ray where i >= n
+        rays = [
+            builder.select(
+                builder.icmp_signed("<", ir.Constant(_i64, i), count), builder.add(first, ir.Constant(_i64, i)), first
+            )
+            for i in range(PACKET)
+        ]
+
+        def gather(array, c):  # column c of the lanes' rays, as a vector
+            base = builder.ptrtoint(array.data, _i64)
+            s0, s1 = (builder.extract_value(array.strides, k) for k in (0, 1))
+            v = undef
+            for i, k in enumerate(rays):
+                at = builder.add(base, builder.add(builder.mul(k, s0), builder.mul(ir.Constant(_i64, c), s1)))
+                x = builder.load(builder.inttoptr(at, _f64.as_pointer()), align=8)
+                v = builder.insert_element(v, x, ir.Constant(_i32, i))
+            return v
+
+        O = [gather(arrays[0], c) for c in range(3)]
+        D = [gather(arrays[1], c) for c in range(3)]
+        zeros = ir.Constant(ir.VectorType(_i32, PACKET), [0] * PACKET)
+
+        def first_lane(v):  # lane 0 in every lane
+            return builder.shuffle_vector(v, ir.Constant(v.type, ir.Undefined), zeros)
+
+        abs_fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(_V8D, [_V8D]), "llvm.fabs.v8f64")
+
+        def vabs(v):
+            return builder.call(abs_fn, [v])
+
+        def const(x):
+            return ir.Constant(_V8D, [x] * PACKET)
+
+        ok = ir.Constant(ir.VectorType(_i1, PACKET), [1] * PACKET)
+        for c in range(3):  # traverse.traceable
+            ok = builder.and_(ok, builder.fcmp_ordered("<", vabs(O[c]), const(_F32_MAX)))
+            ok = builder.and_(ok, builder.fcmp_ordered("<", vabs(D[c]), const(math.inf)))
+        for c in range(3):  # traverse._ray_axis, lane by lane
+            inv = builder.select(
+                builder.fcmp_unordered("!=", D[c], const(0.0)), builder.fdiv(const(1.0), D[c]), const(_F32_MAX)
+            )
+            mag = _vmin(builder, _vmax(builder, vabs(inv), const(_F32_TINY)), const(_F32_MAX))
+            positive = builder.fcmp_ordered(">=", inv, const(0.0))
+            inv32 = builder.fptrunc(builder.select(positive, mag, builder.fneg(mag)), _V8F)
+            pad = _vmax(builder, builder.fmul(vabs(O[c]), const(2.0**-23)), const(_ORIGIN_PAD))
+            down = builder.fptrunc(builder.fsub(O[c], pad), _V8F)
+            up = builder.fptrunc(builder.fadd(O[c], pad), _V8F)
+            _store_row(builder, builder.select(positive, up, down), bx, c, _V8F)
+            _store_row(builder, builder.select(positive, down, up), bx, 3 + c, _V8F)
+            _store_row(builder, inv32, bx, 6 + c, _V8F)
+            ok = builder.and_(ok, builder.icmp_unsigned("==", positive, first_lane(positive)))  # one octant
+        # shape_triangle.shear_axes' dominant axis
+        ax, ay, az = (vabs(v) for v in D)
+        is_y = builder.and_(builder.fcmp_ordered(">", ay, ax), builder.fcmp_ordered(">=", ay, az))
+        is_z = builder.and_(builder.fcmp_ordered(">", az, ax), builder.fcmp_ordered(">", az, ay))
+        kz = builder.select(
+            is_y,
+            ir.Constant(_V8I64, [1] * PACKET),
+            builder.select(is_z, ir.Constant(_V8I64, [2] * PACKET), ir.Constant(_V8I64, [0] * PACKET)),
+        )
+        ok = builder.and_(ok, builder.icmp_signed("==", kz, _splat(builder, kz_first, _V8I64)))
+        # within 10 degrees of the first ray's direction, compared squared (dd >= 0)
+        D0 = [first_lane(v) for v in D]
+        dd = builder.fadd(builder.fadd(builder.fmul(D[0], D0[0]), builder.fmul(D[1], D0[1])), builder.fmul(D[2], D0[2]))
+        nn = builder.fadd(builder.fadd(builder.fmul(D[0], D[0]), builder.fmul(D[1], D[1])), builder.fmul(D[2], D[2]))
+        nn0 = builder.fmul(first_lane(nn), const(_MIN_COS * _MIN_COS))
+        ok = builder.and_(ok, builder.fcmp_ordered(">=", dd, const(0.0)))
+        ok = builder.and_(ok, builder.fcmp_ordered(">=", builder.fmul(dd, dd), builder.fmul(nn, nn0)))
+        # origins within the limit of the first's
+        for c in range(3):
+            gap = vabs(builder.fsub(O[c], first_lane(O[c])))
+            ok = builder.and_(ok, builder.fcmp_ordered("<=", gap, _splat(builder, spread_limit, _V8D)))
+        for r, value in ((TMIN, t_min), (BEST_T, t_max), (BEST_V, 0.0), (BEST_W, 0.0), (BEST_DET, 1.0)):
+            v = _splat(builder, value, _V8D) if isinstance(value, ir.Value) else const(value)
+            _store_row(builder, v, ln, r, _V8D)
+        for c in range(3):
+            _store_row(builder, O[c], ln, RAY_O + c, _V8D)
+            _store_row(builder, D[c], ln, RAY_D + c, _V8D)
+        builder.store(ir.Constant(_V8I64, [NO_HIT] * PACKET), builder.bitcast(pr, _V8I64.as_pointer()), align=8)
+        # the shear pending (1 / d[kz] is never 0)
+        builder.store(ir.Constant(_f64, 0.0), builder.gep(ln, [ir.Constant(_i64, SZ * PACKET)], inbounds=True))
+        all_lanes = builder.bitcast(ok, ir.IntType(PACKET))
+        return builder.icmp_unsigned("==", all_lanes, ir.Constant(ir.IntType(PACKET), (1 << PACKET) - 1))
+
+    sig = types.boolean(origins, directions, start, n, kz0, tmin, tmax, limit, box, lane, prim)
+    return sig, codegen
+
+
+@inline_function
+def packet_shear(lane, axes):
+    """The lanes' origins along the shear axes and shear constants (shape_triangle.ray_shear),
+    from their rays, once per packet: before its first leaf or plane."""
+    if lane[SZ, 0] != 0.0:
+        return
+    kx, ky, kz = axes
+    for i in range(PACKET):
+        d = (lane[RAY_D, i], lane[RAY_D + 1, i], lane[RAY_D + 2, i])
+        _, _, _, sx, sy, sz = ray_shear(d)
+        lane[OX, i] = lane[RAY_O + kx, i]
+        lane[OY, i] = lane[RAY_O + ky, i]
+        lane[OZ, i] = lane[RAY_O + kz, i]
+        lane[SX, i] = sx
+        lane[SY, i] = sy
+        lane[SZ, i] = sz
+
+
+@intrinsic
+def packet_finish(typingctx, lane, prim):
+    """Each lane's barycentrics from its best hit's (v, w, det): v / det and w / det clamped to
+    [0, 1], into lane[BEST_V], lane[BEST_W] (0 for a miss), det 1. IEEE divisions, as the
+    single-ray block test divides: the kernels' fast-math flags would turn them into
+    multiplications by a reciprocal, an ulp off."""
+    _check_array("packet_finish", lane, types.float64, 2)
+    _check_array("packet_finish", prim, types.int64, 1)
+
+    def codegen(context, builder, sig, args):
+        ln = _array_data(context, builder, sig.args[0], args[0])
+        pr = _array_data(context, builder, sig.args[1], args[1])
+        _, _, _, lt = exact_ops(builder)
+        found = builder.icmp_signed(
+            "!=",
+            builder.load(builder.bitcast(pr, _V8I64.as_pointer()), align=8),
+            ir.Constant(_V8I64, [NO_HIT] * PACKET),
+        )
+        det = _load_row(builder, ln, BEST_DET, _V8D)
+        zero, one = ir.Constant(_V8D, [0.0] * PACKET), ir.Constant(_V8D, [1.0] * PACKET)
+        for r in (BEST_V, BEST_W):
+            q = builder.fdiv(_load_row(builder, ln, r, _V8D), det, flags=EXACT_DIVISION)
+            q = builder.select(builder.fcmp_ordered(">", q, zero, flags=EXACT), q, zero)
+            q = builder.select(lt(q, one), q, one)
+            _store_row(builder, builder.select(found, q, zero), ln, r, _V8D)
+        _store_row(builder, one, ln, BEST_DET, _V8D)
+        return context.get_dummy_value()
+
+    return types.void(lane, prim), codegen
+
+
+@inline_function
+def packet_hit(lane, prim, i):
+    """Lane i's result after packet_closest: (t, primitive, b1, b2), as closest_hit returns them."""
+    return lane[BEST_T, i], prim[i], lane[BEST_V, i], lane[BEST_W, i]
+
+
+# --- traversal ------------------------------------------------------------------------------------
+
+
+@inline_function
+def _lane_ray(lane, axes, i):
+    """Lane i's ray as the single-ray functions take it: (o, d, shear)."""
+    o = (lane[RAY_O, i], lane[RAY_O + 1, i], lane[RAY_O + 2, i])
+    d = (lane[RAY_D, i], lane[RAY_D + 1, i], lane[RAY_D + 2, i])
+    return o, d, (axes[0], axes[1], axes[2], lane[SX, i], lane[SY, i], lane[SZ, i])
+
+
+@inline_function
+def _set_lane_best(lane, prim, i, t, p, b1, b2):
+    """Lane i's best hit from a single-ray function: its barycentrics kept with det 1, which
+    packet_finish divides back exactly."""
+    lane[BEST_T, i] = t
+    lane[BEST_V, i] = b1
+    lane[BEST_W, i] = b2
+    lane[BEST_DET, i] = 1.0
+    prim[i] = p
+
+
+@inline_function
+def _leaf_ray_by_ray(G, X, first, count, axes, lane, prim, active):
+    """A leaf that is not a block of triangles, tested for each active ray with the single-ray
+    leaf test. The lane's (v, w) stand for the barycentrics it carries (handed back unchanged
+    when the ray finds nothing nearer)."""
+    m = active
+    while m != 0:
+        i = lowest_bit(m)
+        m &= m - 1
+        o, d, shear = _lane_ray(lane, axes, i)
+        t0, p0 = lane[BEST_T, i], prim[i]
+        t, p, b1, b2 = intersect_leaf(
+            G, X, first, count, o, d, shear, lane[TMIN, i], t0, p0, lane[BEST_V, i], lane[BEST_W, i], False
+        )
+        if p != p0 or t != t0:
+            _set_lane_best(lane, prim, i, t, p, b1, b2)
+
+
+@inline_function
+def _triangles_ray_by_ray(tri, row, n, first, axes, lane, prim, active):
+    """Triangles row .. row + n - 1 (a block leaf) against each active ray in turn, with the
+    single-ray block test (four triangles per vector): packet_triangles' results, to the last
+    bit, for a leaf that few of the packet's rays reach."""
+    m = active
+    while m != 0:
+        i = lowest_bit(m)
+        m &= m - 1
+        o, _, shear = _lane_ray(lane, axes, i)
+        t, j, b1, b2 = intersect_triangles(o, shear, tri, row, n, lane[TMIN, i], lane[BEST_T, i])
+        if t < lane[BEST_T, i]:
+            _set_lane_best(lane, prim, i, t, first + j, b1, b2)
+
+
+@inline_function
+def packet_unbounded(G, X, axes, lane, prim, n):
+    """The unbounded shapes (planes, after the BVH's primitives in the table) against lanes
+    0 .. n - 1 ray by ray, before the traversal, as closest_hit tests them first; their hits
+    become the lanes' best."""
+    packet_shear(lane, axes)
+    for i in range(n):
+        o, d, shear = _lane_ray(lane, axes, i)
+        t, p, b1, b2 = _unbounded_hit(G, X, o, d, shear, lane[TMIN, i], lane[BEST_T, i])
+        if p != NO_HIT:
+            _set_lane_best(lane, prim, i, t, p, b1, b2)
+
+
+@inline_function
+def span_of(values, k):
+    """Ray k's tmin or tmax: values[k], or values[0] where one value (an array of one) serves
+    every ray."""
+    return values[k] if values.shape[0] > 1 else values[0]
+
+
+@inline_function
+def packet_trace(G, X, root, origins, directions, start, n, extent, packets, node_stack, t_stack, spans):
+    """Rays start .. start + n - 1 as one packet, when they are coherent (packet_setup): their
+    nearest hits into the packet's lanes (read them with packet_hit), the unbounded shapes
+    first, ray by ray, as closest_hit tests them. extent: scene_extent(G), root: root_box(G),
+    packets: packet_scratch(); spans: None (each ray from 0 to infinity) or (tmin, tmax, k):
+    arrays of one value for every ray or of one per ray, ray k the packet's first (a lane
+    without a hit keeps its tmax as its t). Returns whether the rays were traced (coherent)."""
+    box, lane, prim, mask_stack = packets
+    t0, t1 = 0.0, math.inf
+    if spans is not None:  # (pruned in the renders)
+        t0, t1 = spans[0][0], spans[1][0]
+    coherent, rows, axes = packet_setup(origins, directions, start, n, t0, t1, extent, box, lane, prim)
+    if coherent:
+        if spans is not None:
+            tmin, tmax, k = spans
+            if tmin.shape[0] > 1 or tmax.shape[0] > 1:  # one per ray: the lanes' own (else set above)
+                for i in range(n):
+                    lane[TMIN, i] = span_of(tmin, k + i)
+                    lane[BEST_T, i] = span_of(tmax, k + i)
+        if X is not None:  # (pruned in the basic variant, which has no unbounded shapes)
+            if G.n_bounded < G.prims.shape[0]:
+                packet_unbounded(G, X, axes, lane, prim, n)
+        packet_closest(G, X, root, rows, axes, (1 << n) - 1, box, lane, prim, node_stack, t_stack, mask_stack)
+    return coherent
+
+
+@inline_function
+def packet_blocked(
+    G, X, root, origins, directions, tmin, tmax, k, start, n, need, extent, packets, node_stack, t_stack
+):
+    """Shadow rays start .. start + n - 1, lane i's ending at span_of(tmax, k + i) and starting
+    at span_of(tmin, k + i) (tmin None: at 0), as one packet when they are coherent
+    (packet_setup, origins up to _SHADOW_ORIGIN_SPREAD of the extent apart): only the lanes of
+    the mask `need` are traced. Returns (coherent, the mask of the lanes that something blocks
+    in (tmin, tmax)): any_hit's answers, found by the closest-hit traversal with each lane's
+    best hit starting at its tmax (a hit nearer than tmax is one any_hit finds)."""
+    box, lane, prim, mask_stack = packets
+    spread = extent * (_SHADOW_ORIGIN_SPREAD / _ORIGIN_SPREAD)
+    coherent, rows, axes = packet_setup(origins, directions, start, n, 0.0, math.inf, spread, box, lane, prim)
+    if not coherent:
+        return False, 0
+    for i in range(n):
+        lane[BEST_T, i] = span_of(tmax, k + i)
+    if tmin is not None:  # (pruned where the rays start at 0: the wavefront's)
+        for i in range(n):
+            lane[TMIN, i] = span_of(tmin, k + i)
+    if X is not None:  # (pruned in the basic variant, which has no unbounded shapes)
+        if G.n_bounded < G.prims.shape[0]:
+            packet_unbounded(G, X, axes, lane, prim, n)
+    packet_closest(G, X, root, rows, axes, need, box, lane, prim, node_stack, t_stack, mask_stack)
+    blocked = 0
+    for i in range(n):
+        if (need >> i) & 1 and prim[i] != NO_HIT:
+            blocked |= 1 << i
+    return True, blocked
+
+
+@inline_function
+def packet_closest(G, X, root, rows, axes, active, box, lane, prim, node_stack, t_stack, mask_stack):
+    """The nearest hit of each active ray of the packet (set up by packet_setup) through the
+    BVH, into lane[BEST_*] and prim (read them with packet_hit); root: root_box(G). Stack entries are
+    traverse.py's, each with the mask of the rays that entered it, and the nearest of their entry
+    distances: an entry is skipped when even that lies beyond the farthest best hit of its rays."""
+    index = G.node_index
+    bounds = G.node_bounds
+    tri = G.triangles
+    P = G.prims
+    # Where a leaf's first triangle row is its first primitive (traverse.rows_in_leaf_order),
+    # known before the primitive table is read, its triangles are prefetched as it is pushed
+    # (bumpy 4M hit rays 5-12% faster; the primitive table's row is itself a cache miss there)
+    direct_rows = rows_in_leaf_order(G)
+    ref = 0
+    # the root's box first (root: root_box(G)): most packets of a loosely framed frame miss it
+    planes = (root[rows[0]], root[rows[1]], root[rows[2]], root[3 - rows[0]], root[5 - rows[1]], root[7 - rows[2]])
+    mask = packet_box(planes, box, lane, active)
+    top = 0
+    while mask != 0:
+        if ref >= 0:
+            prefetch_child_rows(index, ref)
+            masks = packet_node(bounds, ref, box, rows, lane, mask, t_stack, top)
+            k = 0
+            for c in range(BVH_WIDTH):
+                m = (masks >> (8 * c)) & 0xFF
+                if m == 0:
+                    continue
+                u = np.uint64(c)
+                t = t_stack[np.uint64(top + c)]
+                if index[np.uint64(ref), NODE_COUNT, u] == 0:
+                    child = index[np.uint64(ref), NODE_FIRST, u]
+                else:
+                    child = -1 - ((ref << _LANE_SHIFT) + c)
+                    f0 = index[np.uint64(ref), NODE_FIRST, u]
+                    if direct_rows:  # the leaf's triangles themselves, four rows
+                        for r in range(4):
+                            prefetch_row(tri, f0 + r)
+                    else:
+                        prefetch_row(P, f0)
+                # sorted insertion, the nearest on top; slots top + c' > top + k are still
+                # unread entry distances of lanes after c, so the shift stays below them
+                j = top + k
+                while j > top and t_stack[np.uint64(j - 1)] < t:
+                    t_stack[np.uint64(j)] = t_stack[np.uint64(j - 1)]
+                    node_stack[np.uint64(j)] = node_stack[np.uint64(j - 1)]
+                    mask_stack[np.uint64(j)] = mask_stack[np.uint64(j - 1)]
+                    j -= 1
+                t_stack[np.uint64(j)] = t
+                node_stack[np.uint64(j)] = child
+                mask_stack[np.uint64(j)] = m
+                k += 1
+            if k > 0:
+                top += k - 1
+                ref = node_stack[np.uint64(top)]
+                mask = mask_stack[np.uint64(top)]
+                continue
+        else:
+            packet_shear(lane, axes)
+            leaf = -1 - ref
+            node = leaf >> _LANE_SHIFT
+            c = leaf & (BVH_WIDTH - 1)
+            first = index[node, NODE_FIRST, c]
+            count = index[node, NODE_COUNT, c]
+            if -SPHERE_BLOCK <= count < 0:  # a block of triangles in consecutive rows
+                row = block_row(G, first)
+                if direct_rows:
+                    prefetch_neighbours(tri, row, row - count)
+                # A leaf that one to three rays reach is tested ray by ray, four triangles per
+                # vector: the packet test computes all eight lanes in float64 (two ymm
+                # registers on AVX2) however few are active. On a mesh with several triangles
+                # under each pixel most leaves are reached by one ray (bumpy 1M hit rays on
+                # a Zen 3: 91 -> 77 ms, 4M 149 -> 106; the same hits). Three rather than two:
+                # 1M 44.0 -> 43.3 ms and 40k 23.1 -> 22.9 (4 of 4 alternating rounds each),
+                # 4M the same; four was slower at 40k.
+                few = mask & (mask - 1)  # the mask less its lowest ray
+                few &= few - 1  # ... and its second lowest
+                if (few & (few - 1)) == 0:  # one, two or three rays
+                    _triangles_ray_by_ray(tri, row, -count, first, axes, lane, prim, mask)
+                else:
+                    packet_triangles(tri, row, -count, first, axes, lane, prim, mask)
+            else:
+                if direct_rows:  # one triangle
+                    prefetch_neighbours(tri, first, first + count)
+                _leaf_ray_by_ray(G, X, first, count, axes, lane, prim, mask)
+        found = False
+        while top > 0:
+            top -= 1
+            m = mask_stack[np.uint64(top)]
+            if t_stack[np.uint64(top)] < packet_farthest(lane, m):
+                found = True
+                ref = node_stack[np.uint64(top)]
+                mask = m
+                break
+        if not found:
+            break
+    packet_finish(lane, prim)

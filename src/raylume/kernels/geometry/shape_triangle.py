@@ -1,0 +1,366 @@
+"""Triangles, alone or from meshes: float32 vertices (T, 9) in BVH leaf order, optional
+vertex normals (smooth shading) and UVs. The watertight ray-triangle test of Woop, Benthin
+and Wald (2013)."""
+
+import math
+
+from llvmlite import ir
+from numba import types
+from numba.core import cgutils
+from numba.core.errors import TypingError
+from numba.extending import intrinsic
+
+from ..vec import add, cross, dot, inline_function, kernel_function, mul, normalize, row3, sub
+
+INF = math.inf
+BOUNDED = True
+
+
+@kernel_function
+def ray_shear(d):
+    """Per-ray constants of the watertight test."""
+    kx, ky, kz = shear_axes(d)
+    sz = 1.0 / d[kz]
+    return kx, ky, kz, d[kx] * sz, d[ky] * sz, sz
+
+
+@inline_function
+def shear_axes(d):
+    """The watertight test's axis order for direction d: kz its dominant axis, (kx, ky) the
+    other two in the order that keeps the triangles' winding."""
+    ax, ay, az = abs(d[0]), abs(d[1]), abs(d[2])
+    kz = 0
+    if ay > ax and ay >= az:
+        kz = 1
+    elif az > ax and az > ay:
+        kz = 2
+    kx = (kz + 1) % 3
+    ky = (kx + 1) % 3
+    if d[kz] < 0.0:
+        kx, ky = ky, kx
+    return kx, ky, kz
+
+
+# Shear constants for rays in scenes without triangles (never used, but typed alike).
+NO_SHEAR = (0, 1, 2, 0.0, 0.0, 1.0)
+
+
+# No fastmath here: contracting a*b - c*d into a fused multiply-add would make the edge
+# functions of two triangles sharing an edge differ, and rays through the edge could slip by.
+# Said explicitly: a function that leaves fastmath unset inherits its caller's flags in Numba,
+# and every caller is a fast-math kernel.
+@kernel_function(error_model="numpy", _nrt=False, fastmath=False)
+def intersect_triangle(o, shear, tri, i, tmin, tmax):
+    """Watertight ray-triangle test against row i of tri (float32 (T, 9): v0, v1, v2).
+
+    Returns (t, b1, b2): b1, b2 are the barycentric weights of v1 and v2. Edges shared by two
+    triangles are evaluated identically from both sides, so closed meshes have no pinholes."""
+    kx, ky, kz, sx, sy, sz = shear
+    ax = tri[i, kx] - o[kx]
+    ay = tri[i, ky] - o[ky]
+    az = tri[i, kz] - o[kz]
+    bx = tri[i, 3 + kx] - o[kx]
+    by = tri[i, 3 + ky] - o[ky]
+    bz = tri[i, 3 + kz] - o[kz]
+    cx = tri[i, 6 + kx] - o[kx]
+    cy = tri[i, 6 + ky] - o[ky]
+    cz = tri[i, 6 + kz] - o[kz]
+    ax -= sx * az
+    ay -= sy * az
+    bx -= sx * bz
+    by -= sy * bz
+    cx -= sx * cz
+    cy -= sy * cz
+    u = cx * by - cy * bx
+    v = ax * cy - ay * cx
+    w = bx * ay - by * ax
+    # Edge functions within a hair of zero count as inside: a margin beyond exact arithmetic
+    # (a ray exactly through a shared edge must hit at least one of the two triangles, however
+    # a future compiler rounds).
+    tol = 1e-12 * (abs(u) + abs(v) + abs(w))
+    if (u < -tol or v < -tol or w < -tol) and (u > tol or v > tol or w > tol):
+        return INF, 0.0, 0.0
+    det = u + v + w
+    if det == 0.0:
+        return INF, 0.0, 0.0
+    t = (u * az + v * bz + w * cz) * sz / det
+    if t > tmin and t < tmax:
+        return t, min(max(v / det, 0.0), 1.0), min(max(w / det, 0.0), 1.0)
+    return INF, 0.0, 0.0
+
+
+# --- four triangles at once (BVH leaves) --------------------------------------------------------
+
+TRIANGLES_PER_TEST = 4  # lanes of intersect_triangles: 4 float64 in one AVX2 register
+
+
+def _triangles_codegen(context, builder, sig, args):
+    """intersect_triangle's arithmetic on 4 consecutive rows as <4 x double> vectors, operation
+    for operation (IEEE, no fast-math flags, no FMA contraction): each lane's t, b1, b2 are
+    bit-identical to the scalar test's."""
+    n = TRIANGLES_PER_TEST
+    f32, f64, i32, i64 = ir.FloatType(), ir.DoubleType(), ir.IntType(32), ir.IntType(64)
+    v4 = ir.VectorType(f64, n)
+    undef = ir.Constant(v4, ir.Undefined)
+    zero_idx = ir.Constant(ir.VectorType(i32, n), [0] * n)
+    tri_t, first_t, count_t, o_t, shear_t, tmin_t, tmax_t = sig.args
+    tri = context.make_array(tri_t)(context, builder, args[0])
+    first = context.cast(builder, args[1], first_t, types.int64)
+    count = context.cast(builder, args[2], count_t, types.int64)
+    o = [
+        context.cast(builder, x, t, types.float64)
+        for x, t in zip(cgutils.unpack_tuple(builder, args[3], 3), o_t, strict=True)
+    ]
+    sh = cgutils.unpack_tuple(builder, args[4], 6)
+    kx, ky, kz = (context.cast(builder, sh[i], shear_t[i], types.int64) for i in range(3))
+    sx, sy, sz = (context.cast(builder, sh[3 + i], shear_t[3 + i], types.float64) for i in range(3))
+    tmin = context.cast(builder, args[5], tmin_t, types.float64)
+    tmax = context.cast(builder, args[6], tmax_t, types.float64)
+
+    def splat(x):
+        return builder.shuffle_vector(builder.insert_element(undef, x, ir.Constant(i32, 0)), undef, zero_idx)
+
+    _, fsub, _, lt = exact_ops(builder)
+
+    def pick(k):  # o[k] for a runtime k in 0..2
+        return builder.select(
+            builder.icmp_signed("==", k, ir.Constant(i64, 0)),
+            o[0],
+            builder.select(builder.icmp_signed("==", k, ir.Constant(i64, 1)), o[1], o[2]),
+        )
+
+    # rows first .. first + count - 1; lanes past count repeat the last row (masked below)
+    last = builder.sub(count, ir.Constant(i64, 1))
+    rows = []
+    for j in range(n):
+        jj = ir.Constant(i64, j)
+        lane = builder.select(builder.icmp_signed("<", jj, count), jj, last)
+        rows.append(builder.mul(builder.add(first, lane), ir.Constant(i64, 9)))
+
+    def column(c):  # float64 vector of column c (runtime) of the 4 rows
+        vec = ir.Constant(ir.VectorType(f32, n), ir.Undefined)
+        for j in range(n):
+            p = builder.gep(tri.data, [builder.add(rows[j], c)], inbounds=True)
+            vec = builder.insert_element(vec, builder.load(p, align=4), ir.Constant(i32, j))
+        return builder.fpext(vec, v4)
+
+    ox, oy, oz = splat(pick(kx)), splat(pick(ky)), splat(pick(kz))
+    c3, c6 = ir.Constant(i64, 3), ir.Constant(i64, 6)
+    ax = fsub(column(kx), ox)
+    ay = fsub(column(ky), oy)
+    az = fsub(column(kz), oz)
+    bx = fsub(column(builder.add(kx, c3)), ox)
+    by = fsub(column(builder.add(ky, c3)), oy)
+    bz = fsub(column(builder.add(kz, c3)), oz)
+    cx = fsub(column(builder.add(kx, c6)), ox)
+    cy = fsub(column(builder.add(ky, c6)), oy)
+    cz = fsub(column(builder.add(kz, c6)), oz)
+    t, v, w, det, ok = watertight_lanes(
+        builder, (ax, ay, az, bx, by, bz, cx, cy, cz), splat(sx), splat(sy), splat(sz), splat(tmin), splat(tmax)
+    )
+    lanes = ir.Constant(ir.VectorType(i64, n), list(range(n)))
+    ok = builder.and_(ok, builder.icmp_signed("<", lanes, splat_i64(builder, count, n)))
+    inf = ir.Constant(v4, [float("inf")] * n)
+    tt = builder.select(ok, t, inf)
+    best_t, best_j = nearest_lane(builder, tt, n)
+    vj = builder.extract_element(v, best_j)
+    wj = builder.extract_element(w, best_j)
+    dj = builder.extract_element(det, best_j)
+    # the barycentrics of the nearest lane, clamped to [0, 1] as the scalar test clamps them
+    # (0 when nothing is hit)
+    zero, one = ir.Constant(f64, 0.0), ir.Constant(f64, 1.0)
+    found = lt(best_t, tmax)
+
+    def barycentric(x):
+        q = builder.fdiv(x, dj, flags=EXACT_DIVISION)
+        q = builder.select(builder.fcmp_ordered(">", q, zero, flags=EXACT), q, zero)
+        q = builder.select(lt(q, one), q, one)
+        return builder.select(found, q, zero)
+
+    return context.make_tuple(builder, sig.return_type, [best_t, best_j, barycentric(vj), barycentric(wj)])
+
+
+def watertight_lanes(builder, rel, sx, sy, sz, tmin, tmax):
+    """intersect_triangle's arithmetic from the vertices relative to the origin onwards, on
+    float64 vectors (one triangle and ray pair a lane; this test's four triangles against one
+    ray, packet.py's one triangle against eight rays), in IEEE instructions that Numba's
+    fast-math pass leaves alone. rel: (ax, ay, az, bx, by, bz, cx, cy, cz), the vertices minus
+    the origin in the shear's axis order; sx, sy, sz, tmin, tmax vectors too. Returns
+    (t, v, w, det, ok): ok where the ray hits inside (tmin, tmax); b1, b2 are v / det, w / det."""
+    fadd, fsub, fmul, lt = exact_ops(builder)
+    ax, ay, az, bx, by, bz, cx, cy, cz = rel
+    vt = ax.type
+    ax = fsub(ax, fmul(sx, az))
+    ay = fsub(ay, fmul(sy, az))
+    bx = fsub(bx, fmul(sx, bz))
+    by = fsub(by, fmul(sy, bz))
+    cx = fsub(cx, fmul(sx, cz))
+    cy = fsub(cy, fmul(sy, cz))
+    u = fsub(fmul(cx, by), fmul(cy, bx))
+    v = fsub(fmul(ax, cy), fmul(ay, cx))
+    w = fsub(fmul(bx, ay), fmul(by, ax))
+    fabs = cgutils.get_or_insert_function(builder.module, ir.FunctionType(vt, [vt]), f"llvm.fabs.v{vt.count}f64")
+    tol = fmul(
+        ir.Constant(vt, [1e-12] * vt.count),
+        fadd(fadd(builder.call(fabs, [u]), builder.call(fabs, [v])), builder.call(fabs, [w])),
+    )
+    ntol = builder.fneg(tol, flags=EXACT)
+    neg = builder.or_(builder.or_(lt(u, ntol), lt(v, ntol)), lt(w, ntol))
+    pos = builder.or_(builder.or_(lt(tol, u), lt(tol, v)), lt(tol, w))
+    det = fadd(fadd(u, v), w)
+    num = fadd(fadd(fmul(u, az), fmul(v, bz)), fmul(w, cz))
+    t = builder.fdiv(fmul(num, sz), det, flags=EXACT_DIVISION)
+    ok = builder.and_(
+        builder.not_(builder.and_(neg, pos)),
+        builder.fcmp_unordered("!=", det, ir.Constant(vt, [0.0] * vt.count), flags=EXACT),
+    )
+    return t, v, w, det, builder.and_(ok, builder.and_(lt(tmin, t), lt(t, tmax)))
+
+
+# Flags that change nothing for these instructions: 'arcp' only matters to divisions, and
+# 'nsz' on a division only to the sign of a zero result, which the callers never depend on.
+# Numba's fast-math pass adds its flags (contraction into FMAs among them) only to float
+# instructions that have none, so the block tests, inlined into fast-math kernels, round there
+# exactly as the scalar tests they are checked against.
+EXACT = ("arcp",)
+EXACT_DIVISION = ("nsz",)
+
+
+def exact_ops(builder):
+    """(fadd, fsub, fmul, lt) emitting IEEE instructions that Numba's fast-math pass leaves alone."""
+
+    def fadd(a, b):
+        return builder.fadd(a, b, flags=EXACT)
+
+    def fsub(a, b):
+        return builder.fsub(a, b, flags=EXACT)
+
+    def fmul(a, b):
+        return builder.fmul(a, b, flags=EXACT)
+
+    def lt(a, b):
+        return builder.fcmp_ordered("<", a, b, flags=EXACT)
+
+    return fadd, fsub, fmul, lt
+
+
+def nearest_lane(builder, t, n):
+    """(t, lane) of the smallest of the n lanes of vector t, the lowest lane on ties (as a scalar
+    loop keeping the first of equal hits), in LLVM IR."""
+    i32, i64 = ir.IntType(32), ir.IntType(64)
+    best_t = builder.extract_element(t, ir.Constant(i32, 0))
+    best_j = ir.Constant(i64, 0)
+    for j in range(1, n):
+        tj = builder.extract_element(t, ir.Constant(i32, j))
+        nearer = builder.fcmp_ordered("<", tj, best_t, flags=EXACT)
+        best_t = builder.select(nearer, tj, best_t)
+        best_j = builder.select(nearer, ir.Constant(i64, j), best_j)
+    return best_t, best_j
+
+
+def splat_i64(builder, x, n):
+    i32 = ir.IntType(32)
+    vt = ir.VectorType(ir.IntType(64), n)
+    undef = ir.Constant(vt, ir.Undefined)
+    return builder.shuffle_vector(
+        builder.insert_element(undef, x, ir.Constant(i32, 0)),
+        undef,
+        ir.Constant(ir.VectorType(i32, n), [0] * n),
+    )
+
+
+@intrinsic
+def _triangles4(typingctx, tri, first, count, o, shear, tmin, tmax):
+    if not (isinstance(tri, types.Array) and tri.dtype == types.float32 and tri.ndim == 2 and tri.layout == "C"):
+        raise TypingError("_triangles4: tri must be a C-contiguous float32 (T, 9) array")
+    ret = types.Tuple((types.float64, types.int64, types.float64, types.float64))
+    return ret(tri, first, count, o, shear, tmin, tmax), _triangles_codegen
+
+
+# Inlined into the traversal (a call per leaf passed the arrays and spilled the ray's state: the
+# hit rays of a 10k-triangle mesh took 6-9% longer); its arithmetic is protected from the
+# caller's fast-math flags inside _triangles_codegen.
+@inline_function
+def intersect_triangles(o, shear, tri, first, count, tmin, tmax):
+    """The watertight test against rows first .. first + count - 1 (count <= 4) of tri at once:
+    (t, lane, b1, b2) of the nearest hit in (tmin, tmax), the lowest lane on ties; t = +inf
+    when none. The same result as intersect_triangle row by row, to the last bit."""
+    return _triangles4(tri, first, count, o, shear, tmin, tmax)
+
+
+@inline_function
+def normals(G, i, b1, b2):
+    """(geometric normal, shading normal) of triangle i at barycentrics (b1, b2): the face
+    normal by the winding (v1 - v0) x (v2 - v0), and the interpolated vertex normals when
+    the mesh is smooth."""
+    tri = G.triangles
+    v0 = row3(tri, i, 0)
+    ng = normalize(cross(sub(row3(tri, i, 3), v0), sub(row3(tri, i, 6), v0)))
+    ns = ng
+    if G.triangle_smooth[i]:
+        b0 = 1.0 - b1 - b2
+        nrm = G.triangle_normals
+        s = add(add(mul(row3(nrm, i, 0), b0), mul(row3(nrm, i, 3), b1)), mul(row3(nrm, i, 6), b2))
+        if dot(s, s) > 0.0:
+            ns = normalize(s)
+    return ng, ns
+
+
+@kernel_function
+def uv(G, i, b1, b2):
+    """The mesh's UVs interpolated; without UVs (and for a `triangle` object) the vertices sit
+    at (0, 0), (1, 0), (0, 1)."""
+    uvs = G.triangle_uvs
+    if uvs.shape[0] <= i:
+        return b1, b2
+    b0 = 1.0 - b1 - b2
+    return (b0 * uvs[i, 0] + b1 * uvs[i, 2] + b2 * uvs[i, 4], b0 * uvs[i, 1] + b1 * uvs[i, 3] + b2 * uvs[i, 5])
+
+
+@kernel_function
+def uv_change(G, i, a):
+    """Change of the triangle's (u, v) along the vector a in its plane (texture filtering):
+    a = e1 db1 + e2 db2 solved for the barycentric change by least squares."""
+    tri = G.triangles
+    v0 = row3(tri, i, 0)
+    e1 = sub(row3(tri, i, 3), v0)
+    e2 = sub(row3(tri, i, 6), v0)
+    a11 = dot(e1, e1)
+    a12 = dot(e1, e2)
+    a22 = dot(e2, e2)
+    det = a11 * a22 - a12 * a12
+    if not (det > 0.0):  # degenerate: never hit, but no division by zero either
+        return 0.0, 0.0
+    r1 = dot(a, e1)
+    r2 = dot(a, e2)
+    db1 = (a22 * r1 - a12 * r2) / det
+    db2 = (a11 * r2 - a12 * r1) / det
+    uvs = G.triangle_uvs
+    if uvs.shape[0] <= i:
+        return db1, db2
+    return (
+        db1 * (uvs[i, 2] - uvs[i, 0]) + db2 * (uvs[i, 4] - uvs[i, 0]),
+        db1 * (uvs[i, 3] - uvs[i, 1]) + db2 * (uvs[i, 5] - uvs[i, 1]),
+    )
+
+
+# --- emission (path mode samples emissive triangles) -------------------------------------------
+
+
+@kernel_function
+def sample(G, i, u1, u2):
+    """A uniform point on triangle i for (u1, u2) in [0, 1)^2, and its face normal."""
+    tri = G.triangles
+    s = math.sqrt(u1)
+    v0 = row3(tri, i, 0)
+    e1 = sub(row3(tri, i, 3), v0)
+    e2 = sub(row3(tri, i, 6), v0)
+    return add(add(v0, mul(e1, 1.0 - s)), mul(e2, u2 * s)), normalize(cross(e1, e2))
+
+
+def area(triangles):
+    """One side's area of each of (T, 9) triangles."""
+    import numpy as np
+
+    v = np.asarray(triangles, dtype=np.float64).reshape(-1, 3, 3)
+    return 0.5 * np.linalg.norm(np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]), axis=1)

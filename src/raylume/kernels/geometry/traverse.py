@@ -1,0 +1,225 @@
+"""BVH traversal: closest hit (nearest children first) and any hit (for shadow rays).
+
+The BVH is wide (accel/wide.py): each node holds up to BVH_WIDTH children, their boxes stored
+structure-of-arrays (a record of rows of W lanes per node: one row per slab plane, then the
+children's indices; one lane per child).
+`box_hits` tests a ray against all W boxes of a node at once, in explicit LLVM vector code
+(one ymm register per plane row on AVX2: vsubps, vmulps, vmaxps, vminps, vcmpps), so it
+vectorises whatever Numba's SLP vectoriser setting, and the on-disk cache cannot hold a scalar
+version of it. The hit children are pushed onto the stack sorted by entry distance (nearest on
+top); popped entries beyond the best hit so far are skipped. Any-hit queries take the same
+path and stop at the first leaf with a hit.
+
+Primitives are tested through one leaf loop (`intersect_range`) over the primitive table
+(shapes.py); leaves are ranges of it. Unbounded primitives (planes) follow the bounded ones in
+that table and are tested before traversal.
+
+Stack entries: an inner node's index (>= 0), or -1 - (node * BVH_WIDTH + lane) for the leaf in
+that lane of that node (its range is node_index[node, NODE_FIRST:, lane]).
+"""
+
+import numpy as np
+from numba.extending import overload
+
+from ..scene import is_instances
+from ..vec import INLINE_OVERLOAD, inline_function
+from .layout import NODE_COUNT, NODE_FIRST, SPHERE_BLOCK
+from .shape_sphere import intersect_spheres
+from .shape_triangle import NO_SHEAR, intersect_triangles, ray_shear
+from .shapes import NO_HIT, PRIM_ROW, intersect
+from .wide_nodes import _LANE_SHIFT, BVH_WIDTH, box_ray, pop_nearer, prefetch_neighbours, push_children, traceable
+
+# --- leaves -----------------------------------------------------------------------------------
+
+
+@inline_function
+def intersect_range(G, X, first, end, o, d, shear, tmin, best_t, prim, b1, b2, stop_at_first):
+    """The leaf loop: primitives first..end-1 against the ray, nearest hit before best_t.
+    Returns the updated (best_t, prim, b1, b2); with stop_at_first, returns at the first hit
+    (any-hit queries)."""
+    for k in range(first, end):
+        t, u, v = intersect(G, X, k, o, d, shear, tmin, best_t)
+        if t < best_t:
+            best_t, prim, b1, b2 = t, k, u, v
+            if stop_at_first:
+                break
+    return best_t, prim, b1, b2
+
+
+@inline_function
+def rows_in_leaf_order(G):
+    """Whether every bounded primitive is a triangle: compile.py then numbers the triangle rows
+    in leaf order, so a leaf's first primitive is its first triangle row."""
+    return G.triangles.shape[0] == G.n_bounded
+
+
+@inline_function
+def block_row(G, first):
+    """The first triangle row of a block leaf whose first primitive is `first`: read straight
+    from it where rows_in_leaf_order, so that the triangles' load need not wait for the
+    primitive table's (a cache miss of its own on a large mesh: bumpy 4M single-ray hit rays
+    on a Zen 3 187.5 -> 139.4 ms, alternating; 40k 52.9 -> 50.3)."""
+    return np.int64(first) if rows_in_leaf_order(G) else np.int64(G.prims[first, PRIM_ROW])
+
+
+@inline_function
+def intersect_leaf(G, X, first, count, o, d, shear, tmin, best_t, prim, b1, b2, stop_at_first):
+    """A leaf (its count field decoded as accel/wide.py says): blocks of 2 to 4 triangles or
+    spheres tested at once, other leaves primitive by primitive (with stop_at_first, up to the
+    first hit: any-hit queries). Returns the updated (best_t, prim, b1, b2)."""
+    if count < -SPHERE_BLOCK:
+        n = -count - SPHERE_BLOCK
+        P = G.prims
+        r0 = P[first, PRIM_ROW]
+        rows = (
+            r0,
+            P[first + 1, PRIM_ROW],
+            P[first + 2, PRIM_ROW] if n > 2 else r0,
+            P[first + 3, PRIM_ROW] if n > 3 else r0,
+        )
+        t, j = intersect_spheres(G.shapes, rows, n, o, d, tmin, best_t)
+        if t < best_t:
+            return t, first + j, 0.0, 0.0
+        return best_t, prim, b1, b2
+    if count < 0:  # -count triangles in consecutive rows
+        t, j, u, v = intersect_triangles(o, shear, G.triangles, block_row(G, first), -count, tmin, best_t)
+        if t < best_t:
+            return t, first + j, u, v
+        return best_t, prim, b1, b2
+    return intersect_range(G, X, first, first + count, o, d, shear, tmin, best_t, prim, b1, b2, stop_at_first)
+
+
+# Inlined: with a call, every ray of a scene with planes passed the Geometry view by value
+# (glass example: trace 10%, cast 30% slower). Scenes without unbounded shapes compile none of
+# it (X is None, see variants.features). Any-hit queries use it too, without stopping early (a
+# few planes).
+@inline_function
+def _unbounded_hit(G, X, o, d, shear, tmin, tmax):
+    """The nearest of the unbounded primitives (after the BVH's) hit by the ray."""
+    return intersect_range(G, X, G.n_bounded, G.prims.shape[0], o, d, shear, tmin, tmax, NO_HIT, 0.0, 0.0, False)
+
+
+# --- instances ---------------------------------------------------------------------------------
+# Scenes with instances (X an Instances) test them beside the unbounded primitives, before the
+# world BVH (traverse_instances.py); every other variant compiles nothing for them.
+
+
+def _instances_hit(G, X, o, d, tmin, best_t, prim, b1, b2, node_stack, t_stack, stop_at_first):
+    raise NotImplementedError("a Numba overload")
+
+
+@overload(_instances_hit, jit_options=INLINE_OVERLOAD)
+def _instances_hit_impl(G, X, o, d, tmin, best_t, prim, b1, b2, node_stack, t_stack, stop_at_first):
+    if is_instances(X):
+        from .traverse_instances import instances_hit
+
+        # The empty test inlined, before the call: path mode passes Instances for every scene,
+        # and a call per ray passing the views slowed Cornell path mode (1.85 -> 2.24 s). The primitive as
+        # int64 and distances as floats: a literal (NO_HIT) at some call sites would compile
+        # the function once more per literal.
+        def impl(G, X, o, d, tmin, best_t, prim, b1, b2, node_stack, t_stack, stop_at_first):
+            if X.inverse.shape[0] == 0:
+                return float(best_t), np.int64(prim), float(b1), float(b2)
+            return instances_hit(
+                G, X, o, d, float(tmin), float(best_t), np.int64(prim), float(b1), float(b2), node_stack, t_stack,
+                bool(stop_at_first),
+            )  # fmt: skip
+
+        return impl
+    return lambda G, X, o, d, tmin, best_t, prim, b1, b2, node_stack, t_stack, stop_at_first: (best_t, prim, b1, b2)
+
+
+# --- traversal --------------------------------------------------------------------------------
+
+
+@inline_function
+def _root_is_a_leaf(index):
+    """A root node with one leaf lane (small scenes; one node has no inner children, so an
+    unused lane 1 means lane 0 alone)."""
+    return index.shape[0] == 1 and index[0, NODE_COUNT, 1] == 0
+
+
+@inline_function
+def closest_hit(G, X, o, d, tmin, tmax, node_stack, t_stack):
+    """Nearest hit in (tmin, tmax): (t, primitive, b1, b2); primitive NO_HIT when nothing.
+    b1, b2 are the barycentric weights of a triangle's second and third vertices."""
+    # Without planes or instances the shear is computed at the first leaf, not before the
+    # traversal: a ray that misses every box never computes it, and the others do not hold it
+    # through the first node visits (bunny and bumpy 10k-1M frames ~8% less time, their hit
+    # rays ~3%; benchmarks/bench_hits.py, alternating builds). Planes and instances need it
+    # before the traversal.
+    lazy_shear = X is None and G.triangles.shape[0] > 0
+    shear = ray_shear(d) if X is not None and G.triangles.shape[0] > 0 else NO_SHEAR
+    best_t, prim, b1, b2 = tmax, NO_HIT, 0.0, 0.0
+    if X is not None:
+        if G.n_bounded < G.prims.shape[0]:
+            best_t, prim, b1, b2 = _unbounded_hit(G, X, o, d, shear, tmin, tmax)
+        best_t, prim, b1, b2 = _instances_hit(G, X, o, d, tmin, best_t, prim, b1, b2, node_stack, t_stack, False)
+    return _bvh_hit(G, X, o, d, shear, lazy_shear, tmin, best_t, prim, b1, b2, node_stack, t_stack, False)
+
+
+@inline_function
+def any_hit(G, X, o, d, tmin, tmax, node_stack, t_stack):
+    """True when anything lies in (tmin, tmax): stops at the first blocker found."""
+    lazy_shear = X is None and G.triangles.shape[0] > 0  # as in closest_hit
+    shear = ray_shear(d) if X is not None and G.triangles.shape[0] > 0 else NO_SHEAR
+    if X is not None:
+        if G.n_bounded < G.prims.shape[0] and _unbounded_hit(G, X, o, d, shear, tmin, tmax)[1] >= 0:
+            return True
+        if _instances_hit(G, X, o, d, tmin, tmax, NO_HIT, 0.0, 0.0, node_stack, t_stack, True)[1] != NO_HIT:
+            return True
+    hit = _bvh_hit(G, X, o, d, shear, lazy_shear, tmin, tmax, NO_HIT, 0.0, 0.0, node_stack, t_stack, True)
+    return hit[1] != NO_HIT
+
+
+@inline_function
+def _bvh_hit(G, X, o, d, shear, lazy_shear, tmin, best_t, prim, b1, b2, node_stack, t_stack, stop_at_first):
+    """The nearest hit in the BVH in (tmin, best_t), or (best_t, prim, b1, b2) unchanged; with
+    stop_at_first, the first hit of the first leaf that has one (any_hit). Both visit the
+    children nearest first: a shadow ray that a surface blocks near its origin (its own
+    surface, facing away from the light) finds it in the first leaves instead of wherever the
+    lane order leads (bench_shadows.py's rays one by one: bumpy 4M 10-15% less time, 40k 2-3%,
+    than with the unsorted stack any-hit had; alternating builds in one process)."""
+    index = G.node_index
+    bounds = G.node_bounds
+    if _root_is_a_leaf(index):
+        # its one leaf, with no box test and before the per-ray box constants exist: through
+        # the node, or with the constants live across the traversal loop, the seed's trace
+        # kernel was 20-60% slower (1 thread)
+        if lazy_shear:
+            shear = ray_shear(d)
+        first, count = index[0, NODE_FIRST, 0], index[0, NODE_COUNT, 0]
+        return intersect_leaf(G, X, first, count, o, d, shear, tmin, best_t, prim, b1, b2, stop_at_first)
+    if not traceable(o, d):
+        return best_t, prim, b1, b2
+    rf, rows = box_ray(o, d)
+    tri = G.triangles
+    direct = rows_in_leaf_order(G)
+    ref = 0
+    top = 0
+    while True:
+        if ref >= 0:
+            k = push_children(bounds, index, G.prims, ref, rf, rows, best_t, node_stack, t_stack, top, tri, direct)
+            if k > 0:  # descend into the nearest
+                top += k - 1
+                ref = node_stack[top]
+                continue
+        else:
+            if lazy_shear:
+                shear = ray_shear(d)
+                lazy_shear = False
+            leaf = -1 - ref
+            node = leaf >> _LANE_SHIFT
+            lane = leaf & (BVH_WIDTH - 1)
+            first, count = index[node, NODE_FIRST, lane], index[node, NODE_COUNT, lane]
+            if direct:  # rows in leaf order: a block leaf (count < 0) or one triangle
+                prefetch_neighbours(tri, first, first + abs(count))
+            best_t, prim, b1, b2 = intersect_leaf(
+                G, X, first, count, o, d, shear, tmin, best_t, prim, b1, b2, stop_at_first
+            )
+            if stop_at_first and prim != NO_HIT:
+                break
+        found, top, ref = pop_nearer(node_stack, t_stack, top, 0, best_t)
+        if not found:
+            break
+    return best_t, prim, b1, b2

@@ -1,0 +1,386 @@
+"""A wide BVH node as traversal meets it: the per-thread stacks and scratch, the test of a ray
+against all BVH_WIDTH child boxes of a node at once (explicit LLVM vector code), prefetching,
+and the stack of nodes to visit (sorted entry distances). Shared by the traversal of one level
+(traverse.py) and of instances (traverse_instances.py).
+
+Stack entries: an inner node's index (>= 0), or -1 - (node * BVH_WIDTH + lane) for the leaf in
+that lane of that node (its range is node_index[node, NODE_FIRST:, lane]).
+"""
+
+import math
+
+import numpy as np
+from llvmlite import ir
+from numba import types
+from numba.core import cgutils
+from numba.core.errors import TypingError
+from numba.extending import intrinsic
+
+from ..vec import inline_function, kernel_function
+from .layout import NODE_COUNT, NODE_FIRST, NODE_ROWS
+
+INF = math.inf
+
+# Children per BVH node. 8 fills one AVX2 register (8 float32 lanes); measured against 4 with
+# benchmarks/bench_bvh.py and path mode (docs/architecture.md).
+BVH_WIDTH = 8
+_LANE_SHIFT = BVH_WIDTH.bit_length() - 1  # BVH_WIDTH is a power of two
+assert 1 << _LANE_SHIFT == BVH_WIDTH
+
+# Size of per-thread traversal stacks. Closest-hit pushes at most BVH_WIDTH - 1 entries per
+# level and writes a node's BVH_WIDTH entry distances above the top; compile.py rejects BVHs
+# too deep for it (stack_needed).
+TRAVERSAL_STACK = 1024
+# Unused elements on either side of each thread's scratch arrays (at least 256 bytes: beyond a
+# cache line and its prefetched neighbour). Small arrays allocated by two threads can lie back
+# to back: without the gap one thread's stack ended in the cache line where another's began,
+# and their writes fought over it (false sharing: the seed scene took 85 instead of 45 ms on
+# 2 threads).
+SCRATCH_PAD = 1024
+
+_F32_MAX = float(np.finfo(np.float32).max)
+_F32_TINY = float(np.finfo(np.float32).tiny)
+# Widening of each box's slab interval: covers the float32 rounding of the subtraction, of 1/d
+# and of the product (3 roundings of 2**-24 each, relative), so a box that the exact ray enters
+# is never culled and its entry distance never overestimated (a popped entry is skipped when it
+# lies beyond the best hit); the origin is rounded outward in box_ray.
+_NEAR_SCALE = 1.0 - 2.0**-20
+_FAR_SCALE = 1.0 + 2.0**-20
+# Smallest outward move of a ray's origin in the box test (box_ray): (face - origin) * 1/d is then
+# at least 2**-100 * 3.4e38 = 2.7e8 for a ray parallel to the slab that lies inside it.
+_ORIGIN_PAD = 2.0**-100
+_LINE = 64  # bytes in a cache line
+# prefetch_neighbours: lines on either side of a leaf's triangle rows, and the triangle count
+# from which they are prefetched
+NEIGHBOUR_LINES = 4
+NEIGHBOURS_FROM = 1 << 18
+
+
+def stack_needed(depth: int) -> int:
+    """Traversal stack entries a wide BVH of `depth` levels can need."""
+    return (BVH_WIDTH - 1) * depth + BVH_WIDTH + 1
+
+
+@kernel_function(_nrt=True)
+def traversal_stacks():
+    """One thread's (node_stack, t_stack) for closest_hit and any_hit."""
+    # Entry distances as the box test computes them, float32: exactly the values (and order) a
+    # float64 stack held, in half the memory (bumpy 1M hit rays: ~4% less time).
+    return scratch_array(TRAVERSAL_STACK, np.int32), scratch_array(TRAVERSAL_STACK, np.float32)
+
+
+@kernel_function(_nrt=True)
+def scratch_array(n, dtype):
+    """An array of n elements for one thread's scratch, with SCRATCH_PAD unused elements on
+    either side against false sharing."""
+    return np.empty(n + 2 * SCRATCH_PAD, dtype=dtype)[SCRATCH_PAD : SCRATCH_PAD + n]
+
+
+# --- the wide box test ------------------------------------------------------------------------
+
+
+def _box_codegen(width, store):
+    f32 = ir.FloatType()
+    f64 = ir.DoubleType()
+    i32 = ir.IntType(32)
+    i64 = ir.IntType(64)
+    vt = ir.VectorType(f32, width)
+    undef = ir.Constant(vt, ir.Undefined)
+    broadcast = ir.Constant(ir.VectorType(i32, width), [0] * width)
+
+    def codegen(context, builder, sig, args):
+        bounds = context.make_array(sig.args[0])(context, builder, args[0])
+        node = context.cast(builder, args[1], sig.args[1], types.int64)
+        rf = cgutils.unpack_tuple(builder, args[2], 9)
+        rows = [
+            context.cast(builder, r, t, types.int64)
+            for r, t in zip(cgutils.unpack_tuple(builder, args[3], 3), sig.args[3], strict=True)
+        ]
+        tmax = builder.fptrunc(context.cast(builder, args[4], sig.args[4], types.float64), f32)
+
+        def splat(x):
+            return builder.shuffle_vector(builder.insert_element(undef, x, ir.Constant(i32, 0)), undef, broadcast)
+
+        base = builder.mul(node, ir.Constant(i64, NODE_ROWS * width))
+
+        def row(r):
+            p = builder.gep(bounds.data, [builder.add(base, builder.mul(r, ir.Constant(i64, width)))], inbounds=True)
+            return builder.load(builder.bitcast(p, vt.as_pointer()), align=4)
+
+        def vmax(a, b):
+            return builder.select(builder.fcmp_ordered(">", a, b), a, b)
+
+        def vmin(a, b):
+            return builder.select(builder.fcmp_ordered("<", a, b), a, b)
+
+        tn, tf = [], []
+        for k in range(3):
+            inv = splat(rf[6 + k])
+            far = builder.sub(ir.Constant(i64, 2 * k + 3), rows[k])
+            tn.append(builder.fmul(builder.fsub(row(rows[k]), splat(rf[k])), inv))
+            tf.append(builder.fmul(builder.fsub(row(far), splat(rf[3 + k])), inv))
+        # Widened by the relative factors and by the smallest normal float32: products in the
+        # subnormal range round by a fixed step, which no relative factor covers (hypothesis
+        # found an entry distance of 2.24e-45 computed as 2.8e-45). The entry is then clamped
+        # at 0, so an origin inside the box enters at 0 exactly.
+        tiny = ir.Constant(vt, [_F32_TINY] * width)
+        tnear = builder.fsub(vmax(vmax(tn[0], tn[1]), tn[2]), tiny)
+        tnear = builder.fmul(vmax(tnear, ir.Constant(vt, [0.0] * width)), ir.Constant(vt, [_NEAR_SCALE] * width))
+        tfar = vmin(vmin(tf[0], tf[1]), vmin(tf[2], splat(tmax)))
+        tfar = builder.fadd(builder.fmul(tfar, ir.Constant(vt, [_FAR_SCALE] * width)), tiny)
+        hit = builder.fcmp_ordered("<=", tnear, tfar)
+        mask = builder.zext(builder.bitcast(hit, ir.IntType(width)), i64)
+        if store:
+            out = context.make_array(sig.args[5])(context, builder, args[5])
+            at = context.cast(builder, args[6], sig.args[6], types.int64)
+            p = builder.gep(out.data, [at], inbounds=True)
+            if sig.args[5].dtype == types.float32:
+                builder.store(tnear, builder.bitcast(p, vt.as_pointer()), align=4)
+            else:
+                dv = ir.VectorType(f64, width)
+                builder.store(builder.fpext(tnear, dv), builder.bitcast(p, dv.as_pointer()), align=8)
+        return mask
+
+    return codegen
+
+
+@intrinsic
+def box_hits(typingctx, bounds, node, rf, rows, tmax, out, at):
+    """Ray (box_ray's (rf, rows)) against the BVH_WIDTH child boxes of wide node `node`
+    (bounds: the float32 node records (M, NODE_ROWS, BVH_WIDTH), C-contiguous; rows 0-5 the
+    boxes), up to distance tmax: a bit mask of the lanes the ray enters. With an array `out`
+    (float32 or float64, C-contiguous), the lanes' entry distances are written to out[at : at +
+    BVH_WIDTH] (meaningful for hit lanes only; never beyond the exact entry distance); with out
+    None, nothing is written."""
+    if not (isinstance(bounds, types.Array) and bounds.ndim == 3 and bounds.dtype == types.float32):
+        raise TypingError("box_hits: bounds must be a float32 (M, NODE_ROWS, W) array")
+    if bounds.layout != "C":
+        raise TypingError("box_hits: bounds must be C-contiguous")
+    store = not isinstance(out, (types.NoneType, types.Omitted))
+    if store and not (
+        isinstance(out, types.Array) and out.dtype in (types.float32, types.float64) and out.layout == "C"
+    ):
+        raise TypingError("box_hits: out must be a C-contiguous float32 or float64 array or None")
+    sig = types.int64(bounds, node, rf, rows, tmax, out, at)
+    return sig, _box_codegen(BVH_WIDTH, store)
+
+
+@intrinsic
+def prefetch_row(typingctx, array, i):
+    """Start loading the cache line of array[i] (its first element; a C-contiguous array), for a
+    read soon: a hint, no result."""
+    if not (isinstance(array, types.Array) and array.layout == "C"):
+        raise TypingError("prefetch_row: a C-contiguous array")
+    sig = types.void(array, i)
+
+    def codegen(context, builder, sig, args):
+        arr = context.make_array(sig.args[0])(context, builder, args[0])
+        row = context.cast(builder, args[1], sig.args[1], types.int64)
+        stride = builder.extract_value(arr.strides, 0)
+        _prefetch(builder, arr.data, builder.mul(row, stride))
+        return context.get_dummy_value()
+
+    return sig, codegen
+
+
+def _prefetch(builder, data, offset):
+    """llvm.prefetch (a read, kept in all cache levels) of the byte `offset` after `data`."""
+    i32, i64 = ir.IntType(32), ir.IntType(64)
+    addr = builder.inttoptr(builder.add(builder.ptrtoint(data, i64), offset), ir.IntType(8).as_pointer())
+    fn = cgutils.get_or_insert_function(
+        builder.module, ir.FunctionType(ir.VoidType(), [ir.IntType(8).as_pointer(), i32, i32, i32]), "llvm.prefetch"
+    )
+    builder.call(fn, [addr, ir.Constant(i32, 0), ir.Constant(i32, 3), ir.Constant(i32, 1)])
+
+
+@intrinsic
+def prefetch_around(typingctx, array, first, end, lines):
+    """Start loading the `lines` (a literal) cache lines before row `first` of array and as many
+    from the start of row `end` on (a C-contiguous array): a hint, no result, harmless beyond
+    either end of the array (prefetches never fault)."""
+    if not (isinstance(array, types.Array) and array.layout == "C"):
+        raise TypingError("prefetch_around: a C-contiguous array")
+    if not isinstance(lines, types.IntegerLiteral):
+        raise TypingError("prefetch_around: the number of lines must be a literal")
+    sig = types.void(array, first, end, lines)
+    n = lines.literal_value
+
+    def codegen(context, builder, sig, args):
+        arr = context.make_array(sig.args[0])(context, builder, args[0])
+        stride = builder.extract_value(arr.strides, 0)
+        lo = builder.mul(context.cast(builder, args[1], sig.args[1], types.int64), stride)
+        hi = builder.mul(context.cast(builder, args[2], sig.args[2], types.int64), stride)
+        i64 = ir.IntType(64)
+        for j in range(n):
+            _prefetch(builder, arr.data, builder.sub(lo, ir.Constant(i64, _LINE * (j + 1))))
+            _prefetch(builder, arr.data, builder.add(hi, ir.Constant(i64, _LINE * j)))
+        return context.get_dummy_value()
+
+    return sig, codegen
+
+
+@inline_function
+def prefetch_neighbours(tri, first, end):
+    """On a large mesh, the triangle rows beside a leaf's (first .. end - 1, rows in leaf order):
+    where several triangles lie under each pixel, every hit ray of a frame reads triangles no
+    ray before it read (a miss of its own: benchmarks/cache_misses.py), and they lie next to
+    the ones its neighbour in the frame read. Four lines on either side cut the leaf visits
+    that wait for memory on bumpy 4M from 1.05 to 0.35 a hit ray, 1M 0.32 -> 0.08 (simulated);
+    up to 100k triangles there is nothing to gain (0.04 a ray), so smaller meshes skip it."""
+    if tri.shape[0] >= NEIGHBOURS_FROM:
+        prefetch_around(tri, first, end, NEIGHBOUR_LINES)
+
+
+@intrinsic
+def prefetch_child_rows(typingctx, index, node):
+    """prefetch_row for the cache line of node `node`'s child indices (node_index[node,
+    NODE_FIRST:]): the last of its record's lines, which the box test does not read."""
+    if not (isinstance(index, types.Array) and index.layout == "C" and index.ndim == 3):
+        raise TypingError("prefetch_child_rows: the C-contiguous node records")
+    sig = types.void(index, node)
+
+    def codegen(context, builder, sig, args):
+        arr = context.make_array(sig.args[0])(context, builder, args[0])
+        m = context.cast(builder, args[1], sig.args[1], types.int64)
+        i64 = ir.IntType(64)
+        strides = cgutils.unpack_tuple(builder, arr.strides, 3)
+        offset = builder.add(builder.mul(m, strides[0]), builder.mul(ir.Constant(i64, NODE_FIRST), strides[1]))
+        _prefetch(builder, arr.data, offset)
+        return context.get_dummy_value()
+
+    return sig, codegen
+
+
+@intrinsic
+def lowest_bit(typingctx, x):
+    """Index of the lowest set bit of x (x != 0)."""
+    sig = types.int64(x)
+
+    def codegen(context, builder, sig, args):
+        i64 = ir.IntType(64)
+        v = context.cast(builder, args[0], sig.args[0], types.int64)
+        fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(i64, [i64, ir.IntType(1)]), "llvm.cttz.i64")
+        return builder.call(fn, [v, ir.Constant(ir.IntType(1), 1)])
+
+    return sig, codegen
+
+
+@inline_function
+def _ray_axis(o, d, k):
+    """Axis k of box_ray: (near origin, far origin, 1/d, near row)."""
+    # 1/d clamped to normal float32 magnitudes: a zero component gives parallel slabs, and no
+    # lane ever computes inf * 0 (an empty lane's box is +-inf)
+    inv = 1.0 / d if d != 0.0 else _F32_MAX
+    mag = min(max(abs(inv), _F32_TINY), _F32_MAX)
+    inv32 = np.float32(mag if inv >= 0.0 else -mag)
+    # The origin rounded to float32 outward, so that the near distance can only shrink and the
+    # far one only grow: moved by |o| 2**-23 >= half a float32 ulp first, then rounded to nearest
+    # (branch-free; nextafter was a library call per axis). And by at least _ORIGIN_PAD: for a
+    # ray parallel to a slab (1/d clamped to the float32 maximum), an origin 1.8e-38 inside a
+    # face at 0 put the slab's far end at 6.2, and the box was culled for the entry at 8 that
+    # the other axes gave (hypothesis found it).
+    pad = max(abs(o) * 2.0**-23, _ORIGIN_PAD)
+    down = np.float32(o - pad)
+    up = np.float32(o + pad)
+    if inv >= 0.0:
+        return up, down, inv32, k
+    return down, up, inv32, k + 3
+
+
+@kernel_function
+def box_ray(o, d):
+    """Per-ray constants of box_hits: (near-plane origins x, y, z, far-plane origins, 1/d) as
+    float32, and the near plane's row for each axis (the far one is the other)."""
+    nx, fx, ix, rx = _ray_axis(o[0], d[0], 0)
+    ny, fy, iy, ry = _ray_axis(o[1], d[1], 1)
+    nz, fz, iz, rz = _ray_axis(o[2], d[2], 2)
+    return (nx, ny, nz, fx, fy, fz, ix, iy, iz), (rx, ry, rz)
+
+
+@inline_function
+def traceable(o, d):
+    """Rays with a NaN or infinite direction, or an origin beyond the float32 range of the
+    BVH's boxes, hit nothing (an empty lane's box is only empty for finite rays)."""
+    return (
+        abs(o[0]) < _F32_MAX
+        and abs(o[1]) < _F32_MAX
+        and abs(o[2]) < _F32_MAX
+        and abs(d[0]) < INF
+        and abs(d[1]) < INF
+        and abs(d[2]) < INF
+    )
+
+
+@kernel_function
+def box_entries(bounds, node, o, d, tmax, out):
+    """Entry distances of the ray into the children of `node`, +inf for the lanes it misses
+    (for tests); out: float64 (BVH_WIDTH,) scratch."""
+    rf, rows = box_ray(o, d)
+    mask = box_hits(bounds, node, rf, rows, tmax, out, 0)
+    for i in range(BVH_WIDTH):
+        if (mask >> i) & 1 == 0:
+            out[i] = INF
+    return out
+
+
+# --- the stack ----------------------------------------------------------------------------------
+
+
+@inline_function
+def stack_entry(index, ref, i):
+    """Stack entry of lane i of node ref: the child node, or -1 - (node * W + lane) for a leaf."""
+    return index[ref, NODE_FIRST, i] if index[ref, NODE_COUNT, i] == 0 else -1 - ((ref << _LANE_SHIFT) + i)
+
+
+@inline_function
+def push_children(bounds, index, leaf_rows, ref, rf, rows, best_t, node_stack, t_stack, top, tri, direct):
+    """Push the children of node `ref` that the ray enters nearer than best_t onto the stacks
+    from `top`, sorted farthest first (the nearest on top); returns how many. The node's child
+    indices are prefetched beside its boxes, not loaded after the box test, so the two cache
+    misses of a node overlap (hit rays on a 1M-triangle mesh: ~12% less time); a pushed leaf's
+    first rows too, of what testing it reads first: its triangles (`tri`) where `direct`
+    (rows_in_leaf_order), else its row of `leaf_rows` (bumpy 4M single-ray hit rays 2-4% less
+    time than with the primitive table's row prefetched on every mesh). A prefetch past the
+    table's end is harmless: prefetches never fault."""
+    prefetch_child_rows(index, ref)
+    # entry distances land at t_stack[top:]; they are moved down to t_stack[top:top + k] (lane
+    # i >= k is read before slot top + k is written)
+    mask = box_hits(bounds, ref, rf, rows, best_t, t_stack, top)
+    k = 0
+    # Subscripts as unsigned (none is negative): Numba wraps every signed subscript around
+    # (shift, and, add); without that, bumpy 10k hit rays took ~2% less time.
+    while mask != 0:
+        i = lowest_bit(mask)
+        mask &= mask - 1
+        u = np.uint64(i)
+        t = t_stack[np.uint64(top + i)]
+        if index[np.uint64(ref), NODE_COUNT, u] == 0:
+            child = index[np.uint64(ref), NODE_FIRST, u]
+        else:
+            child = -1 - ((ref << _LANE_SHIFT) + i)
+            first = index[np.uint64(ref), NODE_FIRST, u]
+            if direct:
+                prefetch_row(tri, first)
+                prefetch_row(tri, first + 2)
+                prefetch_row(tri, first + 3)
+            else:
+                prefetch_row(leaf_rows, first)
+        j = top + k
+        while j > top and t_stack[np.uint64(j - 1)] < t:
+            t_stack[np.uint64(j)] = t_stack[np.uint64(j - 1)]
+            node_stack[np.uint64(j)] = node_stack[np.uint64(j - 1)]
+            j -= 1
+        t_stack[np.uint64(j)] = t
+        node_stack[np.uint64(j)] = child
+        k += 1
+    return k
+
+
+@inline_function
+def pop_nearer(node_stack, t_stack, top, base, best_t):
+    """The next entry above `base` still nearer than best_t: (found, new top, entry)."""
+    while top > base:
+        top -= 1
+        if t_stack[np.uint64(top)] < best_t:  # unsigned: as in push_children
+            return True, top, node_stack[np.uint64(top)]
+    return False, top, node_stack[top]

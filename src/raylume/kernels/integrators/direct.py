@@ -1,0 +1,132 @@
+"""Direct lighting, the seed's ComputeLighting: for every light, points sampled on it
+(lights.py), the material's response towards the viewer (materials/seed_response.py) and a shadow ray.
+
+Shadow rays in opaque scenes are any-hit queries. With transparent materials they walk from
+hit to hit: each transparent surface lets `transparency` through, and the path inside a medium
+(between entering and leaving it) is attenuated by Beer-Lambert absorption.
+"""
+
+import math
+
+import numpy as np
+
+from ..film.sampler import light_sample
+from ..geometry.shapes import offset_epsilon, surface
+from ..geometry.traverse import any_hit, closest_hit
+from ..shading.lights import (
+    AMBIENT,
+    LIGHT_INTENSITY,
+    LIGHT_SAMPLES,
+    SPOT,
+    is_delta,
+    sample_area,
+    sample_delta,
+    spot_falloff,
+)
+from ..shading.materials import MAT_SPECULAR, MAT_TRANSPARENCY, beer_lambert
+from ..shading.materials.seed_response import phong_response
+from ..vec import dot, inline_function, kernel_function, madd, mul, normalize, row3
+
+INF = math.inf
+
+
+@inline_function
+def direct_lighting(G, F, L, X, p, n, view, m, shadows, node_stack, t_stack, key, event):
+    """Ambient + diffuse + specular intensity (RGB) at p from every light, and the shadow rays
+    traced. n faces the viewer; p is already offset off the surface. Area lights take their
+    `samples` stratified points from the camera sample's `key` at its `event`-th shaded surface
+    (sampler.py); key 0 gives a fixed pattern."""
+    specular = F.materials[m, MAT_SPECULAR]
+    ir = 0.0
+    ig = 0.0
+    ib = 0.0
+    rays = 0
+    for k in range(L.kind.shape[0]):
+        kind = L.kind[k]
+        intensity = row3(L.data, k, LIGHT_INTENSITY)
+        if kind == AMBIENT:
+            ir += intensity[0]
+            ig += intensity[1]
+            ib += intensity[2]
+            continue
+        # Every sample of every light goes through one shadow-ray call site (each inlined copy
+        # of the traversal costs seconds of JIT time). Area lights are sampled by a call, so
+        # that the point-light path keeps its registers (live values across the shadow ray
+        # slow the traversal).
+        delta = is_delta(kind)
+        count = 1 if delta else int(L.data[k, LIGHT_SAMPLES])
+        remaining = count
+        while remaining > 0:
+            remaining -= 1
+            if delta:
+                to_light, tmax = sample_delta(L, k, p)
+            elif X is not None:  # area lights (none in scenes whose X is None)
+                u1, u2 = light_sample(key, event, k, remaining, count)
+                to_light, tmax = sample_area(L, k, p, u1, u2)
+            else:
+                to_light, tmax = (0.0, 0.0, 1.0), 0.0
+            l = normalize(to_light)
+            scale = phong_response(n, l, view, specular)
+            if kind == SPOT:
+                scale *= spot_falloff(L.data, k, l)
+            if scale <= 0.0:
+                continue  # nothing to add: skip the shadow ray
+            if shadows:
+                tr, used = shadow_transmittance(G, F, X, p, l, tmax, node_stack, t_stack)
+                rays += used
+            else:
+                tr = (1.0, 1.0, 1.0)
+            if not delta:
+                scale = scale / count
+            ir += intensity[0] * scale * tr[0]
+            ig += intensity[1] * scale * tr[1]
+            ib += intensity[2] * scale * tr[2]
+    return (ir, ig, ib), rays
+
+
+@inline_function
+def shadow_transmittance(G, F, X, o, d, tmax, node_stack, t_stack):
+    """Fraction (RGB) of light reaching o from distance tmax along d, and the rays used."""
+    if X is not None:
+        if F.has_transparency:
+            return _transparent_shadow(G, F, X, o, d, tmax, node_stack, t_stack)
+    if any_hit(G, X, o, d, 0.0, tmax, node_stack, t_stack):
+        return (0.0, 0.0, 0.0), 1
+    return (1.0, 1.0, 1.0), 1
+
+
+# A call, not inlined: a walk through transparent surfaces costs several traversals anyway, and
+# one more inlined copy of the traversal costs seconds of compile time in every trace kernel.
+@kernel_function
+def _transparent_shadow(G, F, X, o, d, tmax, node_stack, t_stack):
+    tr = (1.0, 1.0, 1.0)
+    origin = o
+    remaining = tmax
+    rays = 0
+    for _ in range(32):
+        t, prim, b1, b2 = closest_hit(G, X, origin, d, 0.0, remaining, node_stack, t_stack)
+        rays += 1
+        if t == INF or t >= remaining:
+            return tr, rays
+        p = madd(origin, d, t)
+        ng, ns, m, obj, face = surface(G, X, prim, b1, b2, p)
+        transparency = F.materials[m, MAT_TRANSPARENCY]
+        if transparency <= 0.0:
+            return (0.0, 0.0, 0.0), rays
+        tr = mul(tr, transparency)
+        leaving = dot(ng, d) > 0.0
+        if leaving:  # the segment just travelled lay inside this medium
+            tr = beer_lambert(F.materials, m, tr, t)
+        if max(tr[0], tr[1], tr[2]) < 1e-4:
+            return (0.0, 0.0, 0.0), rays
+        eps = offset_epsilon(F.epsilon_floor, p)
+        origin = madd(p, ng, eps if leaving else -eps)
+        remaining -= t
+    return (0.0, 0.0, 0.0), rays
+
+
+@inline_function
+def unshadowed_lighting(G, F, L, X, p, n, view, m, node_stack, t_stack):
+    """direct_lighting without shadow rays and with the fixed area-light pattern (the
+    rasterizer's lighting)."""
+    return direct_lighting(G, F, L, X, p, n, view, m, False, node_stack, t_stack, np.uint64(0), 0)

@@ -1,0 +1,363 @@
+"""The image loop: rows on threads, samples per pixel into the film, primary-hit AOVs.
+
+Each pixel gathers its own `spp` camera samples: positions in the pixel from the sampler
+(stratified, jittered), warped through the pixel filter (film.py) and, with an aperture, paired
+with a stratified point on the lens. One sample per pixel is the pinhole ray through the pixel
+centre. Samples are added to the film's running sums; samples first..first+spp-1 of a pass
+continue from whatever earlier passes left there."""
+
+import numpy as np
+from llvmlite import ir
+from numba import njit, types
+from numba.core.errors import TypingError
+from numba.extending import intrinsic
+
+from ..film.camera import CAM_CONE_SPREAD, camera_ray, camera_sample, obliquity
+from ..film.film import add_in_pixel_order, add_sample, next_sample, pixel_sums, store_sums
+from ..geometry.packet import PACKET, packet_hit, packet_scratch, packet_trace, root_box, scene_extent, uses_packets
+from ..geometry.shapes import NO_HIT, instance_id, surface
+from ..geometry.traverse import closest_hit
+from ..geometry.wide_nodes import scratch_array, traversal_stacks
+from ..scene import emitters_of, environment_of, geometry_of, lights_of, surfaces_of
+from ..shading.environment import environment_radiance
+from ..shading.materials import albedo
+from ..vec import FAST, dot, inline_function, kernel_function, madd, mul
+from .path import finite_sample, path_ray
+from .trace import RAY_WIDTH, stack_rows, trace_ray
+from .wavefront import wavefront_row, wavefront_scratch
+
+INF = np.inf
+
+
+@inline_function
+def _cast_shade(G, F, X, Env, o, d, t, prim, b1, b2, spread, background):
+    """A cast ray's colour from its closest hit: the albedo there, or the background."""
+    if prim == NO_HIT:
+        if Env.present:
+            return environment_radiance(Env, d)
+        return background
+    p = madd(o, d, t)
+    ng, ns, m, obj, face = surface(G, X, prim, b1, b2, p)
+    return albedo(G, F, X, m, prim, b1, b2, p, d, ng, spread * t)
+
+
+# Entry points, one per kind of work, so a render compiles only what it runs. Each renders one
+# lane of a window of the image: window = (x0, y0, x1, y1) holds columns x0..x1-1 and rows
+# y0..y1-1 of the width x height image (the whole image, or a --crop). The Session runs the
+# lanes on threads (the kernels release the GIL), and each lane claims the next row not yet
+# claimed (`claim_row`, one counter per pass, control[counter]) until none is left. Rows differ
+# widely in cost (sky against floor): contiguous blocks of rows left one thread the sky and two
+# threads were only 1.4x faster than one on the seed scene. Every lane's n-th row had balanced
+# the rows' costs but not the threads' speeds: a lane whose core the machine slowed (another
+# process, a virtual CPU descheduled, a thread woken late) finished last while the others
+# waited; claimed rows go to whichever lane is free. Which lane renders a row changes nothing
+# in it. The film, the AOVs and rays_per_row cover the window:
+# pixel (i, j) of the image is their element (j - y0, i - x0), and its samples are those of
+# the full image (the same keys), so a window equals that part of the full render.
+# `samples` is (first, count, total): this pass adds samples first..first+count-1 of total.
+# X is None for scenes of spheres and opaque triangles only, and the scene's Instances otherwise
+# (see shapes.py, "features"): with None, Numba compiles no code for the other shapes, planes,
+# transparent shadows or instances.
+# Every lane counts the rows it finished in rows_done[lane * PROGRESS_STRIDE] (counters a cache
+# line apart, against false sharing) and checks control[STOP] before each row: the waiting
+# thread shows progress from the counters and stops a render within a row's time.
+LANE = dict(nogil=True, cache=True, fastmath=FAST, error_model="numpy")
+PROGRESS_STRIDE = 16
+# The lanes' int64 control array: the stop flag, then a row counter per pass (a render with AOVs
+# makes two passes), each in a cache line of its own.
+STOP = 0
+AOV_ROWS, PASS_ROWS = PROGRESS_STRIDE, 2 * PROGRESS_STRIDE
+CONTROL_SIZE = 3 * PROGRESS_STRIDE
+
+
+@intrinsic
+def claim_row(typingctx, control, counter):
+    """The number of the next row of a pass, counted from the window's first: counter `counter`
+    of `control` (an int64 array), raised by one atomically, as it was before."""
+    if not (isinstance(control, types.Array) and control.dtype == types.int64 and control.layout == "C"):
+        raise TypingError("claim_row: control must be a C-contiguous int64 array")
+
+    def codegen(context, builder, sig, args):
+        arr = context.make_array(sig.args[0])(context, builder, args[0])
+        at = context.cast(builder, args[1], sig.args[1], types.int64)
+        p = builder.gep(arr.data, [at], inbounds=True)
+        return builder.atomic_rmw("add", p, ir.Constant(ir.IntType(64), 1), "monotonic")
+
+    return types.int64(control, counter), codegen
+
+
+@njit(**LANE)
+def trace_lane(
+    S, X, cam, filt, width, height, window, lane, counter, samples, seed, max_depth, background, film, rays_per_row,
+    rows_done, control,
+):  # fmt: skip
+    """Whitted-traced samples of the lane's rows into the film; rays traced per row into rays_per_row."""
+    node_stack, t_stack = traversal_stacks()
+    slots = stack_rows(max_depth)
+    work = scratch_array(slots * RAY_WIDTH, np.float64).reshape((slots, RAY_WIDTH))
+    G, F, L = geometry_of(S), surfaces_of(S), lights_of(S)
+    wave = wavefront_scratch(G, F)  # (a branch on X would not type: Numba unifies both arms)
+    bg = (background[0], background[1], background[2])
+    Env = environment_of(S)
+    x0, y0, x1, y1 = window
+    while True:
+        j = y0 + claim_row(control, counter)
+        if j >= y1 or control[STOP] != 0:
+            break
+        rays_per_row[j - y0] += _trace_row(
+            G, F, L, X, Env, cam, filt, j, window, width, height, samples, seed, max_depth, bg, film, work, wave,
+            node_stack, t_stack,
+        )  # fmt: skip
+        rows_done[lane * PROGRESS_STRIDE] += 1
+
+
+@njit(**LANE)
+def path_lane(
+    S, X, cam, filt, width, height, window, lane, counter, samples, seed, max_depth, background, film, rays_per_row,
+    rows_done, control, rejected, strategy,
+):  # fmt: skip
+    """Path-traced samples of the lane's rows into the film; rays per row into rays_per_row, and
+    samples rejected as NaN, infinite or negative into rejected[lane * PROGRESS_STRIDE]."""
+    node_stack, t_stack = traversal_stacks()
+    bg = (background[0], background[1], background[2])
+    G, F, Em = geometry_of(S), surfaces_of(S), emitters_of(S)
+    Env = environment_of(S)
+    x0, y0, x1, y1 = window
+    while True:
+        j = y0 + claim_row(control, counter)
+        if j >= y1 or control[STOP] != 0:
+            break
+        rays, bad = _path_row(
+            G, F, Em, Env, X, cam, filt, j, window, width, height, samples, seed, max_depth, bg, film, node_stack,
+            t_stack, strategy,
+        )  # fmt: skip
+        rays_per_row[j - y0] += rays
+        rejected[lane * PROGRESS_STRIDE] += bad
+        rows_done[lane * PROGRESS_STRIDE] += 1
+
+
+@njit(**LANE)
+def cast_lane(
+    S, X, cam, filt, width, height, window, lane, counter, samples, seed, background, film, rays_per_row, rows_done,
+    control,
+):  # fmt: skip
+    """Ray-cast samples (the closest hit's albedo) of the lane's rows into the film."""
+    node_stack, t_stack = traversal_stacks()
+    packets = packet_scratch()
+    rays = camera_packet_scratch()
+    bg = (background[0], background[1], background[2])
+    G, F = geometry_of(S), surfaces_of(S)
+    x0, y0, x1, y1 = window
+    # One sample a pixel in packets: rows are claimed in pairs and traced in packets of 4 x 2
+    # pixels, more coherent than 8 x 1 (_cast_row)
+    pairs = samples[1] == 1 and uses_packets(G, X)
+    step = 2 if pairs else 1
+    while True:
+        j = y0 + step * claim_row(control, counter)
+        if j >= y1 or control[STOP] != 0:
+            break
+        pair = pairs and j + 1 < y1  # a window's odd last row goes alone
+        n = _cast_row(
+            G, F, X, environment_of(S), cam, filt, j, pair, window, width, height, samples, seed, bg, film,
+            node_stack, t_stack, packets, rays,
+        )  # fmt: skip
+        rays_per_row[j - y0] += n
+        if pair:
+            rays_per_row[j + 1 - y0] += n
+        rows_done[lane * PROGRESS_STRIDE] += 2 if pair else 1
+
+
+@njit(**LANE)
+def aov_lane(
+    S, X, cam, width, height, window, lane, counter, depth, normal, obj_id, prim_id, albedo_out, inst_id,
+    rays_per_row, rows_done, control,
+):  # fmt: skip
+    """Primary-hit AOVs (depth, normal, object, prim, albedo, instance) of the lane's rows."""
+    node_stack, t_stack = traversal_stacks()
+    G, F = geometry_of(S), surfaces_of(S)
+    x0, y0, x1, y1 = window
+    while True:
+        j = y0 + claim_row(control, counter)
+        if j >= y1 or control[STOP] != 0:
+            break
+        rays_per_row[j - y0] += _primary_aovs_row(
+            G, F, X, cam, j, window, width, height, node_stack, t_stack, depth, normal, obj_id, prim_id, albedo_out,
+            inst_id,
+        )  # fmt: skip
+        rows_done[lane * PROGRESS_STRIDE] += 1
+
+
+@kernel_function(_nrt=True)
+def camera_packet_scratch():
+    """One thread's buffer of a packet's camera samples: (origins, directions, weights)."""
+    return (
+        scratch_array(PACKET * 3, np.float64).reshape((PACKET, 3)),
+        scratch_array(PACKET * 3, np.float64).reshape((PACKET, 3)),
+        scratch_array(PACKET, np.float64),
+    )
+
+
+@kernel_function
+def _cast_row(
+    G, F, X, Env, cam, filt, j, pair, window, width, height, samples, seed, bg, film, node_stack, t_stack, packets,
+    rays,
+):  # fmt: skip
+    """Ray-cast samples of row j: the row's camera samples in pixel order (each pixel's samples
+    in turn), traced eight at a time as a packet (kernels/packet.py) where they are coherent.
+    Samples that are not (a wide lens) are traced one by one, and so are all in a scene whose
+    root is a leaf and in one with instances. The film's sums are added in sample order, the
+    pixel's sums kept while its samples last, so the image is the same bit for bit whichever
+    way a sample was traced. With `pair` (a pass of one sample a pixel, in a scene that takes
+    packets), rows j and j + 1 together in packets of 4 x 2 pixels: neighbours in both
+    directions spread less than eight along a row (on a mesh with several triangles under each
+    pixel they soon need leaves of their own); each pixel's one sample is added as alone.
+    Returns the samples of one row."""
+    first, count, total_spp = samples
+    x0, y0, x1, y1 = window
+    total_samples = (x1 - x0) * count
+    if total_samples == 0:
+        return 0
+    spread = cam[CAM_CONE_SPREAD]
+    _, lane, prim_lane, _ = packets
+    origins, directions, weights = rays
+    extent = scene_extent(G)
+    root = root_box(G)
+    packets_here = uses_packets(G, X)
+    per_row = PACKET // 2 if pair else PACKET  # a packet's samples of each row
+    pixel = x0  # the pixel whose sums are being added to
+    total = pixel_sums(film, j - y0, 0)
+    i = x0  # the next sample's pixel and sample number
+    s = first
+    q = 0
+    while q < total_samples:
+        m = min(per_row, total_samples - q)
+        n = 2 * m if pair else m
+        coherent = False
+        if packets_here:
+            pi, ps = i, s
+            for k in range(n):
+                if k == m:  # the second row: the same pixels, one row down
+                    pi, ps = i, s
+                o, d, w, _ = camera_sample(cam, filt, seed, pi, j + k // m, ps, total_spp, width, height)
+                for c in range(3):
+                    origins[k, c] = o[c]
+                    directions[k, c] = d[c]
+                weights[k] = w
+                pi, ps = next_sample(pi, ps, samples)
+            coherent = packet_trace(G, X, root, origins, directions, 0, n, extent, packets, node_stack, t_stack, None)
+        for k in range(n):
+            if packets_here:
+                o = (origins[k, 0], origins[k, 1], origins[k, 2])
+                d = (directions[k, 0], directions[k, 1], directions[k, 2])
+                w = weights[k]
+            else:
+                o, d, w, _ = camera_sample(cam, filt, seed, i, j, s, total_spp, width, height)
+            if coherent:
+                t, prim, b1, b2 = packet_hit(lane, prim_lane, k)
+            else:
+                t, prim, b1, b2 = closest_hit(G, X, o, d, 0.0, INF, node_stack, t_stack)
+            col = _cast_shade(G, F, X, Env, o, d, t, prim, b1, b2, spread * obliquity(cam, d), bg)
+            if pair:  # one sample a pixel: pixel i + k % m of row j + k // m
+                row, c = j + k // m - y0, i + k % m - x0
+                store_sums(film, row, c, add_sample(pixel_sums(film, row, c), col, w))
+            else:
+                pixel, total = add_in_pixel_order(film, j - y0, x0, pixel, total, i, col, w)
+                i, s = next_sample(i, s, samples)
+        if pair:
+            i += m
+        q += m
+    if not pair:
+        store_sums(film, j - y0, pixel - x0, total)
+    return total_samples
+
+
+@kernel_function
+def _trace_row(
+    G, F, L, X, Env, cam, filt, j, window, width, height, samples, seed, max_depth, bg, film, work, wave, node_stack,
+    t_stack,
+):  # fmt: skip
+    """Whitted-traced samples of row j into the film; returns the rays traced. Basic scenes go
+    through the wavefront (kernels/wavefront.py), the others ray by ray (trace.py)."""
+    if X is None:
+        return wavefront_row(
+            G, F, L, X, Env, cam, filt, j, window, width, height, samples, seed, max_depth, bg, film, wave,
+            node_stack, t_stack,
+        )  # fmt: skip
+    first, count, total_spp = samples
+    x0, y0, x1, y1 = window
+    spread = cam[CAM_CONE_SPREAD]
+    rays = 0
+    for i in range(x0, x1):
+        total = pixel_sums(film, j - y0, i - x0)
+        for s in range(first, first + count):
+            o, d, w, key = camera_sample(cam, filt, seed, i, j, s, total_spp, width, height)
+            col, used = trace_ray(
+                G, F, L, X, Env, o, d, spread * obliquity(cam, d), max_depth, bg, work, node_stack, t_stack, key
+            )
+            rays += used
+            total = add_sample(total, col, w)
+        store_sums(film, j - y0, i - x0, total)
+    return rays
+
+
+@kernel_function
+def _path_row(
+    G, F, Em, Env, X, cam, filt, j, window, width, height, samples, seed, max_depth, bg, film, node_stack, t_stack,
+    strategy,
+):  # fmt: skip
+    first, count, total_spp = samples
+    x0, y0, x1, y1 = window
+    spread = cam[CAM_CONE_SPREAD]
+    rays = 0
+    rejected = 0
+    for i in range(x0, x1):
+        total = pixel_sums(film, j - y0, i - x0)
+        for s in range(first, first + count):
+            o, d, w, key = camera_sample(cam, filt, seed, i, j, s, total_spp, width, height)
+            cone = spread * obliquity(cam, d)
+            col, used = path_ray(G, F, X, Em, Env, o, d, cone, max_depth, bg, key, node_stack, t_stack, strategy)
+            rays += used
+            if not finite_sample(col):
+                rejected += 1
+                col = (0.0, 0.0, 0.0)
+            total = add_sample(total, col, w)
+        store_sums(film, j - y0, i - x0, total)
+    return rays, rejected
+
+
+@kernel_function
+def _primary_aovs_row(
+    G, F, X, cam, j, window, width, height, node_stack, t_stack, depth, normal, obj_id, prim_id, albedo_out, inst_id
+):
+    """Depth, normal, object, prim, albedo and instance of the (pinhole) rays through the row's
+    pixel centres. Returns rays traced."""
+    x0, y0, x1, y1 = window
+    r = j - y0
+    spread = cam[CAM_CONE_SPREAD]
+    for i in range(x0, x1):
+        o, d = camera_ray(cam, i + 0.5, j + 0.5, width, height)
+        cone = spread * obliquity(cam, d)
+        c0 = i - x0
+        t, prim, b1, b2 = closest_hit(G, X, o, d, 0.0, INF, node_stack, t_stack)
+        if prim == NO_HIT:
+            depth[r, c0] = INF
+            obj_id[r, c0] = -1
+            prim_id[r, c0] = -1
+            inst_id[r, c0] = -1
+            for c in range(3):
+                normal[r, c0, c] = 0.0
+                albedo_out[r, c0, c] = 0.0
+        else:
+            p = madd(o, d, t)
+            ng, ns, m, obj, face = surface(G, X, prim, b1, b2, p)
+            if dot(ns, d) > 0.0:
+                ns = mul(ns, -1.0)
+            a = albedo(G, F, X, m, prim, b1, b2, p, d, ng, cone * t)
+            depth[r, c0] = t
+            obj_id[r, c0] = obj
+            prim_id[r, c0] = face
+            inst_id[r, c0] = instance_id(X, prim)
+            for c in range(3):
+                normal[r, c0, c] = ns[c]
+                albedo_out[r, c0, c] = a[c]
+    return x1 - x0

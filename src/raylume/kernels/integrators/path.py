@@ -1,0 +1,212 @@
+"""Path tracing: unbiased Monte Carlo light transport in radiometric units, as Mitsuba 3's
+`path` integrator computes it.
+
+Each camera sample follows one path. At every surface it adds the surface's emission, a
+next-event estimate (one emitter picked in proportion to power, emitters.py, a point on it,
+a shadow ray) and continues in a direction sampled from the BSDF (materials/registry.py). Emission found by
+a BSDF-sampled direction and light found by next-event estimation are weighted by the power
+heuristic (Veach's multiple importance sampling), so each light path is counted once;
+delta lights and smooth (delta) BSDF lobes take the one strategy that can find them.
+
+Depth counts path segments as Mitsuba does: the camera ray is segment 1, so max_depth 1 shows
+only emitters seen directly and 2 is direct lighting; -1 is unlimited, with Russian roulette
+from segment RR_DEPTH on. Random numbers come from the sampler's named dimensions keyed by
+(seed, pixel, sample, segment), so an image depends only on the scene, seed and spp.
+"""
+
+import math
+
+import numpy as np
+
+from ..film.sampler import DIM_BSDF, DIM_LIGHT, dimension_key, key_uniform2, sub_key
+from ..geometry.shapes import NO_HIT, PRIM_LIGHT, offset_epsilon, split_hit, surface
+from ..geometry.traverse import any_hit, closest_hit
+from ..shading.emitters import (
+    SHADOW_SHORTEN,
+    emitter_pdf,
+    environment_light,
+    hit_area_lights,
+    pick_emitter,
+    pick_probability,
+    sample_emitter,
+)
+from ..shading.lights import LIGHT_INTENSITY, basis
+from ..shading.materials import MAT_EMISSION, albedo, beer_lambert, bsdf_eval, bsdf_sample, delta_only, two_sided
+from ..vec import dot, hadamard, inline_function, madd, mul, row3
+
+INF = math.inf
+RR_DEPTH = 5  # Mitsuba's rr_depth: Russian roulette from this many segments on
+# Strategies (a debugging and testing switch, RAYLUME_PATH_STRATEGY): both combined by MIS,
+# light sampling alone (emitters found by BSDF samples count only after delta bounces), BSDF
+# sampling alone (next-event estimation only for delta lights, which nothing else can find).
+MIS = 0
+LIGHT_ONLY = 1
+BSDF_ONLY = 2
+DIM_ROULETTE = np.uint64(0x2077E77E)
+
+
+@inline_function
+def power_heuristic(a, b):
+    """Veach's power heuristic (beta 2) weight of the strategy with pdf a against pdf b."""
+    a2 = a * a
+    return a2 / (a2 + b * b) if a2 > 0.0 else 0.0
+
+
+@inline_function
+def _add_light(L, beta, le, w):
+    """L plus radiance le arriving through path throughput beta, with MIS weight w."""
+    return (L[0] + beta[0] * le[0] * w, L[1] + beta[1] * le[1] * w, L[2] + beta[2] * le[2] * w)
+
+
+@inline_function
+def _to_local(v, s, t, n):
+    return (dot(v, s), dot(v, t), dot(v, n))
+
+
+@inline_function
+def _to_world(v, s, t, n):
+    return (
+        s[0] * v[0] + t[0] * v[1] + n[0] * v[2],
+        s[1] * v[0] + t[1] * v[1] + n[1] * v[2],
+        s[2] * v[0] + t[2] * v[1] + n[2] * v[2],
+    )
+
+
+@inline_function
+def _emitter_weight(G, X, Em, Env, e, hit, prev_p, d, t, n_hit, prev_pdf, prev_delta, strategy):
+    """MIS weight of emission met by a BSDF-sampled ray (against next-event estimation); `hit`:
+    the primitive met (NO_HIT for lights that are not primitives)."""
+    if prev_delta or e < 0 or strategy == BSDF_ONLY:
+        return 1.0
+    if strategy == LIGHT_ONLY:
+        return 0.0
+    light_pdf = pick_probability(Em.cdf, e) * emitter_pdf(G, X, Em, Env, e, prev_p, d, t, n_hit, hit)
+    return power_heuristic(prev_pdf, light_pdf)
+
+
+@inline_function
+def path_ray(G, F, X, Em, Env, o, d, spread, max_depth, background, key, node_stack, t_stack, strategy):
+    """Radiance along the camera ray (o, d) by one path; textures are filtered over a ray cone
+    growing by `spread` per unit distance (as trace_ray's). Returns (rgb, rays traced)."""
+    L = (0.0, 0.0, 0.0)  # radiance gathered so far
+    beta = (1.0, 1.0, 1.0)
+    rays = 0
+    depth = 0  # segments traced so far
+    prev_pdf = 0.0
+    prev_delta = True  # the camera ray sees emitters at full weight
+    cone = 0.0  # the ray cone's radius at o
+    mat = F.materials
+    while True:
+        t, prim, b1, b2 = closest_hit(G, X, o, d, 0.0, INF, node_stack, t_stack)
+        rays += 1
+        depth += 1
+        if Em.n_area > 0:
+            tl, e, nl = hit_area_lights(Em, o, d, t)
+            if e >= 0:
+                w = _emitter_weight(G, X, Em, Env, e, np.int64(NO_HIT), o, d, tl, nl, prev_pdf, prev_delta, strategy)
+                L = _add_light(L, beta, row3(Em.data, e, LIGHT_INTENSITY), w)
+                break
+        if prim == NO_HIT:
+            if Em.ambient_row >= 0:
+                w = _emitter_weight(
+                    G, X, Em, Env, Em.ambient_row, np.int64(NO_HIT), o, d, INF, d, prev_pdf, prev_delta, strategy
+                )
+                L = _add_light(L, beta, row3(Em.data, Em.ambient_row, LIGHT_INTENSITY), w)
+            if Env.present:
+                w = _emitter_weight(
+                    G, X, Em, Env, Em.environment_row, np.int64(NO_HIT), o, d, INF, d, prev_pdf, prev_delta, strategy
+                )
+                L = _add_light(L, beta, environment_light(Env, d), w)
+            elif depth == 1 and Em.ambient_row < 0:  # the background: a backdrop, not a light
+                L = _add_light(L, (1.0, 1.0, 1.0), background, 1.0)
+            break
+        p = madd(o, d, t)
+        ng, ns, m, obj, face = surface(G, X, prim, b1, b2, p)
+        entering = dot(ng, d) < 0.0
+        if not entering:
+            # the segment just travelled lay inside this surface's medium
+            beta = beer_lambert(mat, m, beta, t)
+        emission = row3(mat, m, MAT_EMISSION)
+        if emission[0] > 0.0 or emission[1] > 0.0 or emission[2] > 0.0:
+            k, _ = split_hit(X, prim)
+            w = _emitter_weight(
+                G, X, Em, Env, G.prims[k, PRIM_LIGHT], prim, o, d, t, ng, prev_pdf, prev_delta, strategy
+            )
+            L = _add_light(L, beta, emission, w)
+        if max_depth >= 0 and depth >= max_depth:
+            break
+        # The shading frame: for two-sided materials its z faces the incoming ray; for
+        # dielectrics it stays outward (the inside is the medium).
+        two_sided_here = two_sided(mat, m)
+        if two_sided_here and not entering:
+            ng = mul(ng, -1.0)
+            ns = mul(ns, -1.0)
+        if dot(ns, ng) <= 0.0:
+            ns = ng
+        s_axis, t_axis = basis(ns)
+        wo = _to_local(mul(d, -1.0), s_axis, t_axis, ns)
+        cone += spread * t
+        colour = albedo(G, F, X, m, prim, b1, b2, p, d, ng, cone)
+        eps = offset_epsilon(F.epsilon_floor, p)
+
+        # next-event estimation
+        if Em.cdf[Em.cdf.shape[0] - 1] > 0.0 and not delta_only(mat, m):
+            light_key = dimension_key(key, DIM_LIGHT, depth)
+            u_pick, _ = key_uniform2(light_key)
+            u1, u2 = key_uniform2(sub_key(light_key, 1))
+            e, p_pick = pick_emitter(Em.cdf, u_pick)
+            wi, dist, li, pdf_l, delta_l = sample_emitter(G, X, Em, Env, e, p, u1, u2, light_key)
+            if pdf_l > 0.0 and (li[0] > 0.0 or li[1] > 0.0 or li[2] > 0.0) and (delta_l or strategy != BSDF_ONLY):
+                wi_local = _to_local(wi, s_axis, t_axis, ns)
+                up = dot(wi, ng) > 0.0
+                # two-sided reflection: light from below the geometric surface cannot arrive
+                if up or not two_sided_here:
+                    f, pdf_b = bsdf_eval(mat, m, colour, wo, wi_local)
+                    if f[0] > 0.0 or f[1] > 0.0 or f[2] > 0.0:
+                        origin = madd(p, ng, eps if up else -eps)
+                        tmax = dist * (1.0 - SHADOW_SHORTEN) if dist < INF else INF
+                        rays += 1
+                        if not any_hit(G, X, origin, wi, 0.0, tmax, node_stack, t_stack):
+                            w = 1.0 if delta_l or strategy == LIGHT_ONLY else power_heuristic(p_pick * pdf_l, pdf_b)
+                            scale = abs(wi_local[2]) * w / (p_pick * pdf_l)
+                            L = _add_light(L, hadamard(beta, f), li, scale)
+
+        # continue the path
+        bsdf_key = dimension_key(key, DIM_BSDF, depth)
+        u0, u1 = key_uniform2(bsdf_key)
+        u2, _ = key_uniform2(sub_key(bsdf_key, 1))
+        wi_local, weight, pdf, delta = bsdf_sample(mat, m, colour, wo, u0, u1, u2)
+        if not (pdf > 0.0) or not (weight[0] > 0.0 or weight[1] > 0.0 or weight[2] > 0.0):
+            break
+        wi = _to_world(wi_local, s_axis, t_axis, ns)
+        up = dot(wi, ng) > 0.0
+        if two_sided_here and not up:
+            break  # a shading normal sent the path through the surface
+        beta = hadamard(beta, weight)
+        prev_pdf = pdf
+        prev_delta = delta
+        o = madd(p, ng, eps if up else -eps)
+        d = wi
+        if depth >= RR_DEPTH:
+            q = min(max(beta[0], beta[1], beta[2]), 0.95)
+            u_rr, _ = key_uniform2(dimension_key(key, DIM_ROULETTE, depth))
+            if u_rr >= q:
+                break
+            beta = mul(beta, 1.0 / q)
+    return L, rays
+
+
+@inline_function
+def finite_sample(c):
+    """A sample fit for the film: finite and not negative."""
+    return (
+        c[0] == c[0]
+        and c[1] == c[1]
+        and c[2] == c[2]
+        and abs(c[0]) < INF
+        and abs(c[1]) < INF
+        and abs(c[2]) < INF
+        and c[0] >= 0.0
+        and c[1] >= 0.0
+        and c[2] >= 0.0
+    )

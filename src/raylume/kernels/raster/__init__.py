@@ -1,0 +1,1 @@
+"""The z-buffer rasterizer's kernels (--mode raster)."""

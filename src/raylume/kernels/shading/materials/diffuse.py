@@ -1,0 +1,46 @@
+"""The `diffuse` material [Mitsuba 3: diffuse]: Lambertian reflection of reflectance `color`,
+two-sided, sampled by the cosine. Trace mode shows it matte."""
+
+import math
+
+import numpy as np
+
+from ...vec import inline_function, kernel_function, mul
+from .lobes import EVALUATE, INV_PI, ZERO, cosine_hemisphere, same_side, side
+from .table import MAT_KIND, MAT_REFLECTIVE, MAT_SPECULAR, MAT_TRANSPARENCY
+
+NAME = "diffuse"
+KIND = 1
+
+
+def pack(mat, row: np.ndarray) -> None:
+    """The model material's columns of its table row (table.py)."""
+    row[MAT_KIND] = KIND
+    row[MAT_SPECULAR], row[MAT_REFLECTIVE], row[MAT_TRANSPARENCY] = trace_approximation(mat)
+
+
+def trace_approximation(mat) -> tuple[float, float, float]:
+    """(Phong exponent or -1, reflective, transparency) of trace mode: matte."""
+    return -1.0, 0.0, 0.0
+
+
+@kernel_function
+def evaluate(mat, m, color, wo, wi):
+    if not same_side(wo[2], wi[2]):
+        return ZERO, 0.0
+    return mul(color, INV_PI), abs(wi[2]) * INV_PI
+
+
+@kernel_function
+def sample(mat, m, color, wo, u0, u1, u2):
+    return side(cosine_hemisphere(u1, u2), math.copysign(1.0, wo[2])), ZERO, EVALUATE, False
+
+
+@inline_function
+def delta_only(mat, m):
+    return False
+
+
+@inline_function
+def two_sided(mat, m):
+    return True

@@ -1,0 +1,79 @@
+"""The material kinds, and the one dispatch over them for each question the integrators ask.
+
+KINDS is the registry: one module per kind, each defining NAME (the scene's `type`), KIND (its
+number in the table's MAT_KIND column), `pack` and `trace_approximation` (host side), and the
+kernel functions `evaluate`, `sample`, `delta_only` and `two_sided` (lobes.py gives their
+conventions). The switches below are made from KINDS: for each question, one function that
+compares the row's kind with each module's KIND in turn and returns that module's answer, and
+for a kind that no module defines (never: compile.py packs only registered kinds) a failure,
+never another kind's answer."""
+
+from ...vec import inline_function, kernel_function, mul
+from . import conductor, dielectric, diffuse, null, phong, plastic
+from .lobes import EVALUATE, FAILED, ZERO
+from .table import MAT_KIND
+
+KINDS = (phong, diffuse, conductor, dielectric, plastic, null)
+BY_NAME = {kind.NAME: kind for kind in KINDS}
+assert sorted(kind.KIND for kind in KINDS) == list(range(len(KINDS))), "KIND numbers: 0, 1, ... in any order"
+
+
+def _switch(question: str, params: str, unknown, decorator):
+    """The kernel function `question(params)` that returns the answer of the row's kind's module:
+
+        def question(params):
+            kind = int(mat[m, MAT_KIND])
+            if kind == phong.KIND:
+                return phong.question(params)
+            ...                              (one branch per module of KINDS)
+            return unknown
+
+    written out as source and compiled here, so that it is one function with one branch per
+    kind, as one written by hand would be."""
+    namespace = {"MAT_KIND": MAT_KIND, "unknown": unknown}
+    lines = [f"def {question}({params}):", "    kind = int(mat[m, MAT_KIND])"]
+    for kind in KINDS:
+        namespace[f"{kind.NAME}_{question}"] = getattr(kind, question)
+        lines += [f"    if kind == {kind.KIND}:", f"        return {kind.NAME}_{question}({params})"]
+    lines.append("    return unknown")
+    exec(compile("\n".join(lines), f"<raylume material switch: {question}>", "exec"), namespace)
+    function = namespace[question]
+    function.__doc__ = f"The {question} of the material in row m, by its kind (registry.py)."
+    return decorator(function)
+
+
+# (f, pdf) of material row m for the unit local directions wo, wi (lobes.py)
+bsdf_eval = _switch("evaluate", "mat, m, color, wo, wi", (ZERO, 0.0), kernel_function)
+# (wi, weight, pdf, delta) as the kind's module returns it (pdf EVALUATE: weigh with evaluate)
+sample_lobe = _switch("sample", "mat, m, color, wo, u0, u1, u2", FAILED, inline_function)
+# every lobe a delta: next-event estimation cannot reach the material
+delta_only = _switch("delta_only", "mat, m", True, inline_function)
+# acts on whichever side a ray meets (the path's shading frame turns to face the ray)
+two_sided = _switch("two_sided", "mat, m", True, inline_function)
+
+
+@inline_function  # one call site (path.py); a call cost ~25 ns a bounce
+def bsdf_sample(mat, m, color, wo, u0, u1, u2):
+    """(wi, weight, pdf, delta) of material row m for wo, from uniforms u0 (the lobe), u1, u2
+    (the direction) in [0, 1): a delta lobe as its kind returns it, any other direction
+    weighted f |cos wi| / pdf with the f and pdf of all the kind's lobes (evaluate)."""
+    if wo[2] == 0.0:
+        return FAILED
+    wi, w, pdf, delta = sample_lobe(mat, m, color, wo, u0, u1, u2)
+    if pdf != EVALUATE:
+        return wi, w, pdf, delta
+    f, pdf = bsdf_eval(mat, m, color, wo, wi)
+    if not (pdf > 0.0 and pdf - pdf == 0.0):  # 0, inf or NaN (x - x is NaN for inf)
+        return FAILED
+    w = mul(f, abs(wi[2]) / pdf)
+    if not (w[0] - w[0] == 0.0 and w[1] - w[1] == 0.0 and w[2] - w[2] == 0.0):
+        return FAILED
+    return wi, w, pdf, False
+
+
+def kind_module(name: str):
+    """The module of the material kind `name` (a scene's `type`); an unknown one is a ValueError."""
+    try:
+        return BY_NAME[name]
+    except KeyError:
+        raise ValueError(f"unknown material type {name!r} (known: {', '.join(BY_NAME)})") from None

@@ -1,0 +1,49 @@
+"""Which compiled variant of the kernels a scene takes: the feature argument X that every kernel
+receives (None, or the scene's Instances), chosen from the scene's shapes, materials, textures
+and lights."""
+
+import numpy as np
+
+from .scene import instances_of
+from .shading import lights, textures
+
+# Basic scenes (spheres and opaque triangles, no image textures, no area lights: the seed scene,
+# most meshes) compile without the code for the other shapes, planes, transparent shadows,
+# image textures, area lights and instances: kernels take X = features(S), None for a basic
+# scene, and test `X is not None` before that code; Numba drops a branch on a None argument
+# before compiling it (the seed scene's trace kernel: 4% faster, and 72 s of compilation against
+# 96 s). Every other scene gets its Instances (kernels/scene.py, empty when it has none): one
+# variant with every shape's code, compiled once. (There were int8 and float64 variants for
+# planes-only and other-shape scenes too; each mode's kernels compiled up to four times, and a
+# fresh machine spent most of its first test run compiling them.)
+
+
+def features(S):
+    """None for a basic kernel scene (see above); the scene's Instances otherwise: that variant
+    compiles every shape's code and the two-level traversal (traverse_instances.py), skipped at
+    run time when the scene has no instances."""
+    basic = (
+        _basic_geometry(S)
+        and not S.has_transparency
+        and not (S.textures[:, textures.TEX_KIND] == textures.IMAGE).any()
+        and not np.isin(S.light_kind, (lights.QUAD, lights.SPHERE)).any()
+    )
+    return None if basic else instances_of(S)
+
+
+def geometry_features(S):
+    """X of geometry-only queries (raylume.intersect): None, the basic variant with its ray
+    packets, for every scene of spheres and triangles without instances. Materials, textures
+    and lights, which features(S) also weighs, change no hit."""
+    return None if _basic_geometry(S) else instances_of(S)
+
+
+def _basic_geometry(S) -> bool:
+    """Spheres and triangles alone, without instances."""
+    return S.basic_shapes and S.instance_inverse.shape[0] == 0
+
+
+def path_features(S):
+    """X of path mode: one variant for every scene (a path-mode compile is ~55 s), the scene's
+    Instances as for any scene that is not basic."""
+    return instances_of(S)
