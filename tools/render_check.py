@@ -61,6 +61,58 @@ def render_all(out: Path, quick: bool) -> None:
         _save(out, f"{label}.crop", render, scene, mode="path", width=48, height=32, spp=2, crop=(5, 29, 3, 19))
         _save(out, f"{label}.t1", render, scene, mode="trace", width=40, height=24, spp=2, threads=1)
     _save(out, "builtin.seed", render, "seed")
+    import trimesh
+
+    mesh = out / "every_light.ply"
+    trimesh.creation.icosphere(subdivisions=1, radius=0.12).export(mesh)
+    instanced = {"type": "mesh", "file": str(mesh), "material": {"type": "diffuse", "emission": [3, 1, 3]},
+                 "instances": [{"translate": [x, 2.8, 2.0]} for x in (-2.0, -1.0, 1.0)]}  # fmt: skip
+    every = raylume.Scene.model_validate({**EVERY_LIGHT, "objects": [*EVERY_LIGHT["objects"], instanced]})
+    if not (out / "every_light.t1.npy").exists():
+        for mode in MODES:
+            _save(out, f"every_light.{mode}", render, every, mode=mode, spp=8, seed=3)
+        _save(out, "every_light.t1", render, every, mode="trace", spp=2, threads=1)
+
+
+# Every kind of light and emitter in one scene: spot, point, directional, quad and sphere lights,
+# ambient lights before and between the others, emissive shapes of every sampled kind, an
+# emissive instanced mesh, an environment, and every material type.
+EVERY_LIGHT = {
+    "render": {"width": 48, "height": 32, "max_depth": 4},
+    "camera": {"position": [0, 1.5, -5], "look_at": [0, 0.5, 0], "fov": 50},
+    "environment": {"color": [0.05, 0.07, 0.1]},
+    "lights": [
+        {"type": "ambient", "intensity": 0.05},
+        {"type": "spot", "position": [1, 4, -1], "direction": [-0.2, -1, 0.3], "angle": 30, "inner_angle": 20,
+         "intensity": 8.0},
+        {"type": "point", "position": [-2, 3, -2], "intensity": [3.0, 2.5, 2.0]},
+        {"type": "ambient", "intensity": [0.02, 0.01, 0.03]},
+        {"type": "directional", "direction": [1, 2, -1], "intensity": 0.4},
+        {"type": "quad", "position": [0, 3.5, 1], "u": [1, 0, 0], "v": [0, 0, 1], "intensity": 2.0, "samples": 4},
+        {"type": "sphere", "position": [2.5, 1.5, 1], "radius": 0.3, "intensity": 3.0, "samples": 2},
+    ],
+    "objects": [
+        {"type": "plane", "point": [0, 0, 0], "normal": [0, 1, 0], "material": {"type": "diffuse", "color": "#999999"}},
+        {"type": "sphere", "center": [-1.2, 0.6, 0.5], "radius": 0.6,
+         "material": {"type": "dielectric", "roughness": 0.1}},
+        {"type": "sphere", "center": [0.2, 0.5, 0.2], "radius": 0.5,
+         "material": {"type": "conductor", "roughness": 0.2}},
+        {"type": "sphere", "center": [1.3, 0.4, -0.3], "radius": 0.4,
+         "material": {"type": "plastic", "color": [0.2, 0.4, 0.8]}},
+        {"type": "cylinder", "p0": [-2, 0, 1.5], "p1": [-2, 1.2, 1.5], "radius": 0.3, "capped": True,
+         "material": {"specular": 50, "reflective": 0.3, "color": [0.9, 0.5, 0.2]}},
+        {"type": "sphere", "center": [-0.5, 1.8, 2], "radius": 0.15,
+         "material": {"type": "diffuse", "emission": [4, 2, 1]}},
+        {"type": "disk", "center": [1.5, 1.0, 2.5], "normal": [0, 0, -1], "radius": 0.3,
+         "material": {"type": "diffuse", "emission": [1, 3, 1]}},
+        {"type": "quad", "position": [-1.5, 2.2, 2.5], "u": [0.5, 0, 0], "v": [0, 0.5, 0],
+         "material": {"type": "diffuse", "emission": [1, 1, 3]}},
+        {"type": "triangle", "vertices": [[0.5, 2.5, 3], [1, 2.5, 3], [0.75, 3, 3]],
+         "material": {"type": "diffuse", "emission": [2, 2, 2]}},
+        {"type": "sphere", "center": [0, 0.8, -1.5], "radius": 0.3,
+         "material": {"transparency": 0.7, "ior": 1.3, "color": [0.8, 1, 0.8]}},
+    ],
+}  # fmt: skip
 
 
 def compare(a: Path, b: Path) -> int:

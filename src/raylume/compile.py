@@ -16,7 +16,6 @@ import numpy as np
 from .accel.bvh import build_bvh, triangle_bounds
 from .accel.wide import collapse, mark_sphere_leaves, mark_triangle_leaves, single_leaf, wide_depth, wide_nbytes
 from .compile_instances import build_instances, join_triangles, place_instanced
-from .emitters_table import build_emitters, scene_environment
 from .errors import SceneError
 from .kernels.frame_stack import roomy_frame_stack
 from .kernels.geometry.shape_triangle import TRIANGLES_PER_TEST
@@ -38,7 +37,7 @@ from .kernels.geometry.wide_nodes import BVH_WIDTH, TRAVERSAL_STACK, stack_neede
 from .kernels.scene import KernelScene
 from .kernels.shading import materials as M
 from .kernels.shading import textures as X
-from .kernels.shading.lights import LIGHT_WIDTH, pack_light
+from .lights_table import build_light_table, scene_environment
 from .scene.gltf import flatten, load_gltf_object
 from .scene.instances import InstanceError, instance_matrices
 from .scene.mesh import MeshData, MeshError, transform_matrix
@@ -222,14 +221,6 @@ def material_row(mat: Material, textures: TextureTable | None = None, where: str
             raise ValueError("a textured material needs a TextureTable")
         row[M.MAT_TEXTURE] = textures.add(mat.texture, where)
     return row
-
-
-def _lights(scene: Scene) -> tuple[np.ndarray, np.ndarray]:
-    kinds = np.zeros(len(scene.lights), dtype=np.int32)
-    data = np.zeros((len(scene.lights), LIGHT_WIDTH), dtype=np.float64)
-    for k, light in enumerate(scene.lights):
-        kinds[k], data[k] = pack_light(light)
-    return kinds, data
 
 
 class _TriangleSoup:
@@ -532,13 +523,12 @@ def compile_scene(scene: Scene, source="<scene>", accelerate: bool = True) -> Co
     extent = [np.abs(lo).max() if len(lo) else 0.0, np.abs(hi).max() if len(hi) else 0.0, inst.extent]
     for r in unbounded:  # an unbounded shape's size is that of its defining point
         extent.append(np.abs(shapes[r, :3]).max())
-    kinds, data = _lights(scene)
     environment = scene_environment(scene, source)
     # instanced meshes' triangles (stored in object space) are sampled per mesh, through its
-    # instances (emitters_table.instanced_emitters), not one row per triangle
+    # instances (lights_table.instanced_emitters), not one row per triangle
     world = np.ones(len(prims), dtype=bool)
     world[n_world:n_bounded] = False
-    emit_kind, emit_data, emit_cdf, emit_dist, n_area, env_row, ambient_row = build_emitters(
+    lights = build_light_table(
         scene, prims, shapes, tri, mat_rows, environment, float(max(extent)), candidates=world, instances=inst
     )
     kernel = KernelScene(
@@ -554,15 +544,14 @@ def compile_scene(scene: Scene, source="<scene>", accelerate: bool = True) -> Co
         materials=mat_rows,
         textures=textures.table(),
         texels=textures.texels(),
-        light_kind=kinds,
-        light_data=data,
-        emitter_kind=emit_kind,
-        emitter_data=emit_data,
-        emitter_cdf=emit_cdf,
-        emitter_dist=emit_dist,
-        n_area_emitters=n_area,
-        environment_row=env_row,
-        ambient_row=ambient_row,
+        light_kind=lights.kind,
+        light_data=lights.data,
+        light_order=lights.order,
+        light_cdf=lights.cdf,
+        light_dist=lights.dist,
+        n_area_lights=lights.n_area,
+        environment_row=lights.environment_row,
+        ambient_row=lights.ambient_row,
         env_image=environment.image,
         env_marginal_cdf=environment.marginal_cdf,
         env_conditional_cdf=environment.conditional_cdf,

@@ -24,15 +24,16 @@ class KernelScene(NamedTuple):
     materials: np.ndarray  # float64 (M, MAT_WIDTH), shading/materials/table.py
     textures: np.ndarray  # float64 (X, TEX_WIDTH), textures.py
     texels: np.ndarray  # float32 (N, 3): every image texture's linear texels, row by row
-    light_kind: np.ndarray  # int32 (L,)
-    light_data: np.ndarray  # float64 (L, LIGHT_WIDTH), lights.py
-    # path mode's lights (emitters.py): kinds, rows, the power cdf, how many area lights lead
-    # the table, the environment's and the ambient lights' rows (-1: none); the environment
-    emitter_kind: np.ndarray  # int32 (E,)
-    emitter_data: np.ndarray  # float64 (E, EMIT_WIDTH)
-    emitter_cdf: np.ndarray  # float64 (E + 1,)
-    emitter_dist: np.ndarray  # float64 (D,): instanced emitters' instance and triangle cdfs
-    n_area_emitters: int
+    # the light table of both modes (shading/lights/table.py): kinds, rows, the rows of the
+    # scene's lights in its order (trace mode), path mode's power cdf over the first rows, the
+    # instanced emitters' instance and triangle cdfs, how many area lights lead the table, the
+    # environment's and the summed ambient lights' rows (-1: none)
+    light_kind: np.ndarray  # int32 (E,)
+    light_data: np.ndarray  # float64 (E, LIGHT_ROW_WIDTH)
+    light_order: np.ndarray  # int32 (L,)
+    light_cdf: np.ndarray  # float64 (C + 1,), C <= E
+    light_dist: np.ndarray  # float64 (D,)
+    n_area_lights: int
     environment_row: int
     ambient_row: int
     # the environment (environment.py's Environment, flattened: parallel kernels take no
@@ -101,8 +102,11 @@ class Surfaces(NamedTuple):
 
 
 class Lights(NamedTuple):
+    """Trace mode's view of the light table: the scene's lights, in its order."""
+
     kind: np.ndarray
     data: np.ndarray
+    order: np.ndarray
 
 
 class Instances(NamedTuple):
@@ -128,6 +132,8 @@ def instances_of(S) -> Instances:
 
 
 class Emitters(NamedTuple):
+    """Path mode's view of the light table: the rows its power distribution covers."""
+
     kind: np.ndarray
     data: np.ndarray
     cdf: np.ndarray
@@ -140,11 +146,11 @@ class Emitters(NamedTuple):
 @kernel_function()
 def emitters_of(S):
     return Emitters(
-        S.emitter_kind,
-        S.emitter_data,
-        S.emitter_cdf,
-        S.emitter_dist,
-        S.n_area_emitters,
+        S.light_kind,
+        S.light_data,
+        S.light_cdf,
+        S.light_dist,
+        S.n_area_lights,
         S.environment_row,
         S.ambient_row,
     )
@@ -177,4 +183,4 @@ def surfaces_of(S):
 
 @kernel_function()
 def lights_of(S):
-    return Lights(S.light_kind, S.light_data)
+    return Lights(S.light_kind, S.light_data, S.light_order)

@@ -5,7 +5,11 @@ and lights."""
 import numpy as np
 
 from .scene import instances_of
-from .shading import lights, textures
+from .shading import textures
+from .shading.lights import SCENE_KINDS
+
+# the scene's lights that trace mode samples at points (area lights: quad, sphere)
+_SAMPLED_LIGHTS = [kind.KIND for kind in SCENE_KINDS if not kind.DELTA and not kind.EVERYWHERE]
 
 # Basic scenes (spheres and opaque triangles, no image textures, no area lights: the seed scene,
 # most meshes) compile without the code for the other shapes, planes, transparent shadows,
@@ -26,7 +30,7 @@ def features(S):
         _basic_geometry(S)
         and not S.has_transparency
         and not (S.textures[:, textures.TEX_KIND] == textures.IMAGE).any()
-        and not np.isin(S.light_kind, (lights.QUAD, lights.SPHERE)).any()
+        and not np.isin(S.light_kind[S.light_order], _SAMPLED_LIGHTS).any()
     )
     return None if basic else instances_of(S)
 

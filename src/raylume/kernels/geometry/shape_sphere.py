@@ -266,5 +266,5 @@ def sphere_cap(center, radius: float, eye, px_per_rad: float) -> np.ndarray:
 
 
 def area(rows: np.ndarray) -> np.ndarray:
-    """Surface areas (emission: path mode samples a sphere by the cone it subtends, emitters.py)."""
+    """Surface areas (emission: path mode samples a sphere by the cone it subtends, shading/lights/)."""
     return 4.0 * math.pi * rows[:, RADIUS] ** 2

@@ -188,8 +188,10 @@ def _intersect_other(shapes, kind, row, o, d, tmin, tmax):
         return shape_disk.intersect(shapes, row, o, d, tmin, tmax), 0.0, 0.0
     if kind == QUAD:
         return shape_quad.intersect(shapes, row, o, d, tmin, tmax), 0.0, 0.0
-    t, part = shape_cylinder.intersect(shapes, row, o, d, tmin, tmax)
-    return t, part, 0.0
+    if kind == CYLINDER:
+        t, part = shape_cylinder.intersect(shapes, row, o, d, tmin, tmax)
+        return t, part, 0.0
+    return INF, 0.0, 0.0  # a kind no module defines (never: compile.py packs registered shapes)
 
 
 @inline_function
@@ -216,7 +218,9 @@ def _normal_other(shapes, kind, row, b1, p):
         return shape_disk.normal(shapes, row, p)
     if kind == QUAD:
         return shape_quad.normal(shapes, row, p)
-    return shape_cylinder.normal(shapes, row, p, b1)
+    if kind == CYLINDER:
+        return shape_cylinder.normal(shapes, row, p, b1)
+    return (0.0, 0.0, 1.0)  # a kind no module defines
 
 
 @kernel_function
@@ -265,7 +269,9 @@ def _uv_other(shapes, kind, row, b1, p):
         return shape_disk.uv(shapes, row, p)
     if kind == QUAD:
         return shape_quad.uv(shapes, row, p)
-    return shape_cylinder.uv(shapes, row, p, b1)
+    if kind == CYLINDER:
+        return shape_cylinder.uv(shapes, row, p, b1)
+    return 0.0, 0.0  # a kind no module defines
 
 
 # --- Python side -----------------------------------------------------------------------------
@@ -311,7 +317,7 @@ def offset_epsilon(epsilon_floor, p):
     return 1e-7 * max(max_abs(p), epsilon_floor)
 
 
-# --- emission: path mode samples points on emissive primitives (emitters.py) ----------------
+# --- emission: path mode samples points on emissive primitives (lights/surface.py) ---------
 
 # Shapes whose surface next-event estimation samples (a sphere by the cone it subtends, the rest
 # uniformly by area); other emissive shapes are found by BSDF sampling alone.
@@ -327,7 +333,9 @@ def sample_surface(G, k, u1, u2):
         return shape_quad.sample(G.shapes, row, u1, u2)
     if kind == DISK:
         return shape_disk.sample(G.shapes, row, u1, u2)
-    return shape_triangle.sample(G, row, u1, u2)
+    if kind == TRIANGLE:
+        return shape_triangle.sample(G, row, u1, u2)
+    return (0.0, 0.0, 0.0), (0.0, 0.0, 1.0)  # never asked (spheres: by their cone, shading/lights/)
 
 
 def surface_areas(prims: np.ndarray, rows: np.ndarray, shapes: np.ndarray, triangles: np.ndarray) -> np.ndarray:

@@ -1,5 +1,6 @@
-"""Direct lighting, the seed's ComputeLighting: for every light, points sampled on it
-(lights.py), the material's response towards the viewer (materials/seed_response.py) and a shadow ray.
+"""Direct lighting, the seed's ComputeLighting: for every light of the scene, in its order, points
+sampled on it (each light kind's trace_sample, shading/lights/), the material's response towards
+the viewer (materials/seed_response.py) and a shadow ray.
 
 Shadow rays in opaque scenes are any-hit queries. With transparent materials they walk from
 hit to hit: each transparent surface lets `transparency` through, and the path inside a medium
@@ -14,14 +15,14 @@ from ..film.sampler import light_sample
 from ..geometry.shapes import offset_epsilon, surface
 from ..geometry.traverse import any_hit, closest_hit
 from ..shading.lights import (
-    AMBIENT,
     LIGHT_INTENSITY,
     LIGHT_SAMPLES,
-    SPOT,
+    has_falloff,
     is_delta,
-    sample_area,
-    sample_delta,
-    spot_falloff,
+    is_everywhere,
+    trace_area,
+    trace_delta,
+    trace_falloff,
 )
 from ..shading.materials import MAT_SPECULAR, MAT_TRANSPARENCY, beer_lambert
 from ..shading.materials.seed_response import phong_response
@@ -41,10 +42,11 @@ def direct_lighting(G, F, L, X, p, n, view, m, shadows, node_stack, t_stack, key
     ig = 0.0
     ib = 0.0
     rays = 0
-    for k in range(L.kind.shape[0]):
+    for j in range(L.order.shape[0]):
+        k = L.order[j]
         kind = L.kind[k]
         intensity = row3(L.data, k, LIGHT_INTENSITY)
-        if kind == AMBIENT:
+        if is_everywhere(kind):  # the seed's ambient light
             ir += intensity[0]
             ig += intensity[1]
             ib += intensity[2]
@@ -59,16 +61,16 @@ def direct_lighting(G, F, L, X, p, n, view, m, shadows, node_stack, t_stack, key
         while remaining > 0:
             remaining -= 1
             if delta:
-                to_light, tmax = sample_delta(L, k, p)
+                to_light, tmax = trace_delta(L, k, p, 0.0, 0.0)
             elif X is not None:  # area lights (none in scenes whose X is None)
-                u1, u2 = light_sample(key, event, k, remaining, count)
-                to_light, tmax = sample_area(L, k, p, u1, u2)
+                u1, u2 = light_sample(key, event, j, remaining, count)
+                to_light, tmax = trace_area(L, k, p, u1, u2)
             else:
                 to_light, tmax = (0.0, 0.0, 1.0), 0.0
             l = normalize(to_light)
             scale = phong_response(n, l, view, specular)
-            if kind == SPOT:
-                scale *= spot_falloff(L.data, k, l)
+            if has_falloff(kind):
+                scale *= trace_falloff(L, k, l)
             if scale <= 0.0:
                 continue  # nothing to add: skip the shadow ray
             if shadows:

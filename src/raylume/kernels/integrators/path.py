@@ -2,7 +2,7 @@
 `path` integrator computes it.
 
 Each camera sample follows one path. At every surface it adds the surface's emission, a
-next-event estimate (one emitter picked in proportion to power, emitters.py, a point on it,
+next-event estimate (one light picked in proportion to power, lights/distribution.py, a point on it,
 a shadow ray) and continues in a direction sampled from the BSDF (materials/registry.py). Emission found by
 a BSDF-sampled direction and light found by next-event estimation are weighted by the power
 heuristic (Veach's multiple importance sampling), so each light path is counted once;
@@ -21,16 +21,17 @@ import numpy as np
 from ..film.sampler import DIM_BSDF, DIM_LIGHT, dimension_key, key_uniform2, sub_key
 from ..geometry.shapes import NO_HIT, PRIM_LIGHT, offset_epsilon, split_hit, surface
 from ..geometry.traverse import any_hit, closest_hit
-from ..shading.emitters import (
+from ..shading.lights import (
+    LIGHT_INTENSITY,
     SHADOW_SHORTEN,
-    emitter_pdf,
     environment_light,
     hit_area_lights,
+    light_pdf,
     pick_emitter,
     pick_probability,
-    sample_emitter,
+    sample_light,
 )
-from ..shading.lights import LIGHT_INTENSITY, basis
+from ..shading.lights.sampling import basis
 from ..shading.materials import MAT_EMISSION, albedo, beer_lambert, bsdf_eval, bsdf_sample, delta_only, two_sided
 from ..vec import dot, hadamard, inline_function, madd, mul, row3
 
@@ -80,8 +81,8 @@ def _emitter_weight(G, X, Em, Env, e, hit, prev_p, d, t, n_hit, prev_pdf, prev_d
         return 1.0
     if strategy == LIGHT_ONLY:
         return 0.0
-    light_pdf = pick_probability(Em.cdf, e) * emitter_pdf(G, X, Em, Env, e, prev_p, d, t, n_hit, hit)
-    return power_heuristic(prev_pdf, light_pdf)
+    pdf_l = pick_probability(Em.cdf, e) * light_pdf(G, X, Em, Env, e, prev_p, d, t, n_hit, hit)
+    return power_heuristic(prev_pdf, pdf_l)
 
 
 @inline_function
@@ -155,7 +156,7 @@ def path_ray(G, F, X, Em, Env, o, d, spread, max_depth, background, key, node_st
             u_pick, _ = key_uniform2(light_key)
             u1, u2 = key_uniform2(sub_key(light_key, 1))
             e, p_pick = pick_emitter(Em.cdf, u_pick)
-            wi, dist, li, pdf_l, delta_l = sample_emitter(G, X, Em, Env, e, p, u1, u2, light_key)
+            wi, dist, li, pdf_l, delta_l = sample_light(G, X, Em, Env, e, p, u1, u2, light_key)
             if pdf_l > 0.0 and (li[0] > 0.0 or li[1] > 0.0 or li[2] > 0.0) and (delta_l or strategy != BSDF_ONLY):
                 wi_local = _to_local(wi, s_axis, t_axis, ns)
                 up = dot(wi, ng) > 0.0

@@ -53,7 +53,7 @@ from ..geometry.traverse import _root_is_a_leaf, any_hit, closest_hit
 from ..geometry.wavefront_spheres import SR, SX, SY, SZ, tile_blocks, tile_closest
 from ..geometry.wide_nodes import prefetch_row, scratch_array
 from ..shading.environment import environment_radiance
-from ..shading.lights import AMBIENT, DIRECTIONAL, LIGHT_DIRECTION, LIGHT_INTENSITY, LIGHT_POSITION, SPOT, spot_falloff
+from ..shading.lights import LIGHT_INTENSITY, LIGHT_POSITION, at_infinity, has_falloff, is_everywhere, trace_falloff
 from ..shading.materials import (
     MAT_COLOR,
     MAT_EMISSION,
@@ -455,12 +455,13 @@ def _light_directions(R, I, m, directional, x, y, z):
 
 
 @inline_function
-def _towards_light(L, R, I, m, j):
-    """direct_lighting's steps for delta light j up to its shadow ray: the unit direction l and
-    distance towards it, and the Phong factor; BLOCKED starts as 'no ray needed' (-1) where the
-    factor is 0, else 0. Returns the number of shadow rays."""
-    directional = L.kind[j] == DIRECTIONAL
-    x, y, z = row3(L.data, j, LIGHT_DIRECTION if directional else LIGHT_POSITION)
+def _towards_light(L, R, I, m, k):
+    """direct_lighting's steps for delta light row k up to its shadow ray: the unit direction l
+    and distance towards it, and the Phong factor; BLOCKED starts as 'no ray needed' (-1) where
+    the factor is 0, else 0. Returns the number of shadow rays."""
+    directional = at_infinity(L.kind[k])
+    # a delta light's first three columns: its position, or (at infinity) the unit vector to it
+    x, y, z = row3(L.data, k, LIGHT_POSITION)
     _light_directions(R, I, m, directional, x, y, z)
     # The powers apart, slot by slot where they are needed: in a loop over every slot LLVM
     # computed the power for all of them (a call without side effects may be speculated), most
@@ -468,9 +469,9 @@ def _towards_light(L, R, I, m, j):
     for i in range(m):
         if I[HIGHLIGHT + i] != 0:
             R[SCALE + i] += highlight(R[COS_RV + i], R[SPEC + i])
-    if L.kind[j] == SPOT:
+    if has_falloff(L.kind[k]):
         for i in range(m):
-            R[SCALE + i] *= spot_falloff(L.data, j, (R[LX + i], R[LY + i], R[LZ + i]))
+            R[SCALE + i] *= trace_falloff(L, k, (R[LX + i], R[LY + i], R[LZ + i]))
     return _needs_shadow(R, I, m)
 
 
@@ -557,25 +558,26 @@ def _lighting(G, X, L, R, I, C, m, leaf_first, leaf_count, node_stack, t_stack, 
     # from 0, light by light), which the rows start from.
     ambient = (0.0, 0.0, 0.0)
     first = 0
-    while first < L.kind.shape[0] and L.kind[first] == AMBIENT:
-        a = row3(L.data, first, LIGHT_INTENSITY)
+    while first < L.order.shape[0] and is_everywhere(L.kind[L.order[first]]):
+        a = row3(L.data, L.order[first], LIGHT_INTENSITY)
         ambient = (ambient[0] + a[0], ambient[1] + a[1], ambient[2] + a[2])
         first += 1
     for c, row in enumerate((IR, IG, IB)):
         fill(R[row : row + STRIDE], m, ambient[c])
     rays = 0
-    for j in range(first, L.kind.shape[0]):
-        if L.kind[j] == AMBIENT:
-            intensity = row3(L.data, j, LIGHT_INTENSITY)
+    for j in range(first, L.order.shape[0]):
+        k = L.order[j]
+        if is_everywhere(L.kind[k]):
+            intensity = row3(L.data, k, LIGHT_INTENSITY)
             for i in range(m):
                 R[IR + i] += intensity[0]
                 R[IG + i] += intensity[1]
                 R[IB + i] += intensity[2]
             continue
-        rays += _towards_light(L, R, I, m, j)
-        directional = L.kind[j] == DIRECTIONAL
+        rays += _towards_light(L, R, I, m, k)
+        directional = at_infinity(L.kind[k])
         _shadows(G, X, R, I, C, m, leaf_first, leaf_count, node_stack, t_stack, directional, scratch)
-        r, g, b = row3(L.data, j, LIGHT_INTENSITY)
+        r, g, b = row3(L.data, k, LIGHT_INTENSITY)
         _gather_light(R, I, m, r, g, b)
     return rays
 

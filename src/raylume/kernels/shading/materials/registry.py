@@ -3,11 +3,12 @@
 KINDS is the registry: one module per kind, each defining NAME (the scene's `type`), KIND (its
 number in the table's MAT_KIND column), `pack` and `trace_approximation` (host side), and the
 kernel functions `evaluate`, `sample`, `delta_only` and `two_sided` (lobes.py gives their
-conventions). The switches below are made from KINDS: for each question, one function that
-compares the row's kind with each module's KIND in turn and returns that module's answer, and
-for a kind that no module defines (never: compile.py packs only registered kinds) a failure,
-never another kind's answer."""
+conventions). The switches below are made from KINDS (kernels/switch.py): for each question,
+one function that compares the row's kind with each module's KIND in turn and returns that
+module's answer, and for a kind that no module defines (never: compile.py packs only registered
+kinds) a failure, never another kind's answer."""
 
+from ...switch import kind_switch
 from ...vec import inline_function, kernel_function, mul
 from . import conductor, dielectric, diffuse, null, phong, plastic
 from .lobes import EVALUATE, FAILED, ZERO
@@ -19,27 +20,7 @@ assert sorted(kind.KIND for kind in KINDS) == list(range(len(KINDS))), "KIND num
 
 
 def _switch(question: str, params: str, unknown, decorator):
-    """The kernel function `question(params)` that returns the answer of the row's kind's module:
-
-        def question(params):
-            kind = int(mat[m, MAT_KIND])
-            if kind == phong.KIND:
-                return phong.question(params)
-            ...                              (one branch per module of KINDS)
-            return unknown
-
-    written out as source and compiled here, so that it is one function with one branch per
-    kind, as one written by hand would be."""
-    namespace = {"MAT_KIND": MAT_KIND, "unknown": unknown}
-    lines = [f"def {question}({params}):", "    kind = int(mat[m, MAT_KIND])"]
-    for kind in KINDS:
-        namespace[f"{kind.NAME}_{question}"] = getattr(kind, question)
-        lines += [f"    if kind == {kind.KIND}:", f"        return {kind.NAME}_{question}({params})"]
-    lines.append("    return unknown")
-    exec(compile("\n".join(lines), f"<raylume material switch: {question}>", "exec"), namespace)
-    function = namespace[question]
-    function.__doc__ = f"The {question} of the material in row m, by its kind (registry.py)."
-    return decorator(function)
+    return kind_switch(question, params, f"int(mat[m, {MAT_KIND}])", KINDS, unknown, decorator)
 
 
 # (f, pdf) of material row m for the unit local directions wo, wi (lobes.py)

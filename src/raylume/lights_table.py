@@ -1,18 +1,19 @@
-"""The emitter table path mode samples (kernels/emitters.py), built from the scene's lights,
-its emissive primitives and its environment, with a distribution proportional to power."""
+"""The light table both modes read (kernels/shading/lights/table.py), built from the scene's
+lights, its emissive primitives and instanced meshes and its environment, each row packed by
+its kind's module, with path mode's distribution proportional to power (each kind's `power`)."""
 
 from __future__ import annotations
 
-import math
+from typing import NamedTuple
 
 import numpy as np
 
 from .environment_file import build_environment
 from .kernels.geometry.shape_triangle import area as shape_triangle_area
 from .kernels.geometry.shapes import EMISSION_SAMPLED, PRIM_KIND, PRIM_LIGHT, PRIM_MATERIAL, PRIM_ROW, surface_areas
-from .kernels.shading import emitters as EM
 from .kernels.shading import lights as LI
 from .kernels.shading.environment import Environment, no_environment
+from .kernels.shading.lights import ambient, environment, instanced, surface
 from .kernels.shading.materials import MAT_EMISSION
 
 
@@ -32,7 +33,7 @@ def scene_environment(scene, source: str) -> Environment:
 
 
 def instance_weights(inverse: np.ndarray) -> np.ndarray:
-    """Each instance's weight in its mesh's instance distribution (kernels/emitters.py's
+    """Each instance's weight in its mesh's instance distribution (lights/instanced.py's
     instance_weight): |det A|^(2/3) of the object-to-world matrix, from the float32 inverses
     (N, 12) the kernels use; exactly the instance's area scale when A is a similarity."""
     b = inverse.astype(np.float64).reshape(-1, 3, 4)[:, :, :3]
@@ -57,67 +58,67 @@ def instanced_emitters(prims, triangles, materials, instances):
         area = shape_triangle_area(triangles[tri_rows])
         inst_cdf = np.concatenate([[0.0], np.cumsum(w)])
         tri_cdf = np.concatenate([[0.0], np.cumsum(area)])
-        row = np.zeros(EM.EMIT_WIDTH)
+        row = np.zeros(LI.LIGHT_ROW_WIDTH)
         row[LI.LIGHT_INTENSITY : LI.LIGHT_INTENSITY + 3] = radiance
-        row[EM.INST_CDF] = offset
-        row[EM.INST_COUNT] = len(which)
-        row[EM.TRI_CDF] = offset + 2 * len(which) + 1
-        row[EM.TRI_COUNT] = count
-        row[EM.EMIT_PRIM] = first
-        row[EM.EMIT_AREA] = tri_cdf[-1]
+        row[LI.INST_CDF] = offset
+        row[LI.INST_COUNT] = len(which)
+        row[LI.TRI_CDF] = offset + 2 * len(which) + 1
+        row[LI.TRI_COUNT] = count
+        row[LI.EMIT_PRIM] = first
+        row[LI.EMIT_AREA] = tri_cdf[-1]
         dist.extend([inst_cdf, which.astype(np.float64), tri_cdf])
         offset += len(inst_cdf) + len(which) + len(tri_cdf)
         rows.append(row)
-        # both sides of every instance's triangles (exact for similarities: |det A|^(2/3) is
-        # the area scale; only the choice between emitters depends on it)
-        power.append(2 * math.pi * tri_cdf[-1] * inst_cdf[-1] * float(radiance.mean()))
+        power.append(instanced.power(tri_cdf[-1], inst_cdf[-1], radiance))
         meshes.append((first, count))
     return rows, power, dist, meshes
 
 
-def build_emitters(
+class LightTable(NamedTuple):
+    """The light table's arrays (KernelScene's light_* fields) and its landmarks."""
+
+    kind: np.ndarray  # int32 (E,)
+    data: np.ndarray  # float64 (E, LIGHT_ROW_WIDTH)
+    order: np.ndarray  # int32 (L,): the rows of the scene's lights, in its order
+    cdf: np.ndarray  # float64 (C + 1,): path mode's distribution over rows 0..C-1
+    dist: np.ndarray  # float64 (D,): instanced meshes' instance and triangle cdfs
+    n_area: int
+    environment_row: int
+    ambient_row: int
+
+
+def build_light_table(
     scene,
     prims,
     shapes,
     triangles,
     materials,
-    environment: Environment,
+    env: Environment,
     extent: float,
     candidates=None,
     instances=None,
-):
-    """(kinds int32 (E,), data float64 (E, EMIT_WIDTH), cdf float64 (E + 1,), distributions
-    float64 (D,), n_area, environment row or -1, ambient row or -1); sets prims[:, PRIM_LIGHT]
-    for the emissive primitives (among `candidates`, a bool per row, when given: instanced
-    meshes' rows are not) and for the emissive instanced meshes' rows (`instances`, the
-    compile_instances.InstanceArrays: one row per mesh, instanced_emitters). Ambient lights
-    become one row: a uniform environment of their summed radiance."""
+) -> LightTable:
+    """The light table (kernels/shading/lights/table.py has the order of its rows); sets
+    prims[:, PRIM_LIGHT] for the emissive primitives (among `candidates`, a bool per row, when
+    given: instanced meshes' rows are not) and for the emissive instanced meshes' rows
+    (`instances`, the compile_instances.InstanceArrays: one row per mesh, instanced_emitters).
+    Ambient lights are one row for path mode (a uniform environment of their summed radiance)
+    and a row each, after the distribution's rows, for trace mode."""
     rows: list[np.ndarray] = []
     kinds: list[int] = []
     power: list[float] = []
     radius = max(extent, 1e-9)  # the scene's bounding radius, roughly: a directional light's reach
-    lights = [light for light in scene.lights if light.type != "ambient"]
-    # area lights first (the ray test loops over them), then the rest
-    lights.sort(key=lambda light: light.type not in ("quad", "sphere"))
-    n_area = sum(light.type in ("quad", "sphere") for light in lights)
-    for light in lights:
-        kind, light_row = LI.pack_light(light)
-        row = np.zeros(EM.EMIT_WIDTH)
-        row[: LI.LIGHT_WIDTH] = light_row
-        intensity = float(np.mean(light.intensity))
-        if kind == LI.POINT:
-            phi = 4 * math.pi * intensity
-        elif kind == LI.SPOT:
-            phi = 2 * math.pi * intensity * (1 - 0.5 * (row[LI.LIGHT_COS_INNER] + row[LI.LIGHT_COS_OUTER]))
-        elif kind == LI.DIRECTIONAL:
-            phi = math.pi * radius**2 * intensity
-        elif kind == LI.QUAD:
-            phi = 2 * math.pi * float(np.linalg.norm(np.cross(light.u, light.v))) * intensity
-        else:  # sphere
-            phi = math.pi * 4 * math.pi * light.radius**2 * intensity
+    lights = [(i, light) for i, light in enumerate(scene.lights) if light.type != ambient.NAME]
+    # area lights (the kinds rays see) first: the ray test loops over them; then the rest
+    lights.sort(key=lambda item: not LI.BY_NAME[item[1].type].VISIBLE)
+    n_area = sum(LI.BY_NAME[light.type].VISIBLE for _, light in lights)
+    order = np.full(len(scene.lights), -1, dtype=np.int32)
+    for i, light in lights:
+        kind, row = LI.pack_light(light)
+        order[i] = len(rows)
         rows.append(row)
         kinds.append(kind)
-        power.append(phi)
+        power.append(LI.BY_NAME[light.type].power(row, radius))
 
     emission = materials[:, MAT_EMISSION : MAT_EMISSION + 3]
     glowing = (emission[prims[:, PRIM_MATERIAL]] > 0).any(axis=1) & np.isin(prims[:, PRIM_KIND], EMISSION_SAMPLED)
@@ -126,13 +127,13 @@ def build_emitters(
     if len(glowing):
         area = surface_areas(prims, glowing, shapes, triangles)
         radiance = emission[prims[glowing, PRIM_MATERIAL]]
-        block = np.zeros((len(glowing), EM.EMIT_WIDTH))
+        block = np.zeros((len(glowing), LI.LIGHT_ROW_WIDTH))
         block[:, LI.LIGHT_INTENSITY : LI.LIGHT_INTENSITY + 3] = radiance
-        block[:, EM.EMIT_PRIM] = glowing
-        block[:, EM.EMIT_AREA] = area
+        block[:, LI.EMIT_PRIM] = glowing
+        block[:, LI.EMIT_AREA] = area
         rows.extend(block)
-        kinds.extend([EM.PRIMITIVE] * len(glowing))
-        power.extend(2 * math.pi * area * radiance.mean(axis=1))  # both sides
+        kinds.extend([surface.KIND] * len(glowing))
+        power.extend(surface.power(area, radiance))
         prims[glowing, PRIM_LIGHT] = first_prim + np.arange(len(glowing), dtype=np.int32)
 
     dist = [np.zeros(1)]  # never empty: the kernels' array stays typed alike
@@ -140,35 +141,51 @@ def build_emitters(
         i_rows, i_power, i_dist, i_meshes = instanced_emitters(prims, triangles, materials, instances)
         base = sum(len(d) for d in dist)
         for row, (first, count) in zip(i_rows, i_meshes):
-            row[EM.INST_CDF] += base
-            row[EM.TRI_CDF] += base
+            row[LI.INST_CDF] += base
+            row[LI.TRI_CDF] += base
             prims[first : first + count, PRIM_LIGHT] = len(rows)
             rows.append(row)
-            kinds.append(EM.INSTANCED)
+            kinds.append(instanced.KIND)
         power.extend(i_power)
         dist.extend(i_dist)
 
-    ambient = sum((np.asarray(light.intensity) for light in scene.lights if light.type == "ambient"), np.zeros(3))
+    ambients = [(i, light) for i, light in enumerate(scene.lights) if light.type == ambient.NAME]
+    summed = sum((np.asarray(light.intensity) for _, light in ambients), np.zeros(3))
     ambient_row = -1
-    if ambient.any():
+    if summed.any():
         ambient_row = len(rows)
-        row = np.zeros(EM.EMIT_WIDTH)
-        row[LI.LIGHT_INTENSITY : LI.LIGHT_INTENSITY + 3] = ambient
+        row = np.zeros(LI.LIGHT_ROW_WIDTH)
+        row[LI.LIGHT_INTENSITY : LI.LIGHT_INTENSITY + 3] = summed
         rows.append(row)
-        kinds.append(LI.AMBIENT)
-        power.append(4 * math.pi * math.pi * radius**2 * float(ambient.mean()))
+        kinds.append(ambient.KIND)
+        power.append(ambient.power(row, radius))
 
     env_row = -1
-    if environment.present:
+    if env.present:
         env_row = len(rows)
-        rows.append(np.zeros(EM.EMIT_WIDTH))
-        kinds.append(EM.ENVIRONMENT)
-        power.append(4 * math.pi * math.pi * radius**2 * float(environment.image.mean()))
+        rows.append(np.zeros(LI.LIGHT_ROW_WIDTH))
+        kinds.append(environment.KIND)
+        power.append(environment.power(env.image, radius))
 
-    dist = np.ascontiguousarray(np.concatenate(dist))
+    if rows:
+        weights = np.maximum(np.asarray(power, dtype=np.float64), 0.0)
+        cdf = np.zeros(len(weights) + 1)
+        cdf[1:] = np.cumsum(weights)
+    else:
+        cdf = np.zeros(2)  # nothing to sample (path mode tests the total first)
+    for i, light in ambients:  # trace mode's ambient lights, each in its turn
+        order[i] = len(rows)
+        rows.append(ambient.pack(light))
+        kinds.append(ambient.KIND)
     if not rows:
-        return np.zeros(1, np.int32), np.zeros((1, EM.EMIT_WIDTH)), np.zeros(2), dist, 0, -1, -1
-    weights = np.maximum(np.asarray(power, dtype=np.float64), 0.0)
-    cdf = np.zeros(len(weights) + 1)
-    cdf[1:] = np.cumsum(weights)
-    return np.asarray(kinds, np.int32), np.ascontiguousarray(np.stack(rows)), cdf, dist, n_area, env_row, ambient_row
+        rows, kinds = [np.zeros(LI.LIGHT_ROW_WIDTH)], [ambient.KIND]  # typed alike, never read
+    return LightTable(
+        np.asarray(kinds, np.int32),
+        np.ascontiguousarray(np.stack(rows)),
+        order,
+        cdf,
+        np.ascontiguousarray(np.concatenate(dist)),
+        n_area,
+        env_row,
+        ambient_row,
+    )

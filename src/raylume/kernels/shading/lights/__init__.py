@@ -1,0 +1,87 @@
+"""Lights: one module per kind (ambient, point, directional, spot, quad, sphere; and path mode's
+emissive surfaces, emissive instanced meshes and the environment), each all that its kind is:
+its row packed from the model, its power for path mode's light distribution, its radiometric
+sampling and pdf, trace mode's sampling in the seed's units, and its flags. registry.py lists the
+kinds and makes the one dispatch per question; table.py the one light table both modes read;
+distribution.py path mode's choice among lights. A new kind: its module, its line in
+registry.KINDS (and SCENE_KINDS), its model class (scene/model.py) — docs/architecture.md,
+"Adding a light"."""
+
+from .distribution import environment_light, hit_area_lights, pick_emitter, pick_probability
+from .registry import (
+    BY_NAME,
+    KINDS,
+    SCENE_KINDS,
+    at_infinity,
+    has_falloff,
+    is_delta,
+    is_everywhere,
+    light_pdf,
+    pack_light,
+    sample_light,
+    trace_area,
+    trace_delta,
+    trace_falloff,
+)
+from .table import (
+    AREA_SHADOW_SHORTEN,
+    EMIT_AREA,
+    EMIT_PRIM,
+    INST_CDF,
+    INST_COUNT,
+    LIGHT_AXIS,
+    LIGHT_COS_INNER,
+    LIGHT_COS_OUTER,
+    LIGHT_DIRECTION,
+    LIGHT_INTENSITY,
+    LIGHT_POSITION,
+    LIGHT_RADIUS,
+    LIGHT_ROW_WIDTH,
+    LIGHT_SAMPLES,
+    LIGHT_U,
+    LIGHT_V,
+    LIGHT_WIDTH,
+    SHADOW_SHORTEN,
+    TRI_CDF,
+    TRI_COUNT,
+)
+
+__all__ = [
+    "AREA_SHADOW_SHORTEN",
+    "BY_NAME",
+    "EMIT_AREA",
+    "EMIT_PRIM",
+    "INST_CDF",
+    "INST_COUNT",
+    "KINDS",
+    "LIGHT_AXIS",
+    "LIGHT_COS_INNER",
+    "LIGHT_COS_OUTER",
+    "LIGHT_DIRECTION",
+    "LIGHT_INTENSITY",
+    "LIGHT_POSITION",
+    "LIGHT_RADIUS",
+    "LIGHT_ROW_WIDTH",
+    "LIGHT_SAMPLES",
+    "LIGHT_U",
+    "LIGHT_V",
+    "LIGHT_WIDTH",
+    "SCENE_KINDS",
+    "SHADOW_SHORTEN",
+    "TRI_CDF",
+    "TRI_COUNT",
+    "at_infinity",
+    "environment_light",
+    "has_falloff",
+    "hit_area_lights",
+    "is_delta",
+    "is_everywhere",
+    "light_pdf",
+    "pack_light",
+    "pick_emitter",
+    "pick_probability",
+    "sample_light",
+    "trace_area",
+    "trace_delta",
+    "trace_falloff",
+]

@@ -1,0 +1,51 @@
+"""The `directional` light: parallel light from a direction (a light at infinity). Trace mode:
+intensity `intensity`, shadow rays to infinity. Path mode: irradiance on a surface facing it."""
+
+import math
+
+import numpy as np
+
+from ...geometry.transform import unit_vector
+from ...vec import inline_function, row3
+from .table import LIGHT_DIRECTION, LIGHT_INTENSITY, LIGHT_POSITION, LIGHT_ROW_WIDTH, LIGHT_SAMPLES
+
+NAME = "directional"
+KIND = 2
+DELTA = True
+INFINITE = True  # at infinity: its column LIGHT_DIRECTION holds the unit vector towards it
+VISIBLE = False
+FALLOFF = False
+EVERYWHERE = False
+INF = math.inf
+
+
+def pack(light) -> np.ndarray:
+    """The model light's row of the light table (table.py)."""
+    row = np.zeros(LIGHT_ROW_WIDTH)
+    row[LIGHT_INTENSITY : LIGHT_INTENSITY + 3] = light.intensity
+    row[LIGHT_SAMPLES] = 1
+    row[LIGHT_DIRECTION : LIGHT_DIRECTION + 3] = unit_vector(light.direction)
+    return row
+
+
+def power(row: np.ndarray, radius: float) -> float:
+    """Emitted power: its irradiance over the scene's cross-section (radius: its bounding
+    radius, roughly)."""
+    return math.pi * radius**2 * float(np.mean(row[LIGHT_INTENSITY : LIGHT_INTENSITY + 3]))
+
+
+@inline_function
+def trace_sample(L, k, p, u1, u2):
+    """Trace mode: (the unit vector towards the light, an endless shadow ray)."""
+    return row3(L.data, k, LIGHT_DIRECTION), INF
+
+
+@inline_function
+def sample(G, X, Em, Env, e, p, u1, u2, key):
+    """Path mode: (the direction towards it, at infinity, its irradiance, pdf 1, delta)."""
+    return row3(Em.data, e, LIGHT_POSITION), INF, row3(Em.data, e, LIGHT_INTENSITY), 1.0, True
+
+
+@inline_function
+def pdf(G, X, Em, Env, e, p, wi, dist, n_hit, hit):
+    return 0.0

@@ -1,0 +1,54 @@
+"""Path mode's choice among lights: a cdf over the light table's rows in proportion to power
+(lights_table.py builds it), and the area lights that rays see beside the BVH."""
+
+import math
+
+from ...vec import inline_function, kernel_function
+from ..environment import environment_radiance
+from .registry import visible_hit
+
+INF = math.inf
+
+
+@kernel_function
+def pick_emitter(cdf, u):
+    """The row whose share of the cdf holds u, and the probability of picking it."""
+    n = cdf.shape[0] - 1
+    lo = 0
+    hi = n
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if cdf[mid] <= u * cdf[n]:
+            lo = mid
+        else:
+            hi = mid
+    return lo, (cdf[lo + 1] - cdf[lo]) / cdf[n]
+
+
+@inline_function
+def pick_probability(cdf, e):
+    return (cdf[e + 1] - cdf[e]) / cdf[cdf.shape[0] - 1]
+
+
+@kernel_function
+def hit_area_lights(Em, o, d, tmax):
+    """The nearest area light (rows 0..n_area-1, the VISIBLE kinds) along the ray before tmax:
+    (t, row, normal), row -1 when none."""
+    best = tmax
+    hit = -1
+    normal = (0.0, 0.0, 1.0)
+    for e in range(Em.n_area):
+        t, n = visible_hit(Em, e, o, d, best)
+        if t < best:
+            best = t
+            hit = e
+            normal = n
+    return best, hit, normal
+
+
+@inline_function
+def environment_light(Env, d):
+    """Radiance of the environment along d (zero without one)."""
+    if Env.present:
+        return environment_radiance(Env, d)
+    return (0.0, 0.0, 0.0)

@@ -1,0 +1,56 @@
+"""The `point` light: all its light leaves one point. Trace mode (the seed's units): intensity
+`intensity` at every distance, one shadow ray up to the light. Path mode: radiant intensity
+(W/sr), falling off as 1 / r^2; a delta light, found only by next-event estimation."""
+
+import math
+
+import numpy as np
+
+from ...vec import inline_function, length, mul, row3, sub
+from .table import LIGHT_INTENSITY, LIGHT_POSITION, LIGHT_ROW_WIDTH, LIGHT_SAMPLES
+
+NAME = "point"
+KIND = 1
+DELTA = True  # a single point: no random numbers, no MIS
+INFINITE = False  # at a finite distance
+VISIBLE = False  # rays do not see it
+FALLOFF = False  # no angular falloff in trace mode
+EVERYWHERE = False  # not the seed's ambient light
+
+
+def pack(light) -> np.ndarray:
+    """The model light's row of the light table (table.py)."""
+    row = np.zeros(LIGHT_ROW_WIDTH)
+    row[LIGHT_INTENSITY : LIGHT_INTENSITY + 3] = light.intensity
+    row[LIGHT_SAMPLES] = 1
+    row[LIGHT_POSITION : LIGHT_POSITION + 3] = light.position
+    return row
+
+
+def power(row: np.ndarray, radius: float) -> float:
+    """Emitted power, for path mode's light distribution: 4 pi I (the channels' mean)."""
+    return 4 * math.pi * float(np.mean(row[LIGHT_INTENSITY : LIGHT_INTENSITY + 3]))
+
+
+@inline_function
+def trace_sample(L, k, p, u1, u2):
+    """Trace mode: (the vector from p to the light, the shadow ray's length)."""
+    to_light = sub(row3(L.data, k, LIGHT_POSITION), p)
+    return to_light, length(to_light)
+
+
+@inline_function
+def sample(G, X, Em, Env, e, p, u1, u2, key):
+    """Path mode: (wi, distance, intensity / r^2 arriving, pdf 1, delta)."""
+    to_l = sub(row3(Em.data, e, LIGHT_POSITION), p)
+    dist = length(to_l)
+    if dist <= 0.0:
+        return (0.0, 0.0, 1.0), 0.0, (0.0, 0.0, 0.0), 0.0, True
+    wi = mul(to_l, 1.0 / dist)
+    return wi, dist, mul(row3(Em.data, e, LIGHT_INTENSITY), 1.0 / (dist * dist)), 1.0, True
+
+
+@inline_function
+def pdf(G, X, Em, Env, e, p, wi, dist, n_hit, hit):
+    """No direction a BSDF samples meets a point."""
+    return 0.0

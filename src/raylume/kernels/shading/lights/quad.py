@@ -1,0 +1,100 @@
+"""The `quad` light: a parallelogram, centre `position` +- u/2 +- v/2. Trace mode (the seed's
+units): the seed's point light spread over the quad, the average over `samples` stratified
+points of a point light of intensity `intensity` there; rays do not see it. Path mode: a
+surface of radiance `intensity` emitting on both sides, seen by rays (area lights lead the
+table: path.py tests rows 0..n_area-1 beside the BVH)."""
+
+import math
+
+import numpy as np
+
+from ...geometry.shape_plane import intersect_plane
+from ...vec import cross, dot, inline_function, kernel_function, length, madd, mul, row3, sub
+from .sampling import area_pdf, towards_point
+from .table import (
+    AREA_SHADOW_SHORTEN,
+    LIGHT_INTENSITY,
+    LIGHT_POSITION,
+    LIGHT_ROW_WIDTH,
+    LIGHT_SAMPLES,
+    LIGHT_U,
+    LIGHT_V,
+)
+
+NAME = "quad"
+KIND = 3
+DELTA = False
+INFINITE = False
+VISIBLE = True  # rays see it (path mode)
+FALLOFF = False
+EVERYWHERE = False
+INF = math.inf
+
+
+def pack(light) -> np.ndarray:
+    """The model light's row of the light table (table.py)."""
+    row = np.zeros(LIGHT_ROW_WIDTH)
+    row[LIGHT_INTENSITY : LIGHT_INTENSITY + 3] = light.intensity
+    row[LIGHT_SAMPLES] = light.samples
+    row[LIGHT_POSITION : LIGHT_POSITION + 3] = light.position
+    row[LIGHT_U : LIGHT_U + 3] = light.u
+    row[LIGHT_V : LIGHT_V + 3] = light.v
+    return row
+
+
+def power(row: np.ndarray, radius: float) -> float:
+    """Emitted power: radiance over both sides of its area, pi per side."""
+    area = float(np.linalg.norm(np.cross(row[LIGHT_U : LIGHT_U + 3], row[LIGHT_V : LIGHT_V + 3])))
+    return 2 * math.pi * area * float(np.mean(row[LIGHT_INTENSITY : LIGHT_INTENSITY + 3]))
+
+
+@kernel_function
+def trace_sample(L, k, p, u1, u2):
+    """Trace mode: the point (u1, u2) in [0, 1)^2 of the quad seen from p: (vector from p to
+    the point, shadow ray length, a little short of it)."""
+    centre = row3(L.data, k, LIGHT_POSITION)
+    q = madd(madd(centre, row3(L.data, k, LIGHT_U), u1 - 0.5), row3(L.data, k, LIGHT_V), u2 - 0.5)
+    to_light = sub(q, p)
+    return to_light, length(to_light) * (1.0 - AREA_SHADOW_SHORTEN)
+
+
+@inline_function
+def sample(G, X, Em, Env, e, p, u1, u2, key):
+    """Path mode: a point uniform over its area, seen from p."""
+    data = Em.data
+    radiance = row3(data, e, LIGHT_INTENSITY)
+    u = row3(data, e, LIGHT_U)
+    v = row3(data, e, LIGHT_V)
+    q = madd(madd(row3(data, e, LIGHT_POSITION), u, u1 - 0.5), v, u2 - 0.5)
+    n = cross(u, v)
+    area = length(n)
+    n = mul(n, 1.0 / area)
+    return towards_point(p, q, n, area, radiance)
+
+
+@inline_function
+def pdf(G, X, Em, Env, e, p, wi, dist, n_hit, hit):
+    """The solid-angle pdf of sample's point met along wi at dist (normal n_hit there)."""
+    area = length(cross(row3(Em.data, e, LIGHT_U), row3(Em.data, e, LIGHT_V)))
+    return area_pdf(p, madd(p, wi, dist), n_hit, area)
+
+
+@inline_function
+def hit(Em, e, o, d, tmax):
+    """The ray (o, d) against quad row e before tmax: (t, unit normal), t = inf for a miss."""
+    data = Em.data
+    c = row3(data, e, LIGHT_POSITION)
+    u = row3(data, e, LIGHT_U)
+    v = row3(data, e, LIGHT_V)
+    n = cross(u, v)
+    t = intersect_plane(o, d, c, n, 0.0, tmax)
+    if t == INF:
+        return INF, (0.0, 0.0, 1.0)
+    rel = sub(madd(o, d, t), c)
+    # coordinates along u and v (dual basis: n x v / |n|^2, u x n / |n|^2)
+    nn = dot(n, n)
+    a = dot(cross(v, n), rel) / nn
+    b = dot(cross(n, u), rel) / nn
+    if abs(a) <= 0.5 and abs(b) <= 0.5:
+        return t, mul(n, 1.0 / math.sqrt(nn))
+    return INF, (0.0, 0.0, 1.0)

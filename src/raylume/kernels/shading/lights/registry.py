@@ -1,0 +1,77 @@
+"""The light kinds, and the one dispatch over them for each question the integrators ask.
+
+KINDS is the registry: one module per kind, each defining NAME, KIND (its number in the light
+table's kind column), its flags, `power` (host side, for path mode's light distribution; its
+arguments are the kind's own), and the kernel functions path mode calls, `sample` (a direction
+towards the light, its distance, the radiance arriving, the solid-angle pdf, delta) and `pdf`
+(that pdf for a direction a BSDF sample found, for MIS). The scene's own lights (SCENE_KINDS)
+also have `pack` (model light -> table row) and trace mode's `trace_sample` (a point on the
+light seen from a shading point, in the seed's units: the lecture's ComputeLighting).
+
+Flags: DELTA (a single point or direction: no random numbers, no MIS), INFINITE (at infinity),
+VISIBLE (rays see it beside the BVH: the area lights, path mode), FALLOFF (trace mode scales
+its intensity by `falloff` of the direction), EVERYWHERE (trace mode adds its intensity
+unshadowed: the seed's ambient light).
+
+The switches (kernels/switch.py) compare the row's kind with each module's KIND in turn; a kind
+no module defines gets no light, never another kind's answer."""
+
+import numpy as np
+
+from ...switch import kind_switch
+from ...vec import inline_function, kernel_function
+from . import ambient, directional, environment, instanced, point, quad, sphere, spot, surface
+
+KINDS = (ambient, point, directional, quad, sphere, spot, surface, environment, instanced)
+SCENE_KINDS = (ambient, point, directional, quad, sphere, spot)  # the scene's [[lights]] types
+BY_NAME = {kind.NAME: kind for kind in KINDS}
+assert sorted(kind.KIND for kind in KINDS) == list(range(len(KINDS)))
+
+_NONE = ((0.0, 0.0, 1.0), 0.0, (0.0, 0.0, 0.0), 0.0, False)  # no sample
+_PATH = "G, X, Em, Env, e, p"
+
+
+def _flag(name: str):
+    """A kernel function of a kind: its flag `name` (False for a kind no module defines), read
+    from a bit mask of the kinds that have it."""
+    mask = sum(1 << k.KIND for k in KINDS if getattr(k, name))
+
+    @inline_function
+    def flag(kind):
+        return kind >= 0 and kind < 63 and (mask >> kind) & 1 != 0
+
+    return flag
+
+
+is_delta = _flag("DELTA")
+is_everywhere = _flag("EVERYWHERE")
+has_falloff = _flag("FALLOFF")
+at_infinity = _flag("INFINITE")
+
+# path mode: emitter row e seen from p
+sample_light = kind_switch("sample", f"{_PATH}, u1, u2, key", "Em.kind[e]", KINDS, _NONE, inline_function)
+light_pdf = kind_switch("pdf", f"{_PATH}, wi, dist, n_hit, hit", "Em.kind[e]", KINDS, 0.0, kernel_function)
+visible_hit = kind_switch(
+    "hit", "Em, e, o, d, tmax", "Em.kind[e]", [k for k in KINDS if k.VISIBLE], (np.inf, (0.0, 0.0, 1.0)),
+    inline_function,
+)  # fmt: skip
+# trace mode: light k seen from p, delta lights inline, area lights by a call (direct.py)
+trace_delta = kind_switch(
+    "trace_sample", "L, k, p, u1, u2", "L.kind[k]", [k for k in SCENE_KINDS if k.DELTA], ((0.0, 0.0, 1.0), 0.0),
+    inline_function,
+)  # fmt: skip
+trace_area = kind_switch(
+    "trace_sample", "L, k, p, u1, u2", "L.kind[k]",
+    [k for k in SCENE_KINDS if not k.DELTA and not k.EVERYWHERE], ((0.0, 0.0, 1.0), 0.0), kernel_function,
+)  # fmt: skip
+trace_falloff = kind_switch(
+    "trace_falloff", "L, k, l", "L.kind[k]", [k for k in SCENE_KINDS if k.FALLOFF], 1.0, inline_function
+)
+
+
+def pack_light(light) -> tuple[int, np.ndarray]:
+    """(kind, table row) of a model light (scene/model.py's light classes)."""
+    kind = BY_NAME[light.type]
+    if kind not in SCENE_KINDS:
+        raise ValueError(f"unknown light type {light.type!r} (known: {', '.join(k.NAME for k in SCENE_KINDS)})")
+    return kind.KIND, kind.pack(light)
