@@ -34,7 +34,7 @@ _HOMES = {
     "intersect": ".query",
     "load_scene": ".scene.load",
     "occluded": ".query",
-    "scene_from_dict": ".scene.load",
+    "scene_from_dict": ".scene.document",
     "view": ".viewer",
 }
 
@@ -64,7 +64,8 @@ if TYPE_CHECKING:
     from .query import camera_rays, intersect, occluded
     from .scene.builtin import builtin_names, builtin_scene
     from .scene.checks import SceneWarning
-    from .scene.load import load_scene, scene_from_dict
+    from .scene.document import scene_from_dict
+    from .scene.load import load_scene
     from .scene.model import Camera, Scene
     from .session import Session
     from .viewer import view

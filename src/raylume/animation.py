@@ -19,6 +19,7 @@ from pydantic import ValidationError
 
 from .errors import SceneError
 from .scene.model import Animation, Camera, Scene
+from .scene.validation_errors import format_validation_error
 
 if TYPE_CHECKING:
     from .image import Image
@@ -49,8 +50,8 @@ def camera_at(scene: Scene, frame: int, source: str = "<scene>") -> Camera:
     try:
         return Camera.model_validate(values)
     except ValidationError as exc:
-        problems = "; ".join(f"{'.'.join(str(p) for p in e['loc']) or 'camera'}: {e['msg']}" for e in exc.errors())
-        raise SceneError(f"{source}: animation frame {frame}: the interpolated camera is invalid: {problems}") from None
+        context = f"animation frame {frame}: the interpolated camera is invalid: "
+        raise SceneError(format_validation_error(exc, source, Camera, table=("camera",), context=context)) from None
 
 
 def interpolate(points: list[tuple[int, object]], t: float, method: str = "catmull-rom"):

@@ -468,15 +468,18 @@ def _apply_flags(scene_model, **flags):
     """The scene with the command line's [render] values, validated like the file's."""
     from pydantic import ValidationError
 
-    from .scene.load import describe_error
+    from .scene.model import RenderSettings
+    from .scene.validation_errors import format_validation_error
 
     try:
         return scene_model.with_render(**flags)
     except ValidationError as exc:
-        problems = "; ".join(
-            f"--{'-'.join(str(p) for p in e['loc']).replace('_', '-')}: {describe_error(e)}" for e in exc.errors()
-        )
-        raise SceneError(f"command line: {problems}") from None
+        raise SceneError(format_validation_error(exc, "command line", RenderSettings, key_name=_flag_name)) from None
+
+
+def _flag_name(loc: tuple) -> str:
+    """The flag of a [render] key: ('max_depth',) -> '--max-depth'."""
+    return f"--{'-'.join(str(p) for p in loc).replace('_', '-')}" if loc else ""
 
 
 def _warn_ignored(output: Path, settings, exposure: float | None, pixel_filter: str | None) -> None:

@@ -46,6 +46,7 @@ from .lanes import lane_pool
 from .scene.checks import warn_about
 from .scene.model import Camera, RenderSettings, Scene
 from .scene.open import SceneLike, open_scene
+from .scene.validation_errors import format_validation_error
 
 if TYPE_CHECKING:
     from distributed import Client
@@ -286,8 +287,7 @@ class Session:
         try:
             return Camera.model_validate({**self.scene.camera.model_dump(), **dict(camera)})
         except ValidationError as exc:
-            problems = "; ".join(f"camera.{'.'.join(str(p) for p in e['loc'])}: {e['msg']}" for e in exc.errors())
-            raise SceneError(f"{self.source}: {problems}") from None
+            raise SceneError(format_validation_error(exc, self.source, Camera, table=("camera",))) from None
 
 
 @dataclass
@@ -385,8 +385,7 @@ def resolve_settings(scene: Scene, source: str, **overrides):
     try:
         return scene.with_render(**overrides).render
     except ValidationError as exc:
-        problems = "; ".join(f"{'.'.join(str(p) for p in e['loc'])}: {e['msg']}" for e in exc.errors())
-        raise SceneError(f"{source}: render settings: {problems}") from None
+        raise SceneError(format_validation_error(exc, source, RenderSettings, context="render settings: ")) from None
 
 
 def check_crop(crop, width: int, height: int, source: str = "<scene>") -> tuple[int, int, int, int]:

@@ -23,6 +23,9 @@ from pydantic import (
     model_validator,
 )
 
+from ..errors import SceneError
+from .validation_errors import format_validation_error
+
 # Limits that keep a render inside memory and time a user would expect (documented in README).
 MAX_SIDE = 16384
 MAX_SPP = 4096
@@ -724,9 +727,6 @@ class Scene(Strict):
         (`materials={"glass": {"ior": 1.33}}` changes one key of one material); anything else (a
         list of lights or objects, a Camera) replaces the table. Errors are SceneErrors naming
         the key path."""
-        from ..errors import SceneError
-        from .load import format_validation_error
-
         for key in changes:
             if key not in type(self).model_fields:
                 raise SceneError(
@@ -742,7 +742,7 @@ class Scene(Strict):
         try:
             scene = type(self).model_validate(document)
         except ValidationError as exc:
-            raise SceneError(format_validation_error(exc, "Scene.replace")) from None
+            raise SceneError(format_validation_error(exc, "Scene.replace", type(self))) from None
         return scene.with_base_dir(self.base_dir)
 
     def with_camera(self, camera: Camera | dict | None = None, **keys) -> Scene:
