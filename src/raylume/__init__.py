@@ -18,6 +18,7 @@ url = raylume.view(raylume.builtin_scene("seed"))           # a live view in the
 import importlib
 from typing import TYPE_CHECKING
 
+from ._version import __version__ as __version__
 from .errors import RaylumeError, SceneError
 from .render import render  # at once: the function shadows its module (render.py stays light)
 
@@ -89,4 +90,3 @@ __all__ = [
     "scene_from_dict",
     "view",
 ]
-__version__ = "0.1.0"
