@@ -121,6 +121,10 @@ class RenderSettings(Strict):
             raise ValueError(f"max_depth -1 (unlimited) is for path mode; {self.mode} mode needs a depth >= 0")
         return self
 
+    def updated(self, **values) -> RenderSettings:
+        """A copy with some keys replaced, validated as the table is (a pydantic ValidationError)."""
+        return RenderSettings.model_validate({**self.model_dump(), **values})
+
     @property
     def depth(self) -> int:
         """max_depth in force: the set value, else 3 (trace) or -1 (path: unlimited)."""
@@ -718,8 +722,7 @@ class Scene(Strict):
         values = {k: v for k, v in overrides.items() if v is not None}
         if not values:
             return self
-        render = RenderSettings.model_validate({**self.render.model_dump(), **values})
-        return self.model_copy(update={"render": render}).with_base_dir(self.base_dir)
+        return self.model_copy(update={"render": self.render.updated(**values)}).with_base_dir(self.base_dir)
 
     def replace(self, **changes) -> Scene:
         """A validated copy with some tables changed, e.g. `scene.replace(camera={"fov": 40},
