@@ -68,7 +68,7 @@ if mode == "embree":
     from embreex import rtcore_scene as rtcs
     from embreex.mesh_construction import TriangleMesh
     import trimesh
-    from raylume.kernels.camera import camera_frame
+    from raylume.kernels.film.camera import camera_frame
     mesh = trimesh.load(f"{folder}/flat{n}.ply", process=False)
     t0 = time.perf_counter()
     scene = rtcs.EmbreeScene()

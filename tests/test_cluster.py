@@ -24,7 +24,8 @@ import raylume as rl
 from raylume import cluster as C
 from raylume.animation import render_animation
 from raylume.cli import app
-from raylume.session import RenderInterrupted
+from raylume.render_window import RenderInterrupted
+from raylume.settings import resolve_settings
 
 distributed = pytest.importorskip("distributed")
 
@@ -101,16 +102,16 @@ def test_cluster_render_is_bit_identical_to_the_in_process_render(client, sessio
 
 def test_passes_and_tiles_finishing_in_shuffled_order_give_the_same_bits(client, session, monkeypatch):
     monkeypatch.setattr(C, "TILE_SECONDS", 1e-9)  # every tile as small as allowed, one sample per pass
-    settings = rl.scene_from_dict(SCENE).with_render(mode="path", spp=5, seed=3).render
-    reference = session.render(mode="path", spp=5, seed=3, threads=2, crop=(4, 36, 2, 26))
     window = (4, 36, 2, 26)
+    settings = resolve_settings(session.scene, {"mode": "path", "spp": 5, "seed": 3}, crop=window)
+    reference = session.render(mode="path", spp=5, seed=3, threads=2, crop=window)
     result = C.render_on_cluster(
-        client, session.compiled, session.scene.camera, settings, window, aovs=True, shuffle=random.Random(5)
+        client, session.compiled, session.scene.camera, settings, aovs=True, shuffle=random.Random(5)
     )
     assert np.array_equal(reference.rgb, result.rgb)
     for name in reference.aovs:
         assert np.array_equal(reference.aovs[name], result.aovs[name]), name
-    planned = [list(t.window) for t in C.plan_tiles(window, settings, 1.0, tile_seconds=1e-9)]
+    planned = [list(t.window) for t in C.plan_tiles(window, settings.render, 1.0, tile_seconds=1e-9)]
     finished = result.cluster["finish_order"]
     assert sorted(finished) == sorted(planned) and finished != planned
     assert result.cluster["tasks"] == 5 * len(planned)  # chained passes of one sample each

@@ -16,6 +16,7 @@ import raylume
 from raylume.errors import SceneError
 from raylume.image import encode_8bit
 from raylume.kernels.film.film import Film
+from raylume.settings import resolve_settings
 from raylume.viewer import renderer as vr
 
 
@@ -35,7 +36,7 @@ def wait_for(predicate, timeout=60.0):
 @pytest.mark.parametrize("slow", [False, True])
 def test_passes_at_rest_converge_to_session_render_and_stop(slow):
     session = raylume.Session(seed(spp=4))
-    r = vr.Renderer(session, threads=1)
+    r = vr.Renderer(session, resolve_settings(session.scene, threads=1))
     if slow:  # as if a pass took a second: the film is split into row bands, one row each
         r._cost[("trace", False)] = 1.0
     r.add_watcher(1)
@@ -56,7 +57,8 @@ def test_passes_at_rest_converge_to_session_render_and_stop(slow):
 
 
 def test_a_view_nobody_watches_stops_after_one_lossless_frame():
-    r = vr.Renderer(raylume.Session(seed(spp=64)), threads=1)
+    session = raylume.Session(seed(spp=64))
+    r = vr.Renderer(session, resolve_settings(session.scene, threads=1))
     r.start()
     try:
         wait_for(lambda: r.latest is not None)

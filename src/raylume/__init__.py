@@ -18,6 +18,7 @@ url = raylume.view(raylume.builtin_scene("seed"))           # a live view in the
 import importlib
 from typing import TYPE_CHECKING
 
+from ._version import __version__ as __version__
 from .errors import RaylumeError, SceneError
 from .render import render  # at once: the function shadows its module (render.py stays light)
 
@@ -34,7 +35,7 @@ _HOMES = {
     "intersect": ".query",
     "load_scene": ".scene.load",
     "occluded": ".query",
-    "scene_from_dict": ".scene.load",
+    "scene_from_dict": ".scene.document",
     "view": ".viewer",
 }
 
@@ -64,7 +65,8 @@ if TYPE_CHECKING:
     from .query import camera_rays, intersect, occluded
     from .scene.builtin import builtin_names, builtin_scene
     from .scene.checks import SceneWarning
-    from .scene.load import load_scene, scene_from_dict
+    from .scene.document import scene_from_dict
+    from .scene.load import load_scene
     from .scene.model import Camera, Scene
     from .session import Session
     from .viewer import view
@@ -88,4 +90,3 @@ __all__ = [
     "scene_from_dict",
     "view",
 ]
-__version__ = "0.1.0"

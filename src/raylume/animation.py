@@ -19,6 +19,8 @@ from pydantic import ValidationError
 
 from .errors import SceneError
 from .scene.model import Animation, Camera, Scene
+from .scene.validation_errors import format_validation_error
+from .settings import OVERRIDES, ResolvedSettings, settings_of_call
 
 if TYPE_CHECKING:
     from .image import Image
@@ -49,8 +51,8 @@ def camera_at(scene: Scene, frame: int, source: str = "<scene>") -> Camera:
     try:
         return Camera.model_validate(values)
     except ValidationError as exc:
-        problems = "; ".join(f"{'.'.join(str(p) for p in e['loc']) or 'camera'}: {e['msg']}" for e in exc.errors())
-        raise SceneError(f"{source}: animation frame {frame}: the interpolated camera is invalid: {problems}") from None
+        context = f"animation frame {frame}: the interpolated camera is invalid: "
+        raise SceneError(format_validation_error(exc, source, Camera, table=("camera",), context=context)) from None
 
 
 def interpolate(points: list[tuple[int, object]], t: float, method: str = "catmull-rom"):
@@ -114,16 +116,20 @@ def render_animation(
     *,
     cluster=None,
     progress: Callable[[int, int], None] | None = None,
-    **settings,
+    settings: ResolvedSettings | None = None,
+    **arguments,
 ) -> Iterator[tuple[int, Image]]:
     """Render frames of the session's scene animation (default: all) and yield (frame, Image)
-    in order. `settings` override the [render] table as in Session.render (width, height,
-    spp, mode, seed, ...). With `cluster`, frames render in parallel on its workers (several
-    frames in flight, each in tiles); frame K is bit-identical to the still of frame K.
-    `progress(done, total)` counts frames in-process and tasks (tiles, passes) on a cluster."""
-    from .session import resolve_settings
-
+    in order. `settings` (raylume.settings.resolve_settings), or `arguments` as Session.render
+    takes them (width, height, spp, mode, seed, ..., threads, crop), override the [render]
+    table. With `cluster`, frames render in parallel on its workers (several frames in flight,
+    each in tiles); frame K is bit-identical to the still of frame K. `progress(done, total)`
+    counts frames in-process and tasks (tiles, passes) on a cluster."""
+    unknown = sorted(set(arguments) - {*OVERRIDES, "threads", "crop"})
+    if unknown:
+        raise TypeError(f"render_animation: unexpected keyword arguments {', '.join(unknown)}")
     scene, source = session.scene, session.source
+    settings = settings_of_call(scene, arguments, settings, source)
     animation = animation_of(scene, source)
     frames = list(range(animation.frames) if frames is None else frames)
     cameras = [(k, camera_at(scene, k, source)) for k in frames]  # every camera checked before rendering
@@ -131,18 +137,17 @@ def render_animation(
         for done, (k, camera) in enumerate(cameras):
             if progress is not None:
                 progress(done, len(cameras))
-            yield k, session.render(camera, aovs=False, **settings)
+            yield k, session.render(camera, aovs=False, settings=settings)
         if progress is not None:
             progress(len(cameras), len(cameras))
         return
     from .cluster import FrameRenderer
     from .image import Image
 
-    resolved = resolve_settings(scene, source, **settings)
-    W, H = resolved.width, resolved.height
-    denoising = resolved.denoise and resolved.mode == "path"
+    table = settings.render
+    denoising = table.denoise and table.mode == "path"
     renderer = FrameRenderer(
-        cluster, session.compiled, resolved, (0, W, 0, H), aovs=denoising, progress=progress, frames=len(cameras)
+        cluster, session.compiled, settings, aovs=denoising, progress=progress, frames=len(cameras)
     )
     for k, result in renderer.frames(cameras):
         rgb = result.rgb
@@ -150,7 +155,7 @@ def render_animation(
             from .denoise import denoise
 
             rgb = denoise(rgb, result.aovs["albedo"], result.aovs["normal"])
-        stats = {"width": W, "height": H, "spp": resolved.spp, "mode": resolved.mode, "frame": k,
+        stats = {"width": table.width, "height": table.height, "spp": table.spp, "mode": table.mode, "frame": k,
                  "rays": result.rays, "render_seconds": result.seconds}  # fmt: skip
-        yield k, Image(rgb, {}, stats, resolved.encoding, exposure=resolved.exposure)
+        yield k, Image(rgb, {}, stats, table.encoding, exposure=table.exposure)
     session.last_cluster_stats = renderer.stats()

@@ -188,7 +188,7 @@ def render(
             "NAME in depth, normal, object, prim, albedo, instance, noisy (the image before --denoise) (repeatable)",
         ),
     ] = None,
-    overrides: Annotated[
+    assignments: Annotated[
         list[str] | None,
         typer.Option(
             "--set",
@@ -211,7 +211,7 @@ def render(
         float | None,
         typer.Option("--exposure", metavar="STOPS", help="Exposure for .png/.jpg output (2**STOPS times brighter)"),
     ] = None,
-    pixel_filter: Annotated[
+    filter: Annotated[
         str | None,
         typer.Option("--filter", metavar="FILTER", help="Pixel filter for spp > 1: box | gaussian | mitchell"),
     ] = None,
@@ -255,29 +255,23 @@ def render(
     debug: Annotated[bool, typer.Option("--debug", metavar=FLAG, help="Show tracebacks of errors")] = False,
 ) -> None:
     """Render SCENE to an image (default: the built-in `seed` scene to render.png)."""
-    from .render import RenderInterrupted
+    from .render_window import RenderInterrupted
+    from .settings import overrides_of
 
+    flags = overrides_of(locals())  # --width ... --denoise, by the [render] keys they set
     try:
         with _errors_exit_2(debug), _echo_warnings():
             _render(
                 scene,
                 output,
-                width,
-                height,
-                spp,
-                mode,
-                max_depth,
-                seed,
-                threads,
-                aov or [],
-                stats,
-                quiet,
-                exposure=exposure,
-                pixel_filter=pixel_filter,
-                overrides=overrides or [],
+                flags,
+                threads=threads,
+                aov_specs=aov or [],
+                stats_path=stats,
+                quiet=quiet,
+                assignments=assignments or [],
                 bit_depth=bit_depth,
                 crop=crop,
-                denoise=denoise,
                 cluster=cluster,
                 frames=frames,
                 frame=frame,
@@ -307,34 +301,27 @@ def _interrupted(exc, output: Path | None, bit_depth: int) -> None:
 
 
 def _render(
-    scene,
-    output,
-    width,
-    height,
-    spp,
-    mode,
-    max_depth,
-    seed,
-    threads,
-    aov_specs,
-    stats_path,
-    quiet,
-    exposure=None,
-    pixel_filter=None,
-    overrides=(),
-    bit_depth=8,
-    crop=None,
-    denoise=None,
-    cluster=None,
-    frames=None,
-    frame=None,
-    partial=False,
-    camera=None,
-):
-    import numba
-
+    scene: str | None,
+    output: Path,
+    flags: dict,
+    *,
+    threads: int | None,
+    aov_specs: list[str],
+    stats_path: Path | None,
+    quiet: bool,
+    assignments: list[str],
+    bit_depth: int,
+    crop: str | None,
+    cluster: str | None,
+    frames: str | None,
+    frame: int | None,
+    partial: bool,
+    camera: str | None,
+) -> None:
+    """`raylume render`: `flags` are the [render] values given as flags (settings.OVERRIDES)."""
     from .image import check_bit_depth, check_output_path, save_npy, write_atomic
     from .render import render as render_scene
+    from .settings import resolve_settings
     from .video import check_sequence_path, is_sequence, is_video
 
     # Every output is checked before the scene is even read: a render is never lost to a bad path.
@@ -364,32 +351,19 @@ def _render(
 
         parse_address(cluster)  # a malformed address fails before anything is read
     started = time.perf_counter()
-    scene_model, label = _resolve_scene(scene, overrides, width, height, camera)
+    scene_model, label = _resolve_scene(scene, assignments, flags.get("width"), flags.get("height"), camera)
     _check_distinct(output, scene or "", [*aov_paths.values(), *([stats_path] if stats_path else [])])
-    if threads is not None and not 1 <= threads <= numba.config.NUMBA_NUM_THREADS:
-        raise OutputError(f"--threads {threads}: must be between 1 and {numba.config.NUMBA_NUM_THREADS}")
-    scene_model = _apply_flags(
-        scene_model,
-        width=width,
-        height=height,
-        spp=spp,
-        mode=mode,
-        max_depth=max_depth,
-        seed=seed,
-        exposure=exposure,
-        filter=pixel_filter,
-        denoise=denoise,
-    )
+    settings = resolve_settings(scene_model, flags, threads=threads, crop=_parse_crop(crop), source=label, flags=True)
     parse_seconds = time.perf_counter() - started
-    denoised = scene_model.render.denoise and scene_model.render.mode == "path"
+    table = settings.render
+    denoised = table.denoise and table.mode == "path"
     if "noisy" in (*aov_paths, *layers) and not denoised:
         raise OutputError("--aov noisy is the image before denoising: it needs --denoise and path mode (--mode path)")
     if denoised:
         from .denoise import require_denoiser
 
         require_denoiser()  # a missing package fails now, not after the render
-    _warn_ignored(output, scene_model.render, exposure, pixel_filter)
-    window = _parse_crop(crop, scene_model.render.width, scene_model.render.height)
+    _warn_ignored(output, table, flags)
     if animated or frame is not None:
         from .animation import animation_of, camera_at
 
@@ -407,8 +381,8 @@ def _render(
         from .cli_animation import render_animation_to
 
         render_animation_to(
-            scene_model, label, output, frames, cluster=cluster, quiet=quiet, partial=partial, stats_path=stats_path,
-            progress_bar=_progress, bit_depth=bit_depth,
+            scene_model, label, output, frames, settings, cluster=cluster, quiet=quiet, partial=partial,
+            stats_path=stats_path, progress_bar=_progress, bit_depth=bit_depth,
         )  # fmt: skip
         return
     if frame is not None:
@@ -426,13 +400,12 @@ def _render(
     with _progress(quiet) as progress, _compile_notice(quiet) as status:
         image = render_scene(
             scene_model,
-            threads=threads,
             aovs=bool(set(aov_paths) - {"noisy"} or set(layers) - {"noisy"}),
             progress=progress,
             source=label,
             status=status,
-            crop=window,
             cluster=cluster,
+            settings=settings,
         )
     image.stats["parse_seconds"] = parse_seconds
     image.save(output, bit_depth=bit_depth, layers=layers)
@@ -449,41 +422,25 @@ def _render(
         typer.echo(line, err=True)
 
 
-def _parse_crop(text: str | None, width: int, height: int) -> tuple[int, int, int, int] | None:
-    """(x0, x1, y0, y1) of `--crop X0:X1,Y0:Y1`, checked against the image size."""
+def _parse_crop(text: str | None) -> tuple[int, int, int, int] | None:
+    """(x0, x1, y0, y1) of `--crop X0:X1,Y0:Y1` (checked against the image size with the settings)."""
     if text is None:
         return None
-    from .session import check_crop
-
     try:
         columns, rows = text.split(",")
         x0, x1 = (int(v) for v in columns.split(":"))
         y0, y1 = (int(v) for v in rows.split(":"))
     except ValueError:
         raise OutputError(f"--crop {text}: expected X0:X1,Y0:Y1 in pixels, e.g. --crop 100:300,50:250") from None
-    return check_crop((x0, x1, y0, y1), width, height, "command line (--crop)")
+    return x0, x1, y0, y1
 
 
-def _apply_flags(scene_model, **flags):
-    """The scene with the command line's [render] values, validated like the file's."""
-    from pydantic import ValidationError
-
-    from .scene.load import describe_error
-
-    try:
-        return scene_model.with_render(**flags)
-    except ValidationError as exc:
-        problems = "; ".join(
-            f"--{'-'.join(str(p) for p in e['loc']).replace('_', '-')}: {describe_error(e)}" for e in exc.errors()
-        )
-        raise SceneError(f"command line: {problems}") from None
-
-
-def _warn_ignored(output: Path, settings, exposure: float | None, pixel_filter: str | None) -> None:
+def _warn_ignored(output: Path, settings, flags: dict) -> None:
     """Flags given but without effect on this render get a one-line warning, not silence."""
     from .image import ENCODED_SUFFIXES
 
-    if exposure is not None and output.suffix.lower() not in ENCODED_SUFFIXES:
+    pixel_filter = flags.get("filter")
+    if flags.get("exposure") is not None and output.suffix.lower() not in ENCODED_SUFFIXES:
         _warn(
             f"--exposure applies to {', '.join(ENCODED_SUFFIXES)} outputs only; {output} stores the "
             "linear values as rendered"
@@ -674,7 +631,7 @@ def view(
     no_browser: Annotated[
         bool, typer.Option("--no-browser", metavar=FLAG, help="Print the URL only; do not open a browser")
     ] = False,
-    overrides: Annotated[
+    assignments: Annotated[
         list[str] | None,
         typer.Option("--set", metavar="KEY=VALUE", help="Set a scene key, as for render (repeatable)"),
     ] = None,
@@ -684,14 +641,16 @@ def view(
     debug: Annotated[bool, typer.Option("--debug", metavar=FLAG, help="Show tracebacks of errors")] = False,
 ) -> None:
     """Serve a live, progressive view of SCENE in the browser (drag: orbit, right/shift-drag: pan, wheel: dolly)."""
+    from .settings import overrides_of, resolve_settings
     from .viewer.command import run_view
 
+    flags = overrides_of(locals())  # --width, --height, --spp, --mode
     try:
         with _errors_exit_2(debug):
             with _echo_warnings():
-                scene_model, label = _resolve_scene(scene, overrides or [], width, height)
-                scene_model = _apply_flags(scene_model, width=width, height=height, spp=spp, mode=mode)
-            code = run_view(scene_model, label, host=host, port=port, open_browser=not no_browser, threads=threads)
+                scene_model, label = _resolve_scene(scene, assignments or [], width, height)
+                settings = resolve_settings(scene_model, flags, threads=threads, source=label, flags=True)
+            code = run_view(scene_model, label, settings, host=host, port=port, open_browser=not no_browser)
     except KeyboardInterrupt:
         raise typer.Exit(130) from None
     raise typer.Exit(code)

@@ -11,8 +11,10 @@ import typer
 
 from .animation import animation_of, parse_frames, render_animation
 from .image import write_atomic
+from .render_window import RenderInterrupted
 from .scene.model import Scene
-from .session import RenderInterrupted, Session
+from .session import Session
+from .settings import ResolvedSettings
 from .video import VideoWriter, check_video_path, is_video, sequence_path
 
 
@@ -21,6 +23,7 @@ def render_animation_to(
     label: str,
     output: Path,
     frames: str | None,
+    settings: ResolvedSettings,
     *,
     cluster=None,
     quiet: bool = False,
@@ -31,19 +34,19 @@ def render_animation_to(
 ) -> None:
     animation = animation_of(scene, label)
     selected = parse_frames(frames, animation.frames) if frames is not None else range(animation.frames)
-    settings = scene.render
+    table = settings.render
     writer = None
     if is_video(output):
-        check_video_path(output, settings.width, settings.height)
+        check_video_path(output, table.width, table.height)
     started = time.perf_counter()
-    session = Session(scene, source=label, accelerate=settings.mode != "raster")
+    session = Session(scene, source=label, accelerate=table.mode != "raster")
     written: list[Path] = []
     done = 0
     try:
         if is_video(output):
-            writer = VideoWriter(output, settings.width, settings.height, animation.fps)
+            writer = VideoWriter(output, table.width, table.height, animation.fps)
         with progress_bar(quiet) as progress:
-            for k, image in render_animation(session, selected, cluster=cluster, progress=progress):
+            for k, image in render_animation(session, selected, cluster=cluster, progress=progress, settings=settings):
                 if writer is not None:
                     writer.write(image.to_uint8())
                 else:
@@ -70,10 +73,10 @@ def render_animation_to(
             "frames": done,
             "first_frame": selected.start,
             "fps": animation.fps,
-            "width": settings.width,
-            "height": settings.height,
-            "spp": settings.spp,
-            "mode": settings.mode,
+            "width": table.width,
+            "height": table.height,
+            "spp": table.spp,
+            "mode": table.mode,
             "seconds": seconds,
             **session.compiled.stats,
         }
@@ -84,7 +87,7 @@ def render_animation_to(
     if not quiet:
         where = output if writer is not None else f"{output} ({len(written)} files)"
         typer.echo(
-            f"{where}: {done} frames {settings.width}x{settings.height} {settings.mode} in {seconds:.2f} s "
+            f"{where}: {done} frames {table.width}x{table.height} {table.mode} in {seconds:.2f} s "
             f"({done / seconds:.2f} frames/s)",
             err=True,
         )

@@ -6,7 +6,7 @@
     _warm(...) pinned to each worker --------------> load/compile kernels, time a probe window
     plan_tiles(): tiles of ~TILE_SECONDS each,
       split into chained sample passes if needed
-    submit _render_tile per tile and pass ---------> session.render_window(window, passes)
+    submit _render_tile per tile and pass ---------> render_window(window, passes)
     paste each finished tile into the image <------- WindowResult (rgb, AOVs, stats)
 
 Every pixel's value depends only on (scene, camera, settings, seed): the sampler is keyed on
@@ -36,8 +36,9 @@ import numpy as np
 from .compile import CompiledScene
 from .errors import RaylumeError
 from .image import Image
+from .render_window import RenderInterrupted, WindowResult, allocate_aovs, render_window
 from .scene.model import Camera, RenderSettings
-from .session import RenderInterrupted, WindowResult, allocate_aovs, render_window
+from .settings import ResolvedSettings
 
 CONNECT_TIMEOUT = 4.0  # seconds: an unreachable scheduler is reported well within 10 s
 TILE_SECONDS = 1.0  # a task's target run time: long enough to hide its overhead, short enough to balance
@@ -168,7 +169,7 @@ def versions() -> dict[str, str]:
     import llvmlite
     import numba
 
-    from . import __version__
+    from ._version import __version__
     from .kernels import _kernel_source_hash
 
     return {
@@ -352,8 +353,7 @@ class FrameRenderer:
         self,
         cluster,
         compiled: CompiledScene,
-        settings: RenderSettings,
-        window: tuple[int, int, int, int],
+        settings: ResolvedSettings,
         *,
         aovs: bool = False,
         progress: Callable[[int, int], None] | None = None,
@@ -364,8 +364,8 @@ class FrameRenderer:
     ):
         self.client = connect(cluster)
         self.frames_expected = frames  # for the progress bar's total before all are submitted
-        self.settings = settings
-        self.window = window
+        self.settings = settings.render  # what the workers get: the [render] table
+        self.window = settings.window
         self.aovs = aovs
         self.progress = progress
         self.min_tiles = min_tiles
@@ -661,22 +661,21 @@ def render_on_cluster(
     cluster,
     compiled: CompiledScene,
     camera: Camera,
-    settings: RenderSettings,
-    window: tuple[int, int, int, int],
+    settings: ResolvedSettings,
     *,
     aovs: bool = False,
     progress: Callable[[int, int], None] | None = None,
     status: Callable | None = None,
     shuffle=None,
 ) -> WindowResult:
-    """One image (the `window` of it) rendered in tiles on the cluster: what Session.render
-    does with `cluster=`. `seconds` of the result is the wall time of the distributed render
-    (the tiles' kernel time summed is in .cluster["kernel_seconds"]). Ctrl-C raises
-    RenderInterrupted with the tiles done so far."""
+    """One image (the window of `settings`: the crop, or the whole image) rendered in tiles on
+    the cluster: what Session.render does with `cluster=`. `seconds` of the result is the wall
+    time of the distributed render (the tiles' kernel time summed is in
+    .cluster["kernel_seconds"]). Ctrl-C raises RenderInterrupted with the tiles done so far."""
     client = connect(cluster)
     threads = max(1, int(sum(client.nthreads().values())))
     renderer = FrameRenderer(
-        client, compiled, settings, window, aovs=aovs, progress=progress, min_tiles=TILES_PER_WORKER * threads,
+        client, compiled, settings, aovs=aovs, progress=progress, min_tiles=TILES_PER_WORKER * threads,
         shuffle=shuffle,
     )  # fmt: skip
     if status is not None:
@@ -684,7 +683,7 @@ def render_on_cluster(
     try:
         [(_, result)] = list(renderer.frames([(0, camera)]))
     except KeyboardInterrupt:
-        raise _interrupted(renderer.partial(), window, settings) from None
+        raise _interrupted(renderer.partial(), settings) from None
     result.cluster = renderer.stats()
     result.cluster["kernel_seconds"] = result.seconds
     result.cluster["finish_order"] = [list(w) for _, w in renderer.finish_order]
@@ -692,12 +691,12 @@ def render_on_cluster(
     return result
 
 
-def _interrupted(partial, window, settings: RenderSettings) -> RenderInterrupted:
-    x0, x1, y0, y1 = window
+def _interrupted(partial, settings: ResolvedSettings) -> RenderInterrupted:
+    x0, x1, y0, y1 = settings.window
     if partial is None:
         rgb, done, total = np.zeros((y1 - y0, x1 - x0, 3), dtype=np.float32), 0, 0
     else:
         result, done, total = partial
         rgb = result.rgb
-    image = Image(rgb, {}, {}, settings.encoding, exposure=settings.exposure)
+    image = Image(rgb, {}, {}, settings.render.encoding, exposure=settings.render.exposure)
     return RenderInterrupted(image, 0, done=f"{done} of {total} tiles")

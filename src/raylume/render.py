@@ -7,18 +7,25 @@ from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
     from .image import Image
+    from .render_window import AOV_NAMES, RenderInterrupted, allocate_aovs
     from .scene.open import SceneLike
-    from .session import AOV_NAMES, RenderInterrupted, allocate_aovs, check_memory, estimate_bytes
+    from .session import check_memory, estimate_bytes
+    from .settings import ResolvedSettings
 
 __all__ = ["AOV_NAMES", "RenderInterrupted", "allocate_aovs", "check_memory", "estimate_bytes", "render"]
 
 # raylume/__init__.py imports this module at once (its `render` function must shadow the module
-# of the same name), so it stays light: what it needs is imported on use, and the session's
-# names it re-exports are loaded on first access.
-_FROM_SESSION = {"AOV_NAMES", "RenderInterrupted", "allocate_aovs", "check_memory", "estimate_bytes"}
+# of the same name), so it stays light: what it needs is imported on use, and the names it
+# re-exports are loaded on first access.
+_FROM_RENDER_WINDOW = {"AOV_NAMES", "RenderInterrupted", "allocate_aovs"}
+_FROM_SESSION = {"check_memory", "estimate_bytes"}
 
 
 def __getattr__(name: str):
+    if name in _FROM_RENDER_WINDOW:
+        from . import render_window
+
+        return getattr(render_window, name)
     if name in _FROM_SESSION:
         from . import session
 
@@ -45,6 +52,7 @@ def render(
     crop: tuple[int, int, int, int] | None = None,
     status: Callable[[str], None] | None = None,
     cluster=None,
+    settings: ResolvedSettings | None = None,
 ) -> Image:
     """Render `scene` (arguments override its [render] table): a Scene, a path to a scene,
     glTF or mesh file (a mesh is framed and lit), or a built-in scene's name, as the command
@@ -55,15 +63,17 @@ def render(
     rows y0..y1-1: the image is that window, equal to the same window of the full render.
     `status` is called with "compiling" before the kernels' first call and "rendering" after
     it (see Session.render). `cluster`: a Dask scheduler's address, `local`, `local:N` or a
-    `distributed.Client`: render in tiles on its workers, bit-identical (raylume.cluster)."""
+    `distributed.Client`: render in tiles on its workers, bit-identical (raylume.cluster).
+    `settings`: settings already resolved (raylume.settings.resolve_settings), in place of
+    width ... denoise, threads and crop."""
+    arguments = dict(locals())  # the call's arguments, before any other name is bound
     from .scene.open import open_scene
-    from .session import Session, resolve_settings
+    from .session import Session
+    from .settings import settings_of_call
 
-    scene, label = open_scene(scene, width=width, height=height)
+    size = (width, height) if settings is None else (settings.render.width, settings.render.height)
+    scene, label = open_scene(scene, width=size[0], height=size[1])  # a mesh file is framed for that size
     source = label if source == "<scene>" else source
-    overrides = dict(width=width, height=height, spp=spp, mode=mode, max_depth=max_depth, seed=seed,
-                     filter=filter, exposure=exposure, denoise=denoise)  # fmt: skip
-    settings = resolve_settings(scene, source, **overrides)  # fail before compiling
-    session = Session(scene, source=source, accelerate=settings.mode != "raster")
-    return session.render(**overrides, threads=threads, aovs=aovs, progress=progress, crop=crop, status=status,
-                          cluster=cluster)  # fmt: skip
+    settings = settings_of_call(scene, arguments, settings, source)  # fail before compiling
+    session = Session(scene, source=source, accelerate=settings.render.mode != "raster")
+    return session.render(aovs=aovs, progress=progress, status=status, cluster=cluster, settings=settings)

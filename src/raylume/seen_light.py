@@ -30,6 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .compile import CompiledScene
+from .render_window import render_window
 from .scene.model import MAX_SPP, Camera, RenderSettings
 
 TILE = 4  # side of the tiles that get more samples (a pixel's edge mask is its 3 x 3 neighbourhood)
@@ -59,8 +60,6 @@ def first_segment(
 ):
     """The light seen directly (path mode with max_depth 1) in `window` = (x0, x1, y0, y1), at
     the render's own camera samples. Returns the WindowResult."""
-    from .session import render_window  # session imports this module
-
     seen = settings.model_copy(update={"max_depth": 1, "denoise": False})
     return render_window(compiled, camera, seen, window, aovs=False, lanes=lanes)
 
@@ -122,8 +121,7 @@ def denoise_path_image(
     """The denoised image of a path-mode render of `window` = (x0, x1, y0, y1): OIDN on `noisy`
     less the light seen directly, that light added back, and the edges of what is seen
     directly path-traced with more samples (module docstring)."""
-    from .denoise import denoise as oidn
-    from .session import render_window
+    from .denoise import denoise as oidn  # pyoidn is optional: loaded when denoising
 
     started = time.perf_counter()
     stats = SplitStats()

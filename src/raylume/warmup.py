@@ -22,7 +22,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from .scene.load import scene_from_dict
+from .scene.document import scene_from_dict
 from .session import Session
 
 _MATERIALS = {"m": {"color": [0.8, 0.6, 0.4], "specular": 50, "reflective": 0.2}}

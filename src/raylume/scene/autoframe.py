@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import SceneError
-from .load import scene_from_dict
+from .document import scene_from_dict
 from .mesh import SUPPORTED_EXTENSIONS, MeshError
 from .model import Mesh, Scene
 from .overrides import Overrides, apply_overrides

@@ -47,6 +47,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .checks import SceneWarning
 from .gltf_file import GltfError, GltfFile
 from .mesh import MeshData, _apply, _smooth_normals, strips_to_triangles, transform_matrix
 from .model import Material, parse_material
@@ -151,8 +152,6 @@ def read_gltf(path: str | Path) -> GltfScene:
     except (TypeError, AttributeError, KeyError, IndexError, ValueError) as exc:
         # a value of the wrong JSON type where the reader does not check it by name
         raise GltfError(f"glTF file {path}: it does not follow the glTF 2.0 schema ({exc}).") from None
-    from .checks import SceneWarning
-
     for message in scene.warnings:
         warnings.warn(message, SceneWarning, stacklevel=2)
     _cache.clear()

@@ -17,8 +17,8 @@ from pathlib import Path
 
 from ..errors import SceneError
 from .autoframe import frame
+from .document import scene_from_dict
 from .gltf import GltfCamera, GltfError, GltfScene, read_gltf
-from .load import scene_from_dict
 from .model import Scene
 from .overrides import Overrides, apply_overrides
 

@@ -24,6 +24,9 @@ from pydantic import (
     model_validator,
 )
 
+from ..errors import SceneError
+from .validation_errors import format_validation_error
+
 # Limits that keep a render inside memory and time a user would expect (documented in README).
 MAX_SIDE = 16384
 MAX_SPP = 4096
@@ -118,6 +121,10 @@ class RenderSettings(Strict):
         if self.max_depth == -1 and self.mode != "path":
             raise ValueError(f"max_depth -1 (unlimited) is for path mode; {self.mode} mode needs a depth >= 0")
         return self
+
+    def updated(self, **values) -> RenderSettings:
+        """A copy with some keys replaced, validated as the table is (a pydantic ValidationError)."""
+        return RenderSettings.model_validate({**self.model_dump(), **values})
 
     @property
     def depth(self) -> int:
@@ -812,8 +819,7 @@ class Scene(Strict):
         values = {k: v for k, v in overrides.items() if v is not None}
         if not values:
             return self
-        render = RenderSettings.model_validate({**self.render.model_dump(), **values})
-        return self.model_copy(update={"render": render}).with_base_dir(self.base_dir)
+        return self.model_copy(update={"render": self.render.updated(**values)}).with_base_dir(self.base_dir)
 
     def replace(self, **changes) -> Scene:
         """A validated copy with some tables changed, e.g. `scene.replace(camera={"fov": 40},
@@ -821,9 +827,6 @@ class Scene(Strict):
         (`materials={"glass": {"ior": 1.33}}` changes one key of one material); anything else (a
         list of lights or objects, a Camera) replaces the table. Errors are SceneErrors naming
         the key path."""
-        from ..errors import SceneError
-        from .load import format_validation_error
-
         for key in changes:
             if key not in type(self).model_fields:
                 raise SceneError(
@@ -839,7 +842,7 @@ class Scene(Strict):
         try:
             scene = type(self).model_validate(document)
         except ValidationError as exc:
-            raise SceneError(format_validation_error(exc, "Scene.replace")) from None
+            raise SceneError(format_validation_error(exc, "Scene.replace", type(self))) from None
         return scene.with_base_dir(self.base_dir)
 
     def with_camera(self, camera: Camera | dict | None = None, **keys) -> Scene:

@@ -46,14 +46,16 @@ def view(
     None for `seed`) in the background and return its URL (with the token). In Jupyter (or when
     `show`) the page is also shown inline in an iframe. Port 0 (the default here) picks a free
     port, so several views can run at once; `url.stop()` ends one."""
+    arguments = dict(locals())  # the call's arguments, before any other name is bound
     from ..scene.open import open_scene
     from ..session import Session
+    from ..settings import overrides_of, resolve_settings
     from .service import Viewer, warn_if_exposed
 
     scene, source = open_scene(scene, width=width, height=height)
-    scene = scene.with_render(width=width, height=height, mode=mode, spp=spp)
+    settings = resolve_settings(scene, overrides_of(arguments), threads=threads, source=source)
     warn_if_exposed(host)
-    viewer = Viewer(Session(scene, source=source), host=host, port=port, threads=threads)
+    viewer = Viewer(Session(scene, source=source), settings, host=host, port=port)
     viewer.start()
     _RUNNING.append(viewer)
     url = ViewURL(viewer.url)
@@ -63,8 +65,7 @@ def view(
             from IPython.display import IFrame, display
         except ImportError:  # not in IPython: there is nothing to show the page in
             return url
-        settings = scene.render
-        display(IFrame(url, width=settings.width + 40, height=settings.height + 100))
+        display(IFrame(url, width=settings.render.width + 40, height=settings.render.height + 100))
     return url
 
 

@@ -6,35 +6,37 @@ from __future__ import annotations
 import os
 import sys
 import webbrowser
+from typing import TYPE_CHECKING
 
 from ..errors import RaylumeError
 
+if TYPE_CHECKING:
+    from ..scene.model import Scene
+    from ..settings import ResolvedSettings
+
 
 def run_view(
-    scene_model,
+    scene_model: Scene,
     label: str,
+    settings: ResolvedSettings,
     *,
     host: str,
     port: int,
     open_browser: bool,
-    threads: int | None,
 ) -> int:
+    """Serve `scene_model` with the `settings` the command line resolved (size, spp, mode, threads)."""
     from ..session import Session
     from .renderer import MODES
     from .service import Viewer, warn_if_exposed
 
     if not 0 <= port <= 65535:
         raise RaylumeError(f"--port {port}: expected 0..65535 (0: a free port)")
-    import numba
-
-    if threads is not None and not 1 <= threads <= numba.config.NUMBA_NUM_THREADS:
-        raise RaylumeError(f"--threads {threads}: must be between 1 and {numba.config.NUMBA_NUM_THREADS}")
-    if scene_model.render.mode not in MODES:
-        raise RaylumeError(f"--mode {scene_model.render.mode}: expected one of {', '.join(MODES)}")
-    viewer = Viewer(Session(scene_model, source=label), host=host, port=port, threads=threads)
+    s = settings.render
+    if s.mode not in MODES:
+        raise RaylumeError(f"--mode {s.mode}: expected one of {', '.join(MODES)}")
+    viewer = Viewer(Session(scene_model, source=label), settings, host=host, port=port)
     print(f"raylume view: {viewer.url}", flush=True)
     warn_if_exposed(host)
-    s = scene_model.render
     print(f"raylume: serving {label}, {s.width}x{s.height} {s.mode}; Ctrl-C stops", file=sys.stderr, flush=True)
     if open_browser:
         webbrowser.open(viewer.url)

@@ -32,8 +32,9 @@ import numpy as np
 from ..errors import SceneError
 from ..image import encode_8bit
 from ..kernels.film.film import Film
-from ..scene.model import Camera
-from ..session import Session, resolve_settings
+from ..scene.model import Camera, RenderSettings
+from ..session import Session
+from ..settings import ResolvedSettings, resolve_settings
 from . import camera_control
 from .frames import Frame
 
@@ -58,7 +59,7 @@ class _Job:
     camera: Camera
     mode: str
     divisor: int
-    settings: object  # RenderSettings at the job's size
+    settings: RenderSettings  # the [render] table at the job's size and mode
     batch: int  # total_spp of each film
     bands: list[Film] = field(default_factory=list)  # the film, as windowed films of row bands (none: raster)
     generation: int = 0  # films completed (path mode: they used seeds seed .. seed + generation - 1)
@@ -101,24 +102,26 @@ class _Job:
 
 
 class Renderer:
-    """Renders `session`'s scene at its [render] size, camera and mode, following camera and
-    mode changes; `on_frame(frame)` is called (on the render thread) for each new frame."""
+    """Renders `session`'s scene with `settings` (size, spp, mode, threads; default: the scene's
+    [render] table on every core) from its camera, following camera and mode changes;
+    `on_frame(frame)` is called (on the render thread) for each new frame."""
 
     def __init__(
         self,
         session: Session,
+        settings: ResolvedSettings | None = None,
         *,
-        threads: int | None = None,
         on_frame: Callable[[Frame], None] | None = None,
     ):
         self.session = session
-        settings = session.scene.render
-        self.width, self.height = settings.width, settings.height
-        self.threads = threads
+        self.settings = settings or resolve_settings(session.scene, source=session.source)
+        table = self.settings.render
+        self.width, self.height = table.width, table.height
+        self.threads = self.settings.threads
         self.on_frame = on_frame
         self.home = session.scene.camera
         self._camera = self.home
-        self._mode = settings.mode
+        self._mode = table.mode
         self._cond = threading.Condition()
         self._epoch = 0
         self.camera_version = 0
@@ -183,7 +186,7 @@ class Renderer:
     def set_mode(self, mode: str) -> None:
         if mode not in MODES:
             raise SceneError(f"mode {mode!r}: expected one of {', '.join(MODES)}")
-        resolve_settings(self.session.scene, self.session.source, mode=mode)  # e.g. max_depth -1 outside path
+        resolve_settings(self.settings.render, {"mode": mode}, source=self.session.source)  # e.g. max_depth -1
         with self._cond:
             if mode != self._mode:
                 self._mode = mode
@@ -295,7 +298,8 @@ class Renderer:
     def _new_job(self, epoch: int, version: int, camera: Camera, mode: str, moving: bool) -> _Job:
         divisor = self._divisor(mode) if moving else 1
         w, h = -(-self.width // divisor), -(-self.height // divisor)
-        settings = resolve_settings(self.session.scene, self.session.source, width=w, height=h, mode=mode)
+        size_and_mode = {"width": w, "height": h, "mode": mode}
+        settings = resolve_settings(self.settings.render, size_and_mode, source=self.session.source).render
         batch = settings.spp if divisor == 1 else 1
         if mode == "path" and divisor == 1:
             batch = max(settings.spp, PATH_FILM_SPP)

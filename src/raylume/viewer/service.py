@@ -10,6 +10,7 @@ import sys
 import threading
 
 from ..session import Session
+from ..settings import ResolvedSettings
 from .renderer import Renderer
 from .server import LOOPBACK, ViewServer, bind
 
@@ -27,11 +28,13 @@ def is_loopback(host: str) -> bool:
 
 class Viewer:
     """Binds host:port at once (a port in use is a RaylumeError naming it), then serves
-    `session`'s scene at its [render] size and mode when run."""
+    `session`'s scene with `settings` (size, spp, mode, threads; default: its [render] table's) when run."""
 
-    def __init__(self, session: Session, *, host: str = "127.0.0.1", port: int = 8765, threads: int | None = None):
+    def __init__(
+        self, session: Session, settings: ResolvedSettings | None = None, *, host: str = "127.0.0.1", port: int = 8765
+    ):
         self.sockets = bind(host, port)
-        self.renderer = Renderer(session, threads=threads)
+        self.renderer = Renderer(session, settings)
         self.server = ViewServer(self.renderer, self.sockets)
         self.url = self.server.url(host)
         self._loop: asyncio.AbstractEventLoop | None = None

@@ -1,0 +1,220 @@
+"""A window of the image rendered from a compiled scene and resolved [render] settings: what
+a Session runs for a whole image (or a crop), the cluster's workers for a tile and a pass, and
+the path-mode denoiser (seen_light.py) for its extra passes. It needs no scene model.
+
+Ray modes run one *lane* per thread over the window (kernels/frame.py: each lane claims the
+next row left, so a lane slowed by the machine takes fewer; lanes.py keeps the threads from one
+render to the next). The calling thread only waits and watches: it polls the lanes' row
+counters for the progress bar, and on Ctrl-C raises a flag that every lane checks before each
+row, so the render stops within a row's time and keeps the rows that are done.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Callable
+from concurrent.futures import wait
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .compile import CompiledScene
+from .errors import RaylumeError
+from .image import Image
+from .kernels.film.camera import camera_of, set_cone_spread
+from .kernels.film.film import Film
+from .kernels.frame_stack import on_roomy_frame_stack
+from .kernels.integrators.frame import (
+    AOV_ROWS,
+    CONTROL_SIZE,
+    PASS_ROWS,
+    PROGRESS_STRIDE,
+    STOP,
+    aov_lane,
+    cast_lane,
+    path_lane,
+    trace_lane,
+)
+from .kernels.variants import features, path_features
+from .lanes import lane_pool
+from .scene.model import Camera, RenderSettings
+
+AOV_NAMES = ("depth", "normal", "object", "prim", "albedo", "instance")
+POLL_SECONDS = 0.05  # how often the waiting thread updates progress and notices Ctrl-C
+
+
+class RenderInterrupted(KeyboardInterrupt):
+    """Ctrl-C during a render. `image` holds the rows finished so far (the rest is black)."""
+
+    def __init__(self, image: Image, rows_done: int, done: str | None = None):
+        self.done = done or f"{rows_done} of {image.height} rows"  # what was finished, in words
+        super().__init__(f"interrupted after {self.done}")
+        self.image = image
+        self.rows_done = rows_done
+
+
+def allocate_aovs(H: int, W: int) -> dict:
+    return {
+        "depth": np.full((H, W), np.inf, dtype=np.float32),
+        "normal": np.zeros((H, W, 3), dtype=np.float32),
+        "object": np.full((H, W), -1, dtype=np.int32),
+        "prim": np.full((H, W), -1, dtype=np.int32),
+        "albedo": np.zeros((H, W, 3), dtype=np.float32),
+        "instance": np.full((H, W), -1, dtype=np.int32),
+    }
+
+
+@dataclass
+class WindowResult:
+    """What rendering a window of the image gives: the linear RGB of the window (None while
+    passes remain: then `sums` holds the film's running sums), its AOVs, the kernel seconds,
+    the rays traced and the samples rejected (path mode). A cluster's tiles are these."""
+
+    window: tuple[int, int, int, int]
+    rgb: np.ndarray | None
+    aovs: dict = field(default_factory=dict)
+    seconds: float = 0.0
+    rays: int = 0
+    rejected: int = 0
+    sums: np.ndarray | None = None
+    cluster: dict = field(default_factory=dict)  # statistics of a cluster render
+
+
+def render_window(
+    compiled: CompiledScene,
+    camera: Camera,
+    settings: RenderSettings,
+    window: tuple[int, int, int, int],
+    *,
+    aovs: bool,
+    lanes: int,
+    progress: Callable[[int, int], None] | None = None,
+    status: Callable | None = None,
+    first: int = 0,
+    count: int | None = None,
+    sums: np.ndarray | None = None,
+) -> WindowResult:
+    """Render samples first..first+count-1 (default: all of settings.spp) of the pixels in
+    `window` = (x0, x1, y0, y1) of the settings' image, continuing from the film `sums` of
+    the samples before `first`. Needs no scene model, only the compiled scene and resolved
+    settings: this is what a cluster's worker runs for one tile and one pass."""
+    W, H = settings.width, settings.height
+    x0, x1, y0, y1 = window
+    status = status or (lambda what, seconds=0.0: None)
+    S = compiled.for_camera(camera.position)
+    cam = camera_of(camera, W, H)
+    set_cone_spread(cam, H, 1 if settings.mode == "raster" else settings.spp, settings.texture_filter)
+    if settings.mode == "raster":
+        from .raster import rasterize
+
+        status("compiling")  # rasterize compiles its kernels first, outside its own timing
+        rgb, aov_arrays, kernel_seconds, rays = rasterize(
+            S, cam, W, H, settings.background, progress=progress, aovs=aovs
+        )
+        status("rendering", kernel_seconds)
+        # the rasterizer draws whole frames (it is fast): a crop is that window of one
+        rgb = np.ascontiguousarray(rgb[y0:y1, x0:x1])
+        aov_arrays = {k: np.ascontiguousarray(v[y0:y1, x0:x1]) for k, v in aov_arrays.items()}
+        return WindowResult(window, rgb, aov_arrays, kernel_seconds, int(rays))
+    film = Film(W, H, settings.filter, total_spp=settings.spp, window=window)
+    if sums is not None:
+        film.sums[...] = sums
+        film.spp = first
+    count = settings.spp - first if count is None else count
+    aov_arrays = allocate_aovs(y1 - y0, x1 - x0) if aovs else {}
+    kernel_seconds, rays = add_samples_to_film(
+        S, cam, film, count, settings, aov_arrays, progress, lanes, status=status
+    )
+    done = film.spp == film.total_spp
+    return WindowResult(
+        window,
+        film.rgb() if done else None,
+        aov_arrays,
+        kernel_seconds,
+        int(rays),
+        film.rejected,
+        None if done else film.sums,
+    )
+
+
+PATH_STRATEGIES = {"mis": 0, "light": 1, "bsdf": 2}  # kernels/path.py
+
+
+def path_strategy() -> int:
+    """Path mode's sampling strategy: MIS, unless the environment variable RAYLUME_PATH_STRATEGY
+    asks for light sampling or BSDF sampling alone (for tests and debugging: each alone is
+    unbiased too, only noisier)."""
+    name = os.environ.get("RAYLUME_PATH_STRATEGY", "mis")
+    if name not in PATH_STRATEGIES:
+        raise RaylumeError(f"RAYLUME_PATH_STRATEGY={name!r}: expected one of {', '.join(PATH_STRATEGIES)}")
+    return PATH_STRATEGIES[name]
+
+
+def add_samples_to_film(S, cam, film: Film, spp: int, settings, aov: dict, progress, lanes: int, status=None):
+    """Add the film's next `spp` samples per pixel (and fill the AOVs, of the film's window) on
+    `lanes` threads. Returns (kernel seconds, rays traced)."""
+    W, H = film.width, film.height
+    window = film.kernel_window
+    rows = window[3] - window[1]
+    rays_per_row = np.zeros(rows, dtype=np.int64)
+    # the AOV pass counts apart: a lane still in it and one already in the image pass may add to
+    # the same row's count at once, and one of the two additions was lost
+    aov_rays_per_row = np.zeros(rows, dtype=np.int64)
+    rows_done = np.zeros(lanes * PROGRESS_STRIDE, dtype=np.int64)  # one padded counter per lane
+    # control[STOP] = 1 stops every lane before its next row; the lanes claim rows from counters in it
+    control = np.zeros(CONTROL_SIZE, dtype=np.int64)
+    background = np.asarray(settings.background, dtype=np.float64)
+    samples = (film.spp, spp, film.total_spp)  # first, count, total
+    X = features(S)  # None: the kernels' variant for spheres and opaque triangles only
+    if settings.mode == "path":
+        X = path_features(S)  # one variant of the path kernels for every scene (compiled once)
+    rejected = np.zeros(lanes * PROGRESS_STRIDE, dtype=np.int64)
+    strategy = path_strategy()
+
+    def lane_job(lane: int, window) -> None:
+        if aov:
+            depth, normal, obj, prim, albedo, instance = (aov[k] for k in AOV_NAMES)
+            aov_lane(
+                S, X, cam, W, H, window, lane, AOV_ROWS, depth, normal, obj, prim, albedo, instance, aov_rays_per_row,
+                rows_done, control,
+            )  # fmt: skip
+        if settings.mode == "cast":
+            cast_lane(S, X, cam, film.filter, W, H, window, lane, PASS_ROWS, samples, settings.seed, background,
+                      film.sums, rays_per_row, rows_done, control)  # fmt: skip
+        elif settings.mode == "path":
+            path_lane(S, X, cam, film.filter, W, H, window, lane, PASS_ROWS, samples, settings.seed, settings.depth,
+                      background, film.sums, rays_per_row, rows_done, control, rejected, strategy)  # fmt: skip
+        else:
+            trace_lane(S, X, cam, film.filter, W, H, window, lane, PASS_ROWS, samples, settings.seed, settings.depth,
+                       background, film.sums, rays_per_row, rows_done, control)  # fmt: skip
+
+    status = status or (lambda what: None)
+    status("compiling")
+    # compile (or load from the cache): no rows; with room on the frame stack (frame_stack.py)
+    on_roomy_frame_stack(lane_job, 0, (window[0], window[1], window[2], window[1]))
+    control[:] = 0  # (that claimed a row of the empty window)
+    status("rendering")
+    total = rows * (2 if aov else 1)
+    pool = lane_pool(lanes)
+    t0 = time.perf_counter()
+    futures = [pool.submit(lane_job, lane, window) for lane in range(lanes)]
+    try:
+        while True:
+            finished, pending = wait(futures, timeout=POLL_SECONDS)
+            if progress is not None:
+                progress(int(rows_done.sum()), total)
+            if not pending:
+                break
+    except KeyboardInterrupt:
+        control[STOP] = 1
+        wait(futures)
+        partial = Image(film.rgb(), aov, {}, settings.encoding, exposure=settings.exposure)
+        done = int(rows_done.sum()) - (rows if aov else 0)
+        raise RenderInterrupted(partial, max(done, 0)) from None
+    kernel_seconds = time.perf_counter() - t0
+    for future in futures:
+        future.result()  # re-raises a lane's exception
+    film.spp += spp
+    film.rejected += int(rejected.sum())
+    return kernel_seconds, rays_per_row.sum() + aov_rays_per_row.sum()

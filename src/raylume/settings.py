@@ -1,0 +1,127 @@
+"""The settings of one render, resolved once: the scene's [render] table with the caller's
+overrides, the thread count and the crop window, each validated here and nowhere else.
+
+The command line resolves them from its flags, `raylume.render`, `Session.render` and
+`raylume.view` from their keyword arguments; the result, a ResolvedSettings, is what the
+session, the cluster, animations and the viewer are handed.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numba
+from pydantic import ValidationError
+
+from .errors import OutputError, RaylumeError, SceneError
+from .scene.model import RenderSettings, Scene
+from .scene.validation_errors import format_validation_error
+
+# The [render] keys that a render call overrides by name: keyword arguments of raylume.render,
+# Session.render and raylume.view, and the command line's flags (--width, ..., --denoise).
+OVERRIDES = ("width", "height", "spp", "mode", "max_depth", "seed", "filter", "exposure", "denoise")
+COMMAND_LINE = "command line"  # how errors name the source of flags
+
+
+@dataclass(frozen=True)
+class ResolvedSettings:
+    """What one render runs with, validated: `render`, the [render] table with the overrides;
+    `threads`, the lanes to run on (every core unless asked); `crop`, the window (x0, x1, y0, y1)
+    asked for, or None for the whole image."""
+
+    render: RenderSettings
+    threads: int
+    crop: tuple[int, int, int, int] | None = None
+
+    @property
+    def window(self) -> tuple[int, int, int, int]:
+        """(x0, x1, y0, y1) of the pixels rendered: the crop, or the whole image."""
+        return self.crop if self.crop is not None else (0, self.render.width, 0, self.render.height)
+
+
+def resolve_settings(
+    base: Scene | RenderSettings,
+    overrides: Mapping[str, Any] | None = None,
+    *,
+    threads: int | None = None,
+    crop: tuple[int, int, int, int] | None = None,
+    source: str = "<scene>",
+    flags: bool = False,
+) -> ResolvedSettings:
+    """The settings of one render of `base` (a scene, or a [render] table), `overrides`
+    ({key: value}; None values are left out) replacing its [render] keys. A bad value is a
+    SceneError naming the key; a bad thread count or crop says what is allowed. `flags`: the
+    values came from the command line, and errors name its flags (`--max-depth`) instead of
+    `source`'s render settings."""
+    table = base.render if isinstance(base, Scene) else base
+    values = {key: value for key, value in (overrides or {}).items() if value is not None}
+    if values:
+        try:
+            table = table.updated(**values)
+        except ValidationError as exc:
+            if flags:
+                message = format_validation_error(exc, COMMAND_LINE, RenderSettings, key_name=flag_name)
+            else:
+                message = format_validation_error(exc, source, RenderSettings, context="render settings: ")
+            raise SceneError(message) from None
+    threads = check_threads(threads, flags)
+    crop_source = f"{COMMAND_LINE} (--crop)" if flags else source
+    window = None if crop is None else check_crop(crop, table.width, table.height, crop_source)
+    return ResolvedSettings(table, threads, window)
+
+
+def settings_of_call(
+    base: Scene | RenderSettings,
+    arguments: Mapping[str, Any],
+    settings: ResolvedSettings | None = None,
+    source: str = "<scene>",
+) -> ResolvedSettings:
+    """The settings of a render call (raylume.render, Session.render, raylume.view) from its
+    `arguments` (its locals(): the OVERRIDES, `threads`, `crop`), or its `settings=` when given:
+    then none of those may be given too (a TypeError)."""
+    given = overrides_of(arguments)
+    threads, crop = arguments.get("threads"), arguments.get("crop")
+    if settings is None:
+        return resolve_settings(base, given, threads=threads, crop=crop, source=source)
+    also = [*given, *(["threads"] if threads is not None else []), *(["crop"] if crop is not None else [])]
+    if also:
+        raise TypeError(f"settings= already holds the render's settings; leave out {', '.join(also)}")
+    return settings
+
+
+def overrides_of(arguments: Mapping[str, Any]) -> dict[str, Any]:
+    """The OVERRIDES among a call's arguments that are given (not None)."""
+    return {name: arguments[name] for name in OVERRIDES if arguments.get(name) is not None}
+
+
+def flag_name(loc: tuple) -> str:
+    """The command-line flag of a [render] key: ('max_depth',) -> '--max-depth'."""
+    return f"--{'-'.join(str(p) for p in loc).replace('_', '-')}" if loc else ""
+
+
+def check_threads(threads: int | None, flags: bool = False) -> int:
+    """The lanes to run on: `threads`, which must be 1..Numba's thread count, or all of them."""
+    most = numba.config.NUMBA_NUM_THREADS
+    if threads is None:
+        return most
+    if not 1 <= threads <= most:
+        if flags:
+            raise OutputError(f"--threads {threads}: must be between 1 and {most}")
+        raise ValueError(f"threads must be between 1 and {most}")
+    return threads
+
+
+def check_crop(crop, width: int, height: int, source: str = "<scene>") -> tuple[int, int, int, int]:
+    """The window (x0, x1, y0, y1) of a crop (columns x0..x1-1, rows y0..y1-1), the whole image
+    for None; a window outside the image or empty is a RaylumeError."""
+    if crop is None:
+        return 0, width, 0, height
+    x0, x1, y0, y1 = (int(c) for c in crop)
+    if not (0 <= x0 < x1 <= width and 0 <= y0 < y1 <= height):
+        raise RaylumeError(
+            f"{source}: crop {x0}:{x1},{y0}:{y1} must be a non-empty window of the {width} x {height} image "
+            f"(0 <= X0 < X1 <= {width}, 0 <= Y0 < Y1 <= {height})"
+        )
+    return x0, x1, y0, y1
