@@ -129,7 +129,7 @@ def time_embree(vertices, faces, o, d, repeats):
 
 def time_builds(vertices, faces, repeats):
     """Medians of the BVH build alone, alternating: raylume on 1 thread and on all threads (what
-    compile.py does: the triangles' boxes from the float32 triangle table, build_bvh, collapse into
+    compile/geometry.py does: the triangles' boxes from the float32 triangle table, build_bvh, collapse into
     the BVH8), and Embree's commit. Returns (1T s, all s, Embree s, SAH, the all-threads build's
     phases (boxes, build_bvh, collapse) s, CPU s of the all-threads build and of Embree's)."""
     import numba

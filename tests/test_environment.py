@@ -14,7 +14,7 @@ import pytest
 from numba import njit
 from scipy import stats
 
-from raylume.environment_file import MAX_TEXELS, build_environment, load_environment_image, rgbe_decode
+from raylume.compile.environment import MAX_TEXELS, build_environment, load_environment_image, rgbe_decode
 from raylume.errors import SceneError
 from raylume.image import rgbe_encode, save_array
 from raylume.kernels.shading.environment import (

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import raylume
-from raylume.environment_file import build_environment
+from raylume.compile.environment import build_environment
 from raylume.kernels.film.camera import camera_frame, camera_ray
 from raylume.kernels.shading.environment import environment_radiance
 

@@ -318,7 +318,7 @@ intensity = 6
         "--stats", "s.json", cwd=tmp_path,
     )  # fmt: skip
     assert result.returncode == 0, result.stderr
-    from raylume.environment_file import load_environment_image
+    from raylume.compile.environment import load_environment_image
 
     denoised = load_environment_image(tmp_path / "out.exr")
     noisy = np.load(tmp_path / "noisy.npy")

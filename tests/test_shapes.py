@@ -290,7 +290,7 @@ def test_degenerate_shapes_are_refused_naming_the_key(obj, key):
 
 SRC = Path(raylume.__file__).parent
 # docs/architecture.md, "Adding a shape": its module, the switches, the model and compile's registry.
-PLACES = {"kernels/geometry/shapes.py", "scene/model.py", "compile.py"}
+PLACES = {"kernels/geometry/shapes.py", "scene/model.py", "compile/objects.py"}
 
 
 @pytest.mark.parametrize("name, model", [("disk", "Disk"), ("quad", "Quad"), ("cylinder", "Cylinder")])

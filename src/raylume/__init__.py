@@ -24,7 +24,7 @@ from .render import render  # at once: the function shadows its module (render.p
 
 _HOMES = {
     "Camera": ".scene.model",
-    "Film": ".kernels.film",
+    "Film": ".kernels.film.film",
     "Image": ".image",
     "Scene": ".scene.model",
     "SceneWarning": ".scene.checks",

@@ -4,7 +4,7 @@ sees them (DESIGN.md section 6, "Instances and glTF scenes").
 The result is a `GltfScene`: each mesh primitive once, in its own frame (`GltfPart.mesh`), with
 the world matrices of every node (and EXT_mesh_gpu_instancing instance) that uses it; materials
 as model `Material`s; cameras and KHR_lights_punctual lights in raylume's world; base colour
-textures decoded to linear texels. The compiler turns parts into triangles (compile.py).
+textures decoded to linear texels. The compiler turns parts into triangles (compile/objects.py).
 
 Handedness: glTF is right-handed (+y up, +z out of the screen, a camera looks along its -z);
 raylume is left-handed. Every world matrix starts with HANDEDNESS = diag(1, 1, -1): glTF's

@@ -3,7 +3,7 @@
 Each matrix maps the object (after its own `transform`) to world space, column-vector
 convention: p' = M @ [p, 1]. They come from a `.npy` file of shape (N, 4, 4) or (N, 3, 4)
 (relative to the scene file) or from inline transform tables (scale, rotate, translate as for
-every object). The compiler (compile.py) stores the mesh once and each copy as its inverse
+every object). The compiler (compile/instances.py) stores the mesh once and each copy as its inverse
 matrix; problems are InstanceError, reported by the caller with the object's key path.
 """
 

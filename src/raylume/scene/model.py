@@ -594,7 +594,7 @@ class Mesh(Strict):
     handedness: Literal["left", "right"] = "left"
     # Copies of the mesh, each placed by a matrix after `transform` (column vectors, p' = M @ [p, 1]):
     # a .npy file of shape (N, 4, 4) or (N, 3, 4), relative to the scene file, or inline
-    # transforms. The mesh and its BVH are stored once (scene/instances.py, compile.py).
+    # transforms. The mesh and its BVH are stored once (scene/instances.py, compile/instances.py).
     instances: str | list[Transform] | None = None
 
     @field_validator("instances")

@@ -11,7 +11,7 @@ none; path tracing's emitters will find their light here).
 
 To add a shape: write `shape_NAME.py` (pack, bounds, intersect, normal, uv, tessellate; see
 shape_disk.py), add its kind below and a line in each switch, and register its model class in
-scene/model.py and compile.py. docs/architecture.md lists the places.
+scene/model.py and compile/objects.py. docs/architecture.md lists the places.
 """
 
 import math
@@ -191,7 +191,7 @@ def _intersect_other(shapes, kind, row, o, d, tmin, tmax):
     if kind == CYLINDER:
         t, part = shape_cylinder.intersect(shapes, row, o, d, tmin, tmax)
         return t, part, 0.0
-    return INF, 0.0, 0.0  # a kind no module defines (never: compile.py packs registered shapes)
+    return INF, 0.0, 0.0  # a kind no module defines (never: compile/objects.py packs registered shapes)
 
 
 @inline_function

@@ -1,6 +1,6 @@
 """Object transforms applied to analytic shapes and lights when they are packed (numpy, the
 host side of the kernels' modules): `pack` functions receive the object's 4x4 object-to-world
-matrix (compile.py makes it from the model's `transform`)."""
+matrix (compile/objects.py makes it from the model's `transform`)."""
 
 import numpy as np
 

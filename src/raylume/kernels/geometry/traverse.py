@@ -48,7 +48,7 @@ def intersect_range(G, X, first, end, o, d, shear, tmin, best_t, prim, b1, b2, s
 
 @inline_function
 def rows_in_leaf_order(G):
-    """Whether every bounded primitive is a triangle: compile.py then numbers the triangle rows
+    """Whether every bounded primitive is a triangle: compile/geometry.py then numbers the triangle rows
     in leaf order, so a leaf's first primitive is its first triangle row."""
     return G.triangles.shape[0] == G.n_bounded
 

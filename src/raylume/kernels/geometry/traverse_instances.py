@@ -10,7 +10,7 @@ box test's per-ray constants are those of the object-space ray.
 
 BLASes hold triangles alone (instanced meshes), so their leaves are tested by the triangle tests
 directly. A BLAS traversal runs on the same stacks, above the top-level entries still pending
-(compile.py checks that both depths fit TRAVERSAL_STACK).
+(compile/geometry.py checks that both depths fit TRAVERSAL_STACK).
 
 These functions are calls, not inlined: only scenes with instances run them, each call passes
 the views by value once per ray, and inlining them into every traversal site would grow every

@@ -28,7 +28,7 @@ _LANE_SHIFT = BVH_WIDTH.bit_length() - 1  # BVH_WIDTH is a power of two
 assert 1 << _LANE_SHIFT == BVH_WIDTH
 
 # Size of per-thread traversal stacks. Closest-hit pushes at most BVH_WIDTH - 1 entries per
-# level and writes a node's BVH_WIDTH entry distances above the top; compile.py rejects BVHs
+# level and writes a node's BVH_WIDTH entry distances above the top; compile/geometry.py rejects BVHs
 # too deep for it (stack_needed).
 TRAVERSAL_STACK = 1024
 # Unused elements on either side of each thread's scratch arrays (at least 256 bytes: beyond a

@@ -35,7 +35,7 @@ therefore sampled uniformly over the sphere, pdf 1 / (4 pi); an all-black image 
 
 Kernel functions take the `Environment` tuple E; with `E.present` False they return black and
 pdf 0, so a scene without an environment can pass `no_environment()` through the same code.
-The `[environment]` table and its image files become an Environment in environment_file.py.
+The `[environment]` table and its image files become an Environment in compile/environment.py.
 """
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """Path mode's choice among lights: a cdf over the light table's rows in proportion to power
-(lights_table.py builds it), and the area lights that rays see beside the BVH."""
+(compile/lights.py builds it), and the area lights that rays see beside the BVH."""
 
 import math
 

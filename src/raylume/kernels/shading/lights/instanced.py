@@ -59,7 +59,7 @@ def _inverse_det(inv, i):
 def instance_weight(det):
     """The weight of an instance in its mesh's instance distribution, from det B: |det A|^(2/3)
     of its object-to-world matrix A = B^-1 (the scale of areas under a similarity;
-    lights_table.instance_weights computes the same at compile time)."""
+    compile/lights.py instance_weights computes the same at compile time)."""
     return abs(det) ** (-2.0 / 3.0)
 
 

@@ -1,7 +1,7 @@
 """The light table: one row per light of every kind, float64 (E, LIGHT_ROW_WIDTH), a kind per row
 (int32 (E,), a kind module's KIND). Trace mode and path mode read the same rows.
 
-Rows, in order (lights_table.py builds them):
+Rows, in order (compile/lights.py builds them):
 * area lights (`quad`, `sphere`): first, so that path mode's ray test loops over rows
   0..n_area-1 only;
 * the other lights of the scene (point, spot, directional);

@@ -5,7 +5,7 @@ number in the table's MAT_KIND column), `pack` and `trace_approximation` (host s
 kernel functions `evaluate`, `sample`, `delta_only` and `two_sided` (lobes.py gives their
 conventions). The switches below are made from KINDS (kernels/switch.py): for each question,
 one function that compares the row's kind with each module's KIND in turn and returns that
-module's answer, and for a kind that no module defines (never: compile.py packs only registered
+module's answer, and for a kind that no module defines (never: compile/materials.py packs only registered
 kinds) a failure, never another kind's answer."""
 
 from ...switch import kind_switch

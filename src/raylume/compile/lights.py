@@ -8,13 +8,13 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .environment_file import build_environment
-from .kernels.geometry.shape_triangle import area as shape_triangle_area
-from .kernels.geometry.shapes import EMISSION_SAMPLED, PRIM_KIND, PRIM_LIGHT, PRIM_MATERIAL, PRIM_ROW, surface_areas
-from .kernels.shading import lights as LI
-from .kernels.shading.environment import Environment, no_environment
-from .kernels.shading.lights import ambient, environment, instanced, surface
-from .kernels.shading.materials import MAT_EMISSION
+from ..kernels.geometry.shape_triangle import area as shape_triangle_area
+from ..kernels.geometry.shapes import EMISSION_SAMPLED, PRIM_KIND, PRIM_LIGHT, PRIM_MATERIAL, PRIM_ROW, surface_areas
+from ..kernels.shading import lights as LI
+from ..kernels.shading.environment import Environment, no_environment
+from ..kernels.shading.lights import ambient, environment, instanced, surface
+from ..kernels.shading.materials import MAT_EMISSION
+from .environment import build_environment
 
 
 def scene_environment(scene, source: str) -> Environment:
@@ -101,7 +101,7 @@ def build_light_table(
     """The light table (kernels/shading/lights/table.py has the order of its rows); sets
     prims[:, PRIM_LIGHT] for the emissive primitives (among `candidates`, a bool per row, when
     given: instanced meshes' rows are not) and for the emissive instanced meshes' rows
-    (`instances`, the compile_instances.InstanceArrays: one row per mesh, instanced_emitters).
+    (`instances`, the instances.InstanceArrays: one row per mesh, instanced_emitters).
     Ambient lights are one row for path mode (a uniform environment of their summed radiance)
     and a row each, after the distribution's rows, for trace mode."""
     rows: list[np.ndarray] = []

@@ -9,9 +9,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import SceneError
-from .kernels.shading.environment import Environment, sampling_tables
-from .scene.mesh import transform_matrix
+from ..errors import SceneError
+from ..kernels.shading.environment import Environment, sampling_tables
+from ..scene.mesh import transform_matrix
 
 # A guard against decompression bombs (the texture table's limit): 64 Mi texels, 768 MiB.
 MAX_TEXELS = 1 << 26

@@ -1,4 +1,5 @@
-"""Instanced meshes -> the two-level structure (kernels/traverse_instances.py).
+"""Compile stage (of geometry.py): instanced meshes -> the two-level structure
+(kernels/geometry/traverse_instances.py).
 
 Each instanced mesh is stored once, in its own space: its triangles and primitive-table rows
 (after the world's), and its own wide BVH (a BLAS). The instances of every mesh share one
@@ -21,20 +22,20 @@ from typing import NamedTuple
 import numba as nb
 import numpy as np
 
-from .accel.bvh import build_bvh
-from .accel.wide import (
+from ..accel.bvh import build_bvh
+from ..accel.tlas import build_tlas
+from ..accel.wide import (
     NODE_COUNT,
     NODE_FIRST,
     WideBVH,
     collapse,
     mark_triangle_leaves,
-    node_records,
     single_leaf,
     wide_depth,
     wide_nbytes,
 )
-from .kernels.geometry.shape_triangle import TRIANGLES_PER_TEST
-from .kernels.geometry.shapes import (
+from ..kernels.geometry.shape_triangle import TRIANGLES_PER_TEST
+from ..kernels.geometry.shapes import (
     PRIM_FACE,
     PRIM_KIND,
     PRIM_LIGHT,
@@ -44,10 +45,10 @@ from .kernels.geometry.shapes import (
     PRIM_WIDTH,
     Shape,
 )
-from .kernels.geometry.wide_nodes import BVH_WIDTH, stack_needed
-from .scene.instances import inverse_rows
+from ..kernels.geometry.wide_nodes import BVH_WIDTH, stack_needed
+from ..scene.instances import inverse_rows
 
-# BLASes are built as the world BVH is (compile.py's constants). The TLAS: binned SAH with
+# BLASes are built as the world BVH is (geometry.py's constants). The TLAS (accel/tlas.py): binned SAH with
 # leaves of up to 8 instances and a node visit weighed as 4 instance tests, collapsed so that
 # every leaf lane holds one instance (_collapse_tlas): a leaf of 4 or more instances that does
 # not fit its parent's free lanes becomes a node of its own. With leaves of up to 4 instances
@@ -62,11 +63,8 @@ from .scene.instances import inverse_rows
 # randomly turned copies, -5% frame time; level 3 bought nothing more).
 BLAS_MAX_LEAF = 4
 BLAS_TRAVERSAL_COST = 2.0
-BLAS_LEAF_BLOCK = TRIANGLES_PER_TEST  # as the world BVH's (compile.py BVH_LEAF_BLOCK)
+BLAS_LEAF_BLOCK = TRIANGLES_PER_TEST  # as the world BVH's (geometry.py BVH_LEAF_BLOCK)
 SMALL_BLAS = 8
-TLAS_MAX_LEAF = 8
-TLAS_TRAVERSAL_COST = 4.0
-TLAS_SPLIT_MIN = 4
 BOX_LEVELS = 2
 
 
@@ -114,133 +112,6 @@ def _wide(lo, hi, accelerate, small, max_leaf, c_trav, leaf_block):
         bvh = build_bvh(lo, hi, max_leaf_size=max_leaf, c_trav=c_trav, leaf_block=leaf_block)
         return collapse(bvh, BVH_WIDTH)
     return single_leaf(lo, hi, BVH_WIDTH)
-
-
-@nb.njit(cache=True)
-def _area(b, c):
-    ex = max(np.float64(b[c, 3]) - np.float64(b[c, 0]), 0.0)
-    ey = max(np.float64(b[c, 4]) - np.float64(b[c, 1]), 0.0)
-    ez = max(np.float64(b[c, 5]) - np.float64(b[c, 2]), 0.0)
-    return ex * ey + ey * ez + ez * ex
-
-
-@nb.njit(cache=True)
-def _collapse_tlas(nbounds, nindex, naxis, box, width, split_min, wb, wi):
-    """The binary TLAS as wide nodes whose leaf lanes hold one instance each where there is
-    room: a wide node opens its largest child, inner node (one more lane) or leaf of k
-    instances (k - 1 more lanes, when they fit), until it is full. Leaves that do not fit stay
-    ranges of instances, or, with split_min instances or more, nodes of their own with one lane
-    each. `box`: float32 (N, 6) instance boxes (rounded outward), in leaf order. Into the node
-    records (wb, wi) = wide.node_records(binary nodes, width); returns how many it made."""
-    cap = naxis.shape[0]
-    for m in range(cap):
-        for lane in range(width):
-            for d in range(3):
-                wb[m, d, lane] = np.inf
-                wb[m, 3 + d, lane] = -np.inf
-            wi[m, NODE_FIRST, lane] = 0
-            wi[m, NODE_COUNT, lane] = 0
-    work_b = np.empty(cap, np.int64)
-    work_w = np.empty(cap, np.int64)
-    kids = np.empty(width, np.int64)  # binary node c >= 0, or -1 - i for instance i alone
-    work_b[0] = 0
-    work_w[0] = 0
-    sp = 1
-    n_wide = 1
-    while sp > 0:
-        sp -= 1
-        b = work_b[sp]
-        w = work_w[sp]
-        if naxis[b] < 0:  # a root that is a leaf
-            kids[0] = b
-            nk = 1
-        else:
-            kids[0] = b + 1
-            kids[1] = nindex[b, 0]
-            nk = 2
-        while nk < width:
-            best = -1
-            best_area = -1.0
-            for i in range(nk):
-                c = kids[i]
-                if c < 0:
-                    continue
-                if naxis[c] >= 0 or (nindex[c, 1] > 1 and nk + nindex[c, 1] - 1 <= width):
-                    a = _area(nbounds, c)
-                    if a > best_area:
-                        best_area = a
-                        best = i
-            if best < 0:
-                break
-            c = kids[best]
-            if naxis[c] >= 0:
-                kids[best] = c + 1
-                kids[nk] = nindex[c, 0]
-                nk += 1
-            else:
-                first = nindex[c, 0]
-                kids[best] = -1 - first
-                for j in range(1, nindex[c, 1]):
-                    kids[nk] = -1 - (first + j)
-                    nk += 1
-        for i in range(nk):
-            c = kids[i]
-            if c < 0:
-                for d in range(6):
-                    wb[w, d, i] = box[-1 - c, d]
-                wi[w, NODE_FIRST, i] = -1 - c
-                wi[w, NODE_COUNT, i] = 1
-                continue
-            for d in range(6):
-                wb[w, d, i] = nbounds[c, d]
-            if naxis[c] < 0 and nindex[c, 1] >= split_min:
-                # a leaf of several instances: a node of its own, one lane each
-                wi[w, NODE_FIRST, i] = n_wide
-                wi[w, NODE_COUNT, i] = 0
-                first = nindex[c, 0]
-                for j in range(nindex[c, 1]):
-                    for d in range(6):
-                        wb[n_wide, d, j] = box[first + j, d]
-                    wi[n_wide, NODE_FIRST, j] = first + j
-                    wi[n_wide, NODE_COUNT, j] = 1
-                n_wide += 1
-            elif naxis[c] < 0:
-                wi[w, NODE_FIRST, i] = nindex[c, 0]
-                wi[w, NODE_COUNT, i] = nindex[c, 1]
-            else:
-                wi[w, NODE_FIRST, i] = n_wide
-                wi[w, NODE_COUNT, i] = 0
-                n_wide += 1
-        for i in range(nk - 1, -1, -1):
-            c = kids[i]
-            if c >= 0 and naxis[c] >= 0:
-                work_b[sp] = c
-                work_w[sp] = wi[w, NODE_FIRST, i]
-                sp += 1
-    return n_wide
-
-
-def outward_f32(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """float32 (N, 6) boxes holding the float64 boxes (lo, hi)."""
-    lo32, hi32 = lo.astype(np.float32), hi.astype(np.float32)
-    lo32 = np.where(lo32 > lo, np.nextafter(lo32, np.float32(-np.inf)), lo32)
-    hi32 = np.where(hi32 < hi, np.nextafter(hi32, np.float32(np.inf)), hi32)
-    return np.ascontiguousarray(np.concatenate([lo32, hi32], axis=1))
-
-
-def build_tlas(lo: np.ndarray, hi: np.ndarray, accelerate: bool = True) -> WideBVH:
-    """The TLAS over instance world boxes (N, 3): binned SAH with leaves of up to TLAS_MAX_LEAF,
-    collapsed into BVH_WIDTH-wide nodes whose leaves are opened into one lane per instance where
-    the node has room (_collapse_tlas)."""
-    if not accelerate or len(lo) <= 1:
-        return single_leaf(lo, hi, BVH_WIDTH)
-    bvh = build_bvh(lo, hi, max_leaf_size=TLAS_MAX_LEAF, c_trav=TLAS_TRAVERSAL_COST)
-    order = bvh.prim_order.astype(np.int64)
-    box = outward_f32(np.asarray(lo, np.float64)[order], np.asarray(hi, np.float64)[order])
-    wb, wi = node_records(len(bvh.node_axis), BVH_WIDTH)
-    n = _collapse_tlas(bvh.node_bounds, bvh.node_index, bvh.node_axis, box, BVH_WIDTH, TLAS_SPLIT_MIN, wb, wi)
-    records = wb[:n].copy()  # the rows written (the binary node count bounds them)
-    return WideBVH(records, records.view(np.int32), bvh.prim_order)
 
 
 def blas_boxes(blas: WideBVH, levels: int) -> tuple[np.ndarray, np.ndarray]:
@@ -300,7 +171,7 @@ def world_boxes(lo: np.ndarray, hi: np.ndarray, matrices: np.ndarray) -> tuple[n
 
 
 def build_instances(meshes: list, accelerate: bool = True) -> InstanceArrays:
-    """The two-level structure of compile.py's instanced meshes (_InstancedMesh)."""
+    """The two-level structure of objects.py's instanced meshes (_InstancedMesh)."""
     if not meshes:
         return empty_instances()
     prims, tris, normals, smooth, uvs = [], [], [], [], []

@@ -1,0 +1,282 @@
+"""Compile stage: objects. The scene's objects gathered into geometry, object by object: analytic
+shapes packed by their modules (kernels/geometry/shape_*.py), world-space triangles of meshes
+and glTF files, instanced meshes in their own space; and the materials they use, numbered."""
+
+from __future__ import annotations
+
+import time
+from typing import NamedTuple
+
+import numpy as np
+
+from ..errors import SceneError
+from ..kernels.geometry.shapes import ANALYTIC, SHAPE_WIDTH, Shape, is_bounded
+from ..kernels.geometry.shapes import bounds as shape_bounds
+from ..scene.gltf import flatten, load_gltf_object
+from ..scene.instances import InstanceError, instance_matrices
+from ..scene.mesh import MeshData, MeshError, transform_matrix
+from ..scene.model import (
+    DEFAULT_MATERIAL,
+    Cylinder,
+    Disk,
+    Gltf,
+    ImageTexture,
+    Material,
+    Mesh,
+    Plane,
+    Quad,
+    Scene,
+    Sphere,
+    Triangle,
+)
+from ..scene.placement import load_mesh_object
+
+# Model classes of the analytic shapes and their kinds (one line per shape).
+ANALYTIC_MODELS = {
+    Sphere: Shape.SPHERE,
+    Plane: Shape.PLANE,
+    Disk: Shape.DISK,
+    Quad: Shape.QUAD,
+    Cylinder: Shape.CYLINDER,
+}
+
+
+def object_matrix(obj) -> np.ndarray:
+    """4x4 object-to-world matrix of an analytic shape's `transform` (the identity for shapes
+    without one): what its module's `pack` applies."""
+    t = getattr(obj, "transform", None)
+    return np.eye(4) if t is None else transform_matrix(t.translate, t.rotate, t.scale3)
+
+
+class _TriangleSoup:
+    """Triangles gathered object by object before the BVH reorders them."""
+
+    def __init__(self):
+        self.parts: list[tuple] = []  # (verts (F, 9) f32, normals (F, 9) f32 or None, material, object)
+        self.uvs: list[np.ndarray | None] = []  # per part: (F, 6) f32 UVs, None when not needed
+        self.degenerate = 0
+
+    def add(
+        self,
+        vertices9: np.ndarray,
+        normals9: np.ndarray | None,
+        material: int,
+        obj: int,
+        uvs6: np.ndarray | None = None,
+    ):
+        self.parts.append((vertices9, normals9, material, obj))
+        self.uvs.append(uvs6)
+
+    def uv_array(self) -> np.ndarray:
+        """float32 (T, 6) UVs of every triangle (zeros where none are needed), or (1, 6)
+        when no triangle needs UVs (no image texture on a triangle)."""
+        if not any(uv is not None for uv in self.uvs):
+            return np.zeros((1, 6), dtype=np.float32)
+        return np.concatenate(
+            [uv if uv is not None else np.zeros((len(p[0]), 6), np.float32) for uv, p in zip(self.uvs, self.parts)]
+        ).astype(np.float32)
+
+    def arrays(self):
+        if not self.parts:
+            empty9 = np.zeros((0, 9), dtype=np.float32)
+            return empty9, np.zeros((1, 9), np.float32), np.zeros(0, bool), *(np.zeros(0, np.int32),) * 3
+        verts = np.concatenate([p[0] for p in self.parts])
+        counts = [len(p[0]) for p in self.parts]
+        any_smooth = any(p[1] is not None for p in self.parts)
+        if any_smooth:
+            normals = np.concatenate([p[1] if p[1] is not None else np.zeros_like(p[0]) for p in self.parts])
+        else:
+            normals = np.zeros((1, 9), dtype=np.float32)
+        smooth = np.concatenate([np.full(n, p[1] is not None) for n, p in zip(counts, self.parts)])
+        material = np.concatenate([np.full(n, p[2], np.int32) for n, p in zip(counts, self.parts)])
+        obj = np.concatenate([np.full(n, p[3], np.int32) for n, p in zip(counts, self.parts)])
+        face = np.concatenate([np.arange(n, dtype=np.int32) for n in counts])
+        return verts, normals, smooth, material, obj, face
+
+
+def _load_mesh_object(scene: Scene, k: int, obj: Mesh, source):
+    """The object's mesh in world space (handedness, transform, fit: scene/placement.py)."""
+    try:
+        return load_mesh_object(obj, scene.base_dir)
+    except MeshError as exc:
+        raise SceneError(f"{source}: objects[{k}].file: {exc}") from None
+
+
+def _load_gltf_object(scene: Scene, k: int, obj: Gltf, source):
+    try:
+        return load_gltf_object(obj, scene.base_dir)
+    except MeshError as exc:
+        raise SceneError(f"{source}: objects[{k}].file: {exc}") from None
+
+
+def _add_gltf_part(geometry: SceneGeometry, part, m: int, k: int, needs_uvs: bool) -> None:
+    """A glTF mesh primitive (UVs where its material's texture needs them; a mesh without UVs
+    then reads texel (0, 0)): placed once, its world-space triangles; used by several nodes or
+    GPU instances, one stored mesh and an instance per matrix (those that flatten it skipped)."""
+    mesh = part.mesh
+    if needs_uvs and mesh.uvs is None:
+        mesh = mesh._replace(uvs=np.zeros((len(mesh.vertices), 2), np.float32))
+    if len(part.matrices) == 1:
+        for placed in flatten(part):
+            geometry.add_mesh(placed._replace(uvs=mesh.uvs), m, k, uvs=needs_uvs)
+        return
+    a = np.asarray(part.matrices, dtype=np.float64)[:, :3, :]
+    keep = np.flatnonzero(np.abs(np.linalg.det(a[:, :, :3])) > 0)
+    if len(keep):
+        geometry.add_mesh(mesh, m, k, a[keep], uvs=needs_uvs, instance_ids=keep)
+
+
+def _instance_matrices(scene: Scene, k: int, obj: Mesh, source) -> np.ndarray | None:
+    try:
+        return instance_matrices(obj, scene.base_dir)
+    except InstanceError as exc:
+        raise SceneError(f"{source}: objects[{k}].instances: {exc}") from None
+
+
+class _InstancedMesh(NamedTuple):
+    """A mesh stored once in object space, and the matrices placing its copies."""
+
+    triangles: np.ndarray  # float32 (F, 9)
+    normals: np.ndarray | None  # float32 (F, 9) vertex normals, None for flat shading
+    uvs: np.ndarray | None  # float32 (F, 6)
+    material: int
+    obj: int
+    matrices: np.ndarray  # float64 (N, 3, 4) object to world
+    ids: np.ndarray  # int32 (N,): each instance's index within its object (the `instance` AOV)
+
+
+class _Analytic:
+    """Analytic shapes gathered in object order: their rows and their primitive-table columns."""
+
+    def __init__(self):
+        self.rows: list[np.ndarray] = []
+        self.kinds: list[int] = []
+        self.materials: list[int] = []
+        self.objects: list[int] = []
+
+    def add(self, kind: Shape, row, material: int, obj: int) -> None:
+        padded = np.zeros(SHAPE_WIDTH, dtype=np.float64)
+        padded[: len(row)] = row
+        self.rows.append(padded)
+        self.kinds.append(int(kind))
+        self.materials.append(material)
+        self.objects.append(obj)
+
+    def table(self) -> np.ndarray:
+        return np.asarray(self.rows, dtype=np.float64).reshape(-1, SHAPE_WIDTH)
+
+    def bounded(self) -> np.ndarray:
+        return np.array([is_bounded(Shape(k)) for k in self.kinds], dtype=bool)
+
+    def bounds(self, rows: np.ndarray, which: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        lo = np.empty((len(which), 3))
+        hi = np.empty((len(which), 3))
+        kinds = np.asarray(self.kinds, dtype=np.int64)[which]
+        for kind in np.unique(kinds):
+            sel = kinds == kind
+            lo[sel], hi[sel] = shape_bounds(Shape(int(kind)), rows[which[sel]])
+        return lo, hi
+
+
+class SceneGeometry:
+    """The geometry of a scene as it is gathered, object by object, before the BVHs are built:
+    analytic shapes, world-space triangles, and instanced meshes."""
+
+    def __init__(self):
+        self.analytic = _Analytic()
+        self.soup = _TriangleSoup()
+        self.instanced: list[_InstancedMesh] = []
+
+    def add_mesh(
+        self,
+        mesh: MeshData,
+        material: int,
+        obj: int,
+        instances: np.ndarray | None = None,
+        *,
+        uvs: bool = False,
+        instance_ids: np.ndarray | None = None,
+    ) -> None:
+        """Add a triangle mesh of scene object `obj` (the `object` AOV) with row `material` of
+        the materials table. The `prim` AOV is the face's index in `mesh.faces`.
+
+        Without `instances`, the mesh's vertices are in world space and its triangles join the
+        world BVH with every other primitive. With `instances`, float (N, 3, 4) or (N, 4, 4)
+        object-to-world matrices (column vectors, p' = M @ [p, 1]; finite and invertible, see
+        scene/instances.check_matrices), the mesh is stored once, in its own space, with its
+        own BVH (a BLAS), and each instance costs its inverse matrix, two indices and its share
+        of the top-level BVH. `instance_ids` (int (N,), default 0..N-1) are the `instance` AOV's
+        values. `uvs`: keep the mesh's texture coordinates (mesh.uvs must exist)."""
+        tris = mesh.vertices.astype(np.float32)[mesh.faces].reshape(-1, 9)
+        normals = None if mesh.normals is None else mesh.normals.astype(np.float32)[mesh.faces].reshape(-1, 9)
+        uv6 = mesh.uvs.astype(np.float32)[mesh.faces].reshape(-1, 6) if uvs else None
+        self.soup.degenerate += mesh.degenerate
+        if instances is None:
+            self.soup.add(tris, normals, material, obj, uv6)
+            return
+        m = np.asarray(instances, dtype=np.float64)
+        m = np.ascontiguousarray(m[:, :3, :])
+        ids = np.arange(len(m), dtype=np.int32) if instance_ids is None else np.asarray(instance_ids, np.int32)
+        self.instanced.append(_InstancedMesh(tris, normals, uv6, material, obj, m, ids))
+
+
+class Gathered(NamedTuple):
+    """What the objects stage found: the geometry, the materials in use (model -> row, the
+    default first) with the key path of each, images decoded from glTF files, and the seconds
+    spent reading mesh files."""
+
+    geometry: SceneGeometry
+    materials: dict[Material, int]
+    material_where: dict[Material, str]
+    images: dict[str, np.ndarray]
+    mesh_seconds: float
+
+
+def gather_objects(scene: Scene, source: str) -> Gathered:
+    """Every object of the scene into a SceneGeometry, and the materials they use."""
+    materials: dict[Material, int] = {DEFAULT_MATERIAL: 0}
+    material_where: dict[Material, str] = {}  # key path of each material, for error messages
+
+    def material_index(obj, k) -> int:
+        mat = scene.material_of(obj)
+        ref = obj.material
+        material_where.setdefault(mat, f"materials.{ref}" if isinstance(ref, str) else f"objects[{k}].material")
+        return materials.setdefault(mat, len(materials))
+
+    def needs_uvs(obj) -> bool:
+        return isinstance(scene.material_of(obj).texture, ImageTexture)
+
+    geometry = SceneGeometry()
+    analytic, soup = geometry.analytic, geometry.soup
+    images: dict[str, np.ndarray] = {}  # textures decoded from glTF files
+    mesh_seconds = 0.0  # reading mesh files: part of the build, reported apart
+    for k, obj in enumerate(scene.objects):
+        m = material_index(obj, k)
+        kind = ANALYTIC_MODELS.get(type(obj))
+        if isinstance(obj, Gltf):  # a glTF file's meshes with their own materials (scene/gltf.py)
+            loading = time.perf_counter()
+            imported = _load_gltf_object(scene, k, obj, source)
+            mesh_seconds += time.perf_counter() - loading
+            images.update(imported.images)
+            for part in imported.parts:
+                mat = imported.materials[part.material]
+                material_where.setdefault(mat, f"objects[{k}].file")
+                m = materials.setdefault(mat, len(materials))
+                _add_gltf_part(geometry, part, m, k, mat.texture is not None)
+        elif kind is not None:
+            analytic.add(kind, ANALYTIC[kind].pack(obj, object_matrix(obj)), m, k)
+        elif isinstance(obj, Triangle):
+            uvs = np.array([[0, 0, 1, 0, 0, 1]], dtype=np.float32) if needs_uvs(obj) else None
+            soup.add(np.asarray(obj.vertices, dtype=np.float32).reshape(1, 9), None, m, k, uvs)
+        else:
+            matrices = _instance_matrices(scene, k, obj, source)  # before the (slower) mesh file
+            loading = time.perf_counter()
+            mesh = _load_mesh_object(scene, k, obj, source)
+            mesh_seconds += time.perf_counter() - loading
+            if needs_uvs(obj) and mesh.uvs is None:
+                raise SceneError(
+                    f"{source}: objects[{k}].file: the mesh has no texture coordinates (UVs), "
+                    "which its material's image texture needs"
+                )
+            geometry.add_mesh(mesh, m, k, matrices, uvs=needs_uvs(obj))
+    return Gathered(geometry, materials, material_where, images, mesh_seconds)

@@ -1,0 +1,108 @@
+"""compile_scene: the scene model -> the flat arrays the kernels read (kernels/scene.py), in
+stages: objects (objects.py), geometry and BVH (geometry.py), materials and textures
+(materials.py), lights and emitters (lights.py, with the environment, environment.py).
+
+The compiled scene holds no camera and no file paths: geometry, materials, textures, lights
+and the BVH only, so one compilation renders through any camera (Session) and can be pickled
+and shipped (a cluster's workers never read the scene's files).
+"""
+
+from __future__ import annotations
+
+import time
+from typing import NamedTuple
+
+import numpy as np
+
+from ..accel.wide import wide_nbytes
+from ..kernels.frame_stack import roomy_frame_stack
+from ..kernels.geometry.shapes import PRIM_KIND, Shape
+from ..kernels.scene import KernelScene
+from ..kernels.shading.materials import MAT_TRANSPARENCY
+from ..scene.model import Scene
+from .geometry import build_geometry
+from .lights import build_light_table, scene_environment
+from .materials import material_table
+from .objects import gather_objects
+
+
+class CompiledScene(NamedTuple):
+    kernel: KernelScene  # epsilon_floor left at the geometry's own; see with_camera
+    extent: float  # largest coordinate magnitude of the geometry (for ray offsets)
+    stats: dict  # primitives, triangles, bvh_nodes, bvh_bytes, build_seconds, ...
+
+    def for_camera(self, position) -> KernelScene:
+        """The kernel scene with the ray-offset floor for a camera at `position`: a tiny
+        fraction of the extent of the scene and the camera together."""
+        extent = max(self.extent, float(np.abs(np.asarray(position, dtype=np.float64)).max()))
+        return self.kernel._replace(epsilon_floor=float(max(1e-3 * extent, 1e-30)))
+
+
+@roomy_frame_stack  # the BVH builder's kernels compile on first use (kernels/frame_stack.py)
+def compile_scene(scene: Scene, source="<scene>", accelerate: bool = True) -> CompiledScene:
+    """Flatten the scene into arrays. `accelerate=False` skips the BVH (the rasterizer needs
+    none: at 4M triangles that saves about 9 s)."""
+    start = time.perf_counter()
+    gathered = gather_objects(scene, source)
+    g = build_geometry(gathered.geometry, accelerate, source)
+    mat_rows, textures = material_table(
+        gathered.materials, gathered.material_where, scene.base_dir, source, gathered.images
+    )
+    environment = scene_environment(scene, source)
+    # instanced meshes' triangles (stored in object space) are sampled per mesh, through its
+    # instances (lights.instanced_emitters), not one row per triangle
+    world = np.ones(len(g.prims), dtype=bool)
+    world[g.n_world : g.n_bounded] = False
+    lights = build_light_table(
+        scene, g.prims, g.shapes, g.triangles, mat_rows, environment, g.extent, candidates=world, instances=g.instances
+    )
+    inst = g.instances
+    kernel = KernelScene(
+        prims=g.prims,
+        n_bounded=g.n_bounded,
+        shapes=g.shapes,
+        triangles=g.triangles,
+        triangle_normals=g.triangle_normals,
+        triangle_smooth=g.triangle_smooth,
+        triangle_uvs=g.triangle_uvs,
+        node_bounds=g.bvh.node_bounds,
+        node_index=g.bvh.node_index,
+        materials=mat_rows,
+        textures=textures.table(),
+        texels=textures.texels(),
+        light_kind=lights.kind,
+        light_data=lights.data,
+        light_order=lights.order,
+        light_cdf=lights.cdf,
+        light_dist=lights.dist,
+        n_area_lights=lights.n_area,
+        environment_row=lights.environment_row,
+        ambient_row=lights.ambient_row,
+        env_image=environment.image,
+        env_marginal_cdf=environment.marginal_cdf,
+        env_conditional_cdf=environment.conditional_cdf,
+        env_rotation=environment.rotation,
+        env_present=environment.present,
+        has_transparency=bool((mat_rows[:, MAT_TRANSPARENCY] > 0).any()),
+        basic_shapes=bool(np.isin(g.prims[:, PRIM_KIND], (Shape.SPHERE, Shape.TRIANGLE)).all()),
+        inst_node_bounds=inst.node_bounds,
+        inst_node_index=inst.node_index,
+        instance_inverse=inst.inverse,
+        instance_index=inst.index,
+        epsilon_floor=1e-30,
+    )
+    stats = {
+        "primitives": len(g.prims),
+        "triangles": len(g.triangles),  # stored: an instanced mesh's once (instanced_triangles: as drawn)
+        "degenerate_triangles": gathered.geometry.soup.degenerate,
+        # without acceleration (the rasterizer's scenes) there is no BVH to report, only the
+        # placeholder leaf that keeps the kernels' arrays typed alike
+        "bvh_nodes": int(len(g.bvh.node_index)) if accelerate else 0,  # BVH_WIDTH-wide nodes
+        "bvh_depth": int(g.depth) if accelerate else 0,
+        # nodes, and the two columns of the primitive table that traversal reads (kind, row)
+        "bvh_bytes": int(wide_nbytes(g.bvh) + 8 * len(g.prims) + inst.node_bytes) if accelerate else 0,
+        "build_seconds": time.perf_counter() - start,
+        "mesh_load_seconds": gathered.mesh_seconds,
+        **inst.stats,
+    }
+    return CompiledScene(kernel, g.extent, stats)
