@@ -13,7 +13,7 @@ import trimesh
 from numba import typeof
 
 import raylume
-import raylume.session as session
+import raylume.render_window as render_window
 from raylume.image import Image
 from raylume.kernels.geometry import wavefront_spheres
 from raylume.kernels.integrators import wavefront
@@ -35,7 +35,7 @@ def _render_both(scene, monkeypatch, **overrides):
     compiled = raylume.Session(scene).compiled
     assert features(compiled.kernel) is None, "the scene must be basic to take the wavefront"
     wave = raylume.render(scene, aovs=False, **overrides)
-    monkeypatch.setattr(session, "features", instances_of)
+    monkeypatch.setattr(render_window, "features", instances_of)
     single = raylume.render(scene, aovs=False, **overrides)
     monkeypatch.undo()
     return wave, single

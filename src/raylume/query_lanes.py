@@ -70,7 +70,7 @@ def intersect_rays(
     if not unit or tmin.shape[0] > 1 or tmax.shape[0] > 1:
         width = 0
     layout = chunk_layout(origins.shape[0], width)
-    args = (S, X, origins, directions, tmin, tmax, t_out, object_out, prim_out, instance_out, width, layout)
+    args = (S, X, origins, directions, (tmin, tmax), (t_out, object_out, prim_out, instance_out), width, layout)
     return _run_lanes(intersect_lane, args, layout[0], lanes, unit)
 
 

@@ -27,10 +27,11 @@ import numpy as np
 
 from .accel.wide import NODE_COUNT, NODE_FIRST
 from .kernels.film.camera import CAM_POSITION, CAM_UP
+from .kernels.film.image_pass import Aovs
 from .kernels.frame_stack import roomy_frame_stack
 from .kernels.geometry.shapes import PRIM_KIND, PRIM_ROW, Shape
 from .kernels.geometry.shapes import tessellate as tessellate_shape
-from .kernels.raster.raster_kernel import rasterize_arrays
+from .kernels.raster.raster_kernel import Parts, rasterize_arrays
 
 NEAR_FRACTION = 1e-30  # near plane distance, as a fraction of the scene's extent
 
@@ -76,27 +77,8 @@ def rasterize(
     }
     _warm_up(S, cam, near, background)
     start = time.perf_counter()
-    rasterize_arrays(
-        S,
-        cam,
-        W,
-        H,
-        near,
-        triangle_prim,
-        extra,
-        extra_prim,
-        extra_part,
-        prim_instance,
-        background,
-        aovs,
-        rgb,
-        arrays["depth"],
-        arrays["normal"],
-        arrays["object"],
-        arrays["prim"],
-        arrays["instance"],
-        arrays["albedo"],
-    )
+    parts = Parts(triangle_prim, extra, extra_prim, extra_part, prim_instance)
+    rasterize_arrays(S, cam, W, H, near, parts, background, rgb, Aovs(**arrays), aovs)
     kernel_seconds = time.perf_counter() - start
     if progress is not None:
         progress(H, H)
@@ -109,27 +91,12 @@ def _warm_up(S, cam, near, background):
     empty = S._replace(triangles=S.triangles[:0])
     rgb = np.zeros((1, 1, 3), np.float32)
     none = np.zeros(0, np.int32)
-    rasterize_arrays(
-        empty,
-        cam,
-        1,
-        1,
-        near,
-        none,
-        np.zeros((0, 9)),
-        none,
-        np.zeros(0),
-        np.zeros(len(S.prims), np.int32),
-        background,
-        True,
-        rgb,
-        np.zeros((1, 1), np.float32),
-        np.zeros((1, 1, 3), np.float32),
-        np.zeros((1, 1), np.int32),
-        np.zeros((1, 1), np.int32),
-        np.zeros((1, 1), np.int32),
-        np.zeros((1, 1, 3), np.float32),
+    parts = Parts(none, np.zeros((0, 9)), none, np.zeros(0), np.zeros(len(S.prims), np.int32))
+    one = np.zeros((1, 1), np.float32), np.zeros((1, 1, 3), np.float32), np.zeros((1, 1), np.int32)
+    aovs = Aovs(
+        depth=one[0], normal=one[1], object=one[2], prim=one[2].copy(), albedo=one[1].copy(), instance=one[2].copy()
     )
+    rasterize_arrays(empty, cam, 1, 1, near, parts, background, rgb, aovs, True)
 
 
 # Instances are drawn as plain triangles, each instance's copy of its mesh; beyond this many

@@ -24,6 +24,7 @@ from .errors import RaylumeError
 from .image import Image
 from .kernels.film.camera import camera_of, set_cone_spread
 from .kernels.film.film import Film
+from .kernels.film.image_pass import Aovs, ImagePass
 from .kernels.frame_stack import on_roomy_frame_stack
 from .kernels.integrators.frame import (
     AOV_ROWS,
@@ -31,6 +32,7 @@ from .kernels.integrators.frame import (
     PASS_ROWS,
     PROGRESS_STRIDE,
     STOP,
+    LaneControl,
     aov_lane,
     cast_lane,
     path_lane,
@@ -164,7 +166,7 @@ def add_samples_to_film(S, cam, film: Film, spp: int, settings, aov: dict, progr
     rows_done = np.zeros(lanes * PROGRESS_STRIDE, dtype=np.int64)  # one padded counter per lane
     # control[STOP] = 1 stops every lane before its next row; the lanes claim rows from counters in it
     control = np.zeros(CONTROL_SIZE, dtype=np.int64)
-    background = np.asarray(settings.background, dtype=np.float64)
+    background = tuple(float(c) for c in settings.background)
     samples = (film.spp, spp, film.total_spp)  # first, count, total
     X = features(S)  # None: the kernels' variant for spheres and opaque triangles only
     if settings.mode == "path":
@@ -172,22 +174,19 @@ def add_samples_to_film(S, cam, film: Film, spp: int, settings, aov: dict, progr
     rejected = np.zeros(lanes * PROGRESS_STRIDE, dtype=np.int64)
     strategy = path_strategy()
 
+    aovs = Aovs(**{name: aov[name] for name in Aovs._fields}) if aov else None
+
     def lane_job(lane: int, window) -> None:
-        if aov:
-            depth, normal, obj, prim, albedo, instance = (aov[k] for k in AOV_NAMES)
-            aov_lane(
-                S, X, cam, W, H, window, lane, AOV_ROWS, depth, normal, obj, prim, albedo, instance, aov_rays_per_row,
-                rows_done, control,
-            )  # fmt: skip
+        P = ImagePass(cam, film.filter, W, H, window, samples, settings.seed, settings.depth, background)
+        if aovs is not None:
+            aov_lane(S, X, P, aovs, LaneControl(lane, AOV_ROWS, rows_done, control, aov_rays_per_row, rejected))
+        C = LaneControl(lane, PASS_ROWS, rows_done, control, rays_per_row, rejected)
         if settings.mode == "cast":
-            cast_lane(S, X, cam, film.filter, W, H, window, lane, PASS_ROWS, samples, settings.seed, background,
-                      film.sums, rays_per_row, rows_done, control)  # fmt: skip
+            cast_lane(S, X, P, film.sums, C)
         elif settings.mode == "path":
-            path_lane(S, X, cam, film.filter, W, H, window, lane, PASS_ROWS, samples, settings.seed, settings.depth,
-                      background, film.sums, rays_per_row, rows_done, control, rejected, strategy)  # fmt: skip
+            path_lane(S, X, P, film.sums, C, strategy)
         else:
-            trace_lane(S, X, cam, film.filter, W, H, window, lane, PASS_ROWS, samples, settings.seed, settings.depth,
-                       background, film.sums, rays_per_row, rows_done, control)  # fmt: skip
+            trace_lane(S, X, P, film.sums, C)
 
     status = status or (lambda what: None)
     status("compiling")

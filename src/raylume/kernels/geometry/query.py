@@ -336,11 +336,9 @@ def load_chunk(origins, directions, unit, width, share, segment, chunk_origins, 
 
 
 @roomy_njit(nogil=True, fastmath=FAST, cache=True, error_model="numpy")
-def intersect_lane(
-    S, X, origins, directions, tmin, tmax, t_out, object_out, prim_out, instance_out, width, layout, lane, lanes,
-    unit, bad,
-):  # fmt: skip
-    """Closest hits of lane `lane` of `lanes` between tmin and tmax (span_of): the chunks of
+def intersect_lane(S, X, origins, directions, spans, outputs, width, layout, lane, lanes, unit, bad):
+    """Closest hits of lane `lane` of `lanes` between spans = (tmin, tmax) (span_of) into outputs
+    = (t, object, prim, instance) (store_hits): the chunks of
     shares lane, lane + lanes, ... of the rays (layout: chunk_layout(n, width); width:
     grid_width or 0). With `unit`, directions of any length, made unit vectors chunk by chunk
     (_unit_rays), and the rays that cannot be (or have an origin that is not finite) counted in
@@ -350,8 +348,6 @@ def intersect_lane(
     packets = packet_scratch()
     hits = chunk_hits()
     scratch = chunk_scratch()
-    spans = (tmin, tmax)
-    outputs = (t_out, object_out, prim_out, instance_out)
     refused = 0
     # An image's lane takes whole bands (two rows) in turn, their chunks side by side: bumpy 4M
     # frames on 2 threads 3-4% faster than with the chunks dealt out one by one, as rays in

@@ -6,6 +6,8 @@ with a stratified point on the lens. One sample per pixel is the pinhole ray thr
 centre. Samples are added to the film's running sums; samples first..first+spp-1 of a pass
 continue from whatever earlier passes left there."""
 
+from typing import NamedTuple
+
 import numpy as np
 from llvmlite import ir
 from numba import njit, types
@@ -62,6 +64,20 @@ def _cast_shade(G, F, X, Env, o, d, t, prim, b1, b2, spread, background):
 # line apart, against false sharing) and checks control[STOP] before each row: the waiting
 # thread shows progress from the counters and stops a render within a row's time.
 LANE = dict(nogil=True, cache=True, fastmath=FAST, error_model="numpy")
+
+
+class LaneControl(NamedTuple):
+    """A lane's place among the lanes: its number, the control array's counter it claims rows
+    from, and the arrays it reports into (progress, rays per row, rejected path samples)."""
+
+    lane: int
+    counter: int
+    rows_done: np.ndarray
+    control: np.ndarray
+    rays_per_row: np.ndarray
+    rejected: np.ndarray
+
+
 PROGRESS_STRIDE = 16
 # The lanes' int64 control array: the stop flag, then a row counter per pass (a render with AOVs
 # makes two passes), each in a cache line of its own.
@@ -87,104 +103,80 @@ def claim_row(typingctx, control, counter):
 
 
 @njit(**LANE)
-def trace_lane(
-    S, X, cam, filt, width, height, window, lane, counter, samples, seed, max_depth, background, film, rays_per_row,
-    rows_done, control,
-):  # fmt: skip
-    """Whitted-traced samples of the lane's rows into the film; rays traced per row into rays_per_row."""
+def trace_lane(S, X, P, film, C):
+    """Whitted-traced samples of the lane's rows of pass P into the film; rays traced per row
+    into C.rays_per_row."""
     node_stack, t_stack = traversal_stacks()
-    slots = stack_rows(max_depth)
+    slots = stack_rows(P.max_depth)
     work = scratch_array(slots * RAY_WIDTH, np.float64).reshape((slots, RAY_WIDTH))
     G, F, L = geometry_of(S), surfaces_of(S), lights_of(S)
     wave = wavefront_scratch(G, F)  # (a branch on X would not type: Numba unifies both arms)
-    bg = (background[0], background[1], background[2])
     Env = environment_of(S)
-    x0, y0, x1, y1 = window
+    x0, y0, x1, y1 = P.window
     while True:
-        j = y0 + claim_row(control, counter)
-        if j >= y1 or control[STOP] != 0:
+        j = y0 + claim_row(C.control, C.counter)
+        if j >= y1 or C.control[STOP] != 0:
             break
-        rays_per_row[j - y0] += _trace_row(
-            G, F, L, X, Env, cam, filt, j, window, width, height, samples, seed, max_depth, bg, film, work, wave,
-            node_stack, t_stack,
-        )  # fmt: skip
-        rows_done[lane * PROGRESS_STRIDE] += 1
+        C.rays_per_row[j - y0] += _trace_row(G, F, L, X, Env, P, j, film, work, wave, node_stack, t_stack)
+        C.rows_done[C.lane * PROGRESS_STRIDE] += 1
 
 
 @njit(**LANE)
-def path_lane(
-    S, X, cam, filt, width, height, window, lane, counter, samples, seed, max_depth, background, film, rays_per_row,
-    rows_done, control, rejected, strategy,
-):  # fmt: skip
-    """Path-traced samples of the lane's rows into the film; rays per row into rays_per_row, and
-    samples rejected as NaN, infinite or negative into rejected[lane * PROGRESS_STRIDE]."""
+def path_lane(S, X, P, film, C, strategy):
+    """Path-traced samples of the lane's rows of pass P into the film; rays per row into
+    C.rays_per_row, and samples rejected as NaN, infinite or negative into
+    C.rejected[lane * PROGRESS_STRIDE]."""
     node_stack, t_stack = traversal_stacks()
-    bg = (background[0], background[1], background[2])
     G, F, Em = geometry_of(S), surfaces_of(S), emitters_of(S)
     Env = environment_of(S)
-    x0, y0, x1, y1 = window
+    x0, y0, x1, y1 = P.window
     while True:
-        j = y0 + claim_row(control, counter)
-        if j >= y1 or control[STOP] != 0:
+        j = y0 + claim_row(C.control, C.counter)
+        if j >= y1 or C.control[STOP] != 0:
             break
-        rays, bad = _path_row(
-            G, F, Em, Env, X, cam, filt, j, window, width, height, samples, seed, max_depth, bg, film, node_stack,
-            t_stack, strategy,
-        )  # fmt: skip
-        rays_per_row[j - y0] += rays
-        rejected[lane * PROGRESS_STRIDE] += bad
-        rows_done[lane * PROGRESS_STRIDE] += 1
+        rays, bad = _path_row(G, F, Em, Env, X, P, j, film, node_stack, t_stack, strategy)
+        C.rays_per_row[j - y0] += rays
+        C.rejected[C.lane * PROGRESS_STRIDE] += bad
+        C.rows_done[C.lane * PROGRESS_STRIDE] += 1
 
 
 @njit(**LANE)
-def cast_lane(
-    S, X, cam, filt, width, height, window, lane, counter, samples, seed, background, film, rays_per_row, rows_done,
-    control,
-):  # fmt: skip
-    """Ray-cast samples (the closest hit's albedo) of the lane's rows into the film."""
+def cast_lane(S, X, P, film, C):
+    """Ray-cast samples (the closest hit's albedo) of the lane's rows of pass P into the film."""
     node_stack, t_stack = traversal_stacks()
     packets = packet_scratch()
     rays = camera_packet_scratch()
-    bg = (background[0], background[1], background[2])
     G, F = geometry_of(S), surfaces_of(S)
-    x0, y0, x1, y1 = window
+    x0, y0, x1, y1 = P.window
     # One sample a pixel in packets: rows are claimed in pairs and traced in packets of 4 x 2
     # pixels, more coherent than 8 x 1 (_cast_row)
-    pairs = samples[1] == 1 and uses_packets(G, X)
+    pairs = P.samples[1] == 1 and uses_packets(G, X)
     step = 2 if pairs else 1
     while True:
-        j = y0 + step * claim_row(control, counter)
-        if j >= y1 or control[STOP] != 0:
+        j = y0 + step * claim_row(C.control, C.counter)
+        if j >= y1 or C.control[STOP] != 0:
             break
         pair = pairs and j + 1 < y1  # a window's odd last row goes alone
-        n = _cast_row(
-            G, F, X, environment_of(S), cam, filt, j, pair, window, width, height, samples, seed, bg, film,
-            node_stack, t_stack, packets, rays,
-        )  # fmt: skip
-        rays_per_row[j - y0] += n
+        n = _cast_row(G, F, X, environment_of(S), P, j, pair, film, node_stack, t_stack, packets, rays)
+        C.rays_per_row[j - y0] += n
         if pair:
-            rays_per_row[j + 1 - y0] += n
-        rows_done[lane * PROGRESS_STRIDE] += 2 if pair else 1
+            C.rays_per_row[j + 1 - y0] += n
+        C.rows_done[C.lane * PROGRESS_STRIDE] += 2 if pair else 1
 
 
 @njit(**LANE)
-def aov_lane(
-    S, X, cam, width, height, window, lane, counter, depth, normal, obj_id, prim_id, albedo_out, inst_id,
-    rays_per_row, rows_done, control,
-):  # fmt: skip
-    """Primary-hit AOVs (depth, normal, object, prim, albedo, instance) of the lane's rows."""
+def aov_lane(S, X, P, A, C):
+    """Primary-hit AOVs A (depth, normal, object, prim, albedo, instance) of the lane's rows of
+    pass P's window."""
     node_stack, t_stack = traversal_stacks()
     G, F = geometry_of(S), surfaces_of(S)
-    x0, y0, x1, y1 = window
+    x0, y0, x1, y1 = P.window
     while True:
-        j = y0 + claim_row(control, counter)
-        if j >= y1 or control[STOP] != 0:
+        j = y0 + claim_row(C.control, C.counter)
+        if j >= y1 or C.control[STOP] != 0:
             break
-        rays_per_row[j - y0] += _primary_aovs_row(
-            G, F, X, cam, j, window, width, height, node_stack, t_stack, depth, normal, obj_id, prim_id, albedo_out,
-            inst_id,
-        )  # fmt: skip
-        rows_done[lane * PROGRESS_STRIDE] += 1
+        C.rays_per_row[j - y0] += _primary_aovs_row(G, F, X, P, j, A, node_stack, t_stack)
+        C.rows_done[C.lane * PROGRESS_STRIDE] += 1
 
 
 @kernel_function(_nrt=True)
@@ -198,10 +190,7 @@ def camera_packet_scratch():
 
 
 @kernel_function
-def _cast_row(
-    G, F, X, Env, cam, filt, j, pair, window, width, height, samples, seed, bg, film, node_stack, t_stack, packets,
-    rays,
-):  # fmt: skip
+def _cast_row(G, F, X, Env, P, j, pair, film, node_stack, t_stack, packets, rays):
     """Ray-cast samples of row j: the row's camera samples in pixel order (each pixel's samples
     in turn), traced eight at a time as a packet (kernels/packet.py) where they are coherent.
     Samples that are not (a wide lens) are traced one by one, and so are all in a scene whose
@@ -212,6 +201,7 @@ def _cast_row(
     directions spread less than eight along a row (on a mesh with several triangles under each
     pixel they soon need leaves of their own); each pixel's one sample is added as alone.
     Returns the samples of one row."""
+    cam, filt, width, height, window, samples, seed, _, bg = P
     first, count, total_spp = samples
     x0, y0, x1, y1 = window
     total_samples = (x1 - x0) * count
@@ -272,17 +262,12 @@ def _cast_row(
 
 
 @kernel_function
-def _trace_row(
-    G, F, L, X, Env, cam, filt, j, window, width, height, samples, seed, max_depth, bg, film, work, wave, node_stack,
-    t_stack,
-):  # fmt: skip
+def _trace_row(G, F, L, X, Env, P, j, film, work, wave, node_stack, t_stack):
     """Whitted-traced samples of row j into the film; returns the rays traced. Basic scenes go
-    through the wavefront (kernels/wavefront.py), the others ray by ray (trace.py)."""
+    through the wavefront (wavefront.py), the others ray by ray (trace.py)."""
     if X is None:
-        return wavefront_row(
-            G, F, L, X, Env, cam, filt, j, window, width, height, samples, seed, max_depth, bg, film, wave,
-            node_stack, t_stack,
-        )  # fmt: skip
+        return wavefront_row(G, F, L, X, Env, P, j, film, wave, node_stack, t_stack)
+    cam, filt, width, height, window, samples, seed, max_depth, bg = P
     first, count, total_spp = samples
     x0, y0, x1, y1 = window
     spread = cam[CAM_CONE_SPREAD]
@@ -301,10 +286,10 @@ def _trace_row(
 
 
 @kernel_function
-def _path_row(
-    G, F, Em, Env, X, cam, filt, j, window, width, height, samples, seed, max_depth, bg, film, node_stack, t_stack,
-    strategy,
-):  # fmt: skip
+def _path_row(G, F, Em, Env, X, P, j, film, node_stack, t_stack, strategy):
+    """Path-traced samples of row j into the film; returns the rays traced and the samples
+    rejected (not finite, or negative)."""
+    cam, filt, width, height, window, samples, seed, max_depth, bg = P
     first, count, total_spp = samples
     x0, y0, x1, y1 = window
     spread = cam[CAM_CONE_SPREAD]
@@ -326,12 +311,12 @@ def _path_row(
 
 
 @kernel_function
-def _primary_aovs_row(
-    G, F, X, cam, j, window, width, height, node_stack, t_stack, depth, normal, obj_id, prim_id, albedo_out, inst_id
-):
-    """Depth, normal, object, prim, albedo and instance of the (pinhole) rays through the row's
-    pixel centres. Returns rays traced."""
-    x0, y0, x1, y1 = window
+def _primary_aovs_row(G, F, X, P, j, A, node_stack, t_stack):
+    """Depth, normal, object, prim, albedo and instance (A) of the (pinhole) rays through the
+    row's pixel centres. Returns rays traced."""
+    cam, width, height = P.camera, P.width, P.height
+    depth, normal, obj_id, prim_id, albedo_out, inst_id = A
+    x0, y0, x1, y1 = P.window
     r = j - y0
     spread = cam[CAM_CONE_SPREAD]
     for i in range(x0, x1):

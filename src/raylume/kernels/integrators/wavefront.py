@@ -630,12 +630,11 @@ def _pinhole_directions(R, n, cam, i0, j, width, height, spread):
 
 
 @kernel_function
-def wavefront_row(
-    G, F, L, X, Env, cam, filt, j, window, width, height, samples, seed, max_depth, bg, film, scratch, node_stack,
-    t_stack,
-):  # fmt: skip
-    """trace mode's _trace_row for a basic scene: the row's samples, in pixel order, through the
-    Whitted loop TILE at a time, then into the film in order. Returns the rays traced."""
+def wavefront_row(G, F, L, X, Env, P, j, film, scratch, node_stack, t_stack):
+    """trace mode's _trace_row for a basic scene: the row's samples of pass P (film/image_pass.py),
+    in pixel order, through the Whitted loop TILE at a time, then into the film in order.
+    Returns the rays traced."""
+    cam, filt, width, height, window, samples, seed, max_depth, bg = P
     R, I, M, C, _, _ = scratch
     first, count, total_spp = samples
     x0, y0, x1, y1 = window

@@ -53,12 +53,14 @@ shadows, reflection or refraction).
 
 import math
 import threading
+from typing import NamedTuple
 
 import numba
 import numpy as np
 from numba import njit, prange
 
 from ..film.camera import CAM_CONE_SPREAD, CAM_FORWARD, CAM_POSITION, CAM_RIGHT, CAM_UP, obliquity
+from ..film.image_pass import Aovs
 from ..geometry.shapes import PRIM_MATERIAL, offset_epsilon, surface
 from ..geometry.wide_nodes import traversal_stacks
 from ..integrators.direct import unshadowed_lighting
@@ -360,73 +362,44 @@ def _draw_bands(view, near, height, tri, extra, n_main, bounds, band_start, entr
             )
 
 
+class RasterView(NamedTuple):
+    """The camera array, the view matrix (view_matrix), the image's size and the background."""
+
+    camera: np.ndarray
+    view: np.ndarray
+    width: int
+    height: int
+    background: np.ndarray
+
+
+class Drawn(NamedTuple):
+    """What the depth passes leave for shading: the extra triangles (tessellated analytic shapes)
+    and which primitive (and part) each triangle draws, each primitive's `instance` AOV, how many
+    of the triangles are the scene's own, and per pixel the nearest 1/z and triangle."""
+
+    extra: np.ndarray
+    triangle_prim: np.ndarray
+    extra_prim: np.ndarray
+    extra_part: np.ndarray
+    prim_instance: np.ndarray
+    n_main: int
+    zbuf: np.ndarray
+    tid: np.ndarray
+
+
 @njit(parallel=True, fastmath=RFAST, cache=True, error_model="numpy")
-def _shade(
-    S,
-    X,
-    cam,
-    view,
-    width,
-    height,
-    extra,
-    triangle_prim,
-    extra_prim,
-    extra_part,
-    prim_instance,
-    n_main,
-    zbuf,
-    tid,
-    background,
-    want_aovs,
-    rgb,
-    depth,
-    normal,
-    obj_id,
-    prim_id,
-    inst_id,
-    albedo_out,
-):
+def _shade(S, X, V, D, rgb, A, want_aovs):
     """Pass 5: shade every pixel once from its nearest triangle, as `trace` lights a surface
-    (ambient, diffuse, specular; no shadows, reflection or refraction), and fill the AOVs
+    (ambient, diffuse, specular; no shadows, reflection or refraction), and fill the AOVs A
     when `want_aovs`."""
-    for j in prange(height):
+    for j in prange(V.height):
         # the scene's lean views, made per row (a parallel loop cannot capture them from outside)
         G = geometry_of(S)
         F = surfaces_of(S)
         L = lights_of(S)
         Env = environment_of(S)
         node_stack, t_stack = traversal_stacks()
-        _shade_row(
-            G,
-            F,
-            L,
-            X,
-            Env,
-            cam,
-            view,
-            width,
-            height,
-            j,
-            extra,
-            triangle_prim,
-            extra_prim,
-            extra_part,
-            prim_instance,
-            n_main,
-            zbuf,
-            tid,
-            background,
-            want_aovs,
-            rgb,
-            depth,
-            normal,
-            obj_id,
-            prim_id,
-            inst_id,
-            albedo_out,
-            node_stack,
-            t_stack,
-        )
+        _shade_row(G, F, L, X, Env, V, D, j, rgb, A, want_aovs, node_stack, t_stack)
 
 
 @kernel_function(fastmath=RFAST, error_model="numpy", forceinline=True)
@@ -440,39 +413,12 @@ def _pixel_direction(cam, a, b):
 
 
 @kernel_function(fastmath=RFAST, error_model="numpy")
-def _shade_row(
-    G,
-    F,
-    L,
-    X,
-    Env,
-    cam,
-    view,
-    width,
-    height,
-    j,
-    extra,
-    triangle_prim,
-    extra_prim,
-    extra_part,
-    prim_instance,
-    n_main,
-    zbuf,
-    tid,
-    background,
-    want_aovs,
-    rgb,
-    depth,
-    normal,
-    obj_id,
-    prim_id,
-    inst_id,
-    albedo_out,
-    node_stack,
-    t_stack,
-):
+def _shade_row(G, F, L, X, Env, V, D, j, rgb, A, want_aovs, node_stack, t_stack):
     """Row j of pass 5 (a function of its own: Numba's parallel analysis trips over the
     inlined lighting code inside a parallel loop)."""
+    cam, view, width, height, background = V
+    extra, triangle_prim, extra_prim, extra_part, prim_instance, n_main, zbuf, tid = D
+    depth, normal, obj_id, prim_id, albedo_out, inst_id = A
     tri = G.triangles
     o = (cam[CAM_POSITION], cam[CAM_POSITION + 1], cam[CAM_POSITION + 2])
     y = j + 0.5
@@ -572,6 +518,18 @@ def _buffer(name, shape, dtype):
     return kept[:size].reshape(shape)
 
 
+class Parts(NamedTuple):
+    """What raster.py gives the passes beside the scene: which primitive each of the scene's
+    triangles is, the tessellated analytic shapes (extra triangles, their primitives and parts)
+    and each primitive's `instance` AOV."""
+
+    triangle_prim: np.ndarray
+    extra: np.ndarray
+    extra_prim: np.ndarray
+    extra_part: np.ndarray
+    prim_instance: np.ndarray
+
+
 def release_scratch() -> None:
     """Free this thread's scratch buffers."""
     for name in ("zbuf", "tid", "bounds", "entries"):
@@ -579,33 +537,14 @@ def release_scratch() -> None:
             delattr(_scratch, name)
 
 
-def rasterize_arrays(
-    S,
-    cam,
-    width,
-    height,
-    near,
-    triangle_prim,
-    extra,
-    extra_prim,
-    extra_part,
-    prim_instance,
-    background,
-    want_aovs,
-    rgb,
-    depth,
-    normal,
-    obj_id,
-    prim_id,
-    inst_id,
-    albedo,
-):
-    """Run the passes over the kernel scene's triangles (row t is primitive triangle_prim[t])
-    plus `extra` (float64 (E, 9): tessellated analytic shapes, triangle e drawing primitive
-    extra_prim[e], part extra_part[e]) and write the image (every pixel) and, when
-    `want_aovs`, the AOVs. Compile by calling it on empty input first. prim_instance (int32
-    per primitive) is each primitive's `instance` AOV (raster.py draws instances as plain
-    triangles)."""
+def rasterize_arrays(S, cam, width, height, near, parts: Parts, background, rgb, A: Aovs, want_aovs):
+    """Run the passes over the kernel scene's triangles (row t is primitive
+    parts.triangle_prim[t]) plus `parts.extra` (float64 (E, 9): tessellated analytic shapes,
+    triangle e drawing primitive extra_prim[e], part extra_part[e]) and write the image (every
+    pixel) and, when `want_aovs`, the AOVs A. Compile by calling it on empty input first.
+    parts.prim_instance (int32 per primitive) is each primitive's `instance` AOV (raster.py
+    draws instances as plain triangles)."""
+    triangle_prim, extra, extra_prim, extra_part, prim_instance = parts
     tri = S.triangles
     n_main = tri.shape[0]
     n_total = n_main + extra.shape[0]
@@ -625,31 +564,9 @@ def rasterize_arrays(
         numba.set_parallel_chunksize(previous)
     # One variant of the shading pass for every scene, as path mode has: its parallel loop
     # compiles in ~90 s of CPU a variant, and the basic variant is only a few % faster.
-    _shade(
-        S,
-        path_features(S),
-        cam,
-        view,
-        width,
-        height,
-        extra,
-        triangle_prim,
-        extra_prim,
-        extra_part,
-        prim_instance,
-        n_main,
-        zbuf,
-        tid,
-        background,
-        want_aovs,
-        rgb,
-        depth,
-        normal,
-        obj_id,
-        prim_id,
-        inst_id,
-        albedo,
-    )
+    V = RasterView(cam, view, width, height, background)
+    D = Drawn(extra, triangle_prim, extra_prim, extra_part, prim_instance, n_main, zbuf, tid)
+    _shade(S, path_features(S), V, D, rgb, A, want_aovs)
 
 
 @njit(cache=True, fastmath=RFAST, error_model="numpy")
