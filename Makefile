@@ -37,8 +37,8 @@ test: $(STAMP_DEV)
 
 ## lint: ruff's lint rules and formatting (configured in pyproject.toml)
 lint: $(STAMP_DEV)
-	$(BIN)/ruff check src tests benchmarks
-	$(BIN)/ruff format --check src tests benchmarks
+	$(BIN)/ruff check src tests benchmarks tools
+	$(BIN)/ruff format --check src tests benchmarks tools
 
 ## bench: print the benchmark tables (see benchmarks/README.md)
 bench: $(STAMP_BENCH)
