@@ -16,7 +16,7 @@ from raylume.scene.model import MATERIAL_TYPES
 
 SRC = Path(raylume.__file__).parent
 KIND_ROOM = "kernels/shading/materials"
-QUESTIONS = ("pack", "trace_approximation", "evaluate", "sample", "delta_only", "two_sided")
+QUESTIONS = ("pack", "trace_approximation", "evaluate", "sample", "delta_only", "two_sided", "aov_albedo")
 
 
 def test_the_registry_and_the_scene_model_know_the_same_kinds():
@@ -118,6 +118,9 @@ def test_a_null_boundary_lets_every_path_through_unchanged():
     through = image.aovs["object"] == 1
     assert through.sum() > 50 and (~through).sum() > 50  # the sphere covers part of the view
     assert np.all(image.rgb == np.float32([0.25, 0.5, 1.0]))
+    # the denoiser's albedo guide: white where the boundary lets all light through, the
+    # emitter's (black) colour beside it
+    assert np.all(image.aovs["albedo"][through] == 1.0) and np.all(image.aovs["albedo"][~through] == 0.0)
 
 
 def test_a_null_boundary_is_invisible_in_trace_mode():

@@ -22,7 +22,7 @@ from ..geometry.traverse import closest_hit
 from ..geometry.wide_nodes import scratch_array, traversal_stacks
 from ..scene import emitters_of, environment_of, geometry_of, lights_of, surfaces_of
 from ..shading.environment import environment_radiance
-from ..shading.materials import albedo
+from ..shading.materials import albedo, aov_albedo
 from ..vec import FAST, dot, inline_function, kernel_function, madd, mul
 from .path import finite_sample, path_ray
 from .trace import RAY_WIDTH, stack_rows, trace_ray
@@ -337,7 +337,7 @@ def _primary_aovs_row(G, F, X, P, j, A, node_stack, t_stack):
             ng, ns, m, obj, face = surface(G, X, prim, b1, b2, p)
             if dot(ns, d) > 0.0:
                 ns = mul(ns, -1.0)
-            a = albedo(G, F, X, m, prim, b1, b2, p, d, ng, cone * t)
+            a = aov_albedo(F.materials, m, albedo(G, F, X, m, prim, b1, b2, p, d, ng, cone * t))
             depth[r, c0] = t
             obj_id[r, c0] = obj
             prim_id[r, c0] = face

@@ -66,7 +66,7 @@ from ..geometry.wide_nodes import traversal_stacks
 from ..integrators.direct import unshadowed_lighting
 from ..scene import environment_of, geometry_of, lights_of, surfaces_of
 from ..shading.environment import environment_radiance
-from ..shading.materials import MAT_EMISSION, MAT_TEXTURE, albedo
+from ..shading.materials import MAT_EMISSION, MAT_TEXTURE, albedo, aov_albedo
 from ..shading.textures import IMAGE, TEX_KIND
 from ..variants import path_features
 from ..vec import add, dot, hadamard, kernel_function, madd, mul, normalize, row3
@@ -479,9 +479,10 @@ def _shade_row(G, F, L, X, Env, V, D, j, rgb, A, want_aovs, node_stack, t_stack)
         for c in range(3):
             rgb[j, i, c] = shaded[c]
         if want_aovs:
+            guide = aov_albedo(F.materials, m, col)
             for c in range(3):
                 normal[j, i, c] = face[c]
-                albedo_out[j, i, c] = col[c]
+                albedo_out[j, i, c] = guide[c]
             depth[j, i] = dist
             obj_id[j, i] = obj
             prim_id[j, i] = face_id

@@ -1,11 +1,12 @@
 """Materials: one module per kind (phong.py, diffuse.py, conductor.py, dielectric.py, plastic.py,
 null.py), each all that its kind is: its row of the table packed from the model, its trace-mode
-approximation, path mode's evaluate / sample and its flags. registry.py lists the kinds and
+approximation, path mode's evaluate / sample, its flags and its albedo for the AOV and the
+denoiser. registry.py lists the kinds and
 makes the one dispatch per question; table.py the table's columns, the colour at a hit and
 Beer-Lambert absorption. A new kind: its module, its line in registry.KINDS, its model class
 (scene/model.py) — docs/architecture.md, "Adding a material"."""
 
-from .registry import BY_NAME, KINDS, bsdf_eval, bsdf_sample, delta_only, kind_module, two_sided
+from .registry import BY_NAME, KINDS, aov_albedo, bsdf_eval, bsdf_sample, delta_only, kind_module, two_sided
 from .table import (
     MAT_ABSORPTION,
     MAT_COLOR,
@@ -43,6 +44,7 @@ __all__ = [
     "MAT_TRANSPARENCY",
     "MAT_WIDTH",
     "albedo",
+    "aov_albedo",
     "beer_lambert",
     "bsdf_eval",
     "bsdf_sample",

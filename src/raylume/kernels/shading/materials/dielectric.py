@@ -106,3 +106,9 @@ def delta_only(mat, m):
 @inline_function
 def two_sided(mat, m):
     return False
+
+
+@inline_function
+def aov_albedo(mat, m, color):
+    """The `albedo` AOV and the denoiser's guide: the colour at the hit."""
+    return color

@@ -45,3 +45,10 @@ def delta_only(mat, m):
 @inline_function
 def two_sided(mat, m):
     return False
+
+
+@inline_function
+def aov_albedo(mat, m, color):
+    """The `albedo` AOV and the denoiser's guide: white, as for a surface that lets all light
+    through (OIDN's advice for perfect transmission)."""
+    return ONE

@@ -2,8 +2,8 @@
 
 KINDS is the registry: one module per kind, each defining NAME (the scene's `type`), KIND (its
 number in the table's MAT_KIND column), `pack` and `trace_approximation` (host side), and the
-kernel functions `evaluate`, `sample`, `delta_only` and `two_sided` (lobes.py gives their
-conventions). The switches below are made from KINDS (kernels/switch.py): for each question,
+kernel functions `evaluate`, `sample`, `delta_only`, `two_sided` and `aov_albedo` (lobes.py
+gives their conventions). The switches below are made from KINDS (kernels/switch.py): for each question,
 one function that compares the row's kind with each module's KIND in turn and returns that
 module's answer, and for a kind that no module defines (never: compile/materials.py packs only registered
 kinds) a failure, never another kind's answer."""
@@ -31,6 +31,8 @@ sample_lobe = _switch("sample", "mat, m, color, wo, u0, u1, u2", FAILED, inline_
 delta_only = _switch("delta_only", "mat, m", True, inline_function)
 # acts on whichever side a ray meets (the path's shading frame turns to face the ray)
 two_sided = _switch("two_sided", "mat, m", True, inline_function)
+# the `albedo` AOV (and the denoiser's guide) of row m whose colour at the hit is `color`
+aov_albedo = _switch("aov_albedo", "mat, m, color", ZERO, inline_function)
 
 
 @inline_function  # one call site (path.py); a call cost ~25 ns a bounce
