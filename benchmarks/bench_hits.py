@@ -1,7 +1,7 @@
 """Hit rays against Embree: the issue-13 ratio, measured so that a busy machine does not decide it.
 
 The camera rays of bench_bvh.py (DESIGN.md camera, pixel centres) that hit the mesh, traced by
-raylume (`intersect_rays`, one thread: coherent rays in packets of eight, kernels/packet.py),
+raylume (`intersect_rays`, one thread: coherent rays in packets of eight, kernels/geometry/packet.py),
 by raylume's single-ray traversal (`closest_hit` ray by ray, the same rays) and by Embree
 (embreex's `run`: `rtcIntersect1` ray by ray, single-threaded; embreex has no packet or stream
 call), each timed in CPU time (`time.process_time`), alternating them in one process. CPU time

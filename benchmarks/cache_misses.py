@@ -1,7 +1,7 @@
 """Where a large mesh's frame waits for memory: the cache lines its camera rays miss.
 
 The camera hit rays of bench_hits.py's frame (1024 x 1024, pixel order) are traced one by one
-through a copy of the single-ray closest-hit loop (kernels/traverse.py `_bvh_hit`, built from
+through a copy of the single-ray closest-hit loop (kernels/geometry/traverse.py `_bvh_hit`, built from
 the same helpers: box test and sorted push, pop, leaf test) that logs every node record and
 every leaf's triangle rows it reads. The log is then replayed through simulated caches (LRU,
 16-way set-associative, 64-byte lines; hardware prefetchers not modelled), one size at a time,
@@ -46,7 +46,7 @@ WAYS = 16
 
 @numba.njit(cache=True)
 def log_reads(G, O, D, log, node_stack, t_stack):
-    """The single-ray closest-hit loop of kernels/traverse.py (no planes or instances, rows in
+    """The single-ray closest-hit loop of kernels/geometry/traverse.py (no planes or instances, rows in
     leaf order), logging (NODE, node, 0) at each node visit and (LEAF, first row, rows) at each
     leaf; returns the number of entries."""
     index, bounds, tri = G.node_index, G.node_bounds, G.triangles

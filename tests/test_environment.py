@@ -1,4 +1,4 @@
-"""The environment light (kernels/environment.py): its direction convention, its sampling (pdf
+"""The environment light (kernels/shading/environment.py): its direction convention, its sampling (pdf
 normalisation, consistency, a chi-square test, an importance-sampling estimate against an exact
 integral) and its image loaders (.hdr with and without run-length encoding, .exr), with the
 errors bad input gives. Fixed seeds; tolerances from standard errors."""

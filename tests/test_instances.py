@@ -100,7 +100,7 @@ def test_ids_and_depths_match_the_flattened_scene(scenes):
     o, d = grid_rays()
     t, obj, prim, ids = raylume.intersect(inst, o, d, instances=True)
     tf, objf, primf, idsf = raylume.intersect(flat, o, d, instances=True)
-    # the same rays as the image they are (kernels/query.py: 4 x 2 packets where the scene takes
+    # the same rays as the image they are (kernels/geometry/query.py: 4 x 2 packets where the scene takes
     # packets; the instanced one ray by ray): every array the same, stored in the image's order
     for scene, want in ((inst, (t, obj, prim, ids)), (flat, (tf, objf, primf, idsf))):
         image = raylume.intersect(scene, o.reshape(64, 64, 3), d.reshape(64, 64, 3), instances=True)

@@ -1,6 +1,6 @@
 """The threads that run renders' lanes (raylume/lanes.py): kept from one render to the next,
 shared by renders running at once, and made anew in a forked child; and the rows the lanes
-claim (kernels/frame.py, claim_row): each row to exactly one lane."""
+claim (kernels/integrators/frame.py, claim_row): each row to exactly one lane."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Ray packets (kernels/packet.py): eight coherent rays traced together give each ray the
+"""Ray packets (kernels/geometry/packet.py): eight coherent rays traced together give each ray the
 single-ray traversal's hit to the last bit (t, barycentrics; the face too, except where two faces
 are hit at exactly the same distance), and the brute force's distance. Incoherent rays are
 refused as packets and traced ray by ray."""
@@ -360,7 +360,7 @@ def test_intersect_rays_takes_packets_and_matches_single_rays(tmp_path, threads)
 
 
 def test_cast_mode_traces_packets_that_hit_what_single_rays_hit(tmp_path):
-    """A cast render of two meshes (kernels/frame.py traces its camera rays in packets) against
+    """A cast render of two meshes (kernels/integrators/frame.py traces its camera rays in packets) against
     its own object AOV, which single rays trace: each pixel shows the colour of the object its
     pixel-centre ray hits, the background where it hits none."""
     colors = [[0.9, 0.2, 0.1], [0.1, 0.5, 0.9]]

@@ -1,4 +1,4 @@
-"""Trace mode's wavefront (kernels/wavefront.py), which renders every basic scene (spheres and
+"""Trace mode's wavefront (kernels/integrators/wavefront.py), which renders every basic scene (spheres and
 opaque triangles): its images and ray counts are those of the ray-by-ray Whitted tracer
 (trace.py), to the last bit, on scenes that take each of its paths; and its vector loops are
 vector code in the machine code."""

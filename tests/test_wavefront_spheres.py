@@ -1,4 +1,4 @@
-"""The wavefront's sphere tests (kernels/wavefront_spheres.py), eight rays per vector, against
+"""The wavefront's sphere tests (kernels/geometry/wavefront_spheres.py), eight rays per vector, against
 the scalar sphere test (shape_sphere.intersect_sphere) ray by ray: the same closest hits to the
 last bit, and the same shadow answers, the sign-only test towards directional lights included,
 on random rays and on the cases where signs and zeros decide (rays from a sphere's surface,

@@ -57,7 +57,7 @@ def intersect_rays(
 ) -> int:
     """Closest hit of each ray between tmin and tmax (numbers, or arrays of one per ray) into
     the outputs: t = inf, object = prim = instance = -1 for misses; instance is the instance's
-    index within its object, 0 off instances. X: the scene's `features(S)` (shapes.py).
+    index within its object, 0 off instances. X: the scene's `features(S)` (kernels/variants.py).
     Directions are unit vectors, or with `unit` of any length: each lane then divides its
     chunk's directions by their lengths as it reaches them (raylume.intersect: in numpy, before
     the kernel, that had taken ~80% of the kernel's own time), and the count of rays with a

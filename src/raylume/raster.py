@@ -8,7 +8,7 @@ diffuse, specular) -- but the rasterizer has no shadows, reflection or refractio
 
 The kernels and the details of scan conversion (2D homogeneous edge functions,
 perspective-correct depth and barycentrics, near-plane clipping, the top-left fill rule,
-deterministic banded parallelism) are in `kernels/raster_kernel.py`. Analytic shapes are drawn
+deterministic banded parallelism) are in `kernels/raster/raster_kernel.py`. Analytic shapes are drawn
 as triangles from their own module's `tessellate` (kernels/shape_*.py: spheres as the cap the
 camera sees, within a tenth of a pixel; planes as a huge square around the camera; disks,
 quads and cylinders as polygons within the same tolerance). Shading uses each shape's exact

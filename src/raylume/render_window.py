@@ -2,7 +2,7 @@
 a Session runs for a whole image (or a crop), the cluster's workers for a tile and a pass, and
 the path-mode denoiser (seen_light.py) for its extra passes. It needs no scene model.
 
-Ray modes run one *lane* per thread over the window (kernels/frame.py: each lane claims the
+Ray modes run one *lane* per thread over the window (kernels/integrators/frame.py: each lane claims the
 next row left, so a lane slowed by the machine takes fewer; lanes.py keeps the threads from one
 render to the next). The calling thread only waits and watches: it polls the lanes' row
 counters for the progress bar, and on Ctrl-C raises a flag that every lane checks before each
@@ -140,7 +140,7 @@ def render_window(
     )
 
 
-PATH_STRATEGIES = {"mis": 0, "light": 1, "bsdf": 2}  # kernels/path.py
+PATH_STRATEGIES = {"mis": 0, "light": 1, "bsdf": 2}  # kernels/integrators/path.py
 
 
 def path_strategy() -> int:

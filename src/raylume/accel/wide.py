@@ -2,7 +2,7 @@
 
 Each wide node is one record of NODE_ROWS rows of W 32-bit lanes, one lane per child (256
 bytes for W = 8, as Embree's BVH8 node), its children's boxes structure-of-arrays so that
-traversal tests all of them with one vector instruction per plane (kernels/traverse.py):
+traversal tests all of them with one vector instruction per plane (kernels/geometry/traverse.py):
 
 * rows 0-5, float32: lo_x, lo_y, lo_z, hi_x, hi_y, hi_z. Unused lanes hold the empty box
   (lo = +inf, hi = -inf), which no ray can enter (its entry distance is +inf or NaN on every

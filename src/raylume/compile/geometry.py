@@ -32,7 +32,7 @@ from .objects import SceneGeometry, _Analytic
 # are fastest as a single leaf, with no box test at all.
 BVH_MAX_LEAF = 4
 BVH_TRAVERSAL_COST = 2.0
-# A leaf of up to 4 triangles or spheres is one vector test (kernels/traverse.py intersect_leaf),
+# A leaf of up to 4 triangles or spheres is one vector test (kernels/geometry/traverse.py intersect_leaf),
 # so the heuristic counts a leaf's cost in blocks of 4: a leaf of 1 costs as much as one of 4.
 # Hit rays on a 1M-triangle mesh ~3% faster, the bunny ~1.5% (benchmarks/bench_hits.py).
 BVH_LEAF_BLOCK = TRIANGLES_PER_TEST

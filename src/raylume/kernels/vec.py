@@ -153,7 +153,7 @@ def kernel_function(py_func=None, /, **options):
 
 
 def vector_loop(py_func=None, /, fastmath=False):
-    """Decorator of loops over arrays of rays meant to run SIMD (kernels/wavefront.py): no
+    """Decorator of loops over arrays of rays meant to run SIMD (kernels/integrators/wavefront.py): no
     bounds checks, exact arithmetic unless `fastmath` says otherwise, and a library optimised on
     its own before a kernel links it (_OptimisedLinkedOnlyLibrary), so LLVM's loop vectoriser
     sees the loop with its arrays as separate arguments. Linked into a kernel and only optimised

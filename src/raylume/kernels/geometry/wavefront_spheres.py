@@ -1,4 +1,4 @@
-"""The sphere tests of a wavefront tile (kernels/wavefront.py): the live rays of a tile against
+"""The sphere tests of a wavefront tile (kernels/integrators/wavefront.py): the live rays of a tile against
 the spheres of a root leaf, eight rays per vector, in explicit LLVM IR.
 
 A vector of eight rays is tested against one sphere at a time. Most rays of a tile miss most

@@ -192,7 +192,7 @@ def camera_packet_scratch():
 @kernel_function
 def _cast_row(G, F, X, Env, P, j, pair, film, node_stack, t_stack, packets, rays):
     """Ray-cast samples of row j: the row's camera samples in pixel order (each pixel's samples
-    in turn), traced eight at a time as a packet (kernels/packet.py) where they are coherent.
+    in turn), traced eight at a time as a packet (kernels/geometry/packet.py) where they are coherent.
     Samples that are not (a wide lens) are traced one by one, and so are all in a scene whose
     root is a leaf and in one with instances. The film's sums are added in sample order, the
     pixel's sums kept while its samples last, so the image is the same bit for bit whichever

@@ -130,8 +130,10 @@ def path_ray(G, F, X, Em, Env, o, d, spread, max_depth, background, key, node_st
         emission = row3(mat, m, MAT_EMISSION)
         if emission[0] > 0.0 or emission[1] > 0.0 or emission[2] > 0.0:
             k, _ = split_hit(X, prim)
+            # the light row as int64, as at the other call sites: one compilation of the MIS
+            # weight and of every light kind's pdf, not a second one for an int32 row
             w = _emitter_weight(
-                G, X, Em, Env, G.prims[k, PRIM_LIGHT], prim, o, d, t, ng, prev_pdf, prev_delta, strategy
+                G, X, Em, Env, np.int64(G.prims[k, PRIM_LIGHT]), prim, o, d, t, ng, prev_pdf, prev_delta, strategy
             )
             L = _add_light(L, beta, emission, w)
         if max_depth >= 0 and depth >= max_depth:
