@@ -71,7 +71,7 @@ trace_falloff = kind_switch(
 
 def pack_light(light) -> tuple[int, np.ndarray]:
     """(kind, table row) of a model light (scene/model.py's light classes)."""
-    kind = BY_NAME[light.type]
+    kind = BY_NAME.get(light.type)
     if kind not in SCENE_KINDS:
         raise ValueError(f"unknown light type {light.type!r} (known: {', '.join(k.NAME for k in SCENE_KINDS)})")
     return kind.KIND, kind.pack(light)
