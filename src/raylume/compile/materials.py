@@ -128,7 +128,7 @@ def material_row(mat: Material, textures: TextureTable | None = None, where: str
     module (its trace-mode approximation in the phong columns), then those every kind has;
     its texture is added to `textures`."""
     row = np.zeros(M.MAT_WIDTH, dtype=np.float64)
-    M.kind_module(mat.type).pack(mat, row)
+    M.pack_material(mat, row)
     row[M.MAT_COLOR : M.MAT_COLOR + 3] = mat.color
     row[M.MAT_EMISSION : M.MAT_EMISSION + 3] = mat.emission
     row[M.MAT_TEXTURE] = -1

@@ -9,7 +9,7 @@ import numpy as np
 
 from ...film.sampler import uniform_sphere
 from ...vec import inline_function, row3
-from .table import LIGHT_INTENSITY, LIGHT_ROW_WIDTH, LIGHT_SAMPLES
+from .table import LIGHT_INTENSITY, mean_intensity, scene_light_row
 
 NAME = "ambient"
 KIND = 0
@@ -22,17 +22,13 @@ INF = math.inf
 
 
 def pack(light) -> np.ndarray:
-    """The model light's row of the light table (table.py); also the summed row, of radiance
-    the lights' sum."""
-    row = np.zeros(LIGHT_ROW_WIDTH)
-    row[LIGHT_INTENSITY : LIGHT_INTENSITY + 3] = light.intensity
-    row[LIGHT_SAMPLES] = 1
-    return row
+    """The model light's row of the light table (table.py): its intensity, nothing else."""
+    return scene_light_row(light)
 
 
 def power(row: np.ndarray, radius: float) -> float:
     """Power of the summed row: its radiance over the scene's bounding sphere (radius, roughly)."""
-    return 4 * math.pi * math.pi * radius**2 * float(row[LIGHT_INTENSITY : LIGHT_INTENSITY + 3].mean())
+    return 4 * math.pi * math.pi * radius**2 * mean_intensity(row)
 
 
 @inline_function

@@ -7,7 +7,13 @@ import numpy as np
 
 from ...geometry.transform import unit_vector
 from ...vec import inline_function, row3
-from .table import LIGHT_DIRECTION, LIGHT_INTENSITY, LIGHT_POSITION, LIGHT_ROW_WIDTH, LIGHT_SAMPLES
+from .table import (
+    LIGHT_DIRECTION,
+    LIGHT_INTENSITY,
+    LIGHT_POSITION,
+    mean_intensity,
+    scene_light_row,
+)
 
 NAME = "directional"
 KIND = 2
@@ -21,9 +27,7 @@ INF = math.inf
 
 def pack(light) -> np.ndarray:
     """The model light's row of the light table (table.py)."""
-    row = np.zeros(LIGHT_ROW_WIDTH)
-    row[LIGHT_INTENSITY : LIGHT_INTENSITY + 3] = light.intensity
-    row[LIGHT_SAMPLES] = 1
+    row = scene_light_row(light)
     row[LIGHT_DIRECTION : LIGHT_DIRECTION + 3] = unit_vector(light.direction)
     return row
 
@@ -31,7 +35,7 @@ def pack(light) -> np.ndarray:
 def power(row: np.ndarray, radius: float) -> float:
     """Emitted power: its irradiance over the scene's cross-section (radius: its bounding
     radius, roughly)."""
-    return math.pi * radius**2 * float(np.mean(row[LIGHT_INTENSITY : LIGHT_INTENSITY + 3]))
+    return math.pi * radius**2 * mean_intensity(row)
 
 
 @inline_function

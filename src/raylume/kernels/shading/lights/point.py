@@ -7,7 +7,7 @@ import math
 import numpy as np
 
 from ...vec import inline_function, length, mul, row3, sub
-from .table import LIGHT_INTENSITY, LIGHT_POSITION, LIGHT_ROW_WIDTH, LIGHT_SAMPLES
+from .table import LIGHT_INTENSITY, LIGHT_POSITION, mean_intensity, scene_light_row
 
 NAME = "point"
 KIND = 1
@@ -20,16 +20,14 @@ EVERYWHERE = False  # not the seed's ambient light
 
 def pack(light) -> np.ndarray:
     """The model light's row of the light table (table.py)."""
-    row = np.zeros(LIGHT_ROW_WIDTH)
-    row[LIGHT_INTENSITY : LIGHT_INTENSITY + 3] = light.intensity
-    row[LIGHT_SAMPLES] = 1
+    row = scene_light_row(light)
     row[LIGHT_POSITION : LIGHT_POSITION + 3] = light.position
     return row
 
 
 def power(row: np.ndarray, radius: float) -> float:
     """Emitted power, for path mode's light distribution: 4 pi I (the channels' mean)."""
-    return 4 * math.pi * float(np.mean(row[LIGHT_INTENSITY : LIGHT_INTENSITY + 3]))
+    return 4 * math.pi * mean_intensity(row)
 
 
 @inline_function

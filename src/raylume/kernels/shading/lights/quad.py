@@ -15,10 +15,10 @@ from .table import (
     AREA_SHADOW_SHORTEN,
     LIGHT_INTENSITY,
     LIGHT_POSITION,
-    LIGHT_ROW_WIDTH,
-    LIGHT_SAMPLES,
     LIGHT_U,
     LIGHT_V,
+    mean_intensity,
+    scene_light_row,
 )
 
 NAME = "quad"
@@ -33,9 +33,7 @@ INF = math.inf
 
 def pack(light) -> np.ndarray:
     """The model light's row of the light table (table.py)."""
-    row = np.zeros(LIGHT_ROW_WIDTH)
-    row[LIGHT_INTENSITY : LIGHT_INTENSITY + 3] = light.intensity
-    row[LIGHT_SAMPLES] = light.samples
+    row = scene_light_row(light)
     row[LIGHT_POSITION : LIGHT_POSITION + 3] = light.position
     row[LIGHT_U : LIGHT_U + 3] = light.u
     row[LIGHT_V : LIGHT_V + 3] = light.v
@@ -45,7 +43,7 @@ def pack(light) -> np.ndarray:
 def power(row: np.ndarray, radius: float) -> float:
     """Emitted power: radiance over both sides of its area, pi per side."""
     area = float(np.linalg.norm(np.cross(row[LIGHT_U : LIGHT_U + 3], row[LIGHT_V : LIGHT_V + 3])))
-    return 2 * math.pi * area * float(np.mean(row[LIGHT_INTENSITY : LIGHT_INTENSITY + 3]))
+    return 2 * math.pi * area * mean_intensity(row)
 
 
 @kernel_function

@@ -11,7 +11,14 @@ from ...film.sampler import concentric_disk
 from ...geometry.shape_sphere import intersect_sphere
 from ...vec import inline_function, kernel_function, length, madd, normalize, row3, sub
 from .sampling import basis, sphere_cone, sphere_cone_pdf
-from .table import AREA_SHADOW_SHORTEN, LIGHT_INTENSITY, LIGHT_POSITION, LIGHT_RADIUS, LIGHT_ROW_WIDTH, LIGHT_SAMPLES
+from .table import (
+    AREA_SHADOW_SHORTEN,
+    LIGHT_INTENSITY,
+    LIGHT_POSITION,
+    LIGHT_RADIUS,
+    mean_intensity,
+    scene_light_row,
+)
 
 NAME = "sphere"
 KIND = 4
@@ -25,9 +32,7 @@ INF = math.inf
 
 def pack(light) -> np.ndarray:
     """The model light's row of the light table (table.py)."""
-    row = np.zeros(LIGHT_ROW_WIDTH)
-    row[LIGHT_INTENSITY : LIGHT_INTENSITY + 3] = light.intensity
-    row[LIGHT_SAMPLES] = light.samples
+    row = scene_light_row(light)
     row[LIGHT_POSITION : LIGHT_POSITION + 3] = light.position
     row[LIGHT_RADIUS] = light.radius
     return row
@@ -35,7 +40,7 @@ def pack(light) -> np.ndarray:
 
 def power(row: np.ndarray, radius: float) -> float:
     """Emitted power: radiance over its surface, pi per unit area."""
-    return math.pi * 4 * math.pi * row[LIGHT_RADIUS] ** 2 * float(np.mean(row[LIGHT_INTENSITY : LIGHT_INTENSITY + 3]))
+    return math.pi * 4 * math.pi * row[LIGHT_RADIUS] ** 2 * mean_intensity(row)
 
 
 @kernel_function

@@ -8,14 +8,15 @@ import numpy as np
 
 from ...geometry.transform import unit_vector
 from ...vec import inline_function, length, mul, row3, sub
+from . import point
 from .table import (
     LIGHT_AXIS,
     LIGHT_COS_INNER,
     LIGHT_COS_OUTER,
     LIGHT_INTENSITY,
     LIGHT_POSITION,
-    LIGHT_ROW_WIDTH,
-    LIGHT_SAMPLES,
+    mean_intensity,
+    scene_light_row,
 )
 
 NAME = "spot"
@@ -29,9 +30,7 @@ EVERYWHERE = False
 
 def pack(light) -> np.ndarray:
     """The model light's row of the light table (table.py)."""
-    row = np.zeros(LIGHT_ROW_WIDTH)
-    row[LIGHT_INTENSITY : LIGHT_INTENSITY + 3] = light.intensity
-    row[LIGHT_SAMPLES] = 1
+    row = scene_light_row(light)
     row[LIGHT_POSITION : LIGHT_POSITION + 3] = light.position
     row[LIGHT_AXIS : LIGHT_AXIS + 3] = unit_vector(light.direction)
     row[LIGHT_COS_OUTER] = math.cos(math.radians(light.angle))
@@ -41,7 +40,7 @@ def pack(light) -> np.ndarray:
 
 def power(row: np.ndarray, radius: float) -> float:
     """Emitted power: the point light's over the solid angle of its cones (the falloff's mean)."""
-    intensity = float(np.mean(row[LIGHT_INTENSITY : LIGHT_INTENSITY + 3]))
+    intensity = mean_intensity(row)
     return 2 * math.pi * intensity * (1 - 0.5 * (row[LIGHT_COS_INNER] + row[LIGHT_COS_OUTER]))
 
 
@@ -66,12 +65,8 @@ def trace_falloff(L, k, l):
     return falloff(L.data, k, l)
 
 
-@inline_function
-def trace_sample(L, k, p, u1, u2):
-    """Trace mode: (the vector from p to the light, the shadow ray's length); the integrator
-    scales the light by `falloff`."""
-    to_light = sub(row3(L.data, k, LIGHT_POSITION), p)
-    return to_light, length(to_light)
+# trace mode finds a spot light as the point light it is (the integrator adds trace_falloff)
+trace_sample = point.trace_sample
 
 
 @inline_function

@@ -13,6 +13,8 @@ Rows, in order (compile/lights.py builds them):
 
 Columns: the kinds' modules say which they use; these are shared."""
 
+import numpy as np
+
 LIGHT_POSITION = 0  # 3 columns: a point light's position, a quad's or sphere's centre
 LIGHT_DIRECTION = 0  # 3 columns: a directional light's unit vector towards the light
 LIGHT_INTENSITY = 3  # 3 columns, RGB: intensity, irradiance or radiance (the kind says)
@@ -43,3 +45,18 @@ AREA_SHADOW_SHORTEN = 1e-6
 # Path mode's shadow rays towards a sampled point stop this fraction short of it (the emitter
 # itself must not count as a blocker).
 SHADOW_SHORTEN = 1e-5
+
+
+def scene_light_row(light) -> np.ndarray:
+    """A table row of a model light with what every kind of scene light has: its intensity, and
+    trace mode's shadow samples (area lights' `samples`; 1 for the others). The kind's `pack`
+    adds its own columns."""
+    row = np.zeros(LIGHT_ROW_WIDTH)
+    row[LIGHT_INTENSITY : LIGHT_INTENSITY + 3] = light.intensity
+    row[LIGHT_SAMPLES] = getattr(light, "samples", 1)
+    return row
+
+
+def mean_intensity(row: np.ndarray) -> float:
+    """The mean of a row's intensity channels, which path mode's powers weigh."""
+    return float(np.mean(row[LIGHT_INTENSITY : LIGHT_INTENSITY + 3]))

@@ -6,7 +6,17 @@ makes the one dispatch per question; table.py the table's columns, the colour at
 Beer-Lambert absorption. A new kind: its module, its line in registry.KINDS, its model class
 (scene/model.py) — docs/architecture.md, "Adding a material"."""
 
-from .registry import BY_NAME, KINDS, aov_albedo, bsdf_eval, bsdf_sample, delta_only, kind_module, two_sided
+from .registry import (
+    BY_NAME,
+    KINDS,
+    aov_albedo,
+    bsdf_eval,
+    bsdf_sample,
+    delta_only,
+    kind_module,
+    pack_material,
+    two_sided,
+)
 from .table import (
     MAT_ABSORPTION,
     MAT_COLOR,
@@ -50,5 +60,6 @@ __all__ = [
     "bsdf_sample",
     "delta_only",
     "kind_module",
+    "pack_material",
     "two_sided",
 ]

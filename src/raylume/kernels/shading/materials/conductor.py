@@ -18,11 +18,7 @@ from .table import (
     MAT_ETA,
     MAT_HAS_ETA,
     MAT_K,
-    MAT_KIND,
-    MAT_REFLECTIVE,
     MAT_ROUGHNESS,
-    MAT_SPECULAR,
-    MAT_TRANSPARENCY,
 )
 
 NAME = "conductor"
@@ -30,9 +26,8 @@ KIND = 2
 
 
 def pack(mat, row: np.ndarray) -> None:
-    """The model material's columns of its table row (table.py)."""
-    row[MAT_KIND] = KIND
-    row[MAT_SPECULAR], row[MAT_REFLECTIVE], row[MAT_TRANSPARENCY] = trace_approximation(mat)
+    """The model material's own columns of its table row (table.py); the registry's
+    pack_material writes the kind and the trace approximation."""
     row[MAT_ROUGHNESS] = mat.roughness
     if mat.eta is not None and mat.k is not None:
         row[MAT_ETA : MAT_ETA + 3] = mat.eta

@@ -17,11 +17,7 @@ from .phong import phong_exponent
 from .table import (
     MAT_ABSORPTION,
     MAT_IOR,
-    MAT_KIND,
-    MAT_REFLECTIVE,
     MAT_ROUGHNESS,
-    MAT_SPECULAR,
-    MAT_TRANSPARENCY,
 )
 
 NAME = "dielectric"
@@ -29,9 +25,8 @@ KIND = 3
 
 
 def pack(mat, row: np.ndarray) -> None:
-    """The model material's columns of its table row (table.py)."""
-    row[MAT_KIND] = KIND
-    row[MAT_SPECULAR], row[MAT_REFLECTIVE], row[MAT_TRANSPARENCY] = trace_approximation(mat)
+    """The model material's own columns of its table row (table.py); the registry's
+    pack_material writes the kind and the trace approximation."""
     row[MAT_IOR] = mat.ior
     row[MAT_ABSORPTION : MAT_ABSORPTION + 3] = mat.absorption
     row[MAT_ROUGHNESS] = mat.roughness

@@ -7,16 +7,15 @@ import numpy as np
 
 from ...vec import inline_function, kernel_function, mul
 from .lobes import EVALUATE, INV_PI, ZERO, cosine_hemisphere, same_side, side
-from .table import MAT_KIND, MAT_REFLECTIVE, MAT_SPECULAR, MAT_TRANSPARENCY
 
 NAME = "diffuse"
 KIND = 1
 
 
 def pack(mat, row: np.ndarray) -> None:
-    """The model material's columns of its table row (table.py)."""
-    row[MAT_KIND] = KIND
-    row[MAT_SPECULAR], row[MAT_REFLECTIVE], row[MAT_TRANSPARENCY] = trace_approximation(mat)
+    """The model material's own columns of its table row (table.py); the registry's
+    pack_material writes the kind and the trace approximation."""
+    # a diffuse material has no column of its own
 
 
 def trace_approximation(mat) -> tuple[float, float, float]:

@@ -9,16 +9,15 @@ import numpy as np
 
 from ...vec import inline_function, kernel_function, mul
 from .lobes import ONE, ZERO
-from .table import MAT_IOR, MAT_KIND, MAT_REFLECTIVE, MAT_SPECULAR, MAT_TRANSPARENCY
+from .table import MAT_IOR
 
 NAME = "null"
 KIND = 5
 
 
 def pack(mat, row: np.ndarray) -> None:
-    """The model material's columns of its table row (table.py)."""
-    row[MAT_KIND] = KIND
-    row[MAT_SPECULAR], row[MAT_REFLECTIVE], row[MAT_TRANSPARENCY] = trace_approximation(mat)
+    """The model material's own columns of its table row (table.py); the registry's
+    pack_material writes the kind and the trace approximation."""
     row[MAT_IOR] = 1.0
 
 

@@ -26,7 +26,7 @@ import numpy as np
 
 from ...vec import dot, inline_function, kernel_function, madd, mul
 from .lobes import EVALUATE, FAILED, INV_PI, ONE, ZERO, cosine_hemisphere, mirror, same_side, side, smooth_dielectric
-from .table import MAT_ABSORPTION, MAT_IOR, MAT_KIND, MAT_REFLECTIVE, MAT_SPECULAR, MAT_TRANSPARENCY
+from .table import MAT_ABSORPTION, MAT_IOR, MAT_REFLECTIVE, MAT_SPECULAR, MAT_TRANSPARENCY
 
 NAME = "phong"
 KIND = 0
@@ -34,9 +34,8 @@ PHONG_KS = 0.04  # the share of a Phong material's colour in its highlight lobe
 
 
 def pack(mat, row: np.ndarray) -> None:
-    """The model material's columns of its table row (table.py)."""
-    row[MAT_KIND] = KIND
-    row[MAT_SPECULAR], row[MAT_REFLECTIVE], row[MAT_TRANSPARENCY] = trace_approximation(mat)
+    """The model material's own columns of its table row (table.py); the registry's
+    pack_material writes the kind and the trace approximation."""
     row[MAT_IOR] = mat.ior
     row[MAT_ABSORPTION : MAT_ABSORPTION + 3] = mat.absorption
 

@@ -23,16 +23,15 @@ from .coating import PLASTIC_ETA_MAX, coat_terms, fresnel_diffuse_reflectance
 from .lobes import ALPHA_MIN, EVALUATE, INV_PI, ZERO, cosine_hemisphere, mirror, reflect, same_side, side
 from .microfacet import ggx_d, sample_vndf, smith_g1
 from .phong import phong_exponent
-from .table import MAT_IOR, MAT_KIND, MAT_REFLECTIVE, MAT_ROUGHNESS, MAT_SPECULAR, MAT_TRANSPARENCY
+from .table import MAT_IOR, MAT_ROUGHNESS
 
 NAME = "plastic"
 KIND = 4
 
 
 def pack(mat, row: np.ndarray) -> None:
-    """The model material's columns of its table row (table.py)."""
-    row[MAT_KIND] = KIND
-    row[MAT_SPECULAR], row[MAT_REFLECTIVE], row[MAT_TRANSPARENCY] = trace_approximation(mat)
+    """The model material's own columns of its table row (table.py); the registry's
+    pack_material writes the kind and the trace approximation."""
     row[MAT_IOR] = mat.ior
     row[MAT_ROUGHNESS] = mat.roughness
 

@@ -12,7 +12,7 @@ from ...switch import kind_switch
 from ...vec import inline_function, kernel_function, mul
 from . import conductor, dielectric, diffuse, null, phong, plastic
 from .lobes import EVALUATE, FAILED, ZERO
-from .table import MAT_KIND
+from .table import MAT_KIND, MAT_REFLECTIVE, MAT_SPECULAR, MAT_TRANSPARENCY
 
 KINDS = (phong, diffuse, conductor, dielectric, plastic, null)
 BY_NAME = {kind.NAME: kind for kind in KINDS}
@@ -52,6 +52,15 @@ def bsdf_sample(mat, m, color, wo, u0, u1, u2):
     if not (w[0] - w[0] == 0.0 and w[1] - w[1] == 0.0 and w[2] - w[2] == 0.0):
         return FAILED
     return wi, w, pdf, False
+
+
+def pack_material(mat, row) -> None:
+    """The columns of a model material's table row that its kind decides: the kind, its
+    trace-mode approximation in the phong columns, and the kind's own (its module's `pack`)."""
+    kind = kind_module(mat.type)
+    row[MAT_KIND] = kind.KIND
+    row[MAT_SPECULAR], row[MAT_REFLECTIVE], row[MAT_TRANSPARENCY] = kind.trace_approximation(mat)
+    kind.pack(mat, row)
 
 
 def kind_module(name: str):
