@@ -493,8 +493,14 @@ def test_awkward_rays_against_brute_force(tmp_path):
 def test_four_triangles_at_once_equal_the_scalar_test_to_the_bit():
     """intersect_triangles (BVH leaves of 2-4 triangles, one vector test) gives the scalar
     test's nearest hit row by row: the same t, lane and barycentrics to the last bit, the
-    first row on ties; degenerate rows and rays through shared edges and vertices included."""
-    from raylume.kernels.geometry.shape_triangle import intersect_triangles
+    first row on ties; degenerate rows and rays through shared edges and vertices included.
+    So does the test on the column table (what traversal uses), blocks at the table's end
+    included (their loads reach into its padding)."""
+    from raylume.kernels.geometry.shape_triangle import (
+        intersect_triangle_columns,
+        intersect_triangles,
+        triangle_columns,
+    )
 
     rng = np.random.default_rng(4)
     tris = rng.uniform(-1, 1, size=(400, 9)).astype(np.float32)
@@ -502,10 +508,12 @@ def test_four_triangles_at_once_equal_the_scalar_test_to_the_bit():
     tris[9, 3:6] = tris[9, 0:3]  # degenerate: two equal vertices
     tris[13, 6:9] = (tris[13, 0:3] + tris[13, 3:6]) / 2  # degenerate: collinear
     tris[16:20] = [[0, 0, 0, 1, 0, 0, 0, 1, 0], [1, 0, 0, 1, 1, 0, 0, 1, 0], [1, 1, 0, 2, 1, 0, 1, 2, 0], [0] * 9]
+    cols = triangle_columns(tris)
+    np.testing.assert_array_equal(cols[:, : len(tris)].T, tris)
     checked = 0
     for k in range(1500):
-        first = int(rng.integers(0, 397)) if k % 3 else 16
-        count = int(rng.integers(1, 5))
+        first = int(rng.integers(0, 397)) if k % 3 else (16 if k % 2 else 400 - int(rng.integers(1, 5)))
+        count = min(int(rng.integers(1, 5)), 400 - first)
         if k % 5 == 0:  # through a vertex or an edge midpoint of the block
             v = tris[first].astype(np.float64).reshape(3, 3)
             target = v[k % 3] if k % 2 else (v[0] + v[1]) / 2
@@ -524,5 +532,6 @@ def test_four_triangles_at_once_equal_the_scalar_test_to_the_bit():
                 want = (t, j, b1, b2)
         got = intersect_triangles(o, shear, tris, first, count, 0.0, tmax)
         assert got == want, (k, first, count)
+        assert intersect_triangle_columns(o, shear, cols, first, count, 0.0, tmax) == want, (k, first, count)
         checked += want[0] < INF
     assert checked > 200

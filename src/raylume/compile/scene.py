@@ -16,6 +16,7 @@ import numpy as np
 
 from ..accel.wide import wide_nbytes
 from ..kernels.frame_stack import roomy_frame_stack
+from ..kernels.geometry.shape_triangle import triangle_columns
 from ..kernels.geometry.shapes import PRIM_KIND, Shape
 from ..kernels.scene import KernelScene
 from ..kernels.shading.materials import MAT_TRANSPARENCY
@@ -62,6 +63,7 @@ def compile_scene(scene: Scene, source="<scene>", accelerate: bool = True) -> Co
         n_bounded=g.n_bounded,
         shapes=g.shapes,
         triangles=g.triangles,
+        triangle_columns=triangle_columns(g.triangles),
         triangle_normals=g.triangle_normals,
         triangle_smooth=g.triangle_smooth,
         triangle_uvs=g.triangle_uvs,

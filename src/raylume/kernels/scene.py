@@ -5,6 +5,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from .geometry.shape_triangle import triangle_columns
 from .shading.environment import Environment
 from .vec import kernel_function
 
@@ -14,6 +15,7 @@ class KernelScene(NamedTuple):
     n_bounded: int  # prims[:n_bounded] are in the BVH; the rest (planes) are tested before it
     shapes: np.ndarray  # float64 (A, SHAPE_WIDTH): analytic shapes' rows (shape_*.py)
     triangles: np.ndarray  # float32 (T, 9): v0, v1, v2, in BVH leaf order
+    triangle_columns: np.ndarray  # the same by columns, float32 (9, T + 4): the block test's loads
     triangle_normals: np.ndarray  # float32 (T, 9) vertex normals, or (1, 9) when no mesh is smooth
     triangle_smooth: np.ndarray  # bool (T,)
     triangle_uvs: np.ndarray  # float32 (T, 6): uv0, uv1, uv2, or (1, 6) when no triangle needs UVs
@@ -63,13 +65,17 @@ class KernelScene(NamedTuple):
     def __reduce__(self):
         # node_index is node_bounds' memory seen as int32: pickled as they are, each would be
         # copied, doubling the nodes' memory where the scene is unpickled (cluster workers) and
-        # splitting each node record in two
-        return _unpickle_scene, (tuple(self._replace(node_index=None, inst_node_index=None)),)
+        # splitting each node record in two; the triangle columns are made again there
+        return _unpickle_scene, (tuple(self._replace(node_index=None, inst_node_index=None, triangle_columns=None)),)
 
 
 def _unpickle_scene(fields: tuple) -> KernelScene:
     s = KernelScene(*fields)
-    return s._replace(node_index=s.node_bounds.view(np.int32), inst_node_index=s.inst_node_bounds.view(np.int32))
+    return s._replace(
+        node_index=s.node_bounds.view(np.int32),
+        inst_node_index=s.inst_node_bounds.view(np.int32),
+        triangle_columns=triangle_columns(s.triangles),
+    )
 
 
 # Hot kernels take small views of the scene instead of the whole KernelScene: Numba passes a
@@ -84,6 +90,7 @@ class Geometry(NamedTuple):
     n_bounded: int
     shapes: np.ndarray
     triangles: np.ndarray
+    triangle_columns: np.ndarray
     triangle_normals: np.ndarray
     triangle_smooth: np.ndarray
     triangle_uvs: np.ndarray
@@ -168,6 +175,7 @@ def geometry_of(S):
         S.n_bounded,
         S.shapes,
         S.triangles,
+        S.triangle_columns,
         S.triangle_normals,
         S.triangle_smooth,
         S.triangle_uvs,

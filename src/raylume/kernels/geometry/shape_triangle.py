@@ -97,7 +97,17 @@ TRIANGLES_PER_TEST = 4  # lanes of intersect_triangles: 4 float64 in one AVX2 re
 def _triangles_codegen(context, builder, sig, args):
     """intersect_triangle's arithmetic on 4 consecutive rows as <4 x double> vectors, operation
     for operation (IEEE, no fast-math flags, no FMA contraction): each lane's t, b1, b2 are
-    bit-identical to the scalar test's."""
+    bit-identical to the scalar test's. The rows' columns gathered from the (T, 9) table."""
+    return _block_codegen(context, builder, sig, args, columns=False)
+
+
+def _columns_codegen(context, builder, sig, args):
+    """The same test reading the rows from the (9, T + COLUMN_PAD) column table (triangle_columns):
+    each of the nine columns is one vector load instead of four scalar loads and inserts."""
+    return _block_codegen(context, builder, sig, args, columns=True)
+
+
+def _block_codegen(context, builder, sig, args, columns):
     n = TRIANGLES_PER_TEST
     f32, f64, i32, i64 = ir.FloatType(), ir.DoubleType(), ir.IntType(32), ir.IntType(64)
     v4 = ir.VectorType(f64, n)
@@ -137,13 +147,24 @@ def _triangles_codegen(context, builder, sig, args):
         lane = builder.select(builder.icmp_signed("<", jj, count), jj, last)
         rows.append(builder.mul(builder.add(first, lane), ir.Constant(i64, 9)))
 
-    def column(c):  # float64 vector of column c (runtime) of the 4 rows
+    if columns:  # lanes past count read the next rows or the table's padding (masked below)
+        stride = builder.extract_value(tri.strides, 0)
+        base = builder.add(builder.ptrtoint(tri.data, i64), builder.mul(first, ir.Constant(i64, 4)))
+        v4f = ir.VectorType(f32, n)
+
+        def column(c):
+            address = builder.add(base, builder.mul(c, stride))
+            return builder.fpext(builder.load(builder.inttoptr(address, v4f.as_pointer()), align=4), v4)
+
+    def gathered(c):  # float64 vector of column c (runtime) of the 4 rows
         vec = ir.Constant(ir.VectorType(f32, n), ir.Undefined)
         for j in range(n):
             p = builder.gep(tri.data, [builder.add(rows[j], c)], inbounds=True)
             vec = builder.insert_element(vec, builder.load(p, align=4), ir.Constant(i32, j))
         return builder.fpext(vec, v4)
 
+    if not columns:
+        column = gathered
     ox, oy, oz = splat(pick(kx)), splat(pick(ky)), splat(pick(kz))
     c3, c6 = ir.Constant(i64, 3), ir.Constant(i64, 6)
     ax = fsub(column(kx), ox)
@@ -275,6 +296,34 @@ def _triangles4(typingctx, tri, first, count, o, shear, tmin, tmax):
         raise TypingError("_triangles4: tri must be a C-contiguous float32 (T, 9) array")
     ret = types.Tuple((types.float64, types.int64, types.float64, types.float64))
     return ret(tri, first, count, o, shear, tmin, tmax), _triangles_codegen
+
+
+@intrinsic
+def _triangles4_columns(typingctx, cols, first, count, o, shear, tmin, tmax):
+    if not (isinstance(cols, types.Array) and cols.dtype == types.float32 and cols.ndim == 2 and cols.layout == "C"):
+        raise TypingError("_triangles4_columns: cols must be a C-contiguous float32 (9, T + COLUMN_PAD) array")
+    ret = types.Tuple((types.float64, types.int64, types.float64, types.float64))
+    return ret(cols, first, count, o, shear, tmin, tmax), _columns_codegen
+
+
+@inline_function
+def intersect_triangle_columns(o, shear, cols, first, count, tmin, tmax):
+    """intersect_triangles on the column table (triangle_columns): the same result, to the bit."""
+    return _triangles4_columns(cols, first, count, o, shear, tmin, tmax)
+
+
+COLUMN_PAD = TRIANGLES_PER_TEST  # zero columns after the last triangle: the last block's load stays inside
+
+
+def triangle_columns(triangles):
+    """The (T, 9) triangle table by columns, float32 (9, T + COLUMN_PAD): column c of rows
+    r .. r + 3 is one 16-byte load for the block test (a leaf's four rows are 36 scalar loads
+    in the row table)."""
+    import numpy as np
+
+    cols = np.zeros((9, len(triangles) + COLUMN_PAD), np.float32)
+    cols[:, : len(triangles)] = np.asarray(triangles, np.float32).T
+    return cols
 
 
 # Inlined into the traversal (a call per leaf passed the arrays and spilled the ray's state: the

@@ -25,7 +25,7 @@ from ..scene import is_instances
 from ..vec import INLINE_OVERLOAD, inline_function
 from .layout import NODE_COUNT, NODE_FIRST, SPHERE_BLOCK
 from .shape_sphere import intersect_spheres
-from .shape_triangle import NO_SHEAR, intersect_triangles, ray_shear
+from .shape_triangle import NO_SHEAR, intersect_triangle_columns, ray_shear
 from .shapes import NO_HIT, PRIM_ROW, intersect
 from .wide_nodes import _LANE_SHIFT, BVH_WIDTH, box_ray, pop_nearer, prefetch_neighbours, push_children, traceable
 
@@ -82,7 +82,8 @@ def intersect_leaf(G, X, first, count, o, d, shear, tmin, best_t, prim, b1, b2, 
             return t, first + j, 0.0, 0.0
         return best_t, prim, b1, b2
     if count < 0:  # -count triangles in consecutive rows
-        t, j, u, v = intersect_triangles(o, shear, G.triangles, block_row(G, first), -count, tmin, best_t)
+        row = block_row(G, first)
+        t, j, u, v = intersect_triangle_columns(o, shear, G.triangle_columns, row, -count, tmin, best_t)
         if t < best_t:
             return t, first + j, u, v
         return best_t, prim, b1, b2

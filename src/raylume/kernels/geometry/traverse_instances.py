@@ -21,7 +21,7 @@ import numpy as np
 
 from ..vec import inline_function, kernel_function
 from .layout import NODE_COUNT, NODE_FIRST
-from .shape_triangle import intersect_triangle, intersect_triangles, ray_shear
+from .shape_triangle import intersect_triangle, intersect_triangle_columns, ray_shear
 from .shapes import INSTANCE_SHIFT, NO_HIT, PRIM_ROW
 from .wide_nodes import _LANE_SHIFT, BVH_WIDTH, box_ray, pop_nearer, push_children, traceable
 
@@ -43,7 +43,7 @@ def _to_object(inv, i, o, d):
 
 
 @inline_function
-def _leaf_triangles(prims, tris, index, leaf, o, shear, tmin, best_t):
+def _leaf_triangles(prims, tris, cols, index, leaf, o, shear, tmin, best_t):
     """The nearest hit in a BLAS leaf: (t, primitive or NO_HIT, b1, b2)."""
     node = leaf >> _LANE_SHIFT
     lane = leaf & (BVH_WIDTH - 1)
@@ -51,7 +51,7 @@ def _leaf_triangles(prims, tris, index, leaf, o, shear, tmin, best_t):
     count = index[node, NODE_COUNT, lane]
     if count < 0:  # 2 to 4 triangles in consecutive rows, tested together
         row = np.int64(prims[first, PRIM_ROW])
-        t, j, u, v = intersect_triangles(o, shear, tris, row, -count, tmin, best_t)
+        t, j, u, v = intersect_triangle_columns(o, shear, cols, row, -count, tmin, best_t)
         if t < best_t:
             return t, np.int64(first + j), u, v
         return best_t, np.int64(NO_HIT), 0.0, 0.0
@@ -64,7 +64,7 @@ def _leaf_triangles(prims, tris, index, leaf, o, shear, tmin, best_t):
 
 
 @inline_function
-def _blas_hit(prims, tris, bounds, index, root, o, d, tmin, best_t, node_stack, t_stack, base, stop_at_first):
+def _blas_hit(prims, tris, cols, bounds, index, root, o, d, tmin, best_t, node_stack, t_stack, base, stop_at_first):
     """Nearest hit of the object-space ray in the BLAS rooted at `root`, nearer than best_t,
     using the stacks from `base` up: (t, primitive or NO_HIT, b1, b2). With stop_at_first, the
     first leaf's hit (any-hit queries), children nearest first as in traverse._bvh_hit."""
@@ -83,7 +83,7 @@ def _blas_hit(prims, tris, bounds, index, root, o, d, tmin, best_t, node_stack, 
                 ref = np.int64(node_stack[top])
                 continue
         else:
-            t, j, u, v = _leaf_triangles(prims, tris, index, -1 - ref, o, shear, tmin, best_t)
+            t, j, u, v = _leaf_triangles(prims, tris, cols, index, -1 - ref, o, shear, tmin, best_t)
             if j != NO_HIT:
                 best_t, prim, b1, b2 = t, j, u, v
                 if stop_at_first:
@@ -124,8 +124,8 @@ def instances_hit(G, X, o, d, tmin, best_t, hit, b1, b2, node_stack, t_stack, st
                 oo, dd = _to_object(inv, i, o, d)
                 root = X.index[i, 0]
                 t, j, u, v = _blas_hit(
-                    G.prims, G.triangles, bounds, index, root, oo, dd, tmin, best_t, node_stack, t_stack, top,
-                    stop_at_first,
+                    G.prims, G.triangles, G.triangle_columns, bounds, index, root, oo, dd, tmin, best_t, node_stack,
+                    t_stack, top, stop_at_first,
                 )  # fmt: skip
                 if j != NO_HIT:
                     best_t, b1, b2 = t, u, v
