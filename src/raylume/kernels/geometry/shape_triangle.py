@@ -20,8 +20,15 @@ BOUNDED = True
 def ray_shear(d):
     """Per-ray constants of the watertight test."""
     kx, ky, kz = shear_axes(d)
-    sz = 1.0 / d[kz]
-    return kx, ky, kz, d[kx] * sz, d[ky] * sz, sz
+    sz = 1.0 / _component(d, kz)
+    return kx, ky, kz, _component(d, kx) * sz, _component(d, ky) * sz, sz
+
+
+@inline_function
+def _component(v, k):
+    """v[k] for a runtime k in 0..2 as two selects (a tuple indexed at run time compiles to a
+    bounds check and a jump table)."""
+    return v[0] if k == 0 else (v[1] if k == 1 else v[2])
 
 
 @inline_function
@@ -34,9 +41,9 @@ def shear_axes(d):
         kz = 1
     elif az > ax and az > ay:
         kz = 2
-    kx = (kz + 1) % 3
-    ky = (kx + 1) % 3
-    if d[kz] < 0.0:
+    kx = 1 if kz == 0 else (2 if kz == 1 else 0)  # (kz + 1) % 3, (kx + 1) % 3 without divisions
+    ky = 2 if kz == 0 else (0 if kz == 1 else 1)
+    if _component(d, kz) < 0.0:
         kx, ky = ky, kx
     return kx, ky, kz
 
