@@ -1,8 +1,9 @@
 """The environment light (kernels/shading/environment.py): its direction convention, its bilinear
 lookup (against a numpy model of it), its sampling (pdf normalisation, consistency, chi-square
-tests, a pdf that covers the bilinear footprint, importance-sampling estimates against exact
-integrals, path mode under an image sky) and its image loaders (.hdr with and without run-length
-encoding, .exr), with the errors bad input gives. Fixed seeds; tolerances from standard errors."""
+tests, cell weights that are the lookup's integral over each cell, a pdf that covers the
+bilinear footprint, importance-sampling estimates against exact integrals, path mode under an
+image sky) and its image loaders (.hdr with and without run-length encoding, .exr), with the
+errors bad input gives. Fixed seeds; tolerances from standard errors."""
 
 from __future__ import annotations
 
@@ -107,20 +108,46 @@ def exact_integral(img, weight, n=400_000):
     return 2 * np.pi * f.sum(axis=0) * np.pi / n
 
 
-def footprint_weights_reference(img):
-    """(P, solid angles), (H, W) each: the probability of each texel cell, written out: the largest
-    mean channel among the texels a bilinear lookup in it blends (its 3 x 3 neighbourhood,
-    columns wrapped, rows clamped) times the cell's solid angle, normalised."""
+def cell_weights_reference(img):
+    """(P, solid angles), (H, W) each: the probability of each texel cell, written out: the
+    integral over the cell, in solid angle, of the lookup's mean channel, normalised. Each of the
+    3 x 3 texels around the cell (columns wrapped, rows clamped) weighs in with its tents'
+    integral over the cell: along phi 1/8, 6/8, 1/8 of the cell's 2 pi / W; along theta the
+    closed forms of the integral of (the row's tent) sin(theta) dtheta over the cell's band
+    (integrals of (theta_c - theta) sin theta and (theta - theta_c) sin theta, by parts)."""
     h, w = img.shape[:2]
     m = img.astype(np.float64).mean(axis=2)
-    top = np.zeros((h, w))
+    d = np.pi / h
+    p = np.zeros((h, w))
     for i in range(h):
+        t0, t1, tc = i * d, (i + 1) * d, (i + 0.5) * d
+        up = 0.5 * np.cos(t0) + (np.sin(t0) - np.sin(tc)) / d
+        down = -0.5 * np.cos(t1) + (np.sin(t1) - np.sin(tc)) / d
+        rows = {-1: up, 0: np.cos(t0) - np.cos(t1) - up - down, 1: down}
         for j in range(w):
-            top[i, j] = max(m[a, b % w] for a in range(max(i - 1, 0), min(i + 2, h)) for b in range(j - 1, j + 2))
+            for di, wr in rows.items():
+                for dj, wc in ((-1, 1 / 8), (0, 6 / 8), (1, 1 / 8)):
+                    p[i, j] += wr * wc * m[min(max(i + di, 0), h - 1), (j + dj) % w]
     z = np.cos(np.pi * np.arange(h + 1) / h)
     area = (z[:-1] - z[1:])[:, None] * np.full(w, 2 * np.pi / w)[None, :]
-    p = top * area
     return p / p.sum(), area
+
+
+def cell_means_numeric(img, n=64, solid_angle=True):
+    """(H, W): the mean channel of bilinear_reference averaged over each texel cell on an n x n
+    midpoint grid inside it, weighed by sin(theta) (solid angle) or not (uniform in u and v).
+    With n even the grid's rows and columns never straddle the lookup's kinks (the cell's
+    centre lines), so along u and, without the sine, along v the midpoint rule is exact."""
+    h, w = img.shape[:2]
+    f = (np.arange(n) + 0.5) / n
+    v = ((np.arange(h)[:, None] + f[None, :]) / h).reshape(-1)  # (H n,)
+    u = ((np.arange(w)[:, None] + f[None, :]) / w).reshape(-1)  # (W n,)
+    vv, uu = np.meshgrid(v, u, indexing="ij")
+    lookup = bilinear_reference(img, uu, vv).mean(axis=-1)
+    weight = np.sin(np.pi * v) if solid_angle else np.ones_like(v)
+    lookup = lookup * weight[:, None]
+    sums = lookup.reshape(h, n, w, n).sum(axis=(1, 3))
+    return sums / (weight.reshape(h, n).sum(axis=1)[:, None] * n)
 
 
 def cells_of(dirs, h, w):
@@ -369,8 +396,39 @@ def test_sampled_directions_follow_the_pdf_chi_square(tmp_path):
     assert result.pvalue > 1e-3, result
 
 
+@pytest.mark.parametrize("shape", [(6, 10), (3, 5), (2, 3), (1, 4)])
+def test_cell_weights_are_the_lookups_integral_over_each_cell(tmp_path, shape):
+    """Every cell of a small random image (the seam's columns and the pole rows included),
+    numerically: uniform in u and v, the lookup's mean over a cell is the [1, 6, 1] / 8 blur of
+    the texels along both axes, rows clamped (an edge row's 7/8 and 1/8); in solid angle (what
+    the pdf is per) the sine weighs rows near the poles otherwise, and the sampling tables'
+    cells follow the solid-angle integral, as cell_weights_reference writes it out."""
+    h, w = shape
+    rng = np.random.default_rng(21)
+    img = rng.uniform(0.0, 3.0, (h, w, 3)) * (rng.random((h, w, 1)) < 0.7)
+    img[0, 0] = (8.0, 4.0, 2.0)  # at the pole and the seam
+    img = img.astype(np.float32)
+    m = img.astype(np.float64).mean(axis=2)
+    cols = (np.roll(m, 1, axis=1) + 6 * m + np.roll(m, -1, axis=1)) / 8
+    padded = np.pad(cols, ((1, 1), (0, 0)), mode="edge")
+    blur = (padded[:-2] + 6 * padded[1:-1] + padded[2:]) / 8
+    np.testing.assert_allclose(cell_means_numeric(img, solid_angle=False), blur, rtol=1e-12)
+
+    E = env_from(img, tmp_path)
+    prob = np.diff(E.marginal_cdf)[:, None] * np.diff(E.conditional_cdf, axis=1)
+    z = np.cos(np.pi * np.arange(h + 1) / h)
+    area = (z[:-1] - z[1:])[:, None] * np.full(w, 2 * np.pi / w)[None, :]
+    integral = cell_means_numeric(img, n=128) * area  # midpoint rule in theta: error ~1e-6
+    np.testing.assert_allclose(prob, integral / integral.sum(), rtol=2e-5, atol=1e-12)
+    np.testing.assert_allclose(prob, cell_weights_reference(img)[0], rtol=1e-9, atol=1e-15)
+    if h >= 3:
+        # the blur times the solid angle would put too little on the pole rows' neighbours
+        approx = blur * area / (blur * area).sum()
+        assert np.abs(approx / (integral / integral.sum()) - 1)[[0, -1]].max() > 0.01
+
+
 def test_sampled_cells_follow_a_numpy_model_chi_square(tmp_path):
-    """A sparse random image, its cells' probabilities written out (footprint_weights_reference):
+    """A sparse random image, its cells' probabilities written out (cell_weights_reference):
     each cell split in four equal solid angles (cos theta and phi halved), the counts of
     directions sampled in each against the model, and the kernels' pdf equal to the model's."""
     h, w = 6, 10
@@ -379,9 +437,9 @@ def test_sampled_cells_follow_a_numpy_model_chi_square(tmp_path):
     img[0, 0] = (2.0, 1.0, 0.5)  # at the pole and the seam
     img[2:5, 3:8] = 0.0  # a black region wider than a footprint: cells with nothing to sample
     E = env_from(img, tmp_path)
-    prob, area = footprint_weights_reference(img)
+    prob, area = cell_weights_reference(img)
     assert (prob == 0).any() and (prob > 0).sum() > 20
-    n = 200_000
+    n = 400_000  # a lit texel's dark neighbours get only its tent's tail
     dirs, _, pdf = _sample_many(E, np.random.default_rng(17).random((n, 2)))
     i, j = cells_of(dirs, h, w)
     np.testing.assert_allclose(pdf, (prob / area)[i, j], rtol=1e-9)
