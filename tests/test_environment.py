@@ -1,6 +1,8 @@
-"""The environment light (kernels/shading/environment.py): its direction convention, its sampling (pdf
-normalisation, consistency, a chi-square test, an importance-sampling estimate against an exact
-integral) and its image loaders (.hdr with and without run-length encoding, .exr), with the
+"""The environment light (kernels/shading/environment.py): its direction convention, its bilinear
+lookup (against a numpy model of it), its sampling (pdf normalisation, consistency, chi-square
+tests, cell weights that are the lookup's integral over each cell, a pdf that covers the
+bilinear footprint, importance-sampling estimates against exact integrals, path mode under an
+image sky) and its image loaders (.hdr with and without run-length encoding, .exr), with the
 errors bad input gives. Fixed seeds; tolerances from standard errors."""
 
 from __future__ import annotations
@@ -14,6 +16,7 @@ import pytest
 from numba import njit
 from scipy import stats
 
+import raylume
 from raylume.compile.environment import MAX_TEXELS, build_environment, load_environment_image, rgbe_decode
 from raylume.errors import SceneError
 from raylume.image import rgbe_encode, save_array
@@ -69,6 +72,91 @@ def formula_direction(u, v):
     return np.stack([np.sin(phi) * np.sin(theta), np.cos(theta), np.cos(phi) * np.sin(theta)], axis=-1)
 
 
+def bilinear_reference(img, u, v):
+    """The documented lookup, in numpy: texel (i, j) is the value at ((j + 0.5) / W, (i + 0.5) / H),
+    the four nearest texels weighted (1 - s)(1 - t), s(1 - t), (1 - s)t, st, columns wrapping
+    around, rows clamped. (..., 3) for u, v of any shape."""
+    h, w = img.shape[:2]
+    a = img.astype(np.float64)
+    x = np.asarray(u, dtype=np.float64) * w - 0.5
+    y = np.asarray(v, dtype=np.float64) * h - 0.5
+    j = np.floor(x).astype(int)
+    i = np.floor(y).astype(int)
+    s = (x - j)[..., None]
+    t = (y - i)[..., None]
+    j0, j1 = j % w, (j + 1) % w
+    i0, i1 = np.clip(i, 0, h - 1), np.clip(i + 1, 0, h - 1)
+    return (1 - s) * (1 - t) * a[i0, j0] + s * (1 - t) * a[i0, j1] + (1 - s) * t * a[i1, j0] + s * t * a[i1, j1]
+
+
+def row_profile(img, theta):
+    """The lookup averaged over phi at polar angle theta, (..., 3): along u the tents of a row's
+    texels each integrate to 1 / W (columns wrap), so it is the rows' means blended along v."""
+    h = img.shape[0]
+    means = img.astype(np.float64).mean(axis=1)
+    y = np.asarray(theta) / np.pi * h - 0.5
+    i = np.floor(y).astype(int)
+    t = (y - i)[..., None]
+    return (1 - t) * means[np.clip(i, 0, h - 1)] + t * means[np.clip(i + 1, 0, h - 1)]
+
+
+def exact_integral(img, weight, n=400_000):
+    """The integral over the sphere of the bilinear lookup times weight(cos theta), (3,): exact
+    in phi (row_profile), the midpoint rule in theta on n points (error ~1 / n^2)."""
+    theta = (np.arange(n) + 0.5) * np.pi / n
+    f = row_profile(img, theta) * (weight(np.cos(theta)) * np.sin(theta))[:, None]
+    return 2 * np.pi * f.sum(axis=0) * np.pi / n
+
+
+def cell_weights_reference(img):
+    """(P, solid angles), (H, W) each: the probability of each texel cell, written out: the
+    integral over the cell, in solid angle, of the lookup's mean channel, normalised. Each of the
+    3 x 3 texels around the cell (columns wrapped, rows clamped) weighs in with its tents'
+    integral over the cell: along phi 1/8, 6/8, 1/8 of the cell's 2 pi / W; along theta the
+    closed forms of the integral of (the row's tent) sin(theta) dtheta over the cell's band
+    (integrals of (theta_c - theta) sin theta and (theta - theta_c) sin theta, by parts)."""
+    h, w = img.shape[:2]
+    m = img.astype(np.float64).mean(axis=2)
+    d = np.pi / h
+    p = np.zeros((h, w))
+    for i in range(h):
+        t0, t1, tc = i * d, (i + 1) * d, (i + 0.5) * d
+        up = 0.5 * np.cos(t0) + (np.sin(t0) - np.sin(tc)) / d
+        down = -0.5 * np.cos(t1) + (np.sin(t1) - np.sin(tc)) / d
+        rows = {-1: up, 0: np.cos(t0) - np.cos(t1) - up - down, 1: down}
+        for j in range(w):
+            for di, wr in rows.items():
+                for dj, wc in ((-1, 1 / 8), (0, 6 / 8), (1, 1 / 8)):
+                    p[i, j] += wr * wc * m[min(max(i + di, 0), h - 1), (j + dj) % w]
+    z = np.cos(np.pi * np.arange(h + 1) / h)
+    area = (z[:-1] - z[1:])[:, None] * np.full(w, 2 * np.pi / w)[None, :]
+    return p / p.sum(), area
+
+
+def cell_means_numeric(img, n=64, solid_angle=True):
+    """(H, W): the mean channel of bilinear_reference averaged over each texel cell on an n x n
+    midpoint grid inside it, weighed by sin(theta) (solid angle) or not (uniform in u and v).
+    With n even the grid's rows and columns never straddle the lookup's kinks (the cell's
+    centre lines), so along u and, without the sine, along v the midpoint rule is exact."""
+    h, w = img.shape[:2]
+    f = (np.arange(n) + 0.5) / n
+    v = ((np.arange(h)[:, None] + f[None, :]) / h).reshape(-1)  # (H n,)
+    u = ((np.arange(w)[:, None] + f[None, :]) / w).reshape(-1)  # (W n,)
+    vv, uu = np.meshgrid(v, u, indexing="ij")
+    lookup = bilinear_reference(img, uu, vv).mean(axis=-1)
+    weight = np.sin(np.pi * v) if solid_angle else np.ones_like(v)
+    lookup = lookup * weight[:, None]
+    sums = lookup.reshape(h, n, w, n).sum(axis=(1, 3))
+    return sums / (weight.reshape(h, n).sum(axis=1)[:, None] * n)
+
+
+def cells_of(dirs, h, w):
+    """Environment-frame directions -> (row, column) of the texel cell each lies in."""
+    theta = np.arccos(np.clip(dirs[:, 1], -1, 1))
+    u = np.mod(np.arctan2(dirs[:, 0], dirs[:, 2]) / (2 * np.pi) + 0.5, 1.0)
+    return np.minimum((theta / np.pi * h).astype(int), h - 1), np.minimum((u * w).astype(int), w - 1)
+
+
 def sphere_grid(n_theta: int, n_phi: int):
     """Midpoints of an equal-area grid (uniform in cos theta and phi): (directions, weight of
     each, the cell's solid angle, all equal)."""
@@ -112,11 +200,11 @@ def test_single_texel_is_seen_in_the_documented_direction(tmp_path, texel):
     img[i, j] = (5.0, 6.0, 7.0)
     E = env_from(img, tmp_path)
     centre = formula_direction((j + 0.5) / w, (i + 0.5) / h)
-    assert environment_radiance(E, tuple(centre)) == (5.0, 6.0, 7.0)
-    # every other texel centre is black
+    np.testing.assert_allclose(environment_radiance(E, tuple(centre)), (5.0, 6.0, 7.0), rtol=1e-12)
+    # every other texel centre is black (up to the rounding of a direction's angles)
     v, u = np.meshgrid((np.arange(h) + 0.5) / h, (np.arange(w) + 0.5) / w, indexing="ij")
     seen = _radiance_many(E, np.ascontiguousarray(formula_direction(u, v).reshape(-1, 3))).reshape(h, w, 3)
-    np.testing.assert_array_equal(seen, img)
+    np.testing.assert_allclose(seen, img, rtol=1e-12, atol=1e-12)
 
 
 def test_centre_column_looks_along_z_top_row_along_y_and_right_is_x(tmp_path):
@@ -125,15 +213,21 @@ def test_centre_column_looks_along_z_top_row_along_y_and_right_is_x(tmp_path):
     img[h // 2, w // 2] = (1, 0, 0)  # the centre of the image
     img[0, :] = (0, 1, 0)  # the top row
     img[h - 1, :] = (0, 0, 1)  # the bottom row
-    img[h // 2, (3 * w) // 4] = (1, 1, 0)  # right of the centre: +x
-    img[h // 2, w // 4] = (0, 1, 1)  # left of the centre: -x
+    img[h // 2, (3 * w) // 4] = (1, 1, 0)  # right of the centre (column 11): +x
+    img[h // 2, w // 4] = (0, 1, 1)  # left of the centre (column 3): -x
     E = env_from(img, tmp_path)
-    assert environment_radiance(E, (0.0, 0.0, 1.0)) == (1, 0, 0)
-    assert environment_radiance(E, (0.0, 1.0, 0.0)) == (0, 1, 0)
-    assert environment_radiance(E, (0.3, 0.9, -0.1)) == (0, 1, 0)
-    assert environment_radiance(E, (0.0, -1.0, 0.0)) == (0, 0, 1)
-    assert environment_radiance(E, (1.0, 0.0, 0.0)) == (1, 1, 0)
-    assert environment_radiance(E, (-1.0, 0.0, 0.0)) == (0, 1, 1)
+
+    def close(d, want):
+        np.testing.assert_allclose(environment_radiance(E, d), want, rtol=1e-12, atol=1e-12)
+
+    close((0.0, 0.0, 1.0), (1, 0, 0))  # the centre texel's centre
+    close((0.0, 1.0, 0.0), (0, 1, 0))
+    close((0.1, 0.99, -0.05), (0, 1, 0))  # within half a texel of the pole: the top row alone
+    close((0.0, -1.0, 0.0), (0, 0, 1))
+    # +x is u = 3/4: x = 0.75 * 15 - 0.5 = 10.75, a quarter of column 10 and three of column 11
+    close((1.0, 0.0, 0.0), (0.75, 0.75, 0))
+    # -x is u = 1/4: x = 3.25, three quarters of column 3 and one of column 4
+    close((-1.0, 0.0, 0.0), (0, 0.75, 0.75))
 
 
 def test_rotate_turns_the_image_as_object_transforms_do(tmp_path):
@@ -143,14 +237,14 @@ def test_rotate_turns_the_image_as_object_transforms_do(tmp_path):
     img[2, 11] = (0, 2, 0)
     E = env_from(img, tmp_path, rotate=(0, 90, 0))
     # transform_matrix: rotating 90 degrees about y maps +z to +x
-    assert environment_radiance(E, (1.0, 0.0, 0.0)) == (1, 0, 0)
-    assert environment_radiance(E, (0.0, 0.0, 1.0)) == (0, 0, 0)
+    np.testing.assert_allclose(environment_radiance(E, (1.0, 0.0, 0.0)), (1, 0, 0), rtol=1e-12)
+    np.testing.assert_allclose(environment_radiance(E, (0.0, 0.0, 1.0)), (0, 0, 0), atol=1e-12)
     for rotate in [(0, 90, 0), (30, -50, 70)]:
         E = env_from(img, tmp_path, rotate=rotate)
         m = transform_matrix(rotate=rotate)[:3, :3]
         np.testing.assert_allclose(E.rotation, m)
         d = m @ formula_direction(11.5 / w, 2.5 / h)
-        assert environment_radiance(E, tuple(d)) == (0, 2, 0)
+        np.testing.assert_allclose(environment_radiance(E, tuple(d)), (0, 2, 0), rtol=1e-12, atol=1e-12)
 
 
 def test_constant_colour_is_sampled_uniformly():
@@ -160,6 +254,8 @@ def test_constant_colour_is_sampled_uniformly():
     dirs, rgb, pdf = _sample_many(E, rng.random((20000, 2)))
     np.testing.assert_allclose(pdf, 1 / (4 * np.pi), rtol=1e-12)
     np.testing.assert_array_equal(rgb, np.broadcast_to([1.5, 3.0, 6.0], rgb.shape))
+    # the lookup is the colour itself in every direction, bit for bit (no blending)
+    np.testing.assert_array_equal(_radiance_many(E, dirs), rgb)
     np.testing.assert_allclose(np.linalg.norm(dirs, axis=1), 1, atol=1e-12)
     # uniform over the sphere: each coordinate's mean is 0 and its mean square 1/3
     se = np.sqrt(1 / 3 / len(dirs))
@@ -176,6 +272,71 @@ def test_no_environment_is_black_has_pdf_zero_and_the_same_numba_type():
     assert sample_environment(none, 0.5, 0.5)[2] == 0.0
     assert numba.typeof(none) == numba.typeof(build_environment(color=(1, 1, 1)))
     assert numba.typeof(none) == numba.typeof(build_environment(file="sky.hdr", base_dir=EXAMPLES))
+
+
+# ---------------------------------------------------------------------------------------------
+# Bilinear lookup
+
+
+def test_lookup_is_the_texel_at_its_centre_and_the_mean_halfway(tmp_path):
+    h, w = 5, 8
+    img = np.random.default_rng(12).uniform(0.0, 4.0, (h, w, 3)).astype(np.float32)
+    E = env_from(img, tmp_path)
+    a = img.astype(np.float64)
+
+    def seen(u, v):
+        d = np.ascontiguousarray(formula_direction(u, v).reshape(-1, 3))
+        return _radiance_many(E, d).reshape(np.shape(u) + (3,))
+
+    def close(got, want):
+        np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12)
+
+    j, i = np.meshgrid(np.arange(w), np.arange(h))
+    close(seen((j + 0.5) / w, (i + 0.5) / h), a)  # texel centres: the texels
+    # halfway between horizontal neighbours (the last column's right neighbour is the first)
+    close(seen((j + 1.0) / w, (i + 0.5) / h), (a + np.roll(a, -1, axis=1)) / 2)
+    # halfway between vertical neighbours, and between four texels
+    close(seen((j[:-1] + 0.5) / w, (i[:-1] + 1.0) / h), (a[:-1] + a[1:]) / 2)
+    right = np.roll(a, -1, axis=1)
+    close(seen((j[:-1] + 1.0) / w, (i[:-1] + 1.0) / h), (a[:-1] + right[:-1] + a[1:] + right[1:]) / 4)
+    # the seam at u = 0 (and 1): the mean of the last and the first columns
+    close(seen(np.zeros(h), (np.arange(h) + 0.5) / h), (a[:, -1] + a[:, 0]) / 2)
+    close(seen(np.full(h, 0.25 / w), (np.arange(h) + 0.5) / h), 0.25 * a[:, -1] + 0.75 * a[:, 0])
+    close(seen(np.full(h, 1 - 0.25 / w), (np.arange(h) + 0.5) / h), 0.75 * a[:, -1] + 0.25 * a[:, 0])
+    # within half a texel of a pole, the top (bottom) row alone, blended along u
+    close(seen((np.arange(w) + 0.75) / w, np.full(w, 0.2 / h)), 0.75 * a[0] + 0.25 * np.roll(a[0], -1, axis=0))
+    close(seen((np.arange(w) + 0.5) / w, np.full(w, 1 - 0.3 / h)), a[-1])
+
+
+@pytest.mark.parametrize("rotate", [(0, 0, 0), (25, -40, 110)])
+def test_lookup_matches_a_numpy_model_everywhere(tmp_path, rotate):
+    """Random directions against bilinear_reference (the image coordinates found in numpy)."""
+    img = make_image(seed=13, h=7, w=12)
+    E = env_from(img, tmp_path, rotate=rotate)
+    rng = np.random.default_rng(14)
+    d = rng.normal(size=(5000, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    local = d @ transform_matrix(rotate=rotate)[:3, :3]  # R^T d, row by row
+    u = np.mod(np.arctan2(local[:, 0], local[:, 2]) / (2 * np.pi) + 0.5, 1.0)
+    v = np.arccos(np.clip(local[:, 1], -1, 1)) / np.pi
+    want = bilinear_reference(img, u, v)
+    np.testing.assert_allclose(_radiance_many(E, np.ascontiguousarray(d)), want, rtol=1e-9, atol=1e-9)
+
+
+def test_lookup_is_continuous_across_texel_edges_and_the_seam(tmp_path):
+    """Nearest-texel lookup jumps by a texel's difference at every edge; bilinear by no more
+    than the step times the largest slope between neighbours."""
+    img = make_image(seed=15, h=6, w=10)
+    E = env_from(img, tmp_path)
+    h, w = img.shape[:2]
+    eps = 1e-7
+    i = np.repeat(np.arange(h), w + 1)
+    edges = np.tile(np.arange(w + 1) / w, h)  # every vertical texel edge, the seam twice
+    v = (i + 0.37) / h
+    left = _radiance_many(E, np.ascontiguousarray(formula_direction(np.mod(edges - eps, 1), v)))
+    right = _radiance_many(E, np.ascontiguousarray(formula_direction(np.mod(edges + eps, 1), v)))
+    slope = float(np.abs(np.diff(img, axis=1, append=img[:, :1])).max()) * w
+    assert np.abs(left - right).max() < 4 * eps * slope
 
 
 # ---------------------------------------------------------------------------------------------
@@ -199,8 +360,11 @@ def test_samples_carry_their_pdf_and_radiance(tmp_path, rotate):
     assert np.all(pdf > 0)
     np.testing.assert_allclose(np.linalg.norm(dirs, axis=1), 1, atol=1e-12)
     np.testing.assert_allclose(pdf, _pdf_many(E, dirs), rtol=1e-9)
-    np.testing.assert_array_equal(rgb, _radiance_many(E, dirs))
-    # the black band (second row from the bottom) is never sampled
+    # the radiance a sample carries is the lookup along it (found from its image coordinates,
+    # the lookup's from the world direction: the two differ by rounding)
+    np.testing.assert_allclose(rgb, _radiance_many(E, dirs), rtol=1e-9, atol=1e-12)
+    # the black band's cells (second row from the bottom) are sampled, for the lookup blends
+    # the rows beside it into them, but no sample lands where the lookup is black
     assert np.all(rgb.max(axis=1) > 0)
 
 
@@ -232,18 +396,109 @@ def test_sampled_directions_follow_the_pdf_chi_square(tmp_path):
     assert result.pvalue > 1e-3, result
 
 
+@pytest.mark.parametrize("shape", [(6, 10), (3, 5), (2, 3), (1, 4)])
+def test_cell_weights_are_the_lookups_integral_over_each_cell(tmp_path, shape):
+    """Every cell of a small random image (the seam's columns and the pole rows included),
+    numerically: uniform in u and v, the lookup's mean over a cell is the [1, 6, 1] / 8 blur of
+    the texels along both axes, rows clamped (an edge row's 7/8 and 1/8); in solid angle (what
+    the pdf is per) the sine weighs rows near the poles otherwise, and the sampling tables'
+    cells follow the solid-angle integral, as cell_weights_reference writes it out."""
+    h, w = shape
+    rng = np.random.default_rng(21)
+    img = rng.uniform(0.0, 3.0, (h, w, 3)) * (rng.random((h, w, 1)) < 0.7)
+    img[0, 0] = (8.0, 4.0, 2.0)  # at the pole and the seam
+    img = img.astype(np.float32)
+    m = img.astype(np.float64).mean(axis=2)
+    cols = (np.roll(m, 1, axis=1) + 6 * m + np.roll(m, -1, axis=1)) / 8
+    padded = np.pad(cols, ((1, 1), (0, 0)), mode="edge")
+    blur = (padded[:-2] + 6 * padded[1:-1] + padded[2:]) / 8
+    np.testing.assert_allclose(cell_means_numeric(img, solid_angle=False), blur, rtol=1e-12)
+
+    E = env_from(img, tmp_path)
+    prob = np.diff(E.marginal_cdf)[:, None] * np.diff(E.conditional_cdf, axis=1)
+    z = np.cos(np.pi * np.arange(h + 1) / h)
+    area = (z[:-1] - z[1:])[:, None] * np.full(w, 2 * np.pi / w)[None, :]
+    integral = cell_means_numeric(img, n=128) * area  # midpoint rule in theta: error ~1e-6
+    np.testing.assert_allclose(prob, integral / integral.sum(), rtol=2e-5, atol=1e-12)
+    np.testing.assert_allclose(prob, cell_weights_reference(img)[0], rtol=1e-9, atol=1e-15)
+    if h >= 3:
+        # the blur times the solid angle would put too little on the pole rows' neighbours
+        approx = blur * area / (blur * area).sum()
+        assert np.abs(approx / (integral / integral.sum()) - 1)[[0, -1]].max() > 0.01
+
+
+def test_sampled_cells_follow_a_numpy_model_chi_square(tmp_path):
+    """A sparse random image, its cells' probabilities written out (cell_weights_reference):
+    each cell split in four equal solid angles (cos theta and phi halved), the counts of
+    directions sampled in each against the model, and the kernels' pdf equal to the model's."""
+    h, w = 6, 10
+    rng = np.random.default_rng(16)
+    img = (rng.uniform(0.0, 3.0, (h, w, 3)) * (rng.random((h, w, 1)) < 0.25)).astype(np.float32)
+    img[0, 0] = (2.0, 1.0, 0.5)  # at the pole and the seam
+    img[2:5, 3:8] = 0.0  # a black region wider than a footprint: cells with nothing to sample
+    E = env_from(img, tmp_path)
+    prob, area = cell_weights_reference(img)
+    assert (prob == 0).any() and (prob > 0).sum() > 20
+    n = 400_000  # a lit texel's dark neighbours get only its tent's tail
+    dirs, _, pdf = _sample_many(E, np.random.default_rng(17).random((n, 2)))
+    i, j = cells_of(dirs, h, w)
+    np.testing.assert_allclose(pdf, (prob / area)[i, j], rtol=1e-9)
+    z = np.cos(np.pi * np.arange(h + 1) / h)
+    lower = dirs[:, 1] < (z[i] + z[i + 1]) / 2
+    u = np.mod(np.arctan2(dirs[:, 0], dirs[:, 2]) / (2 * np.pi) + 0.5, 1.0)
+    right = np.mod(np.floor(u * 2 * w), 2).astype(int)
+    observed = np.bincount(((i * w + j) * 2 + lower) * 2 + right, minlength=4 * h * w).astype(float)
+    expected = np.repeat(prob.ravel(), 4) * n / 4
+    assert observed[expected == 0].sum() == 0  # no sample where the model has none
+    keep = expected > 0
+    assert expected[keep].min() > 20
+    result = stats.chisquare(observed[keep], expected[keep])
+    assert result.pvalue > 1e-3, result
+    # environment_pdf of random directions (not only sampled ones) is the model's too
+    d = rng.normal(size=(4000, 3))
+    d = np.ascontiguousarray(d / np.linalg.norm(d, axis=1, keepdims=True))
+    i, j = cells_of(d, h, w)
+    np.testing.assert_allclose(_pdf_many(E, d), (prob / area)[i, j], rtol=1e-9)
+
+
+@pytest.mark.parametrize("texel", [(2, 3), (0, 0), (5, 7)], ids=["inside", "pole-and-seam", "bottom-right"])
+def test_pdf_is_positive_wherever_the_lookup_is(tmp_path, texel):
+    """One bright texel: the lookup reaches half way into each neighbouring cell (wrapping at the
+    seam, clamped at a pole), and the pdf is positive exactly in those cells; a nearest-texel
+    distribution would miss the neighbours (biased light sampling). Then light sampling alone
+    integrates the lookup over the sphere exactly (within standard errors)."""
+    h, w = 6, 8
+    img = np.zeros((h, w, 3), np.float32)
+    img[texel] = (3.0, 2.0, 1.0)
+    E = env_from(img, tmp_path)
+    dirs, _ = sphere_grid(480, 640)
+    lit = _radiance_many(E, dirs).max(axis=1) > 0
+    pdf = _pdf_many(E, dirs)
+    assert lit.sum() > 1000
+    assert np.all(pdf[lit] > 0)
+    i, j = cells_of(dirs, h, w)
+    a, b = texel
+    around = {(min(max(a + di, 0), h - 1), (b + dj) % w) for di in (-1, 0, 1) for dj in (-1, 0, 1)}
+    assert set(zip(i[pdf > 0].tolist(), j[pdf > 0].tolist())) == around
+    assert set(zip(i[lit].tolist(), j[lit].tolist())) == around
+    # the integral of the lookup over the sphere, by light sampling alone
+    n = 100_000
+    sampled, rgb, p = _sample_many(E, np.random.default_rng(18).random((n, 2)))
+    assert np.all(p > 0)
+    f = rgb / p[:, None]
+    mean, se = f.mean(axis=0), f.std(axis=0, ddof=1) / np.sqrt(n)
+    exact = exact_integral(img, np.ones_like)
+    assert np.all(np.abs(mean - exact) < 4.5 * se), (mean, exact, se)
+
+
 @pytest.mark.parametrize("rotate", [(0, 0, 0), (0, 37, 0)])
 def test_importance_sampled_irradiance_matches_the_exact_integral(tmp_path, rotate):
-    """E(+y) = integral of L(w) max(0, w.y) dw: texel by texel, exactly, against the mean of
-    L cos / pdf over sampled directions (a rotation about y keeps +y)."""
+    """E(+y) = integral of L(w) max(0, w.y) dw over the bilinear lookup: exact in phi, numeric in
+    theta (exact_integral), against the mean of L cos / pdf over sampled directions (a
+    rotation about y keeps +y)."""
     img = make_image(seed=6)
     E = env_from(img, tmp_path, rotate=rotate)
-    h, w = img.shape[:2]
-    z = np.cos(np.pi * np.arange(h + 1) / h)
-    # per texel of the upper hemisphere (h is even, so no row straddles the horizon):
-    # integral of cos(theta) over it = (2 pi / w) (z0^2 - z1^2) / 2
-    cos_weight = np.where(z[1:] >= 0, (z[:-1] ** 2 - z[1:] ** 2) / 2, 0.0) * 2 * np.pi / w
-    exact = (img.astype(np.float64) * cos_weight[:, None, None]).sum(axis=(0, 1))
+    exact = exact_integral(img, lambda c: np.maximum(c, 0.0))
     rng = np.random.default_rng(7)
     n = 100_000
     dirs, rgb, pdf = _sample_many(E, rng.random((n, 2)))
@@ -266,6 +521,40 @@ def test_importance_sampling_has_lower_variance_than_uniform_on_a_sunny_sky():
     f_uniform = _radiance_many(E, v).mean(axis=1) * 4 * np.pi
     assert f_is.std() < 0.1 * f_uniform.std()
     assert abs(f_is.mean() - f_uniform.mean()) < 4 * f_uniform.std() / np.sqrt(n)
+
+
+# ---------------------------------------------------------------------------------------------
+# Path mode
+
+
+@pytest.mark.parametrize("strategy", ["mis", "light", "bsdf"])
+def test_diffuse_plane_under_an_image_sky_in_path_mode(tmp_path, monkeypatch, strategy):
+    """A white diffuse plane (albedo 0.8) facing +y under an image environment, seen from above:
+    every pixel is 0.8 / pi times the irradiance E(+y) of the bilinear lookup (exact_integral;
+    light leaving the plane upwards never returns). Next-event estimation alone, BSDF sampling
+    alone and MIS each find it: light sampling would miss radiance where its pdf were zero, and
+    MIS weights that did not sum to one (the two pdfs disagreeing) would bias it."""
+    img = make_image(seed=19, h=8, w=16)  # a bright texel above the horizon, a black row below
+    save_array(tmp_path / "sky.exr", img)
+    scene = raylume.scene_from_dict(
+        {
+            "render": {"width": 24, "height": 24, "spp": 16, "mode": "path", "max_depth": -1},
+            "camera": {"position": [0, 3, -3], "look_at": [0, 0, 0], "fov": 30},
+            "objects": [
+                {"type": "plane", "point": [0, 0, 0], "normal": [0, 1, 0],
+                 "material": {"type": "diffuse", "color": [0.8, 0.8, 0.8]}},
+            ],
+            "environment": {"file": str(tmp_path / "sky.exr"), "rotate": [0, 30, 0]},
+        }
+    )  # fmt: skip
+    monkeypatch.setenv("RAYLUME_PATH_STRATEGY", strategy)
+    image = raylume.render(scene, aovs=False, seed=20)
+    rgb = image.rgb.reshape(-1, 3).astype(np.float64)
+    assert np.isfinite(rgb).all()
+    expected = 0.8 / np.pi * exact_integral(img, lambda c: np.maximum(c, 0.0))
+    mean, se = rgb.mean(axis=0), rgb.std(axis=0, ddof=1) / np.sqrt(len(rgb))
+    assert np.all(se > 0)
+    assert np.all(np.abs(mean - expected) < 4.5 * se), (strategy, mean, expected, se)
 
 
 # ---------------------------------------------------------------------------------------------
