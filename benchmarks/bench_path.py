@@ -1,30 +1,45 @@
-"""raylume's path tracer against Mitsuba 3 on the Cornell box (examples/cornell.toml): speed,
-and error against time.
+"""raylume's path tracer against Mitsuba 3: speed on the Cornell box (examples/cornell.toml) and on
+the material showcase (examples/materials.toml), and error against time on the Cornell box.
 
-    python benchmarks/bench_path.py [--rounds 3] [--plot docs/images/path_rmse.png] [--quick]
-                                    [--no-denoise-goal | --denoise-goal-only]
+    python benchmarks/bench_path.py [--rounds 3] [--scene cornell|materials|both] [--quick]
+                                    [--plot docs/images/path_rmse.png] [--speed-only]
+                                    [--no-denoise-goal | --denoise-goal-only] [--no-cold]
 
-1. Speed: 256 x 256, 64 spp, max_depth 8 (the TOML's), raylume's `mode = "path"` against
-   Mitsuba 3's `path` integrator in variant scalar_rgb (the scene built from the same TOML and
-   OBJ files by benchmarks/mitsuba_reference.py), and llvm_ad_rgb where it runs (it is probed in
-   a child process first: a broken LLVM aborts the process). Both in this process, alternating
-   raylume, Mitsuba, raylume, Mitsuba, ... for --rounds rounds, each round on all cores and on
-   1 thread. Times are the wall time of the render call (raylume's kernel time beside it), after
-   a warm-up render: raylume's Numba compilation (or cache load) is reported apart, and at the
-   very end a cold compile in a new process with an empty Numba cache (--no-cold skips it).
-2. Error against time: 64 x 64 against tests/reference/cornell_mitsuba.npz (Mitsuba's mean over
-   65536 spp), the pixels that see any of the light left out, RMSE over linear RGB. raylume and
-   Mitsuba scalar_rgb at 4 .. 1024 spp, and raylume's 16 spp denoised by Intel OIDN (its time
-   includes the denoiser). New seeds every round, none of the reference's. The reference's own
-   noise adds about 1/64 of a 1024-spp render's variance to its squared error (~0.8 % RMSE).
-3. The denoising goal at the speed benchmark's size (256 x 256): raw 256 spp against 16 spp
-   denoised, RMSE against raylume's own 4096-spp render (cached in benchmarks/.cache, minutes to
-   make the first time; --no-denoise-goal skips it), over all pixels, over the pixels that see
-   none of the light, and over those less a 2-pixel ring. The denoised image's time includes
-   what `--denoise` adds (raylume/seen_light.py): the light seen directly rendered apart, the
-   light's edge pixels path-traced at 16x the samples, and OIDN.
+1. Speed, on each scene --scene names (default both): raylume's `mode = "path"` against Mitsuba
+   3's `path` integrator in variant scalar_rgb, and llvm_ad_rgb where it runs (it is probed in a
+   child process first: a broken LLVM aborts the process). 64 spp, max_depth 8 (the TOMLs').
+   - Cornell box: 256 x 256 (--size), built for Mitsuba from the same TOML and OBJ files by
+     benchmarks/mitsuba_reference.py.
+   - Materials: the TOML's 640 x 320 (times --materials-scale), built for Mitsuba by
+     benchmarks/mitsuba_scene.py: a checkered plane (a large rectangle), six spheres (smooth and
+     rough gold, glass, frosted glass, rough plastic, diffuse), the HDR sky as an envmap. One
+     approximation: Mitsuba's `path` has no media, so its glass does not absorb (raylume's
+     Beer-Lambert costs one exp per channel per segment inside); its envmap is bilinear,
+     raylume's nearest-texel (`python benchmarks/mitsuba_scene.py compare` shows both images).
+   All in this process, alternating raylume, Mitsuba, raylume, Mitsuba, ... for --rounds rounds,
+   each round on all cores and on 1 thread. Times are the wall time of the render call (raylume's
+   kernel time beside it, and its rays per sample), after a warm-up render: raylume's Numba
+   compilation (or cache load) is reported apart, and at the very end a cold compile in a new
+   process with an empty Numba cache (--no-cold skips it).
+2. Error against time (Cornell box only): 64 x 64 against tests/reference/cornell_mitsuba.npz
+   (Mitsuba's mean over 65536 spp), the pixels that see any of the light left out, RMSE over
+   linear RGB. raylume and Mitsuba scalar_rgb at 4 .. 1024 spp, and raylume's 16 spp denoised by
+   Intel OIDN (its time includes the denoiser). New seeds every round, none of the reference's.
+   The reference's own noise adds about 1/64 of a 1024-spp render's variance to its squared
+   error (~0.8 % RMSE).
+3. The denoising goal (Cornell box only) at the speed benchmark's size (256 x 256): raw 256 spp
+   against 16 spp denoised, RMSE against raylume's own 4096-spp render (cached in
+   benchmarks/.cache, minutes to make the first time; --no-denoise-goal skips it), over all
+   pixels, over the pixels that see none of the light, and over those less a 2-pixel ring. The
+   denoised image's time includes what `--denoise` adds (raylume/seen_light.py): the light seen
+   directly rendered apart, the light's edge pixels path-traced at 16x the samples, and OIDN.
+
+--speed-only runs part 1 alone (no error, denoising or cold-start runs).
 
 Mitsuba is optional (pip install 'raylume[bench]'); without it raylume's figures are printed alone.
+Its llvm_ad_rgb variant also needs the LLVM shared library, which pip does not install: on Debian
+`apt-get install libllvm19` (Dr.Jit finds libLLVM.so by itself; elsewhere set DRJIT_LIBLLVM_PATH
+to it). Without it the probe says why and llvm_ad_rgb is left out.
 """
 
 from __future__ import annotations
@@ -35,6 +50,8 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -71,12 +88,48 @@ def load() -> str:
 # --------------------------------------------------------------------------- renderers
 
 
+MATERIALS = REPO / "examples" / "materials.toml"
+
+
+@dataclass
+class BenchScene:
+    """A scene of part 1: its TOML (raylume), its size and depth, and its Mitsuba dictionary."""
+
+    label: str
+    path: Path
+    width: int
+    height: int
+    max_depth: int
+    mitsuba: Callable[[], dict]  # called after mi.set_variant: the load_dict dictionary
+    notes: list = field(default_factory=list)  # what Mitsuba's scene approximates (filled by `mitsuba`)
+
+
+def cornell_bench(doc: dict, size: int) -> BenchScene:
+    return BenchScene(
+        "Cornell box", SCENE, size, size, int(doc["render"]["max_depth"]), lambda: mitsuba_dict(doc, size, size)
+    )
+
+
+def materials_bench(scale: float) -> BenchScene:
+    from mitsuba_scene import mitsuba_scene_dict
+
+    scene = raylume.load_scene(MATERIALS)
+    W, H = max(1, round(scene.render.width * scale)), max(1, round(scene.render.height * scale))
+    notes: list = []
+
+    def build() -> dict:
+        notes.clear()
+        return mitsuba_scene_dict(scene, W, H, notes=notes)
+
+    return BenchScene("materials (examples/materials.toml)", MATERIALS, W, H, scene.render.depth, build, notes)
+
+
 class Raylume:
     name = "raylume"
 
-    def __init__(self, width: int, height: int, max_depth: int):
+    def __init__(self, width: int, height: int, max_depth: int, path: Path = SCENE):
         t = time.perf_counter()
-        self.session = raylume.Session(raylume.load_scene(SCENE))
+        self.session = raylume.Session(raylume.load_scene(path))
         self.setup_seconds = time.perf_counter() - t
         self.size = dict(width=width, height=height, mode="path", max_depth=max_depth, aovs=False)
         t = time.perf_counter()
@@ -93,18 +146,24 @@ class Raylume:
 
 
 class Mitsuba:
-    def __init__(self, variant: str, doc: dict, width: int, height: int):
+    def __init__(self, variant: str, build: Callable[[], dict], threads=None):
+        """`build` makes the scene's load_dict dictionary (called once the variant is set); the
+        warm-up renders once on each thread count of `threads` (default: all cores)."""
         import drjit as dr
         import mitsuba as mi
 
         self.mi, self.dr, self.variant = mi, dr, variant
         self.name = f"Mitsuba {variant}"
         mi.set_variant(variant)
+        d = build()
         t = time.perf_counter()
-        self.scene = mi.load_dict(mitsuba_dict(doc, width, height))
+        self.scene = mi.load_dict(d)
         self.setup_seconds = time.perf_counter() - t
         t = time.perf_counter()
-        self.render(4, 1, os.cpu_count() or 1)  # first render: the LLVM variant compiles its kernels here
+        # first renders: the LLVM variant compiles its kernels here (or loads them from its disk
+        # cache), for each thread count: a first 1-thread render once took 10x a later one
+        for n in threads or [os.cpu_count() or 1]:
+            self.render(4, 1, n)
         self.warmup_seconds = time.perf_counter() - t
 
     def render(self, spp: int, seed: int, threads: int, denoise: bool = False):
@@ -140,15 +199,16 @@ def llvm_probe() -> tuple[bool, str]:
 # --------------------------------------------------------------------------- part 1: speed
 
 
-def speed(args, doc, have_mitsuba: bool, llvm_ok: bool) -> dict:
-    W, H, spp, depth = args.size, args.size, args.spp, int(doc["render"]["max_depth"])
+def speed(args, bench: BenchScene, have_mitsuba: bool, llvm_ok: bool) -> dict:
+    W, H, spp, depth = bench.width, bench.height, args.spp, bench.max_depth
     all_cores = os.cpu_count() or 1
     configs = [all_cores, 1] if all_cores > 1 else [1]
-    engines = [Raylume(W, H, depth)]
+    print(f"\n{bench.label}: {W} x {H}, {spp} spp, max_depth {depth}", flush=True)
+    engines = [Raylume(W, H, depth, bench.path)]
     if have_mitsuba:
-        engines.append(Mitsuba("scalar_rgb", doc, W, H))
+        engines.append(Mitsuba("scalar_rgb", bench.mitsuba, configs))
         if llvm_ok:
-            engines.append(Mitsuba("llvm_ad_rgb", doc, W, H))
+            engines.append(Mitsuba("llvm_ad_rgb", bench.mitsuba, configs))
     times = {(e.name, t): [] for e in engines for t in configs}
     kernel = {t: [] for t in configs}
     rays = {}
@@ -183,7 +243,7 @@ def speed(args, doc, have_mitsuba: bool, llvm_ok: bool) -> dict:
                 ]
             )
     print(
-        f"\n### 1. Speed: Cornell box {W} x {H}, {spp} spp, max_depth {depth}, "
+        f"\n### 1. Speed: {bench.label} {W} x {H}, {spp} spp, max_depth {depth}, "
         f"median of {args.rounds} alternating rounds; {machine()}; {load()} at the end\n"
     )
     print(
@@ -192,6 +252,8 @@ def speed(args, doc, have_mitsuba: bool, llvm_ok: bool) -> dict:
             rows,
         )
     )
+    if bench.notes and have_mitsuba:
+        print("\nMitsuba's scene approximates raylume's: " + "; ".join(bench.notes) + ".")
     setup = [
         [e.name, f"{e.setup_seconds:.3f} s", f"{e.warmup_seconds:.2f} s"]
         + ([f"{e.compile_seconds:.2f} s"] if e.name == "raylume" else ["-"])
@@ -203,7 +265,7 @@ def speed(args, doc, have_mitsuba: bool, llvm_ok: bool) -> dict:
             [
                 "renderer",
                 "scene setup (Session / load_dict)",
-                "warm-up render (wall)",
+                "warm-up render(s) (wall)",
                 "of which compiling / cache load",
             ],
             setup,
@@ -236,7 +298,7 @@ def error_vs_time(args, doc, have_mitsuba: bool) -> dict:
     threads = os.cpu_count() or 1
     engines = [Raylume(W, H, depth)]
     if have_mitsuba:
-        engines.append(Mitsuba("scalar_rgb", doc, W, H))
+        engines.append(Mitsuba("scalar_rgb", lambda: mitsuba_dict(doc, W, H)))
 
     def rmse(img):
         return float(np.sqrt(np.mean((img[keep] - ref[keep]) ** 2)))
@@ -385,7 +447,21 @@ def denoise_goal(args, doc) -> dict:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--rounds", type=int, default=3, help="alternating rounds (medians over them)")
-    parser.add_argument("--quick", action="store_true", help="smoke run: 64 x 64 at 8 spp, spp up to 64, no cold start")
+    parser.add_argument(
+        "--quick",
+        action="store_true",
+        help="smoke run: 8 spp, the Cornell box at 64 x 64, materials at 1/4 size, spp up to 64, no cold start",
+    )
+    parser.add_argument(
+        "--scene", choices=["cornell", "materials", "both"], default="both", help="the scene(s) of part 1 (speed)"
+    )
+    parser.add_argument("--size", type=int, help="the Cornell box's side in parts 1 and 3 (default 256, --quick 64)")
+    parser.add_argument(
+        "--materials-scale",
+        type=float,
+        help="examples/materials.toml's 640 x 320 times this in part 1 (default 1, --quick 0.25)",
+    )
+    parser.add_argument("--speed-only", action="store_true", help="part 1 alone (no error, denoising or cold start)")
     parser.add_argument("--plot", metavar="PATH", help="write the RMSE-against-time plot (PNG) here")
     parser.add_argument("--no-cold", dest="cold", action="store_false", help="skip the cold-compile process")
     parser.add_argument("--skip-mitsuba", action="store_true", help="raylume's figures alone")
@@ -394,10 +470,14 @@ def main() -> None:
     )
     parser.add_argument("--denoise-goal-only", action="store_true", help="part 3 alone")
     args = parser.parse_args()
-    args.size, args.spp = (64, 8) if args.quick else (256, 64)
+    if args.speed_only and args.denoise_goal_only:
+        parser.error("--speed-only and --denoise-goal-only exclude each other")
+    size, args.spp = (64, 8) if args.quick else (256, 64)
+    args.size = args.size or size
+    args.materials_scale = args.materials_scale or (0.25 if args.quick else 1.0)
     args.spp_list = [4, 16, 64] if args.quick else [4, 16, 64, 256, 1024]
-    args.cold = args.cold and not args.quick
-    args.denoise_goal = args.denoise_goal and not args.quick
+    args.cold = args.cold and not args.quick and not args.speed_only
+    args.denoise_goal = args.denoise_goal and not args.quick and not args.speed_only
 
     doc = load_toml()
     version = None if args.skip_mitsuba else mitsuba_version()
@@ -411,8 +491,13 @@ def main() -> None:
         print(f"Mitsuba {version}: scalar_rgb; llvm_ad_rgb " + ("runs here" if llvm_ok else f"skipped: {llvm_why}"))
 
     only3 = args.denoise_goal_only
-    speeds = {} if only3 else speed(args, doc, have_mitsuba, llvm_ok)
-    errors = {} if only3 else error_vs_time(args, doc, have_mitsuba)
+    benches = []
+    if not only3 and args.scene in ("cornell", "both"):
+        benches.append(cornell_bench(doc, args.size))
+    if not only3 and args.scene in ("materials", "both"):
+        benches.append(materials_bench(args.materials_scale))
+    speeds = {bench.label: speed(args, bench, have_mitsuba, llvm_ok) for bench in benches}
+    errors = {} if only3 or args.speed_only else error_vs_time(args, doc, have_mitsuba)
     denoising = denoise_goal(args, doc) if args.denoise_goal else {}
     if args.plot and errors:
         plot(errors, args.plot)
@@ -434,13 +519,17 @@ def main() -> None:
             f"(RMSE {d:.5f} against {raw:.5f}, ratio {d / raw:.2f})"
         )
     if have_mitsuba:
-        for threads, (ours, theirs) in speeds.items():
-            m = theirs["Mitsuba scalar_rgb"]
-            verdict = "holds" if ours <= m else "does not hold"
-            print(
-                f"- raylume at least as fast per sample as Mitsuba scalar_rgb, {threads} thread(s): {verdict} "
-                f"(raylume / Mitsuba time {ours / m:.2f})"
-            )
+        for label, by_threads in speeds.items():
+            for threads, (ours, theirs) in by_threads.items():
+                for variant in ("scalar_rgb", "llvm_ad_rgb"):
+                    if f"Mitsuba {variant}" not in theirs:
+                        continue
+                    m = theirs[f"Mitsuba {variant}"]
+                    verdict = "holds" if ours <= m else "does not hold"
+                    print(
+                        f"- {label}: raylume at least as fast per sample as Mitsuba {variant}, {threads} thread(s): "
+                        f"{verdict} (raylume / Mitsuba time {ours / m:.2f})"
+                    )
         top = max(args.spp_list)
         if ("Mitsuba scalar_rgb", top, False) in errors:
             (e1, s1), (e2, s2) = errors["raylume", top, False], errors["Mitsuba scalar_rgb", top, False]
