@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import warnings
 
+import numpy as np
 import pytest
 from test_cli import raylume as run_cli
 
@@ -42,8 +43,16 @@ def test_no_lights_in_a_lit_mode_warns(mode):
 
 def test_no_objects_warns_in_every_mode():
     for mode in ("cast", "trace", "raster"):
-        with pytest.warns(SceneWarning, match="nothing to render"):
+        with pytest.warns(SceneWarning, match="nothing to render, the image is the background"):
             raylume.render(EMPTY, width=8, height=8, mode=mode)
+
+
+def test_no_objects_under_an_environment_shows_the_environment():
+    """The warning names what the image shows: the environment, which every ray sees."""
+    sky = raylume.scene_from_dict({"environment": {"color": [0.2, 0.4, 0.8]}})
+    with pytest.warns(SceneWarning, match="the image is the environment"):
+        img = raylume.render(sky, width=8, height=4, mode="path", spp=1, aovs=False)
+    np.testing.assert_allclose(np.asarray(img.rgb, np.float64).reshape(-1, 3).mean(0), (0.2, 0.4, 0.8), rtol=1e-6)
 
 
 def test_lit_or_cast_scenes_do_not_warn():

@@ -25,7 +25,8 @@ def scene_warnings(scene: Scene, mode: str) -> list[str]:
     """What looks wrong with rendering `scene` in `mode`, one sentence each."""
     found = []
     if not scene.objects:
-        found.append("the scene has no objects: nothing to render, the image is the background")
+        seen = "the environment" if scene.environment is not None else "the background"
+        found.append(f"the scene has no objects: nothing to render, the image is {seen}")
     elif mode in LIT_MODES and not scene.lights:
         found.append(
             f"the scene has no lights, so {mode} mode renders every object black; add [[lights]] "
