@@ -183,38 +183,49 @@ def _block_codegen(context, builder, sig, args, columns):
     cx = fsub(column(builder.add(kx, c6)), ox)
     cy = fsub(column(builder.add(ky, c6)), oy)
     cz = fsub(column(builder.add(kz, c6)), oz)
-    t, v, w, det, ok = watertight_lanes(
-        builder, (ax, ay, az, bx, by, bz, cx, cy, cz), splat(sx), splat(sy), splat(sz), splat(tmin), splat(tmax)
-    )
+    _, v, w, det, num, inside = watertight_edges(builder, (ax, ay, az, bx, by, bz, cx, cy, cz), splat(sx), splat(sy))
     lanes = ir.Constant(ir.VectorType(i64, n), list(range(n)))
-    ok = builder.and_(ok, builder.icmp_signed("<", lanes, splat_i64(builder, count, n)))
-    inf = ir.Constant(v4, [float("inf")] * n)
-    tt = builder.select(ok, t, inf)
-    best_t, best_j = nearest_lane(builder, tt, n)
-    vj = builder.extract_element(v, best_j)
-    wj = builder.extract_element(w, best_j)
-    dj = builder.extract_element(det, best_j)
-    # the barycentrics of the nearest lane, clamped to [0, 1] as the scalar test clamps them
-    # (0 when nothing is hit)
+    inside = builder.and_(inside, builder.icmp_signed("<", lanes, splat_i64(builder, count, n)))
     zero, one = ir.Constant(f64, 0.0), ir.Constant(f64, 1.0)
-    found = lt(best_t, tmax)
+    inf = ir.Constant(f64, float("inf"))
+    # Most blocks a ray tests pass by all four triangles (a shadow ray's always, when it is
+    # unblocked): the division for t and the barycentrics' two, a chain of ~40 cycles that the
+    # next leaf's test waits for (its tmax), only where the ray passes inside one.
+    entry = builder.block
+    with builder.if_then(
+        builder.icmp_unsigned("!=", builder.bitcast(inside, ir.IntType(n)), ir.Constant(ir.IntType(n), 0))
+    ):
+        t, ok = watertight_distance(builder, num, det, inside, splat(sz), splat(tmin), splat(tmax))
+        tt = builder.select(ok, t, ir.Constant(v4, [float("inf")] * n))
+        hit_t, hit_j = nearest_lane(builder, tt, n)
+        vj = builder.extract_element(v, hit_j)
+        wj = builder.extract_element(w, hit_j)
+        dj = builder.extract_element(det, hit_j)
+        # the barycentrics of the nearest lane, clamped to [0, 1] as the scalar test clamps them
+        # (0 when nothing is hit)
+        found = lt(hit_t, tmax)
 
-    def barycentric(x):
-        q = builder.fdiv(x, dj, flags=EXACT_DIVISION)
-        q = builder.select(builder.fcmp_ordered(">", q, zero, flags=EXACT), q, zero)
-        q = builder.select(lt(q, one), q, one)
-        return builder.select(found, q, zero)
+        def barycentric(x):
+            q = builder.fdiv(x, dj, flags=EXACT_DIVISION)
+            q = builder.select(builder.fcmp_ordered(">", q, zero, flags=EXACT), q, zero)
+            q = builder.select(lt(q, one), q, one)
+            return builder.select(found, q, zero)
 
-    return context.make_tuple(builder, sig.return_type, [best_t, best_j, barycentric(vj), barycentric(wj)])
+        hit_b1, hit_b2 = barycentric(vj), barycentric(wj)
+        tested = builder.block
+    values = []
+    for value, missed in ((hit_t, inf), (hit_j, ir.Constant(i64, 0)), (hit_b1, zero), (hit_b2, zero)):
+        phi = builder.phi(value.type)
+        phi.add_incoming(value, tested)
+        phi.add_incoming(missed, entry)
+        values.append(phi)
+    return context.make_tuple(builder, sig.return_type, values)
 
 
-def watertight_lanes(builder, rel, sx, sy, sz, tmin, tmax):
-    """intersect_triangle's arithmetic from the vertices relative to the origin onwards, on
-    float64 vectors (one triangle and ray pair a lane; this test's four triangles against one
-    ray, packet.py's one triangle against eight rays), in IEEE instructions that Numba's
-    fast-math pass leaves alone. rel: (ax, ay, az, bx, by, bz, cx, cy, cz), the vertices minus
-    the origin in the shear's axis order; sx, sy, sz, tmin, tmax vectors too. Returns
-    (t, v, w, det, ok): ok where the ray hits inside (tmin, tmax); b1, b2 are v / det, w / det."""
+def watertight_edges(builder, rel, sx, sy):
+    """The first half of watertight_lanes, without a division: (u, v, w, det, num, inside):
+    the edge functions, their sum, t's numerator before the shear's scale, and the lanes where
+    the ray passes inside the triangle (det nonzero)."""
     fadd, fsub, fmul, lt = exact_ops(builder)
     ax, ay, az, bx, by, bz, cx, cy, cz = rel
     vt = ax.type
@@ -237,12 +248,30 @@ def watertight_lanes(builder, rel, sx, sy, sz, tmin, tmax):
     pos = builder.or_(builder.or_(lt(tol, u), lt(tol, v)), lt(tol, w))
     det = fadd(fadd(u, v), w)
     num = fadd(fadd(fmul(u, az), fmul(v, bz)), fmul(w, cz))
-    t = builder.fdiv(fmul(num, sz), det, flags=EXACT_DIVISION)
-    ok = builder.and_(
+    inside = builder.and_(
         builder.not_(builder.and_(neg, pos)),
         builder.fcmp_unordered("!=", det, ir.Constant(vt, [0.0] * vt.count), flags=EXACT),
     )
-    return t, v, w, det, builder.and_(ok, builder.and_(lt(tmin, t), lt(t, tmax)))
+    return u, v, w, det, num, inside
+
+
+def watertight_distance(builder, num, det, inside, sz, tmin, tmax):
+    """The second half of watertight_lanes: (t, ok), ok where the ray hits inside (tmin, tmax)."""
+    _, _, fmul, lt = exact_ops(builder)
+    t = builder.fdiv(fmul(num, sz), det, flags=EXACT_DIVISION)
+    return t, builder.and_(inside, builder.and_(lt(tmin, t), lt(t, tmax)))
+
+
+def watertight_lanes(builder, rel, sx, sy, sz, tmin, tmax):
+    """intersect_triangle's arithmetic from the vertices relative to the origin onwards, on
+    float64 vectors (one triangle and ray pair a lane; this test's four triangles against one
+    ray, packet.py's one triangle against eight rays), in IEEE instructions that Numba's
+    fast-math pass leaves alone. rel: (ax, ay, az, bx, by, bz, cx, cy, cz), the vertices minus
+    the origin in the shear's axis order; sx, sy, sz, tmin, tmax vectors too. Returns
+    (t, v, w, det, ok): ok where the ray hits inside (tmin, tmax); b1, b2 are v / det, w / det."""
+    u, v, w, det, num, inside = watertight_edges(builder, rel, sx, sy)
+    t, ok = watertight_distance(builder, num, det, inside, sz, tmin, tmax)
+    return t, v, w, det, ok
 
 
 # Flags that change nothing for these instructions: 'arcp' only matters to divisions, and
