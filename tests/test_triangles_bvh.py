@@ -494,10 +494,11 @@ def test_four_triangles_at_once_equal_the_scalar_test_to_the_bit():
     """intersect_triangles (BVH leaves of 2-4 triangles, one vector test) gives the scalar
     test's nearest hit row by row: the same t, lane and barycentrics to the last bit, the
     first row on ties; degenerate rows and rays through shared edges and vertices included.
-    So does the test on the column table (what traversal uses), blocks at the table's end
-    included (their loads reach into its padding)."""
+    So does traversal's block test, on the column table of a small scene (blocks at the table's
+    end included: their loads reach into its padding) and on the rows of a large one."""
     from raylume.kernels.geometry.shape_triangle import (
-        intersect_triangle_columns,
+        COLUMNS_UP_TO,
+        intersect_triangle_block,
         intersect_triangles,
         triangle_columns,
     )
@@ -510,6 +511,8 @@ def test_four_triangles_at_once_equal_the_scalar_test_to_the_bit():
     tris[16:20] = [[0, 0, 0, 1, 0, 0, 0, 1, 0], [1, 0, 0, 1, 1, 0, 0, 1, 0], [1, 1, 0, 2, 1, 0, 1, 2, 0], [0] * 9]
     cols = triangle_columns(tris)
     np.testing.assert_array_equal(cols[:, : len(tris)].T, tris)
+    no_cols = triangle_columns(np.zeros((COLUMNS_UP_TO + 1, 9), np.float32))  # a large scene's: none
+    assert no_cols.shape[1] < len(tris)
     checked = 0
     for k in range(1500):
         first = int(rng.integers(0, 397)) if k % 3 else (16 if k % 2 else 400 - int(rng.integers(1, 5)))
@@ -532,6 +535,7 @@ def test_four_triangles_at_once_equal_the_scalar_test_to_the_bit():
                 want = (t, j, b1, b2)
         got = intersect_triangles(o, shear, tris, first, count, 0.0, tmax)
         assert got == want, (k, first, count)
-        assert intersect_triangle_columns(o, shear, cols, first, count, 0.0, tmax) == want, (k, first, count)
+        assert intersect_triangle_block(o, shear, tris, cols, first, count, 0.0, tmax) == want, (k, first, count)
+        assert intersect_triangle_block(o, shear, tris, no_cols, first, count, 0.0, tmax) == want, (k, first, count)
         checked += want[0] < INF
     assert checked > 200

@@ -15,7 +15,9 @@ class KernelScene(NamedTuple):
     n_bounded: int  # prims[:n_bounded] are in the BVH; the rest (planes) are tested before it
     shapes: np.ndarray  # float64 (A, SHAPE_WIDTH): analytic shapes' rows (shape_*.py)
     triangles: np.ndarray  # float32 (T, 9): v0, v1, v2, in BVH leaf order
-    triangle_columns: np.ndarray  # the same by columns, float32 (9, T + 4): the block test's loads
+    # the same by columns, float32 (9, T + 4), for the block test of scenes of at most 4096
+    # triangles; (9, 4) otherwise (shape_triangle.triangle_columns)
+    triangle_columns: np.ndarray
     triangle_normals: np.ndarray  # float32 (T, 9) vertex normals, or (1, 9) when no mesh is smooth
     triangle_smooth: np.ndarray  # bool (T,)
     triangle_uvs: np.ndarray  # float32 (T, 6): uv0, uv1, uv2, or (1, 6) when no triangle needs UVs

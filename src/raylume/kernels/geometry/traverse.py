@@ -25,7 +25,7 @@ from ..scene import is_instances
 from ..vec import INLINE_OVERLOAD, inline_function
 from .layout import NODE_COUNT, NODE_FIRST, SPHERE_BLOCK
 from .shape_sphere import intersect_spheres
-from .shape_triangle import NO_SHEAR, intersect_triangle_columns, ray_shear
+from .shape_triangle import NO_SHEAR, intersect_triangle_block, ray_shear
 from .shapes import NO_HIT, PRIM_ROW, intersect
 from .wide_nodes import _LANE_SHIFT, BVH_WIDTH, box_ray, pop_nearer, prefetch_neighbours, push_children, traceable
 
@@ -83,7 +83,7 @@ def intersect_leaf(G, X, first, count, o, d, shear, tmin, best_t, prim, b1, b2, 
         return best_t, prim, b1, b2
     if count < 0:  # -count triangles in consecutive rows
         row = block_row(G, first)
-        t, j, u, v = intersect_triangle_columns(o, shear, G.triangle_columns, row, -count, tmin, best_t)
+        t, j, u, v = intersect_triangle_block(o, shear, G.triangles, G.triangle_columns, row, -count, tmin, best_t)
         if t < best_t:
             return t, first + j, u, v
         return best_t, prim, b1, b2

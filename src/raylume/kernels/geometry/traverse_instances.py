@@ -21,7 +21,7 @@ import numpy as np
 
 from ..vec import inline_function, kernel_function
 from .layout import NODE_COUNT, NODE_FIRST
-from .shape_triangle import intersect_triangle, intersect_triangle_columns, ray_shear
+from .shape_triangle import intersect_triangle, intersect_triangle_block, ray_shear
 from .shapes import INSTANCE_SHIFT, NO_HIT, PRIM_ROW
 from .wide_nodes import _LANE_SHIFT, BVH_WIDTH, box_ray, pop_nearer, push_children, traceable
 
@@ -51,7 +51,7 @@ def _leaf_triangles(prims, tris, cols, index, leaf, o, shear, tmin, best_t):
     count = index[node, NODE_COUNT, lane]
     if count < 0:  # 2 to 4 triangles in consecutive rows, tested together
         row = np.int64(prims[first, PRIM_ROW])
-        t, j, u, v = intersect_triangle_columns(o, shear, cols, row, -count, tmin, best_t)
+        t, j, u, v = intersect_triangle_block(o, shear, tris, cols, row, -count, tmin, best_t)
         if t < best_t:
             return t, np.int64(first + j), u, v
         return best_t, np.int64(NO_HIT), 0.0, 0.0
