@@ -52,6 +52,7 @@ MODES = ("cast", "trace", "path", "raster")
 CAMERA_KEYS = ("position", "look_at", "up", "fov")
 MOVING_SECONDS = 0.12  # the camera counts as moving until this long after its last change
 MOVE_BUDGET = 0.022  # seconds a frame (pass and encoding) may take while moving: sets the resolution divisor
+MOVE_BUDGET_DENOISED = 0.032  # ... with denoising (the AOVs, the light seen directly and SVGF too)
 MAX_DIVISOR = 8
 REST_PASS_SECONDS = 0.05  # a band's pass at rest aims at this long (Ctrl-C and input wait for it)
 MAX_BANDS = 64
@@ -159,7 +160,8 @@ class Renderer:
         self.frames = 0
         self._frame_times: deque[float] = deque()
         self._rays: deque[tuple[float, int, float]] = deque()  # (time, rays, kernel seconds)
-        self._cost: dict[tuple[str, bool], float] = {}  # (mode, moving) -> seconds per sample per pixel
+        # (mode, moving) -> seconds per sample per pixel of a frame; (mode, "svgf") for denoised moving frames
+        self._cost: dict[tuple[str, bool | str], float] = {}
         self._warm: set[str] = set()  # modes whose kernels are loaded
         self._job: _Job | None = None  # the image being rendered (for tests)
         self.status = "starting"
@@ -340,21 +342,24 @@ class Renderer:
                 failed_epoch = epoch
                 job = None
 
-    def _divisor(self, mode: str) -> int:
+    def _divisor(self, mode: str, svgf: bool = False) -> int:
         cost = self._cost.get((mode, True), self._cost.get((mode, False)))
+        if svgf:
+            cost = self._cost.get((mode, "svgf"), cost)
         if cost is None:
             return 1
-        return max(1, min(MAX_DIVISOR, math.ceil(math.sqrt(cost * self.width * self.height / MOVE_BUDGET))))
+        budget = MOVE_BUDGET_DENOISED if svgf else MOVE_BUDGET
+        return max(1, min(MAX_DIVISOR, math.ceil(math.sqrt(cost * self.width * self.height / budget))))
 
     def _shows_denoised(self, job: _Job) -> bool:
         return self._denoise and job.mode == "path"
 
     def _new_job(self, epoch: int, version: int, camera: Camera, mode: str, moving: bool) -> _Job:
-        divisor = self._divisor(mode) if moving else 1
+        svgf = moving and mode == "path" and self._denoise
+        divisor = self._divisor(mode, svgf) if moving else 1
         w, h = -(-self.width // divisor), -(-self.height // divisor)
         size_and_mode = {"width": w, "height": h, "mode": mode}
         settings = resolve_settings(self.settings.render, size_and_mode, source=self.session.source).render
-        svgf = moving and mode == "path" and self._denoise
         batch = settings.spp if divisor == 1 else 1
         if mode == "path" and divisor == 1:
             batch = max(settings.spp, PATH_FILM_SPP)
@@ -436,7 +441,7 @@ class Renderer:
         moving frames (1 spp: the encoding weighs more) and resting passes: what the resolution
         while moving and the size of passes at rest are chosen by."""
         per_sample = seconds / (samples * job.settings.width * job.settings.height)
-        key = (job.mode, moving)
+        key = (job.mode, "svgf") if job.svgf else (job.mode, moving)
         old = self._cost.get(key)
         self._cost[key] = per_sample if old is None else 0.7 * old + 0.3 * per_sample
 
