@@ -54,6 +54,7 @@ MOVING_SECONDS = 0.12  # the camera counts as moving until this long after its l
 MOVE_BUDGET = 0.022  # seconds a frame (pass and encoding) may take while moving: sets the resolution divisor
 MOVE_BUDGET_DENOISED = 0.032  # ... with denoising (the AOVs, the light seen directly and SVGF too)
 MAX_DIVISOR = 8
+DROPS_PER_STEP = 2  # moving frames dropped in a row (the camera moved on meanwhile) that raise the divisor by 1
 REST_PASS_SECONDS = 0.05  # a band's pass at rest aims at this long (Ctrl-C and input wait for it)
 MAX_BANDS = 64
 PATH_FILM_SPP = 16
@@ -149,6 +150,8 @@ class Renderer:
         self._svgf_frames = 0  # moving frames filtered: each takes the next seed
         self._svgf_reset = False
         self._oidn_seconds = 0.0  # the last OIDN call's duration
+        self._svgf_seconds = 0.0  # the last moving frame's filtering, per pixel
+        self._dropped = 0  # moving frames dropped in a row
         self._cond = threading.Condition()
         self._epoch = 0
         self.camera_version = 0
@@ -334,6 +337,13 @@ class Renderer:
                 denoising = 0.0
                 if job.epoch == self._epoch and samples >= 0:  # else the camera moved: render the new one at once
                     denoising = self._publish(job, moving)
+                    self._dropped = 0
+                elif moving:
+                    # Dropped. Moves that come faster than frames would drop every frame: a few
+                    # in a row lower the resolution (_divisor) until frames come through.
+                    self._dropped += 1
+                    if job.svgf:  # dropped before filtering: count the filter as it took last time
+                        denoising = -self._svgf_seconds * job.settings.width * job.settings.height
                 if samples > 0:
                     self._learn_cost(job, moving, samples, time.perf_counter() - started - denoising)
             except Exception as exc:  # a failed pass must not kill the view: report it, wait for a change
@@ -349,7 +359,8 @@ class Renderer:
         if cost is None:
             return 1
         budget = MOVE_BUDGET_DENOISED if svgf else MOVE_BUDGET
-        return max(1, min(MAX_DIVISOR, math.ceil(math.sqrt(cost * self.width * self.height / budget))))
+        divisor = math.ceil(math.sqrt(cost * self.width * self.height / budget)) + self._dropped // DROPS_PER_STEP
+        return max(1, min(MAX_DIVISOR, divisor))
 
     def _shows_denoised(self, job: _Job) -> bool:
         return self._denoise and job.mode == "path"
@@ -413,8 +424,6 @@ class Renderer:
                 self._warm.add(job.mode)
             job.aovs_filled = job.aovs is not None
             if job.emitted is not None:  # the light seen directly: the same camera rays, max_depth 1
-                if job.epoch != self._epoch or self._stop:
-                    return -1
                 info = self.session.add_samples(
                     job.emitted, 1, job.camera, mode="path", max_depth=1, seed=seed, threads=self.threads
                 )
@@ -456,7 +465,8 @@ class Renderer:
 
     def _publish(self, job: _Job, moving: bool) -> float:
         """Send the job's image (denoised if asked). Returns the seconds OIDN took (no part of
-        a pass's cost); a resting pass whose turn for OIDN it is not sends nothing."""
+        a pass's cost; SVGF's is part of a moving frame's); a resting pass whose turn for OIDN it
+        is not sends nothing."""
         s = job.settings
         image = job.image()
         denoised = self._shows_denoised(job) and (job.svgf or not moving) and job.aovs_filled
@@ -512,6 +522,8 @@ class Renderer:
             self._svgf.reset()
         s, aovs = job.settings, job.aovs
         camera = camera_of(job.camera, s.width, s.height)
+        started = time.perf_counter()
         out = self._svgf.filter(image, aovs["albedo"], aovs["normal"], aovs["depth"], camera, job.emitted.rgb())
+        self._svgf_seconds = (time.perf_counter() - started) / (s.width * s.height)
         self.status = "rendering"
         return out
