@@ -249,3 +249,13 @@ def test_denoise_cannot_be_switched_on_without_oidn(monkeypatch):
     result = CliRunner().invoke(app, ["view", str(CORNELL), "--denoise", "--port", "0", "--no-browser"])
     assert result.exit_code == 2 and "pyoidn" in result.output
     assert "raylume view:" not in result.output
+
+
+def test_python_api_takes_denoise():
+    url = raylume.view(cornell(), denoise=True, threads=1, show=False)
+    try:
+        base, _, token = url.partition("/?token=")
+        stats = json.loads(urllib.request.urlopen(f"{base}/stats?token={token}", timeout=10).read())
+        assert (stats["mode"], stats["denoise"], stats["integrator"]) == ("path", True, "path")
+    finally:
+        url.stop()
