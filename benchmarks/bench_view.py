@@ -4,8 +4,12 @@ and at rest (progressive passes of a 64-spp film), and the latency from a gestur
 page to the first frame of the new camera drawn on its canvas. The camera looks at (0, 0, 3.5)
 instead of the seed's (0, 0, 1): the same first image, and the orbit goes round the spheres.
 
+Then path mode: the Cornell box (examples/cornell.toml) at 320 x 240 orbiting, with and without
+--denoise (SVGF on every moving frame), each in a server and browser of its own, the runs
+alternating (off, on, off, on, ...); medians.
+
 python benchmarks/bench_view.py [--sizes 320x240,640x480] [--seconds 6] [--threads T]
-                                [--screenshot docs/images/view.png]
+                                [--screenshot docs/images/view.png] [--only trace|path] [--runs 3]
 
 Needs Debian's chromium and chromium-driver and the selenium package (the dev extra).
 """
@@ -23,6 +27,7 @@ import subprocess
 import sys
 import time
 import urllib.request
+from pathlib import Path
 
 from common import machine, table
 
@@ -46,10 +51,14 @@ view.send({type: "orbit", dx: arguments[0], dy: 0});
 """
 
 
-def start_server(width: int, height: int, spp: int, threads: int | None):
-    args = [sys.executable, "-m", "raylume.cli", "view", "seed", "--mode", "trace", "--width", str(width)]
+CORNELL = str(Path(__file__).resolve().parents[1] / "examples" / "cornell.toml")
+
+
+def start_server(width: int, height: int, spp: int, threads: int | None, scene: list[str] | None = None):
+    """`raylume view` of the seed (trace mode, looking at LOOK_AT), or of `scene` (its arguments)."""
+    scene = scene or ["seed", "--mode", "trace", "--set", f"camera.look_at={LOOK_AT}"]
+    args = [sys.executable, "-m", "raylume.cli", "view", *scene, "--width", str(width)]
     args += ["--height", str(height), "--spp", str(spp), "--port", "0", "--no-browser"]
-    args += ["--set", f"camera.look_at={LOOK_AT}"]
     if threads:
         args += ["--threads", str(threads)]
     proc = subprocess.Popen(args, stdout=subprocess.PIPE, text=True, env={**os.environ, "PYTHONUNBUFFERED": "1"})
@@ -68,7 +77,8 @@ def open_browser(width: int, height: int):
     options.binary_location = shutil.which("chromium")
     for arg in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage"):
         options.add_argument(arg)
-    options.add_argument(f"--window-size={width + 100},{height + 220}")
+    # room for the page at 1:1 (headless Chromium's viewport is ~140 px lower than its window)
+    options.add_argument(f"--window-size={max(800, width + 100)},{max(600, height + 300)}")
     return webdriver.Chrome(service=Service(shutil.which("chromedriver")), options=options)
 
 
@@ -110,8 +120,8 @@ def orbit_fps(driver, seconds: float) -> tuple[float, float]:
     chain.perform()
     elapsed = time.perf_counter() - t0
     n1, _, p1 = drawn(driver)
-    size = canvas.size
-    return (n1 - n0) / elapsed, (p1 - p0) / max(n1 - n0, 1) / (size["width"] * size["height"])
+    pixels = driver.execute_script("const c = document.getElementById('view'); return c.width * c.height;")
+    return (n1 - n0) / elapsed, (p1 - p0) / max(n1 - n0, 1) / pixels
 
 
 def rest_fps(driver, url: str) -> tuple[float, float]:
@@ -172,24 +182,91 @@ def measure(width: int, height: int, seconds: float, threads: int | None, screen
     ]
 
 
+def denoised_share(driver) -> tuple[int, int]:
+    """(frames drawn, of them denoised) so far."""
+    return tuple(driver.execute_script("const v = window.raylumeView; return [v.drawn, v.denoised];"))
+
+
+def path_run(denoise: bool, seconds: float, threads: int | None) -> dict:
+    """One server and browser: the Cornell box at 320 x 240 in path mode orbiting for `seconds`
+    (three drags), with or without --denoise."""
+    scene = [CORNELL, "--mode", "path", *(["--denoise"] if denoise else [])]
+    proc, url = start_server(320, 240, 16, threads, scene)
+    driver = open_browser(320, 240)
+    try:
+        driver.set_script_timeout(30)
+        driver.get(url)
+        wait_until(lambda: drawn(driver)[0] > 0, timeout=600)  # a first, cold compile takes long
+        orbit_fps(driver, 1.0)  # warm: the moving frames' kernels and the filter load from the cache
+        n0, d0 = denoised_share(driver)
+        fps, share = zip(*[orbit_fps(driver, seconds / 3) for _ in range(3)])
+        n1, d1 = denoised_share(driver)
+        s = stats(url)
+        assert s["denoise"] is denoise and s["integrator"] == "path", s
+        return {
+            "fps": statistics.median(fps),
+            "resolution": math.sqrt(statistics.median(share)),
+            "denoised": (d1 - d0) / max(n1 - n0, 1),
+            "mrays": s["mrays_per_second"],
+        }
+    finally:
+        driver.quit()
+        proc.terminate()
+        proc.wait(10)
+
+
+def path_table(runs: int, seconds: float, threads: int | None) -> list[list[str]]:
+    results: dict[bool, list[dict]] = {False: [], True: []}
+    for _ in range(runs):
+        for denoise in (False, True):  # alternating: the machine's load drifts
+            results[denoise].append(path_run(denoise, seconds, threads))
+    rows = []
+    for denoise, rs in results.items():
+        rows.append(
+            [
+                "on" if denoise else "off",
+                f"{statistics.median(r['fps'] for r in rs):.1f}",
+                ", ".join(f"{r['fps']:.1f}" for r in rs),
+                f"{statistics.median(r['resolution'] for r in rs):.2f}",
+                f"{statistics.median(r['denoised'] for r in rs):.2f}",
+                f"{statistics.median(r['mrays'] for r in rs):.1f}",
+            ]
+        )
+    return rows
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", default="320x240,640x480")
     parser.add_argument("--seconds", type=float, default=6.0)
     parser.add_argument("--threads", type=int, default=None)
     parser.add_argument("--screenshot", default=None, help="save the page at the last size as this PNG")
+    parser.add_argument("--only", choices=("trace", "path"), default=None, help="one of the two tables")
+    parser.add_argument("--runs", type=int, default=3, help="path mode: runs with and without --denoise each")
     args = parser.parse_args()
-    sizes = [tuple(int(v) for v in size.split("x")) for size in args.sizes.split(",")]
-    load = os.getloadavg()
-    rows = [
-        measure(w, h, args.seconds, args.threads, args.screenshot if k == len(sizes) - 1 else None)
-        for k, (w, h) in enumerate(sizes)
-    ]
-    print(f"raylume view, seed scene, trace mode; {machine()}; {args.threads or os.cpu_count()} render threads\n")
-    headers = ["size", "fps orbiting", "resolution orbiting", "fps at rest (64 spp)", "s to 64 spp"]
-    print(table([*headers, "gesture -> frame ms (median / max)", "Mrays/s orbiting"], rows))
-    print(f"\nload average before / after: {load[0]:.1f} / {os.getloadavg()[0]:.1f}")
-    print(f"\n(medians of 3 runs of {args.seconds:.0f} s each; latency over 15 gestures)")
+    threads = f"{args.threads or os.cpu_count()} render threads"
+    if args.only != "path":
+        sizes = [tuple(int(v) for v in size.split("x")) for size in args.sizes.split(",")]
+        load = os.getloadavg()
+        rows = [
+            measure(w, h, args.seconds, args.threads, args.screenshot if k == len(sizes) - 1 else None)
+            for k, (w, h) in enumerate(sizes)
+        ]
+        print(f"raylume view, seed scene, trace mode; {machine()}; {threads}\n")
+        headers = ["size", "fps orbiting", "resolution orbiting", "fps at rest (64 spp)", "s to 64 spp"]
+        print(table([*headers, "gesture -> frame ms (median / max)", "Mrays/s orbiting"], rows))
+        print(f"\nload average before / after: {load[0]:.1f} / {os.getloadavg()[0]:.1f}")
+        print(f"\n(medians of 3 runs of {args.seconds:.0f} s each; latency over 15 gestures)\n")
+    if args.only != "trace":
+        load = os.getloadavg()
+        rows = path_table(args.runs, args.seconds, args.threads)
+        print(f"raylume view, Cornell box, path mode, 320 x 240, orbiting; {machine()}; {threads}\n")
+        headers = ["--denoise", "fps orbiting (median)", "each run", "resolution orbiting", "frames denoised"]
+        print(table([*headers, "Mrays/s orbiting"], rows))
+        print(f"\nload average before / after: {load[0]:.1f} / {os.getloadavg()[0]:.1f}")
+        print(
+            f"\n({args.runs} runs each, alternating; each run's fps the median of 3 drags of {args.seconds / 3:.0f} s)"
+        )
 
 
 if __name__ == "__main__":

@@ -1,15 +1,18 @@
 """`raylume view` end to end: a server subprocess and headless Chromium (Selenium with
 Debian's chromium and chromium-driver, installed by .ci/run).
 
-One server (160 x 120, trace mode, the seed scene) and one browser serve the whole module;
-the tests run in file order on one xdist worker (group "view"), and the last one stops the
-server with Ctrl-C."""
+One server (160 x 120, trace mode, the seed scene) and one browser serve most of the module;
+a second server shows the Cornell box in path mode with --denoise (96 x 72), a third a view
+larger than the window (the seed, cast mode, 1200 x 900), both in a browser window of
+800 x 600. The tests run in file order on one xdist worker (group "view"), and the last one
+stops the first server with Ctrl-C."""
 
 from __future__ import annotations
 
 import base64
 import io
 import json
+import math
 import os
 import select
 import shutil
@@ -20,6 +23,7 @@ import sys
 import time
 import urllib.error
 import urllib.request
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -42,6 +46,8 @@ pytestmark = [
 ]
 
 W, H = 160, 120
+PW, PH = 96, 72  # the path-mode server's image
+CORNELL = Path(__file__).resolve().parents[1] / "examples" / "cornell.toml"
 
 
 class Server:
@@ -93,17 +99,50 @@ def server():
         s.proc.wait()
 
 
-@pytest.fixture(scope="module")
-def browser(server):
+def chromium(width: int, height: int):
     from selenium import webdriver
     from selenium.webdriver.chrome.service import Service
 
     options = webdriver.ChromeOptions()
     options.binary_location = CHROMIUM
-    for arg in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage", "--window-size=400,300"):
+    for arg in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage"):
         options.add_argument(arg)
-    driver = webdriver.Chrome(service=Service(CHROMEDRIVER), options=options)
+    options.add_argument(f"--window-size={width},{height}")
+    return webdriver.Chrome(service=Service(CHROMEDRIVER), options=options)
+
+
+@pytest.fixture(scope="module")
+def browser(server):
+    driver = chromium(400, 300)
     driver.get(server.url)
+    yield driver
+    driver.quit()
+
+
+def stopped(server: Server) -> None:
+    if server.proc.poll() is None:
+        server.proc.kill()
+        server.proc.wait()
+
+
+@pytest.fixture(scope="module")
+def path_server():
+    args = ["--mode", "path", "--denoise", "--width", str(PW), "--height", str(PH), "--port", "0", "--no-browser"]
+    s = Server(str(CORNELL), *args)
+    yield s
+    stopped(s)
+
+
+@pytest.fixture(scope="module")
+def large_server():
+    s = Server("seed", "--mode", "cast", "--width", "1200", "--height", "900", "--port", "0", "--no-browser")
+    yield s
+    stopped(s)
+
+
+@pytest.fixture(scope="module")
+def window_800_600():
+    driver = chromium(800, 600)
     yield driver
     driver.quit()
 
@@ -291,6 +330,102 @@ def test_a_port_in_use_is_a_clear_error(server, tmp_path):
     assert result.returncode == 2, result.stderr
     assert f"port {server.port}" in result.stderr and "Traceback" not in result.stderr
     assert result.stdout == ""
+
+
+LAYOUT = """
+const box = (id) => { const b = document.getElementById(id).getBoundingClientRect();
+                      return [b.left, b.top, b.right, b.bottom]; };
+const root = document.documentElement, canvas = document.getElementById("view");
+return {
+  viewport: [root.clientWidth, root.clientHeight],
+  scrolled: [root.scrollWidth, root.scrollHeight],
+  pixels: [canvas.width, canvas.height],
+  boxes: Object.fromEntries(
+    ["view", "fps", "spp", "mrays", "mode", "denoise", "reset", "save"].map((id) => [id, box(id)])),
+};
+"""
+
+
+def open_page(driver, server: Server) -> None:
+    driver.get(server.url)
+    wait_for(lambda: page_state(driver).get("drawn"), timeout=300, what="a first frame")
+
+
+@pytest.mark.parametrize("size", ["small", "larger than the window"])
+def test_an_800_x_600_window_shows_the_image_readouts_and_controls_without_scrolling(request, size, window_800_600):
+    """All of it inside the viewport (getBoundingClientRect), nothing to scroll; the canvas at
+    its own size when that fits, else shrunk to fit with its aspect ratio, never enlarged."""
+    server = request.getfixturevalue("path_server" if size == "small" else "large_server")
+    open_page(window_800_600, server)
+    layout = window_800_600.execute_script(LAYOUT)
+    width, height = layout["viewport"]
+    assert layout["scrolled"][0] <= width and layout["scrolled"][1] <= height, layout
+    for name, (left, top, right, bottom) in layout["boxes"].items():
+        assert 0 <= left < right <= width and 0 <= top < bottom <= height, (name, layout)
+    pixels = (PW, PH) if size == "small" else (1200, 900)
+    assert tuple(layout["pixels"]) == pixels
+    left, top, right, bottom = layout["boxes"]["view"]
+    shown = (right - left, bottom - top)
+    assert shown[0] <= pixels[0] and shown[1] <= pixels[1]  # never enlarged beyond its pixels
+    if size == "small":
+        assert shown == pytest.approx(pixels, abs=0.5)  # 1:1
+    else:
+        assert shown[0] / shown[1] == pytest.approx(pixels[0] / pixels[1], rel=0.01)
+        assert right >= 0.6 * width or bottom >= 0.6 * height  # shrunk to fit, not to nothing
+
+
+def test_path_mode_with_denoise_reports_it_in_stats(path_server):
+    stats = path_server.stats()
+    assert (stats["mode"], stats["denoise"], stats["integrator"]) == ("path", True, "path")
+    assert (stats["width"], stats["height"]) == (PW, PH)
+
+
+def orbit_position(angle: float) -> list[float]:
+    """The Cornell box's camera (800 mm in front of look_at) turned `angle` radians about y."""
+    return [278.0 + 800.0 * math.sin(angle), 273.0, -800.0 * math.cos(angle)]
+
+
+def test_denoised_frames_keep_coming_while_the_camera_orbits(path_server, window_800_600):
+    """POST /camera again and again, orbiting: the page draws frames of the moving camera
+    (JPEG, filtered by SVGF) and /stats counts them."""
+    open_page(window_800_600, path_server)
+    before = path_server.stats()
+    seen: set[int] = set()
+    moves = 0
+    end = time.monotonic() + 180  # a cold compile of the filter (about 10 s) comes first
+    while len(seen) < 3 and time.monotonic() < end:
+        body = json.dumps({"position": orbit_position(0.01 * moves)}).encode()
+        assert path_server.get("/camera", method="POST", body=body)[0] == 200
+        moves += 1
+        last = page_state(window_800_600).get("last") or {}
+        if last.get("format") == "jpeg" and last.get("denoised") and last["camera_version"] > before["camera_version"]:
+            seen.add(last["frame"])
+        time.sleep(0.03)
+    assert len(seen) >= 3, "no denoised frames while the camera moved"
+    after = path_server.stats()
+    assert after["frames"] >= before["frames"] + 3
+    assert after["camera_version"] == before["camera_version"] + moves
+    # at rest: the accumulating image, denoised (OIDN), lossless; /frame.png is what the page shows
+    wait_for(lambda: (page_state(window_800_600).get("last") or {}).get("format") == "png", what="a resting frame")
+    assert page_state(window_800_600)["last"]["denoised"] is True
+    wait_for(lambda: np.array_equal(canvas_pixels(window_800_600), path_server.frame_png()), what="the same image")
+
+
+def test_the_denoise_checkbox_switches_denoising(path_server, window_800_600):
+    open_page(window_800_600, path_server)
+    box = window_800_600.find_element("id", "denoise")
+    wait_for(lambda: box.is_selected(), what="the checkbox to show --denoise")
+
+    def shown_denoised():
+        return (page_state(window_800_600).get("last") or {}).get("denoised")
+
+    box.click()
+    wait_for(lambda: path_server.stats()["denoise"] is False, what="denoise off")
+    wait_for(lambda: shown_denoised() is False, what="the image shown again, not denoised")
+    assert not box.is_selected()
+    box.click()
+    wait_for(lambda: path_server.stats()["denoise"] is True, what="denoise on")
+    wait_for(lambda: shown_denoised() is True, what="the image shown again, denoised")
 
 
 def test_ctrl_c_stops_the_server_and_frees_the_port(server, browser):

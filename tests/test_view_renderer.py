@@ -8,12 +8,13 @@ import json
 import socket
 import time
 import urllib.request
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 import raylume
-from raylume.errors import SceneError
+from raylume.errors import RaylumeError, SceneError
 from raylume.image import encode_8bit
 from raylume.kernels.film.film import Film
 from raylume.settings import resolve_settings
@@ -146,3 +147,115 @@ def test_bad_view_flags_are_refused_before_serving(args, words):
     assert "raylume view:" not in result.output  # no URL: nothing was served
     for word in words:
         assert word in result.output
+
+
+CORNELL = Path(__file__).resolve().parents[1] / "examples" / "cornell.toml"
+
+
+def cornell(**render):
+    return raylume.load_scene(CORNELL).with_render(width=24, height=18, mode="path", **render)
+
+
+def test_denoising_leaves_the_accumulation_as_it_is():
+    """With denoise on, path mode's films still hold exactly `raylume render`'s images of 16 spp
+    with seeds seed, seed + 1, ... (the bits of renders without --denoise), summed as without
+    denoising: only what is shown is denoised."""
+    session = raylume.Session(cornell(spp=16, denoise=True))
+    r = vr.Renderer(session, resolve_settings(session.scene, threads=1))
+    r.add_watcher(1)
+    r.start()
+    try:
+        wait_for(lambda: r._job is not None and r._job.done_spp >= 16, timeout=300)
+    finally:
+        assert r.stop(5.0)
+    job = r._job
+    films = job.done_spp // 16
+    expected = None
+    for k in range(films):
+        rgb = session.render(spp=16, seed=k, denoise=False, threads=1, aovs=False).rgb.astype(np.float64) * 16
+        expected = rgb if expected is None else expected + rgb
+    np.testing.assert_array_equal(job.done_sum, expected)
+    assert r.latest.denoised and r.stats()["denoise"] is True and r.stats()["integrator"] == "path"
+
+
+def test_the_resting_image_is_shown_denoised_or_not_as_asked():
+    """Nobody watching: the thread stops after the first resting frame, so the job's image is
+    fixed. Switching denoising shows it again at once: OIDN's output of it, or it as it is."""
+    from raylume.denoise import denoise
+
+    session = raylume.Session(cornell(spp=16, denoise=True))
+    r = vr.Renderer(session, resolve_settings(session.scene, threads=1))
+    r.start()
+    try:
+        wait_for(lambda: r.latest is not None and r.stats()["status"] == "paused (no viewer)", timeout=300)
+        job, frames = r._job, r.frames
+        image, settings = job.image(), job.settings
+        assert r.latest.denoised and r.latest.format == "png"
+        albedo, normal = job.aovs["albedo"], job.aovs["normal"]
+        np.testing.assert_array_equal(r.latest.rgb8, encode_8bit(denoise(image, albedo, normal), settings.encoding))
+        r.set_denoise(False)
+        wait_for(lambda: r.frames == frames + 1)
+        assert not r.latest.denoised and r.stats()["denoise"] is False
+        np.testing.assert_array_equal(r.latest.rgb8, encode_8bit(image, settings.encoding))
+        r.set_denoise(True)
+        wait_for(lambda: r.frames == frames + 2)
+        assert r.latest.denoised and r.latest.spp == job.spp
+        np.testing.assert_array_equal(r.latest.rgb8, encode_8bit(denoise(image, albedo, normal), settings.encoding))
+    finally:
+        assert r.stop(5.0)
+
+
+def test_moving_frames_are_filtered_and_a_move_drops_the_frame_in_progress():
+    session = raylume.Session(cornell(spp=16, denoise=True))
+    r = vr.Renderer(session, resolve_settings(session.scene, threads=1))
+    frames = []
+    r.on_frame = frames.append
+    r.add_watcher(1)
+    r.start()
+    try:
+        wait_for(lambda: r.latest is not None, timeout=300)
+        end = time.monotonic() + 120  # the filter's first compile comes first
+        while not any(f.format == "jpeg" and f.denoised for f in frames) and time.monotonic() < end:
+            r.gesture("orbit", dx=2, dy=0)
+            time.sleep(0.02)
+        version = r.camera_version
+        wait_for(lambda: frames[-1].format == "png" and frames[-1].camera_version == version)
+    finally:
+        assert r.stop(5.0)
+    moving = [f for f in frames if f.format == "jpeg"]
+    assert moving and all(f.denoised and f.spp == 1 and not f.converged for f in moving)
+    assert all(np.isfinite(f.rgb8).all() for f in moving)
+    # every frame sent shows a camera no older than the one before it: none waited behind a move
+    versions = [f.camera_version for f in frames]
+    assert versions == sorted(versions)
+    assert frames[-1].denoised  # at rest: OIDN
+
+
+def test_denoise_cannot_be_switched_on_without_oidn(monkeypatch):
+    import raylume.denoise
+
+    def missing():
+        raise RaylumeError("Denoising needs the optional package pyoidn")
+
+    monkeypatch.setattr(raylume.denoise, "_pyoidn", missing)
+    r = vr.Renderer(raylume.Session(cornell()))
+    with pytest.raises(RaylumeError, match="pyoidn"):
+        r.set_denoise(True)
+    assert r.stats()["denoise"] is False
+    from typer.testing import CliRunner
+
+    from raylume.cli import app
+
+    result = CliRunner().invoke(app, ["view", str(CORNELL), "--denoise", "--port", "0", "--no-browser"])
+    assert result.exit_code == 2 and "pyoidn" in result.output
+    assert "raylume view:" not in result.output
+
+
+def test_python_api_takes_denoise():
+    url = raylume.view(cornell(), denoise=True, threads=1, show=False)
+    try:
+        base, _, token = url.partition("/?token=")
+        stats = json.loads(urllib.request.urlopen(f"{base}/stats?token={token}", timeout=10).read())
+        assert (stats["mode"], stats["denoise"], stats["integrator"]) == ("path", True, "path")
+    finally:
+        url.stop()

@@ -624,6 +624,15 @@ def view(
     spp: Annotated[
         int | None, typer.Option("--spp", metavar="N", help="Samples per pixel at rest (path mode: per film)")
     ] = None,
+    denoise: Annotated[
+        bool | None,
+        typer.Option(
+            "--denoise",
+            metavar=FLAG,
+            help="Path mode: show frames denoised, by SVGF while the camera moves and by Intel Open Image "
+            "Denoise at rest (switchable on the page)",
+        ),
+    ] = None,
     port: Annotated[int, typer.Option("--port", metavar="P", help="Port to listen on; 0 picks a free one")] = 8765,
     host: Annotated[
         str, typer.Option("--host", metavar="ADDR", help="Address to listen on (other than loopback: with a warning)")
@@ -644,7 +653,7 @@ def view(
     from .settings import overrides_of, resolve_settings
     from .viewer.command import run_view
 
-    flags = overrides_of(locals())  # --width, --height, --spp, --mode
+    flags = overrides_of(locals())  # --width, --height, --spp, --mode, --denoise
     try:
         with _errors_exit_2(debug):
             with _echo_warnings():

@@ -205,10 +205,13 @@ class Session:
         seed: int | None = None,
         threads: int | None = None,
         progress: Callable[[int, int], None] | None = None,
+        aovs: dict | None = None,
     ) -> dict:
-        """Add the next `spp` samples per pixel to `film` (cast or trace mode): a progressive
-        pass. Passes that add up to film.total_spp give the film the same bits as one render
-        of total_spp. Returns {"rays", "render_seconds"}."""
+        """Add the next `spp` samples per pixel to `film` (cast, trace or path mode): a
+        progressive pass. Passes that add up to film.total_spp give the film the same bits as
+        one render of total_spp. `aovs`: arrays of the film's window (as
+        render_window.allocate_aovs makes them) that the pass also fills with the primary-hit
+        AOVs (depth, normal, object, prim, albedo, instance). Returns {"rays", "render_seconds"}."""
         if film.spp + spp > film.total_spp:
             raise ValueError(
                 f"the film takes {film.total_spp} samples per pixel; {film.spp} are in and {spp} more would exceed it"
@@ -228,7 +231,8 @@ class Session:
         cam = set_cone_spread(
             camera_of(cam_model, film.width, film.height), film.height, film.total_spp, table.texture_filter
         )
-        seconds, rays = add_samples_to_film(S, cam, film, spp, table, {}, progress, _use_threads(settings.threads))
+        lanes = _use_threads(settings.threads)
+        seconds, rays = add_samples_to_film(S, cam, film, spp, table, aovs or {}, progress, lanes)
         return {"rays": int(rays), "render_seconds": seconds}
 
     def _camera(self, camera) -> Camera:

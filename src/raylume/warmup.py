@@ -93,6 +93,21 @@ def _bvh() -> None:
 _bvh.__name__ = "bvh build"
 
 
+def _svgf() -> None:
+    """The live view's filter of moving frames (svgf.py): two frames, the second reprojecting."""
+    from .kernels.film.camera import camera_frame
+    from .svgf import Svgf
+
+    svgf, camera = Svgf(), camera_frame([0, 0, 0], [0, 0, 1], [0, 1, 0], 50.0, 8, 6)
+    rgb, normal = np.full((6, 8, 3), 0.5, np.float32), np.zeros((6, 8, 3), np.float32)
+    normal[..., 2] = -1.0
+    for _ in range(2):
+        svgf.filter(rgb, rgb, normal, np.full((6, 8), 2.0, np.float32), camera)
+
+
+_svgf.__name__ = "svgf"
+
+
 def _intersect(kind: str) -> Callable[[], None]:
     def job() -> None:
         from .query import intersect
@@ -117,6 +132,7 @@ JOBS: list[tuple[Callable[[], None], float]] = [
     (_render("all", "cast"), 6.3),
     (_render("basic", "cast"), 6.0),
     (_intersect("basic"), 2.9),
+    (_svgf, 1.0),
     (_bvh, 0.4),
 ]
 

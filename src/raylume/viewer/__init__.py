@@ -37,6 +37,7 @@ def view(
     height: int | None = None,
     mode: str | None = None,
     spp: int | None = None,
+    denoise: bool | None = None,
     host: str = "127.0.0.1",
     port: int = 0,
     threads: int | None = None,
@@ -45,7 +46,8 @@ def view(
     """Serve a live view of `scene` (a Scene, a scene, glTF or mesh file, a built-in name, or
     None for `seed`) in the background and return its URL (with the token). In Jupyter (or when
     `show`) the page is also shown inline in an iframe. Port 0 (the default here) picks a free
-    port, so several views can run at once; `url.stop()` ends one."""
+    port, so several views can run at once; `url.stop()` ends one. `denoise`: path mode's
+    frames shown denoised (SVGF while the camera moves, OIDN at rest), as `raylume view --denoise`."""
     arguments = dict(locals())  # the call's arguments, before any other name is bound
     from ..scene.open import open_scene
     from ..session import Session
@@ -54,6 +56,10 @@ def view(
 
     scene, source = open_scene(scene, width=width, height=height)
     settings = resolve_settings(scene, overrides_of(arguments), threads=threads, source=source)
+    if settings.render.denoise:
+        from ..denoise import require_denoiser
+
+        require_denoiser()
     warn_if_exposed(host)
     viewer = Viewer(Session(scene, source=source), settings, host=host, port=port)
     viewer.start()

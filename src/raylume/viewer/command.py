@@ -34,10 +34,15 @@ def run_view(
     s = settings.render
     if s.mode not in MODES:
         raise RaylumeError(f"--mode {s.mode}: expected one of {', '.join(MODES)}")
+    if s.denoise:
+        from ..denoise import require_denoiser
+
+        require_denoiser()  # a missing package fails now, not on the first frame
     viewer = Viewer(Session(scene_model, source=label), settings, host=host, port=port)
     print(f"raylume view: {viewer.url}", flush=True)
     warn_if_exposed(host)
-    print(f"raylume: serving {label}, {s.width}x{s.height} {s.mode}; Ctrl-C stops", file=sys.stderr, flush=True)
+    what = f"{s.width}x{s.height} {s.mode}" + (", denoised" if s.denoise else "")
+    print(f"raylume: serving {label}, {what}; Ctrl-C stops", file=sys.stderr, flush=True)
     if open_browser:
         webbrowser.open(viewer.url)
     viewer.run()

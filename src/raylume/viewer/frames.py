@@ -33,6 +33,7 @@ class Frame:
     mode: str
     camera_version: int
     converged: bool
+    denoised: bool = False  # path mode's image through SVGF (moving) or OIDN (at rest)
     time: float = field(default_factory=time.monotonic)
     data: bytes = b""
     _png: bytes | None = None
@@ -69,6 +70,7 @@ class Frame:
             "mode": self.mode,
             "camera_version": self.camera_version,
             "converged": self.converged,
+            "denoised": self.denoised,
         }
 
     def message(self, extra: dict | None = None) -> bytes:

@@ -13,6 +13,14 @@ change waits for one band at most; each pass is sent as a lossless PNG:
   all samples so far, weighted by their count, up to PATH_MAX_SPP;
 * raster mode draws the frame once.
 
+With denoising on (`--denoise`, the page's checkbox) path mode's frames are shown denoised: a
+moving frame is one sample per pixel at the pixel centres, with its AOVs and the light seen
+directly, filtered by SVGF (svgf.py, whose history follows the camera from frame to frame); at
+rest the accumulating image is denoised by OIDN (denoise.py) with the albedo and normal AOVs of
+the job's first pass, at most every DENOISE_SECONDS and at most a third of the time (a pass
+whose turn it is not shows nothing new), and always the last. The accumulation itself is the
+same as without denoising.
+
 A change of camera or mode drops the film. The kernels are nogil and run on the Session's lanes
 (all cores by default); this thread only prepares passes and encodes frames. Without watchers
 (no open tab) it stops after the first lossless frame of a camera: a closed tab costs nothing.
@@ -31,7 +39,9 @@ import numpy as np
 
 from ..errors import SceneError
 from ..image import encode_8bit
+from ..kernels.film.camera import camera_of
 from ..kernels.film.film import Film
+from ..render_window import allocate_aovs
 from ..scene.model import Camera, RenderSettings
 from ..session import Session
 from ..settings import ResolvedSettings, resolve_settings
@@ -42,12 +52,16 @@ MODES = ("cast", "trace", "path", "raster")
 CAMERA_KEYS = ("position", "look_at", "up", "fov")
 MOVING_SECONDS = 0.12  # the camera counts as moving until this long after its last change
 MOVE_BUDGET = 0.022  # seconds a frame (pass and encoding) may take while moving: sets the resolution divisor
+MOVE_BUDGET_DENOISED = 0.032  # ... with denoising (the AOVs, the light seen directly and SVGF too)
 MAX_DIVISOR = 8
+DROPS_PER_STEP = 2  # moving frames dropped in a row (the camera moved on meanwhile) that raise the divisor by 1
 REST_PASS_SECONDS = 0.05  # a band's pass at rest aims at this long (Ctrl-C and input wait for it)
 MAX_BANDS = 64
 PATH_FILM_SPP = 16
 PATH_MAX_SPP = 4096
 FPS_WINDOW = 2.0  # seconds over which fps and Mrays/s are measured
+DENOISE_SECONDS = 0.3  # at rest, OIDN denoises a pass's image at most this often ...
+DENOISE_SHARE = 3.0  # ... and at most 1 / DENOISE_SHARE of the time
 
 
 @dataclass
@@ -68,6 +82,14 @@ class _Job:
     rgb: np.ndarray | None = None  # raster mode's image
     finished: bool = False
     sent_lossless: bool = False
+    # a moving frame of path mode for SVGF: one sample at the pixel centres (seed seed + seed_offset)
+    svgf: bool = False
+    seed_offset: int = 0
+    aovs: dict | None = None  # path mode: the primary-hit AOVs of the whole image, filled by the first pass
+    aovs_filled: bool = False
+    emitted: Film | None = None  # svgf: the light seen directly (max_depth 1) at the same camera rays
+    denoised_at: float = -math.inf  # when OIDN last denoised this job's image
+    shown_denoised: bool | None = None  # whether the last frame sent of this job was denoised
 
     @property
     def spp(self) -> int:
@@ -122,6 +144,14 @@ class Renderer:
         self.home = session.scene.camera
         self._camera = self.home
         self._mode = table.mode
+        self._denoise = bool(table.denoise)
+        self.integrator = str(getattr(table, "integrator", "path"))  # path mode's integrator
+        self._svgf = None  # the filter of moving frames (made on first use), its history
+        self._svgf_frames = 0  # moving frames filtered: each takes the next seed
+        self._svgf_reset = False
+        self._oidn_seconds = 0.0  # the last OIDN call's duration
+        self._svgf_seconds = 0.0  # the last moving frame's filtering, per pixel
+        self._dropped = 0  # moving frames dropped in a row
         self._cond = threading.Condition()
         self._epoch = 0
         self.camera_version = 0
@@ -133,7 +163,8 @@ class Renderer:
         self.frames = 0
         self._frame_times: deque[float] = deque()
         self._rays: deque[tuple[float, int, float]] = deque()  # (time, rays, kernel seconds)
-        self._cost: dict[tuple[str, bool], float] = {}  # (mode, moving) -> seconds per sample per pixel
+        # (mode, moving) -> seconds per sample per pixel of a frame; (mode, "svgf") for denoised moving frames
+        self._cost: dict[tuple[str, bool | str], float] = {}
         self._warm: set[str] = set()  # modes whose kernels are loaded
         self._job: _Job | None = None  # the image being rendered (for tests)
         self.status = "starting"
@@ -149,6 +180,10 @@ class Renderer:
     @property
     def mode(self) -> str:
         return self._mode
+
+    @property
+    def denoise(self) -> bool:
+        return self._denoise
 
     def set_camera(self, updates: dict) -> int:
         """Move the camera to `updates` (any of position, look_at, up, fov), as a drag would.
@@ -193,6 +228,20 @@ class Renderer:
                 self._epoch += 1
                 self._cond.notify_all()
 
+    def set_denoise(self, on: bool) -> None:
+        """Show path mode's frames denoised (or not). The accumulation goes on: a resting image is
+        shown again at once, denoised or not. A RaylumeError when OIDN cannot run here."""
+        on = bool(on)
+        if on:
+            from ..denoise import require_denoiser
+
+            require_denoiser()
+        with self._cond:
+            if on != self._denoise:
+                self._denoise = on
+                self._svgf_reset = on  # a history from before is stale
+                self._cond.notify_all()
+
     def add_watcher(self, count: int = 1) -> None:
         """A tab opened (count 1) or closed (-1): frames beyond the first lossless one are only
         rendered while someone watches."""
@@ -216,12 +265,15 @@ class Renderer:
                 "width": self.width,
                 "height": self.height,
                 "mode": self._mode,
+                "denoise": self._denoise,
+                "integrator": self.integrator,
                 "camera": {"position": list(c.position), "look_at": list(c.look_at), "up": list(c.up), "fov": c.fov},
                 "camera_version": self.camera_version,
                 "mrays_per_second": rays / seconds / 1e6 if seconds > 0 else 0.0,
                 "frame_width": frame.width if frame else 0,
                 "frame_height": frame.height if frame else 0,
                 "converged": bool(frame and frame.converged),
+                "denoised": bool(frame and frame.denoised),
                 "status": self.status,
                 "error": self.error,
                 "watchers": self._watchers,
@@ -261,6 +313,7 @@ class Renderer:
                 rest_in = self._last_change + MOVING_SECONDS - now
                 moving = rest_in > 0
                 fresh = job is None or job.epoch != epoch
+                republish = False
                 if epoch == failed_epoch:
                     self._cond.wait()
                     continue
@@ -268,8 +321,10 @@ class Renderer:
                     if moving:  # a frame of this camera is out; wait for the next move or for rest
                         self._cond.wait(rest_in)
                         continue
-                    if job.divisor > 1:
-                        fresh = True  # at rest: start again at full size
+                    if job.divisor > 1 or job.svgf:
+                        fresh = True  # at rest: start again at full size (and with its own samples)
+                    elif job.sent_lossless and job.shown_denoised != self._shows_denoised(job):
+                        republish = True  # denoising was turned on or off: show the image as asked
                     elif job.sent_lossless and (job.finished or self._watchers == 0):
                         self.status = "converged" if job.finished else "paused (no viewer)"
                         self._cond.wait()
@@ -278,34 +333,58 @@ class Renderer:
                 if fresh:
                     job = self._job = self._new_job(epoch, version, camera, mode, moving)
                 started = time.perf_counter()
-                samples = self._step(job, moving) if not job.finished else 0
+                samples = self._step(job, moving) if not (job.finished or republish) else 0
+                denoising = 0.0
                 if job.epoch == self._epoch and samples >= 0:  # else the camera moved: render the new one at once
-                    self._publish(job, moving)
+                    denoising = self._publish(job, moving)
+                    self._dropped = 0
+                elif moving:
+                    # Dropped. Moves that come faster than frames would drop every frame: a few
+                    # in a row lower the resolution (_divisor) until frames come through.
+                    self._dropped += 1
+                    if job.svgf:  # dropped before filtering: count the filter as it took last time
+                        denoising = -self._svgf_seconds * job.settings.width * job.settings.height
                 if samples > 0:
-                    self._learn_cost(job, moving, samples, time.perf_counter() - started)
+                    self._learn_cost(job, moving, samples, time.perf_counter() - started - denoising)
             except Exception as exc:  # a failed pass must not kill the view: report it, wait for a change
                 self.error = str(exc) or type(exc).__name__
                 self.status = "error"
                 failed_epoch = epoch
                 job = None
 
-    def _divisor(self, mode: str) -> int:
+    def _divisor(self, mode: str, svgf: bool = False) -> int:
         cost = self._cost.get((mode, True), self._cost.get((mode, False)))
+        if svgf:
+            cost = self._cost.get((mode, "svgf"), cost)
         if cost is None:
             return 1
-        return max(1, min(MAX_DIVISOR, math.ceil(math.sqrt(cost * self.width * self.height / MOVE_BUDGET))))
+        budget = MOVE_BUDGET_DENOISED if svgf else MOVE_BUDGET
+        divisor = math.ceil(math.sqrt(cost * self.width * self.height / budget)) + self._dropped // DROPS_PER_STEP
+        return max(1, min(MAX_DIVISOR, divisor))
+
+    def _shows_denoised(self, job: _Job) -> bool:
+        return self._denoise and job.mode == "path"
 
     def _new_job(self, epoch: int, version: int, camera: Camera, mode: str, moving: bool) -> _Job:
-        divisor = self._divisor(mode) if moving else 1
+        svgf = moving and mode == "path" and self._denoise
+        divisor = self._divisor(mode, svgf) if moving else 1
         w, h = -(-self.width // divisor), -(-self.height // divisor)
         size_and_mode = {"width": w, "height": h, "mode": mode}
         settings = resolve_settings(self.settings.render, size_and_mode, source=self.session.source).render
         batch = settings.spp if divisor == 1 else 1
         if mode == "path" and divisor == 1:
             batch = max(settings.spp, PATH_FILM_SPP)
-        job = _Job(epoch, version, camera, mode, divisor, settings, batch)
+        if svgf:
+            batch = 1  # one sample at the pixel centres, where the AOVs are
+        job = _Job(epoch, version, camera, mode, divisor, settings, batch, svgf=svgf)
         if mode != "raster":
             job.new_film(1 if moving else self._band_count(mode, w, h))  # moving: fits MOVE_BUDGET whole
+        if mode == "path" and (svgf or divisor == 1):  # SVGF's guides, or OIDN's if it comes to rest
+            job.aovs = allocate_aovs(h, w)
+        if svgf:
+            job.emitted = Film(w, h, settings.filter, total_spp=1)
+            self._svgf_frames += 1
+            job.seed_offset = self._svgf_frames  # each frame new noise, which the filter averages over time
         self.error = None
         return job
 
@@ -331,15 +410,27 @@ class Renderer:
             seconds = image.stats["render_seconds"]
         else:
             count = 1 if moving else self._pass_spp(job)
+            seed = s.seed + job.generation + job.seed_offset
+            fill = job.aovs is not None and not job.aovs_filled
             for band in job.bands:
                 if job.epoch != self._epoch or self._stop:
                     return -1  # the job is dropped: its bands now hold different sample counts
+                _, _, y0, y1 = band.window
+                aovs = {name: array[y0:y1] for name, array in job.aovs.items()} if fill else None
                 info = self.session.add_samples(
-                    band, count, job.camera, mode=job.mode, seed=s.seed + job.generation, threads=self.threads
+                    band, count, job.camera, mode=job.mode, seed=seed, threads=self.threads, aovs=aovs
                 )
                 rays, seconds = rays + info["rays"], seconds + info["render_seconds"]
                 self._warm.add(job.mode)
-            if job.bands[0].spp == job.batch:
+            job.aovs_filled = job.aovs is not None
+            if job.emitted is not None:  # the light seen directly: the same camera rays, max_depth 1
+                info = self.session.add_samples(
+                    job.emitted, 1, job.camera, mode="path", max_depth=1, seed=seed, threads=self.threads
+                )
+                rays, seconds = rays + info["rays"], seconds + info["render_seconds"]
+            if job.svgf:
+                job.finished = True  # one frame; at rest a new job accumulates
+            elif job.bands[0].spp == job.batch:
                 if job.mode == "path" and job.spp < PATH_MAX_SPP:
                     part = job.film_rgb().astype(np.float64) * job.batch
                     job.done_sum = part if job.done_sum is None else job.done_sum + part
@@ -359,7 +450,7 @@ class Renderer:
         moving frames (1 spp: the encoding weighs more) and resting passes: what the resolution
         while moving and the size of passes at rest are chosen by."""
         per_sample = seconds / (samples * job.settings.width * job.settings.height)
-        key = (job.mode, moving)
+        key = (job.mode, "svgf") if job.svgf else (job.mode, moving)
         old = self._cost.get(key)
         self._cost[key] = per_sample if old is None else 0.7 * old + 0.3 * per_sample
 
@@ -372,9 +463,30 @@ class Renderer:
         band_pixels = job.settings.width * job.settings.height / len(job.bands)
         return max(1, min(left, int(REST_PASS_SECONDS / (cost * band_pixels))))
 
-    def _publish(self, job: _Job, moving: bool) -> None:
+    def _publish(self, job: _Job, moving: bool) -> float:
+        """Send the job's image (denoised if asked). Returns the seconds OIDN took (no part of
+        a pass's cost; SVGF's is part of a moving frame's); a resting pass whose turn for OIDN it
+        is not sends nothing."""
         s = job.settings
-        rgb8 = encode_8bit(job.image(), s.encoding, s.exposure)  # as Image.save encodes a PNG
+        image = job.image()
+        denoised = self._shows_denoised(job) and (job.svgf or not moving) and job.aovs_filled
+        seconds = 0.0
+        if denoised and job.svgf:
+            image = self._filter_moving(job, image)
+        elif denoised:
+            interval = max(DENOISE_SECONDS, DENOISE_SHARE * self._oidn_seconds)
+            due = job.finished or not job.shown_denoised or time.monotonic() - job.denoised_at >= interval
+            if not due:
+                return 0.0  # the last denoised frame stays shown
+            from ..denoise import denoise
+
+            started = time.perf_counter()
+            image = denoise(image, job.aovs["albedo"], job.aovs["normal"])
+            seconds = self._oidn_seconds = time.perf_counter() - started
+            job.denoised_at = time.monotonic()
+            if job.epoch != self._epoch:
+                return seconds  # the camera moved meanwhile: drop it
+        rgb8 = encode_8bit(image, s.encoding, s.exposure)  # as Image.save encodes a PNG
         lossless = not moving
         frame = Frame(
             number=0,
@@ -383,7 +495,8 @@ class Renderer:
             spp=job.spp,
             mode=job.mode,
             camera_version=job.camera_version,
-            converged=job.finished and job.divisor == 1,
+            converged=job.finished and job.divisor == 1 and not job.svgf,
+            denoised=denoised,
         )
         with self._cond:
             self.frames += 1
@@ -392,5 +505,25 @@ class Renderer:
             self._frame_times.append(frame.time)
             self._trim(frame.time)
         job.sent_lossless = job.sent_lossless or lossless
+        job.shown_denoised = denoised
         if self.on_frame is not None:
             self.on_frame(frame)
+        return seconds
+
+    def _filter_moving(self, job: _Job, image: np.ndarray) -> np.ndarray:
+        """A moving frame through SVGF, whose history is the frames before (any size)."""
+        from ..svgf import Svgf
+
+        if self._svgf is None:
+            self.status = "compiling the denoiser (first run only)"
+            self._svgf = Svgf(threads=self.threads)
+        if self._svgf_reset:
+            self._svgf_reset = False
+            self._svgf.reset()
+        s, aovs = job.settings, job.aovs
+        camera = camera_of(job.camera, s.width, s.height)
+        started = time.perf_counter()
+        out = self._svgf.filter(image, aovs["albedo"], aovs["normal"], aovs["depth"], camera, job.emitted.rgb())
+        self._svgf_seconds = (time.perf_counter() - started) / (s.width * s.height)
+        self.status = "rendering"
+        return out

@@ -108,10 +108,12 @@ class ViewServer:
             client.offer(frame, extra)
 
     def frame_extra(self) -> dict:
-        """What a frame's header carries besides the frame itself: the rates and the view's size."""
+        """What a frame's header carries besides the frame itself: the rates, the view's size and
+        whether path mode's frames are denoised (the page's checkbox follows it)."""
         stats = self.renderer.stats()
         return {
             "fps": stats["fps"],
+            "denoise": stats["denoise"],
             "mrays_per_second": stats["mrays_per_second"],
             "status": stats["status"],
             "full_width": self.renderer.width,
@@ -239,7 +241,8 @@ class FrameSocket(tornado.websocket.WebSocketHandler):
 
     def on_message(self, message) -> None:
         """Gestures and commands from the page, as JSON: {"type": "orbit" | "pan", "dx", "dy"},
-        {"type": "dolly", "delta"}, {"type": "reset"}, {"type": "mode", "mode"}."""
+        {"type": "dolly", "delta"}, {"type": "reset"}, {"type": "mode", "mode"},
+        {"type": "denoise", "on": true | false}."""
         renderer = self.server.renderer
         try:
             m = json.loads(message)
@@ -252,6 +255,10 @@ class FrameSocket(tornado.websocket.WebSocketHandler):
                 renderer.reset_camera()
             elif kind == "mode":
                 renderer.set_mode(str(m["mode"]))
+            elif kind == "denoise":
+                if not isinstance(m["on"], bool):
+                    raise ValueError("denoise: 'on' must be true or false")
+                renderer.set_denoise(m["on"])
             else:
                 raise ValueError(f"unknown message type {kind!r}")
         except (ValueError, KeyError, TypeError, AttributeError, RaylumeError) as exc:

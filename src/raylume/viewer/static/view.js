@@ -8,7 +8,9 @@
   const ctx = canvas.getContext("2d");
   const $ = (id) => document.getElementById(id);
   // What tests and the benchmark read: frames received and drawn, the last frame's header.
-  const state = (window.raylumeView = { received: 0, drawn: 0, pixels: 0, last: null, drawnFrame: 0, error: null });
+  const state = (window.raylumeView = {
+    received: 0, drawn: 0, denoised: 0, pixels: 0, last: null, drawnFrame: 0, error: null,
+  });
   document.getElementById("save").href = "frame.png" + q;
 
   let socket = null;
@@ -43,6 +45,7 @@
     if (canvas.width !== header.full_width || canvas.height !== header.full_height) {
       canvas.width = header.full_width;
       canvas.height = header.full_height;
+      fit();
     }
     if (bitmap.width === canvas.width && bitmap.height === canvas.height) {
       ctx.drawImage(bitmap, 0, 0);  // 1:1, every pixel as sent
@@ -52,6 +55,7 @@
     }
     bitmap.close();
     state.drawn += 1;
+    if (header.denoised) state.denoised += 1;
     state.pixels += header.width * header.height;
     state.drawnFrame = header.frame;
     state.last = header;
@@ -60,7 +64,30 @@
     $("fps").textContent = header.fps.toFixed(1);
     $("mrays").textContent = header.mrays_per_second.toFixed(1);
     if ($("mode").value !== header.mode && document.activeElement !== $("mode")) $("mode").value = header.mode;
+    showDenoise(header.denoise);
     setStatus(header.converged ? "converged" : header.status);
+  }
+
+  // The canvas at its own size in CSS pixels, or smaller to fit the window beside the bar and
+  // the help line: never enlarged beyond its pixels (the browser's zoom still enlarges it).
+  function fit() {
+    const main = document.querySelector("main");
+    const style = getComputedStyle(main);
+    const gap = parseFloat(style.rowGap) || 0;
+    const width = document.documentElement.clientWidth - parseFloat(style.paddingLeft) - parseFloat(style.paddingRight);
+    const height = document.documentElement.clientHeight - parseFloat(style.paddingTop) - parseFloat(style.paddingBottom)
+      - $("bar").offsetHeight - $("help").offsetHeight - 2 * gap;
+    const scale = Math.max(0.05, Math.min(1, width / canvas.width, height / canvas.height));
+    canvas.style.width = canvas.width * scale + "px";
+    canvas.style.height = canvas.height * scale + "px";
+  }
+  window.addEventListener("resize", fit);
+  fit();
+
+  // The denoise checkbox follows the server (another tab may switch it), except just after a click.
+  let denoiseClicked = -Infinity;
+  function showDenoise(on) {
+    if (typeof on === "boolean" && performance.now() - denoiseClicked > 1500) $("denoise").checked = on;
   }
 
   function setStatus(text, error) {
@@ -117,6 +144,10 @@
 
   $("reset").addEventListener("click", () => send({ type: "reset" }));
   $("mode").addEventListener("change", (e) => send({ type: "mode", mode: e.target.value }));
+  $("denoise").addEventListener("change", (e) => {
+    denoiseClicked = performance.now();
+    send({ type: "denoise", on: e.target.checked });
+  });
 
   // fps falls to 0 once the image has converged and no frames come: poll /stats for it.
   setInterval(async () => {
@@ -124,6 +155,7 @@
       const stats = await (await fetch("stats" + q)).json();
       $("fps").textContent = stats.fps.toFixed(1);
       $("mrays").textContent = stats.mrays_per_second.toFixed(1);
+      showDenoise(stats.denoise);
       if (stats.error) setStatus(stats.error, true);
       else if (!stats.frames) setStatus(stats.status);
     } catch (err) { /* the server is gone: the socket's retry says so */ }
