@@ -205,6 +205,25 @@ def test_the_resting_image_is_shown_denoised_or_not_as_asked():
         assert r.stop(5.0)
 
 
+def test_a_converged_resting_image_is_shown_as_it_is(monkeypatch):
+    """From DENOISE_UNTIL_SPP samples a pixel on, the resting image is the accumulation itself
+    (what converges to `raylume render`), no longer OIDN's output of it."""
+    monkeypatch.setattr(vr, "DENOISE_UNTIL_SPP", 32)
+    session = raylume.Session(cornell(spp=16, denoise=True))
+    r = vr.Renderer(session, resolve_settings(session.scene, threads=1))
+    r.add_watcher(1)
+    shown = []
+    r.on_frame = lambda f: shown.append((f.spp, f.denoised))
+    r.start()
+    try:
+        wait_for(lambda: r._job is not None and r._job.done_spp >= 48, timeout=300)
+    finally:
+        assert r.stop(5.0)
+    assert any(d for spp, d in shown if spp < 32)  # denoised while noisy
+    assert all(not d for spp, d in shown if spp >= 32)  # then as it is
+    assert r.stats()["denoise"] is True and not r.latest.denoised
+
+
 def test_moving_frames_are_filtered_and_a_move_drops_the_frame_in_progress():
     session = raylume.Session(cornell(spp=16, denoise=True))
     r = vr.Renderer(session, resolve_settings(session.scene, threads=1))

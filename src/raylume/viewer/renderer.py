@@ -18,8 +18,9 @@ moving frame is one sample per pixel at the pixel centres, with its AOVs and the
 directly, filtered by SVGF (svgf.py, whose history follows the camera from frame to frame); at
 rest the accumulating image is denoised by OIDN (denoise.py) with the albedo and normal AOVs of
 the job's first pass, at most every DENOISE_SECONDS and at most a third of the time (a pass
-whose turn it is not shows nothing new), and always the last. The accumulation itself is the
-same as without denoising.
+whose turn it is not shows nothing new), until it has DENOISE_UNTIL_SPP samples a pixel; from
+there on the accumulation is shown as it is, and converges to `raylume render` as without
+denoising. The accumulation itself is the same as without denoising.
 
 A change of camera or mode drops the film. The kernels are nogil and run on the Session's lanes
 (all cores by default); this thread only prepares passes and encodes frames. Without watchers
@@ -62,6 +63,10 @@ PATH_MAX_SPP = 4096
 FPS_WINDOW = 2.0  # seconds over which fps and Mrays/s are measured
 DENOISE_SECONDS = 0.3  # at rest, OIDN denoises a pass's image at most this often ...
 DENOISE_SHARE = 3.0  # ... and at most 1 / DENOISE_SHARE of the time
+# ... until the image has this many samples a pixel: from there on the accumulation itself is
+# shown, which converges to `raylume render` (OIDN's output of a converged image does not: at
+# 1024 spp it was ~5x further from an independent render than the raw image, fine detail smoothed)
+DENOISE_UNTIL_SPP = 1024
 
 
 @dataclass
@@ -363,7 +368,7 @@ class Renderer:
         return max(1, min(MAX_DIVISOR, divisor))
 
     def _shows_denoised(self, job: _Job) -> bool:
-        return self._denoise and job.mode == "path"
+        return self._denoise and job.mode == "path" and (job.svgf or job.spp < DENOISE_UNTIL_SPP)
 
     def _new_job(self, epoch: int, version: int, camera: Camera, mode: str, moving: bool) -> _Job:
         svgf = moving and mode == "path" and self._denoise
