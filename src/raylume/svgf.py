@@ -42,7 +42,8 @@ Speed: the weights use exp(-x) ~ (1 + x / 256) ^ -256 (within 2 % for the x that
 from x = CUTOFF on), plain arithmetic, and an a-trous pass runs tap by tap over a row of pixels
 held in planes padded by the widest tap (no bounds checks), so that LLVM vectorises it (8
 floats at a time: ~1.7 ns a tap on this project's machine, against ~9 ns a tap pixel by pixel;
-there is no vector exp in Numba without Intel's SVML). Rows run in parallel (Numba prange). The
+there is no vector exp in Numba without Intel's SVML). Rows run in bands on `threads` threads
+(the kernels release the GIL; Numba's prange was 5-10x slower with other work on the cores). The
 kernels are compiled once into Numba's disk cache.
 """
 
@@ -289,7 +290,7 @@ def _variance(j0, j1, color, moments, length, guides, pad, out):
 @njit(nogil=True, **_JIT)
 def _atrous(j0, j1, step, src, guides, pad, dst):
     """One a-trous pass with taps `step` pixels apart, src -> dst (padded planes, pad >= 2 step).
-    Rows in parallel; in a row, tap by tap over its pixels: first the weights, then the sums
+    Rows j0 .. j1 - 1 (a band); in a row, tap by tap over its pixels: first the weights, then the sums
     (two loops of contiguous loads and one stream of stores: both vectorise)."""
     W = src.shape[2] - 2 * pad
     a, b = pad, pad + W  # the row's pixels in the padded planes
