@@ -69,7 +69,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..vec import inline_function, kernel_function
+from ..vec import inline_function, kernel_function, last_at_most
 
 PI = math.pi
 TWO_PI = 2.0 * math.pi
@@ -177,34 +177,6 @@ def environment_pdf(E, d):
     return p_row * p_col / area
 
 
-@inline_function
-def _search_marginal(cdf, n, u):
-    """The i in 0..n-1 with cdf[i] <= u < cdf[i + 1] (cdf[0] = 0 <= u < 1 = cdf[n]): never
-    an empty interval."""
-    lo = 0
-    hi = n
-    while hi - lo > 1:
-        mid = (lo + hi) >> 1
-        if cdf[mid] <= u:
-            lo = mid
-        else:
-            hi = mid
-    return lo
-
-
-@inline_function
-def _search_conditional(cdf, row, n, u):
-    lo = 0
-    hi = n
-    while hi - lo > 1:
-        mid = (lo + hi) >> 1
-        if cdf[row, mid] <= u:
-            lo = mid
-        else:
-            hi = mid
-    return lo
-
-
 @kernel_function
 def sample_environment(E, u1, u2):
     """A world direction for the random numbers u1 (row) and u2 (column) in [0, 1): (direction,
@@ -217,10 +189,12 @@ def sample_environment(E, u1, u2):
     w = E.image.shape[1]
     u1 = min(max(u1, 0.0), ONE_MINUS_EPSILON)
     u2 = min(max(u2, 0.0), ONE_MINUS_EPSILON)
-    i = _search_marginal(E.marginal_cdf, h, u1)
+    # the i in 0..h-1 with cdf[i] <= u1 < cdf[i + 1] (cdf[0] = 0 <= u1 < 1 = cdf[h]): never an
+    # empty interval; likewise the column j in row i
+    i = last_at_most(E.marginal_cdf, 0, h, u1)
     c0 = E.marginal_cdf[i]
     p_row = E.marginal_cdf[i + 1] - c0
-    j = _search_conditional(E.conditional_cdf, i, w, u2)
+    j = last_at_most(E.conditional_cdf[i], 0, w, u2)
     d0 = E.conditional_cdf[i, j]
     p_col = E.conditional_cdf[i, j + 1] - d0
     if p_row <= 0.0 or p_col <= 0.0:

@@ -3,7 +3,7 @@
 
 import math
 
-from ...vec import inline_function, kernel_function
+from ...vec import inline_function, kernel_function, last_at_most
 from ..environment import environment_radiance
 from .registry import visible_hit
 
@@ -14,14 +14,7 @@ INF = math.inf
 def pick_emitter(cdf, u):
     """The row whose share of the cdf holds u, and the probability of picking it."""
     n = cdf.shape[0] - 1
-    lo = 0
-    hi = n
-    while hi - lo > 1:
-        mid = (lo + hi) // 2
-        if cdf[mid] <= u * cdf[n]:
-            lo = mid
-        else:
-            hi = mid
+    lo = last_at_most(cdf, 0, n, u * cdf[n])
     return lo, (cdf[lo + 1] - cdf[lo]) / cdf[n]
 
 

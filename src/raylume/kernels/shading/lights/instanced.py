@@ -11,7 +11,7 @@ import numpy as np
 
 from ...film.sampler import key_uniform2, sub_key
 from ...geometry.shapes import PRIM_ROW, split_hit
-from ...vec import cross, inline_function, kernel_function, length, madd, normalize, row3, sub
+from ...vec import cross, inline_function, kernel_function, last_at_most, length, madd, normalize, row3, sub
 from .sampling import area_pdf, towards_point
 from .table import EMIT_AREA, EMIT_PRIM, INST_CDF, INST_COUNT, LIGHT_INTENSITY, TRI_CDF, TRI_COUNT
 
@@ -33,16 +33,7 @@ def power(object_area: float, instance_weight_sum: float, radiance: np.ndarray) 
 @inline_function
 def _pick(dist, first, n, u):
     """Index in [0, n) whose share of the cdf dist[first : first + n + 1] holds u."""
-    lo = 0
-    hi = n
-    total = dist[first + n]
-    while hi - lo > 1:
-        mid = (lo + hi) // 2
-        if dist[first + mid] <= u * total:
-            lo = mid
-        else:
-            hi = mid
-    return lo
+    return last_at_most(dist, first, n, u * dist[first + n])
 
 
 @inline_function
