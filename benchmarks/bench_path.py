@@ -14,8 +14,8 @@ the material showcase (examples/materials.toml), and error against time on the C
      benchmarks/mitsuba_scene.py: a checkered plane (a large rectangle), six spheres (smooth and
      rough gold, glass, frosted glass, rough plastic, diffuse), the HDR sky as an envmap. One
      approximation: Mitsuba's `path` has no media, so its glass does not absorb (raylume's
-     Beer-Lambert costs one exp per channel per segment inside); its envmap is bilinear,
-     raylume's nearest-texel (`python benchmarks/mitsuba_scene.py compare` shows both images).
+     Beer-Lambert costs one exp per channel per segment inside). Both look the sky up
+     bilinearly (`python benchmarks/mitsuba_scene.py compare` shows both images).
    All in this process, alternating raylume, Mitsuba, raylume, Mitsuba, ... for --rounds rounds,
    each round on all cores and on 1 thread. Times are the wall time of the render call (raylume's
    kernel time beside it, and its rays per sample), after a warm-up render: raylume's Numba
