@@ -66,15 +66,16 @@ Approximations, which `notes` lists for a given scene:
   theta = pi (i + 0.5) / H and clamps within half a row of a pole. The two agree on the equator
   and drift apart towards the poles, by (v - 1/2) rows at v = theta / pi: a sky's gradient or a
   sharp edge between rows moves by up to half a row (0.7 degrees for examples/sky.hdr's 128 rows).
-  Mitsuba is given raylume's H rows as they are. On examples/materials.toml this is the largest
-  difference left: the sun (rows 37-41 of 128, v ~ 0.3) sits 0.2 rows nearer the zenith in
+  Given raylume's H rows as they are, on examples/materials.toml this was the largest
+  difference: the sun (rows 37-41 of 128, v ~ 0.3) sits 0.2 rows nearer the zenith in
   Mitsuba and each row spans pi / 127 instead of pi / 128, so the irradiance on the floor is 1.0,
   0.9 and 0.6 % (r, g, b) higher in Mitsuba (the quadrature of the two lookups; the floor away
   from the spheres measured the same to 0.03 %), the whole image 0.9, 0.8, 0.5 % brighter; the
   sky seen directly, near the horizon, differs by under 0.05 %. An image of 2 H + 1 rows,
   raylume's rows interleaved with the means of neighbouring rows and the first and last rows
   repeated on the poles, makes Mitsuba's lookup raylume's exactly (to float32 rounding: both are
-  linear in v between the same knots), and then the floor agrees to 0.03 %.
+  linear in v between the same knots), and then the floor agrees to 0.03 %: Mitsuba is given that
+  image (pole_to_pole_rows).
 """
 
 from __future__ import annotations
@@ -136,6 +137,20 @@ def load(path: str | Path = MATERIALS):
     import raylume
 
     return raylume.load_scene(path)
+
+
+def pole_to_pole_rows(texels: np.ndarray) -> np.ndarray:
+    """raylume's (H, W, 3) environment as the (2 H + 1, W, 3) image whose Mitsuba lookup (rows
+    from pole to pole) is raylume's bilinear one: row 2 k + 1 is raylume's row k (its centre,
+    theta = pi (k + 1/2) / H), row 2 k the mean of rows k - 1 and k (raylume's value halfway
+    between their centres), and the first and last rows raylume's first and last (it clamps
+    within half a row of a pole)."""
+    h = texels.shape[0]
+    out = np.empty((2 * h + 1, *texels.shape[1:]), dtype=np.float32)
+    out[1::2] = texels
+    out[2:-1:2] = (texels[:-1].astype(np.float64) + texels[1:]) / 2
+    out[0], out[-1] = texels[0], texels[-1]
+    return out
 
 
 def mitsuba_scene_dict(
@@ -218,11 +233,8 @@ def mitsuba_scene_dict(
         # the texels raylume renders with (Mitsuba's own .hdr reader decodes RGBE without the +0.5)
         from raylume.compile.environment import load_environment_image
 
-        texels = load_environment_image(path)
+        texels = pole_to_pole_rows(load_environment_image(path))
         out["environment"]["bitmap"] = mi.Bitmap(np.ascontiguousarray(texels, np.float32))
-        notes.append(
-            "the environment's rows: Mitsuba's first and last on the poles, raylume's centred in H equal bands"
-        )
 
     # ------------------------------------------------------------------ materials
     def colour(mat, where: str, plane=None):
