@@ -753,3 +753,25 @@ def test_rgbe_decode_inverts_rgbe_encode_within_its_precision():
     back = rgbe_decode(rgbe_encode(x[None]))[0]
     assert np.all(np.abs(back - x) <= x.max(axis=1, keepdims=True) / 128)
     assert math.isclose(float(rgbe_decode(np.array([128, 0, 0, 129], np.uint8))[0]), 128.5 / 256 * 2)
+
+
+def test_the_alias_table_picks_each_cell_with_its_probability():
+    """Walker's alias table (one step a sample) gives each cell exactly the probability of the
+    cdf tables: summing what every slot sends to its own cell and to its alias recovers
+    P(row) P(column | row), and a cell of probability 0 gets nothing."""
+    from raylume.kernels.shading.environment import alias_table, sampling_tables
+
+    rng = np.random.default_rng(7)
+    img = rng.uniform(0.0, 1.0, size=(9, 13, 3)) ** 4
+    img[3] = 0.0  # a black row: the lookup still blends its neighbours into it, but not in row 0
+    img[:2] = 0.0  # the two top rows black: cell row 0 gets no lookup at all
+    marginal, conditional = sampling_tables(img.astype(np.float32))
+    want = (np.diff(marginal)[:, None] * np.diff(conditional, axis=1)).ravel()
+    table = alias_table(marginal, conditional)
+    n = len(want)
+    got = np.zeros(n)
+    np.add.at(got, np.arange(n), table[:, 0] / n)
+    np.add.at(got, table[:, 1].astype(int), (1.0 - table[:, 0]) / n)
+    np.testing.assert_allclose(got, want / want.sum(), rtol=1e-10, atol=1e-15)
+    assert (want[:13] == 0).all() and (got[:13] == 0).all()
+    assert ((table[:, 0] >= 0) & (table[:, 0] <= 1)).all()

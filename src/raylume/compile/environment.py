@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import SceneError
-from ..kernels.shading.environment import Environment, sampling_tables
+from ..kernels.shading.environment import Environment, alias_table, sampling_tables
 from ..scene.mesh import transform_matrix
 
 # A guard against decompression bombs (the texture table's limit): 64 Mi texels, 768 MiB.
@@ -65,7 +65,7 @@ def build_environment(
         fail("intensity", f"{intensity!r} times the image's brightest texel overflows float32")
     image = np.ascontiguousarray(scaled, dtype=np.float32)
     marginal, conditional = sampling_tables(image)
-    return Environment(image, marginal, conditional, rotation, True)
+    return Environment(image, marginal, conditional, alias_table(marginal, conditional), rotation, True)
 
 
 def _finite_number(value) -> float | None:

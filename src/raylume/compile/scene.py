@@ -83,6 +83,7 @@ def compile_scene(scene: Scene, source="<scene>", accelerate: bool = True) -> Co
         env_image=environment.image,
         env_marginal_cdf=environment.marginal_cdf,
         env_conditional_cdf=environment.conditional_cdf,
+        env_alias=environment.alias,
         env_rotation=environment.rotation,
         env_present=environment.present,
         has_transparency=bool((mat_rows[:, MAT_TRANSPARENCY] > 0).any()),

@@ -45,6 +45,7 @@ class KernelScene(NamedTuple):
     env_image: np.ndarray
     env_marginal_cdf: np.ndarray
     env_conditional_cdf: np.ndarray
+    env_alias: np.ndarray
     env_rotation: np.ndarray
     env_present: bool
     has_transparency: bool
@@ -167,7 +168,9 @@ def emitters_of(S):
 
 @kernel_function()
 def environment_of(S):
-    return Environment(S.env_image, S.env_marginal_cdf, S.env_conditional_cdf, S.env_rotation, S.env_present)
+    return Environment(
+        S.env_image, S.env_marginal_cdf, S.env_conditional_cdf, S.env_alias, S.env_rotation, S.env_present
+    )
 
 
 @kernel_function()
