@@ -103,3 +103,26 @@ def test_hits_in_a_bvh_of_sphere_blocks_match_closed_form():
     hit = np.isfinite(want_t)
     assert 0.2 < hit.mean() < 0.95
     np.testing.assert_allclose(t[hit], want_t[hit], rtol=1e-12, atol=1e-12)
+
+
+def test_a_root_leaf_of_five_to_eight_spheres_is_one_block_with_closed_form_hits():
+    """Scenes of 5 to 8 spheres (examples/materials.toml has six) are one root leaf tested four
+    spheres at a time; its hits, and which sphere, are the closed form's."""
+    rng = np.random.default_rng(12)
+    for n in (5, 6, 7, 8):
+        centers = rng.uniform(-2, 2, (n, 3))
+        radii = rng.uniform(0.3, 0.9, n)
+        scene = raylume.scene_from_dict(
+            {"objects": [{"type": "sphere", "center": c.tolist(), "radius": float(r)} for c, r in zip(centers, radii)]}
+        )
+        kernel = compile_scene(scene).kernel
+        assert kernel.node_index.shape[0] == 1 and kernel.node_index[0, NODE_COUNT, 0] == -(SPHERE_BLOCK + n)
+        o = np.tile([0.0, 0.0, -9.0], (3000, 1))
+        d = np.column_stack([rng.uniform(-0.35, 0.35, 3000), rng.uniform(-0.35, 0.35, 3000), np.ones(3000)])
+        d /= np.linalg.norm(d, axis=1, keepdims=True)
+        t, obj, _ = raylume.intersect(compile_scene(scene), o, d)
+        want_t, want_obj = _closed_form(centers, radii, o, d)
+        np.testing.assert_array_equal(obj, want_obj)
+        hit = np.isfinite(want_t)
+        assert 0.1 < hit.mean() < 0.98, n
+        np.testing.assert_allclose(t[hit], want_t[hit], rtol=1e-12, atol=1e-12)

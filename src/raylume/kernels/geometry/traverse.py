@@ -64,8 +64,8 @@ def block_row(G, first):
 
 @inline_function
 def intersect_leaf(G, X, first, count, o, d, shear, tmin, best_t, prim, b1, b2, stop_at_first):
-    """A leaf (its count field decoded as accel/wide.py says): blocks of 2 to 4 triangles or
-    spheres tested at once, other leaves primitive by primitive (with stop_at_first, up to the
+    """A leaf (its count field decoded as accel/wide.py says): blocks of 2 to 4 triangles or of 2
+    to 8 spheres tested four at a time, other leaves primitive by primitive (with stop_at_first, up to the
     first hit: any-hit queries). Returns the updated (best_t, prim, b1, b2)."""
     if count < -SPHERE_BLOCK:
         n = -count - SPHERE_BLOCK
@@ -77,7 +77,18 @@ def intersect_leaf(G, X, first, count, o, d, shear, tmin, best_t, prim, b1, b2, 
             P[first + 2, PRIM_ROW] if n > 2 else r0,
             P[first + 3, PRIM_ROW] if n > 3 else r0,
         )
-        t, j = intersect_spheres(G.shapes, rows, n, o, d, tmin, best_t)
+        t, j = intersect_spheres(G.shapes, rows, min(n, 4), o, d, tmin, best_t)
+        if n > 4:  # a root leaf of 5 to 8 spheres (mark_sphere_leaves): the next four, nearer only
+            r4 = P[first + 4, PRIM_ROW]
+            rows = (
+                r4,
+                P[first + 5, PRIM_ROW] if n > 5 else r4,
+                P[first + 6, PRIM_ROW] if n > 6 else r4,
+                P[first + 7, PRIM_ROW] if n > 7 else r4,
+            )
+            t4, j4 = intersect_spheres(G.shapes, rows, n - 4, o, d, tmin, min(t, best_t))
+            if t4 < t:
+                t, j = t4, j4 + 4
         if t < best_t:
             return t, first + j, 0.0, 0.0
         return best_t, prim, b1, b2
