@@ -72,6 +72,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from ..geometry.wide_nodes import prefetch_row
 from ..vec import inline_function, kernel_function
 
 PI = math.pi
@@ -181,6 +182,13 @@ def environment_pdf(E, d):
     if area <= 0.0:
         return 0.0
     return p_row * p_col / area
+
+
+@inline_function
+def prefetch_environment(E, u1):
+    """Start loading the alias slot sample_environment(E, u1, ...) will read."""
+    n = E.alias.shape[0]
+    prefetch_row(E.alias, min(int(u1 * n), n - 1))
 
 
 @kernel_function
