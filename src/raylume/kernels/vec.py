@@ -257,11 +257,12 @@ def row3(arr, i, k):
 @inline_function
 def last_at_most(values, first, n, x):
     """The largest i in 0..n-1 with values[first + i] <= x, for values[first:first + n]
-    non-decreasing and values[first] <= x (0 otherwise): where a cdf's interval holds x. The
-    range halves each step, log2 n steps whatever x is. (Written as a select so that it could be
-    a conditional move, but LLVM's x86 backend turns a select on a loop's critical path back
-    into a branch; the environment's two searches are ~10% of path mode's time on
-    examples/materials.toml, mostly mispredictions. An alias table would take one step.)"""
+    non-decreasing and values[first] <= x (0 otherwise): where a cdf's interval holds x (path
+    mode's light and instanced-emitter picks). The range halves each step, log2 n steps whatever
+    x is. Written as a select so that it could be a conditional move, but LLVM's x86 backend
+    turns a select on a loop's critical path back into a branch: where that costs (the
+    environment's cells, ~10% of examples/materials.toml's path-mode time), an alias table
+    takes one step instead (shading/environment.py)."""
     base = 0
     length = n
     while length > 1:
