@@ -146,15 +146,8 @@ def _block_codegen(context, builder, sig, args, columns):
             builder.select(builder.icmp_signed("==", k, ir.Constant(i64, 1)), o[1], o[2]),
         )
 
-    # rows first .. first + count - 1; lanes past count repeat the last row (masked below)
-    last = builder.sub(count, ir.Constant(i64, 1))
-    rows = []
-    for j in range(n):
-        jj = ir.Constant(i64, j)
-        lane = builder.select(builder.icmp_signed("<", jj, count), jj, last)
-        rows.append(builder.mul(builder.add(first, lane), ir.Constant(i64, 9)))
-
-    if columns:  # lanes past count read the next rows or the table's padding (masked below)
+    # column(c): float64 vector of coordinate c (runtime) of rows first .. first + 3
+    if columns:  # one load; lanes past count read the next rows or the table's padding (masked below)
         stride = builder.extract_value(tri.strides, 0)
         base = builder.add(builder.ptrtoint(tri.data, i64), builder.mul(first, ir.Constant(i64, 4)))
         v4f = ir.VectorType(f32, n)
@@ -163,15 +156,21 @@ def _block_codegen(context, builder, sig, args, columns):
             address = builder.add(base, builder.mul(c, stride))
             return builder.fpext(builder.load(builder.inttoptr(address, v4f.as_pointer()), align=4), v4)
 
-    def gathered(c):  # float64 vector of column c (runtime) of the 4 rows
-        vec = ir.Constant(ir.VectorType(f32, n), ir.Undefined)
+    else:  # gathered from the rows; lanes past count repeat the last row (masked below)
+        last = builder.sub(count, ir.Constant(i64, 1))
+        rows = []
         for j in range(n):
-            p = builder.gep(tri.data, [builder.add(rows[j], c)], inbounds=True)
-            vec = builder.insert_element(vec, builder.load(p, align=4), ir.Constant(i32, j))
-        return builder.fpext(vec, v4)
+            jj = ir.Constant(i64, j)
+            lane = builder.select(builder.icmp_signed("<", jj, count), jj, last)
+            rows.append(builder.mul(builder.add(first, lane), ir.Constant(i64, 9)))
 
-    if not columns:
-        column = gathered
+        def column(c):
+            vec = ir.Constant(ir.VectorType(f32, n), ir.Undefined)
+            for j in range(n):
+                p = builder.gep(tri.data, [builder.add(rows[j], c)], inbounds=True)
+                vec = builder.insert_element(vec, builder.load(p, align=4), ir.Constant(i32, j))
+            return builder.fpext(vec, v4)
+
     ox, oy, oz = splat(pick(kx)), splat(pick(ky)), splat(pick(kz))
     c3, c6 = ir.Constant(i64, 3), ir.Constant(i64, 6)
     ax = fsub(column(kx), ox)
@@ -363,7 +362,7 @@ def triangle_columns(triangles):
     """The (T, 9) triangle table by columns, float32 (9, T + COLUMN_PAD), in scenes of at most
     COLUMNS_UP_TO triangles: column c of rows r .. r + 3 is one 16-byte load for the block test
     (a leaf's four rows are 36 scalar loads and inserts in the row table). Larger scenes get an
-    empty (9, COLUMN_PAD) table, and their blocks are read from the rows (has_columns)."""
+    empty (9, COLUMN_PAD) table, and their blocks are read from the rows (intersect_triangle_block)."""
     import numpy as np
 
     if len(triangles) > COLUMNS_UP_TO:
