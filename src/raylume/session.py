@@ -105,6 +105,7 @@ class Session:
         height: int | None = None,
         spp: int | None = None,
         mode: str | None = None,
+        integrator: str | None = None,
         max_depth: int | None = None,
         seed: int | None = None,
         filter: str | None = None,
@@ -162,6 +163,10 @@ class Session:
         primary = 0 if table.mode == "raster" else (x1 - x0) * (y1 - y0) * table.spp
         if table.mode != "raster":
             extra["rejected_samples"] = part.rejected
+        if table.mode == "path":
+            extra["integrator"] = table.integrator
+        if part.strategies:
+            extra["bdpt_strategies"] = dict(sorted(part.strategies.items()))
         if denoising:
             noisy = rgb
             rgb, split = denoise_path_image(

@@ -101,6 +101,8 @@ class RenderSettings(Strict):
     # trace mode, -1 in path mode (`depth` is the value in force).
     max_depth: int | None = Field(None, ge=-1, le=MAX_DEPTH)
     mode: Literal["cast", "trace", "path", "raster"] = "trace"
+    # Path mode's integrator: "path" (path tracing) or "bdpt" (bidirectional path tracing).
+    integrator: Literal["path", "bdpt"] = "path"
     background: Color = (0.0, 0.0, 0.0)
     encoding: Literal["clamp", "srgb"] = "clamp"
     seed: int = Field(0, ge=0, le=2**32 - 1)

@@ -167,6 +167,7 @@ class Film:
         self.window = (x0, x1, y0, y1)
         self.total_spp = total_spp
         self.filter = filter_array(pixel_filter)
+        self.filter_name = pixel_filter
         signed = np.isfinite(self.filter[FILTER_NEGATIVE])
         shape = (y1 - y0, x1 - x0, FILM_SIGNED_WIDTH if signed else FILM_WIDTH)
         self.sums = np.empty(shape, dtype=np.float64)
@@ -175,6 +176,16 @@ class Film:
         self.sums.fill(0.0)
         self.spp = 0  # samples per pixel added so far
         self.rejected = 0  # samples dropped as NaN, infinite or negative (path mode)
+        # bidirectional path tracing's splats (splat.py): exact int64 sums, (h, w, 3, 2) flat
+        self.splats: np.ndarray | None = None
+        self.strategies: dict[str, int] = {}  # bdpt: samples that contributed per strategy "s,t"
+
+    def enable_splats(self) -> np.ndarray:
+        """The splat sums of the film's window (made zero on first use)."""
+        if self.splats is None:
+            x0, x1, y0, y1 = self.window
+            self.splats = np.zeros((y1 - y0) * (x1 - x0) * 6, dtype=np.int64)
+        return self.splats
 
     @property
     def kernel_window(self) -> tuple[int, int, int, int]:
@@ -193,6 +204,12 @@ class Film:
         constant image stays constant; negative results of the lobes are clipped to 0."""
         out = np.empty(self.sums.shape[:2] + (3,), dtype=np.float32)
         _film_rgb(self.sums, out)
+        if self.splats is not None:
+            from .splat import splat_image
+
+            h, w = self.sums.shape[:2]
+            both = out.astype(np.float64) + splat_image(self.splats.reshape(h, w, 3, 2), self.spp)
+            out = np.maximum(both, 0.0).astype(np.float32)
         return out
 
     @staticmethod
