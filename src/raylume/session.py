@@ -206,6 +206,7 @@ class Session:
         camera: Camera | dict | None = None,
         *,
         mode: str | None = None,
+        integrator: str | None = None,
         max_depth: int | None = None,
         seed: int | None = None,
         threads: int | None = None,
@@ -223,7 +224,7 @@ class Session:
             )
         film_size = {"width": film.width, "height": film.height}
         settings = resolve_settings(
-            self.scene, {**film_size, "mode": mode, "max_depth": max_depth, "seed": seed}, threads=threads,
+            self.scene, {**film_size, "mode": mode, "integrator": integrator, "max_depth": max_depth, "seed": seed}, threads=threads,
             source=self.source,
         )  # fmt: skip
         table = settings.render

@@ -171,7 +171,7 @@ def camera_importance(cam, width, height, o, d):
     if not (cos_t > 0.0):
         return 0.0, 0.0, -1.0, -1.0
     # the pinhole direction of the point where the ray meets the plane in focus
-    pd = d
+    pd = (d[0], d[1], d[2])
     if cam[CAM_LENS_RADIUS] > 0.0:
         t = cam[CAM_FOCUS_DISTANCE] / cos_t
         pd = (

@@ -28,6 +28,16 @@ def remap0(x):
 
 
 @kernel_function
+def ratio(rev, fwd):
+    """A step of the ratio walk: rev / fwd with delta densities (0) taken as 1; 0 past a vertex
+    that no light subpath reaches (UNREACHABLE: a light at infinity shines from the bounding
+    sphere's disk, and a plane reaches beyond it), which ends the strategies beyond it."""
+    if rev < 0.0:
+        return 0.0
+    return remap0(rev) / remap0(fwd)
+
+
+@kernel_function
 def mis_weight(C, Vc, Vl, s, t):
     """The balance-heuristic weight of strategy (s, t) for the path made of light subpath
     Vl[0:s] and camera subpath Vc[0:t] (t >= 1)."""
@@ -64,12 +74,12 @@ def mis_weight(C, Vc, Vl, s, t):
     total = 0.0
     ri = 1.0
     for i in range(t - 1, 0, -1):
-        ri *= remap0(Vc[i, V_PDF_REV]) / remap0(Vc[i, V_PDF_FWD])
+        ri *= ratio(Vc[i, V_PDF_REV], Vc[i, V_PDF_FWD])
         if Vc[i, V_DELTA] == 0.0 and Vc[i - 1, V_DELTA] == 0.0:
             total += ri
     ri = 1.0
     for i in range(s - 1, -1, -1):
-        ri *= remap0(Vl[i, V_PDF_REV]) / remap0(Vl[i, V_PDF_FWD])
+        ri *= ratio(Vl[i, V_PDF_REV], Vl[i, V_PDF_FWD])
         delta_before = Vl[i - 1, V_DELTA] != 0.0 if i > 0 else is_delta_light(Vl, 0)
         if Vl[i, V_DELTA] == 0.0 and not delta_before:
             total += ri

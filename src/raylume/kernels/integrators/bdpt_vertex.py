@@ -52,6 +52,7 @@ F_DELTA_LIGHT = 2  # a point, spot or directional light
 F_ON_SURFACE = 4  # a light vertex with a normal: area lights, emissive surfaces
 F_EMISSIVE = 8  # a surface that emits (a camera subpath counts its emission, s = 0)
 UNION = -1  # V_E of an escaped camera ray: every light at infinity together
+UNREACHABLE = -1.0  # a reverse density of a vertex no light subpath can reach (bdpt_mis.py)
 
 
 class Context(NamedTuple):
@@ -238,7 +239,9 @@ def pdf_light(C, A, i, N, k):
     if has_flag(A, i, F_INFINITE) and kind_of(A, i) == LIGHT:
         to_light = row3(A, i, V_DIR)
         w = mul(to_light, -1.0)
-        pdf = disk_density(C.B) if covered(C.B, row3(N, k, V_P), to_light) else 0.0
+        # UNREACHABLE where the disk's rays cannot reach N: no strategy that starts there makes
+        # the path (a zero would read as a delta's, remap0)
+        pdf = disk_density(C.B) if covered(C.B, row3(N, k, V_P), to_light) else UNREACHABLE
     else:
         w, d2 = toward(A, i, N, k)
         if not (d2 > 0.0):
