@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from test_path import FURNACE, SPHERE, Z, _assert_mean, _glossy_room, _inside, _mean_and_error, _scene
+from test_path import FURNACE, SPHERE, Z, _assert_mean, _glossy_room, _inside, _scene
 
 import raylume
 

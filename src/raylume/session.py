@@ -223,10 +223,8 @@ class Session:
                 f"the film takes {film.total_spp} samples per pixel; {film.spp} are in and {spp} more would exceed it"
             )
         film_size = {"width": film.width, "height": film.height}
-        settings = resolve_settings(
-            self.scene, {**film_size, "mode": mode, "integrator": integrator, "max_depth": max_depth, "seed": seed}, threads=threads,
-            source=self.source,
-        )  # fmt: skip
+        asked = {"mode": mode, "integrator": integrator, "max_depth": max_depth, "seed": seed}
+        settings = resolve_settings(self.scene, {**film_size, **asked}, threads=threads, source=self.source)
         table = settings.render
         if table.mode == "raster":
             raise ValueError("raster mode draws whole images; it adds no samples to a film")

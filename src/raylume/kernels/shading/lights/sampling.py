@@ -111,13 +111,6 @@ def two_sided_pdf(n, w):
     return abs(dot(n, w)) * (0.5 / math.pi)
 
 
-@inline_function
-def one_sided_pdf(n, w):
-    """The density of cosine_about's direction w (0 behind n)."""
-    c = dot(n, w)
-    return c / math.pi if c > 0.0 else 0.0
-
-
 @kernel_function
 def disk_origin(B, to_light, u1, u2):
     """The origin of a ray from a light at infinity seen along to_light: a point on the disk of

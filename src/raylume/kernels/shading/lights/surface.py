@@ -16,9 +16,7 @@ from ...geometry.shapes import SPHERE as SHAPE_SPHERE
 from ...vec import inline_function, madd, row3
 from .sampling import (
     area_pdf,
-    cosine_about,
     cosine_two_sided,
-    one_sided_pdf,
     sphere_cone,
     sphere_cone_pdf,
     towards_point,
@@ -71,7 +69,7 @@ def pdf(G, X, Em, Env, e, p, wi, dist, n_hit, hit):
 @inline_function
 def emit(G, X, Em, Env, e, u1, u2, u3, u4, key, B):
     """Bidirectional: a point uniform over the primitive and a cosine direction on either side
-    (a sphere: outwards only; its inside is closed to the scene)."""
+    (spheres too: path mode sees their emission from inside as well)."""
     data = Em.data
     k = int(data[e, EMIT_PRIM])
     radiance = row3(data, e, LIGHT_INTENSITY)
@@ -80,8 +78,8 @@ def emit(G, X, Em, Env, e, u1, u2, u3, u4, key, B):
         row = np.int64(G.prims[k, PRIM_ROW])
         n = uniform_sphere(u1, u2)
         q = madd(row3(G.shapes, row, shape_sphere.CENTER), n, G.shapes[row, shape_sphere.RADIUS])
-        w = cosine_about(n, u3, u4)
-        return q, n, w, radiance, pdf_pos, one_sided_pdf(n, w), np.int64(k)
+        w = cosine_two_sided(n, u3, u4)
+        return q, n, w, radiance, pdf_pos, two_sided_pdf(n, w), np.int64(k)
     q, n = sample_surface(G, k, u1, u2)
     w = cosine_two_sided(n, u3, u4)
     return q, n, w, radiance, pdf_pos, two_sided_pdf(n, w), np.int64(k)
@@ -90,8 +88,5 @@ def emit(G, X, Em, Env, e, u1, u2, u3, u4, key, B):
 @inline_function
 def emit_pdf(G, X, Em, Env, e, p, n, w, hit, B):
     data = Em.data
-    k = int(data[e, EMIT_PRIM])
     pdf_pos = 1.0 / data[e, EMIT_AREA]
-    if G.prims[k, PRIM_KIND] == SHAPE_SPHERE:
-        return row3(data, e, LIGHT_INTENSITY), pdf_pos, one_sided_pdf(n, w)
     return row3(data, e, LIGHT_INTENSITY), pdf_pos, two_sided_pdf(n, w)
