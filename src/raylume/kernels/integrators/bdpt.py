@@ -32,6 +32,7 @@ from ..shading.lights import (
     pick_emitter,
     sample_emission,
 )
+from ..shading.lights.registry import visible_hit
 from ..shading.materials import MAT_EMISSION, beer_lambert, two_sided
 from ..vec import add, dot, hadamard, kernel_function, madd, mul, row3
 from .bdpt_mis import mis_weight
@@ -87,6 +88,16 @@ def _visible(C, A, i, B, k, w, d2, node_stack, t_stack):
         o = madd(o, ng, eps if dot(w, ng) > 0.0 else -eps)
     tmax = math.sqrt(d2) * (1.0 - SHADOW_SHORTEN) if d2 < INF else INF
     return not any_hit(C.G, C.X, o, w, 0.0, tmax, node_stack, t_stack)
+
+
+@kernel_function
+def _self_hidden(C, A, i, e, w, d2):
+    """Does area light e, which is not in the BVH (quad and sphere lights), hide its own point
+    at squared distance d2 along w from A[i] (the far side of a sphere light)?"""
+    if e >= C.Em.n_area or not (d2 < INF):
+        return False
+    t, _ = visible_hit(C.Em, e, row3(A, i, V_P), w, math.sqrt(d2) * (1.0 - 1e-6))
+    return t < INF
 
 
 @kernel_function
@@ -218,7 +229,7 @@ def _connect_light(C, Vc, Vl, saved, t, key, mis, node_stack, t_stack):
         value = hadamard(hadamard(row3(Vc, pt, V_BETA), f), mul(light, abs(dot(row3(Vc, pt, V_NS), w))))
         if _nonzero(value):
             rays = 1
-            if _visible(C, Vc, pt, Vl, 0, w, d2, node_stack, t_stack):
+            if _visible(C, Vc, pt, Vl, 0, w, d2, node_stack, t_stack) and not _self_hidden(C, Vc, pt, e, w, d2):
                 value = _absorbed(C, Vc, pt, w, d2, value)
                 if mis:
                     Vl[0, V_PDF_FWD] = pdf_light_origin(C, Vl, 0, Vc, pt)
