@@ -254,7 +254,8 @@ def _caustic_scene():
             "objects": [
                 {"type": "quad", "position": [0, 0, 0], "u": [6, 0, 0], "v": [0, 0, 6],
                  "material": {"type": "diffuse", "color": [0.8, 0.8, 0.8]}},
-                {"type": "sphere", "center": [0, 0.8, 0], "radius": 0.5, "material": {"type": "dielectric", "ior": 1.5}},
+                {"type": "sphere", "center": [0, 0.8, 0], "radius": 0.5,
+                 "material": {"type": "dielectric", "ior": 1.5}},
             ],
         }
     )  # fmt: skip
