@@ -289,3 +289,41 @@ def test_caustic_agrees_with_a_long_path_render_and_bdpt_has_less_noise():
     limit = t.isf(1e-3 / z.size / 2, dof)
     assert np.all(np.abs(z) < limit), (np.abs(z).max(), limit.min())
     assert bdpt.var(axis=0, ddof=1).sum() < 0.25 * path_short.var(axis=0, ddof=1).sum()
+
+
+def test_cli_integrator_flag_and_strategy_stats(tmp_path):
+    """`--integrator bdpt` renders (exit 0) and `--stats` counts the strategies' samples; an
+    unknown integrator is bad input (exit 2)."""
+    from test_cli import assert_refused
+    from test_cli import raylume as run_cli
+
+    out, stats = tmp_path / "bdpt.npy", tmp_path / "stats.json"
+    scene = REPO / "examples" / "cornell.toml"
+    args = [scene, "-o", out, "--width", 16, "--height", 16, "--spp", 2, "--integrator", "bdpt", "--stats", stats]
+    result = run_cli("render", *args, "-q", cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    import json
+
+    data = json.loads(stats.read_text())
+    assert data["integrator"] == "bdpt"
+    assert data["bdpt_strategies"]["1,2"] > 0 and data["bdpt_strategies"]["2,1"] > 0
+    assert np.isfinite(np.load(out)).all()
+    assert_refused(
+        run_cli("render", scene, "-o", tmp_path / "x.png", "--integrator", "mlt", cwd=tmp_path), "integrator"
+    )
+
+
+def test_media_are_refused_with_bdpt():
+    """A scene with participating media is refused (SceneError: exit 2 on the command line)
+    rather than rendered without them, until bdpt renders media."""
+    from types import SimpleNamespace
+
+    from raylume.errors import SceneError
+    from raylume.scene.model import RenderSettings
+    from raylume.settings import check_integrator
+
+    table = RenderSettings(mode="path", integrator="bdpt")
+    fog = SimpleNamespace(media={"fog": {}}, render=table, objects=[])
+    with pytest.raises(SceneError, match="participating media"):
+        check_integrator(fog, table, "scene.toml")
+    check_integrator(fog, RenderSettings(mode="path"), "scene.toml")  # path mode's integrator: allowed

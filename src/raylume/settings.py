@@ -66,10 +66,32 @@ def resolve_settings(
             else:
                 message = format_validation_error(exc, source, RenderSettings, context="render settings: ")
             raise SceneError(message) from None
+    if isinstance(base, Scene):
+        check_integrator(base, table, COMMAND_LINE if flags else source)
     threads = check_threads(threads, flags)
     crop_source = f"{COMMAND_LINE} (--crop)" if flags else source
     window = None if crop is None else check_crop(crop, table.width, table.height, crop_source)
     return ResolvedSettings(table, threads, window)
+
+
+def has_media(scene: Scene) -> bool:
+    """Does the scene hold participating media ([media.*], an object's `interior`, [render]
+    `medium`)? (Read with getattr: the keys come with the media issue's model.)"""
+    return bool(
+        getattr(scene, "media", None)
+        or getattr(scene.render, "medium", None)
+        or any(getattr(obj, "interior", None) for obj in scene.objects)
+    )
+
+
+def check_integrator(scene: Scene, table: RenderSettings, source: str) -> None:
+    """Bidirectional path tracing does not render participating media yet: refuse such a scene
+    (a SceneError: exit 2) rather than render it without them."""
+    if table.mode == "path" and table.integrator == "bdpt" and has_media(scene):
+        raise SceneError(
+            f'{source}: integrator "bdpt" does not render participating media yet (the scene has [media], an '
+            f'object\'s interior or [render] medium); render it with integrator = "path"'
+        )
 
 
 def settings_of_call(
