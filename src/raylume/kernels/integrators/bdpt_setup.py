@@ -8,9 +8,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..film.splat import splat_filter
-from ..shading.lights import LIGHT_POSITION, LIGHT_RADIUS, LIGHT_U, LIGHT_V
-from ..shading.lights import quad as quad_light
-from ..shading.lights import sphere as sphere_light
+from ..shading.lights.registry import visible_bounds
 from .bdpt import MAX_SEGMENTS
 
 STRATEGY_VARIABLE = "RAYLUME_BDPT_STRATEGY"
@@ -43,15 +41,7 @@ def bounding_sphere(S) -> np.ndarray:
     if S.instance_inverse.shape[0] > 0:
         boxes.append(_box_of_nodes(S.inst_node_bounds))
     for e in range(S.n_area_lights):
-        row = S.light_data[e]
-        c = row[LIGHT_POSITION : LIGHT_POSITION + 3]
-        if S.light_kind[e] == quad_light.KIND:
-            half = 0.5 * (np.abs(row[LIGHT_U : LIGHT_U + 3]) + np.abs(row[LIGHT_V : LIGHT_V + 3]))
-        elif S.light_kind[e] == sphere_light.KIND:
-            half = np.full(3, row[LIGHT_RADIUS])
-        else:
-            continue
-        boxes.append((c - half, c + half))
+        boxes.append(visible_bounds(int(S.light_kind[e]), S.light_data[e]))
     boxes = [b for b in boxes if b is not None]
     if not boxes:
         return np.array([0.0, 0.0, 0.0, 1.0])

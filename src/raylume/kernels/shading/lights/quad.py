@@ -116,3 +116,10 @@ def emit(G, X, Em, Env, e, u1, u2, u3, u4, key, B):
 def emit_pdf(G, X, Em, Env, e, p, n, w, hit, B):
     area = length(cross(row3(Em.data, e, LIGHT_U), row3(Em.data, e, LIGHT_V)))
     return row3(Em.data, e, LIGHT_INTENSITY), 1.0 / area, two_sided_pdf(n, w)
+
+
+def bounds(row: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(lo, hi) corners of the box around the quad (bidirectional path tracing's bounding sphere)."""
+    c = row[LIGHT_POSITION : LIGHT_POSITION + 3]
+    half = 0.5 * (np.abs(row[LIGHT_U : LIGHT_U + 3]) + np.abs(row[LIGHT_V : LIGHT_V + 3]))
+    return c - half, c + half

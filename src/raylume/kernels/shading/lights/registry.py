@@ -83,6 +83,13 @@ trace_falloff = kind_switch(
 )
 
 
+def visible_bounds(kind: int, row: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """(lo, hi) of the box around a light that rays see beside the BVH (its kind's `bounds`), or
+    None for a kind without one."""
+    module = next((k for k in KINDS if k.KIND == kind), None)
+    return module.bounds(row) if module is not None and hasattr(module, "bounds") else None
+
+
 def pack_light(light) -> tuple[int, np.ndarray]:
     """(kind, table row) of a model light (scene/model.py's light classes)."""
     kind = BY_NAME.get(light.type)

@@ -94,3 +94,9 @@ def emit(G, X, Em, Env, e, u1, u2, u3, u4, key, B):
 def emit_pdf(G, X, Em, Env, e, p, n, w, hit, B):
     r = Em.data[e, LIGHT_RADIUS]
     return row3(Em.data, e, LIGHT_INTENSITY), 1.0 / (4.0 * math.pi * r * r), two_sided_pdf(n, w)
+
+
+def bounds(row: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(lo, hi) corners of the box around the sphere (bidirectional path tracing's bounding sphere)."""
+    c = row[LIGHT_POSITION : LIGHT_POSITION + 3]
+    return c - row[LIGHT_RADIUS], c + row[LIGHT_RADIUS]
