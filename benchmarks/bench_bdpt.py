@@ -51,7 +51,10 @@ def timed(session, integrator: str, spp: int, seed: int, **size) -> tuple[np.nda
 
 
 def headlamp_reference(session, w: int, h: int, spp: int) -> np.ndarray:
-    path = CACHE / f"headlamp_{w}x{h}_{spp}.npy"
+    import hashlib
+
+    digest = hashlib.sha256(HEADLAMP.read_bytes() + (HEADLAMP.parent / "headlamp" / "reflector.obj").read_bytes())
+    path = CACHE / f"headlamp_{w}x{h}_{spp}_{digest.hexdigest()[:12]}.npy"
     if path.exists():
         return np.load(path)
     CACHE.mkdir(exist_ok=True)
