@@ -205,8 +205,6 @@ class Film:
         out = np.empty(self.sums.shape[:2] + (3,), dtype=np.float32)
         _film_rgb(self.sums, out)
         if self.splats is not None:
-            from .splat import splat_image
-
             h, w = self.sums.shape[:2]
             both = out.astype(np.float64) + splat_image(self.splats.reshape(h, w, 3, 2), self.spp)
             out = np.maximum(both, 0.0).astype(np.float32)
@@ -215,6 +213,18 @@ class Film:
     @staticmethod
     def max_bytes_per_pixel() -> int:
         return 8 * FILM_SIGNED_WIDTH
+
+
+# bidirectional path tracing's splat sums (splat.py): hi in units of 2^-16, lo in 2^-48
+SPLAT_HI_SCALE = 65536.0  # 2^16
+SPLAT_LO_SCALE = 4294967296.0  # 2^32
+
+
+def splat_image(sums: np.ndarray, spp: int) -> np.ndarray:
+    """float64 (h, w, 3): splat sums (h, w, 3, 2) as radiance, divided by the samples per pixel taken."""
+    hi = sums[..., 0].astype(np.float64)
+    lo = sums[..., 1].astype(np.float64)
+    return (hi / SPLAT_HI_SCALE + lo / (SPLAT_HI_SCALE * SPLAT_LO_SCALE)) / max(spp, 1)
 
 
 # IEEE arithmetic (no fast-math), so the image is what the numpy expression it replaced gave,

@@ -25,9 +25,9 @@ from numba.extending import intrinsic
 
 from ..vec import inline_function, kernel_function
 from .film import PIXEL_FILTERS
+from .film import SPLAT_HI_SCALE as HI_SCALE
+from .film import SPLAT_LO_SCALE as LO_SCALE
 
-HI_SCALE = 65536.0  # 2^16
-LO_SCALE = 4294967296.0  # 2^32: lo's units are 2^-48
 SPLAT_LIMIT = 2.0**46
 SPLAT_RADIUS = 0
 SPLAT_COUNT = 1
@@ -107,10 +107,3 @@ def splat_filter(name: str) -> np.ndarray:
     out[SPLAT_COUNT] = PROFILE_SIZE
     out[SPLAT_TABLE:] = f / integral
     return out
-
-
-def splat_image(sums: np.ndarray, spp: int) -> np.ndarray:
-    """float64 (h, w, 3): the splat sums as radiance, divided by the samples per pixel taken."""
-    hi = sums[..., 0].astype(np.float64)
-    lo = sums[..., 1].astype(np.float64)
-    return (hi / HI_SCALE + lo / (HI_SCALE * LO_SCALE)) / max(spp, 1)
