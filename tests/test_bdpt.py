@@ -327,3 +327,13 @@ def test_media_are_refused_with_bdpt():
     with pytest.raises(SceneError, match="participating media"):
         check_integrator(fog, table, "scene.toml")
     check_integrator(fog, RenderSettings(mode="path"), "scene.toml")  # path mode's integrator: allowed
+
+
+def test_denoise_works_with_bdpt():
+    """`--denoise` with bdpt: OIDN on the bidirectional image, the light seen directly and its
+    edges by path tracing (seen_light.py); the noisy image kept."""
+    pytest.importorskip("pyoidn")
+    scene = raylume.load_scene(REPO / "examples" / "cornell.toml")
+    img = raylume.render(scene, **BDPT, width=32, height=32, spp=4, denoise=True)
+    assert np.isfinite(img.rgb).all() and img.rgb.min() >= 0
+    assert "noisy" in img.aovs and img.rgb.std() < img.aovs["noisy"].std()
