@@ -19,7 +19,9 @@ RINGS = 24
 SEGMENTS = 64
 
 
-def paraboloid(focal: float = FOCAL, rim: float = RIM, hole: float = HOLE, rings: int = RINGS, segments: int = SEGMENTS):
+def paraboloid(
+    focal: float = FOCAL, rim: float = RIM, hole: float = HOLE, rings: int = RINGS, segments: int = SEGMENTS
+):
     """(vertices, normals, triangles): the paraboloid's surface between radii `hole` and `rim`;
     normals are the surface's, facing the focus (inside)."""
     vertices, normals, triangles = [], [], []
