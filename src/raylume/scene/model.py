@@ -115,6 +115,9 @@ class RenderSettings(Strict):
     texture_filter: bool = True
     # Path mode: run Intel Open Image Denoise on the image (with the albedo and normal AOVs).
     denoise: bool = False
+    # The participating medium filling the space outside every object, a name in [media]
+    # (fog); the camera sits in it. Path mode renders media; the others ignore them.
+    medium: str | None = None
 
     @model_validator(mode="after")
     def _depth(self):
@@ -505,11 +508,27 @@ LIGHT_TYPES = {
 Light = tagged_union(LIGHT_TYPES)
 
 
+# `interior` (every object): the name of the medium inside a closed shape, in [media]; open
+# shapes refuse it.
+MediumRef = Annotated[str | None, Field(None, min_length=1)]
+
+
+def _no_interior(obj, shape: str):
+    """interior needs an inside: refuse it on shapes that have none (DESIGN.md section 7)."""
+    if obj.interior is not None:
+        raise ValueError(
+            f"interior: a {shape} is open, it has no inside to fill; a medium needs a closed shape "
+            "(a sphere, a capped cylinder or a closed mesh)"
+        )
+    return obj
+
+
 class Sphere(Strict):
     type: Literal["sphere"]
     center: Vec3
     radius: FiniteFloat = Field(gt=0)
     material: MaterialRef = "default"
+    interior: MediumRef = None
 
 
 class Plane(Strict):
@@ -517,6 +536,11 @@ class Plane(Strict):
     point: Vec3 = (0.0, 0.0, 0.0)
     normal: Vec3 = (0.0, 1.0, 0.0)
     material: MaterialRef = "default"
+    interior: MediumRef = None
+
+    @model_validator(mode="after")
+    def _open(self):
+        return _no_interior(self, "plane")
 
     @field_validator("normal")
     @classmethod
@@ -528,6 +552,11 @@ class Triangle(Strict):
     type: Literal["triangle"]
     vertices: tuple[Vec3, Vec3, Vec3]
     material: MaterialRef = "default"
+    interior: MediumRef = None
+
+    @model_validator(mode="after")
+    def _open(self):
+        return _no_interior(self, "triangle")
 
     @field_validator("vertices")
     @classmethod
@@ -596,6 +625,7 @@ class Mesh(Strict):
     # a .npy file of shape (N, 4, 4) or (N, 3, 4), relative to the scene file, or inline
     # transforms. The mesh and its BVH are stored once (scene/instances.py, compile/instances.py).
     instances: str | list[Transform] | None = None
+    interior: MediumRef = None  # the mesh must be closed (checked when it is loaded)
 
     @field_validator("instances")
     @classmethod
@@ -626,6 +656,11 @@ class Disk(Strict):
     radius: FiniteFloat = Field(gt=0)
     material: MaterialRef = "default"
     transform: Transform = Transform()
+    interior: MediumRef = None
+
+    @model_validator(mode="after")
+    def _open(self):
+        return _no_interior(self, "disk")
 
     @field_validator("normal")
     @classmethod
@@ -648,6 +683,7 @@ class Quad(Strict):
     v: Vec3
     material: MaterialRef = "default"
     transform: Transform = Transform()
+    interior: MediumRef = None
 
     @model_validator(mode="after")
     def _edges(self):
@@ -660,7 +696,7 @@ class Quad(Strict):
             or not any(v)
         ):
             raise ValueError("u and v must be non-zero and not parallel (the quad would have no area)")
-        return self
+        return _no_interior(self, "quad")
 
 
 class Cylinder(Strict):
@@ -674,11 +710,14 @@ class Cylinder(Strict):
     capped: bool = True
     material: MaterialRef = "default"
     transform: Transform = Transform()
+    interior: MediumRef = None
 
     @model_validator(mode="after")
     def _axis(self):
         if self.p0 == self.p1:
             raise ValueError("p0 and p1 must differ (the cylinder would have no length)")
+        if not self.capped:
+            _no_interior(self, "cylinder without caps (capped = false)")
         return self
 
     @field_validator("transform")
@@ -739,6 +778,55 @@ class Environment(Strict):
         return self
 
 
+def _coefficients(value):
+    """A medium's coefficient: a number (grey) or [r, g, b], per scene unit of length, >= 0."""
+    return _intensity(value)
+
+
+class _MediumBase(Strict):
+    # absorption and scattering coefficients per scene unit of length (RGB), and the
+    # Henyey-Greenstein asymmetry g (-1 back, 0 isotropic, 1 forward; the ends excluded)
+    sigma_a: Color = (0.0, 0.0, 0.0)
+    sigma_s: Color = (0.0, 0.0, 0.0)
+    g: FiniteFloat = Field(0.0, gt=-1, lt=1)
+
+    @field_validator("sigma_a", "sigma_s", mode="before")
+    @classmethod
+    def _coefficient(cls, v):
+        return _coefficients(v)
+
+
+class HomogeneousMedium(_MediumBase):
+    """A medium of the same density everywhere (fog, milk, smoke of even density)."""
+
+    type: Literal["homogeneous"]
+
+
+class GridMedium(_MediumBase):
+    """A medium whose density varies: `density` a .npy float array (nz, ny, nx) >= 0 filling the
+    box bounds_min..bounds_max (voxel (k, j, i) its cell at z index k, y index j, x index i),
+    interpolated trilinearly between the cells' centres; sigma_a and sigma_s are scaled by it.
+    Outside the box the density is 0."""
+
+    type: Literal["grid"]
+    density: str = Field(min_length=1)
+    bounds_min: Vec3
+    bounds_max: Vec3
+
+    @model_validator(mode="after")
+    def _box(self):
+        if any(hi <= lo for lo, hi in zip(self.bounds_min, self.bounds_max)):
+            raise ValueError(
+                f"bounds_max must exceed bounds_min on every axis, got {list(self.bounds_min)} .. "
+                f"{list(self.bounds_max)}"
+            )
+        return self
+
+
+MEDIUM_TYPES = {"homogeneous": HomogeneousMedium, "grid": GridMedium}
+Medium = tagged_union(MEDIUM_TYPES)
+
+
 MAX_FRAMES = 1_000_000
 
 
@@ -787,6 +875,7 @@ class Scene(Strict):
     objects: list[SceneObject] = []
     environment: Environment | None = None
     animation: Animation | None = None
+    media: dict[str, Medium] = {}
 
     # Folder that relative paths (mesh files) are resolved against; set by the loader.
     _base_dir: Path = PrivateAttr(default_factory=Path.cwd)
@@ -798,6 +887,13 @@ class Scene(Strict):
             if isinstance(ref, str) and ref != "default" and ref not in self.materials:
                 known = ", ".join(sorted(self.materials)) or "none are defined"
                 raise ValueError(f"objects[{k}].material: no material named {ref!r} in [materials] ({known})")
+        known_media = ", ".join(sorted(self.media)) or "none are defined"
+        for k, obj in enumerate(self.objects):
+            name = getattr(obj, "interior", None)
+            if name is not None and name not in self.media:
+                raise ValueError(f"objects[{k}].interior: no medium named {name!r} in [media] ({known_media})")
+        if self.render.medium is not None and self.render.medium not in self.media:
+            raise ValueError(f"render.medium: no medium named {self.render.medium!r} in [media] ({known_media})")
         return self
 
     @property

@@ -35,6 +35,13 @@ two_sided = _switch("two_sided", "mat, m", True, inline_function)
 aov_albedo = _switch("aov_albedo", "mat, m, color", ZERO, inline_function)
 
 
+@inline_function
+def index_matched(mat, m):
+    """A boundary that light passes unchanged (the null kind): path mode steps through it without
+    a path vertex, and its shadow rays see through it."""
+    return int(mat[m, MAT_KIND]) == null.KIND
+
+
 @inline_function  # one call site (path.py); a call cost ~25 ns a bounce
 def bsdf_sample(mat, m, color, wo, u0, u1, u2):
     """(wi, weight, pdf, delta) of material row m for wo, from uniforms u0 (the lobe), u1, u2
