@@ -201,13 +201,25 @@ def bench(args) -> None:
     print(f"{size[0]} x {size[1]}, {spp} spp, 2 threads; median of {args.rounds} alternating rounds")
     print("| scene | raylume | Mitsuba scalar_rgb | Mitsuba llvm_ad_rgb | raylume / scalar | raylume / llvm |")
     print("| --- | --- | --- | --- | --- | --- |")
-    for name, doc in scenes().items():
+    docs = scenes()
+    # the grid's cost against a homogeneous medium of the same mean density (raylume only)
+    mean_density = float(grid.mean())
+    same_mean = json.loads(json.dumps(docs["grid"]))
+    medium = same_mean["media"]["m"]
+    same_mean["media"]["m"] = {
+        "type": "homogeneous",
+        "sigma_a": [a * mean_density for a in medium["sigma_a"]],
+        "sigma_s": [x * mean_density for x in medium["sigma_s"]],
+        "g": medium["g"],
+    }
+    docs["grid's mean, homogeneous"] = same_mean
+    for name, doc in docs.items():
         doc = json.loads(json.dumps(doc))
         doc["render"].update(width=size[0], height=size[1], spp=spp)
         s = raylume.Session(scene_from_dict(doc).with_base_dir(folder))
         s.render(width=8, height=6, spp=1)
         variants = {}
-        for variant in ("scalar_rgb", "llvm_ad_rgb"):
+        for variant in ("scalar_rgb", "llvm_ad_rgb") if name in ("homogeneous", "chromatic", "grid") else ():
             try:
                 mi.set_variant(variant)
                 md = mitsuba_scene(name, doc, grid)
@@ -228,8 +240,10 @@ def bench(args) -> None:
                 np.asarray(img)
                 times[v].append(time.perf_counter() - t)
         med = {k: float(np.median(v)) for k, v in times.items()}
-        cells = [f"{med['raylume']:.2f} s"] + [
-            f"{med[v]:.2f} s" if v in med else "-" for v in ("scalar_rgb", "llvm_ad_rgb")
+        samples = size[0] * size[1] * spp
+        cells = [
+            f"{med[v]:.2f} s ({samples / med[v] / 1e6:.2f} M samples/s)" if v in med else "-"
+            for v in ("raylume", "scalar_rgb", "llvm_ad_rgb")
         ]
         ratios = [f"{med['raylume'] / med[v]:.2f}" if v in med else "-" for v in ("scalar_rgb", "llvm_ad_rgb")]
         print(f"| {name} | " + " | ".join(cells + ratios) + " |", flush=True)

@@ -20,7 +20,8 @@ import numpy as np
 from ..errors import SceneError
 from ..kernels.shading.media import grid, homogeneous
 from ..kernels.shading.media.table import MED_KIND, MED_WIDTH
-from ..scene.model import Cylinder, DielectricMaterial, GridMedium, Mesh, Scene, Sphere
+from ..kernels.shading.materials.registry import is_solid
+from ..scene.model import Cylinder, GridMedium, Mesh, Scene, Sphere
 from .objects import object_matrix
 
 NONE = -1  # no medium: clear space
@@ -119,9 +120,9 @@ def _interfaces(scene: Scene, geometry, index: dict, outer: int, source: str) ->
     triangles = _object_triangles(geometry)
     solids = []
     for k, obj in enumerate(scene.objects):
-        dielectric = isinstance(scene.material_of(obj), DielectricMaterial)
+        solid = is_solid(scene.material_of(obj))
         interior = getattr(obj, "interior", None)
-        if interior is None and not dielectric:
+        if interior is None and not solid:
             continue
         test = _containment(obj, triangles.get(k))
         if test is None:
@@ -133,7 +134,7 @@ def _interfaces(scene: Scene, geometry, index: dict, outer: int, source: str) ->
                     f"{source}: objects[{k}].interior: the mesh is not closed (watertight), so it has no "
                     "inside to fill; close its holes, or use a closed shape"
                 )
-            continue  # an open dielectric mesh: a sheet, no inside
+            continue  # an open solid's mesh: a sheet, no inside
         solids.append(_Solid(k, NONE if interior is None else index[interior], volume, contains))
     interface = np.full((max(len(scene.objects), 1), 2), outer, dtype=np.int32)
     for k, obj in enumerate(scene.objects):
