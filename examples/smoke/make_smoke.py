@@ -37,15 +37,16 @@ def value_noise(shape: tuple[int, int, int], cells: int, rng: np.random.Generato
 def plume(size: int, seed: int = 7) -> np.ndarray:
     rng = np.random.default_rng(seed)
     nz, ny, nx = size, size * 3 // 2, size
-    noise = sum(value_noise((nz, ny, nx), 2**o * 3, rng) / 2**o for o in range(4)) / 1.875
+    noise = sum(value_noise((nz, ny, nx), 2**o * 2, rng) / 2**o for o in range(4)) / 1.875
     z, y, x = np.meshgrid(
         np.linspace(-1, 1, nz), np.linspace(0, 1, ny), np.linspace(-1, 1, nx), indexing="ij"
     )  # y: height, 0 at the source
     drift = 0.35 * y**2  # the wind bends the plume towards +x as it rises
-    radius = 0.12 + 0.55 * y  # and it widens
+    radius = 0.1 + 0.4 * y  # and it widens
     r = np.sqrt((x - drift) ** 2 + z**2)
     body = np.clip(1 - r / radius, 0, 1) ** 0.7
-    density = body * np.clip(noise * 1.6 - 0.35, 0, None) * (1 - y) ** 0.5 * np.clip(y * 12, 0, 1)
+    # puffs: the noise thresholded, so the plume breaks into billows with clear air between
+    density = body * np.clip(noise * 2.2 - 0.75, 0, None) ** 1.5 * (1 - y) ** 2 * np.clip(y * 12, 0, 1)
     return (density / density.max()).astype(np.float32)
 
 
