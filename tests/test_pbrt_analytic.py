@@ -178,3 +178,68 @@ def test_named_spectra_are_band_means_of_pbrts_data():
     # gold reflects red more than blue: its k falls and its eta rises towards blue
     eta, k = NAMED_RGB["metal-Au-eta"], NAMED_RGB["metal-Au-k"]
     assert eta[0] < eta[1] < eta[2] and k[0] > k[1] > k[2]
+
+
+def octant_map(n: int) -> np.ndarray:
+    """An equal-area octahedral map coloured by the octant it covers, from the mapping's geometry
+    alone: u > 1/2 holds x > 0, v > 1/2 holds y > 0, the inner diamond z > 0."""
+    c = (np.arange(n) + 0.5) / n * 2 - 1  # texel centres in [-1, 1]
+    u, v = np.meshgrid(c, c)  # u along columns, v down the rows
+    return np.stack([u > 0, v > 0, np.abs(u) + np.abs(v) < 1], -1).astype(np.float32)
+
+
+def test_equal_area_maps_become_equirectangular():
+    from raylume.compile.equal_area import equal_area_to_equirectangular
+
+    sky = equal_area_to_equirectangular(octant_map(64))
+    assert sky.shape == (64, 128, 3)
+    height, width = sky.shape[:2]
+    theta = np.pi * (np.arange(height) + 0.5) / height
+    phi = 2 * np.pi * ((np.arange(width) + 0.5) / width - 0.5)
+    d = np.stack(
+        [
+            np.outer(np.sin(theta), np.sin(phi)),
+            np.outer(np.cos(theta), np.ones(width)),
+            np.outer(np.sin(theta), np.cos(phi)),
+        ],
+        -1,
+    )  # raylume's equirectangular directions (kernels/shading/environment.py)
+    clear = (np.abs(d) > 0.15).all(axis=-1)
+    np.testing.assert_array_equal(sky[clear], (d[clear] > 0).astype(np.float32))
+
+
+@pytest.mark.filterwarnings("ignore:the scene has no objects")
+@pytest.mark.parametrize("mirror", [False, True])
+def test_an_image_infinite_light_is_seen_where_pbrt_shows_it(tmp_path, mirror):
+    """pbrt's z-up sky turned to y-up by the light's transform (+z of the map to world +y, +y of
+    the map to world -z): each pixel's colour is the octant of the light-space direction of
+    pbrt's ray through it, mirrored camera included."""
+    from raylume.image import save_array
+
+    save_array(tmp_path / "octants.exr", octant_map(64))
+    eye, target, fov, width, height = (0.0, 0.0, 0.0), (1.0, 0.5, 1.0), 100.0, 48, 32
+    (tmp_path / "sky.pbrt").write_text(
+        f"""
+{"Scale -1 1 1" if mirror else ""}
+LookAt {" ".join(map(str, eye))}  {" ".join(map(str, target))}  0 1 0
+Camera "perspective" "float fov" {fov}
+Film "rgb" "integer xresolution" {width} "integer yresolution" {height}
+WorldBegin
+AttributeBegin
+  ConcatTransform [1 0 0 0  0 0 -1 0  0 1 0 0  0 0 0 1]
+  LightSource "infinite" "string filename" "octants.exr" "float scale" 2
+AttributeEnd
+"""
+    )
+    image = raylume.render(tmp_path / "sky.pbrt", mode="cast", spp=1, aovs=False).rgb
+    light_from_world = np.array([[1.0, 0, 0], [0, 0, -1], [0, 1, 0]])  # the inverse of the ConcatTransform
+    m = pbrt_camera_from_world(eye, target, (0, 1, 0), mirror)
+    checked = 0
+    for y in range(height):
+        for x in range(width):
+            _, d = pixel_ray(m, fov, width, height, x + 0.5, y + 0.5)
+            w = light_from_world @ (d / np.linalg.norm(d))
+            if (np.abs(w) > 0.2).all():
+                np.testing.assert_allclose(image[y, x], 2.0 * (w > 0), atol=1e-6, err_msg=f"pixel ({x}, {y})")
+                checked += 1
+    assert checked > width * height // 4

@@ -91,9 +91,9 @@ def test_an_error_in_an_included_file_names_that_file(tmp_path):
     assert "bad.pbrt" not in message
 
 
-def test_image_infinite_lights_are_refused_with_a_reason(tmp_path):
-    (tmp_path / "sky.exr").write_bytes(b"")
-    refused(tmp_path, CAMERA + 'LightSource "infinite" "string filename" "sky.exr"\n', "bad.pbrt:3", "equal-area")
+def test_image_infinite_lights_need_exr_or_hdr(tmp_path):
+    (tmp_path / "sky.png").write_bytes(b"")
+    refused(tmp_path, CAMERA + 'LightSource "infinite" "string filename" "sky.png"\n', "bad.pbrt:3", ".exr or .hdr")
 
 
 def warned(tmp_path, text: str) -> list[str]:

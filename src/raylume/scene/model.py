@@ -794,6 +794,24 @@ class Environment(Strict):
     file: str | None = None
     intensity: FiniteFloat = Field(1.0, ge=0)
     rotate: Vec3 = (0.0, 0.0, 0.0)
+    # Or the world-from-environment matrix itself (3 x 3 rows, orthogonal: a rotation, or one
+    # with a mirror), as other renderers' files give it.
+    matrix: tuple[Vec3, Vec3, Vec3] | None = None
+    # How the file covers the sphere: "equirectangular", or pbrt-v4's square "equal-area"
+    # octahedral map (converted to equirectangular when the scene is compiled).
+    mapping: Literal["equirectangular", "equal-area"] = "equirectangular"
+
+    @field_validator("matrix")
+    @classmethod
+    def _orthogonal(cls, v):
+        if v is None:
+            return v
+        for i in range(3):
+            for j in range(3):
+                dot = sum(v[k][i] * v[k][j] for k in range(3))
+                if abs(dot - (1.0 if i == j else 0.0)) > 1e-6:
+                    raise ValueError("matrix must be orthogonal (a rotation, possibly with a mirror)")
+        return v
 
     @field_validator("color", mode="before")
     @classmethod
@@ -804,6 +822,10 @@ class Environment(Strict):
     def _one_source(self):
         if (self.color is None) == (self.file is None):
             raise ValueError('give exactly one of color = [r, g, b] and file = "sky.hdr"')
+        if self.matrix is not None and self.rotate != (0.0, 0.0, 0.0):
+            raise ValueError("matrix replaces rotate: give one of them")
+        if self.mapping != "equirectangular" and self.file is None:
+            raise ValueError("mapping applies to an image file")
         return self
 
 

@@ -102,14 +102,12 @@ def light_tables(d: Directive, p: Params, m: np.ndarray, warn) -> tuple[list[dic
 
 
 def environment_image(d: Directive, filename: str, m: np.ndarray, scale: float) -> dict:
-    """An image infinite light. pbrt-v4 maps its (square) image with the equal-area octahedral
-    mapping, raylume's environment is equirectangular; converting one into the other needs a
-    resampled image file, which raylume does not write on its own."""
-    raise d.fail(
-        f"an image infinite light ({filename}) uses pbrt-v4's equal-area octahedral mapping, which raylume "
-        'cannot read yet (its environments are equirectangular .hdr/.exr images); use a constant "L", or '
-        "convert the image and write the scene as TOML with [environment] file"
-    )
+    """An image infinite light: pbrt-v4's square equal-area octahedral map (raylume resamples it
+    when compiling, compile/equal_area.py), turned by the CTM. The matrix is set when the
+    document is finished (`_ctm`: the world may still be mirrored for the camera)."""
+    if not filename.lower().endswith((".exr", ".hdr")):
+        raise d.fail(f"{filename}: raylume reads environment images from .exr or .hdr files")
+    return {"file": filename, "mapping": "equal-area", "intensity": scale, "_ctm": m.copy()}
 
 
 def area_emission(d: Directive, p: Params, warn) -> tuple[list[float], bool]:

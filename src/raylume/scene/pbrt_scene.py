@@ -359,8 +359,23 @@ class Builder:
             document["lights"] = lights
         document["objects"] = objects
         if self.environment is not None:
-            document["environment"] = self.environment[0]
+            document["environment"] = self._placed_environment(*self.environment, flip)
         return document
+
+    def _placed_environment(self, table: dict, d: Directive, flip: np.ndarray) -> dict:
+        table = dict(table)
+        ctm = table.pop("_ctm", None)
+        if ctm is None:
+            return table
+        a = (flip @ ctm)[:3, :3]
+        lengths = np.linalg.norm(a, axis=0)
+        if not np.allclose(a.T @ a, np.diag(lengths**2), atol=1e-9 * max(lengths) ** 2):
+            self.warn(d, "the light's transform shears the sky; only its rotation is used")
+        q, r = np.linalg.qr(a)
+        a = q * np.sign(np.diag(r))  # the nearest rotation (or mirror) to a
+        if not np.allclose(a, np.eye(3), atol=1e-12):
+            table["matrix"] = a.tolist()
+        return table
 
     def _material_ref(self, s: Placed):
         if s.emission is None:
