@@ -8,6 +8,7 @@ import subprocess
 import sys
 import warnings
 
+import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -211,3 +212,38 @@ def test_command_line_refuses_with_exit_2_and_writes_nothing(tmp_path):
     assert result.returncode == 2, result.stderr
     assert "Traceback" not in result.stderr and "bad.pbrt:3" in result.stderr
     assert not (tmp_path / "out.png").exists()
+
+
+def test_command_line_renders_a_pbrt_file_with_flags_and_warnings(tmp_path):
+    (tmp_path / "ok.pbrt").write_text(
+        CAMERA + 'LightSource "point" "rgb I" [1 1 1] "point3 from" [0 0 -1]\n'
+        'Translate 0 0 3\nShape "sphere" "float fuzz" 1\n'
+    )
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    result = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "raylume.cli",
+            "render",
+            "ok.pbrt",
+            "-o",
+            "out.npy",
+            "--set",
+            "render.width=6",
+            "--height",
+            "4",
+            "--stats",
+            "s.json",
+        ],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=300,
+        check=False,
+    )
+    assert result.returncode == 0, result.stderr
+    assert 'ok.pbrt:5: Shape "sphere": raylume does not use "float fuzz"' in result.stderr
+    image = np.load(tmp_path / "out.npy")
+    assert image.shape == (4, 6, 3) and image[1:3, 2:4].max() > 0  # the sphere, lit, in the middle

@@ -101,6 +101,8 @@ class Params:
             if len(p.values) != 1:
                 raise self.error(p, "takes one spectrum name")
             name_ = p.values[0]
+            if name_ == "stdillum-D65":
+                return (1.0, 1.0, 1.0)  # sRGB's white point: white at unit luminance
             if name_ not in NAMED_RGB:
                 known = ", ".join(NAMED_RGB)
                 raise self.error(p, f"names spectrum {name_!r}, which raylume does not know (it knows {known})")

@@ -129,10 +129,10 @@ def _place_mesh(table: dict, m: np.ndarray, material, needs_uvs: bool, reverse: 
     obj = {"type": "mesh", **{k: v for k, v in table.items() if not k.startswith("_")}, "material": material}
     if "vertices" in obj and needs_uvs and "uvs" not in obj:
         obj = _with_default_uvs(obj, table.get("_default_uvs", "triangle"))
-    if reverse and "faces" in obj:
+    if reverse and "faces" in obj and "normals" not in obj:
+        # pbrt turns the geometric normal towards given shading normals, so ReverseOrientation
+        # only changes a mesh without them
         obj["faces"] = [list(reversed(f)) for f in obj["faces"]]
-        if "normals" in obj:
-            obj["normals"] = [[-c for c in v] for v in obj["normals"]]
     if not np.array_equal(m, np.eye(4)):
         obj["transform"] = {"matrix": rows(m)}
     return obj
