@@ -73,16 +73,20 @@ def test_tokenizer_errors_name_the_line(tmp_path):
         tokenize('WorldBegin\nShape "sphere\n', tmp_path / "x.pbrt")
     with pytest.raises(PbrtError, match=r"x.pbrt:3: unexpected '@1'"):
         tokenize('# a comment with "quotes" and [brackets\n\nTranslate @1 0 0\n', tmp_path / "x.pbrt")
-    tokens = tokenize('Shape "a # not a comment" [ 1 -2.5e1 ] # comment\ntrue', tmp_path / "x.pbrt")
+    tokens = tokenize('Shape "a # not a \\"comment\\"" [ 1\n -2.5e1 ] # comment\ntrue ["x" 2] 3', tmp_path / "x.pbrt")
     assert [(t.kind, t.value, t.line) for t in tokens] == [
         ("word", "Shape", 1),
-        ("string", "a # not a comment", 1),
-        ("[", "[", 1),
-        ("number", 1.0, 1),
-        ("number", -25.0, 1),
-        ("]", "]", 1),
-        ("word", "true", 2),
+        ("string", 'a # not a "comment"', 1),
+        ("numbers", [1.0, -25.0], 1),  # a list of numbers is one token
+        ("word", "true", 3),
+        ("[", "[", 3),
+        ("string", "x", 3),
+        ("number", 2.0, 3),
+        ("]", "]", 3),
+        ("number", 3.0, 3),
     ]
+    with pytest.raises(PbrtError, match=r"x.pbrt:2: unexpected '1.2.3'"):
+        tokenize("\n[0 1.2.3]", tmp_path / "x.pbrt")
 
 
 def test_an_error_in_an_included_file_names_that_file(tmp_path):

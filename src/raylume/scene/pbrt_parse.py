@@ -163,6 +163,11 @@ def _positional(tokens: list[Token], i: int, kind: str, args: list, name: str, s
         return tokens[k]
 
     if kind == "m":
+        if need(i, "16 numbers").kind == "numbers":
+            if len(tokens[i].value) != 16:
+                raise PbrtError(f"{tokens[i].where}: {name}: expected 16 numbers, got {len(tokens[i].value)}")
+            args.append(list(tokens[i].value))
+            return i + 1
         bracketed = need(i, "16 numbers").kind == "["
         i += bracketed
         values = []
@@ -199,6 +204,11 @@ def _param(tokens: list[Token], i: int, params: list[Param], directive: str) -> 
     if i >= len(tokens):
         raise PbrtError(f'{decl.where}: {directive}: parameter "{decl.value}" has no value')
     values: list = []
+    if tokens[i].kind == "numbers":
+        if not tokens[i].value:
+            raise PbrtError(f'{decl.where}: {directive}: parameter "{decl.value}": no values')
+        params.append(Param(kind, pname, _typed_numbers(kind, tokens[i].value, decl, directive), decl))
+        return i + 1
     if tokens[i].kind == "[":
         i += 1
         while i < len(tokens) and tokens[i].kind in ("number", "string", "word"):
@@ -237,7 +247,15 @@ def _typed(kind: str, values: list[Token], decl: Token, directive: str) -> list:
         return [t.value for t in values]
     if any(t.kind != "number" for t in values):
         fail(f"expected numbers, got {_show(next(t for t in values if t.kind != 'number'))}")
-    numbers = [t.value for t in values]
+    return _typed_numbers(kind, [t.value for t in values], decl, directive)
+
+
+def _typed_numbers(kind: str, numbers: list, decl: Token, directive: str) -> list:
+    def fail(why: str):
+        raise PbrtError(f'{decl.where}: {directive}: parameter "{decl.value}": {why}')
+
+    if kind in ("bool", "string", "texture"):
+        fail(f"expected {'true or false' if kind == 'bool' else 'quoted strings'}, got numbers")
     width = NUMERIC.get(kind, 2 if kind == "spectrum" else 1)
     if len(numbers) % width:
         fail(f"{len(numbers)} numbers is not a whole number of {kind} values ({width} numbers each)")
@@ -249,6 +267,8 @@ def _typed(kind: str, values: list[Token], decl: Token, directive: str) -> list:
 
 
 def _show(token: Token) -> str:
+    if token.kind == "numbers":
+        return f"a list of {len(token.value)} numbers"
     if token.kind == "string":
         return f'"{token.value}"'
     return f"{token.value:g}" if token.kind == "number" else repr(token.value)

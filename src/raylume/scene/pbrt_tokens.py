@@ -9,6 +9,7 @@ or brackets.
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 from typing import NamedTuple
 
@@ -20,7 +21,7 @@ class PbrtError(SceneError):
 
 
 class Token(NamedTuple):
-    kind: str  # "string", "number", "word", "[" or "]"
+    kind: str  # "string", "number", "word", "[", "]", or "numbers": a bracketed list of numbers (a list)
     value: str | float
     file: Path
     line: int
@@ -31,63 +32,73 @@ class Token(NamedTuple):
 
 
 _ESCAPES = {"n": "\n", "t": "\t", "r": "\r", "b": "\b", "f": "\f", "\\": "\\", '"': '"', "'": "'"}
-_SEPARATORS = ' \t\r\n[]"#'
+# One alternative per kind of token; a lone quote is the start of a string never closed.
+_TOKEN = re.compile(
+    r"""(?P<space>[ \t\r\n]+)|(?P<comment>\#[^\n]*)|(?P<string>"(?:[^"\\\n]|\\.)*")"""
+    r"""|(?P<numbers>\[[-+.0-9eE \t\r\n]*\])|(?P<open>\[)|(?P<close>\])"""
+    r"""|(?P<bare>[^ \t\r\n\[\]"\#]+)|(?P<quote>")"""
+)
 
 
 def tokenize(text: str, file: Path) -> list[Token]:
     """The tokens of a pbrt file's text. A PbrtError names the file and line of an unterminated
     string, a bad escape or a word that is neither a number nor a name."""
     tokens: list[Token] = []
-    i, line, n = 0, 1, len(text)
-    while i < n:
-        c = text[i]
-        if c == "\n":
-            line += 1
-            i += 1
-        elif c in " \t\r":
-            i += 1
-        elif c == "#":
-            end = text.find("\n", i)
-            i = n if end < 0 else end
-        elif c in "[]":
-            tokens.append(Token(c, c, file, line))
-            i += 1
-        elif c == '"':
-            i, value = _string(text, i + 1, file, line)
-            tokens.append(Token("string", value, file, line))
-        else:
-            j = i
-            while j < n and text[j] not in _SEPARATORS:
-                j += 1
-            tokens.append(_bare(text[i:j], file, line))
-            i = j
+    append = tokens.append
+    line = 1
+    for m in _TOKEN.finditer(text):
+        kind = m.lastgroup
+        if kind == "space":
+            line += m.group().count("\n")
+        elif kind == "bare":
+            word = m.group()
+            if word[0].isalpha():
+                append(Token("word", word, file, line))
+            else:
+                append(_number(word, file, line))
+        elif kind == "string":
+            body = m.group()[1:-1]
+            append(Token("string", _unescape(body, file, line) if "\\" in body else body, file, line))
+        elif kind == "numbers":  # one token for a whole list: meshes hold millions of numbers
+            text_ = m.group()
+            append(_numbers(text_[1:-1], file, line))
+            line += text_.count("\n")
+        elif kind == "open" or kind == "close":
+            append(Token(m.group(), m.group(), file, line))
+        elif kind == "quote":
+            raise PbrtError(f'{file}:{line}: unterminated string (a " is missing before the end of the line)')
     return tokens
 
 
-def _string(text: str, i: int, file: Path, line: int) -> tuple[int, str]:
-    """The string starting after its opening quote at i: (index after the closing quote, value)."""
+def _unescape(body: str, file: Path, line: int) -> str:
     out: list[str] = []
-    n = len(text)
-    while i < n:
-        c = text[i]
-        if c == '"':
-            return i + 1, "".join(out)
-        if c == "\n":
-            break
+    i = 0
+    while i < len(body):
+        c = body[i]
         if c == "\\":
-            if i + 1 >= n or text[i + 1] not in _ESCAPES:
-                raise PbrtError(f"{file}:{line}: unknown escape {text[i : i + 2]!r} in a string")
-            out.append(_ESCAPES[text[i + 1]])
+            if i + 1 >= len(body) or body[i + 1] not in _ESCAPES:
+                raise PbrtError(f"{file}:{line}: unknown escape {body[i : i + 2]!r} in a string")
+            out.append(_ESCAPES[body[i + 1]])
             i += 2
-            continue
-        out.append(c)
-        i += 1
-    raise PbrtError(f'{file}:{line}: unterminated string (a " is missing before the end of the line)')
+        else:
+            out.append(c)
+            i += 1
+    return "".join(out)
 
 
-def _bare(word: str, file: Path, line: int) -> Token:
-    if word[0].isalpha():
-        return Token("word", word, file, line)
+def _numbers(body: str, file: Path, line: int) -> Token:
+    try:
+        values = [float(word) for word in body.split()]
+    except ValueError:
+        for word in body.split():
+            _number(word, file, line)  # names the word that is not a number
+        raise
+    if not all(map(math.isfinite, values)):
+        raise PbrtError(f"{file}:{line}: a number in the list [ ... ] is not finite")
+    return Token("numbers", values, file, line)
+
+
+def _number(word: str, file: Path, line: int) -> Token:
     try:
         value = float(word)
     except ValueError:
