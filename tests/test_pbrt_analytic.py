@@ -243,3 +243,18 @@ AttributeEnd
                 np.testing.assert_allclose(image[y, x], 2.0 * (w > 0), atol=1e-6, err_msg=f"pixel ({x}, {y})")
                 checked += 1
     assert checked > width * height // 4
+
+
+def test_spectrum_files_are_band_means(tmp_path):
+    """`"spectrum eta" "spds/x.spd"`: a file of wavelength, value pairs (pbrt-v4 reads them relative
+    to the main file's folder), here a step from 2 to 1 at 550 nm."""
+    (tmp_path / "spds").mkdir()
+    (tmp_path / "spds" / "step.spd").write_text("# eta\n380 2\n550 2\n550.5 1  # the step\n720 1\n")
+    (tmp_path / "s.pbrt").write_text(
+        'WorldBegin\nMaterial "conductor" "spectrum eta" "spds/step.spd" "spectrum k" [400 3 700 3]\nShape "sphere"\n'
+    )
+    document, messages = pbrt_document(tmp_path / "s.pbrt")
+    (material,) = document["materials"].values()
+    green = (50 * 2 + 0.5 * 1.5 + 49.5 * 1) / 100
+    assert material["eta"] == pytest.approx([1.0, green, 2.0]) and material["k"] == pytest.approx([3, 3, 3])
+    assert messages == []

@@ -3,7 +3,7 @@ so that those raylume does not use can be named in a warning rather than dropped
 
 from __future__ import annotations
 
-from .pbrt_parse import Directive, Param
+from .pbrt_parse import Directive, Param, resolve
 from .pbrt_spectra import NAMED_RGB, band_rgb, blackbody_rgb, unit_luminance
 from .pbrt_tokens import PbrtError
 
@@ -103,16 +103,34 @@ class Params:
             name_ = p.values[0]
             if name_ == "stdillum-D65":
                 return (1.0, 1.0, 1.0)  # sRGB's white point: white at unit luminance
-            if name_ not in NAMED_RGB:
+            if name_ in NAMED_RGB:
+                rgb = NAMED_RGB[name_]
+            elif resolve(name_, self.directive.search_dir).is_file():
+                rgb = band_rgb(self._spectrum_file(p, resolve(name_, self.directive.search_dir)))
+            else:
                 known = ", ".join(NAMED_RGB)
-                raise self.error(p, f"names spectrum {name_!r}, which raylume does not know (it knows {known})")
-            rgb = NAMED_RGB[name_]
+                raise self.error(p, f"names spectrum {name_!r}: no such file, nor a spectrum raylume knows ({known})")
         else:
             pairs = p.values
             if any(pairs[k] >= pairs[k + 2] for k in range(0, len(pairs) - 2, 2)):
                 raise self.error(p, "must list wavelength, value pairs in increasing wavelength")
             rgb = band_rgb(pairs)
         return unit_luminance(rgb) if emission else rgb
+
+    def _spectrum_file(self, p: Param, path) -> list[float]:
+        """A spectrum file as pbrt reads it: wavelength, value pairs as numbers, # comments."""
+        try:
+            text = path.read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError) as exc:
+            raise self.error(p, f"cannot read the spectrum file {str(path)!r} ({exc})") from None
+        words = " ".join(line.split("#", 1)[0] for line in text.splitlines()).split()
+        try:
+            pairs = [float(w) for w in words]
+        except ValueError:
+            raise self.error(p, f"{path} holds something that is not a number") from None
+        if not pairs or len(pairs) % 2 or any(pairs[k] >= pairs[k + 2] for k in range(0, len(pairs) - 2, 2)):
+            raise self.error(p, f"{path} must hold wavelength, value pairs in increasing wavelength")
+        return pairs
 
     def unused(self) -> list[Param]:
         return [p for p in self.directive.params if not p.used]
