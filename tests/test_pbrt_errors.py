@@ -251,3 +251,14 @@ def test_command_line_renders_a_pbrt_file_with_flags_and_warnings(tmp_path):
     assert 'ok.pbrt:5: Shape "sphere": raylume does not use "float fuzz"' in result.stderr
     image = np.load(tmp_path / "out.npy")
     assert image.shape == (4, 6, 3) and image[1:3, 2:4].max() > 0  # the sphere, lit, in the middle
+
+
+def test_a_named_material_may_be_defined_after_its_use(tmp_path):
+    """pbrt-v4 creates named materials once the whole file is read."""
+    (tmp_path / "late.pbrt").write_text(
+        CAMERA + 'NamedMaterial "red"\nShape "sphere"\n'
+        'MakeNamedMaterial "red" "string type" "diffuse" "rgb reflectance" [1 0 0]\n'
+    )
+    document, messages = pbrt_document(tmp_path / "late.pbrt")
+    assert document["objects"][0]["material"] == "red" and messages == []
+    assert document["materials"]["red"] == {"type": "diffuse", "color": [1.0, 0.0, 0.0]}

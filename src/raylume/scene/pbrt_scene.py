@@ -76,6 +76,7 @@ class Builder:
         self.materials_doc: dict[str, dict] = {DEFAULT_MATERIAL: {"type": "diffuse", "color": [0.5, 0.5, 0.5]}}
         self.materials = Materials(self.warn)
         self.named_materials: set[str] = set()
+        self.named_uses: dict[str, Directive] = {}  # name -> its first NamedMaterial
         self.anonymous = 0
         self.shapes: list[Placed] = []
         self.definitions: dict[str, Definition] = {}
@@ -268,10 +269,10 @@ class Builder:
         return self.materials_doc.get(name) if name in self.named_materials else None
 
     def _NamedMaterial(self, d, p):
+        # pbrt-v4 creates named materials after reading the whole file, so one may be defined
+        # after its first use; finish() checks that it was defined at all
         name = d.args[0]
-        if name not in self.named_materials:
-            known = ", ".join(sorted(self.named_materials)) or "none yet"
-            raise d.fail(f"no material named {name!r} ({known})")
+        self.named_uses.setdefault(name, d)
         self.state.material = name
 
     def _AreaLightSource(self, d, p):
@@ -346,6 +347,10 @@ class Builder:
         if self.stack:
             kind, _, start = self.stack[-1]
             raise start.fail(f"is never closed (no {kind}End before the end of the file)")
+        for name, d in self.named_uses.items():
+            if name not in self.named_materials:
+                known = ", ".join(sorted(self.named_materials)) or "none are defined"
+                raise d.fail(f"no material named {name!r} in the file ({known})")
         flip = self.options.flip()
         camera_where = self.camera_directive or self.last
         camera = self.options.camera_table(lambda m: self.warn(camera_where, m))
