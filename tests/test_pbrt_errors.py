@@ -120,6 +120,7 @@ def warned(tmp_path, text: str) -> list[str]:
         ('MakeNamedMedium "fog" "string type" "homogeneous"\n', ["MakeNamedMedium", "media", "ignored"]),
         ('Material "hair"\nShape "sphere"\n', ['Material "hair"', "grey diffuse"]),
         ('AreaLightSource "diffuse" "rgb L" [1 1 1]\nShape "disk"\n', ["w.pbrt:4", "both sides"]),
+        ('AreaLightSource "diffuse"\nReverseOrientation\nShape "sphere"\n', ["w.pbrt:5", "inwards"]),
         (
             'Texture "c" "spectrum" "checkerboard" "float uscale" 4 "float vscale" 4\n'
             'Material "diffuse" "texture reflectance" "c"\nShape "sphere"\n',

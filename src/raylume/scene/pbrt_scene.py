@@ -386,7 +386,13 @@ class Builder:
         if s.emission is None:
             return s.material
         radiance, twosided = s.emission
-        if not twosided and s.piece.kind not in CLOSED:
+        if not twosided and s.piece.kind in CLOSED and s.reverse:
+            self.warn(
+                s.directive,
+                "raylume's emitters emit from both sides; this one-sided area light turned inwards "
+                "(ReverseOrientation) also shines outwards",
+            )
+        elif not twosided and s.piece.kind not in CLOSED:
             self.warn(
                 s.directive,
                 "raylume's emitters emit from both sides; this one-sided area light also lights what is behind it",
