@@ -151,8 +151,9 @@ def _directives(tokens: list[Token], search_dir: Path) -> Iterator[Directive]:
             i += 1
         params: list[Param] = []
         if signature.endswith("+"):
+            label = f'{name} "{args[0]}"' if args and isinstance(args[0], str) else name
             while i < n and tokens[i].kind == "string":
-                i = _param(tokens, i, params, name)
+                i = _param(tokens, i, params, label)
         yield Directive(name, args, params, token, search_dir)
 
 
