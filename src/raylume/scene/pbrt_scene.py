@@ -353,6 +353,13 @@ class Builder:
                 raise d.fail(f"no material named {name!r} in the file ({known})")
         flip = self.options.flip()
         camera_where = self.camera_directive or self.last
+        checkers = any((t.get("texture") or {}).get("type") == "checker" for t in self.materials_doc.values())
+        if checkers and not np.array_equal(flip, np.eye(4)):
+            self.warn(
+                camera_where,
+                "the camera mirrors, so raylume mirrors the world instead; 3D checkerboards "
+                "(raylume's are in world space) are drawn in the mirrored world",
+            )
         camera = self.options.camera_table(lambda m: self.warn(camera_where, m))
         render = self.options.render_table(lambda m: self.warn(self.integrator_directive or self.last, m))
         objects = [self._object(s, flip @ s.ctm) for s in self.shapes]
