@@ -263,3 +263,12 @@ def test_a_named_material_may_be_defined_after_its_use(tmp_path):
     document, messages = pbrt_document(tmp_path / "late.pbrt")
     assert document["objects"][0]["material"] == "red" and messages == []
     assert document["materials"]["red"] == {"type": "diffuse", "color": [1.0, 0.0, 0.0]}
+
+
+def test_a_warning_repeated_by_many_directives_is_issued_once_with_a_count(tmp_path):
+    messages = warned(tmp_path, 'Shape "curve"\n' * 500 + 'Shape "curve" "float width" 1\n')
+    curves = [m for m in messages if "shape 'curve' is not supported" in m]
+    assert curves == [
+        f"{tmp_path / 'w.pbrt'}:3: Shape \"curve\": shape 'curve' is not supported; it is left out "
+        "(raylume reads sphere, disk, cylinder, trianglemesh, bilinearmesh, plymesh) (501 times, first here)"
+    ]

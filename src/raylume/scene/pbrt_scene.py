@@ -83,17 +83,25 @@ class Builder:
         self.current: tuple[str, Definition] | None = None
         self.lights: list[tuple[list[dict], Directive]] = []
         self.environment: tuple[dict, Directive] | None = None
-        self.messages: list[str] = []
+        self.warnings: dict[str, list] = {}  # what -> [where it first happened, how often]
         self.active = "all"
         self.camera_directive: Directive | None = None
         self.integrator_directive: Directive | None = None
         self.last: Directive | None = None
 
     def warn(self, d: Directive, message: str) -> None:
+        """Note a warning; the same one from many directives (10,000 curves) is issued once, with its
+        first place and its count."""
         kind = f' "{d.args[0]}"' if d.args and isinstance(d.args[0], str) else ""
-        text = f"{d.where}: {d.name}{kind}: {message}"
-        if text not in self.messages:
-            self.messages.append(text)
+        seen = self.warnings.setdefault(f"{d.name}{kind}: {message}", [d.where, 0])
+        seen[1] += 1
+
+    @property
+    def messages(self) -> list[str]:
+        return [
+            f"{where}: {what}" + (f" ({count} times, first here)" if count > 1 else "")
+            for what, (where, count) in self.warnings.items()
+        ]
 
     # -- the directives ---------------------------------------------------------------------
     def run(self, d: Directive) -> None:
