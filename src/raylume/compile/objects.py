@@ -99,7 +99,8 @@ def _load_mesh_object(scene: Scene, k: int, obj: Mesh, source):
     try:
         return load_mesh_object(obj, scene.base_dir)
     except MeshError as exc:
-        raise SceneError(f"{source}: objects[{k}].file: {exc}") from None
+        key = "file" if obj.file is not None else "vertices"
+        raise SceneError(f"{source}: objects[{k}].{key}: {exc}") from None
 
 
 def _load_gltf_object(scene: Scene, k: int, obj: Gltf, source):
