@@ -45,6 +45,7 @@ class Materials:
     # -- textures ---------------------------------------------------------------------------
     def define_texture(self, d: Directive, p: Params, ctm: np.ndarray) -> None:
         name, kind, cls = d.args
+        kind = "spectrum" if kind == "color" else kind  # pbrt-v3's word for it
         if kind == "float":
             self.float_textures.add(name)
             self.textures.pop(name, None)
