@@ -272,3 +272,42 @@ def test_a_warning_repeated_by_many_directives_is_issued_once_with_a_count(tmp_p
         f"{tmp_path / 'w.pbrt'}:3: Shape \"curve\": shape 'curve' is not supported; it is left out "
         "(raylume reads sphere, disk, cylinder, trianglemesh, bilinearmesh, plymesh) (501 times, first here)"
     ]
+
+
+TEMPLATES = [
+    "Translate {} {} {}",
+    "Scale {} {} {}",
+    "Rotate {} {} {} {}",
+    "LookAt {} {} {}  {} {} {}  {} {} {}",
+    'Shape "sphere" "float radius" {} "float zmin" {} "float zmax" {} "float phimax" {}',
+    'Shape "disk" "float radius" {} "float innerradius" {} "float phimax" {}',
+    'Shape "cylinder" "float radius" {} "float zmin" {} "float zmax" {}',
+    'Shape "trianglemesh" "point3 P" [{} {} {} {} {} {} {} {} {}] "point2 uv" [{} {} {} {} {} {}]',
+    'Material "conductor" "float roughness" {} "rgb reflectance" [{} {} {}]',
+    'LightSource "spot" "rgb I" [{} {} {}] "point3 to" [{} {} {}] "float coneangle" {} "float power" {}',
+    'AreaLightSource "diffuse" "rgb L" [{} {} {}] "float scale" {}',
+    'Camera "perspective" "float fov" {} "float lensradius" {} "float focaldistance" {}',
+    'Texture "t" "spectrum" "checkerboard" "integer dimension" 3 "float uscale" {}',
+    'Material "diffuse" "texture reflectance" "t"',
+    "Transform [{} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {}]",
+    "AttributeBegin",
+    "AttributeEnd",
+    'ObjectBegin "o"',
+    "ObjectEnd",
+    'ObjectInstance "o"',
+]
+NUMBERS = st.sampled_from(["0", "1", "-1", "2.5", "1e30", "-1e-30", "360", "0.0001", "90", "180"])
+
+
+@settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(st.lists(st.tuples(st.sampled_from(TEMPLATES), st.lists(NUMBERS, min_size=16, max_size=16)), max_size=12))
+def test_degenerate_numbers_read_or_are_refused(tmp_path, directives):
+    """Zero scales, zero radii, huge or tiny values: a scene, or a SceneError, never a crash."""
+    text = "\n".join(template.format(*numbers) for template, numbers in directives)
+    (tmp_path / "d.pbrt").write_text(text)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            load_scene(tmp_path / "d.pbrt")
+        except SceneError:
+            pass

@@ -49,10 +49,14 @@ def light_tables(d: Directive, p: Params, m: np.ndarray, warn) -> tuple[list[dic
         end = np.array(p.list("to", "point3", 3)[0] if p.has("to") else (0.0, 0.0, 1.0))
         cone = p.float("coneangle", 30.0)
         delta = p.float("conedelta", 5.0)
+        if not 0 < cone <= 180:
+            raise d.fail(f'"float coneangle" must be in (0, 180] degrees, got {cone:g}')
         inner = min(max(cone - delta, 0.0), cone)
         power = p.float("power", -1.0)
         if power > 0:
             k = 2 * math.pi * (1 - 0.5 * (math.cos(math.radians(inner)) + math.cos(math.radians(cone))))
+            if not k > 0:
+                raise d.fail('"power" needs a cone of some width (coneangle is too small)')
             scale *= power / k
         direction = apply_point(m, end) - apply_point(m, start)
         if not np.linalg.norm(direction) > 0:

@@ -112,6 +112,9 @@ class Materials:
         if dimension != 2:
             raise d.fail(f'"integer dimension" must be 2 or 3, got {dimension}')
         u, v = p.float("uscale", 1.0), p.float("vscale", 1.0)
+        if u == 0 or v == 0:
+            raise d.fail("uscale and vscale must not be 0")
+        u, v = abs(u), abs(v)  # a mirrored checkerboard is the same pattern
         p.string("mapping")
         self.warn(
             d,

@@ -47,6 +47,9 @@ class Options:
         kind = d.args[0]
         if kind != "perspective":
             raise d.fail(f"{kind!r} cameras are not supported; raylume renders perspective cameras only")
+        a = ctm[:3, :3]
+        if not abs(np.linalg.det(a)) > 1e-12 * np.prod(np.linalg.norm(a, axis=0)) or not np.isfinite(a).all():
+            raise d.fail("the camera's transform is singular (a zero scale?): it has no inverse")
         self.camera_from_world = ctm.copy()
         self.fov = p.float("fov", 90.0)
         if not 0 < self.fov < 180:
