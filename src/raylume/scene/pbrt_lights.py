@@ -88,6 +88,8 @@ def light_tables(d: Directive, p: Params, m: np.ndarray, warn) -> tuple[list[dic
         if p.has("portal"):
             p.list("portal", "point3", 3)
             warn(d, "portals are not supported (they only guide sampling in pbrt); ignored")
+        if p.has("mapname"):
+            return [], v3_environment(d, p, m, scale, warn)
         filename = p.string("filename")
         if filename is None:
             return [], {"color": _scaled(p.colour("L", WHITE, emission=True), scale)}
@@ -112,6 +114,26 @@ def environment_image(d: Directive, filename: str, m: np.ndarray, scale: float) 
     if not filename.lower().endswith((".exr", ".hdr")):
         raise d.fail(f"{filename}: raylume reads environment images from .exr or .hdr files")
     return {"file": filename, "mapping": "equal-area", "intensity": scale, "_ctm": m.copy()}
+
+
+# pbrt-v3's lat-long maps: texel (u, v) looks along (sin t cos f, sin t sin f, cos t) of the light's
+# frame, f = 2 pi u, t = pi v; raylume's equirectangular direction d (kernels/shading/environment.py)
+# is that one with w = V3_FROM_ENVIRONMENT @ d.
+V3_FROM_ENVIRONMENT = np.array([[0.0, 0.0, -1.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+
+
+def v3_environment(d: Directive, p: Params, m: np.ndarray, scale: float, warn) -> dict:
+    """pbrt-v3's image infinite light (`mapname`, an equirectangular .exr/.hdr, z up in the light's
+    frame), tinted by L (a grey L scales it; raylume's environment takes one number)."""
+    mapname = p.string("mapname")
+    if not mapname.lower().endswith((".exr", ".hdr")):
+        raise d.fail(f"{mapname}: raylume reads environment images from .exr or .hdr files")
+    if not resolve(mapname, d.search_dir).is_file():
+        raise d.fail(f"no such image file {str(resolve(mapname, d.search_dir))!r}")
+    tint = p.colour("L", WHITE)
+    if max(tint) - min(tint) > 1e-9:
+        warn(d, f"a coloured L {list(tint)} on an image is not supported; its mean scales the image")
+    return {"file": mapname, "intensity": scale * sum(tint) / 3, "_ctm": m.copy(), "_turn": V3_FROM_ENVIRONMENT}
 
 
 def area_emission(d: Directive, p: Params, warn) -> tuple[list[float], bool]:

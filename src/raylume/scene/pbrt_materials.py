@@ -23,6 +23,7 @@ from .pbrt_params import Params
 from .pbrt_parse import Directive, resolve
 from .pbrt_spectra import NAMED_RGB
 from .pbrt_transform import similarity_scale
+from .pbrt_v3 import V3_MATERIALS, v3_material
 
 Warn = Callable[[Directive, str], None]
 GREY = (0.5, 0.5, 0.5)
@@ -130,10 +131,10 @@ class Materials:
         """The raylume material table of a material of type `kind` with parameters p.
         `named` looks up a named material (for mix)."""
         if kind == "diffuse":
-            return self._coloured(d, p, "reflectance", GREY, {"type": "diffuse"})
+            return self.coloured(d, p, "reflectance", GREY, {"type": "diffuse"})
         if kind == "coateddiffuse":
-            table = self._coloured(d, p, "reflectance", GREY, {"type": "plastic"})
-            table["ior"] = self._eta(d, p, "eta")
+            table = self.coloured(d, p, "reflectance", GREY, {"type": "plastic"})
+            table["ior"] = self.eta(d, p, "eta")
             table["roughness"] = self._alpha(d, p, "")
             return table
         if kind == "conductor":
@@ -144,7 +145,7 @@ class Materials:
         if kind in ("dielectric", "thindielectric"):
             if kind == "thindielectric":
                 self.warn(d, "thindielectric is rendered as a (thick) dielectric of the same eta")
-            return {"type": "dielectric", "ior": self._eta(d, p, "eta"), "roughness": self._alpha(d, p, "")}
+            return {"type": "dielectric", "ior": self.eta(d, p, "eta"), "roughness": self._alpha(d, p, "")}
         if kind in ("interface", "", "none"):
             return {"type": "null"}
         if kind == "mix":
@@ -156,13 +157,15 @@ class Materials:
             return dict(first) if first is not None else {"type": "diffuse", "color": list(GREY)}
         if kind == "diffusetransmission":
             self.warn(d, "diffusetransmission is rendered as diffuse reflection (no transmission)")
-            return self._coloured(d, p, "reflectance", (0.25, 0.25, 0.25), {"type": "diffuse"})
+            return self.coloured(d, p, "reflectance", (0.25, 0.25, 0.25), {"type": "diffuse"})
+        if kind in V3_MATERIALS:
+            return v3_material(self, d, p, kind)
         self.warn(d, f"material {kind!r} is not supported; replaced by a grey diffuse one (reflectance 0.5)")
         for q in d.params:
             q.used = True
         return {"type": "diffuse", "color": list(GREY)}
 
-    def _coloured(self, d: Directive, p: Params, key: str, default, table: dict) -> dict:
+    def coloured(self, d: Directive, p: Params, key: str, default, table: dict) -> dict:
         """table with `color` (and `texture`) from a spectrum parameter or a texture."""
         if p.type_of(key) == "texture":
             name = p.texture(key)
@@ -191,19 +194,19 @@ class Materials:
             r = [min(c, MAX_REFLECTANCE) for c in r]
             table.update(color=[1.0, 1.0, 1.0], eta=[1.0, 1.0, 1.0], k=[2 * math.sqrt(c) / math.sqrt(1 - c) for c in r])
             return table
-        eta = self._spectrum(d, p, prefix + "eta", NAMED_RGB["metal-Cu-eta"])
-        k = self._spectrum(d, p, prefix + "k", NAMED_RGB["metal-Cu-k"])
+        eta = self.spectrum(d, p, prefix + "eta", NAMED_RGB["metal-Cu-eta"])
+        k = self.spectrum(d, p, prefix + "k", NAMED_RGB["metal-Cu-k"])
         table.update(color=[1.0, 1.0, 1.0], eta=list(eta), k=list(k))
         return table
 
-    def _spectrum(self, d: Directive, p: Params, key: str, default) -> tuple:
+    def spectrum(self, d: Directive, p: Params, key: str, default) -> tuple:
         if p.type_of(key) == "texture":
             p.texture(key)
             self.warn(d, f'"texture {key}" is not supported; the default {key} is used')
             return default
         return p.colour(key, default)
 
-    def _eta(self, d: Directive, p: Params, key: str) -> float:
+    def eta(self, d: Directive, p: Params, key: str) -> float:
         kind = p.type_of(key)
         if kind is None:
             return 1.5

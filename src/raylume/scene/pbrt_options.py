@@ -66,7 +66,7 @@ class Options:
             p.float(key)  # motion blur is not supported; without moving transforms they change nothing
 
     def film(self, d: Directive, p: Params, warn) -> None:
-        if d.args[0] not in ("rgb", "gbuffer", "spectral"):
+        if d.args[0] not in ("rgb", "gbuffer", "spectral", "image"):  # image: pbrt-v3's
             raise d.fail(f"unknown film {d.args[0]!r} (pbrt-v4 has rgb, gbuffer and spectral)")
         self.width = p.int("xresolution", 1280)
         self.height = p.int("yresolution", 720)

@@ -385,9 +385,10 @@ class Builder:
     def _placed_environment(self, table: dict, d: Directive, flip: np.ndarray) -> dict:
         table = dict(table)
         ctm = table.pop("_ctm", None)
+        turn = table.pop("_turn", np.eye(3))  # the map's own frame in the light's (pbrt-v3's lat-long)
         if ctm is None:
             return table
-        a = (flip @ ctm)[:3, :3]
+        a = (flip @ ctm)[:3, :3] @ turn
         lengths = np.linalg.norm(a, axis=0)
         if not np.allclose(a.T @ a, np.diag(lengths**2), atol=1e-9 * max(lengths) ** 2):
             self.warn(d, "the light's transform shears the sky; only its rotation is used")
