@@ -393,7 +393,7 @@ class Builder:
         if not np.allclose(a.T @ a, np.diag(lengths**2), atol=1e-9 * max(lengths) ** 2):
             self.warn(d, "the light's transform shears the sky; only its rotation is used")
         q, r = np.linalg.qr(a)
-        a = q * np.sign(np.diag(r))  # the nearest rotation (or mirror) to a
+        a = q * np.sign(np.diag(r))  # a's orthonormal frame: exact for a rotation (or mirror) times a uniform scale
         if not np.allclose(a, np.eye(3), atol=1e-12):
             table["matrix"] = a.tolist()
         return table
