@@ -570,10 +570,16 @@ class Triangle(Strict):
         return v
 
 
+Row4 = tuple[FiniteFloat, FiniteFloat, FiniteFloat, FiniteFloat]
+
+
 class Transform(Strict):
     translate: Vec3 = (0.0, 0.0, 0.0)
     rotate: Vec3 = (0.0, 0.0, 0.0)  # degrees, applied about x, then y, then z
     scale: FiniteFloat | Vec3 = 1.0
+    # Or a whole 4 x 4 object-to-world matrix, rows, column vectors (p' = M @ [p, 1]), instead of
+    # the three above: what other renderers' files (pbrt, Mitsuba) hold, shears included.
+    matrix: tuple[Row4, Row4, Row4, Row4] | None = None
 
     @field_validator("scale")
     @classmethod
@@ -582,6 +588,25 @@ class Transform(Strict):
         if any(c == 0 for c in values):
             raise ValueError("scale factors must be non-zero")
         return v
+
+    @model_validator(mode="after")
+    def _matrix_alone(self):
+        if self.matrix is None:
+            return self
+        if self.translate != (0.0, 0.0, 0.0) or self.rotate != (0.0, 0.0, 0.0) or self.scale3 != (1.0, 1.0, 1.0):
+            raise ValueError("matrix replaces translate, rotate and scale: give either the matrix or those")
+        if tuple(self.matrix[3]) != (0.0, 0.0, 0.0, 1.0):
+            raise ValueError(f"matrix's last row must be [0, 0, 0, 1] (affine), got {list(self.matrix[3])}")
+        a = [row[:3] for row in self.matrix[:3]]
+        det = (
+            a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1])
+            - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0])
+            + a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0])
+        )
+        size = math.prod(math.sqrt(sum(c * c for c in row)) for row in a)
+        if not abs(det) > 1e-12 * size:
+            raise ValueError("matrix is singular (it flattens the object)")
+        return self
 
     @property
     def scale3(self) -> tuple[float, float, float]:
@@ -605,17 +630,29 @@ class MeshTransform(Transform):
     @model_validator(mode="after")
     def _fit_alone(self):
         # fit sets the size and the position: a scale or translate beside it would be ambiguous
-        if self.fit is not None and (self.translate != (0.0, 0.0, 0.0) or self.scale3 != (1.0, 1.0, 1.0)):
+        if self.fit is not None and (
+            self.translate != (0.0, 0.0, 0.0) or self.scale3 != (1.0, 1.0, 1.0) or self.matrix is not None
+        ):
             raise ValueError(
-                "fit sets the mesh's size and position, so it cannot be combined with translate or scale; "
+                "fit sets the mesh's size and position, so it cannot be combined with translate, scale or matrix; "
                 "keep rotate and fit, or drop fit"
             )
         return self
 
 
+Index3 = tuple[Annotated[int, Field(ge=0)], Annotated[int, Field(ge=0)], Annotated[int, Field(ge=0)]]
+
+
 class Mesh(Strict):
     type: Literal["mesh"]
-    file: str
+    # The triangles: a mesh file (relative to the scene file), or inline `vertices` with
+    # `faces` (three vertex indices each, from 0; cross(v1 - v0, v2 - v0) is the front) and
+    # optional per-vertex `normals` and `uvs`, as other renderers' files carry meshes.
+    file: str | None = None
+    vertices: list[Vec3] | None = None
+    faces: list[Index3] | None = None
+    normals: list[Vec3] | None = None
+    uvs: list[tuple[FiniteFloat, FiniteFloat]] | None = None
     material: MaterialRef = "default"
     transform: MeshTransform = MeshTransform()
     smooth: bool | None = None  # None: use the file's vertex normals when it has them
@@ -636,8 +673,39 @@ class Mesh(Strict):
             raise ValueError("instances must name a .npy file of (N, 4, 4) or (N, 3, 4) matrices")
         return v
 
+    @model_validator(mode="after")
+    def _one_source(self):
+        if (self.file is None) == (self.vertices is None):
+            raise ValueError('a mesh has either file = "model.obj" or inline vertices and faces (exactly one)')
+        if self.file is not None:
+            extra = [key for key in ("faces", "normals", "uvs") if getattr(self, key) is not None]
+            if extra:
+                raise ValueError(f"{', '.join(extra)} go with inline vertices, not with a mesh file")
+            return self
+        n = len(self.vertices)
+        if not self.faces:
+            raise ValueError("inline vertices need faces: a list of [i, j, k] vertex indices")
+        top = max(max(face) for face in self.faces)
+        if top >= n:
+            raise ValueError(f"faces index vertex {top}, but there are {n} vertices (indices count from 0)")
+        for key in ("normals", "uvs"):
+            values = getattr(self, key)
+            if values is not None and len(values) != n:
+                raise ValueError(f"{key} has {len(values)} entries; it needs one per vertex ({n})")
+        return self
+
 
 def _similarity(transform: Transform, shape: str) -> Transform:
+    if transform.matrix is not None:
+        cols = [[transform.matrix[r][c] for r in range(3)] for c in range(3)]
+        lengths = [math.sqrt(sum(x * x for x in col)) for col in cols]
+        dots = [abs(sum(a * b for a, b in zip(cols[i], cols[j]))) for i, j in ((0, 1), (0, 2), (1, 2))]
+        if max(lengths) - min(lengths) > 1e-9 * max(lengths) or max(dots) > 1e-9 * max(lengths) ** 2:
+            raise ValueError(
+                f"a {shape}'s transform.matrix must be a similarity (rotation, uniform scale, translation): "
+                "anything else would make it elliptic"
+            )
+        return transform
     s = transform.scale3
     if not (abs(s[0]) == abs(s[1]) == abs(s[2])):
         raise ValueError(
@@ -765,6 +833,24 @@ class Environment(Strict):
     file: str | None = None
     intensity: FiniteFloat = Field(1.0, ge=0)
     rotate: Vec3 = (0.0, 0.0, 0.0)
+    # Or the world-from-environment matrix itself (3 x 3 rows, orthogonal: a rotation, or one
+    # with a mirror), as other renderers' files give it.
+    matrix: tuple[Vec3, Vec3, Vec3] | None = None
+    # How the file covers the sphere: "equirectangular", or pbrt-v4's square "equal-area"
+    # octahedral map (converted to equirectangular when the scene is compiled).
+    mapping: Literal["equirectangular", "equal-area"] = "equirectangular"
+
+    @field_validator("matrix")
+    @classmethod
+    def _orthogonal(cls, v):
+        if v is None:
+            return v
+        for i in range(3):
+            for j in range(3):
+                dot = sum(v[k][i] * v[k][j] for k in range(3))
+                if abs(dot - (1.0 if i == j else 0.0)) > 1e-6:
+                    raise ValueError("matrix must be orthogonal (a rotation, possibly with a mirror)")
+        return v
 
     @field_validator("color", mode="before")
     @classmethod
@@ -775,6 +861,10 @@ class Environment(Strict):
     def _one_source(self):
         if (self.color is None) == (self.file is None):
             raise ValueError('give exactly one of color = [r, g, b] and file = "sky.hdr"')
+        if self.matrix is not None and self.rotate != (0.0, 0.0, 0.0):
+            raise ValueError("matrix replaces rotate: give one of them")
+        if self.mapping != "equirectangular" and self.file is None:
+            raise ValueError("mapping applies to an image file")
         return self
 
 
