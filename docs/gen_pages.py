@@ -37,9 +37,10 @@ def gallery_page() -> str:
         "Every picture the documentation shows, with the exact command that made it, run from the repository's "
         "root (`make gallery`, i.e. `python tools/gallery.py`, runs them all). The test suite renders each again "
         "from its command at a small size and compares it with the committed picture's downscale, and renders a "
-        "window of each deterministic (trace-mode) picture at full size with `--crop` and compares it pixel by "
-        "pixel (`tests/test_gallery.py`; the tolerances are in `tools/gallery.py`), so a picture that no longer "
-        "matches what its command renders fails the suite.",
+        "window of it at full size with `--crop` and compares that pixel by pixel (a denoised picture's window "
+        "within a margin, as the denoiser sees only the window), so a picture that no longer matches what its "
+        "command renders fails the suite (`tests/test_gallery.py`; the tolerances, and the differences they were "
+        "measured against, are in `tools/gallery.py`).",
         "",
     ]
     for picture in gallery.PICTURES:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import ast
 import inspect
+import shlex
 import sys
 import tomllib
 import types
@@ -23,7 +24,6 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "src"))
 
 import annotated_types  # noqa: E402
-import click  # noqa: E402
 from pydantic import BaseModel  # noqa: E402
 from pydantic_core import PydanticUndefined  # noqa: E402
 
@@ -58,14 +58,14 @@ def scene_tables() -> list[Table]:
         Table("[camera]", "camera", "camera", model.Camera, "The camera (left-handed: by default at the origin, +z)."),
         *_kinds(model.MATERIAL_TYPES, "[materials.NAME]", "materials.NAME", "materials", "A named material"),
         Table(
-            "texture = { type = \"checker\" }",
+            'texture = { type = "checker" }',
             "texture-checker",
             "materials.NAME.texture",
             model.Checker,
             "A material's `texture`: a checkerboard.",
         ),
         Table(
-            "texture = { type = \"image\" }",
+            'texture = { type = "image" }',
             "texture-image",
             "materials.NAME.texture",
             model.ImageTexture,
@@ -162,7 +162,7 @@ def _strip_optional(annotation: Any) -> tuple[Any, bool]:
     args = typing.get_args(annotation)
     if typing.get_origin(annotation) in (Union, types.UnionType) and type(None) in args:
         rest = [a for a in args if a is not type(None)]
-        return (rest[0] if len(rest) == 1 else Union[tuple(rest)]), True
+        return (rest[0] if len(rest) == 1 else Union[tuple(rest)]), True  # noqa: UP007 (a tuple of members)
     return annotation, False
 
 
@@ -373,7 +373,7 @@ _SYNTHETIC: dict[str | tuple[str, str], str] = {
     "rotate": "[0, 180, 0]",
     "scale": "0.5",
     "camera": "[{ frame = 0, position = [0, 0, 0] }, { frame = 71, position = [4, 1, 0] }]",
-    "environment": '{ color = [0.2, 0.2, 0.3] }',
+    "environment": "{ color = [0.2, 0.2, 0.3] }",
     "animation": "{ frames = 72 }",
 }
 
@@ -426,7 +426,7 @@ def scene_reference_markdown() -> str:
         "`--set KEY=VALUE` on the command line takes the same keys as dotted paths (`--set render.width=64`, "
         "`--set objects.0.radius=0.5`, `--set materials.glass.ior=1.33`).",
         "",
-        "Colours are linear RGB floats or `\"#rrggbb\"`; angles are in degrees; the coordinate system is "
+        'Colours are linear RGB floats or `"#rrggbb"`; angles are in degrees; the coordinate system is '
         "left-handed (x right, y up, z into the picture). See the [scene files guide](../guide/scenes.md) for a "
         "whole file.",
         "",
@@ -484,21 +484,36 @@ def _key_in(cls: type[BaseModel], parts: list[str]) -> bool:
 # The command line
 
 
-def cli_group() -> click.Group:
-    import typer
+# Typer builds its commands on click, or (typer >= 0.28) on a copy of click it carries: the classes are
+# told apart by their kind, not by isinstance against one click.
+def _is_option(param) -> bool:
+    return param.param_type_name == "option"
+
+
+def _is_argument(param) -> bool:
+    return param.param_type_name == "argument"
+
+
+class CommandLineError(ValueError):
+    """A command line the command would refuse (click's usage error, whichever click Typer uses)."""
+
+
+def cli_group():
+    """The `raylume` command as the click group Typer builds of raylume.cli.app."""
+    import typer.main
 
     from raylume.cli import app
 
     return typer.main.get_command(app)
 
 
-def _option_row(param: click.Parameter) -> str:
+def _option_row(param) -> str:
     flags = ", ".join(f"`{o}`" for o in [*param.opts, *param.secondary_opts])
     metavar = param.metavar or ""
-    if isinstance(param, click.Option) and not param.is_flag and not metavar:
+    if _is_option(param) and not param.is_flag and not metavar:
         metavar = param.type.name.upper()
     default = ""
-    if isinstance(param, click.Option) and param.default not in (None, False, ()) and not param.is_flag:
+    if _is_option(param) and param.default not in (None, False, ()) and not param.is_flag:
         default = f"`{param.default}`"
     help_text = (getattr(param, "help", None) or "").replace("\n", " ").replace("|", "\\|")
     if getattr(param, "multiple", False):
@@ -518,18 +533,17 @@ def cli_reference_markdown() -> str:
         "",
         "| option | value | default | description |",
         "| --- | --- | --- | --- |",
-        *(_option_row(p) for p in group.params if isinstance(p, click.Option)),
+        *(_option_row(p) for p in group.params if _is_option(p)),
         "",
     ]
-    for name in group.list_commands(click.Context(group)):
-        command = group.get_command(click.Context(group), name)
-        with click.Context(command, info_name=f"raylume {name}") as ctx:
+    for name, command in group.commands.items():
+        with command.make_context(f"raylume {name}", [], resilient_parsing=True) as ctx:
             usage = " ".join(command.collect_usage_pieces(ctx))
         lines += [f"## raylume {name}", "", f"```text\nraylume {name} {usage}\n```", "", command.help or "", ""]
-        arguments = [p for p in command.params if isinstance(p, click.Argument)]
+        arguments = [p for p in command.params if _is_argument(p)]
         for argument in arguments:
             lines += [f"`{argument.metavar or argument.name.upper()}`: {getattr(argument, 'help', '') or ''}", ""]
-        options = [p for p in command.params if isinstance(p, click.Option)]
+        options = [p for p in command.params if _is_option(p)]
         if options:
             lines += ["| option | value | default | description |", "| --- | --- | --- | --- |"]
             lines += [_option_row(p) for p in options]
@@ -538,20 +552,22 @@ def cli_reference_markdown() -> str:
 
 
 def parse_command_line(args: list[str]) -> None:
-    """Parse `raylume ARGS` as the command would, without running it; a click.UsageError if it does not parse."""
+    """Parse `raylume ARGS` as the command would, without running it: a CommandLineError if the command
+    would refuse it (an unknown command or flag, a value of the wrong type)."""
     group = cli_group()
     try:
         ctx = group.make_context("raylume", list(args))
-    except click.exceptions.Exit:
-        return  # --version, --help
-    rest = [*getattr(ctx, "_protected_args", []), *ctx.args]
-    if not rest:
-        return
-    name, command, sub_args = group.resolve_command(ctx, rest)
-    try:
-        command.make_context(name, sub_args, parent=ctx)
-    except click.exceptions.Exit:
-        return
+        rest = [*getattr(ctx, "_protected_args", []), *getattr(ctx, "protected_args", []), *ctx.args]
+        if rest:
+            name, command, sub_args = group.resolve_command(ctx, rest)
+            command.make_context(name, sub_args, parent=ctx)
+    except Exception as error:  # click's exceptions, whichever click: told apart by name
+        names = {klass.__name__ for klass in type(error).__mro__}
+        if "Exit" in names:  # --version, --help
+            return
+        if "UsageError" in names or "BadParameter" in names:
+            raise CommandLineError(f"raylume {shlex.join(args)}: {error.format_message()}") from None
+        raise
 
 
 if __name__ == "__main__":

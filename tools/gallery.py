@@ -38,7 +38,8 @@ class Picture:
     # so that they average over the same area the downscale does) and `check_args` appended.
     factor: int
     check_spp: int
-    # Mean absolute difference allowed, in 8-bit levels; see `tolerance_note`.
+    # Mean absolute difference allowed, in 8-bit levels, between blocks of BLOCK x BLOCK pixels of the small
+    # render and of the downscale; `tolerance_note` has the difference measured on a fresh picture.
     tolerance: float
     tolerance_note: str
     check_args: tuple[str, ...] = ()
@@ -48,8 +49,11 @@ class Picture:
     # Deterministic pictures (trace mode, no denoiser) are also rendered at full size in a window of
     # 1/crop_part of each side at the centre (--crop renders that window bit for bit as the full render
     # does), and compared pixel by pixel: at most CROP_PIXELS_OFF of the pixels may be off by more than
-    # 2 levels. None: no such check (path-traced and denoised pictures; see the gallery page).
+    # 2 levels. None: no such check.
     crop_part: int | None = 2
+    # A denoised picture's window is denoised by itself, so its pixels near the window's edges differ from the
+    # full picture's: those within crop_margin pixels of an edge are left out, and DENOISED_PIXELS_OFF applies.
+    crop_margin: int = 0
 
     @property
     def path(self) -> Path:
@@ -64,11 +68,17 @@ class Picture:
         return "raylume render " + shlex.join(self.args)
 
 
-# Tolerances: the difference between a fresh full-size render's downscale and a fresh small render
-# (measured with tools/gallery.py --measure, which prints both) comes from edges and textures that
-# 1 spp at full size samples on a regular grid and the small render samples stratified at random
-# positions, and, in path mode, from Monte Carlo noise; each tolerance is about twice that fresh
-# difference, and below what the stale pictures of issue 47 showed (1.6-6.8 levels at full size).
+# Tolerances: a fresh small render differs from a fresh picture's downscale by the sampling of edges and
+# textures (1 spp at full size samples each small pixel on a regular grid of factor x factor points, the small
+# render at check_spp stratified random points, and filters textures over its own, wider pixel footprint) and,
+# in path mode, by Monte Carlo noise and the denoiser working on a tiny image. Both are noise, so they are
+# averaged down by comparing blocks of BLOCK x BLOCK small pixels, where a stale picture's difference (a
+# changed colour, shading or framing over an area) stays. Each tolerance is about twice the fresh difference
+# measured by `python tools/gallery.py --measure` (noted beside it): the renders are deterministic (fixed
+# seeds), so the margin is for other CPUs' rounding only. Finer staleness (the checker moire of issue 47's
+# meshes.png, 0.5 levels in blocks) is the full-size crop check's (CROP_PIXELS_OFF).
+BLOCK = 4
+
 PICTURES: tuple[Picture, ...] = (
     Picture(
         name="seed",
@@ -77,8 +87,8 @@ PICTURES: tuple[Picture, ...] = (
         encoding="clamp",
         factor=8,
         check_spp=16,
-        tolerance=0.6,
-        tolerance_note="fresh 0.23",
+        tolerance=0.5,
+        tolerance_note="fresh 0.06",
     ),
     Picture(
         name="glass",
@@ -88,7 +98,7 @@ PICTURES: tuple[Picture, ...] = (
         factor=10,
         check_spp=16,
         tolerance=1.0,
-        tolerance_note="fresh 0.4",
+        tolerance_note="fresh 0.46",
     ),
     Picture(
         name="mirrors",
@@ -97,8 +107,8 @@ PICTURES: tuple[Picture, ...] = (
         encoding="srgb",
         factor=8,
         check_spp=16,
-        tolerance=1.0,
-        tolerance_note="fresh 0.4",
+        tolerance=0.8,
+        tolerance_note="fresh 0.31",
     ),
     Picture(
         name="meshes",
@@ -108,7 +118,7 @@ PICTURES: tuple[Picture, ...] = (
         factor=8,
         check_spp=16,
         tolerance=1.0,
-        tolerance_note="fresh 0.4",
+        tolerance_note="fresh 0.52",
     ),
     Picture(
         name="quality",
@@ -117,8 +127,8 @@ PICTURES: tuple[Picture, ...] = (
         encoding="srgb",
         factor=8,
         check_spp=16,
-        tolerance=1.2,
-        tolerance_note="fresh 0.5",
+        tolerance=2.0,
+        tolerance_note="fresh 0.92: 16 against 64 samples of soft shadows and depth of field",
         crop_part=8,
         note="The file asks for 16 samples per pixel; the picture has 64.",
     ),
@@ -140,9 +150,10 @@ PICTURES: tuple[Picture, ...] = (
         encoding="srgb",
         factor=8,
         check_spp=64,
-        tolerance=2.0,
-        tolerance_note="fresh 0.8: path-tracing noise of 64 spp, denoised, at 50 x 50",
-        crop_part=None,
+        tolerance=2.5,
+        tolerance_note="fresh 1.09: path-tracing noise of 64 spp, denoised, at 50 x 50",
+        crop_part=4,
+        crop_margin=16,
         note="75 s on 2 cores.",
     ),
     Picture(
@@ -152,21 +163,32 @@ PICTURES: tuple[Picture, ...] = (
         encoding="srgb",
         factor=8,
         check_spp=64,
-        tolerance=2.5,
-        tolerance_note="fresh 1.0: path-tracing noise of 64 spp, denoised, at 80 x 40",
-        crop_part=None,
+        tolerance=4.0,
+        tolerance_note="fresh 2.09: path-tracing noise of 64 spp under an HDR sky, denoised, at 80 x 40",
+        crop_part=4,
+        crop_margin=16,
         note="9 s on 2 cores.",
     ),
     Picture(
         name="gltf_room",
         title="A glTF scene: its own camera, lights, PBR materials and instances",
-        args=("examples/gltf/room.glb", "--width", "480", "--spp", "64", "--denoise", "-o", "docs/images/gltf_room.png"),
+        args=(
+            "examples/gltf/room.glb",
+            "--width",
+            "480",
+            "--spp",
+            "64",
+            "--denoise",
+            "-o",
+            "docs/images/gltf_room.png",
+        ),
         encoding="srgb",
         factor=8,
         check_spp=64,
-        tolerance=2.5,
-        tolerance_note="fresh 1.0: path-tracing noise of 64 spp, denoised, at 60 x 45",
-        crop_part=None,
+        tolerance=4.0,
+        tolerance_note="fresh 1.83: path-tracing noise of 64 spp, denoised, at 60 x 45",
+        crop_part=4,
+        crop_margin=16,
         note="`examples/gltf/room.glb` is written by `python examples/gltf/make_room.py`. 71 s on 2 busy cores.",
     ),
     Picture(
@@ -176,8 +198,8 @@ PICTURES: tuple[Picture, ...] = (
         encoding="srgb",
         factor=8,
         check_spp=16,
-        tolerance=2.0,
-        tolerance_note="fresh 0.9: a billion needles' sub-pixel detail",
+        tolerance=1.0,
+        tolerance_note="fresh 0.41: a billion needles' sub-pixel detail",
         setup=("python", "examples/forest/make_forest.py"),
         note="Generate the meshes and placements first: `python examples/forest/make_forest.py` (a few seconds).",
     ),
@@ -187,19 +209,19 @@ PICTURES: tuple[Picture, ...] = (
         args=(
             "examples/flight.toml",
             "--width",
-            "200",
+            "160",
             "--height",
-            "150",
+            "120",
             "--spp",
             "4",
             "-o",
             "docs/images/flight.gif",
         ),
         encoding="clamp",
-        factor=5,
+        factor=4,
         check_spp=16,
-        tolerance=3.0,
-        tolerance_note="fresh 1.2: the GIF's 256-colour palette",
+        tolerance=2.0,
+        tolerance_note="fresh 0.92: the GIF's 256-colour palette",
         crop_part=None,
         check_args=("--frame", "30"),
         frame=30,
@@ -279,6 +301,16 @@ def small_render_args(picture: Picture, out: Path) -> list[str]:
 # Rounding may differ between CPUs (fused multiply-adds, vector widths): a few pixels a level or two off.
 # The stale pictures of issue 47 had 5.2% (glass), 8.6% (mirrors) and 23% (meshes) of their pixels off.
 CROP_PIXELS_OFF = 0.005
+# A denoised window (its margins left out) differs a little everywhere: Open Image Denoise scales its input by
+# an exposure measured over the whole image it is given. So its pixels count as off beyond 8 levels, and 2% may
+# be: fresh, 0.0% (materials) and 0.1% (gltf_room) were; 11.5% of materials' were before it was rendered again
+# (issue 47's stale picture; 45% beyond 2 levels).
+DENOISED_LEVELS = 8
+DENOISED_PIXELS_OFF = 0.02
+
+
+def pixels_off_allowed(picture: Picture) -> float:
+    return DENOISED_PIXELS_OFF if picture.crop_margin else CROP_PIXELS_OFF
 
 
 def crop_window(picture: Picture) -> tuple[int, int, int, int]:
@@ -295,7 +327,8 @@ def crop_render_args(picture: Picture, out: Path) -> list[str]:
 
 
 def crop_pixels_off(picture: Picture, crop_png: Path) -> float:
-    """The share of the window's pixels that differ from the committed picture's by more than 2 levels."""
+    """The share of the window's pixels that differ from the committed picture's by more than 2 levels (a denoised
+    picture's: more than DENOISED_LEVELS, its margins left out)."""
     x0, x1, y0, y1 = crop_window(picture)
     with Image.open(picture.path) as image:
         if picture.frame is not None:
@@ -303,15 +336,23 @@ def crop_pixels_off(picture: Picture, crop_png: Path) -> float:
         committed = np.asarray(image.convert("RGB")).astype(np.int16)[y0:y1, x0:x1]
     with Image.open(crop_png) as image:
         rendered = np.asarray(image.convert("RGB")).astype(np.int16)
-    return float((np.abs(rendered - committed).max(axis=2) > 2).mean())
+    off = np.abs(rendered - committed).max(axis=2) > (DENOISED_LEVELS if picture.crop_margin else 2)
+    m = picture.crop_margin
+    return float((off[m : off.shape[0] - m, m : off.shape[1] - m] if m else off).mean())
+
+
+def _blocks(levels: np.ndarray) -> np.ndarray:
+    h, w = levels.shape[0] // BLOCK * BLOCK, levels.shape[1] // BLOCK * BLOCK
+    return levels[:h, :w].reshape(h // BLOCK, BLOCK, w // BLOCK, BLOCK, 3).mean(axis=(1, 3))
 
 
 def mean_difference(picture: Picture, small_png: Path) -> float:
-    """Mean absolute difference, in 8-bit levels, between a small render and the committed picture's downscale."""
+    """Mean absolute difference, in 8-bit levels, between blocks of BLOCK x BLOCK pixels of a small render and
+    of the committed picture's downscale."""
     with Image.open(small_png) as image:
         rendered = np.asarray(image.convert("RGB")).astype(np.float64)
     expected = committed_downscale(picture)
-    return float(np.abs(rendered - expected).mean())
+    return float(np.abs(_blocks(rendered) - _blocks(expected)).mean())
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -341,7 +382,8 @@ def main(argv: list[str] | None = None) -> int:
                 crop = out.with_name(f"gallery_crop_{picture.name}.png")
                 subprocess.run([*raylume_argv(), "render", *crop_render_args(picture, crop)], cwd=REPO, check=True)
                 off = crop_pixels_off(picture, crop)
-                line += f"; crop: {off:.2%} of pixels off (at most {CROP_PIXELS_OFF:.1%}) {time.perf_counter() - start:5.1f} s"
+                seconds = time.perf_counter() - start
+                line += f"; crop: {off:.2%} of pixels off (at most {pixels_off_allowed(picture):.1%}) {seconds:5.1f} s"
             print(line)
             continue
         seconds = render(picture)
@@ -352,4 +394,3 @@ def main(argv: list[str] | None = None) -> int:
 
 if __name__ == "__main__":
     sys.exit(main())
-
