@@ -1,4 +1,4 @@
-"""raylume: ray casting, Whitted ray tracing and rasterization of declarative 3D scenes.
+"""raylume: ray casting, Whitted ray tracing, path tracing and rasterization of declarative 3D scenes.
 
 import raylume
 image = raylume.render(raylume.builtin_scene("seed"), width=300, height=300)
