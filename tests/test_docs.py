@@ -92,6 +92,7 @@ def test_python_block_runs_as_written(block: Block, tmp_path):
         [sys.executable, str(script)], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=120
     )
     assert result.returncode == 0, f"{block.label} failed:\n{result.stderr[-3000:]}"
+    assert "Traceback" not in result.stderr, f"{block.label} printed a traceback:\n{result.stderr[-3000:]}"
 
 
 # Command lines: `raylume ...` in shell blocks (a line may start it after `$ `, `.venv/bin/`, `ssh ... host`).
