@@ -91,6 +91,16 @@ PICTURES: tuple[Picture, ...] = (
         tolerance_note="fresh 0.06",
     ),
     Picture(
+        name="seed_cast",
+        title="Ray casting: the seed scene, one ray per pixel, each hit's material colour",
+        args=("--mode", "cast", "--width", "300", "--height", "300", "-o", "docs/images/seed_cast.png"),
+        encoding="clamp",
+        factor=4,
+        check_spp=16,
+        tolerance=0.5,
+        tolerance_note="fresh 0.12",
+    ),
+    Picture(
         name="glass",
         title="Glass: refraction, Fresnel, total internal reflection, absorption",
         args=("examples/glass.toml", "-o", "docs/images/glass.png"),
