@@ -518,7 +518,8 @@ def _option_row(param) -> str:
     help_text = (getattr(param, "help", None) or "").replace("\n", " ").replace("|", "\\|")
     if getattr(param, "multiple", False):
         help_text += " (repeatable)" if "repeatable" not in help_text else ""
-    return f"| {flags} | {('`' + metavar + '`') if metavar else ''} | {default} | {help_text} |"
+    value = f"`{metavar}`" if metavar else ""  # a | inside a code span does not split the table's cell
+    return f"| {flags} | {value} | {default} | {help_text} |"
 
 
 def cli_reference_markdown() -> str:
