@@ -1,8 +1,8 @@
 """The documentation cannot rot: every Python block of README.md and docs/ runs as written, each by
 itself in a fresh interpreter in an empty folder (as a person copies it into a file in a clone:
 `examples/` is there, nothing else); every `raylume ...` line in their fenced blocks parses against
-the command itself, its --set keys included; the generated references cover the whole scene model
-and every flag. A block that is deliberately not runnable starts with the visible line
+the command itself, its --set keys included; every TOML block validates as a scene; the generated
+references cover the whole scene model and every flag. A block that is deliberately not runnable starts with the visible line
 `# (not run by the test suite: WHY)`."""
 
 from __future__ import annotations
@@ -13,6 +13,7 @@ import re
 import shlex
 import subprocess
 import sys
+import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -68,7 +69,7 @@ PYTHON_BLOCKS = [b for b in ALL_BLOCKS if b.language == "python"]
 
 
 def test_documents_have_python_blocks_and_few_are_not_run():
-    assert len(PYTHON_BLOCKS) >= 8
+    assert len(PYTHON_BLOCKS) >= 8 and len([b for b in ALL_BLOCKS if b.language == "toml"]) >= 5
     not_run = [b.label for b in PYTHON_BLOCKS if b.text.startswith(NOT_RUN)]
     assert len(not_run) <= 2, f"keep blocks that are not run rare: {not_run}"
 
@@ -173,6 +174,23 @@ def test_readme_synopsis_lists_every_flag(command):
     assert not missing, f"README's `raylume {command}` synopsis lacks {missing}"
     unknown = shown - {opt for opts in options for opt in opts}
     assert not unknown, f"README's `raylume {command}` synopsis shows flags the command lacks: {sorted(unknown)}"
+
+
+TOML_BLOCKS = [b for b in ALL_BLOCKS if b.language == "toml"]
+
+
+@pytest.mark.parametrize("block", [pytest.param(b, id=b.label) for b in TOML_BLOCKS])
+def test_toml_block_is_a_valid_scene(block: Block):
+    """Every scene file shown validates (its keys and values; a fragment's material names stand for tables of
+    materials it leaves out; files it names are not read)."""
+    from raylume.scene.model import Scene
+
+    document = tomllib.loads(block.text)
+    materials = document.setdefault("materials", {})
+    for obj in document.get("objects", []):
+        if isinstance(obj.get("material"), str):
+            materials.setdefault(obj["material"], {})
+    Scene.model_validate(document)
 
 
 def test_scene_reference_covers_every_model_field():
