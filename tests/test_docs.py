@@ -2,8 +2,8 @@
 itself in a fresh interpreter in an empty folder (as a person copies it into a file in a clone:
 `examples/` is there, nothing else); every `raylume ...` line in their fenced blocks parses against
 the command itself, its --set keys included; every TOML block validates as a scene; the generated
-references cover the whole scene model and every flag. A block that is deliberately not runnable starts with the visible line
-`# (not run by the test suite: WHY)`."""
+references cover the whole scene model and every flag. A block that is deliberately not runnable
+starts with the visible line `# (not run by the test suite: WHY)`."""
 
 from __future__ import annotations
 
@@ -181,15 +181,18 @@ TOML_BLOCKS = [b for b in ALL_BLOCKS if b.language == "toml"]
 
 @pytest.mark.parametrize("block", [pytest.param(b, id=b.label) for b in TOML_BLOCKS])
 def test_toml_block_is_a_valid_scene(block: Block):
-    """Every scene file shown validates (its keys and values; a fragment's material names stand for tables of
-    materials it leaves out; files it names are not read)."""
+    """Every scene file shown validates (its keys and values; a fragment's material and medium names stand for
+    tables it leaves out; files it names are not read)."""
     from raylume.scene.model import Scene
 
     document = tomllib.loads(block.text)
     materials = document.setdefault("materials", {})
+    media = document.setdefault("media", {})
     for obj in document.get("objects", []):
         if isinstance(obj.get("material"), str):
             materials.setdefault(obj["material"], {})
+        if isinstance(obj.get("interior"), str):
+            media.setdefault(obj["interior"], {"type": "homogeneous"})
     Scene.model_validate(document)
 
 

@@ -83,6 +83,7 @@ def scene_tables() -> list[Table]:
         ),
         Table("fit = { ... }", "fit", "objects.N.transform.fit", model.Fit, "A mesh's `transform.fit`."),
         Table("[environment]", "environment", "environment", model.Environment, "Light from every direction."),
+        *_kinds(model.MEDIUM_TYPES, "[media.NAME]", "media.NAME", "media", "A named participating medium (path mode)"),
         Table("[animation]", "animation", "animation", model.Animation, "A camera flight."),
         Table(
             "[[animation.camera]]",
@@ -211,13 +212,19 @@ def _annotation_text(annotation: Any) -> str:
     if origin is Literal:
         return "string"
     if origin is tuple:
-        if len(args) == 3 and all(_unwrap(a) is float for a in args):
+        inner = [_unwrap(a) for a in args]
+        if len(args) == 3 and all(a is float for a in inner):
             return "`[x, y, z]`"
-        if len(args) == 3:
-            return "three `[x, y, z]`"
-        return f"array of {len(args)} numbers"
+        if all(a is float for a in inner):
+            return f"{len(args)} numbers"
+        if all(a is int for a in inner):
+            return f"{len(args)} integers"
+        return f"{len(args)} x " + _annotation_text(args[0])
     if origin is list:
-        return "array of tables"
+        inner = _unwrap(args[0])
+        if isinstance(inner, type) and issubclass(inner, BaseModel):
+            return "array of tables"
+        return "array of " + _annotation_text(inner)
     if origin is dict:
         return "tables by name"
     if origin in (Union, types.UnionType):
@@ -303,7 +310,11 @@ def _walk_examples() -> dict[tuple[str, str], tuple[Any, str]]:
     for path in EXAMPLE_FILES:
         document = tomllib.loads(path.read_text())
         source = str(path.relative_to(REPO))
-        visit(model.Scene, {k: v for k, v in document.items() if k not in ("materials", "lights", "objects")}, source)
+        tables = ("materials", "lights", "objects", "media")
+        visit(model.Scene, {k: v for k, v in document.items() if k not in tables}, source)
+        for table in document.get("media", {}).values():
+            if table.get("type") in model.MEDIUM_TYPES:
+                visit(model.MEDIUM_TYPES[table["type"]], table, source)
         for table in document.get("materials", {}).values():
             visit(model.MATERIAL_TYPES.get(table.get("type", "phong"), model.PhongMaterial), table, source)
             if isinstance(table.get("texture"), dict):
@@ -342,7 +353,6 @@ def _literal_type(cls: type[BaseModel]) -> str | None:
 _SYNTHETIC: dict[str | tuple[str, str], str] = {
     ("Gltf", "file"): '"gltf/room.glb"',
     "file": '"model.obj"',
-    "vertices": "[[0, 0, 3], [1, 0, 3], [0, 1, 3]]",
     "u": "[1, 0, 0]",
     "v": "[0, 0, 1]",
     "p0": "[0, -1, 3]",
@@ -375,10 +385,28 @@ _SYNTHETIC: dict[str | tuple[str, str], str] = {
     "camera": "[{ frame = 0, position = [0, 0, 0] }, { frame = 71, position = [4, 1, 0] }]",
     "environment": "{ color = [0.2, 0.2, 0.3] }",
     "animation": "{ frames = 72 }",
+    "interior": '"smoke"',
+    "medium": '"fog"',
+    ("Transform", "matrix"): "[[1, 0, 0, 0], [0, 1, 0, -1], [0, 0, 1, 3], [0, 0, 0, 1]]",
+    ("MeshTransform", "matrix"): "[[1, 0, 0, 0], [0, 1, 0, -1], [0, 0, 1, 3], [0, 0, 0, 1]]",
+    ("Environment", "matrix"): "[[-1, 0, 0], [0, 1, 0], [0, 0, 1]]",
+    "vertices": "[[0, 0, 3], [1, 0, 3], [0, 1, 3], [1, 1, 3]]",
+    ("Triangle", "vertices"): "[[0, 0, 3], [1, 0, 3], [0, 1, 3]]",
+    "faces": "[[0, 1, 2], [2, 1, 3]]",
+    "normals": "[[0, 0, -1], [0, 0, -1], [0, 0, -1], [0, 0, -1]]",
+    "uvs": "[[0, 0], [1, 0], [0, 1], [1, 1]]",
+    "density": '"smoke/density.npy"',
+    "bounds_min": "[-1, 0, 2]",
+    "bounds_max": "[1, 2, 4]",
+    "sigma_a": "[0.05, 0.05, 0.05]",
+    "sigma_s": "[0.5, 0.5, 0.5]",
+    "g": "0.3",
 }
 
 
 def example_text(cls: type[BaseModel], name: str, examples: dict[tuple[str, str], tuple[Any, str]]) -> str:
+    if field_description(cls, name).startswith("Refused"):
+        return "(none: refused)"
     if (cls.__name__, name) in examples:
         value, source = examples[(cls.__name__, name)]
         if isinstance(value, list) and len(toml_value(value)) > 100:  # a long list: its first item shows the form

@@ -137,6 +137,11 @@ class RenderSettings(Strict):
     denoise: bool = False
     """Path mode: run Intel Open Image Denoise on the image, guided by the albedo and normal AOVs (needs `pip install
     'raylume[denoise]'`)."""
+    # The participating medium filling the space outside every object, a name in [media]
+    # (fog); the camera sits in it. Path mode renders media; the others ignore them.
+    medium: str | None = None
+    """Path mode: the medium, a name in `[media]`, filling the space outside every object (fog); the camera sits
+    in it."""
 
     @model_validator(mode="after")
     def _depth(self):
@@ -583,6 +588,21 @@ LIGHT_TYPES = {
 Light = tagged_union(LIGHT_TYPES)
 
 
+# `interior` (every object): the name of the medium inside a closed shape, in [media]; open
+# shapes refuse it.
+MediumRef = Annotated[str | None, Field(None, min_length=1)]
+
+
+def _no_interior(obj, shape: str):
+    """interior needs an inside: refuse it on shapes that have none (DESIGN.md section 7)."""
+    if obj.interior is not None:
+        raise ValueError(
+            f"interior: a {shape} is open, it has no inside to fill; a medium needs a closed shape "
+            "(a sphere, a capped cylinder or a closed mesh)"
+        )
+    return obj
+
+
 class Sphere(Strict):
     type: Literal["sphere"]
     """`"sphere"`."""
@@ -592,6 +612,8 @@ class Sphere(Strict):
     """Radius of the sphere."""
     material: MaterialRef = "default"
     """A name from `[materials]` or an inline material table (default: matte white phong)."""
+    interior: MediumRef = None
+    """Path mode: the medium inside, a name in `[media]`."""
 
 
 class Plane(Strict):
@@ -603,6 +625,12 @@ class Plane(Strict):
     """The plane's normal (two-sided)."""
     material: MaterialRef = "default"
     """A name from `[materials]` or an inline material table."""
+    interior: MediumRef = None
+    """Refused: a plane has no inside (the key exists for a clear error)."""
+
+    @model_validator(mode="after")
+    def _open(self):
+        return _no_interior(self, "plane")
 
     @field_validator("normal")
     @classmethod
@@ -617,6 +645,12 @@ class Triangle(Strict):
     """Three vertices `[[x, y, z], [x, y, z], [x, y, z]]`, not collinear."""
     material: MaterialRef = "default"
     """A name from `[materials]` or an inline material table."""
+    interior: MediumRef = None
+    """Refused: a triangle has no inside (the key exists for a clear error)."""
+
+    @model_validator(mode="after")
+    def _open(self):
+        return _no_interior(self, "triangle")
 
     @field_validator("vertices")
     @classmethod
@@ -630,6 +664,9 @@ class Triangle(Strict):
         return v
 
 
+Row4 = tuple[FiniteFloat, FiniteFloat, FiniteFloat, FiniteFloat]
+
+
 class Transform(Strict):
     translate: Vec3 = (0.0, 0.0, 0.0)
     """Moves the shape, applied last."""
@@ -637,6 +674,11 @@ class Transform(Strict):
     """Degrees about x, then y, then z, applied after scale."""
     scale: FiniteFloat | Vec3 = 1.0
     """A number or `[x, y, z]` (non-zero; a negative factor mirrors), applied first."""
+    # Or a whole 4 x 4 object-to-world matrix, rows, column vectors (p' = M @ [p, 1]), instead of
+    # the three above: what other renderers' files (pbrt, Mitsuba) hold, shears included.
+    matrix: tuple[Row4, Row4, Row4, Row4] | None = None
+    """Instead of translate, rotate and scale: a whole 4 x 4 object-to-world matrix, rows, column vectors (p' = M @ [p,
+    1]); its last row `[0, 0, 0, 1]`."""
 
     @field_validator("scale")
     @classmethod
@@ -645,6 +687,25 @@ class Transform(Strict):
         if any(c == 0 for c in values):
             raise ValueError("scale factors must be non-zero")
         return v
+
+    @model_validator(mode="after")
+    def _matrix_alone(self):
+        if self.matrix is None:
+            return self
+        if self.translate != (0.0, 0.0, 0.0) or self.rotate != (0.0, 0.0, 0.0) or self.scale3 != (1.0, 1.0, 1.0):
+            raise ValueError("matrix replaces translate, rotate and scale: give either the matrix or those")
+        if tuple(self.matrix[3]) != (0.0, 0.0, 0.0, 1.0):
+            raise ValueError(f"matrix's last row must be [0, 0, 0, 1] (affine), got {list(self.matrix[3])}")
+        a = [row[:3] for row in self.matrix[:3]]
+        det = (
+            a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1])
+            - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0])
+            + a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0])
+        )
+        size = math.prod(math.sqrt(sum(c * c for c in row)) for row in a)
+        if not abs(det) > 1e-12 * size:
+            raise ValueError("matrix is singular (it flattens the object)")
+        return self
 
     @property
     def scale3(self) -> tuple[float, float, float]:
@@ -672,19 +733,35 @@ class MeshTransform(Transform):
     @model_validator(mode="after")
     def _fit_alone(self):
         # fit sets the size and the position: a scale or translate beside it would be ambiguous
-        if self.fit is not None and (self.translate != (0.0, 0.0, 0.0) or self.scale3 != (1.0, 1.0, 1.0)):
+        if self.fit is not None and (
+            self.translate != (0.0, 0.0, 0.0) or self.scale3 != (1.0, 1.0, 1.0) or self.matrix is not None
+        ):
             raise ValueError(
-                "fit sets the mesh's size and position, so it cannot be combined with translate or scale; "
+                "fit sets the mesh's size and position, so it cannot be combined with translate, scale or matrix; "
                 "keep rotate and fit, or drop fit"
             )
         return self
 
 
+Index3 = tuple[Annotated[int, Field(ge=0)], Annotated[int, Field(ge=0)], Annotated[int, Field(ge=0)]]
+
+
 class Mesh(Strict):
     type: Literal["mesh"]
     """`"mesh"`: a triangle mesh from a file (OBJ, PLY, STL, OFF, glTF/GLB through trimesh)."""
-    file: str
-    """The mesh file, relative to the scene file."""
+    # The triangles: a mesh file (relative to the scene file), or inline `vertices` with
+    # `faces` (three vertex indices each, from 0; cross(v1 - v0, v2 - v0) is the front) and
+    # optional per-vertex `normals` and `uvs`, as other renderers' files carry meshes.
+    file: str | None = None
+    """The mesh file, relative to the scene file (or inline `vertices` and `faces` instead)."""
+    vertices: list[Vec3] | None = None
+    """Inline triangles instead of `file`: the vertex positions."""
+    faces: list[Index3] | None = None
+    """With `vertices`: three vertex indices per triangle, from 0; cross(v1 - v0, v2 - v0) is the front."""
+    normals: list[Vec3] | None = None
+    """With `vertices`: a normal per vertex (smooth shading)."""
+    uvs: list[tuple[FiniteFloat, FiniteFloat]] | None = None
+    """With `vertices`: texture coordinates `[u, v]` per vertex."""
     material: MaterialRef = "default"
     """A name from `[materials]` or an inline material table."""
     transform: MeshTransform = MeshTransform()
@@ -700,6 +777,8 @@ class Mesh(Strict):
     instances: str | list[Transform] | None = None
     """Copies of the mesh, each placed by a matrix after `transform` (p' = M @ [p, 1]): a `.npy` of (N, 4, 4) or (N, 3,
     4) matrices relative to the scene file, or a list of transform tables. The mesh and its BVH are stored once."""
+    interior: MediumRef = None  # the mesh must be closed (checked when it is loaded)
+    """Path mode: the medium inside, a name in `[media]` (the mesh must be closed)."""
 
     @field_validator("instances")
     @classmethod
@@ -710,8 +789,39 @@ class Mesh(Strict):
             raise ValueError("instances must name a .npy file of (N, 4, 4) or (N, 3, 4) matrices")
         return v
 
+    @model_validator(mode="after")
+    def _one_source(self):
+        if (self.file is None) == (self.vertices is None):
+            raise ValueError('a mesh has either file = "model.obj" or inline vertices and faces (exactly one)')
+        if self.file is not None:
+            extra = [key for key in ("faces", "normals", "uvs") if getattr(self, key) is not None]
+            if extra:
+                raise ValueError(f"{', '.join(extra)} go with inline vertices, not with a mesh file")
+            return self
+        n = len(self.vertices)
+        if not self.faces:
+            raise ValueError("inline vertices need faces: a list of [i, j, k] vertex indices")
+        top = max(max(face) for face in self.faces)
+        if top >= n:
+            raise ValueError(f"faces index vertex {top}, but there are {n} vertices (indices count from 0)")
+        for key in ("normals", "uvs"):
+            values = getattr(self, key)
+            if values is not None and len(values) != n:
+                raise ValueError(f"{key} has {len(values)} entries; it needs one per vertex ({n})")
+        return self
+
 
 def _similarity(transform: Transform, shape: str) -> Transform:
+    if transform.matrix is not None:
+        cols = [[transform.matrix[r][c] for r in range(3)] for c in range(3)]
+        lengths = [math.sqrt(sum(x * x for x in col)) for col in cols]
+        dots = [abs(sum(a * b for a, b in zip(cols[i], cols[j]))) for i, j in ((0, 1), (0, 2), (1, 2))]
+        if max(lengths) - min(lengths) > 1e-9 * max(lengths) or max(dots) > 1e-9 * max(lengths) ** 2:
+            raise ValueError(
+                f"a {shape}'s transform.matrix must be a similarity (rotation, uniform scale, translation): "
+                "anything else would make it elliptic"
+            )
+        return transform
     s = transform.scale3
     if not (abs(s[0]) == abs(s[1]) == abs(s[2])):
         raise ValueError(
@@ -736,6 +846,12 @@ class Disk(Strict):
     """A name from `[materials]` or an inline material table."""
     transform: Transform = Transform()
     """Scale (uniform only), rotate and translate."""
+    interior: MediumRef = None
+    """Refused: a disk has no inside (the key exists for a clear error)."""
+
+    @model_validator(mode="after")
+    def _open(self):
+        return _no_interior(self, "disk")
 
     @field_validator("normal")
     @classmethod
@@ -764,6 +880,8 @@ class Quad(Strict):
     """A name from `[materials]` or an inline material table."""
     transform: Transform = Transform()
     """Scale, rotate and translate."""
+    interior: MediumRef = None
+    """Refused: a quad has no inside (the key exists for a clear error)."""
 
     @model_validator(mode="after")
     def _edges(self):
@@ -776,7 +894,7 @@ class Quad(Strict):
             or not any(v)
         ):
             raise ValueError("u and v must be non-zero and not parallel (the quad would have no area)")
-        return self
+        return _no_interior(self, "quad")
 
 
 class Cylinder(Strict):
@@ -797,11 +915,15 @@ class Cylinder(Strict):
     """A name from `[materials]` or an inline material table."""
     transform: Transform = Transform()
     """Scale (uniform only), rotate and translate."""
+    interior: MediumRef = None
+    """Path mode: the medium inside a capped cylinder, a name in `[media]`."""
 
     @model_validator(mode="after")
     def _axis(self):
         if self.p0 == self.p1:
             raise ValueError("p0 and p1 must differ (the cylinder would have no length)")
+        if not self.capped:
+            _no_interior(self, "cylinder without caps (capped = false)")
         return self
 
     @field_validator("transform")
@@ -856,6 +978,27 @@ class Environment(Strict):
     """Scales the environment."""
     rotate: Vec3 = (0.0, 0.0, 0.0)
     """Degrees about x, then y, then z, as object transforms."""
+    # Or the world-from-environment matrix itself (3 x 3 rows, orthogonal: a rotation, or one
+    # with a mirror), as other renderers' files give it.
+    matrix: tuple[Vec3, Vec3, Vec3] | None = None
+    """Instead of `rotate`: the world-from-environment matrix, 3 x 3 rows, orthogonal (a rotation, possibly with a
+    mirror)."""
+    # How the file covers the sphere: "equirectangular", or pbrt-v4's square "equal-area"
+    # octahedral map (converted to equirectangular when the scene is compiled).
+    mapping: Literal["equirectangular", "equal-area"] = "equirectangular"
+    """How the image covers the sphere: `equirectangular`, or pbrt-v4's square `equal-area` octahedral map."""
+
+    @field_validator("matrix")
+    @classmethod
+    def _orthogonal(cls, v):
+        if v is None:
+            return v
+        for i in range(3):
+            for j in range(3):
+                dot = sum(v[k][i] * v[k][j] for k in range(3))
+                if abs(dot - (1.0 if i == j else 0.0)) > 1e-6:
+                    raise ValueError("matrix must be orthogonal (a rotation, possibly with a mirror)")
+        return v
 
     @field_validator("color", mode="before")
     @classmethod
@@ -866,7 +1009,69 @@ class Environment(Strict):
     def _one_source(self):
         if (self.color is None) == (self.file is None):
             raise ValueError('give exactly one of color = [r, g, b] and file = "sky.hdr"')
+        if self.matrix is not None and self.rotate != (0.0, 0.0, 0.0):
+            raise ValueError("matrix replaces rotate: give one of them")
+        if self.mapping != "equirectangular" and self.file is None:
+            raise ValueError("mapping applies to an image file")
         return self
+
+
+def _coefficients(value):
+    """A medium's coefficient: a number (grey) or [r, g, b], per scene unit of length, >= 0."""
+    return _intensity(value)
+
+
+class _MediumBase(Strict):
+    # absorption and scattering coefficients per scene unit of length (RGB), and the
+    # Henyey-Greenstein asymmetry g (-1 back, 0 isotropic, 1 forward; the ends excluded)
+    sigma_a: Color = (0.0, 0.0, 0.0)
+    """Absorption coefficient per scene unit of length, a number or `[r, g, b]`."""
+    sigma_s: Color = (0.0, 0.0, 0.0)
+    """Scattering coefficient per scene unit of length, a number or `[r, g, b]`."""
+    g: FiniteFloat = Field(0.0, gt=-1, lt=1)
+    """Henyey-Greenstein asymmetry: -1 back, 0 isotropic, 1 forward (the ends excluded)."""
+
+    @field_validator("sigma_a", "sigma_s", mode="before")
+    @classmethod
+    def _coefficient(cls, v):
+        return _coefficients(v)
+
+
+class HomogeneousMedium(_MediumBase):
+    """A medium of the same density everywhere (fog, milk, smoke of even density)."""
+
+    type: Literal["homogeneous"]
+    """`"homogeneous"`: the same density everywhere (fog, milk)."""
+
+
+class GridMedium(_MediumBase):
+    """A medium whose density varies: `density` a .npy float array (nz, ny, nx) >= 0 filling the
+    box bounds_min..bounds_max (voxel (k, j, i) its cell at z index k, y index j, x index i),
+    interpolated trilinearly between the cells' centres; sigma_a and sigma_s are scaled by it.
+    Outside the box the density is 0."""
+
+    type: Literal["grid"]
+    """`"grid"`: a density that varies, from a voxel grid."""
+    density: str = Field(min_length=1)
+    """A `.npy` float array of shape (nz, ny, nx), >= 0, relative to the scene file; scales sigma_a and sigma_s,
+    trilinearly interpolated."""
+    bounds_min: Vec3
+    """The world box's lower corner that the grid fills."""
+    bounds_max: Vec3
+    """The world box's upper corner."""
+
+    @model_validator(mode="after")
+    def _box(self):
+        if any(hi <= lo for lo, hi in zip(self.bounds_min, self.bounds_max)):
+            raise ValueError(
+                f"bounds_max must exceed bounds_min on every axis, got {list(self.bounds_min)} .. "
+                f"{list(self.bounds_max)}"
+            )
+        return self
+
+
+MEDIUM_TYPES = {"homogeneous": HomogeneousMedium, "grid": GridMedium}
+Medium = tagged_union(MEDIUM_TYPES)
 
 
 MAX_FRAMES = 1_000_000
@@ -933,6 +1138,8 @@ class Scene(Strict):
     """Light from every direction for rays that hit nothing; replaces `background`."""
     animation: Animation | None = None
     """A camera flight: frames and keyframes."""
+    media: dict[str, Medium] = {}
+    """Named participating media, `[media.NAME]`, for objects' `interior` and `[render] medium`."""
 
     # Folder that relative paths (mesh files) are resolved against; set by the loader.
     _base_dir: Path = PrivateAttr(default_factory=Path.cwd)
@@ -944,6 +1151,13 @@ class Scene(Strict):
             if isinstance(ref, str) and ref != "default" and ref not in self.materials:
                 known = ", ".join(sorted(self.materials)) or "none are defined"
                 raise ValueError(f"objects[{k}].material: no material named {ref!r} in [materials] ({known})")
+        known_media = ", ".join(sorted(self.media)) or "none are defined"
+        for k, obj in enumerate(self.objects):
+            name = getattr(obj, "interior", None)
+            if name is not None and name not in self.media:
+                raise ValueError(f"objects[{k}].interior: no medium named {name!r} in [media] ({known_media})")
+        if self.render.medium is not None and self.render.medium not in self.media:
+            raise ValueError(f"render.medium: no medium named {self.render.medium!r} in [media] ({known_media})")
         return self
 
     @property
