@@ -38,7 +38,9 @@ def gallery_page() -> str:
         "root (`make gallery`, i.e. `python tools/gallery.py`, runs them all). The test suite renders each again "
         "from its command at a small size and compares it with the committed picture's downscale, and renders a "
         "window of it at full size with `--crop` and compares that pixel by pixel (a denoised picture's window "
-        "within a margin, as the denoiser sees only the window), so a picture that no longer matches what its "
+        "within a margin, as the denoiser sees only the window; not for "
+        + ", ".join(p.name for p in gallery.PICTURES if p.crop_part is None)
+        + ", whose tools/gallery.py entries say why), so a picture that no longer matches what its "
         "command renders fails the suite (`tests/test_gallery.py`; the tolerances, and the differences they were "
         "measured against, are in `tools/gallery.py`).",
         "",
