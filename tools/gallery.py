@@ -271,6 +271,8 @@ PICTURES: tuple[Picture, ...] = (
         check_spp=16,
         tolerance=2.0,
         tolerance_note="fresh 0.92: the GIF's 256-colour palette",
+        # A GIF's frames are quantised to 256 colours: a quarter of the pixels of a fresh frame are more than 2
+        # levels off; the downscale averages that out.
         crop_part=None,
         check_args=("--frame", "30"),
         frame=30,
