@@ -9,6 +9,7 @@ tests/test_docs.py checks that every model field is there and that the docs' com
 from __future__ import annotations
 
 import ast
+import functools
 import inspect
 import shlex
 import sys
@@ -133,6 +134,11 @@ def _models_in(annotation: Any) -> Iterator[type[BaseModel]]:
 
 # Each field's description is the docstring under it in the model's source (read here, not by pydantic at import).
 def _attribute_docstrings() -> dict[tuple[str, str], str]:
+    return dict(_parsed_docstrings())  # a copy: callers may change theirs
+
+
+@functools.cache
+def _parsed_docstrings() -> dict[tuple[str, str], str]:
     tree = ast.parse(Path(inspect.getsourcefile(model)).read_text())
     docs: dict[tuple[str, str], str] = {}
     for node in tree.body:
@@ -405,7 +411,7 @@ _SYNTHETIC: dict[str | tuple[str, str], str] = {
 
 
 def example_text(cls: type[BaseModel], name: str, examples: dict[tuple[str, str], tuple[Any, str]]) -> str:
-    if field_description(cls, name).startswith("Refused"):
+    if field_description(cls, name, _parsed_docstrings()).startswith("Refused"):
         return "(none: refused)"
     if (cls.__name__, name) in examples:
         value, source = examples[(cls.__name__, name)]
