@@ -42,7 +42,8 @@ class _Command(_CleanHelp, TyperCommand):
 app = typer.Typer(
     cls=_Group,
     add_completion=False,
-    help="Render declarative 3D scenes by ray casting, ray tracing or rasterization.",
+    help="Render declarative 3D scenes by ray casting, Whitted ray tracing, path tracing or rasterization; "
+    "view them live in the browser, animate them, render them on a cluster.",
     pretty_exceptions_enable=False,
 )
 
@@ -93,7 +94,7 @@ def _main(
         bool, typer.Option("--version", help="Print the version and exit", is_eager=True, metavar=FLAG)
     ] = False,
 ) -> None:
-    """Render declarative 3D scenes by ray casting, ray tracing or rasterization."""
+    """Render declarative 3D scenes by ray casting, Whitted ray tracing, path tracing or rasterization."""
     if version:
         from . import __version__
 
@@ -161,8 +162,8 @@ def render(
         str | None,
         typer.Argument(
             metavar="SCENE",
-            help="Scene file (.toml/.json), glTF scene (.gltf .glb: its camera and lights), mesh file (.obj .ply "
-            ".stl .off: framed and lit automatically) or built-in name; default: seed",
+            help="Scene file (.toml/.json), pbrt-v4 scene (.pbrt), glTF scene (.gltf .glb: its camera and lights), "
+            "mesh file (.obj .ply .stl .off: framed and lit automatically) or built-in name; default: seed",
         ),
     ] = None,
     output: Annotated[
@@ -620,7 +621,9 @@ def scenes() -> None:
 def view(
     scene: Annotated[
         str | None,
-        typer.Argument(metavar="SCENE", help="Scene file (.toml/.json), mesh file or built-in name; default: seed"),
+        typer.Argument(
+            metavar="SCENE", help="Scene file (.toml/.json/.pbrt), mesh file or built-in name; default: seed"
+        ),
     ] = None,
     mode: Annotated[
         str | None, typer.Option("--mode", metavar="MODE", help="cast | trace | path | raster (switchable on the page)")

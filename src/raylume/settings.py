@@ -76,21 +76,26 @@ def resolve_settings(
 
 def has_media(scene: Scene) -> bool:
     """Does the scene hold participating media ([media.*], an object's `interior`, [render]
-    `medium`)? (Read with getattr: the keys come with the media issue's model.)"""
+    `medium`) or null boundaries (a `null` material: path mode steps through them, no vertex)?"""
+    materials = getattr(scene, "materials", None) or {}
     return bool(
         getattr(scene, "media", None)
         or getattr(scene.render, "medium", None)
         or any(getattr(obj, "interior", None) for obj in scene.objects)
+        or any(getattr(m, "type", None) == "null" for m in materials.values())
+        or any(getattr(getattr(obj, "material", None), "type", None) == "null" for obj in scene.objects)
     )
 
 
 def check_integrator(scene: Scene, table: RenderSettings, source: str) -> None:
-    """Bidirectional path tracing does not render participating media yet: refuse such a scene
-    (a SceneError: exit 2) rather than render it without them."""
+    """Bidirectional path tracing does not render participating media (nor the null boundaries that
+    path mode steps through) yet: refuse such a scene (a SceneError: exit 2) rather than render it
+    without them."""
     if table.mode == "path" and table.integrator == "bdpt" and has_media(scene):
         raise SceneError(
-            f'{source}: integrator "bdpt" does not render participating media yet (the scene has [media], an '
-            f'object\'s interior or [render] medium); render it with integrator = "path"'
+            f'{source}: integrator "bdpt" does not render participating media or null boundaries yet (the scene '
+            f'has [media], an object\'s interior, [render] medium or a "null" material); render it with '
+            f'integrator = "path"'
         )
 
 

@@ -36,6 +36,8 @@ PIXEL_FILTERS = ("box", "gaussian", "mitchell")
 
 
 class Strict(BaseModel):
+    # The docstring under each field describes it: tools/docs_reference.py reads them from this file into the
+    # documentation's scene reference (not pydantic's use_attribute_docstrings: it costs ~0.08 s at import).
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False, frozen=True)
 
 
@@ -94,29 +96,57 @@ def _nonzero(v: Vec3, what: str) -> Vec3:
 
 class RenderSettings(Strict):
     width: int = Field(600, ge=1, le=MAX_SIDE)
+    """Image width in pixels."""
     height: int = Field(600, ge=1, le=MAX_SIDE)
+    """Image height in pixels."""
     spp: int = Field(1, ge=1, le=MAX_SPP)
+    """Samples per pixel; 1 traces the pixel centre, more are stratified over the pixel and combined by `filter`."""
     # Bounces (trace) or path segments (path, as Mitsuba counts them: 1 shows only emitters
     # seen directly, 2 is direct lighting, -1 unlimited with Russian roulette). Unset: 3 in
     # trace mode, -1 in path mode (`depth` is the value in force).
     max_depth: int | None = Field(None, ge=-1, le=MAX_DEPTH)
+    """Trace mode: reflection and refraction bounces (unset: 3). Path mode: path segments as Mitsuba counts them, 1 =
+    emitters seen directly, 2 = direct light, -1 = unlimited with Russian roulette from 5 segments (unset: -1)."""
     mode: Literal["cast", "trace", "path", "raster"] = "trace"
+    """`cast`: the hit material's colour, no lighting; `trace`: Whitted ray tracing with shadows, reflection,
+    refraction and area lights; `path`: unbiased path tracing in radiometric units; `raster`: a z-buffer rasterizer
+    with local lighting."""
     # Path mode's integrator: "path" (path tracing) or "bdpt" (bidirectional path tracing).
     integrator: Literal["path", "bdpt"] = "path"
+    """Path mode's integrator: `path` (path tracing) or `bdpt` (bidirectional path tracing: camera and light subpaths
+    connected by every strategy, weighted by MIS; for caustics and light through mirrors and glass). Both converge to
+    the same image."""
     background: Color = (0.0, 0.0, 0.0)
+    """Colour of rays that hit nothing, `[r, g, b]` or `"#rrggbb"` (an `[environment]` replaces it)."""
     encoding: Literal["clamp", "srgb"] = "clamp"
+    """How linear colour becomes 8-bit: `clamp` (the seed's: clamp to 0..1, times 255) or `srgb` (the sRGB transfer
+    curve)."""
     seed: int = Field(0, ge=0, le=2**32 - 1)
+    """Random seed of the samples: the image depends only on the scene, the seed and spp, not on threads or machines."""
     # Pixel reconstruction filter for spp > 1 (box: the pixel itself; gaussian: radius 1.5 px,
     # sigma 0.5; mitchell: B = C = 1/3, radius 2 px). One sample per pixel is always the centre.
     filter: Literal["box", "gaussian", "mitchell"] = "box"
+    """Pixel reconstruction filter for spp > 1: `box` (the pixel), `gaussian` (radius 1.5 px, sigma 0.5), `mitchell` (B
+    = C = 1/3, radius 2 px)."""
     # Exposure in stops: 8-bit outputs (PNG) are encoded from rgb * 2**exposure; float outputs
     # (.exr, .hdr, .npy) stay as rendered.
     exposure: FiniteFloat = Field(0.0, ge=-64, le=64)
+    """Exposure in stops for 8-bit outputs (PNG, JPEG), encoded from rgb x 2**exposure; float outputs stay as
+    rendered."""
     # Filter texture lookups over each pixel's footprint (ray cones; mip-maps for images), so
     # that far checkers and fine images do not alias. false: point lookups.
     texture_filter: bool = True
+    """Filter texture lookups over each pixel's footprint (ray cones, mip-maps) so that far checkers and fine images do
+    not alias; false: point lookups."""
     # Path mode: run Intel Open Image Denoise on the image (with the albedo and normal AOVs).
     denoise: bool = False
+    """Path mode: run Intel Open Image Denoise on the image, guided by the albedo and normal AOVs (needs `pip install
+    'raylume[denoise]'`)."""
+    # The participating medium filling the space outside every object, a name in [media]
+    # (fog); the camera sits in it. Path mode renders media; the others ignore them.
+    medium: str | None = None
+    """Path mode: the medium, a name in `[media]`, filling the space outside every object (fog); the camera sits
+    in it."""
 
     @model_validator(mode="after")
     def _depth(self):
@@ -143,13 +173,19 @@ class RenderSettings(Strict):
 
 class Camera(Strict):
     position: Vec3 = (0.0, 0.0, 0.0)
+    """Where the camera is (the eye)."""
     look_at: Vec3 = (0.0, 0.0, 1.0)
+    """The point the camera looks at, the centre of the image."""
     up: Vec3 = (0.0, 1.0, 0.0)
+    """Which way is up; must not be parallel to the viewing direction."""
     fov: FiniteFloat = Field(53.13, gt=0, lt=180)
+    """Vertical field of view in degrees (53.13: the seed's 1 x 1 viewport at distance 1)."""
     # Thin lens: the lens diameter (0: a pinhole camera, rays from one point) and the distance, along
     # the viewing direction, of the plane in focus (default: the distance to look_at).
     aperture: FiniteFloat = Field(0.0, ge=0)
+    """Lens diameter of a thin-lens camera; 0 is a pinhole, > 0 gives depth of field."""
     focus_distance: FiniteFloat | None = Field(None, gt=0)
+    """Distance of the plane in focus along the viewing direction (unset: the distance to look_at)."""
 
     @property
     def focus(self) -> float:
@@ -187,8 +223,11 @@ class Checker(Strict):
     """A 3D checkerboard in world space: cells of side `scale` alternate between two colours."""
 
     type: Literal["checker"]
+    """`"checker"`: a 3D checkerboard in world space."""
     colors: tuple[Color, Color] = ((1.0, 1.0, 1.0), (0.1, 0.1, 0.1))
+    """The two colours of the cells, each `[r, g, b]` in 0..1 or `"#rrggbb"`."""
     scale: FiniteFloat = Field(1.0, gt=0)
+    """Side of one cell, in scene units."""
 
     @field_validator("colors", mode="before")
     @classmethod
@@ -204,8 +243,11 @@ class ImageTexture(Strict):
     replaces the material's colour; texels are sRGB-decoded to linear RGB."""
 
     type: Literal["image"]
+    """`"image"`: a PNG or JPEG mapped by the surface's UVs, repeating; sRGB-decoded."""
     file: str
+    """The image file, relative to the scene file."""
     scale: tuple[FiniteFloat, FiniteFloat] = (1.0, 1.0)
+    """Multiplies the UVs: a number or `[u, v]` (2 = the image twice across)."""
 
     @field_validator("scale", mode="before")
     @classmethod
@@ -236,8 +278,11 @@ class _MaterialBase(Strict):
     optional texture replacing the colour."""
 
     color: Color = (1.0, 1.0, 1.0)
+    """Reflectance (the transmittance tint for dielectrics), `[r, g, b]` in 0..1 or `"#rrggbb"`."""
     emission: Color = (0.0, 0.0, 0.0)  # emitted radiance
+    """Emitted radiance `[r, g, b]`: makes the surface a light in path mode (its own colour added in trace mode)."""
     texture: Texture | None = None
+    """A texture replacing `color`: `{ type = "checker", ... }` or `{ type = "image", file = ... }`."""
 
     @field_validator("color", mode="before")
     @classmethod
@@ -267,11 +312,17 @@ class PhongMaterial(_MaterialBase):
     `reflective`, `transparency` with an index `ior` and Beer-Lambert `absorption` inside."""
 
     type: Literal["phong"] = "phong"
+    """`"phong"`: the seed's model, the default when `type` is left out."""
     specular: FiniteFloat | None = Field(None, gt=0)
+    """Phong exponent of the highlight; left out: a matte surface."""
     reflective: FiniteFloat = Field(0.0, ge=0, le=1)
+    """Mirror reflectivity, 0..1 (reflective + transparency <= 1)."""
     transparency: FiniteFloat = Field(0.0, ge=0, le=1)
+    """Share of light refracted through the surface, 0..1."""
     ior: FiniteFloat = Field(1.5, gt=0)
+    """Index of refraction inside the surface."""
     absorption: Color = (0.0, 0.0, 0.0)
+    """Beer-Lambert absorption coefficient per unit length inside, `[r, g, b]`."""
 
     @field_validator("absorption", mode="before")
     @classmethod
@@ -289,6 +340,7 @@ class DiffuseMaterial(_MaterialBase):
     """Lambertian reflection of reflectance `color`."""
 
     type: Literal["diffuse"]
+    """`"diffuse"`: Lambertian reflection of reflectance `color`."""
 
 
 class ConductorMaterial(_MaterialBase):
@@ -296,9 +348,13 @@ class ConductorMaterial(_MaterialBase):
     RGB; neither: a perfect mirror times color), GGX `roughness` (alpha; 0 is smooth)."""
 
     type: Literal["conductor"]
+    """`"conductor"`: a metal, `color` times the Fresnel reflectance of `eta` + i `k`."""
     roughness: FiniteFloat = Field(0.0, ge=0, le=1)  # GGX alpha, as Mitsuba's rough plugins
+    """GGX alpha, as Mitsuba's rough plugins take it; 0 is a perfect mirror."""
     eta: Color | None = None
+    """Real part of the complex index of refraction, per RGB (give `k` too; neither: a perfect mirror times `color`)."""
     k: Color | None = None
+    """Imaginary part (extinction) of the complex index of refraction, per RGB."""
 
     @field_validator("eta", "k", mode="before")
     @classmethod
@@ -317,9 +373,13 @@ class DielectricMaterial(_MaterialBase):
     inside, GGX `roughness`."""
 
     type: Literal["dielectric"]
+    """`"dielectric"`: glass, with Fresnel reflection and total internal reflection."""
     ior: FiniteFloat = Field(1.5, gt=0)
+    """Index of refraction inside."""
     roughness: FiniteFloat = Field(0.0, ge=0, le=1)
+    """GGX alpha; 0 is smooth glass."""
     absorption: Color = (0.0, 0.0, 0.0)
+    """Beer-Lambert absorption coefficient per unit length inside, `[r, g, b]`."""
 
     @field_validator("absorption", mode="before")
     @classmethod
@@ -331,8 +391,11 @@ class PlasticMaterial(_MaterialBase):
     """Diffuse reflectance `color` under a dielectric coating of index `ior`, GGX `roughness`."""
 
     type: Literal["plastic"]
+    """`"plastic"`: diffuse `color` under a dielectric coating (Mitsuba's plastic)."""
     ior: FiniteFloat = Field(1.5, gt=0)
+    """Index of refraction of the coating."""
     roughness: FiniteFloat = Field(0.0, ge=0, le=1)
+    """GGX alpha of the coating; 0 is smooth."""
 
 
 class NullMaterial(Strict):
@@ -340,6 +403,7 @@ class NullMaterial(Strict):
     is white where a mode shows the boundary alone (cast, raster)."""
 
     type: Literal["null"]
+    """`"null"`: an index-matched boundary that neither bends nor reflects light; no other key."""
     color: ClassVar[tuple[float, float, float]] = (1.0, 1.0, 1.0)
     emission: ClassVar[tuple[float, float, float]] = (0.0, 0.0, 0.0)
     texture: ClassVar[None] = None
@@ -413,6 +477,8 @@ MaterialRef = Annotated[
 
 class _LightBase(Strict):
     intensity: Color = (1.0, 1.0, 1.0)
+    """A number or `[r, g, b]`, may exceed 1. Trace mode: the seed's intensity; path mode: radiometric (see the light's
+    type)."""
 
     @field_validator("intensity", mode="before")
     @classmethod
@@ -422,17 +488,23 @@ class _LightBase(Strict):
 
 class AmbientLight(_LightBase):
     type: Literal["ambient"]
+    """`"ambient"`: light from everywhere, no shadows (path mode: a uniform environment of radiance `intensity`)."""
     intensity: Color = (0.2, 0.2, 0.2)
+    """A number or `[r, g, b]`; in path mode the environment's radiance."""
 
 
 class PointLight(_LightBase):
     type: Literal["point"]
+    """`"point"`: light from one point (path mode: radiant intensity in W/sr, falling off as 1/r^2)."""
     position: Vec3
+    """Where the light is."""
 
 
 class DirectionalLight(_LightBase):
     type: Literal["directional"]
+    """`"directional"`: light from infinitely far away (path mode: irradiance on a surface facing it)."""
     direction: Vec3  # pointing towards the light
+    """Pointing towards the light."""
 
     @field_validator("direction")
     @classmethod
@@ -445,10 +517,15 @@ class QuadLight(_LightBase):
     position +- u/2 +- v/2), sampled with `samples` shadow rays per shading point."""
 
     type: Literal["quad"]
+    """`"quad"`: a rectangular area light, soft shadows (path mode: an emitting surface of radiance `intensity`)."""
     position: Vec3
+    """Centre of the rectangle."""
     u: Vec3
+    """First edge vector: the light spans position +- u/2 +- v/2."""
     v: Vec3
+    """Second edge vector."""
     samples: int = Field(16, ge=1, le=MAX_LIGHT_SAMPLES)
+    """Trace mode: shadow rays per shading point."""
 
     @model_validator(mode="after")
     def _edges(self):
@@ -464,10 +541,15 @@ class SpotLight(_LightBase):
     at full intensity inside `inner_angle` and falling smoothly to 0 at `angle`."""
 
     type: Literal["spot"]
+    """`"spot"`: a point light in a cone (every mode)."""
     position: Vec3
+    """Where the light is."""
     direction: Vec3  # the way it shines
+    """The way it shines."""
     angle: FiniteFloat = Field(30.0, gt=0, le=180)
+    """Outer half-angle of the cone, degrees."""
     inner_angle: FiniteFloat | None = Field(None, ge=0, le=180)
+    """Full intensity inside this half-angle, falling smoothly to 0 at `angle` (unset: 3/4 of angle)."""
 
     @field_validator("direction")
     @classmethod
@@ -491,9 +573,13 @@ class SphereLight(_LightBase):
     point (over its disk facing the point)."""
 
     type: Literal["sphere"]
+    """`"sphere"`: a spherical area light (path mode: an emitting surface of radiance `intensity`)."""
     position: Vec3
+    """Centre of the sphere."""
     radius: FiniteFloat = Field(gt=0)
+    """Radius of the sphere."""
     samples: int = Field(16, ge=1, le=MAX_LIGHT_SAMPLES)
+    """Trace mode: shadow rays per shading point, over its disk facing the point."""
 
 
 LIGHT_TYPES = {
@@ -507,18 +593,49 @@ LIGHT_TYPES = {
 Light = tagged_union(LIGHT_TYPES)
 
 
+# `interior` (every object): the name of the medium inside a closed shape, in [media]; open
+# shapes refuse it.
+MediumRef = Annotated[str | None, Field(None, min_length=1)]
+
+
+def _no_interior(obj, shape: str):
+    """interior needs an inside: refuse it on shapes that have none (DESIGN.md section 7)."""
+    if obj.interior is not None:
+        raise ValueError(
+            f"interior: a {shape} is open, it has no inside to fill; a medium needs a closed shape "
+            "(a sphere, a capped cylinder or a closed mesh)"
+        )
+    return obj
+
+
 class Sphere(Strict):
     type: Literal["sphere"]
+    """`"sphere"`."""
     center: Vec3
+    """Centre of the sphere."""
     radius: FiniteFloat = Field(gt=0)
+    """Radius of the sphere."""
     material: MaterialRef = "default"
+    """A name from `[materials]` or an inline material table (default: matte white phong)."""
+    interior: MediumRef = None
+    """Path mode: the medium inside, a name in `[media]`."""
 
 
 class Plane(Strict):
     type: Literal["plane"]
+    """`"plane"`: an infinite plane."""
     point: Vec3 = (0.0, 0.0, 0.0)
+    """A point on the plane."""
     normal: Vec3 = (0.0, 1.0, 0.0)
+    """The plane's normal (two-sided)."""
     material: MaterialRef = "default"
+    """A name from `[materials]` or an inline material table."""
+    interior: MediumRef = None
+    """Refused: a plane has no inside (the key exists for a clear error)."""
+
+    @model_validator(mode="after")
+    def _open(self):
+        return _no_interior(self, "plane")
 
     @field_validator("normal")
     @classmethod
@@ -528,8 +645,17 @@ class Plane(Strict):
 
 class Triangle(Strict):
     type: Literal["triangle"]
+    """`"triangle"`: one triangle."""
     vertices: tuple[Vec3, Vec3, Vec3]
+    """Three vertices `[[x, y, z], [x, y, z], [x, y, z]]`, not collinear."""
     material: MaterialRef = "default"
+    """A name from `[materials]` or an inline material table."""
+    interior: MediumRef = None
+    """Refused: a triangle has no inside (the key exists for a clear error)."""
+
+    @model_validator(mode="after")
+    def _open(self):
+        return _no_interior(self, "triangle")
 
     @field_validator("vertices")
     @classmethod
@@ -543,10 +669,21 @@ class Triangle(Strict):
         return v
 
 
+Row4 = tuple[FiniteFloat, FiniteFloat, FiniteFloat, FiniteFloat]
+
+
 class Transform(Strict):
     translate: Vec3 = (0.0, 0.0, 0.0)
+    """Moves the shape, applied last."""
     rotate: Vec3 = (0.0, 0.0, 0.0)  # degrees, applied about x, then y, then z
+    """Degrees about x, then y, then z, applied after scale."""
     scale: FiniteFloat | Vec3 = 1.0
+    """A number or `[x, y, z]` (non-zero; a negative factor mirrors), applied first."""
+    # Or a whole 4 x 4 object-to-world matrix, rows, column vectors (p' = M @ [p, 1]), instead of
+    # the three above: what other renderers' files (pbrt, Mitsuba) hold, shears included.
+    matrix: tuple[Row4, Row4, Row4, Row4] | None = None
+    """Instead of translate, rotate and scale: a whole 4 x 4 object-to-world matrix, rows, column vectors (p' = M @ [p,
+    1]); its last row `[0, 0, 0, 1]`."""
 
     @field_validator("scale")
     @classmethod
@@ -555,6 +692,25 @@ class Transform(Strict):
         if any(c == 0 for c in values):
             raise ValueError("scale factors must be non-zero")
         return v
+
+    @model_validator(mode="after")
+    def _matrix_alone(self):
+        if self.matrix is None:
+            return self
+        if self.translate != (0.0, 0.0, 0.0) or self.rotate != (0.0, 0.0, 0.0) or self.scale3 != (1.0, 1.0, 1.0):
+            raise ValueError("matrix replaces translate, rotate and scale: give either the matrix or those")
+        if tuple(self.matrix[3]) != (0.0, 0.0, 0.0, 1.0):
+            raise ValueError(f"matrix's last row must be [0, 0, 0, 1] (affine), got {list(self.matrix[3])}")
+        a = [row[:3] for row in self.matrix[:3]]
+        det = (
+            a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1])
+            - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0])
+            + a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0])
+        )
+        size = math.prod(math.sqrt(sum(c * c for c in row)) for row in a)
+        if not abs(det) > 1e-12 * size:
+            raise ValueError("matrix is singular (it flattens the object)")
+        return self
 
     @property
     def scale3(self) -> tuple[float, float, float]:
@@ -566,7 +722,9 @@ class Fit(Strict):
     `size`, and moved so that the box's centre is `center`."""
 
     center: Vec3 = (0.0, 0.0, 0.0)
+    """Where the centre of the mesh's bounding box goes."""
     size: FiniteFloat = Field(gt=0)
+    """The largest side of the mesh's bounding box after the fit."""
 
 
 class MeshTransform(Transform):
@@ -574,30 +732,58 @@ class MeshTransform(Transform):
     scale and translate (the mesh is rotated, then fitted into the box)."""
 
     fit: Fit | None = None
+    """Instead of scale and translate: rotate the mesh, then scale it uniformly and move it into this box: `{ center,
+    size }`."""
 
     @model_validator(mode="after")
     def _fit_alone(self):
         # fit sets the size and the position: a scale or translate beside it would be ambiguous
-        if self.fit is not None and (self.translate != (0.0, 0.0, 0.0) or self.scale3 != (1.0, 1.0, 1.0)):
+        if self.fit is not None and (
+            self.translate != (0.0, 0.0, 0.0) or self.scale3 != (1.0, 1.0, 1.0) or self.matrix is not None
+        ):
             raise ValueError(
-                "fit sets the mesh's size and position, so it cannot be combined with translate or scale; "
+                "fit sets the mesh's size and position, so it cannot be combined with translate, scale or matrix; "
                 "keep rotate and fit, or drop fit"
             )
         return self
 
 
+Index3 = tuple[Annotated[int, Field(ge=0)], Annotated[int, Field(ge=0)], Annotated[int, Field(ge=0)]]
+
+
 class Mesh(Strict):
     type: Literal["mesh"]
-    file: str
+    """`"mesh"`: a triangle mesh from a file (OBJ, PLY, STL, OFF, glTF/GLB through trimesh)."""
+    # The triangles: a mesh file (relative to the scene file), or inline `vertices` with
+    # `faces` (three vertex indices each, from 0; cross(v1 - v0, v2 - v0) is the front) and
+    # optional per-vertex `normals` and `uvs`, as other renderers' files carry meshes.
+    file: str | None = None
+    """The mesh file, relative to the scene file (or inline `vertices` and `faces` instead)."""
+    vertices: list[Vec3] | None = None
+    """Inline triangles instead of `file`: the vertex positions."""
+    faces: list[Index3] | None = None
+    """With `vertices`: three vertex indices per triangle, from 0; cross(v1 - v0, v2 - v0) is the front."""
+    normals: list[Vec3] | None = None
+    """With `vertices`: a normal per vertex (smooth shading)."""
+    uvs: list[tuple[FiniteFloat, FiniteFloat]] | None = None
+    """With `vertices`: texture coordinates `[u, v]` per vertex."""
     material: MaterialRef = "default"
+    """A name from `[materials]` or an inline material table."""
     transform: MeshTransform = MeshTransform()
+    """Scale, rotate and translate (or `fit`), applied to the mesh."""
     smooth: bool | None = None  # None: use the file's vertex normals when it has them
+    """Interpolate vertex normals (unset: when the file has them)."""
     # "right": the file is right-handed (most OBJ and glTF): mirror x before the transform
     handedness: Literal["left", "right"] = "left"
+    """`"right"`: the file is right-handed (most OBJ and glTF files), mirrored across x before the transform."""
     # Copies of the mesh, each placed by a matrix after `transform` (column vectors, p' = M @ [p, 1]):
     # a .npy file of shape (N, 4, 4) or (N, 3, 4), relative to the scene file, or inline
     # transforms. The mesh and its BVH are stored once (scene/instances.py, compile/instances.py).
     instances: str | list[Transform] | None = None
+    """Copies of the mesh, each placed by a matrix after `transform` (p' = M @ [p, 1]): a `.npy` of (N, 4, 4) or (N, 3,
+    4) matrices relative to the scene file, or a list of transform tables. The mesh and its BVH are stored once."""
+    interior: MediumRef = None  # the mesh must be closed (checked when it is loaded)
+    """Path mode: the medium inside, a name in `[media]` (the mesh must be closed)."""
 
     @field_validator("instances")
     @classmethod
@@ -608,8 +794,39 @@ class Mesh(Strict):
             raise ValueError("instances must name a .npy file of (N, 4, 4) or (N, 3, 4) matrices")
         return v
 
+    @model_validator(mode="after")
+    def _one_source(self):
+        if (self.file is None) == (self.vertices is None):
+            raise ValueError('a mesh has either file = "model.obj" or inline vertices and faces (exactly one)')
+        if self.file is not None:
+            extra = [key for key in ("faces", "normals", "uvs") if getattr(self, key) is not None]
+            if extra:
+                raise ValueError(f"{', '.join(extra)} go with inline vertices, not with a mesh file")
+            return self
+        n = len(self.vertices)
+        if not self.faces:
+            raise ValueError("inline vertices need faces: a list of [i, j, k] vertex indices")
+        top = max(max(face) for face in self.faces)
+        if top >= n:
+            raise ValueError(f"faces index vertex {top}, but there are {n} vertices (indices count from 0)")
+        for key in ("normals", "uvs"):
+            values = getattr(self, key)
+            if values is not None and len(values) != n:
+                raise ValueError(f"{key} has {len(values)} entries; it needs one per vertex ({n})")
+        return self
+
 
 def _similarity(transform: Transform, shape: str) -> Transform:
+    if transform.matrix is not None:
+        cols = [[transform.matrix[r][c] for r in range(3)] for c in range(3)]
+        lengths = [math.sqrt(sum(x * x for x in col)) for col in cols]
+        dots = [abs(sum(a * b for a, b in zip(cols[i], cols[j]))) for i, j in ((0, 1), (0, 2), (1, 2))]
+        if max(lengths) - min(lengths) > 1e-9 * max(lengths) or max(dots) > 1e-9 * max(lengths) ** 2:
+            raise ValueError(
+                f"a {shape}'s transform.matrix must be a similarity (rotation, uniform scale, translation): "
+                "anything else would make it elliptic"
+            )
+        return transform
     s = transform.scale3
     if not (abs(s[0]) == abs(s[1]) == abs(s[2])):
         raise ValueError(
@@ -623,11 +840,23 @@ class Disk(Strict):
     """A flat disk of `radius` around `center`, facing along `normal` (two-sided)."""
 
     type: Literal["disk"]
+    """`"disk"`: a flat, two-sided disk."""
     center: Vec3 = (0.0, 0.0, 0.0)
+    """Centre of the disk."""
     normal: Vec3 = (0.0, 1.0, 0.0)
+    """The way the disk faces."""
     radius: FiniteFloat = Field(gt=0)
+    """Radius of the disk."""
     material: MaterialRef = "default"
+    """A name from `[materials]` or an inline material table."""
     transform: Transform = Transform()
+    """Scale (uniform only), rotate and translate."""
+    interior: MediumRef = None
+    """Refused: a disk has no inside (the key exists for a clear error)."""
+
+    @model_validator(mode="after")
+    def _open(self):
+        return _no_interior(self, "disk")
 
     @field_validator("normal")
     @classmethod
@@ -645,11 +874,19 @@ class Quad(Strict):
     position +- u/2 +- v/2, like the quad light (two-sided)."""
 
     type: Literal["quad"]
+    """`"quad"`: a parallelogram, two-sided."""
     position: Vec3 = (0.0, 0.0, 0.0)
+    """Its centre: it spans position +- u/2 +- v/2."""
     u: Vec3
+    """First edge vector."""
     v: Vec3
+    """Second edge vector, not parallel to u."""
     material: MaterialRef = "default"
+    """A name from `[materials]` or an inline material table."""
     transform: Transform = Transform()
+    """Scale, rotate and translate."""
+    interior: MediumRef = None
+    """Refused: a quad has no inside (the key exists for a clear error)."""
 
     @model_validator(mode="after")
     def _edges(self):
@@ -662,7 +899,7 @@ class Quad(Strict):
             or not any(v)
         ):
             raise ValueError("u and v must be non-zero and not parallel (the quad would have no area)")
-        return self
+        return _no_interior(self, "quad")
 
 
 class Cylinder(Strict):
@@ -670,17 +907,28 @@ class Cylinder(Strict):
     ends with disks, otherwise it is an open tube."""
 
     type: Literal["cylinder"]
+    """`"cylinder"`."""
     p0: Vec3
+    """Centre of one end."""
     p1: Vec3
+    """Centre of the other end."""
     radius: FiniteFloat = Field(gt=0)
+    """Radius of the cylinder."""
     capped: bool = True
+    """true: both ends closed with disks; false: an open tube."""
     material: MaterialRef = "default"
+    """A name from `[materials]` or an inline material table."""
     transform: Transform = Transform()
+    """Scale (uniform only), rotate and translate."""
+    interior: MediumRef = None
+    """Path mode: the medium inside a capped cylinder, a name in `[media]`."""
 
     @model_validator(mode="after")
     def _axis(self):
         if self.p0 == self.p1:
             raise ValueError("p0 and p1 must differ (the cylinder would have no length)")
+        if not self.capped:
+            _no_interior(self, "cylinder without caps (capped = false)")
         return self
 
     @field_validator("transform")
@@ -695,8 +943,11 @@ class Gltf(Strict):
     are not imported into a scene that places it (`raylume render file.glb` uses them)."""
 
     type: Literal["gltf"]
+    """`"gltf"`: the meshes and materials of a glTF 2.0 file (its cameras and lights are not imported)."""
     file: str
+    """The `.gltf` or `.glb` file, relative to the scene file."""
     transform: Transform = Transform()
+    """Applied after the file's own node transforms and the right- to left-handed conversion."""
 
     @property
     def material(self) -> str:
@@ -725,9 +976,34 @@ class Environment(Strict):
     as object transforms)."""
 
     color: Color | None = None
+    """Constant radiance `[r, g, b]` from every direction (give `color` or `file`)."""
     file: str | None = None
+    """An equirectangular `.hdr` or `.exr` image, relative to the scene file; importance-sampled in path mode."""
     intensity: FiniteFloat = Field(1.0, ge=0)
+    """Scales the environment."""
     rotate: Vec3 = (0.0, 0.0, 0.0)
+    """Degrees about x, then y, then z, as object transforms."""
+    # Or the world-from-environment matrix itself (3 x 3 rows, orthogonal: a rotation, or one
+    # with a mirror), as other renderers' files give it.
+    matrix: tuple[Vec3, Vec3, Vec3] | None = None
+    """Instead of `rotate`: the world-from-environment matrix, 3 x 3 rows, orthogonal (a rotation, possibly with a
+    mirror)."""
+    # How the file covers the sphere: "equirectangular", or pbrt-v4's square "equal-area"
+    # octahedral map (converted to equirectangular when the scene is compiled).
+    mapping: Literal["equirectangular", "equal-area"] = "equirectangular"
+    """How the image covers the sphere: `equirectangular`, or pbrt-v4's square `equal-area` octahedral map."""
+
+    @field_validator("matrix")
+    @classmethod
+    def _orthogonal(cls, v):
+        if v is None:
+            return v
+        for i in range(3):
+            for j in range(3):
+                dot = sum(v[k][i] * v[k][j] for k in range(3))
+                if abs(dot - (1.0 if i == j else 0.0)) > 1e-6:
+                    raise ValueError("matrix must be orthogonal (a rotation, possibly with a mirror)")
+        return v
 
     @field_validator("color", mode="before")
     @classmethod
@@ -738,7 +1014,69 @@ class Environment(Strict):
     def _one_source(self):
         if (self.color is None) == (self.file is None):
             raise ValueError('give exactly one of color = [r, g, b] and file = "sky.hdr"')
+        if self.matrix is not None and self.rotate != (0.0, 0.0, 0.0):
+            raise ValueError("matrix replaces rotate: give one of them")
+        if self.mapping != "equirectangular" and self.file is None:
+            raise ValueError("mapping applies to an image file")
         return self
+
+
+def _coefficients(value):
+    """A medium's coefficient: a number (grey) or [r, g, b], per scene unit of length, >= 0."""
+    return _intensity(value)
+
+
+class _MediumBase(Strict):
+    # absorption and scattering coefficients per scene unit of length (RGB), and the
+    # Henyey-Greenstein asymmetry g (-1 back, 0 isotropic, 1 forward; the ends excluded)
+    sigma_a: Color = (0.0, 0.0, 0.0)
+    """Absorption coefficient per scene unit of length, a number or `[r, g, b]`."""
+    sigma_s: Color = (0.0, 0.0, 0.0)
+    """Scattering coefficient per scene unit of length, a number or `[r, g, b]`."""
+    g: FiniteFloat = Field(0.0, gt=-1, lt=1)
+    """Henyey-Greenstein asymmetry: -1 back, 0 isotropic, 1 forward (the ends excluded)."""
+
+    @field_validator("sigma_a", "sigma_s", mode="before")
+    @classmethod
+    def _coefficient(cls, v):
+        return _coefficients(v)
+
+
+class HomogeneousMedium(_MediumBase):
+    """A medium of the same density everywhere (fog, milk, smoke of even density)."""
+
+    type: Literal["homogeneous"]
+    """`"homogeneous"`: the same density everywhere (fog, milk)."""
+
+
+class GridMedium(_MediumBase):
+    """A medium whose density varies: `density` a .npy float array (nz, ny, nx) >= 0 filling the
+    box bounds_min..bounds_max (voxel (k, j, i) its cell at z index k, y index j, x index i),
+    interpolated trilinearly between the cells' centres; sigma_a and sigma_s are scaled by it.
+    Outside the box the density is 0."""
+
+    type: Literal["grid"]
+    """`"grid"`: a density that varies, from a voxel grid."""
+    density: str = Field(min_length=1)
+    """A `.npy` float array of shape (nz, ny, nx), >= 0, relative to the scene file; scales sigma_a and sigma_s,
+    trilinearly interpolated."""
+    bounds_min: Vec3
+    """The world box's lower corner that the grid fills."""
+    bounds_max: Vec3
+    """The world box's upper corner."""
+
+    @model_validator(mode="after")
+    def _box(self):
+        if any(hi <= lo for lo, hi in zip(self.bounds_min, self.bounds_max)):
+            raise ValueError(
+                f"bounds_max must exceed bounds_min on every axis, got {list(self.bounds_min)} .. "
+                f"{list(self.bounds_max)}"
+            )
+        return self
+
+
+MEDIUM_TYPES = {"homogeneous": HomogeneousMedium, "grid": GridMedium}
+Medium = tagged_union(MEDIUM_TYPES)
 
 
 MAX_FRAMES = 1_000_000
@@ -750,10 +1088,15 @@ class CameraKey(Strict):
     them, or taken from [camera])."""
 
     frame: int = Field(ge=0, lt=MAX_FRAMES)
+    """The frame this keyframe holds at, from 0."""
     position: Vec3 | None = None
+    """The camera's position at this frame."""
     look_at: Vec3 | None = None
+    """The camera's look_at at this frame."""
     up: Vec3 | None = None
+    """The camera's up at this frame."""
     fov: FiniteFloat | None = Field(None, gt=0, lt=180)
+    """The camera's vertical field of view at this frame, degrees."""
 
 
 class Animation(Strict):
@@ -761,9 +1104,13 @@ class Animation(Strict):
     of `[[animation.camera]]` (raylume/animation.py)."""
 
     frames: int = Field(ge=1, le=MAX_FRAMES)
+    """Number of frames."""
     fps: FiniteFloat = Field(24.0, gt=0, le=1000)
+    """Frames per second of a video."""
     interpolation: Literal["linear", "catmull-rom"] = "catmull-rom"
+    """`catmull-rom` (smooth through every keyframe) or `linear`."""
     camera: list[CameraKey] = []
+    """Camera keyframes, `[[animation.camera]]` tables."""
 
     @model_validator(mode="after")
     def _keyframes(self):
@@ -783,12 +1130,21 @@ class Animation(Strict):
 
 class Scene(Strict):
     render: RenderSettings = RenderSettings()
+    """How to render: size, samples, mode, encoding."""
     camera: Camera = Camera()
+    """The camera."""
     materials: dict[str, Material] = {}
+    """Named materials, `[materials.NAME]`, that objects refer to by name."""
     lights: list[Light] = []
+    """The lights, `[[lights]]` tables."""
     objects: list[SceneObject] = []
+    """The objects, `[[objects]]` tables."""
     environment: Environment | None = None
+    """Light from every direction for rays that hit nothing; replaces `background`."""
     animation: Animation | None = None
+    """A camera flight: frames and keyframes."""
+    media: dict[str, Medium] = {}
+    """Named participating media, `[media.NAME]`, for objects' `interior` and `[render] medium`."""
 
     # Folder that relative paths (mesh files) are resolved against; set by the loader.
     _base_dir: Path = PrivateAttr(default_factory=Path.cwd)
@@ -800,6 +1156,13 @@ class Scene(Strict):
             if isinstance(ref, str) and ref != "default" and ref not in self.materials:
                 known = ", ".join(sorted(self.materials)) or "none are defined"
                 raise ValueError(f"objects[{k}].material: no material named {ref!r} in [materials] ({known})")
+        known_media = ", ".join(sorted(self.media)) or "none are defined"
+        for k, obj in enumerate(self.objects):
+            name = getattr(obj, "interior", None)
+            if name is not None and name not in self.media:
+                raise ValueError(f"objects[{k}].interior: no medium named {name!r} in [media] ({known_media})")
+        if self.render.medium is not None and self.render.medium not in self.media:
+            raise ValueError(f"render.medium: no medium named {self.render.medium!r} in [media] ({known_media})")
         return self
 
     @property

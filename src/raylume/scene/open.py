@@ -30,7 +30,7 @@ def open_scene(
     * a Scene: itself (`overrides` do not apply to it);
     * None: the built-in `seed` scene;
     * a path or a name: a glTF file (its camera, or the one `camera` names), a mesh file
-      (framed and lit for a width x height image), a scene file (.toml, .json), or else a
+      (framed and lit for a width x height image), a scene file (.toml, .json, .pbrt), or else a
       built-in scene's name.
 
     `overrides` are `--set` style KEY=VALUE strings. A name that is none of these is a
@@ -52,6 +52,6 @@ def open_scene(
     if name in builtin_names():
         return builtin_scene(name, overrides=overrides), f"built-in scene {name!r}"
     raise SceneError(
-        f"{name}: not a scene file (.toml or .json), a mesh file ({', '.join(MESH_SUFFIXES)}) nor a built-in "
+        f"{name}: not a scene file (.toml, .json or .pbrt), a mesh file ({', '.join(MESH_SUFFIXES)}) nor a built-in "
         f"scene; built-ins: {', '.join(builtin_names())}"
     )
