@@ -313,20 +313,25 @@ def test_cli_integrator_flag_and_strategy_stats(tmp_path):
     )
 
 
-def test_media_are_refused_with_bdpt():
-    """A scene with participating media is refused (SceneError: exit 2 on the command line)
-    rather than rendered without them, until bdpt renders media."""
-    from types import SimpleNamespace
+def test_media_are_refused_with_bdpt(tmp_path):
+    """A scene with participating media (examples/fog.toml, smoke.toml, translucent.toml) or a
+    null boundary is refused (exit 2) rather than rendered without them, until bdpt renders
+    media; path mode's integrator renders them."""
+    from test_cli import assert_refused
+    from test_cli import raylume as run_cli
 
     from raylume.errors import SceneError
-    from raylume.scene.model import RenderSettings
-    from raylume.settings import check_integrator
 
-    table = RenderSettings(mode="path", integrator="bdpt")
-    fog = SimpleNamespace(media={"fog": {}}, render=table, objects=[])
-    with pytest.raises(SceneError, match="participating media"):
-        check_integrator(fog, table, "scene.toml")
-    check_integrator(fog, RenderSettings(mode="path"), "scene.toml")  # path mode's integrator: allowed
+    for name in ("fog", "smoke", "translucent"):
+        with pytest.raises(SceneError, match="participating media"):
+            raylume.render(REPO / "examples" / f"{name}.toml", integrator="bdpt", width=8, height=8, spp=1)
+    boundary = _scene([{**SPHERE, "material": {"type": "null"}}], [{"type": "point", "position": [0, 2, 0]}])
+    with pytest.raises(SceneError, match="null"):
+        raylume.render(boundary, integrator="bdpt")
+    refused = run_cli("render", REPO / "examples" / "fog.toml", "-o", tmp_path / "fog.png", "--integrator", "bdpt",
+                      cwd=tmp_path)  # fmt: skip
+    assert_refused(refused, "bdpt", "media")
+    assert not (tmp_path / "fog.png").exists()
 
 
 def test_denoise_works_with_bdpt():
