@@ -176,28 +176,28 @@ def _seed_means(render, seeds) -> np.ndarray:
     return np.stack([render(seed).astype(np.float64).mean(axis=(0, 1)) for seed in seeds])
 
 
-def _z(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Welch's z of the difference of the means of two sets of per-seed means (per channel)."""
-    se = np.sqrt(a.var(axis=0, ddof=1) / len(a) + b.var(axis=0, ddof=1) / len(b))
-    return (a.mean(axis=0) - b.mean(axis=0)) / np.maximum(se, 1e-12)
-
-
-# Student's t limit for a few seeds: |z| < 6.0 is a false alarm below 1e-3 a channel at 5+
-# degrees of freedom (t.isf(5e-4, 5) = 6.87; the Welch degrees of freedom here are ~5-10)
-T_LIMIT = 6.9
+def _z(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Welch's z of the difference of the means of two sets of per-seed means (per channel), and
+    its Welch-Satterthwaite degrees of freedom."""
+    va, vb = a.var(axis=0, ddof=1) / len(a), b.var(axis=0, ddof=1) / len(b)
+    z = (a.mean(axis=0) - b.mean(axis=0)) / np.sqrt(np.maximum(va + vb, 1e-30))
+    dof = (va + vb) ** 2 / np.maximum(va**2 / (len(a) - 1) + vb**2 / (len(b) - 1), 1e-60)
+    return z, dof
 
 
 def test_each_strategy_alone_converges_to_the_paths_of_its_length(monkeypatch):
     """pbrt's test of BDPT: each strategy (s, t) alone, unweighted, estimates every path of s + t
     - 1 segments (where it can make them: the Cornell box has no delta surface or light), which
-    is path mode's image at max_depth k less its image at k - 1; and the MIS-weighted shares of
-    all strategies sum to the bdpt image, which converges to path mode's."""
+    is path mode's image at max_depth k less its image at k - 1 (10 seeds each, Welch's z against
+    Student's t); and the MIS-weighted shares of all strategies sum to the bdpt image."""
+    from scipy.stats import t as t_dist
+
     scene = raylume.load_scene(REPO / "examples" / "cornell.toml")
     session = raylume.Session(scene)
     size = {"width": 16, "height": 16, "aovs": False}
 
     def path(depth):
-        return _seed_means(lambda s: session.render(spp=256, max_depth=depth, seed=100 + s, **size).rgb, range(6))
+        return _seed_means(lambda s: session.render(spp=256, max_depth=depth, seed=100 + s, **size).rgb, range(10))
 
     lengths = {1: path(1), 2: path(2), 3: path(3)}
     for k in (2, 3):
@@ -208,10 +208,12 @@ def test_each_strategy_alone_converges_to_the_paths_of_its_length(monkeypatch):
                 continue
             monkeypatch.setenv("RAYLUME_BDPT_STRATEGY", f"{s},{t},nomis")
             alone = _seed_means(
-                lambda seed: session.render(spp=32, max_depth=3, seed=seed, integrator="bdpt", **size).rgb, range(6)
+                lambda seed: session.render(spp=32, max_depth=3, seed=seed, integrator="bdpt", **size).rgb, range(10)
             )
-            z = _z(alone, exact)
-            assert np.all(np.abs(z) < T_LIMIT), (s, t, alone.mean(axis=0), exact.mean(axis=0), z)
+            z, dof = _z(alone, exact)
+            # Bonferroni over the 7 strategies' 3 channels, family-wise false alarms 1e-3
+            limit = t_dist.isf(1e-3 / 21 / 2, dof)
+            assert np.all(np.abs(z) < limit), (s, t, alone.mean(axis=0), exact.mean(axis=0), z, limit)
     monkeypatch.delenv("RAYLUME_BDPT_STRATEGY")
     whole = session.render(spp=16, max_depth=3, integrator="bdpt", **size).rgb.astype(np.float64)
     shares = np.zeros_like(whole)
