@@ -1,5 +1,7 @@
-"""Read a scene file into the validated model: TOML or JSON (scene/document.py), or a glTF or mesh
-file as a scene by itself (scene/gltf_scene.py, scene/autoframe.py)."""
+"""Read a scene file into the validated model: TOML or JSON (scene/document.py), a Mitsuba 3 XML
+scene (scene/mitsuba_scene.py), or a glTF or mesh file as a scene by itself (scene/gltf_scene.py,
+scene/autoframe.py). Other renderers' scenes become a scene document first, so validation and
+`--set` overrides are the same for every kind of file."""
 
 from __future__ import annotations
 
@@ -13,28 +15,52 @@ from .mesh import SUPPORTED_EXTENSIONS
 from .model import Scene
 from .overrides import Overrides, apply_overrides
 
-__all__ = ["SCENE_SUFFIXES", "load_scene", "parse_document", "scene_from_dict"]
+__all__ = ["FOREIGN_SUFFIXES", "SCENE_SUFFIXES", "load", "load_scene", "parse_document", "scene_from_dict"]
 
 SCENE_SUFFIXES = (".toml", ".json")
+# Other renderers' scene files, read into a scene document by foreign_document
+FOREIGN_SUFFIXES = (".xml",)
 
 
-def load_scene(path: str | Path, overrides: Overrides | None = None, source: str | None = None) -> Scene:
+def foreign_document(path: Path, defines: dict[str, str] | None) -> dict | None:
+    """The scene document of another renderer's scene file, or None for raylume's own."""
+    suffix = path.suffix.lower()
+    if suffix == ".xml":
+        from .mitsuba_scene import mitsuba_document
+
+        return mitsuba_document(path, defines)
+    return None
+
+
+def load_scene(
+    path: str | Path,
+    overrides: Overrides | None = None,
+    source: str | None = None,
+    defines: dict[str, str] | None = None,
+) -> Scene:
     """Load and validate a scene file; relative paths inside it are resolved against its folder.
     A glTF file (.gltf, .glb) is a scene by itself, with its camera and lights
     (scene/gltf_scene.py); so is a mesh file (.obj, .ply, .stl, .off): the mesh framed by the
     camera, lit by a default rig (scene/autoframe.py). `overrides` ("KEY=VALUE" texts as
     --set takes them, or a {dotted key: value} mapping) edit the parsed document before
     validation (see scene/overrides.py). `source` names the scene in validation errors
-    (default: the path)."""
+    (default: the path). A Mitsuba scene (.xml) takes `defines`, {NAME: VALUE} for its $NAME
+    parameters (Mitsuba's -D); other files refuse them."""
     path = Path(path)
+    if defines and path.suffix.lower() not in FOREIGN_SUFFIXES:
+        raise SceneError(f"{path}: --define sets parameters of a Mitsuba scene (.xml), and this is not one")
+    if path.suffix.lower() in FOREIGN_SUFFIXES:
+        document = apply_overrides(foreign_document(path, defines), overrides)
+        scene = scene_from_dict(document, source=source or path, overrides=overrides)
+        return scene.with_base_dir(path.resolve().parent)
     if path.suffix.lower() in (".gltf", ".glb"):
         return gltf_scene(path, overrides, source=source)
     if path.suffix.lower() in SUPPORTED_EXTENSIONS:
         return mesh_scene(path, overrides, source=source)
     if path.suffix.lower() not in SCENE_SUFFIXES:
         raise SceneError(
-            f"{path}: scene files end in .toml or .json, mesh files in {', '.join(SUPPORTED_EXTENSIONS)} "
-            f"(got {path.suffix or 'no extension'!r})"
+            f"{path}: scene files end in .toml, .json or .xml (Mitsuba 3), mesh files in "
+            f"{', '.join(SUPPORTED_EXTENSIONS)} (got {path.suffix or 'no extension'!r})"
         )
     if path.is_dir():
         raise SceneError(f"{path}: is a folder, not a scene file")
@@ -47,3 +73,6 @@ def load_scene(path: str | Path, overrides: Overrides | None = None, source: str
     document = apply_overrides(parse_document(text, path), overrides)
     scene = scene_from_dict(document, source=source or path, overrides=overrides)
     return scene.with_base_dir(path.resolve().parent)
+
+
+load = load_scene  # raylume.load(path), as DESIGN.md section 7 names it

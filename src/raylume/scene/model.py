@@ -592,6 +592,8 @@ class Mesh(Strict):
     smooth: bool | None = None  # None: use the file's vertex normals when it has them
     # "right": the file is right-handed (most OBJ and glTF): mirror x before the transform
     handedness: Literal["left", "right"] = "left"
+    # Which mesh of a Mitsuba .serialized file (which holds several): Mitsuba's shape_index
+    shape_index: int = Field(0, ge=0)
     # Copies of the mesh, each placed by a matrix after `transform` (column vectors, p' = M @ [p, 1]):
     # a .npy file of shape (N, 4, 4) or (N, 3, 4), relative to the scene file, or inline
     # transforms. The mesh and its BVH are stored once (scene/instances.py, compile/instances.py).

@@ -1,0 +1,200 @@
+"""Mitsuba shapes as raylume objects, placed in raylume's (mirrored) world.
+
+| Mitsuba | raylume |
+| --- | --- |
+| obj, ply, serialized | mesh (file by path; serialized: shape_index), transform from to_world |
+| rectangle | quad |
+| cube | six quads |
+| sphere | sphere |
+| disk | disk |
+| cylinder | cylinder, capped = false (Mitsuba's is an open tube) |
+| shapegroup + instance | a mesh's instances (analytic shapes: one object per instance) |
+
+`face_normals = true` is `smooth = false`; otherwise a mesh is smooth (the file's normals, or
+computed, as Mitsuba computes them). `flip_normals` warns: raylume's surfaces are two-sided.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .affine import decompose, is_identity
+from .mitsuba_bsdf import GREY, bsdf_table
+from .mitsuba_context import Context, uniform_scale
+from .mitsuba_emitters import area_radiance
+from .mitsuba_xml import Node
+
+MESH_TYPES = {"obj": (".obj",), "ply": (".ply",), "serialized": (".serialized",)}
+# Mitsuba's cube: the faces of [-1, 1]^3, each (centre, u, v) with u x v pointing out
+CUBE_FACES = [
+    ((1, 0, 0), (0, 2, 0), (0, 0, 2)),
+    ((-1, 0, 0), (0, 0, 2), (0, 2, 0)),
+    ((0, 1, 0), (0, 0, 2), (2, 0, 0)),
+    ((0, -1, 0), (2, 0, 0), (0, 0, 2)),
+    ((0, 0, 1), (2, 0, 0), (0, 2, 0)),
+    ((0, 0, -1), (0, 2, 0), (2, 0, 0)),
+]
+
+
+class Shapes:
+    """Converts <shape> elements; `materials` are the document's named materials (by id)."""
+
+    def __init__(self, ctx: Context, materials: dict[str, dict]):
+        self.ctx = ctx
+        self.materials = materials
+        self.objects: list[dict] = []
+        self.groups: dict[str, list[dict]] = {}  # shapegroup id -> its mesh objects, made at the first instance
+
+    def material(self, node: Node, props) -> dict | str:
+        """The shape's material: a name (a referenced BSDF) or an inline table, with emission if an
+        area emitter is inside."""
+        material: dict | str = {"type": "diffuse", "color": list(GREY)}  # Mitsuba's default BSDF
+        emitter = None
+        for plugin in props.plugins:
+            if plugin.tag == "bsdf":
+                key = plugin.attrs.get("id")
+                material = key if key in self.materials else bsdf_table(self.ctx, plugin)
+            elif plugin.tag == "emitter":
+                if plugin.attrs.get("type") != "area":
+                    raise plugin.error("the only emitter a shape can hold is an area emitter")
+                emitter = plugin
+            elif plugin.tag in ("medium",):
+                raise plugin.error("participating media in Mitsuba scenes are not read by raylume yet")
+            else:
+                raise plugin.error(f"a {node.describe()} cannot hold a <{plugin.tag}>")
+        if emitter is not None:
+            table = dict(self.materials[material]) if isinstance(material, str) else dict(material)
+            if table.get("type") == "null":
+                table = {"type": "diffuse", "color": [0.0, 0.0, 0.0]}  # raylume's null surface cannot emit
+            table["emission"] = area_radiance(self.ctx, emitter)
+            material = table
+        return material
+
+    def shape(self, node: Node, placement: np.ndarray | None = None) -> list[dict]:
+        """The objects of one <shape>; `placement` is an instance's to_world (shapes in a group)."""
+        ctx = self.ctx
+        kind = node.attrs.get("type")
+        props = ctx.props(node)
+        m = props.transform()
+        if placement is not None:
+            m = placement @ m
+        material = self.material(node, props)
+        if props.boolean("flip_normals", False):
+            ctx.warn(node, "flip_normals: raylume's surfaces are two-sided, so it is ignored")
+        objects: list[dict]
+        if kind in MESH_TYPES:
+            name = props.string("filename")
+            if name is None:
+                raise node.error("needs a filename")
+            obj = {"type": "mesh", "file": ctx.file(node, name, MESH_TYPES[kind]), "material": material}
+            obj["transform"] = self.transform(node, m)
+            obj["smooth"] = not props.boolean("face_normals", False)
+            if kind == "serialized":
+                obj["shape_index"] = props.integer("shape_index", 0)
+            elif kind == "obj":
+                props.take("flip_tex_coords")  # Mitsuba's default flip is raylume's v convention already
+            objects = [obj]
+        elif kind == "rectangle":
+            objects = [self.quad(m, (0, 0, 0), (2, 0, 0), (0, 2, 0), material)]
+        elif kind == "cube":
+            objects = [self.quad(m, c, u, v, material) for c, u, v in CUBE_FACES]
+        elif kind == "sphere":
+            centre = props.point("center", np.zeros(3))
+            radius = props.float("radius", 1.0)
+            scale = uniform_scale(node, m, "sphere")
+            objects = [
+                {"type": "sphere", "center": ctx.point(m, centre), "radius": radius * scale, "material": material}
+            ]
+        elif kind == "disk":
+            scale = uniform_scale(node, m, "disk")
+            objects = [
+                {
+                    "type": "disk",
+                    "center": ctx.point(m),
+                    "normal": ctx.vector(m, (0.0, 0.0, 1.0)),
+                    "radius": scale,
+                    "material": material,
+                }
+            ]
+        elif kind == "cylinder":
+            p0, p1 = props.point("p0", np.zeros(3)), props.point("p1", np.array([0.0, 0.0, 1.0]))
+            radius = props.float("radius", 1.0)
+            scale = uniform_scale(node, m, "cylinder")
+            objects = [
+                {
+                    "type": "cylinder",
+                    "p0": ctx.point(m, p0),
+                    "p1": ctx.point(m, p1),
+                    "radius": radius * scale,
+                    "capped": False,
+                    "material": material,
+                }
+            ]
+        else:
+            raise node.error("raylume has no such shape, and no shape that could honestly replace it")
+        ctx.done(node, props)
+        return objects
+
+    def quad(self, m: np.ndarray, centre, u, v, material) -> dict:
+        u, v = self.ctx.vector(m, u), self.ctx.vector(m, v)
+        if np.linalg.det((self.ctx.world @ m)[:3, :3]) < 0:
+            u, v = v, u  # keep u x v facing out of a mirrored shape
+        return {"type": "quad", "position": self.ctx.point(m, centre), "u": u, "v": v, "material": material}
+
+    def transform(self, node: Node, m: np.ndarray) -> dict:
+        try:
+            return decompose(self.ctx.world @ m)
+        except ValueError as exc:
+            raise node.error(f"its to_world cannot be a raylume transform: {exc}") from None
+
+    def add(self, node: Node) -> None:
+        """A top-level <shape>: appended to `objects` (a shapegroup waits for its instances)."""
+        kind = node.attrs.get("type")
+        if kind == "shapegroup":
+            if "id" not in node.attrs:
+                raise node.error("a shapegroup needs an id for instances to refer to")
+            return
+        if kind == "instance":
+            self.instance(node)
+            return
+        self.objects.extend(self.shape(node))
+
+    def instance(self, node: Node) -> None:
+        ctx = self.ctx
+        props = ctx.props(node)
+        groups = [p for p in props.plugins if p.tag == "shape" and p.attrs.get("type") == "shapegroup"]
+        if len(groups) != 1:
+            raise node.error("needs one <ref id=...> to a shapegroup")
+        group = groups[0]
+        m = props.transform()
+        ctx.done(node, props)
+        key = group.attrs["id"]
+        if key not in self.groups:  # the group's meshes: one object each, its instances added below
+            members = []
+            for child in ctx.props(group).plugins:
+                if child.tag != "shape":
+                    raise child.error("a shapegroup holds shapes only")
+                if child.attrs.get("type") in MESH_TYPES:
+                    obj = self.shape(child)[0]
+                    obj["instances"] = []
+                    self.objects.append(obj)
+                    members.append(obj)
+            self.groups[key] = members
+        # raylume's instance matrix maps the object after its transform: Mitsuba's to_world, conjugated by the mirror
+        world_m = ctx.world @ m @ np.linalg.inv(ctx.world)
+        try:
+            placement = decompose(world_m)
+        except ValueError as exc:
+            raise node.error(f"its to_world cannot be a raylume transform: {exc}") from None
+        for obj in self.groups[key]:
+            obj["instances"].append(placement)
+        for child in ctx.props(group).plugins:  # analytic shapes: an object per instance
+            if child.attrs.get("type") not in MESH_TYPES:
+                self.objects.extend(self.shape(child, placement=m))
+
+
+def clean_transform(obj: dict) -> dict:
+    """Leave out an identity transform, so the document says no more than it must."""
+    if "transform" in obj and is_identity(obj["transform"]):
+        del obj["transform"]
+    return obj
