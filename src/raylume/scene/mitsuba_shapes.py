@@ -48,7 +48,7 @@ class Shapes:
     def material(self, node: Node, props) -> dict | str:
         """The shape's material: a name (a referenced BSDF) or an inline table, with emission if an
         area emitter is inside."""
-        material: dict | str = {"type": "diffuse", "color": list(GREY)}  # Mitsuba's default BSDF
+        material: dict | str | None = None
         emitter = None
         for plugin in props.plugins:
             if plugin.tag == "bsdf":
@@ -62,6 +62,8 @@ class Shapes:
                 raise plugin.error("participating media in Mitsuba scenes are not read by raylume yet")
             else:
                 raise plugin.error(f"a {node.describe()} cannot hold a <{plugin.tag}>")
+        if material is None:  # Mitsuba's default BSDF: diffuse 0.5, black on an emitter's shape
+            material = {"type": "diffuse", "color": [0.0] * 3 if emitter is not None else list(GREY)}
         if emitter is not None:
             table = dict(self.materials[material]) if isinstance(material, str) else dict(material)
             if table.get("type") == "null":

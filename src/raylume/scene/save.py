@@ -1,0 +1,67 @@
+"""A Scene written as a raylume scene file (`raylume convert`, `raylume.save_scene`): the validated
+model dumped as TOML (or JSON), every number as the float it is (TOML and JSON writers print the
+shortest repr that reads back exactly), file paths rewritten relative to the new file's folder so
+meshes, textures and environment images stay where they are. Loading the file gives an equal
+Scene, which renders the same image bit for bit.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+from ..errors import OutputError
+from .model import Scene
+
+SUFFIXES = (".toml", ".json")
+
+
+def scene_document(scene: Scene, folder: str | Path) -> dict:
+    """The scene as a document for a file in `folder`: what differs from the defaults, paths
+    relative to `folder`."""
+    document = scene.model_dump(mode="json", exclude_defaults=True, exclude_none=True)
+    folder = Path(folder).resolve()
+
+    def moved(name: str) -> str:
+        path = Path(name)
+        if path.is_absolute():
+            return name
+        return Path(os.path.relpath((scene.base_dir / path).resolve(), folder)).as_posix()
+
+    def textures(material) -> None:
+        if isinstance(material, dict) and isinstance(material.get("texture"), dict):
+            texture = material["texture"]
+            if "file" in texture:
+                texture["file"] = moved(texture["file"])
+
+    for material in document.get("materials", {}).values():
+        textures(material)
+    for obj in document.get("objects", []):
+        if "file" in obj:
+            obj["file"] = moved(obj["file"])
+        if isinstance(obj.get("instances"), str):
+            obj["instances"] = moved(obj["instances"])
+        textures(obj.get("material"))
+    environment = document.get("environment")
+    if isinstance(environment, dict) and "file" in environment:
+        environment["file"] = moved(environment["file"])
+    return document
+
+
+def save_scene(scene: Scene, path: str | Path) -> Path:
+    """Write `scene` as a .toml (or .json) scene file at `path`, atomically; returns the path."""
+    import tomli_w
+
+    from ..image import write_atomic
+
+    path = Path(path)
+    if path.suffix.lower() not in SUFFIXES:
+        raise OutputError(f"{path}: a scene file ends in .toml or .json")
+    document = scene_document(scene, path.parent if str(path.parent) else ".")
+    if path.suffix.lower() == ".toml":
+        data = tomli_w.dumps(document).encode()
+    else:
+        data = (json.dumps(document, indent=2) + "\n").encode()
+    write_atomic(path, lambda fh: fh.write(data))
+    return path
