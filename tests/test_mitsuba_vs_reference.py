@@ -61,7 +61,8 @@ def test_mitsuba_scene_matches_mitsuba(name, tmp_path):
     ref = load_reference(name)
     path, digest = write_scene(name, tmp_path)
     assert ref.meta["scene_digest"] == digest, (
-        f"the {name} scene changed since its Mitsuba reference was rendered: python tools/mitsuba_xml_references.py {name}"
+        f"the {name} scene changed since its Mitsuba reference was rendered: "
+        f"python tools/mitsuba_xml_references.py {name}"
     )
     scene = raylume.load_scene(path)
     assert (scene.render.width, scene.render.height) == (SIZE, SIZE)

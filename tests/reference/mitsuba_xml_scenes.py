@@ -44,7 +44,9 @@ STAGE = """
     <bsdf type="diffuse"><rgb name="reflectance" value="0.8, 0.1, 0.1"/></bsdf>
   </shape>
   <shape type="rectangle">
-    <transform name="to_world"><scale x="0.8" y="0.5"/><rotate x="1" angle="90"/><translate y="3.5" x="0.5"/></transform>
+    <transform name="to_world">
+      <scale x="0.8" y="0.5"/><rotate x="1" angle="90"/><translate y="3.5" x="0.5"/>
+    </transform>
     <emitter type="area"><rgb name="radiance" value="9, 8, 7"/></emitter>
   </shape>
   <emitter type="constant"><rgb name="radiance" value="0.15, 0.2, 0.3"/></emitter>

@@ -66,7 +66,8 @@ class Reader:
         self.document = read_document(path, defines)
         self.ctx = Context(folder=path.resolve().parent, search_paths=self.document.search_paths)
         _collect_ids(self.document.root, self.ctx.ids)
-        self.render: dict = {"mode": "path", "encoding": "srgb", "max_depth": -1, "filter": "gaussian"}
+        # max_depth unset is path mode's -1 (Mitsuba's default), and leaves other modes (--mode trace) their own
+        self.render: dict = {"mode": "path", "encoding": "srgb", "filter": "gaussian"}
         self.camera: dict = {}
         self.materials: dict[str, dict] = {}
         self.lights: list[dict] = []
@@ -239,7 +240,8 @@ class Reader:
             depth = MAX_DEPTH
         if depth < -1:
             raise node.error(f"max_depth {depth}: -1 (unlimited) or a depth >= 0")
-        self.render["max_depth"] = depth
+        if depth >= 0:
+            self.render["max_depth"] = depth
         if props.integer("rr_depth", 5) != 5:
             self.ctx.warn(node, "rr_depth: raylume's Russian roulette starts at depth 5")
         if props.boolean("hide_emitters", False):
