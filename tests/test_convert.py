@@ -16,7 +16,7 @@ from PIL import Image as PILImage
 from reference.mitsuba_xml_scenes import box_mesh, envmap_pixels, serialized_bytes, write_exr, write_obj
 
 import raylume
-from raylume.scene.save import scene_document
+from raylume.scene.export import scene_document
 
 REPO = Path(__file__).resolve().parents[1]
 

@@ -39,7 +39,7 @@ _HOMES = {
     "load": ".scene.load",
     "load_scene": ".scene.load",
     "occluded": ".query",
-    "save_scene": ".scene.save",
+    "save_scene": ".save",
     "scene_from_dict": ".scene.document",
     "view": ".viewer",
 }
@@ -68,12 +68,12 @@ if TYPE_CHECKING:
     from .image import Image
     from .kernels.film.film import Film
     from .query import camera_rays, intersect, occluded
+    from .save import save_scene
     from .scene.builtin import builtin_names, builtin_scene
     from .scene.checks import SceneWarning
     from .scene.document import scene_from_dict
     from .scene.load import load, load_scene
     from .scene.model import Camera, Scene
-    from .scene.save import save_scene
     from .session import Session
     from .viewer import view
 

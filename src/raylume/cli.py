@@ -728,7 +728,8 @@ def convert(
 ) -> None:
     """Write IN as a raylume scene file (meshes and images stay where they are, referenced by path) that
     renders the same image as IN."""
-    from .scene.save import SUFFIXES, save_scene
+    from .save import save_scene
+    from .scene.export import SUFFIXES
 
     with _errors_exit_2(debug), _echo_warnings():
         if output.suffix.lower() not in SUFFIXES:

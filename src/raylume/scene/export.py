@@ -1,8 +1,8 @@
-"""A Scene written as a raylume scene file (`raylume convert`, `raylume.save_scene`): the validated
-model dumped as TOML (or JSON), every number as the float it is (TOML and JSON writers print the
-shortest repr that reads back exactly), file paths rewritten relative to the new file's folder so
-meshes, textures and environment images stay where they are. Loading the file gives an equal
-Scene, which renders the same image bit for bit.
+"""A Scene as the text of a raylume scene file (`raylume convert`; raylume/save.py writes it):
+the validated model dumped as TOML (or JSON), every number as the float it is (TOML and JSON
+writers print the shortest repr that reads back exactly), file paths rewritten relative to the
+new file's folder so meshes, textures and environment images stay where they are. Loading the
+file gives an equal Scene, which renders the same image bit for bit.
 """
 
 from __future__ import annotations
@@ -49,19 +49,14 @@ def scene_document(scene: Scene, folder: str | Path) -> dict:
     return document
 
 
-def save_scene(scene: Scene, path: str | Path) -> Path:
-    """Write `scene` as a .toml (or .json) scene file at `path`, atomically; returns the path."""
+def scene_text(scene: Scene, path: str | Path) -> str:
+    """The text of a .toml (or .json) scene file at `path` holding `scene`."""
     import tomli_w
-
-    from ..image import write_atomic
 
     path = Path(path)
     if path.suffix.lower() not in SUFFIXES:
         raise OutputError(f"{path}: a scene file ends in .toml or .json")
     document = scene_document(scene, path.parent if str(path.parent) else ".")
     if path.suffix.lower() == ".toml":
-        data = tomli_w.dumps(document).encode()
-    else:
-        data = (json.dumps(document, indent=2) + "\n").encode()
-    write_atomic(path, lambda fh: fh.write(data))
-    return path
+        return tomli_w.dumps(document)
+    return json.dumps(document, indent=2) + "\n"
