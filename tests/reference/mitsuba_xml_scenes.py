@@ -200,6 +200,7 @@ def serialized(folder: Path) -> str:
     return _scene("""
   <shape type="serialized">
     <string name="filename" value="boxes.serialized"/><integer name="shape_index" value="1"/>
+    <boolean name="face_normals" value="true"/>
     <transform name="to_world"><rotate y="1" angle="25"/><translate x="0.6"/></transform>
     <bsdf type="diffuse"><rgb name="reflectance" value="0.3, 0.8, 0.4"/></bsdf>
   </shape>""")
