@@ -376,3 +376,14 @@ def test_other_sensors_and_mirrored_environment_maps_are_refused(tmp_path):
         load(tmp_path, xml(env, mirror='<scale x="-1"/>'))
     with pytest.raises(SceneError, match="has no <sensor>"):
         load(tmp_path, '<scene version="3.0.0"><shape type="sphere"/></scene>')
+
+
+def test_session_and_render_take_a_mitsuba_file_with_defines(tmp_path):
+    path = tmp_path / "scene.xml"
+    path.write_text(xml(sphere(centre="$x, 0, 0"), extra='<default name="x" value="-2"/>'))
+    assert raylume.Session(path, defines={"x": "2"}).scene.objects[0].center == (-2.0, 0.0, 0.0)
+    image = raylume.render(path, defines={"x": "2"}, mode="cast", max_depth=1)
+    columns = np.nonzero((image.aovs["object"] >= 0).any(axis=0))[0]
+    assert columns.mean() > image.aovs["object"].shape[1] / 2  # Mitsuba's +x: the image's right
+    with pytest.raises(SceneError, match="--define sets parameters of a Mitsuba scene"):
+        raylume.render("seed", defines={"x": "1"})
