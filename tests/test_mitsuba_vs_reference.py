@@ -10,6 +10,14 @@ Bonferroni-corrected Student t limits of tests/test_path_vs_mitsuba.py (its help
 
 A mirror image fails at once: every scene has a red sphere on the image's left.
 
+Controls (raylume changed on purpose, seeds 100..115, the diffuse scene unless named): new seeds
+pass (image-mean |z| <= 0.8, blocks <= 3.8); the light's radiance x 1.01 passes narrowly
+(image-mean z 3.2-3.4 against limits of 4.85); the floor's reflectance x 1.02 fails (z 10-15, 6
+blocks over); the envmap's intensity x 1.01 fails narrowly (blue image-mean z 4.96, limit 4.93);
+the environment turned the wrong way (-40 degrees for +40) is 25 % off in some blocks. A
+normal-less mesh shaded with raylume's area-weighted vertex normals instead of Mitsuba's
+angle-weighted ones failed (block z -7.5), which is why the serialized scene asks for face normals.
+
 The environment map's scene does not show the sky directly, only by reflection and lighting:
 Mitsuba's envmap puts its texel centres at u = i / W and v = j / (H - 1), raylume's at the
 texels' centres, and the sky seen directly is nearly noiseless in both renders, so that half
