@@ -175,8 +175,8 @@ def render(
         str | None,
         typer.Argument(
             metavar="SCENE",
-            help="Scene file (.toml/.json), glTF scene (.gltf .glb: its camera and lights), mesh file (.obj .ply "
-            ".stl .off: framed and lit automatically) or built-in name; default: seed",
+            help="Scene file (.toml/.json), Mitsuba 3 scene (.xml), glTF scene (.gltf .glb: its camera and lights), "
+            "mesh file (.obj .ply .stl .off: framed and lit automatically) or built-in name; default: seed",
         ),
     ] = None,
     output: Annotated[
@@ -639,7 +639,9 @@ def scenes() -> None:
 def view(
     scene: Annotated[
         str | None,
-        typer.Argument(metavar="SCENE", help="Scene file (.toml/.json), mesh file or built-in name; default: seed"),
+        typer.Argument(
+            metavar="SCENE", help="Scene file (.toml/.json/.xml), glTF or mesh file or built-in name; default: seed"
+        ),
     ] = None,
     mode: Annotated[
         str | None, typer.Option("--mode", metavar="MODE", help="cast | trace | path | raster (switchable on the page)")

@@ -59,8 +59,8 @@ def load_scene(
         return mesh_scene(path, overrides, source=source)
     if path.suffix.lower() not in SCENE_SUFFIXES:
         raise SceneError(
-            f"{path}: scene files end in .toml, .json or .xml (Mitsuba 3), mesh files in "
-            f"{', '.join(SUPPORTED_EXTENSIONS)} (got {path.suffix or 'no extension'!r})"
+            f"{path}: scene files end in .toml or .json (other renderers': {', '.join(FOREIGN_SUFFIXES)}), mesh "
+            f"files in {', '.join(SUPPORTED_EXTENSIONS)} (got {path.suffix or 'no extension'!r})"
         )
     if path.is_dir():
         raise SceneError(f"{path}: is a folder, not a scene file")
