@@ -323,7 +323,8 @@ def test_a_damaged_serialized_file_is_a_scene_error_when_rendered(tmp_path):
 @pytest.mark.parametrize(
     ("body", "message"),
     [
-        ('<bsdf type="principled" id="p"/>', r'<bsdf type="principled">: raylume has no such BSDF: a grey diffuse'),
+        ('<bsdf type="hair" id="h"/>', r'<bsdf type="hair">: raylume has no such BSDF: a grey diffuse'),
+        ('<bsdf type="principled" id="p"/>', r"no principled BSDF: a plastic material .* replaces it"),
         ('<bsdf type="thindielectric" id="t"/>', r"no thin dielectric: a null surface .* 0\.0\d\d, is lost"),
         ('<bsdf type="roughconductor" id="r"/>', r"distribution 'beckmann': .* GGX of alpha 0\.1 replaces it"),
         ('<bsdf type="diffuse" id="d"><float name="sheen" value="1"/></bsdf>', r"property 'sheen' is not supported"),
@@ -387,3 +388,23 @@ def test_session_and_render_take_a_mitsuba_file_with_defines(tmp_path):
     assert columns.mean() > image.aovs["object"].shape[1] / 2  # Mitsuba's +x: the image's right
     with pytest.raises(SceneError, match="--define sets parameters of a Mitsuba scene"):
         raylume.render("seed", defines={"x": "1"})
+
+
+@pytest.mark.parametrize(
+    ("params", "kind"),
+    [
+        ("", "plastic"),
+        ('<float name="metallic" value="0.8"/>', "conductor"),
+        ('<float name="spec_trans" value="1"/>', "dielectric"),
+    ],
+)
+def test_principled_becomes_the_type_of_its_dominant_lobe(tmp_path, params, kind):
+    body = (
+        f'<bsdf type="principled" id="p"><rgb name="base_color" value="0.2, 0.4, 0.6"/>'
+        f'<float name="roughness" value="0.5"/><float name="sheen" value="0.3"/>{params}</bsdf>'
+    )
+    path = tmp_path / "scene.xml"
+    path.write_text(xml(body))
+    with pytest.warns(SceneWarning, match=f"a {kind} material .* sheen ignored"):
+        material = raylume.load(path).materials["p"]
+    assert (material.type, material.color, material.roughness) == (kind, (0.2, 0.4, 0.6), 0.25)

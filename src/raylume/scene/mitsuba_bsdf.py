@@ -8,6 +8,7 @@
 | thindielectric | null, with a warning: the sheet's reflection (2R / (1 + R)) is lost |
 | plastic, roughplastic | plastic |
 | twosided | its BSDF (raylume's surfaces are two-sided) |
+| principled | dielectric, conductor or plastic by its dominant lobe, with a warning |
 | null | null |
 
 Rough plugins map `alpha` to `roughness` (both GGX alpha); a Beckmann distribution becomes GGX
@@ -179,6 +180,36 @@ def _plastic(ctx: Context, node: Node, props: Props, rough: bool) -> dict:
     return table
 
 
+PRINCIPLED_EXTRAS = ("specular", "spec_tint", "anisotropic", "sheen", "sheen_tint", "clearcoat", "clearcoat_gloss")
+PRINCIPLED_EXTRAS += ("flatness", "diff_trans", "main_specular", "spec_srate")
+
+
+def _principled(ctx: Context, node: Node, props: Props) -> dict:
+    """Mitsuba's (and Blender's) principled BSDF as the raylume type nearest its dominant lobe,
+    as the glTF import maps pbrMetallicRoughness: transmission >= 0.5 glass, metallic >= 0.5
+    metal, else plastic; roughness r is GGX alpha r^2, as in Mitsuba's principled."""
+    table: dict = {}
+    roughness = props.float("roughness", 0.5)
+    metallic, transmission = props.float("metallic", 0.0), props.float("spec_trans", 0.0)
+    eta = props.float("eta", 1.5)
+    _reflectance(ctx, props, "base_color", (0.5, 0.5, 0.5), table)
+    extras = [name for name in PRINCIPLED_EXTRAS if props.take(name) is not None]
+    alpha = min(max(roughness, 0.0), 1.0) ** 2
+    if transmission >= 0.5:
+        table.update(type="dielectric", ior=eta, roughness=alpha)
+    elif metallic >= 0.5:
+        table.update(type="conductor", roughness=alpha)
+    else:
+        table.update(type="plastic", ior=eta, roughness=alpha)
+    lost = f"; {', '.join(extras)} ignored" if extras else ""
+    ctx.warn(
+        node,
+        f"raylume has no principled BSDF: a {table['type']} material (base_color, GGX alpha = roughness^2) replaces "
+        f"it, metallic {metallic:g} and spec_trans {transmission:g} taken as all or nothing{lost}",
+    )
+    return table
+
+
 def bsdf_table(ctx: Context, node: Node) -> dict:
     """The raylume material table of a <bsdf> element."""
     kind = node.attrs.get("type")
@@ -207,6 +238,8 @@ def bsdf_table(ctx: Context, node: Node) -> dict:
         table = _plastic(ctx, node, props, kind == "roughplastic")
     elif kind == "null":
         table = {"type": "null"}
+    elif kind == "principled":
+        table = _principled(ctx, node, props)
     else:
         ctx.warn(node, "raylume has no such BSDF: a grey diffuse material (reflectance 0.5) replaces it")
         return {"type": "diffuse", "color": list(GREY)}
