@@ -408,3 +408,15 @@ def test_principled_becomes_the_type_of_its_dominant_lobe(tmp_path, params, kind
     with pytest.warns(SceneWarning, match=f"a {kind} material .* sheen ignored"):
         material = raylume.load(path).materials["p"]
     assert (material.type, material.color, material.roughness) == (kind, (0.2, 0.4, 0.6), 0.25)
+
+
+def test_a_film_and_sampler_defined_at_the_top_and_referenced_by_the_sensor(tmp_path):
+    text = (
+        '<scene version="2.0.0"><film type="hdrfilm" id="film"><integer name="width" value="40"/>'
+        '<integer name="height" value="30"/></film><sampler type="independent" id="sampler">'
+        '<integer name="sample_count" value="12"/></sampler>'
+        '<sensor type="perspective"><float name="focus_distance" value="1000"/><ref id="sampler"/><ref id="film"/>'
+        "</sensor></scene>"
+    )
+    render = load(tmp_path, text).render
+    assert (render.width, render.height, render.spp) == (40, 30, 12)

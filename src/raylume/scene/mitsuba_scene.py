@@ -100,8 +100,8 @@ class Reader:
                 shapes.add(child)
             elif child.tag == "emitter":
                 self.emitter(child)
-            elif child.tag in ("texture", "sensor", "alias"):
-                continue  # textures are read where they are used; the sensor above
+            elif child.tag in ("texture", "sensor", "alias", "film", "sampler", "rfilter"):
+                continue  # read where they are used (by <ref>); the sensor above
             elif child.tag in ("medium", "phase", "volume"):
                 raise child.error("participating media in Mitsuba scenes are not read by raylume yet")
             else:
@@ -169,8 +169,10 @@ class Reader:
         for name in ("principal_point_offset_x", "principal_point_offset_y"):
             if props.float(name, 0.0) != 0.0:
                 ctx.warn(node, f"{name}: raylume's camera looks through the image's centre; it is ignored")
-        for name in ("shutter_open", "shutter_close"):
-            props.take(name)  # motion blur: raylume's scenes do not move within a frame
+        for name in ("shutter_open", "shutter_close", "srf"):
+            props.take(name)  # motion blur, spectral response: nothing an RGB still shows
+        if kind == "perspective":
+            props.take("focus_distance")  # Mitsuba's perspective camera takes it and ignores it
         ctx.done(node, props)
 
     def film(self, sensor: Node, props) -> tuple[int, int]:
