@@ -15,6 +15,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from reference.mitsuba_xml_scenes import box_mesh, serialized_bytes
 
 import raylume
@@ -420,3 +422,79 @@ def test_a_film_and_sampler_defined_at_the_top_and_referenced_by_the_sensor(tmp_
     )
     render = load(tmp_path, text).render
     assert (render.width, render.height, render.spp) == (40, 30, 12)
+
+
+# ---------------------------------------------------------------- properties
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    translate=st.lists(st.floats(-100, 100), min_size=3, max_size=3),
+    rotate=st.lists(st.floats(-360, 360), min_size=3, max_size=3),
+    scale=st.lists(st.floats(0.01, 100).flatmap(lambda s: st.sampled_from([s, -s])), min_size=3, max_size=3),
+)
+def test_an_affine_matrix_and_its_transform_table_agree(translate, rotate, scale):
+    from raylume.scene.affine import decompose
+    from raylume.scene.mesh import transform_matrix
+
+    m = transform_matrix(translate, rotate, scale)
+    t = decompose(m)
+    np.testing.assert_allclose(transform_matrix(**t), m, atol=1e-9 * max(1.0, np.abs(m).max()))
+
+
+@settings(max_examples=80, deadline=None)
+@given(
+    text=st.text(alphabet=st.sampled_from(list('<>/="$ abcdefgnrstuvxyz0123456789.,-')), max_size=200),
+    where=st.sampled_from(["body", "value"]),
+)
+def test_any_text_is_a_scene_or_a_scene_error_never_a_crash(tmp_path_factory, text, where):
+    folder = tmp_path_factory.mktemp("fuzz")
+    body = text if where == "body" else sphere(radius=text.replace('"', ""))
+    path = folder / "scene.xml"
+    path.write_text(xml(body))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", SceneWarning)
+        try:
+            scene = raylume.load(path)
+        except SceneError as exc:
+            assert str(exc).startswith(str(path))
+        else:
+            assert all(math.isfinite(c) for obj in scene.objects for c in getattr(obj, "center", (0, 0, 0)))
+
+
+TAGS = ["shape", "bsdf", "emitter", "texture", "float", "integer", "rgb", "spectrum", "point", "vector", "string"]
+TAGS += ["boolean", "transform", "translate", "rotate", "scale", "matrix", "lookat", "ref", "include", "default"]
+TYPES = ["sphere", "rectangle", "cube", "disk", "cylinder", "obj", "serialized", "shapegroup", "instance", "diffuse"]
+TYPES += ["conductor", "roughconductor", "dielectric", "thindielectric", "plastic", "twosided", "null", "principled"]
+TYPES += ["area", "point", "spot", "directional", "constant", "envmap", "bitmap", "checkerboard"]
+NAMES = ["to_world", "radius", "center", "reflectance", "material", "alpha", "int_ior", "radiance", "intensity"]
+NAMES += ["filename", "position", "cutoff_angle", "p0", "base_color", "distribution", "angle", "value", "x"]
+VALUES = ["1", "-1", "0", "0.5, 0.2, 0.1", "1e400", "nan", "Au", "ggx", "abc", "$p", "2 3", "", "1, 2, 3, 4"]
+
+
+def elements(depth: int = 2):
+    attrs = st.dictionaries(
+        st.sampled_from(["type", "name", "value", "id", "x", "y", "angle", "origin", "target"]),
+        st.one_of(st.sampled_from(TYPES), st.sampled_from(NAMES), st.sampled_from(VALUES)),
+        max_size=4,
+    )
+    children = st.lists(elements(depth - 1), max_size=3) if depth > 0 else st.just([])
+    return st.builds(
+        lambda tag, a, kids: f"<{tag} " + " ".join(f'{k}="{v}"' for k, v in a.items()) + f">{''.join(kids)}</{tag}>",
+        st.sampled_from(TAGS),
+        attrs,
+        children,
+    )
+
+
+@settings(max_examples=60, deadline=None)
+@given(body=st.lists(elements(), max_size=4))
+def test_any_arrangement_of_elements_is_a_scene_or_a_scene_error(tmp_path_factory, body):
+    path = tmp_path_factory.mktemp("fuzz") / "scene.xml"
+    path.write_text(xml("".join(body)))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", SceneWarning)
+        try:
+            raylume.load(path)
+        except SceneError as exc:
+            assert str(exc).startswith(str(path)), exc

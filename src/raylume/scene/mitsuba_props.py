@@ -30,6 +30,14 @@ def numbers(text: str, node: Node, what: str) -> list[float]:
     return values
 
 
+def number(text: str, node: Node, what: str) -> float:
+    """Exactly one number."""
+    values = numbers(text, node, what)
+    if len(values) != 1:
+        raise node.error(f"{what}: expected one number, got {text!r}")
+    return values[0]
+
+
 def attr(node: Node, key: str) -> str:
     value = node.attrs.get(key)
     if value is None:
@@ -46,7 +54,7 @@ def vector3(node: Node, default: float = 0.0) -> np.ndarray:
         if len(values) != 3:
             raise node.error(f"value: expected 1 or 3 numbers, got {len(values)}")
         return np.array(values)
-    return np.array([float(numbers(node.attrs.get(k, str(default)), node, k)[0]) for k in "xyz"])
+    return np.array([number(node.attrs.get(k, str(default)), node, k) for k in "xyz"])
 
 
 def _triple(text: str, node: Node, what: str) -> np.ndarray:
@@ -95,7 +103,7 @@ def _operation(op: Node) -> np.ndarray:
             m[:3, :3] = np.diag(vector3(op, 1.0))
     elif op.tag == "rotate":
         axis = vector3(op, 0.0)
-        return rotation(axis, numbers(attr(op, "angle"), op, "angle")[0])
+        return rotation(axis, number(attr(op, "angle"), op, "angle"))
     elif op.tag == "matrix":
         values = numbers(attr(op, "value"), op, "value")
         if len(values) == 16:
@@ -169,7 +177,7 @@ class Props:
 
     def float(self, name: str, default: float | None = None) -> float | None:
         node = self._value(name, ("float", "integer"))
-        return default if node is None else numbers(attr(node, "value"), node, name)[0]
+        return default if node is None else number(attr(node, "value"), node, name)
 
     def integer(self, name: str, default: int | None = None) -> int | None:
         node = self._value(name, ("integer",))
@@ -216,7 +224,7 @@ def colour_of(node: Node, name: str) -> tuple[float, float, float]:
     """An <rgb>, a constant <spectrum> or a number as an RGB triple. A spectrum of wavelength:value
     pairs is refused: raylume would need Mitsuba's spectral upsampling to read it as Mitsuba does."""
     if node.tag in ("float", "integer"):
-        v = numbers(attr(node, "value"), node, name)[0]
+        v = number(attr(node, "value"), node, name)
         return (v, v, v)
     if node.tag == "rgb":
         values = numbers(attr(node, "value"), node, name)
