@@ -498,3 +498,16 @@ def test_any_arrangement_of_elements_is_a_scene_or_a_scene_error(tmp_path_factor
             raylume.load(path)
         except SceneError as exc:
             assert str(exc).startswith(str(path)), exc
+
+
+def test_a_value_raylume_refuses_names_the_element_it_came_from(tmp_path):
+    body = sphere(centre="0, 0, 0", radius="-1") + "\n" + sphere(radius="2")
+    body += '<emitter type="point"><rgb name="intensity" value="-1"/></emitter>'
+    line = xml(body).splitlines().index(next(r for r in xml(body).splitlines() if 'value="-1"' in r)) + 1
+    with pytest.raises(SceneError) as caught:
+        load(tmp_path, xml(body))
+    message = str(caught.value)
+    assert f'objects[0].radius (scene.xml:{line} <shape type="sphere">): ' in message.replace(str(tmp_path) + "/", "")
+    assert "lights[0].intensity (" in message and '<emitter type="point">): ' in message
+    with pytest.raises(SceneError, match=r'scene\.xml:\d+: <film type="hdrfilm">: width and height must be at least 1'):
+        load(tmp_path, xml("", width=0))

@@ -5,6 +5,7 @@ scene/autoframe.py). Other renderers' scenes become a scene document first, so v
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 from ..errors import SceneError
@@ -22,14 +23,30 @@ SCENE_SUFFIXES = (".toml", ".json")
 FOREIGN_SUFFIXES = (".xml",)
 
 
-def foreign_document(path: Path, defines: dict[str, str] | None) -> dict | None:
-    """The scene document of another renderer's scene file, or None for raylume's own."""
+def foreign_document(path: Path, defines: dict[str, str] | None) -> tuple[dict, dict[str, str]]:
+    """The scene document of another renderer's scene file, and where its tables came from
+    ({key path: "file:line element"}, for messages about values the model refuses)."""
     suffix = path.suffix.lower()
     if suffix == ".xml":
         from .mitsuba_scene import mitsuba_document
 
         return mitsuba_document(path, defines)
-    return None
+    raise SceneError(f"{path}: not a scene file of another renderer ({', '.join(FOREIGN_SUFFIXES)})")
+
+
+def with_origins(message: str, origins: dict[str, str]) -> str:
+    """A validation message whose key paths name the element they came from:
+    'objects[2].radius: ...' -> 'objects[2].radius (scene.xml:12 <shape type="sphere">): ...'."""
+    keys = sorted(origins, key=len, reverse=True)
+
+    def named(match: re.Match) -> str:
+        path = match.group(1)
+        for key in keys:
+            if path == key or path.startswith((f"{key}.", f"{key}[")):
+                return f"{path} ({origins[key]}):"
+        return match.group(0)
+
+    return re.sub(r"(?<=[:;] )([A-Za-z_][\w.\[\]-]*):", named, message)
 
 
 def load_scene(
@@ -50,8 +67,12 @@ def load_scene(
     if defines and path.suffix.lower() not in FOREIGN_SUFFIXES:
         raise SceneError(f"{path}: --define sets parameters of a Mitsuba scene (.xml), and this is not one")
     if path.suffix.lower() in FOREIGN_SUFFIXES:
-        document = apply_overrides(foreign_document(path, defines), overrides)
-        scene = scene_from_dict(document, source=source or path, overrides=overrides)
+        document, origins = foreign_document(path, defines)
+        document = apply_overrides(document, overrides)
+        try:
+            scene = scene_from_dict(document, source=source or path, overrides=overrides)
+        except SceneError as exc:
+            raise SceneError(with_origins(str(exc), origins)) from None
         return scene.with_base_dir(path.resolve().parent)
     if path.suffix.lower() in (".gltf", ".glb"):
         return gltf_scene(path, overrides, source=source)

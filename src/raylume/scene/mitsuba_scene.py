@@ -72,6 +72,7 @@ class Reader:
         self.materials: dict[str, dict] = {}
         self.lights: list[dict] = []
         self.environment: dict | None = None
+        self.origins: dict[str, Node] = {}  # a key path ("objects[3]") -> the element it came from
 
     def scene_document(self) -> dict:
         root = self.document.root
@@ -81,6 +82,7 @@ class Reader:
         for extra in sensors[1:]:
             self.ctx.warn(extra, "a second sensor: raylume renders through the first one only")
         self.sensor(sensors[0])
+        self.origins.update(camera=sensors[0], render=sensors[0])
         shapes = Shapes(self.ctx, self.materials)
         integrators = 0
         for child in root.children:
@@ -96,6 +98,7 @@ class Reader:
                     self.ctx.warn(child, "a BSDF without an id at the top level is never used")
                 else:
                     self.materials[key] = bsdf_table(self.ctx, child)
+                    self.origins[f"materials.{key}"] = child
             elif child.tag == "shape":
                 shapes.add(child)
             elif child.tag == "emitter":
@@ -109,6 +112,7 @@ class Reader:
         document: dict = {"render": self.render, "camera": self.camera, "materials": self.materials}
         document["lights"] = self.lights
         document["objects"] = [clean_transform(obj) for obj in shapes.objects]
+        self.origins.update({f"objects[{k}]": node for k, node in enumerate(shapes.origins)})
         if self.environment is not None:
             document["environment"] = self.environment
         return document
@@ -116,11 +120,13 @@ class Reader:
     def emitter(self, node: Node) -> None:
         light, environment = light_or_environment(self.ctx, node)
         if light is not None:
+            self.origins[f"lights[{len(self.lights)}]"] = node
             self.lights.append(light)
         if environment is not None:
             if self.environment is not None:
                 raise node.error("a second environment emitter (constant or envmap): raylume's scene has one")
             self.environment = environment
+            self.origins["environment"] = node
 
     def sensor(self, node: Node) -> None:
         ctx = self.ctx
@@ -148,6 +154,8 @@ class Reader:
             fov, axis = math.degrees(2 * math.atan(FULL_FRAME_DIAGONAL / (2 * f_mm))), "diagonal"
         else:
             axis = props.string("fov_axis", "x")
+        if not 0 < fov < 180:
+            raise node.error(f"fov {fov:g}: a perspective camera's field of view lies between 0 and 180 degrees")
         origin = ctx.point(m)
         forward = ctx.vector(m, (0.0, 0.0, 1.0))
         up = ctx.vector(m, (0.0, 1.0, 0.0))
@@ -185,6 +193,8 @@ class Reader:
                 if plugin.attrs.get("type") not in ("hdrfilm", "specfilm"):
                     ctx.warn(plugin, "raylume treats this film as an hdrfilm")
                 width, height = p.integer("width", width), p.integer("height", height)
+                if width < 1 or height < 1:
+                    raise plugin.error(f"width and height must be at least 1, got {width} x {height}")
                 for name in ("pixel_format", "component_format", "file_format", "sample_border", "banner"):
                     p.take(name)  # how Mitsuba writes its file: raylume's output follows -o
                 for name in ("crop_offset_x", "crop_offset_y", "crop_width", "crop_height"):
@@ -251,6 +261,9 @@ class Reader:
         self.ctx.done(node, props)
 
 
-def mitsuba_document(path: str | Path, defines: dict[str, str] | None = None) -> dict:
-    """The raylume scene document of a Mitsuba XML file; `defines` set its $parameters."""
-    return Reader(Path(path), defines).scene_document()
+def mitsuba_document(path: str | Path, defines: dict[str, str] | None = None) -> tuple[dict, dict[str, str]]:
+    """The raylume scene document of a Mitsuba XML file (`defines` set its $parameters), and
+    where its tables came from: {"objects[3]": 'scene.xml:12 <shape type="sphere">', ...}."""
+    reader = Reader(Path(path), defines)
+    document = reader.scene_document()
+    return document, {key: f"{node.where} {node.describe()}" for key, node in reader.origins.items()}

@@ -43,6 +43,7 @@ class Shapes:
         self.ctx = ctx
         self.materials = materials
         self.objects: list[dict] = []
+        self.origins: list[Node] = []  # the element each object came from, for error messages
         self.groups: dict[str, list[dict]] = {}  # shapegroup id -> its mesh objects, made at the first instance
 
     def material(self, node: Node, props) -> dict | str:
@@ -159,7 +160,11 @@ class Shapes:
         if kind == "instance":
             self.instance(node)
             return
-        self.objects.extend(self.shape(node))
+        self.extend(node, self.shape(node))
+
+    def extend(self, node: Node, objects: list[dict]) -> None:
+        self.objects.extend(objects)
+        self.origins.extend([node] * len(objects))
 
     def instance(self, node: Node) -> None:
         ctx = self.ctx
@@ -179,7 +184,7 @@ class Shapes:
                 if child.attrs.get("type") in MESH_TYPES:
                     obj = self.shape(child)[0]
                     obj["instances"] = []
-                    self.objects.append(obj)
+                    self.extend(child, [obj])
                     members.append(obj)
             self.groups[key] = members
         # raylume's instance matrix maps the object after its transform: Mitsuba's to_world, conjugated by the mirror
@@ -192,7 +197,7 @@ class Shapes:
             obj["instances"].append(placement)
         for child in ctx.props(group).plugins:  # analytic shapes: an object per instance
             if child.attrs.get("type") not in MESH_TYPES:
-                self.objects.extend(self.shape(child, placement=m))
+                self.extend(child, self.shape(child, placement=m))
 
 
 def clean_transform(obj: dict) -> dict:
