@@ -9,12 +9,19 @@ from __future__ import annotations
 
 import json
 import os
+import re
 from pathlib import Path
 
 from ..errors import OutputError
 from .model import Scene
 
 SUFFIXES = (".toml", ".json")
+# tomli_w writes every array one item a line; vectors and colours read better on one
+_NUMBER_ARRAY = re.compile(r"\[\n((?:[ \t]+[-+0-9.eE]+,\n)+)[ \t]*\]")
+
+
+def _inline_number_arrays(text: str) -> str:
+    return _NUMBER_ARRAY.sub(lambda m: "[" + ", ".join(v.strip(" \t,") for v in m.group(1).splitlines()) + "]", text)
 
 
 def scene_document(scene: Scene, folder: str | Path) -> dict:
@@ -46,7 +53,17 @@ def scene_document(scene: Scene, folder: str | Path) -> dict:
     environment = document.get("environment")
     if isinstance(environment, dict) and "file" in environment:
         environment["file"] = moved(environment["file"])
-    return document
+    return _type_first(document)
+
+
+def _type_first(value):
+    """Tables with their `type` key first, as people write them."""
+    if isinstance(value, dict):
+        items = sorted(value.items(), key=lambda item: item[0] != "type")
+        return {key: _type_first(item) for key, item in items}
+    if isinstance(value, list):
+        return [_type_first(item) for item in value]
+    return value
 
 
 def scene_text(scene: Scene, path: str | Path) -> str:
@@ -58,5 +75,5 @@ def scene_text(scene: Scene, path: str | Path) -> str:
         raise OutputError(f"{path}: a scene file ends in .toml or .json")
     document = scene_document(scene, path.parent if str(path.parent) else ".")
     if path.suffix.lower() == ".toml":
-        return tomli_w.dumps(document)
+        return _inline_number_arrays(tomli_w.dumps(document))
     return json.dumps(document, indent=2) + "\n"
