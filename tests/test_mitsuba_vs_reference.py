@@ -19,9 +19,10 @@ normal-less mesh shaded with raylume's area-weighted vertex normals instead of M
 angle-weighted ones failed (block z -7.5), which is why the serialized scene asks for face normals.
 
 The environment map's scene does not show the sky directly, only by reflection and lighting:
-Mitsuba's envmap puts its texel centres at u = i / W and v = j / (H - 1), raylume's at the
-texels' centres, and the sky seen directly is nearly noiseless in both renders, so that half
-texel (a relative difference of 5e-4 here) would fail a z-test that measures nothing else.
+Mitsuba's envmap spreads its rows from pole to pole (row j of H at v = j / (H - 1); measured with
+its emitter's eval), raylume's sit at the rows' centres ((j + 0.5) / H), and the sky seen directly
+is nearly noiseless in both renders, so that half row (a relative difference of 5e-4 here) would
+fail a z-test that measures nothing else.
 """
 
 from __future__ import annotations
