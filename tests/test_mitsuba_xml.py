@@ -338,12 +338,20 @@ def test_a_damaged_serialized_file_is_a_scene_error_when_rendered(tmp_path):
         ),
         ('<integrator type="aov"/>', "no such integrator: its path tracer replaces it"),
         (
+            sphere(
+                inner='<bsdf type="diffuse"><texture type="bitmap" name="reflectance">'
+                '<string name="filename" value="t.png"/></texture></bsdf>'
+            ),
+            "texture coordinates of its own, not Mitsuba's",
+        ),
+        (
             '<bsdf type="diffuse" id="c"><texture type="checkerboard" name="reflectance"/></bsdf>',
             "checker is a 3D pattern in world space",
         ),
     ],
 )
 def test_what_raylume_replaces_is_named_in_a_warning(tmp_path, body, message):
+    (tmp_path / "t.png").write_bytes(b"")  # named, never read while loading
     path = tmp_path / "scene.xml"
     path.write_text(xml(body))
     with pytest.warns(SceneWarning, match=r"scene\.xml:\d+: .*" + message):

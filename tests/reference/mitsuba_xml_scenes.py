@@ -212,6 +212,51 @@ def mirrored_sensor(folder: Path) -> str:
     return _scene(body, sensor='<scale x="-1"/>' + LOOK)
 
 
+def lights(folder: Path) -> str:
+    """Point, spot (a hard-edged cone: raylume's falloff differs inside a soft one) and directional
+    lights, no area light and no sky: their units against Mitsuba's."""
+    stage = STAGE.split('  <shape type="rectangle">\n    <transform name="to_world">\n      <scale x="0.8"')[0]
+    return _scene(
+        """
+  <emitter type="point"><point name="position" x="1.5" y="2" z="1"/><rgb name="intensity" value="3, 2.5, 2"/></emitter>
+  <emitter type="spot">
+    <transform name="to_world"><lookat origin="-0.5, 3, 1.5" target="0.3, 0, 0" up="0, 1, 0"/></transform>
+    <float name="cutoff_angle" value="25"/><float name="beam_width" value="25"/>
+    <rgb name="intensity" value="4, 6, 9"/>
+  </emitter>
+  <emitter type="directional">
+    <vector name="direction" x="1" y="-2" z="-0.5"/><rgb name="irradiance" value="0.3, 0.25, 0.2"/>
+  </emitter>"""
+        + _sphere(0.6, '<bsdf type="diffuse"><rgb name="reflectance" value="0.7, 0.7, 0.7"/></bsdf>', 0.5),
+        stage=stage,
+    )
+
+
+def texture_pixels() -> np.ndarray:
+    """A 16 x 16 sRGB image: a red top-left quadrant, a blue bottom-right one, grey stripes."""
+    img = np.full((16, 16, 3), 150, dtype=np.uint8)
+    img[:8, :8] = (220, 30, 30)
+    img[8:, 8:] = (30, 40, 200)
+    img[:, ::4] = (240, 240, 240)
+    return img
+
+
+def textures(folder: Path) -> str:
+    from PIL import Image
+
+    Image.fromarray(texture_pixels()).save(folder / "marks.png")
+    board = """
+  <shape type="rectangle">
+    <transform name="to_world">
+      <scale x="1.2" y="0.9"/><rotate y="1" angle="15"/><translate x="0.5" y="1" z="-0.5"/>
+    </transform>
+    <bsdf type="diffuse">
+      <texture type="bitmap" name="reflectance"><string name="filename" value="marks.png"/></texture>
+    </bsdf>
+  </shape>"""
+    return _scene(board)
+
+
 SCENES = {
     "diffuse": diffuse,
     "conductor": conductor,
@@ -221,6 +266,8 @@ SCENES = {
     "instances": instances,
     "serialized": serialized,
     "mirrored_sensor": mirrored_sensor,
+    "lights": lights,
+    "textures": textures,
 }
 
 
@@ -236,4 +283,6 @@ def write_scene(name: str, folder: Path) -> tuple[Path, str]:
             digest.update(extra.read_bytes())
     if name == "envmap":
         digest.update(envmap_pixels().tobytes())  # the EXR's pixels (its bytes may vary with the library)
+    if name == "textures":
+        digest.update(texture_pixels().tobytes())
     return path, digest.hexdigest()

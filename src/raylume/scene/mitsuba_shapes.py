@@ -94,11 +94,15 @@ class Shapes:
             obj["smooth"] = not props.boolean("face_normals", False)
             if kind == "serialized":
                 obj["shape_index"] = props.integer("shape_index", 0)
-            elif kind == "obj":
-                props.take("flip_tex_coords")  # Mitsuba's default flip is raylume's v convention already
+            # Mitsuba looks texture row v from the image's top, raylume row 1 - v; its OBJ reader flips v
+            # by default (flip_tex_coords), which makes the two agree; a PLY or serialized file's v is not
+            flipped = kind == "obj" and props.boolean("flip_tex_coords", True)
+            if not flipped and self.textured(material):
+                ctx.warn(node, "its texture's v axis runs the other way in raylume: the image appears upside down")
             objects = [obj]
         elif kind == "rectangle":
-            objects = [self.quad(m, (0, 0, 0), (2, 0, 0), (0, 2, 0), material)]
+            # uv (0, 0) at local (-1, -1) in Mitsuba, its row v from the image's top: raylume's v runs down -y
+            objects = [self.quad(m, (0, 0, 0), (2, 0, 0), (0, -2, 0), material, outward=False)]
         elif kind == "cube":
             objects = [self.quad(m, c, u, v, material) for c, u, v in CUBE_FACES]
         elif kind == "sphere":
@@ -135,13 +139,21 @@ class Shapes:
             ]
         else:
             raise node.error("raylume has no such shape, and no shape that could honestly replace it")
+        if kind in ("cube", "sphere", "disk", "cylinder") and self.textured(material):
+            ctx.warn(
+                node, f"raylume's {kind} has texture coordinates of its own, not Mitsuba's: the image lies otherwise"
+            )
         ctx.done(node, props)
         return objects
 
-    def quad(self, m: np.ndarray, centre, u, v, material) -> dict:
+    def textured(self, material: dict | str) -> bool:
+        table = self.materials.get(material, {}) if isinstance(material, str) else material
+        return "texture" in table
+
+    def quad(self, m: np.ndarray, centre, u, v, material, outward: bool = True) -> dict:
         u, v = self.ctx.vector(m, u), self.ctx.vector(m, v)
-        if np.linalg.det((self.ctx.world @ m)[:3, :3]) < 0:
-            u, v = v, u  # keep u x v facing out of a mirrored shape
+        if outward and np.linalg.det((self.ctx.world @ m)[:3, :3]) < 0:
+            u, v = v, u  # keep u x v facing out of a mirrored closed shape (a cube's faces)
         return {"type": "quad", "position": self.ctx.point(m, centre), "u": u, "v": v, "material": material}
 
     def transform(self, node: Node, m: np.ndarray) -> dict:
