@@ -10,8 +10,9 @@
 | cylinder | cylinder, capped = false (Mitsuba's is an open tube) |
 | shapegroup + instance | a mesh's instances (analytic shapes: one object per instance) |
 
-`face_normals = true` is `smooth = false`; otherwise a mesh is smooth (the file's normals, or
-computed, as Mitsuba computes them). `flip_normals` warns: raylume's surfaces are two-sided.
+`face_normals = true` is `smooth = false`; otherwise a mesh is smooth: the file's normals, or
+vertex normals raylume computes (weighted by area, where Mitsuba weights by angle: documented).
+`flip_normals` warns: raylume's surfaces are two-sided.
 """
 
 from __future__ import annotations
