@@ -16,11 +16,20 @@ from .mesh import SUPPORTED_EXTENSIONS
 from .model import Scene
 from .overrides import Overrides, apply_overrides
 
-__all__ = ["FOREIGN_SUFFIXES", "SCENE_SUFFIXES", "load", "load_scene", "parse_document", "scene_from_dict"]
+__all__ = [
+    "DEFINE_SUFFIXES",
+    "FOREIGN_SUFFIXES",
+    "SCENE_SUFFIXES",
+    "load",
+    "load_scene",
+    "parse_document",
+    "scene_from_dict",
+]
 
 SCENE_SUFFIXES = (".toml", ".json")
 # Other renderers' scene files, read into a scene document by foreign_document
 FOREIGN_SUFFIXES = (".xml",)
+DEFINE_SUFFIXES = (".xml",)  # the files whose $parameters --define sets (Mitsuba's)
 
 
 def foreign_document(path: Path, defines: dict[str, str] | None) -> tuple[dict, dict[str, str]]:
@@ -64,7 +73,7 @@ def load_scene(
     (default: the path). A Mitsuba scene (.xml) takes `defines`, {NAME: VALUE} for its $NAME
     parameters (Mitsuba's -D); other files refuse them."""
     path = Path(path)
-    if defines and path.suffix.lower() not in FOREIGN_SUFFIXES:
+    if defines and path.suffix.lower() not in DEFINE_SUFFIXES:
         raise SceneError(f"{path}: --define sets parameters of a Mitsuba scene (.xml), and this is not one")
     if path.suffix.lower() in FOREIGN_SUFFIXES:
         document, origins = foreign_document(path, defines)

@@ -11,7 +11,7 @@ from .autoframe import MESH_SUFFIXES, is_mesh_file, mesh_scene
 from .builtin import DEFAULT_SCENE, builtin_names, builtin_scene
 from .gltf import is_gltf_file
 from .gltf_scene import gltf_scene
-from .load import FOREIGN_SUFFIXES, SCENE_SUFFIXES, load_scene
+from .load import DEFINE_SUFFIXES, FOREIGN_SUFFIXES, SCENE_SUFFIXES, load_scene
 from .model import Scene
 
 SceneLike = Scene | str | os.PathLike | None
@@ -44,7 +44,7 @@ def open_scene(
             f"got {type(scene).__name__}"
         )
     name = DEFAULT_SCENE if scene is None else os.fspath(scene)
-    if defines and Path(name).suffix.lower() not in FOREIGN_SUFFIXES:
+    if defines and Path(name).suffix.lower() not in DEFINE_SUFFIXES:
         raise SceneError(f"{name}: --define sets parameters of a Mitsuba scene (.xml), and this is not one")
     if is_gltf_file(name):
         return gltf_scene(name, overrides, camera=camera, width=width, height=height), name
