@@ -519,3 +519,32 @@ def test_a_value_raylume_refuses_names_the_element_it_came_from(tmp_path):
     assert "lights[0].intensity (" in message and '<emitter type="point">): ' in message
     with pytest.raises(SceneError, match=r'scene\.xml:\d+: <film type="hdrfilm">: width and height must be at least 1'):
         load(tmp_path, xml("", width=0))
+
+
+def test_a_flat_emitter_gets_a_black_twin_behind_its_back_and_emits_from_its_front_alone(tmp_path):
+    # a rectangle facing down (local +z turned to -y), 4 x 2 wide, at y = 3
+    body = (
+        '<shape type="rectangle"><transform name="to_world"><scale x="2"/><rotate x="1" angle="90"/>'
+        '<translate y="3"/></transform><emitter type="area"><rgb name="radiance" value="5"/></emitter></shape>'
+    )
+    light, twin = load(tmp_path, xml(body)).objects
+    assert light.material.emission == (5.0, 5.0, 5.0)
+    assert twin.material.emission == (0.0, 0.0, 0.0) and twin.material.color == (0.0, 0.0, 0.0)
+    assert (twin.u, twin.v) == (light.u, light.v)
+    np.testing.assert_allclose(np.subtract(twin.position, light.position), (0, 4e-3, 0), atol=1e-12)  # above it
+    # seen from below it shines; from above, the twin hides it
+    for y, lit in ((0.0, True), (6.0, False)):
+        scene = load(tmp_path, xml(body)).replace(
+            camera={"position": [0, y, 0.01], "look_at": [0, 3, 0], "up": [0, 0, 1]}, render={"mode": "cast"}
+        )
+        image = raylume.render(scene, width=4, height=4, max_depth=1)
+        assert (image.aovs["object"][1:3, 1:3] == (0 if lit else 1)).all()
+
+
+def test_an_emitting_open_mesh_is_named(tmp_path):
+    (tmp_path / "m.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    body = '<shape type="obj"><string name="filename" value="m.obj"/><emitter type="area"/></shape>'
+    path = tmp_path / "scene.xml"
+    path.write_text(xml(body))
+    with pytest.warns(SceneWarning, match="emit from both sides, Mitsuba's from the front alone"):
+        raylume.load(path)

@@ -7,7 +7,7 @@ for area lights and environments).
 | point | point light |
 | spot | spot light (cutoff_angle -> angle, beam_width -> inner_angle) |
 | directional | directional light (direction: towards the light) |
-| area (in a shape) | the shape's material `emission` |
+| area (in a shape) | the shape's material `emission` (one-sided: see mitsuba_shapes.Shapes.one_sided) |
 | constant | [environment] color |
 | envmap | [environment] file, intensity = scale, rotate from to_world |
 """

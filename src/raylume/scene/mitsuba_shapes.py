@@ -25,6 +25,7 @@ from .mitsuba_context import Context, uniform_scale
 from .mitsuba_emitters import area_radiance
 from .mitsuba_xml import Node
 
+BEHIND = 1e-3  # how far (in the emitter's size) the black twin of a one-sided emitter sits behind it
 MESH_TYPES = {"obj": (".obj",), "ply": (".ply",), "serialized": (".serialized",)}
 # Mitsuba's cube: the faces of [-1, 1]^3, each (centre, u, v) with u x v pointing out
 CUBE_FACES = [
@@ -140,12 +141,44 @@ class Shapes:
             ]
         else:
             raise node.error("raylume has no such shape, and no shape that could honestly replace it")
+        if isinstance(material, dict) and any(material.get("emission", ())):
+            objects += self.one_sided(node, kind, objects, np.linalg.det((ctx.world @ m)[:3, :3]))
         if kind in ("cube", "sphere", "disk", "cylinder") and self.textured(material):
             ctx.warn(
                 node, f"raylume's {kind} has texture coordinates of its own, not Mitsuba's: the image lies otherwise"
             )
         ctx.done(node, props)
         return objects
+
+    def one_sided(self, node: Node, kind: str, objects: list[dict], det: float) -> list[dict]:
+        """Mitsuba's area emitters emit from their front alone, raylume's surfaces from both sides.
+        A flat emitter gets a black twin just behind it, which takes in whatever reaches its back
+        (as Mitsuba's emitter, black from behind, does) and hides the back's emission. Closed
+        shapes need none (their inside is never seen); open meshes and tubes are named."""
+        if kind in ("sphere", "cube"):
+            return []
+        if kind not in ("rectangle", "disk"):
+            self.ctx.warn(
+                node,
+                "area emitter: raylume's emitting surfaces emit from both sides, Mitsuba's from the front alone; "
+                "light leaving this shape's back adds to the image",
+            )
+            return []
+        twins = []
+        for obj in objects:
+            if kind == "rectangle":
+                # the front is local +z as a normal, W^-T z; with u = W x and v = -W y (see quad), that is
+                # -sign(det W) u x v
+                normal = -np.sign(det) * np.cross(obj["u"], obj["v"])
+                size = max(np.linalg.norm(obj["u"]), np.linalg.norm(obj["v"]))
+                centre = "position"
+            else:  # a similarity's W z is its W^-T z, up to length
+                normal, size, centre = np.asarray(obj["normal"]), 2 * obj["radius"], "center"
+            back = -normal / np.linalg.norm(normal) * BEHIND * size
+            twin = {**obj, centre: [float(c + b) for c, b in zip(obj[centre], back)]}
+            twin["material"] = {"type": "diffuse", "color": [0.0, 0.0, 0.0]}
+            twins.append(twin)
+        return twins
 
     def textured(self, material: dict | str) -> bool:
         table = self.materials.get(material, {}) if isinstance(material, str) else material
