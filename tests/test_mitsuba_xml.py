@@ -548,3 +548,12 @@ def test_an_emitting_open_mesh_is_named(tmp_path):
     path.write_text(xml(body))
     with pytest.warns(SceneWarning, match="emit from both sides, Mitsuba's from the front alone"):
         raylume.load(path)
+
+
+def test_the_example_mitsuba_scene_loads_without_warnings():
+    example = Path(__file__).resolve().parents[1] / "examples" / "mitsuba" / "box.xml"
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", SceneWarning)
+        scene = raylume.load(example, defines={"res": "32"})
+    assert (scene.render.width, scene.render.spp, scene.render.max_depth) == (32, 64, 8)
+    assert scene.materials["red"].color == (0.65, 0.06, 0.05)
