@@ -7,6 +7,7 @@ and, in an RGB variant, turns them into RGB values; the dielectric plugins turn 
 its documentation lists, so raylume's reader gives the same numbers Mitsuba renders with.
 
     python tools/mitsuba_named_data.py        # needs the bench extra (mitsuba)
+    ruff format src/raylume/scene/mitsuba_named.py
 """
 
 from __future__ import annotations
