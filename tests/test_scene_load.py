@@ -119,7 +119,7 @@ def test_missing_folder_and_wrong_extension(tmp_path):
     with pytest.raises(SceneError, match="is a folder"):
         load_scene(tmp_path / "dir.toml")
     (tmp_path / "scene.yaml").write_text("render: {}")
-    with pytest.raises(SceneError, match=r"\.toml or \.json"):
+    with pytest.raises(SceneError, match=r"\.toml, \.json or \.pbrt"):
         load_scene(tmp_path / "scene.yaml")
 
 

@@ -175,7 +175,8 @@ def render(
         str | None,
         typer.Argument(
             metavar="SCENE",
-            help="Scene file (.toml/.json), Mitsuba 3 scene (.xml), glTF scene (.gltf .glb: its camera and lights), "
+            help="Scene file (.toml/.json), pbrt-v4 (.pbrt) or Mitsuba 3 (.xml) scene, glTF scene (.gltf .glb: its "
+            "camera and lights), "
             "mesh file (.obj .ply .stl .off: framed and lit automatically) or built-in name; default: seed",
         ),
     ] = None,
@@ -640,7 +641,8 @@ def view(
     scene: Annotated[
         str | None,
         typer.Argument(
-            metavar="SCENE", help="Scene file (.toml/.json/.xml), glTF or mesh file or built-in name; default: seed"
+            metavar="SCENE",
+            help="Scene file (.toml/.json/.pbrt/.xml), glTF or mesh file or built-in name; default: seed",
         ),
     ] = None,
     mode: Annotated[

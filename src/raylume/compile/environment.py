@@ -12,6 +12,7 @@ import numpy as np
 from ..errors import SceneError
 from ..kernels.shading.environment import Environment, alias_table, sampling_tables
 from ..scene.mesh import transform_matrix
+from .equal_area import equal_area_to_equirectangular
 
 # A guard against decompression bombs (the texture table's limit): 64 Mi texels, 768 MiB.
 MAX_TEXELS = 1 << 26
@@ -27,11 +28,15 @@ def build_environment(
     base_dir=".",
     source: str = "<scene>",
     where: str = "environment",
+    matrix=None,
+    mapping: str = "equirectangular",
 ) -> Environment:
     """The kernels' Environment for `[environment]`: a constant `color` (linear [r, g, b]) or an
     equirectangular `file` (.hdr or .exr, relative to `base_dir`), scaled by `intensity` and
     turned by `rotate` (degrees about x, then y, then z, as object transforms). Bad input
-    raises SceneError naming `source` and the key (`{where}.file`, ...)."""
+    raises SceneError naming `source` and the key (`{where}.file`, ...). `matrix` (3 x 3,
+    orthogonal) replaces `rotate`; `mapping = "equal-area"` reads the file as pbrt-v4's square
+    equal-area octahedral map (equal_area.py) and resamples it to equirectangular."""
 
     def fail(key: str, why: str):
         raise SceneError(f"{source}: {where}.{key}: {why}") from None
@@ -42,7 +47,8 @@ def build_environment(
     if scale is None or scale < 0.0:
         fail("intensity", f"must be a finite number >= 0, got {intensity!r}")
     try:
-        rotation = np.ascontiguousarray(transform_matrix(rotate=rotate)[:3, :3], dtype=np.float64)
+        turn = transform_matrix(rotate=rotate)[:3, :3] if matrix is None else np.array(matrix, dtype=np.float64)
+        rotation = np.ascontiguousarray(turn, dtype=np.float64)
     except (ValueError, TypeError):
         fail("rotate", f"must be [x, y, z] in degrees (finite numbers), got {rotate!r}")
 
@@ -59,6 +65,10 @@ def build_environment(
         if not path.is_absolute():
             path = Path(base_dir) / path
         image = load_environment_image(path, source, f"{where}.file")
+        if mapping == "equal-area":
+            if image.shape[0] != image.shape[1]:
+                fail("file", f"an equal-area (octahedral) map must be square, got {image.shape[1]} x {image.shape[0]}")
+            image = equal_area_to_equirectangular(image)
 
     scaled = image.astype(np.float64) * scale
     if not np.all(scaled <= np.finfo(np.float32).max):

@@ -27,6 +27,8 @@ def scene_environment(scene, source: str) -> Environment:
         file=env.file,
         intensity=env.intensity,
         rotate=env.rotate,
+        matrix=env.matrix,
+        mapping=env.mapping,
         base_dir=scene.base_dir,
         source=source,
     )

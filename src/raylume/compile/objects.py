@@ -14,7 +14,7 @@ from ..kernels.geometry.shapes import ANALYTIC, SHAPE_WIDTH, Shape, is_bounded
 from ..kernels.geometry.shapes import bounds as shape_bounds
 from ..scene.gltf import flatten, load_gltf_object
 from ..scene.instances import InstanceError, instance_matrices
-from ..scene.mesh import MeshData, MeshError, transform_matrix
+from ..scene.mesh import MeshData, MeshError, object_matrix_of
 from ..scene.model import (
     DEFAULT_MATERIAL,
     Cylinder,
@@ -45,7 +45,7 @@ def object_matrix(obj) -> np.ndarray:
     """4x4 object-to-world matrix of an analytic shape's `transform` (the identity for shapes
     without one): what its module's `pack` applies."""
     t = getattr(obj, "transform", None)
-    return np.eye(4) if t is None else transform_matrix(t.translate, t.rotate, t.scale3)
+    return np.eye(4) if t is None else object_matrix_of(t)
 
 
 class _TriangleSoup:
@@ -99,7 +99,8 @@ def _load_mesh_object(scene: Scene, k: int, obj: Mesh, source):
     try:
         return load_mesh_object(obj, scene.base_dir)
     except MeshError as exc:
-        raise SceneError(f"{source}: objects[{k}].file: {exc}") from None
+        key = "file" if obj.file is not None else "vertices"
+        raise SceneError(f"{source}: objects[{k}].{key}: {exc}") from None
 
 
 def _load_gltf_object(scene: Scene, k: int, obj: Gltf, source):

@@ -24,6 +24,7 @@ from ..scene.model import Scene
 from .geometry import build_geometry
 from .lights import build_light_table, scene_environment
 from .materials import material_table
+from .media import build_media
 from .objects import gather_objects
 
 
@@ -50,6 +51,9 @@ def compile_scene(scene: Scene, source="<scene>", accelerate: bool = True) -> Co
         gathered.materials, gathered.material_where, scene.base_dir, source, gathered.images
     )
     environment = scene_environment(scene, source)
+    media = build_media(
+        scene, gathered.geometry, {k: scene.material_of(obj).type for k, obj in enumerate(scene.objects)}, source
+    )
     # instanced meshes' triangles (stored in object space) are sampled per mesh, through its
     # instances (lights.instanced_emitters), not one row per triangle
     world = np.ones(len(g.prims), dtype=bool)
@@ -92,6 +96,13 @@ def compile_scene(scene: Scene, source="<scene>", accelerate: bool = True) -> Co
         inst_node_index=inst.node_index,
         instance_inverse=inst.inverse,
         instance_index=inst.index,
+        medium_data=media.data,
+        medium_density=media.density,
+        medium_majorants=media.majorants,
+        medium_interface=media.interface,
+        camera_medium=media.camera,
+        media_present=media.present,
+        pass_through=media.pass_through,
         epsilon_floor=1e-30,
     )
     stats = {

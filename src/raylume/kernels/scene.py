@@ -61,6 +61,16 @@ class KernelScene(NamedTuple):
     inst_node_index: np.ndarray  # the same records as int32
     instance_inverse: np.ndarray  # float32 (N, 12)
     instance_index: np.ndarray  # int32 (N, 2)
+    # Participating media (shading/media/): the medium table, every grid's densities and
+    # majorant cells, each object's (inside, outside) medium, the camera's medium (-1: none),
+    # whether there are media, and whether shadow rays must pass null boundaries and media
+    medium_data: np.ndarray  # float64 (K, MED_WIDTH)
+    medium_density: np.ndarray  # float32 (D,)
+    medium_majorants: np.ndarray  # float64 (C,)
+    medium_interface: np.ndarray  # int32 (objects, 2)
+    camera_medium: int
+    media_present: bool
+    pass_through: bool
     # Smallest ray offset: a tiny fraction of the scene's extent, camera included (set per
     # render by the Session, since the camera may move).
     epsilon_floor: float
@@ -151,6 +161,31 @@ class Emitters(NamedTuple):
     n_area: int
     environment_row: int
     ambient_row: int
+
+
+class Media(NamedTuple):
+    """Path mode's view of the participating media (shading/media/)."""
+
+    data: np.ndarray
+    density: np.ndarray
+    majorants: np.ndarray
+    interface: np.ndarray
+    camera: int
+    present: bool
+    pass_through: bool
+
+
+@kernel_function()
+def media_of(S):
+    return Media(
+        S.medium_data,
+        S.medium_density,
+        S.medium_majorants,
+        S.medium_interface,
+        S.camera_medium,
+        S.media_present,
+        S.pass_through,
+    )
 
 
 @kernel_function()

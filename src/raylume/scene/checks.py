@@ -32,6 +32,11 @@ def scene_warnings(scene: Scene, mode: str) -> list[str]:
             f"the scene has no lights, so {mode} mode renders every object black; add [[lights]] "
             '(e.g. type = "ambient") or use --mode cast to see the objects\' colours'
         )
+    if mode != "path" and (scene.media or scene.render.medium is not None):
+        found.append(
+            f"participating media render in path mode only: {mode} mode shows the media's boundaries "
+            "(their materials) and nothing between them; use --mode path"
+        )
     return found
 
 

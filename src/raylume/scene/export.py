@@ -50,6 +50,9 @@ def scene_document(scene: Scene, folder: str | Path) -> dict:
         if isinstance(obj.get("instances"), str):
             obj["instances"] = moved(obj["instances"])
         textures(obj.get("material"))
+    for medium in document.get("media", {}).values():
+        if isinstance(medium.get("density"), str):
+            medium["density"] = moved(medium["density"])
     environment = document.get("environment")
     if isinstance(environment, dict) and "file" in environment:
         environment["file"] = moved(environment["file"])

@@ -49,7 +49,7 @@ import numpy as np
 
 from .checks import SceneWarning
 from .gltf_file import GltfError, GltfFile
-from .mesh import MeshData, _apply, _smooth_normals, strips_to_triangles, transform_matrix
+from .mesh import MeshData, _apply, _smooth_normals, object_matrix_of, strips_to_triangles
 from .model import Material, parse_material
 
 HANDEDNESS = np.diag([1.0, 1.0, -1.0, 1.0])
@@ -165,7 +165,7 @@ def load_gltf_object(obj, base_dir: Path) -> GltfScene:
     path = Path(obj.file)
     path = path if path.is_absolute() else Path(base_dir) / path
     t = obj.transform
-    return read_gltf(path).placed(transform_matrix(t.translate, t.rotate, t.scale3))
+    return read_gltf(path).placed(object_matrix_of(t))
 
 
 # ---------------------------------------------------------------------- the importer

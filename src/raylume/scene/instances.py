@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .mesh import transform_matrix
+from .mesh import object_matrix_of
 from .model import Mesh
 
 # Beyond this many instances the top-level BVH's build (float64 boxes, sort keys) needs more
@@ -39,7 +39,7 @@ def instance_matrices(obj: Mesh, base_dir: Path) -> np.ndarray | None:
     if obj.instances is None:
         return None
     if isinstance(obj.instances, list):
-        m = np.stack([transform_matrix(t.translate, t.rotate, t.scale3)[:3] for t in obj.instances])
+        m = np.stack([object_matrix_of(t)[:3] for t in obj.instances])
         return check_matrices(m, "inline instances")
     path = instance_path(obj, base_dir)
     what = f"instances file {path}"

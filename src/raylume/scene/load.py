@@ -1,7 +1,7 @@
-"""Read a scene file into the validated model: TOML or JSON (scene/document.py), a Mitsuba 3 XML
-scene (scene/mitsuba_scene.py), or a glTF or mesh file as a scene by itself (scene/gltf_scene.py,
-scene/autoframe.py). Other renderers' scenes become a scene document first, so validation and
-`--set` overrides are the same for every kind of file."""
+"""Read a scene file into the validated model: TOML or JSON (scene/document.py), a pbrt-v4 file
+(scene/pbrt_scene.py), a Mitsuba 3 XML scene (scene/mitsuba_scene.py), or a glTF or mesh file as
+a scene by itself (scene/gltf_scene.py, scene/autoframe.py). Other renderers' scenes become a
+scene document first, so validation and `--set` overrides are the same for every kind of file."""
 
 from __future__ import annotations
 
@@ -15,6 +15,7 @@ from .gltf_scene import gltf_scene
 from .mesh import SUPPORTED_EXTENSIONS
 from .model import Scene
 from .overrides import Overrides, apply_overrides
+from .pbrt_scene import pbrt_scene
 
 __all__ = [
     "DEFINE_SUFFIXES",
@@ -26,8 +27,8 @@ __all__ = [
     "scene_from_dict",
 ]
 
-SCENE_SUFFIXES = (".toml", ".json")
-# Other renderers' scene files, read into a scene document by foreign_document
+SCENE_SUFFIXES = (".toml", ".json", ".pbrt")
+# Other renderers' scene files read into a scene document by foreign_document (.pbrt: pbrt_scene)
 FOREIGN_SUFFIXES = (".xml",)
 DEFINE_SUFFIXES = (".xml",)  # the files whose $parameters --define sets (Mitsuba's)
 
@@ -65,6 +66,7 @@ def load_scene(
     defines: dict[str, str] | None = None,
 ) -> Scene:
     """Load and validate a scene file; relative paths inside it are resolved against its folder.
+    A pbrt-v4 file (.pbrt) is read as pbrt would render it (scene/pbrt_scene.py).
     A glTF file (.gltf, .glb) is a scene by itself, with its camera and lights
     (scene/gltf_scene.py); so is a mesh file (.obj, .ply, .stl, .off): the mesh framed by the
     camera, lit by a default rig (scene/autoframe.py). `overrides` ("KEY=VALUE" texts as
@@ -87,10 +89,12 @@ def load_scene(
         return gltf_scene(path, overrides, source=source)
     if path.suffix.lower() in SUPPORTED_EXTENSIONS:
         return mesh_scene(path, overrides, source=source)
+    if path.suffix.lower() == ".pbrt":
+        return pbrt_scene(path, overrides, source=source)
     if path.suffix.lower() not in SCENE_SUFFIXES:
         raise SceneError(
-            f"{path}: scene files end in .toml or .json (other renderers': {', '.join(FOREIGN_SUFFIXES)}), mesh "
-            f"files in {', '.join(SUPPORTED_EXTENSIONS)} (got {path.suffix or 'no extension'!r})"
+            f"{path}: scene files end in .toml, .json or .pbrt (or .xml: Mitsuba 3), mesh files in "
+            f"{', '.join(SUPPORTED_EXTENSIONS)} (got {path.suffix or 'no extension'!r})"
         )
     if path.is_dir():
         raise SceneError(f"{path}: is a folder, not a scene file")

@@ -55,7 +55,16 @@ import numpy as np
 from .procedural import vertex_normals as _area_weighted_normals
 from .serialized import read_serialized
 
-__all__ = ["SUPPORTED_EXTENSIONS", "MeshData", "MeshError", "load_mesh", "strips_to_triangles", "transform_matrix"]
+__all__ = [
+    "SUPPORTED_EXTENSIONS",
+    "MeshData",
+    "MeshError",
+    "load_mesh",
+    "object_matrix_of",
+    "place_mesh",
+    "strips_to_triangles",
+    "transform_matrix",
+]
 
 # Extension -> trimesh file type. Anything else is refused before trimesh is asked.
 SUPPORTED_EXTENSIONS = {".obj": "obj", ".ply": "ply", ".stl": "stl", ".off": "off", ".gltf": "gltf", ".glb": "glb"}
@@ -105,6 +114,14 @@ def transform_matrix(translate=(0.0, 0.0, 0.0), rotate=(0.0, 0.0, 0.0), scale=(1
     m[:3, :3] = rz @ ry @ rx @ np.diag(s)
     m[:3, 3] = t
     return m
+
+
+def object_matrix_of(t) -> np.ndarray:
+    """4x4 float64 object-to-world matrix of a model Transform: its `matrix` when it has one,
+    else ``T @ Rz @ Ry @ Rx @ S`` of its translate, rotate and scale."""
+    if getattr(t, "matrix", None) is not None:
+        return np.array(t.matrix, dtype=np.float64)
+    return transform_matrix(t.translate, t.rotate, t.scale3)
 
 
 def _apply(m: np.ndarray, v: np.ndarray, f: np.ndarray, n: np.ndarray | None):
@@ -453,11 +470,18 @@ def _smooth_normals(v, f):
 
 
 def load_mesh(
-    path, translate=(0.0, 0.0, 0.0), rotate=(0.0, 0.0, 0.0), scale=(1.0, 1.0, 1.0), smooth=None, shape_index=0
+    path,
+    translate=(0.0, 0.0, 0.0),
+    rotate=(0.0, 0.0, 0.0),
+    scale=(1.0, 1.0, 1.0),
+    smooth=None,
+    matrix: np.ndarray | None = None,
+    shape_index: int = 0,
 ) -> MeshData:
     """Load a triangle mesh file and place it in the world.
 
-    ``translate``/``rotate``/``scale`` are as in :func:`transform_matrix`.
+    ``translate``/``rotate``/``scale`` are as in :func:`transform_matrix`;
+    ``matrix`` (4x4, column vectors), when given, is applied after them.
     ``smooth``: True -> vertex normals from the file, else computed
     area-weighted; False -> ``normals`` is None (flat shading); None -> the
     file's normals when it has them, else None. Zero-area faces are dropped
@@ -468,6 +492,8 @@ def load_mesh(
         m = transform_matrix(translate, rotate, scale)
     except ValueError as exc:
         raise MeshError(f"Mesh {path} cannot be placed: {exc}.") from exc
+    if matrix is not None:
+        m = np.asarray(matrix, dtype=np.float64) @ m
     if np.linalg.det(m[:3, :3]) == 0:
         raise MeshError(f"Mesh {path} cannot be placed: its scale has a zero component.")
 
@@ -481,7 +507,16 @@ def load_mesh(
         n, uv = (None if a is None else a[keep] for a in (n, uv))
     if len(v) > np.iinfo(np.int32).max:
         raise MeshError(f"Mesh file {path} has more vertices than int32 face indices can address.")
+    return place_mesh(v, f, n, uv, m, smooth, f"Mesh file {path}")
 
+
+def place_mesh(v, f, n, uv, m: np.ndarray, smooth, what: str) -> MeshData:
+    """Vertices (V, 3), faces (F, 3), optional normals (V, 3) and uvs (V, 2) in object space,
+    placed by the 4x4 matrix `m` (zero-area faces dropped, `smooth` as in load_mesh). `what`
+    names the mesh in MeshErrors ("Mesh file x.ply")."""
+    v = np.asarray(v, dtype=np.float64)
+    f = np.asarray(f, dtype=np.int64)
+    n = None if n is None else np.asarray(n, dtype=np.float64)
     if not np.array_equal(m, np.eye(4)):
         v, f, n = _apply(m, v, f, n)
 
@@ -493,7 +528,7 @@ def load_mesh(
     del e1, e2, cross, area2, scale2
     degenerate = int(len(f) - np.count_nonzero(good))
     if degenerate == len(f):
-        raise MeshError(f"Mesh file {path} has only zero-area (degenerate) faces.")
+        raise MeshError(f"{what} has only zero-area (degenerate) faces.")
     f = np.ascontiguousarray(f[good] if degenerate else f, dtype=np.int32)
 
     normals = None
@@ -510,6 +545,6 @@ def load_mesh(
         vertices=np.ascontiguousarray(v, dtype=np.float64),
         faces=f,
         normals=normals,
-        uvs=None if uv is None else uv.astype(np.float32),
+        uvs=None if uv is None else np.asarray(uv, dtype=np.float32),
         degenerate=degenerate,
     )

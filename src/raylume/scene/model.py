@@ -115,6 +115,9 @@ class RenderSettings(Strict):
     texture_filter: bool = True
     # Path mode: run Intel Open Image Denoise on the image (with the albedo and normal AOVs).
     denoise: bool = False
+    # The participating medium filling the space outside every object, a name in [media]
+    # (fog); the camera sits in it. Path mode renders media; the others ignore them.
+    medium: str | None = None
 
     @model_validator(mode="after")
     def _depth(self):
@@ -505,11 +508,27 @@ LIGHT_TYPES = {
 Light = tagged_union(LIGHT_TYPES)
 
 
+# `interior` (every object): the name of the medium inside a closed shape, in [media]; open
+# shapes refuse it.
+MediumRef = Annotated[str | None, Field(None, min_length=1)]
+
+
+def _no_interior(obj, shape: str):
+    """interior needs an inside: refuse it on shapes that have none (DESIGN.md section 7)."""
+    if obj.interior is not None:
+        raise ValueError(
+            f"interior: a {shape} is open, it has no inside to fill; a medium needs a closed shape "
+            "(a sphere, a capped cylinder or a closed mesh)"
+        )
+    return obj
+
+
 class Sphere(Strict):
     type: Literal["sphere"]
     center: Vec3
     radius: FiniteFloat = Field(gt=0)
     material: MaterialRef = "default"
+    interior: MediumRef = None
 
 
 class Plane(Strict):
@@ -517,6 +536,11 @@ class Plane(Strict):
     point: Vec3 = (0.0, 0.0, 0.0)
     normal: Vec3 = (0.0, 1.0, 0.0)
     material: MaterialRef = "default"
+    interior: MediumRef = None
+
+    @model_validator(mode="after")
+    def _open(self):
+        return _no_interior(self, "plane")
 
     @field_validator("normal")
     @classmethod
@@ -528,6 +552,11 @@ class Triangle(Strict):
     type: Literal["triangle"]
     vertices: tuple[Vec3, Vec3, Vec3]
     material: MaterialRef = "default"
+    interior: MediumRef = None
+
+    @model_validator(mode="after")
+    def _open(self):
+        return _no_interior(self, "triangle")
 
     @field_validator("vertices")
     @classmethod
@@ -541,10 +570,16 @@ class Triangle(Strict):
         return v
 
 
+Row4 = tuple[FiniteFloat, FiniteFloat, FiniteFloat, FiniteFloat]
+
+
 class Transform(Strict):
     translate: Vec3 = (0.0, 0.0, 0.0)
     rotate: Vec3 = (0.0, 0.0, 0.0)  # degrees, applied about x, then y, then z
     scale: FiniteFloat | Vec3 = 1.0
+    # Or a whole 4 x 4 object-to-world matrix, rows, column vectors (p' = M @ [p, 1]), instead of
+    # the three above: what other renderers' files (pbrt, Mitsuba) hold, shears included.
+    matrix: tuple[Row4, Row4, Row4, Row4] | None = None
 
     @field_validator("scale")
     @classmethod
@@ -553,6 +588,25 @@ class Transform(Strict):
         if any(c == 0 for c in values):
             raise ValueError("scale factors must be non-zero")
         return v
+
+    @model_validator(mode="after")
+    def _matrix_alone(self):
+        if self.matrix is None:
+            return self
+        if self.translate != (0.0, 0.0, 0.0) or self.rotate != (0.0, 0.0, 0.0) or self.scale3 != (1.0, 1.0, 1.0):
+            raise ValueError("matrix replaces translate, rotate and scale: give either the matrix or those")
+        if tuple(self.matrix[3]) != (0.0, 0.0, 0.0, 1.0):
+            raise ValueError(f"matrix's last row must be [0, 0, 0, 1] (affine), got {list(self.matrix[3])}")
+        a = [row[:3] for row in self.matrix[:3]]
+        det = (
+            a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1])
+            - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0])
+            + a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0])
+        )
+        size = math.prod(math.sqrt(sum(c * c for c in row)) for row in a)
+        if not abs(det) > 1e-12 * size:
+            raise ValueError("matrix is singular (it flattens the object)")
+        return self
 
     @property
     def scale3(self) -> tuple[float, float, float]:
@@ -576,17 +630,29 @@ class MeshTransform(Transform):
     @model_validator(mode="after")
     def _fit_alone(self):
         # fit sets the size and the position: a scale or translate beside it would be ambiguous
-        if self.fit is not None and (self.translate != (0.0, 0.0, 0.0) or self.scale3 != (1.0, 1.0, 1.0)):
+        if self.fit is not None and (
+            self.translate != (0.0, 0.0, 0.0) or self.scale3 != (1.0, 1.0, 1.0) or self.matrix is not None
+        ):
             raise ValueError(
-                "fit sets the mesh's size and position, so it cannot be combined with translate or scale; "
+                "fit sets the mesh's size and position, so it cannot be combined with translate, scale or matrix; "
                 "keep rotate and fit, or drop fit"
             )
         return self
 
 
+Index3 = tuple[Annotated[int, Field(ge=0)], Annotated[int, Field(ge=0)], Annotated[int, Field(ge=0)]]
+
+
 class Mesh(Strict):
     type: Literal["mesh"]
-    file: str
+    # The triangles: a mesh file (relative to the scene file), or inline `vertices` with
+    # `faces` (three vertex indices each, from 0; cross(v1 - v0, v2 - v0) is the front) and
+    # optional per-vertex `normals` and `uvs`, as other renderers' files carry meshes.
+    file: str | None = None
+    vertices: list[Vec3] | None = None
+    faces: list[Index3] | None = None
+    normals: list[Vec3] | None = None
+    uvs: list[tuple[FiniteFloat, FiniteFloat]] | None = None
     material: MaterialRef = "default"
     transform: MeshTransform = MeshTransform()
     smooth: bool | None = None  # None: use the file's vertex normals when it has them
@@ -598,6 +664,7 @@ class Mesh(Strict):
     # a .npy file of shape (N, 4, 4) or (N, 3, 4), relative to the scene file, or inline
     # transforms. The mesh and its BVH are stored once (scene/instances.py, compile/instances.py).
     instances: str | list[Transform] | None = None
+    interior: MediumRef = None  # the mesh must be closed (checked when it is loaded)
 
     @field_validator("instances")
     @classmethod
@@ -608,8 +675,39 @@ class Mesh(Strict):
             raise ValueError("instances must name a .npy file of (N, 4, 4) or (N, 3, 4) matrices")
         return v
 
+    @model_validator(mode="after")
+    def _one_source(self):
+        if (self.file is None) == (self.vertices is None):
+            raise ValueError('a mesh has either file = "model.obj" or inline vertices and faces (exactly one)')
+        if self.file is not None:
+            extra = [key for key in ("faces", "normals", "uvs") if getattr(self, key) is not None]
+            if extra:
+                raise ValueError(f"{', '.join(extra)} go with inline vertices, not with a mesh file")
+            return self
+        n = len(self.vertices)
+        if not self.faces:
+            raise ValueError("inline vertices need faces: a list of [i, j, k] vertex indices")
+        top = max(max(face) for face in self.faces)
+        if top >= n:
+            raise ValueError(f"faces index vertex {top}, but there are {n} vertices (indices count from 0)")
+        for key in ("normals", "uvs"):
+            values = getattr(self, key)
+            if values is not None and len(values) != n:
+                raise ValueError(f"{key} has {len(values)} entries; it needs one per vertex ({n})")
+        return self
+
 
 def _similarity(transform: Transform, shape: str) -> Transform:
+    if transform.matrix is not None:
+        cols = [[transform.matrix[r][c] for r in range(3)] for c in range(3)]
+        lengths = [math.sqrt(sum(x * x for x in col)) for col in cols]
+        dots = [abs(sum(a * b for a, b in zip(cols[i], cols[j]))) for i, j in ((0, 1), (0, 2), (1, 2))]
+        if max(lengths) - min(lengths) > 1e-9 * max(lengths) or max(dots) > 1e-9 * max(lengths) ** 2:
+            raise ValueError(
+                f"a {shape}'s transform.matrix must be a similarity (rotation, uniform scale, translation): "
+                "anything else would make it elliptic"
+            )
+        return transform
     s = transform.scale3
     if not (abs(s[0]) == abs(s[1]) == abs(s[2])):
         raise ValueError(
@@ -628,6 +726,11 @@ class Disk(Strict):
     radius: FiniteFloat = Field(gt=0)
     material: MaterialRef = "default"
     transform: Transform = Transform()
+    interior: MediumRef = None
+
+    @model_validator(mode="after")
+    def _open(self):
+        return _no_interior(self, "disk")
 
     @field_validator("normal")
     @classmethod
@@ -650,6 +753,7 @@ class Quad(Strict):
     v: Vec3
     material: MaterialRef = "default"
     transform: Transform = Transform()
+    interior: MediumRef = None
 
     @model_validator(mode="after")
     def _edges(self):
@@ -662,7 +766,7 @@ class Quad(Strict):
             or not any(v)
         ):
             raise ValueError("u and v must be non-zero and not parallel (the quad would have no area)")
-        return self
+        return _no_interior(self, "quad")
 
 
 class Cylinder(Strict):
@@ -676,11 +780,14 @@ class Cylinder(Strict):
     capped: bool = True
     material: MaterialRef = "default"
     transform: Transform = Transform()
+    interior: MediumRef = None
 
     @model_validator(mode="after")
     def _axis(self):
         if self.p0 == self.p1:
             raise ValueError("p0 and p1 must differ (the cylinder would have no length)")
+        if not self.capped:
+            _no_interior(self, "cylinder without caps (capped = false)")
         return self
 
     @field_validator("transform")
@@ -728,6 +835,24 @@ class Environment(Strict):
     file: str | None = None
     intensity: FiniteFloat = Field(1.0, ge=0)
     rotate: Vec3 = (0.0, 0.0, 0.0)
+    # Or the world-from-environment matrix itself (3 x 3 rows, orthogonal: a rotation, or one
+    # with a mirror), as other renderers' files give it.
+    matrix: tuple[Vec3, Vec3, Vec3] | None = None
+    # How the file covers the sphere: "equirectangular", or pbrt-v4's square "equal-area"
+    # octahedral map (converted to equirectangular when the scene is compiled).
+    mapping: Literal["equirectangular", "equal-area"] = "equirectangular"
+
+    @field_validator("matrix")
+    @classmethod
+    def _orthogonal(cls, v):
+        if v is None:
+            return v
+        for i in range(3):
+            for j in range(3):
+                dot = sum(v[k][i] * v[k][j] for k in range(3))
+                if abs(dot - (1.0 if i == j else 0.0)) > 1e-6:
+                    raise ValueError("matrix must be orthogonal (a rotation, possibly with a mirror)")
+        return v
 
     @field_validator("color", mode="before")
     @classmethod
@@ -738,7 +863,60 @@ class Environment(Strict):
     def _one_source(self):
         if (self.color is None) == (self.file is None):
             raise ValueError('give exactly one of color = [r, g, b] and file = "sky.hdr"')
+        if self.matrix is not None and self.rotate != (0.0, 0.0, 0.0):
+            raise ValueError("matrix replaces rotate: give one of them")
+        if self.mapping != "equirectangular" and self.file is None:
+            raise ValueError("mapping applies to an image file")
         return self
+
+
+def _coefficients(value):
+    """A medium's coefficient: a number (grey) or [r, g, b], per scene unit of length, >= 0."""
+    return _intensity(value)
+
+
+class _MediumBase(Strict):
+    # absorption and scattering coefficients per scene unit of length (RGB), and the
+    # Henyey-Greenstein asymmetry g (-1 back, 0 isotropic, 1 forward; the ends excluded)
+    sigma_a: Color = (0.0, 0.0, 0.0)
+    sigma_s: Color = (0.0, 0.0, 0.0)
+    g: FiniteFloat = Field(0.0, gt=-1, lt=1)
+
+    @field_validator("sigma_a", "sigma_s", mode="before")
+    @classmethod
+    def _coefficient(cls, v):
+        return _coefficients(v)
+
+
+class HomogeneousMedium(_MediumBase):
+    """A medium of the same density everywhere (fog, milk, smoke of even density)."""
+
+    type: Literal["homogeneous"]
+
+
+class GridMedium(_MediumBase):
+    """A medium whose density varies: `density` a .npy float array (nz, ny, nx) >= 0 filling the
+    box bounds_min..bounds_max (voxel (k, j, i) its cell at z index k, y index j, x index i),
+    interpolated trilinearly between the cells' centres; sigma_a and sigma_s are scaled by it.
+    Outside the box the density is 0."""
+
+    type: Literal["grid"]
+    density: str = Field(min_length=1)
+    bounds_min: Vec3
+    bounds_max: Vec3
+
+    @model_validator(mode="after")
+    def _box(self):
+        if any(hi <= lo for lo, hi in zip(self.bounds_min, self.bounds_max)):
+            raise ValueError(
+                f"bounds_max must exceed bounds_min on every axis, got {list(self.bounds_min)} .. "
+                f"{list(self.bounds_max)}"
+            )
+        return self
+
+
+MEDIUM_TYPES = {"homogeneous": HomogeneousMedium, "grid": GridMedium}
+Medium = tagged_union(MEDIUM_TYPES)
 
 
 MAX_FRAMES = 1_000_000
@@ -789,6 +967,7 @@ class Scene(Strict):
     objects: list[SceneObject] = []
     environment: Environment | None = None
     animation: Animation | None = None
+    media: dict[str, Medium] = {}
 
     # Folder that relative paths (mesh files) are resolved against; set by the loader.
     _base_dir: Path = PrivateAttr(default_factory=Path.cwd)
@@ -800,6 +979,13 @@ class Scene(Strict):
             if isinstance(ref, str) and ref != "default" and ref not in self.materials:
                 known = ", ".join(sorted(self.materials)) or "none are defined"
                 raise ValueError(f"objects[{k}].material: no material named {ref!r} in [materials] ({known})")
+        known_media = ", ".join(sorted(self.media)) or "none are defined"
+        for k, obj in enumerate(self.objects):
+            name = getattr(obj, "interior", None)
+            if name is not None and name not in self.media:
+                raise ValueError(f"objects[{k}].interior: no medium named {name!r} in [media] ({known_media})")
+        if self.render.medium is not None and self.render.medium not in self.media:
+            raise ValueError(f"render.medium: no medium named {self.render.medium!r} in [media] ({known_media})")
         return self
 
     @property

@@ -31,8 +31,8 @@ def open_scene(
     * a Scene: itself (`overrides` do not apply to it);
     * None: the built-in `seed` scene;
     * a path or a name: a glTF file (its camera, or the one `camera` names), a mesh file
-      (framed and lit for a width x height image), a scene file (.toml, .json, or another
-      renderer's: a Mitsuba .xml, its $parameters set by `defines`), or else a built-in scene's name.
+      (framed and lit for a width x height image), a scene file (.toml, .json, .pbrt, or a
+      Mitsuba .xml, its $parameters set by `defines`), or else a built-in scene's name.
 
     `overrides` are `--set` style KEY=VALUE strings. A name that is none of these is a
     SceneError that lists the built-ins."""
@@ -55,6 +55,6 @@ def open_scene(
     if name in builtin_names():
         return builtin_scene(name, overrides=overrides), f"built-in scene {name!r}"
     raise SceneError(
-        f"{name}: not a scene file (.toml or .json), a mesh file ({', '.join(MESH_SUFFIXES)}) nor a built-in "
-        f"scene; built-ins: {', '.join(builtin_names())}"
+        f"{name}: not a scene file (.toml, .json, .pbrt or .xml), a mesh file ({', '.join(MESH_SUFFIXES)}) nor a "
+        f"built-in scene; built-ins: {', '.join(builtin_names())}"
     )

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .mesh import MeshData, load_mesh
+from .mesh import MeshData, load_mesh, object_matrix_of, place_mesh
 from .model import Mesh
 
 # At most one placed mesh, waiting for the compiler: {key: MeshData}. Any later read empties it.
@@ -32,6 +32,8 @@ def mesh_path(obj: Mesh, base_dir: Path) -> Path:
 def load_mesh_object(obj: Mesh, base_dir: Path, keep: bool = False) -> MeshData:
     """The object's mesh in world space. `keep` holds it for the next call asking for the same
     object and unchanged file (the compiler after framing). Raises MeshError."""
+    if obj.file is None:
+        return _place_inline(obj)
     path = mesh_path(obj, base_dir)
     key = _key(path, obj)
     mesh = _handoff.pop(key, None) if key is not None else None
@@ -65,11 +67,29 @@ def _place(path: Path, obj: Mesh) -> MeshData:
     sx, sy, sz = t.scale3
     if obj.handedness == "right":
         sx = -sx  # mirrored first, in the file's own frame; load_mesh keeps normals and winding right
+    matrix = None if t.matrix is None else np.array(t.matrix, dtype=np.float64)
     mesh = load_mesh(
-        path, translate=t.translate, rotate=t.rotate, scale=(sx, sy, sz), smooth=obj.smooth, shape_index=obj.shape_index
+        path,
+        translate=t.translate,
+        rotate=t.rotate,
+        scale=(sx, sy, sz),
+        smooth=obj.smooth,
+        matrix=matrix,
+        shape_index=obj.shape_index,
     )
     if t.fit is not None:
         mesh = fit_into_box(mesh, t.fit.center, t.fit.size)
+    return mesh
+
+
+def _place_inline(obj: Mesh) -> MeshData:
+    """An inline mesh (vertices, faces, normals, uvs in the object itself), placed as a file's."""
+    m = object_matrix_of(obj.transform)
+    if obj.handedness == "right":
+        m = m @ np.diag([-1.0, 1.0, 1.0, 1.0])
+    mesh = place_mesh(obj.vertices, obj.faces, obj.normals, obj.uvs, m, obj.smooth, "Inline mesh")
+    if obj.transform.fit is not None:
+        mesh = fit_into_box(mesh, obj.transform.fit.center, obj.transform.fit.size)
     return mesh
 
 

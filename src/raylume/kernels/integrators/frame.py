@@ -20,7 +20,7 @@ from ..geometry.packet import PACKET, packet_hit, packet_scratch, packet_trace, 
 from ..geometry.shapes import NO_HIT, instance_id, surface
 from ..geometry.traverse import closest_hit
 from ..geometry.wide_nodes import scratch_array, traversal_stacks
-from ..scene import emitters_of, environment_of, geometry_of, lights_of, surfaces_of
+from ..scene import emitters_of, environment_of, geometry_of, lights_of, media_of, surfaces_of
 from ..shading.environment import environment_radiance
 from ..shading.materials import albedo, aov_albedo
 from ..vec import FAST, dot, inline_function, kernel_function, madd, mul
@@ -128,13 +128,13 @@ def path_lane(S, X, P, film, C, strategy):
     C.rejected[lane * PROGRESS_STRIDE]."""
     node_stack, t_stack = traversal_stacks()
     G, F, Em = geometry_of(S), surfaces_of(S), emitters_of(S)
-    Env = environment_of(S)
+    Env, Md = environment_of(S), media_of(S)
     x0, y0, x1, y1 = P.window
     while True:
         j = y0 + claim_row(C.control, C.counter)
         if j >= y1 or C.control[STOP] != 0:
             break
-        rays, bad = _path_row(G, F, Em, Env, X, P, j, film, node_stack, t_stack, strategy)
+        rays, bad = _path_row(G, F, Em, Env, Md, X, P, j, film, node_stack, t_stack, strategy)
         C.rays_per_row[j - y0] += rays
         C.rejected[C.lane * PROGRESS_STRIDE] += bad
         C.rows_done[C.lane * PROGRESS_STRIDE] += 1
@@ -286,7 +286,7 @@ def _trace_row(G, F, L, X, Env, P, j, film, work, wave, node_stack, t_stack):
 
 
 @kernel_function
-def _path_row(G, F, Em, Env, X, P, j, film, node_stack, t_stack, strategy):
+def _path_row(G, F, Em, Env, Md, X, P, j, film, node_stack, t_stack, strategy):
     """Path-traced samples of row j into the film; returns the rays traced and the samples
     rejected (not finite, or negative)."""
     cam, filt, width, height, window, samples, seed, max_depth, bg = P
@@ -300,7 +300,7 @@ def _path_row(G, F, Em, Env, X, P, j, film, node_stack, t_stack, strategy):
         for s in range(first, first + count):
             o, d, w, key = camera_sample(cam, filt, seed, i, j, s, total_spp, width, height)
             cone = spread * obliquity(cam, d)
-            col, used = path_ray(G, F, X, Em, Env, o, d, cone, max_depth, bg, key, node_stack, t_stack, strategy)
+            col, used = path_ray(G, F, X, Em, Env, Md, o, d, cone, max_depth, bg, key, node_stack, t_stack, strategy)
             rays += used
             if not finite_sample(col):
                 rejected += 1

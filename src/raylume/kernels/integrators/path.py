@@ -33,8 +33,20 @@ from ..shading.lights import (
     sample_light,
 )
 from ..shading.lights.sampling import basis
-from ..shading.materials import MAT_EMISSION, albedo, beer_lambert, bsdf_eval, bsdf_sample, delta_only, two_sided
+from ..shading.materials import (
+    MAT_EMISSION,
+    albedo,
+    beer_lambert,
+    bsdf_eval,
+    bsdf_sample,
+    delta_only,
+    index_matched,
+    two_sided,
+)
+from ..shading.media import MED_G, free_flight, hg_eval, hg_sample, medium_beyond
+from ..shading.media.tracking import ABSORBED, SCATTERED
 from ..vec import dot, hadamard, inline_function, madd, mul, row3
+from .shadow import shadow_transmittance
 
 INF = math.inf
 RR_DEPTH = 5  # Mitsuba's rr_depth: Russian roulette from this many segments on
@@ -45,6 +57,9 @@ MIS = 0
 LIGHT_ONLY = 1
 BSDF_ONLY = 2
 DIM_ROULETTE = np.uint64(0x2077E77E)
+DIM_MEDIUM = np.uint64(0x3ED1A3ED)  # free flights through media: per segment and boundary crossed
+DIM_SHADOW_MEDIUM = np.uint64(0x5AD0BEEF)  # ratio tracking along shadow rays
+MAX_CROSSINGS = 1024  # null boundaries one path passes at most (a guard against endless rounding)
 
 
 @inline_function
@@ -87,7 +102,32 @@ def _emitter_weight(G, X, Em, Env, e, hit, prev_p, d, t, n_hit, prev_pdf, prev_d
 
 
 @inline_function
-def path_ray(G, F, X, Em, Env, o, d, spread, max_depth, background, key, node_stack, t_stack, strategy):
+def _roulette(beta, key, depth):
+    """Russian roulette from segment RR_DEPTH on: (the path goes on, its throughput)."""
+    if depth < RR_DEPTH:
+        return True, beta
+    q = min(max(beta[0], beta[1], beta[2]), 0.95)
+    u_rr, _ = key_uniform2(dimension_key(key, DIM_ROULETTE, depth))
+    if u_rr >= q:
+        return False, beta
+    return True, mul(beta, 1.0 / q)
+
+
+@inline_function
+def _shadow(G, F, X, Md, origin, wi, tmax, med, key, depth, node_stack, t_stack):
+    """Transmittance (RGB) of a shadow ray: through media and null boundaries where the scene
+    has them (shadow.py), else 0 or 1 by any_hit."""
+    if Md.pass_through:
+        return shadow_transmittance(
+            G, F, X, Md, origin, wi, tmax, med, dimension_key(key, DIM_SHADOW_MEDIUM, depth), node_stack, t_stack
+        )
+    if any_hit(G, X, origin, wi, 0.0, tmax, node_stack, t_stack):
+        return (0.0, 0.0, 0.0)
+    return (1.0, 1.0, 1.0)
+
+
+@inline_function
+def path_ray(G, F, X, Em, Env, Md, o, d, spread, max_depth, background, key, node_stack, t_stack, strategy):
     """Radiance along the camera ray (o, d) by one path; textures are filtered over a ray cone
     growing by `spread` per unit distance (as trace_ray's). Returns (rgb, rays traced)."""
     L = (0.0, 0.0, 0.0)  # radiance gathered so far
@@ -98,6 +138,12 @@ def path_ray(G, F, X, Em, Env, o, d, spread, max_depth, background, key, node_st
     prev_delta = True  # the camera ray sees emitters at full weight
     cone = 0.0  # the ray cone's radius at o
     mat = F.materials
+    med = Md.camera  # the medium the ray travels in (-1: none)
+    # MIS weighs emission met by a sampled direction with the light's pdf seen from the vertex
+    # that sampled it, mis_o, mis_t before o along d (null boundaries pass a ray unchanged)
+    mis_o = o
+    mis_t = 0.0
+    crossings = 0  # null boundaries passed
     while True:
         # Next-event estimation's numbers for the surface this segment may reach, drawn before
         # its traversal so that the environment's alias slot (a cache miss: ~11% of
@@ -110,21 +156,75 @@ def path_ray(G, F, X, Em, Env, o, d, spread, max_depth, background, key, node_st
         t, prim, b1, b2 = closest_hit(G, X, o, d, 0.0, INF, node_stack, t_stack)
         rays += 1
         depth += 1
+        tl, e, nl = INF, -1, d
         if Em.n_area > 0:
             tl, e, nl = hit_area_lights(Em, o, d, t)
-            if e >= 0:
-                w = _emitter_weight(G, X, Em, Env, e, np.int64(NO_HIT), o, d, tl, nl, prev_pdf, prev_delta, strategy)
-                L = _add_light(L, beta, row3(Em.data, e, LIGHT_INTENSITY), w)
+        if med >= 0:
+            # the medium along the segment: a scattering before its end makes a path vertex there
+            flight_key = sub_key(dimension_key(key, DIM_MEDIUM, depth), crossings)
+            status, ts, beta = free_flight(Md, med, o, d, tl if e >= 0 else t, flight_key, beta)
+            if status == ABSORBED:
                 break
+            if status == SCATTERED:
+                if max_depth >= 0 and depth >= max_depth:
+                    break
+                p = madd(o, d, ts)
+                g = Md.data[med, MED_G]
+                if Em.cdf[Em.cdf.shape[0] - 1] > 0.0:
+                    le, p_pick = pick_emitter(Em.cdf, u_pick)
+                    wi, dist, li, pdf_l, delta_l = sample_light(G, X, Em, Env, le, p, u1, u2, light_key)
+                    if (
+                        pdf_l > 0.0
+                        and (li[0] > 0.0 or li[1] > 0.0 or li[2] > 0.0)
+                        and (delta_l or strategy != BSDF_ONLY)
+                    ):
+                        phase = hg_eval(g, dot(d, wi))
+                        tmax = dist * (1.0 - SHADOW_SHORTEN) if dist < INF else INF
+                        rays += 1
+                        tr = _shadow(G, F, X, Md, p, wi, tmax, med, key, depth, node_stack, t_stack)
+                        if tr[0] > 0.0 or tr[1] > 0.0 or tr[2] > 0.0:
+                            w = 1.0 if delta_l or strategy == LIGHT_ONLY else power_heuristic(p_pick * pdf_l, phase)
+                            L = _add_light(L, hadamard(beta, tr), li, phase * w / (p_pick * pdf_l))
+                u_a, u_b = key_uniform2(dimension_key(key, DIM_BSDF, depth))
+                wi, phase = hg_sample(g, d, u_a, u_b)
+                prev_pdf = phase
+                prev_delta = False
+                cone += spread * ts
+                o = p
+                d = wi
+                mis_o = p
+                mis_t = 0.0
+                going, beta = _roulette(beta, key, depth)
+                if not going:
+                    break
+                continue
+        if e >= 0:
+            w = _emitter_weight(
+                G, X, Em, Env, e, np.int64(NO_HIT), mis_o, d, mis_t + tl, nl, prev_pdf, prev_delta, strategy
+            )
+            L = _add_light(L, beta, row3(Em.data, e, LIGHT_INTENSITY), w)
+            break
         if prim == NO_HIT:
             if Em.ambient_row >= 0:
                 w = _emitter_weight(
-                    G, X, Em, Env, Em.ambient_row, np.int64(NO_HIT), o, d, INF, d, prev_pdf, prev_delta, strategy
+                    G, X, Em, Env, Em.ambient_row, np.int64(NO_HIT), mis_o, d, INF, d, prev_pdf, prev_delta, strategy
                 )
                 L = _add_light(L, beta, row3(Em.data, Em.ambient_row, LIGHT_INTENSITY), w)
             if Env.present:
                 w = _emitter_weight(
-                    G, X, Em, Env, Em.environment_row, np.int64(NO_HIT), o, d, INF, d, prev_pdf, prev_delta, strategy
+                    G,
+                    X,
+                    Em,
+                    Env,
+                    Em.environment_row,
+                    np.int64(NO_HIT),
+                    mis_o,
+                    d,
+                    INF,
+                    d,
+                    prev_pdf,
+                    prev_delta,
+                    strategy,
                 )
                 L = _add_light(L, beta, environment_light(Env, d), w)
             elif depth == 1 and Em.ambient_row < 0:  # the background: a backdrop, not a light
@@ -133,6 +233,20 @@ def path_ray(G, F, X, Em, Env, o, d, spread, max_depth, background, key, node_st
         p = madd(o, d, t)
         ng, ns, m, obj, face = surface(G, X, prim, b1, b2, p)
         entering = dot(ng, d) < 0.0
+        eps = offset_epsilon(F.epsilon_floor, p)
+        if index_matched(mat, m):
+            # an index-matched boundary: the ray goes on unchanged into the medium beyond, and
+            # the segment does not count as one (Mitsuba's volpath)
+            if Md.present:
+                med = medium_beyond(Md, obj, d, ng)
+            o = madd(p, ng, -eps if entering else eps)
+            mis_t += t
+            cone += spread * t
+            depth -= 1
+            crossings += 1
+            if crossings > MAX_CROSSINGS:
+                break
+            continue
         if not entering:
             # the segment just travelled lay inside this surface's medium
             beta = beer_lambert(mat, m, beta, t)
@@ -142,13 +256,26 @@ def path_ray(G, F, X, Em, Env, o, d, spread, max_depth, background, key, node_st
             # the light row as int64, as at the other call sites: one compilation of the MIS
             # weight and of every light kind's pdf, not a second one for an int32 row
             w = _emitter_weight(
-                G, X, Em, Env, np.int64(G.prims[k, PRIM_LIGHT]), prim, o, d, t, ng, prev_pdf, prev_delta, strategy
+                G,
+                X,
+                Em,
+                Env,
+                np.int64(G.prims[k, PRIM_LIGHT]),
+                prim,
+                mis_o,
+                d,
+                mis_t + t,
+                ng,
+                prev_pdf,
+                prev_delta,
+                strategy,
             )
             L = _add_light(L, beta, emission, w)
         if max_depth >= 0 and depth >= max_depth:
             break
         # The shading frame: for two-sided materials its z faces the incoming ray; for
         # dielectrics it stays outward (the inside is the medium).
+        n_geo = ng  # outward: which side is inside, for the media
         two_sided_here = two_sided(mat, m)
         if two_sided_here and not entering:
             ng = mul(ng, -1.0)
@@ -159,12 +286,11 @@ def path_ray(G, F, X, Em, Env, o, d, spread, max_depth, background, key, node_st
         wo = _to_local(mul(d, -1.0), s_axis, t_axis, ns)
         cone += spread * t
         colour = albedo(G, F, X, m, prim, b1, b2, p, d, ng, cone)
-        eps = offset_epsilon(F.epsilon_floor, p)
 
         # next-event estimation
         if Em.cdf[Em.cdf.shape[0] - 1] > 0.0 and not delta_only(mat, m):
-            e, p_pick = pick_emitter(Em.cdf, u_pick)
-            wi, dist, li, pdf_l, delta_l = sample_light(G, X, Em, Env, e, p, u1, u2, light_key)
+            le, p_pick = pick_emitter(Em.cdf, u_pick)
+            wi, dist, li, pdf_l, delta_l = sample_light(G, X, Em, Env, le, p, u1, u2, light_key)
             if pdf_l > 0.0 and (li[0] > 0.0 or li[1] > 0.0 or li[2] > 0.0) and (delta_l or strategy != BSDF_ONLY):
                 wi_local = _to_local(wi, s_axis, t_axis, ns)
                 up = dot(wi, ng) > 0.0
@@ -175,10 +301,15 @@ def path_ray(G, F, X, Em, Env, o, d, spread, max_depth, background, key, node_st
                         origin = madd(p, ng, eps if up else -eps)
                         tmax = dist * (1.0 - SHADOW_SHORTEN) if dist < INF else INF
                         rays += 1
-                        if not any_hit(G, X, origin, wi, 0.0, tmax, node_stack, t_stack):
+                        # the shadow ray leaves on the side of the incoming ray, or crosses
+                        shadow_med = med
+                        if Md.present and (dot(wi, n_geo) < 0.0) == entering:
+                            shadow_med = medium_beyond(Md, obj, d, n_geo)
+                        tr = _shadow(G, F, X, Md, origin, wi, tmax, shadow_med, key, depth, node_stack, t_stack)
+                        if tr[0] > 0.0 or tr[1] > 0.0 or tr[2] > 0.0:
                             w = 1.0 if delta_l or strategy == LIGHT_ONLY else power_heuristic(p_pick * pdf_l, pdf_b)
                             scale = abs(wi_local[2]) * w / (p_pick * pdf_l)
-                            L = _add_light(L, hadamard(beta, f), li, scale)
+                            L = _add_light(L, hadamard(hadamard(beta, f), tr), li, scale)
 
         # continue the path
         bsdf_key = dimension_key(key, DIM_BSDF, depth)
@@ -191,17 +322,18 @@ def path_ray(G, F, X, Em, Env, o, d, spread, max_depth, background, key, node_st
         up = dot(wi, ng) > 0.0
         if two_sided_here and not up:
             break  # a shading normal sent the path through the surface
+        if Md.present and (dot(wi, n_geo) < 0.0) == entering:
+            med = medium_beyond(Md, obj, d, n_geo)  # transmitted: into the medium beyond
         beta = hadamard(beta, weight)
         prev_pdf = pdf
         prev_delta = delta
         o = madd(p, ng, eps if up else -eps)
         d = wi
-        if depth >= RR_DEPTH:
-            q = min(max(beta[0], beta[1], beta[2]), 0.95)
-            u_rr, _ = key_uniform2(dimension_key(key, DIM_ROULETTE, depth))
-            if u_rr >= q:
-                break
-            beta = mul(beta, 1.0 / q)
+        mis_o = o
+        mis_t = 0.0
+        going, beta = _roulette(beta, key, depth)
+        if not going:
+            break
     return L, rays
 
 

@@ -23,6 +23,7 @@ from .table import (
 
 NAME = "conductor"
 KIND = 2
+SOLID = False  # compile/media.py: no inside of its own (filled with the medium around it)
 
 
 def pack(mat, row: np.ndarray) -> None:

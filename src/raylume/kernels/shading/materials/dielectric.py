@@ -22,6 +22,7 @@ from .table import (
 
 NAME = "dielectric"
 KIND = 3
+SOLID = True  # compile/media.py: a solid, clear inside unless it has an interior medium
 
 
 def pack(mat, row: np.ndarray) -> None:

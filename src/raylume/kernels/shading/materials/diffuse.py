@@ -10,6 +10,7 @@ from .lobes import EVALUATE, INV_PI, ZERO, cosine_hemisphere, same_side, side
 
 NAME = "diffuse"
 KIND = 1
+SOLID = False  # compile/media.py: no inside of its own (filled with the medium around it)
 
 
 def pack(mat, row: np.ndarray) -> None:

@@ -13,6 +13,7 @@ from .table import MAT_IOR
 
 NAME = "null"
 KIND = 5
+SOLID = False  # compile/media.py: no inside of its own (filled with the medium around it)
 
 
 def pack(mat, row: np.ndarray) -> None:

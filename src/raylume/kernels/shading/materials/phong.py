@@ -30,6 +30,7 @@ from .table import MAT_ABSORPTION, MAT_IOR, MAT_REFLECTIVE, MAT_SPECULAR, MAT_TR
 
 NAME = "phong"
 KIND = 0
+SOLID = False  # compile/media.py: no inside of its own (filled with the medium around it)
 PHONG_KS = 0.04  # the share of a Phong material's colour in its highlight lobe
 
 

@@ -27,6 +27,7 @@ from .table import MAT_IOR, MAT_ROUGHNESS
 
 NAME = "plastic"
 KIND = 4
+SOLID = False  # compile/media.py: no inside of its own (filled with the medium around it)
 
 
 def pack(mat, row: np.ndarray) -> None:

@@ -1,7 +1,8 @@
 """The material kinds, and the one dispatch over them for each question the integrators ask.
 
 KINDS is the registry: one module per kind, each defining NAME (the scene's `type`), KIND (its
-number in the table's MAT_KIND column), `pack` and `trace_approximation` (host side), and the
+number in the table's MAT_KIND column), SOLID (clear inside without an interior medium: media),
+`pack` and `trace_approximation` (host side), and the
 kernel functions `evaluate`, `sample`, `delta_only`, `two_sided` and `aov_albedo` (lobes.py
 gives their conventions). The switches below are made from KINDS (kernels/switch.py): for each question,
 one function that compares the row's kind with each module's KIND in turn and returns that
@@ -35,6 +36,13 @@ two_sided = _switch("two_sided", "mat, m", True, inline_function)
 aov_albedo = _switch("aov_albedo", "mat, m, color", ZERO, inline_function)
 
 
+@inline_function
+def index_matched(mat, m):
+    """A boundary that light passes unchanged (the null kind): path mode steps through it without
+    a path vertex, and its shadow rays see through it."""
+    return int(mat[m, MAT_KIND]) == null.KIND
+
+
 @inline_function  # one call site (path.py); a call cost ~25 ns a bounce
 def bsdf_sample(mat, m, color, wo, u0, u1, u2):
     """(wi, weight, pdf, delta) of material row m for wo, from uniforms u0 (the lobe), u1, u2
@@ -61,6 +69,12 @@ def pack_material(mat, row) -> None:
     row[MAT_KIND] = kind.KIND
     row[MAT_SPECULAR], row[MAT_REFLECTIVE], row[MAT_TRANSPARENCY] = kind.trace_approximation(mat)
     kind.pack(mat, row)
+
+
+def is_solid(mat) -> bool:
+    """Whether a model material makes a closed object a solid, clear inside when it has no
+    interior medium (dielectrics), rather than filled with the medium around it."""
+    return kind_module(mat.type).SOLID
 
 
 def kind_module(name: str):

@@ -1,0 +1,253 @@
+"""pbrt-v4 materials and textures as raylume material tables.
+
+diffuse -> diffuse; conductor -> conductor (eta and k per RGB band: named metals from
+pbrt_spectra.NAMED_RGB, a `reflectance` turned into the eta = 1, k = 2 sqrt(r) / sqrt(1 - r)
+pbrt-v4 uses for it, so the Fresnel curve is pbrt's); dielectric -> dielectric; coateddiffuse ->
+plastic (a diffuse base under a smooth or GGX-rough dielectric coat of index eta: raylume's
+plastic has no coat thickness or albedo); interface -> null. Roughness: pbrt-v4's remapping
+(alpha = sqrt(roughness), on by default) and raylume's GGX alpha (capped at 1); anisotropic
+roughness becomes the mean of the two alphas. Anything else is replaced with a warning.
+
+Textures: `imagemap` -> image (uv mapping, uscale and vscale), `checkerboard` -> raylume's
+world-space checker (3D, or a 2D one approximated by it).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+import numpy as np
+
+from .pbrt_params import Params
+from .pbrt_parse import Directive, resolve
+from .pbrt_spectra import NAMED_RGB
+from .pbrt_transform import similarity_scale
+from .pbrt_v3 import V3_MATERIALS, v3_material
+
+Warn = Callable[[Directive, str], None]
+GREY = (0.5, 0.5, 0.5)
+# Used for r = 1 in k = 2 sqrt(r) / sqrt(1 - r): a reflectance of 0.9999 at normal incidence.
+MAX_REFLECTANCE = 0.9999
+
+
+def _clip(rgb) -> list[float]:
+    return [min(max(float(c), 0.0), 1.0) for c in rgb]
+
+
+class Materials:
+    """Textures defined so far and the conversion of Material / MakeNamedMaterial directives."""
+
+    def __init__(self, warn: Warn):
+        self.warn = warn
+        self.textures: dict[str, dict | None] = {}  # spectrum textures; None: not convertible
+        self.float_textures: set[str] = set()
+
+    # -- textures ---------------------------------------------------------------------------
+    def define_texture(self, d: Directive, p: Params, ctm: np.ndarray) -> None:
+        name, kind, cls = d.args
+        kind = "spectrum" if kind == "color" else kind  # pbrt-v3's word for it
+        if kind == "float":
+            self.float_textures.add(name)
+            self.textures.pop(name, None)
+            for q in d.params:
+                q.used = True  # a float texture is only reported where a material uses it
+            return
+        if kind != "spectrum":
+            raise d.fail(f'texture type {kind!r}: expected "spectrum" or "float"')
+        self.float_textures.discard(name)
+        if cls == "imagemap":
+            self.textures[name] = self._image(d, p)
+        elif cls == "checkerboard":
+            self.textures[name] = self._checker(d, p, ctm)
+        else:
+            self.warn(d, f"texture class {cls!r} is not supported; materials using it keep their plain colour")
+            self.textures[name] = None
+            for q in d.params:
+                q.used = True
+
+    def _image(self, d: Directive, p: Params) -> dict:
+        filename = p.string("filename")
+        if filename is None:
+            raise d.fail('needs "string filename"')
+        if not resolve(filename, d.search_dir).is_file():
+            raise d.fail(f"no such image file {str(resolve(filename, d.search_dir))!r}")
+        mapping = p.string("mapping", "uv")
+        if mapping != "uv":
+            self.warn(d, f"mapping {mapping!r} is not supported; the surface's (u, v) is used")
+        if p.float("udelta", 0.0) or p.float("vdelta", 0.0):
+            self.warn(d, "udelta/vdelta (texture offsets) are not supported; ignored")
+        if p.float("scale", 1.0) != 1.0 or p.bool("invert", False):
+            self.warn(d, "scale and invert (texel arithmetic) are not supported; the texels are used as they are")
+        wrap = p.string("wrap", "repeat")
+        if wrap != "repeat":
+            self.warn(d, f"wrap {wrap!r} is not supported; the image repeats")
+        encoding = p.string("encoding", "sRGB")
+        if encoding.lower() not in ("srgb",):
+            self.warn(d, f"encoding {encoding!r} is not supported; 8-bit texels are decoded as sRGB")
+        p.string("filter")  # raylume filters textures its own way (mip-maps over the pixel's footprint)
+        p.float("maxanisotropy")
+        return {"type": "image", "file": filename, "scale": [p.float("uscale", 1.0), p.float("vscale", 1.0)]}
+
+    def _checker(self, d: Directive, p: Params, ctm: np.ndarray) -> dict:
+        colours = []
+        for key, default in (("tex1", (1.0, 1.0, 1.0)), ("tex2", (0.0, 0.0, 0.0))):
+            if p.type_of(key) == "texture":
+                p.texture(key)
+                self.warn(d, f'"texture {key}" (a texture inside a checkerboard) is not supported; {default} used')
+                colours.append(_clip(default))
+            else:
+                colours.append(_clip(p.colour(key, default)))
+        dimension = p.int("dimension", 2)
+        if dimension == 3:
+            s = similarity_scale(ctm)
+            moved = not np.allclose(ctm[:3, 3], 0) or (s is not None and not np.allclose(ctm[:3, :3], s * np.eye(3)))
+            if s is None or moved:
+                self.warn(
+                    d,
+                    "a 3D checkerboard under a rotation, translation or non-uniform scale is drawn "
+                    "axis-aligned through the origin, with cells of the transform's mean size",
+                )
+                s = float(abs(np.linalg.det(ctm[:3, :3])) ** (1 / 3))
+            return {"type": "checker", "colors": colours, "scale": s}
+        if dimension != 2:
+            raise d.fail(f'"integer dimension" must be 2 or 3, got {dimension}')
+        u, v = p.float("uscale", 1.0), p.float("vscale", 1.0)
+        if u == 0 or v == 0:
+            raise d.fail("uscale and vscale must not be 0")
+        u, v = abs(u), abs(v)  # a mirrored checkerboard is the same pattern
+        p.string("mapping")
+        self.warn(
+            d,
+            "a 2D (uv) checkerboard is drawn as raylume's 3D world-space checker of cell size "
+            f"1/uscale = {1 / u:g}; on a plane through the origin along the axes the two agree",
+        )
+        if u != v:
+            self.warn(d, f"uscale ({u:g}) and vscale ({v:g}) differ; the checker's cells are cubes of side 1/uscale")
+        return {"type": "checker", "colors": colours, "scale": 1.0 / u}
+
+    # -- materials --------------------------------------------------------------------------
+    def material(self, d: Directive, p: Params, kind: str, named: Callable[[str], dict | None]) -> dict:
+        """The raylume material table of a material of type `kind` with parameters p.
+        `named` looks up a named material (for mix)."""
+        if kind == "diffuse":
+            return self.coloured(d, p, "reflectance", GREY, {"type": "diffuse"})
+        if kind == "coateddiffuse":
+            table = self.coloured(d, p, "reflectance", GREY, {"type": "plastic"})
+            table["ior"] = self.eta(d, p, "eta")
+            table["roughness"] = self._alpha(d, p, "")
+            return table
+        if kind == "conductor":
+            return self._conductor(d, p, "")
+        if kind == "coatedconductor":
+            self.warn(d, "coatedconductor is rendered as its conductor base, without the dielectric coat")
+            return self._conductor(d, p, "conductor.")
+        if kind in ("dielectric", "thindielectric"):
+            if kind == "thindielectric":
+                self.warn(d, "thindielectric is rendered as a (thick) dielectric of the same eta")
+            return {"type": "dielectric", "ior": self.eta(d, p, "eta"), "roughness": self._alpha(d, p, "")}
+        if kind in ("interface", "", "none"):
+            return {"type": "null"}
+        if kind == "mix":
+            names = p.list("materials", "string") or []
+            first = named(names[0]) if names else None
+            self.warn(d, f"mix is not supported; the first of its materials ({names[0] if names else 'none'}) is used")
+            for q in d.params:
+                q.used = True
+            return dict(first) if first is not None else {"type": "diffuse", "color": list(GREY)}
+        if kind == "diffusetransmission":
+            self.warn(d, "diffusetransmission is rendered as diffuse reflection (no transmission)")
+            return self.coloured(d, p, "reflectance", (0.25, 0.25, 0.25), {"type": "diffuse"})
+        if kind in V3_MATERIALS:
+            return v3_material(self, d, p, kind)
+        self.warn(d, f"material {kind!r} is not supported; replaced by a grey diffuse one (reflectance 0.5)")
+        for q in d.params:
+            q.used = True
+        return {"type": "diffuse", "color": list(GREY)}
+
+    def coloured(self, d: Directive, p: Params, key: str, default, table: dict) -> dict:
+        """table with `color` (and `texture`) from a spectrum parameter or a texture."""
+        if p.type_of(key) == "texture":
+            name = p.texture(key)
+            tex = self._spectrum_texture(d, name)
+            if tex is not None:
+                return {**table, "color": [1.0, 1.0, 1.0], "texture": tex}
+            return {**table, "color": _clip(default)}
+        return {**table, "color": _clip(p.colour(key, default))}
+
+    def _spectrum_texture(self, d: Directive, name: str) -> dict | None:
+        if name in self.float_textures:
+            raise d.fail(f"texture {name!r} is a float texture; a colour needs a spectrum texture")
+        if name not in self.textures:
+            raise d.fail(f"no texture named {name!r} (define it with Texture before using it)")
+        return self.textures[name]
+
+    def _conductor(self, d: Directive, p: Params, prefix: str) -> dict:
+        table: dict = {"type": "conductor", "roughness": self._alpha(d, p, prefix)}
+        if p.has("reflectance"):
+            if p.type_of("reflectance") == "texture":
+                p.texture("reflectance")
+                self.warn(d, "a textured conductor reflectance is not supported; a grey 0.5 one is used")
+                r = GREY
+            else:
+                r = _clip(p.colour("reflectance"))
+            r = [min(c, MAX_REFLECTANCE) for c in r]
+            table.update(color=[1.0, 1.0, 1.0], eta=[1.0, 1.0, 1.0], k=[2 * math.sqrt(c) / math.sqrt(1 - c) for c in r])
+            return table
+        eta = self.spectrum(d, p, prefix + "eta", NAMED_RGB["metal-Cu-eta"])
+        k = self.spectrum(d, p, prefix + "k", NAMED_RGB["metal-Cu-k"])
+        table.update(color=[1.0, 1.0, 1.0], eta=list(eta), k=list(k))
+        return table
+
+    def spectrum(self, d: Directive, p: Params, key: str, default) -> tuple:
+        if p.type_of(key) == "texture":
+            p.texture(key)
+            self.warn(d, f'"texture {key}" is not supported; the default {key} is used')
+            return default
+        return p.colour(key, default)
+
+    def eta(self, d: Directive, p: Params, key: str) -> float:
+        kind = p.type_of(key)
+        if kind is None:
+            return 1.5
+        if kind == "float":
+            eta = p.float(key)
+        elif kind == "texture":
+            p.texture(key)
+            self.warn(d, f'"texture {key}" is not supported; eta 1.5 is used')
+            return 1.5
+        else:
+            rgb = p.colour(key)
+            eta = rgb[1]
+            if max(rgb) - min(rgb) > 1e-6:
+                self.warn(d, f"{key} varies with wavelength (dispersion); raylume uses its green-band value {eta:.4f}")
+        if not eta > 0:
+            raise d.fail(f'"{kind} {key}" must be > 0')
+        return float(eta)
+
+    def _alpha(self, d: Directive, p: Params, prefix: str) -> float:
+        """GGX alpha from pbrt's roughness parameters (pbrt-v4: remapped by sqrt unless
+        remaproughness is false)."""
+        values = {}
+        for key in ("roughness", "uroughness", "vroughness"):
+            name = prefix + key
+            if p.type_of(name) == "texture":
+                p.texture(name)
+                self.warn(d, f'"texture {name}" (a roughness map) is not supported; roughness 0 is used')
+                values[key] = 0.0
+            else:
+                values[key] = p.float(name)
+        base = values["roughness"] if values["roughness"] is not None else 0.0
+        u = values["uroughness"] if values["uroughness"] is not None else base
+        v = values["vroughness"] if values["vroughness"] is not None else base
+        if min(u, v) < 0:
+            raise d.fail(f"roughness must be >= 0, got {min(u, v):g}")
+        if p.bool("remaproughness", True):
+            u, v = math.sqrt(u), math.sqrt(v)
+        if u != v:
+            self.warn(d, f"anisotropic roughness (alpha {u:g} x {v:g}) is rendered isotropic, alpha {(u + v) / 2:g}")
+        alpha = (u + v) / 2
+        if alpha > 1:
+            self.warn(d, f"roughness alpha {alpha:g} is above raylume's maximum; 1 is used")
+            alpha = 1.0
+        return alpha
