@@ -154,14 +154,17 @@ def test_a_mesh_transform_round_trips_through_raylumes_transform_table(tmp_path)
     np.testing.assert_allclose(transform_matrix(t.translate, t.rotate, t.scale3), mirror @ expected, atol=1e-12)
 
 
-def test_a_shearing_mesh_transform_is_refused(tmp_path):
+def test_a_shearing_mesh_transform_is_kept_as_a_matrix(tmp_path):
+    from raylume.scene.mitsuba_props import rotation
+
     (tmp_path / "m.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
     ops = '<rotate z="1" angle="30"/><scale x="3"/>'
     body = (
         f'<shape type="obj"><string name="filename" value="m.obj"/><transform name="to_world">{ops}</transform></shape>'
     )
-    with pytest.raises(SceneError, match=r'scene\.xml:\d+: <shape type="obj">: .*shears'):
-        load(tmp_path, xml(body))
+    t = load(tmp_path, xml(body)).objects[0].transform
+    expected = np.diag([-1.0, 1, 1, 1]) @ np.diag([3.0, 1, 1, 1]) @ rotation(np.array([0.0, 0, 1]), 30)
+    np.testing.assert_allclose(np.array(t.matrix), expected, atol=1e-12)
 
 
 @pytest.mark.parametrize(
@@ -377,14 +380,10 @@ def test_what_raylume_cannot_replace_is_an_error_naming_file_line_and_element(tm
         load(tmp_path, xml(body))
 
 
-def test_other_sensors_and_mirrored_environment_maps_are_refused(tmp_path):
+def test_other_sensors_and_files_without_a_sensor_are_refused(tmp_path):
     ortho = xml("").replace('type="perspective"', 'type="orthographic"')
     with pytest.raises(SceneError, match="perspective"):
         load(tmp_path, ortho)
-    (tmp_path / "sky.exr").write_bytes(b"")  # never read: the scene is refused before
-    env = '<emitter type="envmap"><string name="filename" value="sky.exr"/></emitter>'
-    with pytest.raises(SceneError, match="need its image mirrored"):
-        load(tmp_path, xml(env, mirror='<scale x="-1"/>'))
     with pytest.raises(SceneError, match="has no <sensor>"):
         load(tmp_path, '<scene version="3.0.0"><shape type="sphere"/></scene>')
 
@@ -557,3 +556,15 @@ def test_the_example_mitsuba_scene_loads_without_warnings():
         scene = raylume.load(example, defines={"res": "32"})
     assert (scene.render.width, scene.render.spp, scene.render.max_depth) == (32, 64, 8)
     assert scene.materials["red"].color == (0.65, 0.06, 0.05)
+
+
+def test_an_environment_map_turns_with_the_mirror(tmp_path):
+    (tmp_path / "sky.exr").write_bytes(b"")  # named, not read while loading
+    env = (
+        '<emitter type="envmap"><string name="filename" value="sky.exr"/>'
+        '<transform name="to_world"><rotate y="1" angle="30"/></transform></emitter>'
+    )
+    plain = load(tmp_path, xml(env)).environment
+    assert plain.rotate == pytest.approx((0, -30, 0))  # the mirror turns a rotation the other way
+    mirrored = load(tmp_path, xml(env, mirror='<scale x="-1"/>')).environment
+    assert np.linalg.det(np.array(mirrored.matrix)) == pytest.approx(-1)  # a mirrored sensor: a mirrored sky

@@ -162,7 +162,7 @@ def plastic(folder: Path) -> str:
     )
 
 
-def envmap(folder: Path) -> str:
+def envmap(folder: Path, sensor_prefix: str = "") -> str:
     write_exr(folder / "sky.exr", envmap_pixels())
     # the sky replaces the constant emitter; a wider floor and a camera looking down hide the sky itself
     stage = STAGE.split('  <emitter type="constant">')[0].replace('<scale value="4"/>', '<scale value="20"/>')
@@ -171,8 +171,13 @@ def envmap(folder: Path) -> str:
     <string name="filename" value="sky.exr"/><float name="scale" value="1.5"/>
     <transform name="to_world"><rotate y="1" angle="40"/></transform>
   </emitter>"""
-    sensor = '<lookat origin="0, 4, 4.5" target="0, 0.3, 0" up="0, 1, 0"/>'
+    sensor = sensor_prefix + '<lookat origin="0, 4, 4.5" target="0, 0.3, 0" up="0, 1, 0"/>'
     return _scene(_sphere(0.6, '<bsdf type="conductor"/>', 0.6) + sky, sensor=sensor, stage=stage)
+
+
+def envmap_mirrored_sensor(folder: Path) -> str:
+    """The environment map seen through a Blender-style mirrored sensor: Mitsuba shows the sky mirrored too."""
+    return envmap(folder, sensor_prefix='<scale x="-1"/>')
 
 
 def instances(folder: Path) -> str:
@@ -263,6 +268,7 @@ SCENES = {
     "dielectric": dielectric,
     "plastic": plastic,
     "envmap": envmap,
+    "envmap_mirrored_sensor": envmap_mirrored_sensor,
     "instances": instances,
     "serialized": serialized,
     "mirrored_sensor": mirrored_sensor,
@@ -281,7 +287,7 @@ def write_scene(name: str, folder: Path) -> tuple[Path, str]:
     for extra in sorted(folder.iterdir()):
         if extra.suffix in (".obj", ".serialized"):
             digest.update(extra.read_bytes())
-    if name == "envmap":
+    if name.startswith("envmap"):
         digest.update(envmap_pixels().tobytes())  # the EXR's pixels (its bytes may vary with the library)
     if name == "textures":
         digest.update(texture_pixels().tobytes())

@@ -1,6 +1,7 @@
 """A 4 x 4 affine matrix as the `transform` table raylume's scene files take: scale (per axis,
 applied first), rotate (degrees about x, then y, then z), translate; the inverse of
-scene.mesh.transform_matrix. Matrices that shear have no such table: a ValueError.
+scene.mesh.transform_matrix. Matrices that shear have no such table: a ValueError (the caller
+then gives the whole `matrix`).
 """
 
 from __future__ import annotations

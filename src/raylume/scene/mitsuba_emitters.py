@@ -100,17 +100,15 @@ def _envmap(ctx: Context, node: Node, props) -> dict:
     table: dict = {"file": ctx.file(node, name, ENVIRONMENT_SUFFIXES), "intensity": props.float("scale", 1.0)}
     m = props.transform()
     r = m[:3, :3] / np.linalg.norm(m[:3, :3], axis=0)
-    if np.linalg.det(r) < 0 or not np.array_equal(ctx.world, MIRROR):
-        # An environment seen through a mirrored world (or with a mirroring to_world) would need its
-        # image mirrored, and raylume's [environment] only turns its image.
-        raise node.error(
-            "an environment map with a mirroring to_world, or in a scene whose sensor's to_world mirrors, would "
-            "need its image mirrored; raylume's environment can only be rotated"
-        )
-    # raylume looks an image up at Mitsuba's texel after the world's mirror: the rotation is mirrored too
-    rotation = np.eye(4)
-    rotation[:3, :3] = MIRROR[:3, :3] @ r @ MIRROR[:3, :3]
-    turn = decompose(rotation)["rotate"]
-    if any(turn):
-        table["rotate"] = turn
+    # raylume's equirectangular lookup at x-mirrored directions is Mitsuba's (u = atan2(x, z) / 2pi
+    # + 0.5 against atan2(x, -z) / 2pi): raylume's world-from-environment is world @ R @ mirror
+    w = ctx.world[:3, :3] @ r @ MIRROR[:3, :3]
+    if np.linalg.det(w) > 0:
+        turn = np.eye(4)
+        turn[:3, :3] = w
+        rotate = decompose(turn)["rotate"]
+        if any(rotate):
+            table["rotate"] = rotate
+    else:  # a mirrored sensor (or a mirroring to_world) shows the map mirrored, as Mitsuba does
+        table["matrix"] = [[float(c) + 0.0 for c in row] for row in w]
     return table

@@ -2,7 +2,7 @@
 
 | Mitsuba | raylume |
 | --- | --- |
-| obj, ply, serialized | mesh (file by path; serialized: shape_index), transform from to_world |
+| obj, ply, serialized | mesh (file by path; serialized: shape_index), transform from to_world (a matrix if it shears) |
 | rectangle | quad |
 | cube | six quads |
 | sphere | sphere |
@@ -191,10 +191,7 @@ class Shapes:
         return {"type": "quad", "position": self.ctx.point(m, centre), "u": u, "v": v, "material": material}
 
     def transform(self, node: Node, m: np.ndarray) -> dict:
-        try:
-            return decompose(self.ctx.world @ m)
-        except ValueError as exc:
-            raise node.error(f"its to_world cannot be a raylume transform: {exc}") from None
+        return transform_table(node, self.ctx.world @ m)
 
     def add(self, node: Node) -> None:
         """A top-level <shape>: appended to `objects` (a shapegroup waits for its instances)."""
@@ -234,11 +231,7 @@ class Shapes:
                     members.append(obj)
             self.groups[key] = members
         # raylume's instance matrix maps the object after its transform: Mitsuba's to_world, conjugated by the mirror
-        world_m = ctx.world @ m @ np.linalg.inv(ctx.world)
-        try:
-            placement = decompose(world_m)
-        except ValueError as exc:
-            raise node.error(f"its to_world cannot be a raylume transform: {exc}") from None
+        placement = transform_table(node, ctx.world @ m @ np.linalg.inv(ctx.world))
         for obj in self.groups[key]:
             obj["instances"].append(placement)
         for child in ctx.props(group).plugins:  # analytic shapes: an object per instance
@@ -246,8 +239,19 @@ class Shapes:
                 self.extend(child, self.shape(child, placement=m))
 
 
+def transform_table(node: Node, m: np.ndarray) -> dict:
+    """A matrix as raylume's transform table: scale, rotate, translate where it is one (readable,
+    editable with --set), else the whole matrix (a shear)."""
+    try:
+        return decompose(m)
+    except ValueError:
+        if abs(np.linalg.det(m[:3, :3])) < 1e-12 or not np.allclose(m[3], (0, 0, 0, 1)):
+            raise node.error("its to_world is singular or not affine") from None
+        return {"matrix": [[float(c) + 0.0 for c in row] for row in m]}
+
+
 def clean_transform(obj: dict) -> dict:
     """Leave out an identity transform, so the document says no more than it must."""
-    if "transform" in obj and is_identity(obj["transform"]):
+    if "transform" in obj and "matrix" not in obj["transform"] and is_identity(obj["transform"]):
         del obj["transform"]
     return obj
