@@ -1,8 +1,9 @@
 """Mitsuba 3 XML scenes rendered by raylume against Mitsuba 3's own renders of the same files.
 
 tests/reference/mitsuba_xml_scenes.py writes each scene (one per BSDF family, an environment
-map (also seen through a mirrored sensor), instances, a serialized mesh, a sensor mirrored as Blender exports it, point, spot and
-directional lights, an image texture on a rectangle); the references in
+map (also seen through a mirrored sensor), instances, a serialized mesh, a sensor mirrored as
+Blender exports it, point, spot and directional lights, an image texture on a rectangle); the
+references in
 tests/reference/mitsuba_xml/ were rendered by Mitsuba 3 scalar_rgb from those very files by
 tools/mitsuba_xml_references.py (16 seeds x 1024 spp; CI never needs Mitsuba). raylume renders
 SEEDS_N seeds x SPP spp, and per channel the image mean and each 8 x 8 block's mean are z-tested
