@@ -2,7 +2,8 @@
 
 tests/reference/mitsuba_xml_scenes.py writes each scene (one per BSDF family, an environment
 map (also seen through a mirrored sensor), instances, a serialized mesh, a sensor mirrored as
-Blender exports it, point, spot and directional lights, an image texture on a rectangle); the
+Blender exports it, point, spot and directional lights, an image texture on a rectangle, a
+homogeneous medium); the
 references in
 tests/reference/mitsuba_xml/ were rendered by Mitsuba 3 scalar_rgb from those very files by
 tools/mitsuba_xml_references.py (16 seeds x 1024 spp; CI never needs Mitsuba). raylume renders

@@ -366,7 +366,11 @@ def test_what_raylume_replaces_is_named_in_a_warning(tmp_path, body, message):
     [
         ('<shape type="bsplinecurve"/>', r'<shape type="bsplinecurve">: raylume has no such shape'),
         ('<emitter type="projector"/>', r'<emitter type="projector">: raylume has no such emitter'),
-        ('<medium type="homogeneous" id="fog"/>', "participating media"),
+        (
+            '<integrator type="volpath"/><medium type="heterogeneous" id="m"/>'
+            + sphere(inner='<ref name="interior" id="m"/>'),
+            "homogeneous media",
+        ),
         (
             '<bsdf type="diffuse" id="s"><spectrum name="reflectance" value="400:0.1, 700:0.9"/></bsdf>',
             "wavelength:value pairs",
@@ -568,3 +572,25 @@ def test_an_environment_map_turns_with_the_mirror(tmp_path):
     assert plain.rotate == pytest.approx((0, -30, 0))  # the mirror turns a rotation the other way
     mirrored = load(tmp_path, xml(env, mirror='<scale x="-1"/>')).environment
     assert np.linalg.det(np.array(mirrored.matrix)) == pytest.approx(-1)  # a mirrored sensor: a mirrored sky
+
+
+def test_homogeneous_media_with_volpath(tmp_path):
+    medium = (
+        '<medium type="homogeneous" id="{name}"><rgb name="albedo" value="0.5, 0.25, 1"/>'
+        '<float name="sigma_t" value="2"/><float name="scale" value="{scale}"/>'
+        '<phase type="hg"><float name="g" value="0.3"/></phase></medium>'
+    )
+    body = medium.format(name="milk", scale=1) + medium.format(name="fog", scale=0.01)
+    body += sphere(inner='<bsdf type="null"/><ref name="interior" id="milk"/><ref name="exterior" id="fog"/>')
+    text = xml(body, extra='<integrator type="volpath"/>').replace("<film", '<ref id="fog"/><film')
+    scene = load(tmp_path, text)
+    milk, fog = scene.media["milk"], scene.media["fog"]
+    assert milk.sigma_s == (1.0, 0.5, 2.0) and milk.sigma_a == (1.0, 1.5, 0.0) and milk.g == 0.3
+    assert fog.sigma_s == pytest.approx((0.01, 0.005, 0.02))
+    assert scene.objects[0].interior == "milk" and scene.render.medium == "fog"
+    # Mitsuba's path integrator ignores media: so does the scene read with it, saying so
+    path = tmp_path / "path.xml"
+    path.write_text(text.replace('<integrator type="volpath"/>', '<integrator type="path"/>'))
+    with pytest.warns(SceneWarning, match="path integrator ignores media"):
+        scene = raylume.load(path)
+    assert not scene.media and scene.objects[0].interior is None and scene.render.medium is None

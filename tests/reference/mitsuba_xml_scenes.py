@@ -262,6 +262,21 @@ def textures(folder: Path) -> str:
     return _scene(board)
 
 
+def medium(folder: Path) -> str:
+    """A ball of scattering medium behind a null boundary, rendered by volpath."""
+    body = """
+  <medium type="homogeneous" id="milk">
+    <rgb name="albedo" value="0.9, 0.7, 0.5"/><float name="sigma_t" value="3"/>
+    <phase type="hg"><float name="g" value="0.4"/></phase>
+  </medium>
+  <shape type="sphere">
+    <point name="center" x="0.4" y="0.7" z="0"/><float name="radius" value="0.7"/>
+    <bsdf type="null"/><ref name="interior" id="milk"/>
+  </shape>"""
+    text = _scene(body).replace('<integrator type="path">', '<integrator type="volpath">')
+    return text
+
+
 SCENES = {
     "diffuse": diffuse,
     "conductor": conductor,
@@ -274,6 +289,7 @@ SCENES = {
     "mirrored_sensor": mirrored_sensor,
     "lights": lights,
     "textures": textures,
+    "medium": medium,
 }
 
 

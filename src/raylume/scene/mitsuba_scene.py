@@ -18,6 +18,7 @@ import numpy as np
 from .mitsuba_bsdf import bsdf_table
 from .mitsuba_context import MIRROR, Context
 from .mitsuba_emitters import light_or_environment
+from .mitsuba_media import Media
 from .mitsuba_shapes import Shapes, clean_transform
 from .mitsuba_xml import Node, read_document
 from .model import MAX_DEPTH, MAX_SPP
@@ -81,9 +82,12 @@ class Reader:
             raise root.error("has no <sensor>: raylume renders through the file's camera, and there is none")
         for extra in sensors[1:]:
             self.ctx.warn(extra, "a second sensor: raylume renders through the first one only")
+        integrator = next((c for c in root.children if c.tag == "integrator"), None)
+        volumes = integrator is not None and integrator.attrs.get("type") in ("volpath", "volpathmis")
+        self.media = Media(self.ctx, rendered=volumes)
         self.sensor(sensors[0])
         self.origins.update(camera=sensors[0], render=sensors[0])
-        shapes = Shapes(self.ctx, self.materials)
+        shapes = Shapes(self.ctx, self.materials, self.media)
         integrators = 0
         for child in root.children:
             if child.tag == "integrator":
@@ -106,7 +110,7 @@ class Reader:
             elif child.tag in ("texture", "sensor", "alias", "film", "sampler", "rfilter"):
                 continue  # read where they are used (by <ref>); the sensor above
             elif child.tag in ("medium", "phase", "volume"):
-                raise child.error("participating media in Mitsuba scenes are not read by raylume yet")
+                continue  # read where a shape or the sensor refers to it
             else:
                 raise child.error("is not an element of a Mitsuba scene raylume knows")
         document: dict = {"render": self.render, "camera": self.camera, "materials": self.materials}
@@ -115,6 +119,8 @@ class Reader:
         self.origins.update({f"objects[{k}]": node for k, node in enumerate(shapes.origins)})
         if self.environment is not None:
             document["environment"] = self.environment
+        if self.media.tables:
+            document["media"] = self.media.tables
         return document
 
     def emitter(self, node: Node) -> None:
@@ -141,6 +147,12 @@ class Reader:
         # A to_world that mirrors already shows Mitsuba's image mirrored: then the world stays as it is
         ctx.world = np.eye(4) if np.linalg.det(a) < 0 else MIRROR.copy()
         film = self.film(node, props)
+        outside = props.plugin("medium") or next((p for p in props.plugins if p.tag == "medium"), None)
+        if outside is not None:
+            self.media.outside = outside
+            name = self.media.name(outside)
+            if name is not None:
+                self.render["medium"] = name
         width, height = film
         fov, focal = props.float("fov"), props.string("focal_length")
         if fov is not None and focal is not None:
@@ -204,6 +216,8 @@ class Reader:
                 if filters:
                     self.rfilter(filters[0])
                 ctx.done(plugin, p)
+            elif plugin.tag == "medium":
+                continue  # the sensor's medium: Reader.sensor
             elif plugin.tag == "sampler":
                 spp = p.integer("sample_count", spp)
                 seed = p.integer("seed", None)

@@ -23,6 +23,7 @@ from .affine import decompose, is_identity
 from .mitsuba_bsdf import GREY, bsdf_table
 from .mitsuba_context import Context, uniform_scale
 from .mitsuba_emitters import area_radiance
+from .mitsuba_media import Media
 from .mitsuba_xml import Node
 
 BEHIND = 1e-3  # how far (in the emitter's size) the black twin of a one-sided emitter sits behind it
@@ -41,9 +42,10 @@ CUBE_FACES = [
 class Shapes:
     """Converts <shape> elements; `materials` are the document's named materials (by id)."""
 
-    def __init__(self, ctx: Context, materials: dict[str, dict]):
+    def __init__(self, ctx: Context, materials: dict[str, dict], media: Media):
         self.ctx = ctx
         self.materials = materials
+        self.media = media
         self.objects: list[dict] = []
         self.origins: list[Node] = []  # the element each object came from, for error messages
         self.groups: dict[str, list[dict]] = {}  # shapegroup id -> its mesh objects, made at the first instance
@@ -61,8 +63,8 @@ class Shapes:
                 if plugin.attrs.get("type") != "area":
                     raise plugin.error("the only emitter a shape can hold is an area emitter")
                 emitter = plugin
-            elif plugin.tag in ("medium",):
-                raise plugin.error("participating media in Mitsuba scenes are not read by raylume yet")
+            elif plugin.tag == "medium":
+                continue  # interior and exterior: Shapes.shape
             else:
                 raise plugin.error(f"a {node.describe()} cannot hold a <{plugin.tag}>")
         if material is None:  # Mitsuba's default BSDF: diffuse 0.5, black on an emitter's shape
@@ -141,6 +143,19 @@ class Shapes:
             ]
         else:
             raise node.error("raylume has no such shape, and no shape that could honestly replace it")
+        interior, exterior = props.plugin("interior"), props.plugin("exterior")
+        if interior is not None:
+            name = self.media.name(interior)
+            if name is not None:
+                for obj in objects:
+                    obj["interior"] = name
+        if self.media.rendered and exterior is not self.media.outside:
+            # Mitsuba's rays take a shape's exterior on leaving it; raylume's outside is one medium
+            ctx.warn(
+                node,
+                "its exterior differs from the sensor's medium: raylume fills the space outside every object with "
+                "the sensor's medium (or none), so light leaving this shape travels through that",
+            )
         if isinstance(material, dict) and any(material.get("emission", ())):
             objects += self.one_sided(node, kind, objects, np.linalg.det((ctx.world @ m)[:3, :3]))
         if kind in ("cube", "sphere", "disk", "cylinder") and self.textured(material):
