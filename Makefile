@@ -7,8 +7,9 @@ BIN    := $(VENV)/bin
 STAMP_RENDER := $(VENV)/.installed-render
 STAMP_DEV    := $(VENV)/.installed-dev
 STAMP_BENCH  := $(VENV)/.installed-bench
+STAMP_DOCS   := $(VENV)/.installed-docs
 
-.PHONY: render test lint bench clean
+.PHONY: render test lint bench docs gallery clean
 
 $(BIN)/python:
 	@command -v $(PYTHON) >/dev/null 2>&1 || { echo "need $(PYTHON) on PATH (or: make PYTHON=python3 ...)"; exit 1; }
@@ -27,6 +28,10 @@ $(STAMP_BENCH): pyproject.toml | $(BIN)/python
 	$(BIN)/python -m pip install --quiet -e '.[dev,bench]'
 	@touch $@ $(STAMP_DEV) $(STAMP_RENDER)
 
+$(STAMP_DOCS): pyproject.toml | $(BIN)/python
+	$(BIN)/python -m pip install --quiet -e '.[docs]'
+	@touch $@ $(STAMP_RENDER)
+
 ## render: render the built-in seed scene to render.png
 render: $(STAMP_RENDER)
 	$(BIN)/raylume render
@@ -44,5 +49,15 @@ lint: $(STAMP_DEV)
 bench: $(STAMP_BENCH)
 	$(BIN)/python benchmarks/run_all.py
 
+## docs: build the documentation site into site/; any warning fails (mkdocs.yml: strict)
+# The two variables silence banners that MkDocs' plugins print about MkDocs 2.0 (the docs extra pins 1.x).
+docs: $(STAMP_DOCS)
+	NO_MKDOCS_2_WARNING=1 DISABLE_MKDOCS_2_WARNING=true $(BIN)/python -m mkdocs build --strict --site-dir site
+
+## gallery: render every picture the documentation shows, from the commands its gallery page prints (the
+## denoised ones need pyoidn, a dev extra)
+gallery: $(STAMP_DEV)
+	$(BIN)/python tools/gallery.py
+
 clean:
-	rm -rf $(VENV) render.png .pytest_cache
+	rm -rf $(VENV) render.png .pytest_cache site

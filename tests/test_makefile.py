@@ -47,3 +47,13 @@ def dry_run_stamps(target: str, venv: Path) -> list[str]:
         ["make", "-n", "-C", str(REPO), target, f"VENV={venv}"], capture_output=True, text=True, check=False
     )
     return [word for line in result.stdout.splitlines() if line.startswith("touch ") for word in line.split()[1:]]
+
+
+def test_docs_installs_the_docs_extra_and_builds_strictly(tmp_path):
+    installs = dry_run("docs", tmp_path / "venv")
+    assert len(installs) == 1 and installs[0].rstrip().endswith("-e '.[docs]'"), installs
+    build = subprocess.run(
+        ["make", "-n", "-C", str(REPO), "docs", f"VENV={tmp_path / 'venv'}"], capture_output=True, text=True, check=True
+    ).stdout
+    assert "mkdocs build --strict" in build
+    assert "make docs" in (REPO / ".ci" / "run").read_text()

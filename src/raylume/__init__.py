@@ -1,10 +1,10 @@
-"""raylume: ray casting, Whitted ray tracing and rasterization of declarative 3D scenes.
+"""raylume: ray casting, Whitted ray tracing, path tracing and rasterization of declarative 3D scenes.
 
 import raylume
 image = raylume.render(raylume.builtin_scene("seed"), width=300, height=300)
 image.rgb          # float32 (H, W, 3), linear RGB
 image.aovs["depth"]
-image.save("seed.png")
+image.save("render.png")
 
 session = raylume.Session(raylume.builtin_scene("seed"))   # compile once ...
 a = session.render(width=300, height=300)                   # ... render many times

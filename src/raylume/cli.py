@@ -42,7 +42,8 @@ class _Command(_CleanHelp, TyperCommand):
 app = typer.Typer(
     cls=_Group,
     add_completion=False,
-    help="Render declarative 3D scenes by ray casting, ray tracing or rasterization.",
+    help="Render declarative 3D scenes by ray casting, Whitted ray tracing, path tracing or rasterization; "
+    "view them live in the browser, animate them, render them on a cluster.",
     pretty_exceptions_enable=False,
 )
 
@@ -93,7 +94,7 @@ def _main(
         bool, typer.Option("--version", help="Print the version and exit", is_eager=True, metavar=FLAG)
     ] = False,
 ) -> None:
-    """Render declarative 3D scenes by ray casting, ray tracing or rasterization."""
+    """Render declarative 3D scenes by ray casting, Whitted ray tracing, path tracing or rasterization."""
     if version:
         from . import __version__
 

@@ -18,9 +18,9 @@ from typing import NamedTuple
 import numpy as np
 
 from ..errors import SceneError
+from ..kernels.shading.materials.registry import is_solid
 from ..kernels.shading.media import grid, homogeneous
 from ..kernels.shading.media.table import MED_KIND, MED_WIDTH
-from ..kernels.shading.materials.registry import is_solid
 from ..scene.model import Cylinder, GridMedium, Mesh, Scene, Sphere
 from .objects import object_matrix
 

@@ -36,6 +36,8 @@ PIXEL_FILTERS = ("box", "gaussian", "mitchell")
 
 
 class Strict(BaseModel):
+    # The docstring under each field describes it: tools/docs_reference.py reads them from this file into the
+    # documentation's scene reference (not pydantic's use_attribute_docstrings: it costs ~0.08 s at import).
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False, frozen=True)
 
 
@@ -94,30 +96,52 @@ def _nonzero(v: Vec3, what: str) -> Vec3:
 
 class RenderSettings(Strict):
     width: int = Field(600, ge=1, le=MAX_SIDE)
+    """Image width in pixels."""
     height: int = Field(600, ge=1, le=MAX_SIDE)
+    """Image height in pixels."""
     spp: int = Field(1, ge=1, le=MAX_SPP)
+    """Samples per pixel; 1 traces the pixel centre, more are stratified over the pixel and combined by `filter`."""
     # Bounces (trace) or path segments (path, as Mitsuba counts them: 1 shows only emitters
     # seen directly, 2 is direct lighting, -1 unlimited with Russian roulette). Unset: 3 in
     # trace mode, -1 in path mode (`depth` is the value in force).
     max_depth: int | None = Field(None, ge=-1, le=MAX_DEPTH)
+    """Trace mode: reflection and refraction bounces (unset: 3). Path mode: path segments as Mitsuba counts them, 1 =
+    emitters seen directly, 2 = direct light, -1 = unlimited with Russian roulette from 5 segments (unset: -1)."""
     mode: Literal["cast", "trace", "path", "raster"] = "trace"
+    """`cast`: the hit material's colour, no lighting; `trace`: Whitted ray tracing with shadows, reflection,
+    refraction and area lights; `path`: unbiased path tracing in radiometric units; `raster`: a z-buffer rasterizer
+    with local lighting."""
     background: Color = (0.0, 0.0, 0.0)
+    """Colour of rays that hit nothing, `[r, g, b]` or `"#rrggbb"` (an `[environment]` replaces it)."""
     encoding: Literal["clamp", "srgb"] = "clamp"
+    """How linear colour becomes 8-bit: `clamp` (the seed's: clamp to 0..1, times 255) or `srgb` (the sRGB transfer
+    curve)."""
     seed: int = Field(0, ge=0, le=2**32 - 1)
+    """Random seed of the samples: the image depends only on the scene, the seed and spp, not on threads or machines."""
     # Pixel reconstruction filter for spp > 1 (box: the pixel itself; gaussian: radius 1.5 px,
     # sigma 0.5; mitchell: B = C = 1/3, radius 2 px). One sample per pixel is always the centre.
     filter: Literal["box", "gaussian", "mitchell"] = "box"
+    """Pixel reconstruction filter for spp > 1: `box` (the pixel), `gaussian` (radius 1.5 px, sigma 0.5), `mitchell` (B
+    = C = 1/3, radius 2 px)."""
     # Exposure in stops: 8-bit outputs (PNG) are encoded from rgb * 2**exposure; float outputs
     # (.exr, .hdr, .npy) stay as rendered.
     exposure: FiniteFloat = Field(0.0, ge=-64, le=64)
+    """Exposure in stops for 8-bit outputs (PNG, JPEG), encoded from rgb x 2**exposure; float outputs stay as
+    rendered."""
     # Filter texture lookups over each pixel's footprint (ray cones; mip-maps for images), so
     # that far checkers and fine images do not alias. false: point lookups.
     texture_filter: bool = True
+    """Filter texture lookups over each pixel's footprint (ray cones, mip-maps) so that far checkers and fine images do
+    not alias; false: point lookups."""
     # Path mode: run Intel Open Image Denoise on the image (with the albedo and normal AOVs).
     denoise: bool = False
+    """Path mode: run Intel Open Image Denoise on the image, guided by the albedo and normal AOVs (needs `pip install
+    'raylume[denoise]'`)."""
     # The participating medium filling the space outside every object, a name in [media]
     # (fog); the camera sits in it. Path mode renders media; the others ignore them.
     medium: str | None = None
+    """Path mode: the medium, a name in `[media]`, filling the space outside every object (fog); the camera sits
+    in it."""
 
     @model_validator(mode="after")
     def _depth(self):
@@ -144,13 +168,19 @@ class RenderSettings(Strict):
 
 class Camera(Strict):
     position: Vec3 = (0.0, 0.0, 0.0)
+    """Where the camera is (the eye)."""
     look_at: Vec3 = (0.0, 0.0, 1.0)
+    """The point the camera looks at, the centre of the image."""
     up: Vec3 = (0.0, 1.0, 0.0)
+    """Which way is up; must not be parallel to the viewing direction."""
     fov: FiniteFloat = Field(53.13, gt=0, lt=180)
+    """Vertical field of view in degrees (53.13: the seed's 1 x 1 viewport at distance 1)."""
     # Thin lens: the lens diameter (0: a pinhole camera, rays from one point) and the distance, along
     # the viewing direction, of the plane in focus (default: the distance to look_at).
     aperture: FiniteFloat = Field(0.0, ge=0)
+    """Lens diameter of a thin-lens camera; 0 is a pinhole, > 0 gives depth of field."""
     focus_distance: FiniteFloat | None = Field(None, gt=0)
+    """Distance of the plane in focus along the viewing direction (unset: the distance to look_at)."""
 
     @property
     def focus(self) -> float:
@@ -188,8 +218,11 @@ class Checker(Strict):
     """A 3D checkerboard in world space: cells of side `scale` alternate between two colours."""
 
     type: Literal["checker"]
+    """`"checker"`: a 3D checkerboard in world space."""
     colors: tuple[Color, Color] = ((1.0, 1.0, 1.0), (0.1, 0.1, 0.1))
+    """The two colours of the cells, each `[r, g, b]` in 0..1 or `"#rrggbb"`."""
     scale: FiniteFloat = Field(1.0, gt=0)
+    """Side of one cell, in scene units."""
 
     @field_validator("colors", mode="before")
     @classmethod
@@ -205,8 +238,11 @@ class ImageTexture(Strict):
     replaces the material's colour; texels are sRGB-decoded to linear RGB."""
 
     type: Literal["image"]
+    """`"image"`: a PNG or JPEG mapped by the surface's UVs, repeating; sRGB-decoded."""
     file: str
+    """The image file, relative to the scene file."""
     scale: tuple[FiniteFloat, FiniteFloat] = (1.0, 1.0)
+    """Multiplies the UVs: a number or `[u, v]` (2 = the image twice across)."""
 
     @field_validator("scale", mode="before")
     @classmethod
@@ -237,8 +273,11 @@ class _MaterialBase(Strict):
     optional texture replacing the colour."""
 
     color: Color = (1.0, 1.0, 1.0)
+    """Reflectance (the transmittance tint for dielectrics), `[r, g, b]` in 0..1 or `"#rrggbb"`."""
     emission: Color = (0.0, 0.0, 0.0)  # emitted radiance
+    """Emitted radiance `[r, g, b]`: makes the surface a light in path mode (its own colour added in trace mode)."""
     texture: Texture | None = None
+    """A texture replacing `color`: `{ type = "checker", ... }` or `{ type = "image", file = ... }`."""
 
     @field_validator("color", mode="before")
     @classmethod
@@ -268,11 +307,17 @@ class PhongMaterial(_MaterialBase):
     `reflective`, `transparency` with an index `ior` and Beer-Lambert `absorption` inside."""
 
     type: Literal["phong"] = "phong"
+    """`"phong"`: the seed's model, the default when `type` is left out."""
     specular: FiniteFloat | None = Field(None, gt=0)
+    """Phong exponent of the highlight; left out: a matte surface."""
     reflective: FiniteFloat = Field(0.0, ge=0, le=1)
+    """Mirror reflectivity, 0..1 (reflective + transparency <= 1)."""
     transparency: FiniteFloat = Field(0.0, ge=0, le=1)
+    """Share of light refracted through the surface, 0..1."""
     ior: FiniteFloat = Field(1.5, gt=0)
+    """Index of refraction inside the surface."""
     absorption: Color = (0.0, 0.0, 0.0)
+    """Beer-Lambert absorption coefficient per unit length inside, `[r, g, b]`."""
 
     @field_validator("absorption", mode="before")
     @classmethod
@@ -290,6 +335,7 @@ class DiffuseMaterial(_MaterialBase):
     """Lambertian reflection of reflectance `color`."""
 
     type: Literal["diffuse"]
+    """`"diffuse"`: Lambertian reflection of reflectance `color`."""
 
 
 class ConductorMaterial(_MaterialBase):
@@ -297,9 +343,13 @@ class ConductorMaterial(_MaterialBase):
     RGB; neither: a perfect mirror times color), GGX `roughness` (alpha; 0 is smooth)."""
 
     type: Literal["conductor"]
+    """`"conductor"`: a metal, `color` times the Fresnel reflectance of `eta` + i `k`."""
     roughness: FiniteFloat = Field(0.0, ge=0, le=1)  # GGX alpha, as Mitsuba's rough plugins
+    """GGX alpha, as Mitsuba's rough plugins take it; 0 is a perfect mirror."""
     eta: Color | None = None
+    """Real part of the complex index of refraction, per RGB (give `k` too; neither: a perfect mirror times `color`)."""
     k: Color | None = None
+    """Imaginary part (extinction) of the complex index of refraction, per RGB."""
 
     @field_validator("eta", "k", mode="before")
     @classmethod
@@ -318,9 +368,13 @@ class DielectricMaterial(_MaterialBase):
     inside, GGX `roughness`."""
 
     type: Literal["dielectric"]
+    """`"dielectric"`: glass, with Fresnel reflection and total internal reflection."""
     ior: FiniteFloat = Field(1.5, gt=0)
+    """Index of refraction inside."""
     roughness: FiniteFloat = Field(0.0, ge=0, le=1)
+    """GGX alpha; 0 is smooth glass."""
     absorption: Color = (0.0, 0.0, 0.0)
+    """Beer-Lambert absorption coefficient per unit length inside, `[r, g, b]`."""
 
     @field_validator("absorption", mode="before")
     @classmethod
@@ -332,8 +386,11 @@ class PlasticMaterial(_MaterialBase):
     """Diffuse reflectance `color` under a dielectric coating of index `ior`, GGX `roughness`."""
 
     type: Literal["plastic"]
+    """`"plastic"`: diffuse `color` under a dielectric coating (Mitsuba's plastic)."""
     ior: FiniteFloat = Field(1.5, gt=0)
+    """Index of refraction of the coating."""
     roughness: FiniteFloat = Field(0.0, ge=0, le=1)
+    """GGX alpha of the coating; 0 is smooth."""
 
 
 class NullMaterial(Strict):
@@ -341,6 +398,7 @@ class NullMaterial(Strict):
     is white where a mode shows the boundary alone (cast, raster)."""
 
     type: Literal["null"]
+    """`"null"`: an index-matched boundary that neither bends nor reflects light; no other key."""
     color: ClassVar[tuple[float, float, float]] = (1.0, 1.0, 1.0)
     emission: ClassVar[tuple[float, float, float]] = (0.0, 0.0, 0.0)
     texture: ClassVar[None] = None
@@ -414,6 +472,8 @@ MaterialRef = Annotated[
 
 class _LightBase(Strict):
     intensity: Color = (1.0, 1.0, 1.0)
+    """A number or `[r, g, b]`, may exceed 1. Trace mode: the seed's intensity; path mode: radiometric (see the light's
+    type)."""
 
     @field_validator("intensity", mode="before")
     @classmethod
@@ -423,17 +483,23 @@ class _LightBase(Strict):
 
 class AmbientLight(_LightBase):
     type: Literal["ambient"]
+    """`"ambient"`: light from everywhere, no shadows (path mode: a uniform environment of radiance `intensity`)."""
     intensity: Color = (0.2, 0.2, 0.2)
+    """A number or `[r, g, b]`; in path mode the environment's radiance."""
 
 
 class PointLight(_LightBase):
     type: Literal["point"]
+    """`"point"`: light from one point (path mode: radiant intensity in W/sr, falling off as 1/r^2)."""
     position: Vec3
+    """Where the light is."""
 
 
 class DirectionalLight(_LightBase):
     type: Literal["directional"]
+    """`"directional"`: light from infinitely far away (path mode: irradiance on a surface facing it)."""
     direction: Vec3  # pointing towards the light
+    """Pointing towards the light."""
 
     @field_validator("direction")
     @classmethod
@@ -446,10 +512,15 @@ class QuadLight(_LightBase):
     position +- u/2 +- v/2), sampled with `samples` shadow rays per shading point."""
 
     type: Literal["quad"]
+    """`"quad"`: a rectangular area light, soft shadows (path mode: an emitting surface of radiance `intensity`)."""
     position: Vec3
+    """Centre of the rectangle."""
     u: Vec3
+    """First edge vector: the light spans position +- u/2 +- v/2."""
     v: Vec3
+    """Second edge vector."""
     samples: int = Field(16, ge=1, le=MAX_LIGHT_SAMPLES)
+    """Trace mode: shadow rays per shading point."""
 
     @model_validator(mode="after")
     def _edges(self):
@@ -465,10 +536,15 @@ class SpotLight(_LightBase):
     at full intensity inside `inner_angle` and falling smoothly to 0 at `angle`."""
 
     type: Literal["spot"]
+    """`"spot"`: a point light in a cone (every mode)."""
     position: Vec3
+    """Where the light is."""
     direction: Vec3  # the way it shines
+    """The way it shines."""
     angle: FiniteFloat = Field(30.0, gt=0, le=180)
+    """Outer half-angle of the cone, degrees."""
     inner_angle: FiniteFloat | None = Field(None, ge=0, le=180)
+    """Full intensity inside this half-angle, falling smoothly to 0 at `angle` (unset: 3/4 of angle)."""
 
     @field_validator("direction")
     @classmethod
@@ -492,9 +568,13 @@ class SphereLight(_LightBase):
     point (over its disk facing the point)."""
 
     type: Literal["sphere"]
+    """`"sphere"`: a spherical area light (path mode: an emitting surface of radiance `intensity`)."""
     position: Vec3
+    """Centre of the sphere."""
     radius: FiniteFloat = Field(gt=0)
+    """Radius of the sphere."""
     samples: int = Field(16, ge=1, le=MAX_LIGHT_SAMPLES)
+    """Trace mode: shadow rays per shading point, over its disk facing the point."""
 
 
 LIGHT_TYPES = {
@@ -525,18 +605,28 @@ def _no_interior(obj, shape: str):
 
 class Sphere(Strict):
     type: Literal["sphere"]
+    """`"sphere"`."""
     center: Vec3
+    """Centre of the sphere."""
     radius: FiniteFloat = Field(gt=0)
+    """Radius of the sphere."""
     material: MaterialRef = "default"
+    """A name from `[materials]` or an inline material table (default: matte white phong)."""
     interior: MediumRef = None
+    """Path mode: the medium inside, a name in `[media]`."""
 
 
 class Plane(Strict):
     type: Literal["plane"]
+    """`"plane"`: an infinite plane."""
     point: Vec3 = (0.0, 0.0, 0.0)
+    """A point on the plane."""
     normal: Vec3 = (0.0, 1.0, 0.0)
+    """The plane's normal (two-sided)."""
     material: MaterialRef = "default"
+    """A name from `[materials]` or an inline material table."""
     interior: MediumRef = None
+    """Refused: a plane has no inside (the key exists for a clear error)."""
 
     @model_validator(mode="after")
     def _open(self):
@@ -550,9 +640,13 @@ class Plane(Strict):
 
 class Triangle(Strict):
     type: Literal["triangle"]
+    """`"triangle"`: one triangle."""
     vertices: tuple[Vec3, Vec3, Vec3]
+    """Three vertices `[[x, y, z], [x, y, z], [x, y, z]]`, not collinear."""
     material: MaterialRef = "default"
+    """A name from `[materials]` or an inline material table."""
     interior: MediumRef = None
+    """Refused: a triangle has no inside (the key exists for a clear error)."""
 
     @model_validator(mode="after")
     def _open(self):
@@ -575,11 +669,16 @@ Row4 = tuple[FiniteFloat, FiniteFloat, FiniteFloat, FiniteFloat]
 
 class Transform(Strict):
     translate: Vec3 = (0.0, 0.0, 0.0)
+    """Moves the shape, applied last."""
     rotate: Vec3 = (0.0, 0.0, 0.0)  # degrees, applied about x, then y, then z
+    """Degrees about x, then y, then z, applied after scale."""
     scale: FiniteFloat | Vec3 = 1.0
+    """A number or `[x, y, z]` (non-zero; a negative factor mirrors), applied first."""
     # Or a whole 4 x 4 object-to-world matrix, rows, column vectors (p' = M @ [p, 1]), instead of
     # the three above: what other renderers' files (pbrt, Mitsuba) hold, shears included.
     matrix: tuple[Row4, Row4, Row4, Row4] | None = None
+    """Instead of translate, rotate and scale: a whole 4 x 4 object-to-world matrix, rows, column vectors (p' = M @ [p,
+    1]); its last row `[0, 0, 0, 1]`."""
 
     @field_validator("scale")
     @classmethod
@@ -618,7 +717,9 @@ class Fit(Strict):
     `size`, and moved so that the box's centre is `center`."""
 
     center: Vec3 = (0.0, 0.0, 0.0)
+    """Where the centre of the mesh's bounding box goes."""
     size: FiniteFloat = Field(gt=0)
+    """The largest side of the mesh's bounding box after the fit."""
 
 
 class MeshTransform(Transform):
@@ -626,6 +727,8 @@ class MeshTransform(Transform):
     scale and translate (the mesh is rotated, then fitted into the box)."""
 
     fit: Fit | None = None
+    """Instead of scale and translate: rotate the mesh, then scale it uniformly and move it into this box: `{ center,
+    size }`."""
 
     @model_validator(mode="after")
     def _fit_alone(self):
@@ -645,26 +748,39 @@ Index3 = tuple[Annotated[int, Field(ge=0)], Annotated[int, Field(ge=0)], Annotat
 
 class Mesh(Strict):
     type: Literal["mesh"]
+    """`"mesh"`: a triangle mesh from a file (OBJ, PLY, STL, OFF, glTF/GLB through trimesh)."""
     # The triangles: a mesh file (relative to the scene file), or inline `vertices` with
     # `faces` (three vertex indices each, from 0; cross(v1 - v0, v2 - v0) is the front) and
     # optional per-vertex `normals` and `uvs`, as other renderers' files carry meshes.
     file: str | None = None
+    """The mesh file, relative to the scene file (or inline `vertices` and `faces` instead)."""
     vertices: list[Vec3] | None = None
+    """Inline triangles instead of `file`: the vertex positions."""
     faces: list[Index3] | None = None
+    """With `vertices`: three vertex indices per triangle, from 0; cross(v1 - v0, v2 - v0) is the front."""
     normals: list[Vec3] | None = None
+    """With `vertices`: a normal per vertex (smooth shading)."""
     uvs: list[tuple[FiniteFloat, FiniteFloat]] | None = None
+    """With `vertices`: texture coordinates `[u, v]` per vertex."""
     material: MaterialRef = "default"
+    """A name from `[materials]` or an inline material table."""
     transform: MeshTransform = MeshTransform()
+    """Scale, rotate and translate (or `fit`), applied to the mesh."""
     smooth: bool | None = None  # None: use the file's vertex normals when it has them
+    """Interpolate vertex normals (unset: when the file has them)."""
     # "right": the file is right-handed (most OBJ and glTF): mirror x before the transform
     handedness: Literal["left", "right"] = "left"
-    # Which mesh of a Mitsuba .serialized file (which holds several): Mitsuba's shape_index
+    """`"right"`: the file is right-handed (most OBJ and glTF files), mirrored across x before the transform."""
     shape_index: int = Field(0, ge=0)
+    """Which mesh of a Mitsuba `.serialized` file (it holds several), from 0: Mitsuba's `shape_index`."""
     # Copies of the mesh, each placed by a matrix after `transform` (column vectors, p' = M @ [p, 1]):
     # a .npy file of shape (N, 4, 4) or (N, 3, 4), relative to the scene file, or inline
     # transforms. The mesh and its BVH are stored once (scene/instances.py, compile/instances.py).
     instances: str | list[Transform] | None = None
+    """Copies of the mesh, each placed by a matrix after `transform` (p' = M @ [p, 1]): a `.npy` of (N, 4, 4) or (N, 3,
+    4) matrices relative to the scene file, or a list of transform tables. The mesh and its BVH are stored once."""
     interior: MediumRef = None  # the mesh must be closed (checked when it is loaded)
+    """Path mode: the medium inside, a name in `[media]` (the mesh must be closed)."""
 
     @field_validator("instances")
     @classmethod
@@ -721,12 +837,19 @@ class Disk(Strict):
     """A flat disk of `radius` around `center`, facing along `normal` (two-sided)."""
 
     type: Literal["disk"]
+    """`"disk"`: a flat, two-sided disk."""
     center: Vec3 = (0.0, 0.0, 0.0)
+    """Centre of the disk."""
     normal: Vec3 = (0.0, 1.0, 0.0)
+    """The way the disk faces."""
     radius: FiniteFloat = Field(gt=0)
+    """Radius of the disk."""
     material: MaterialRef = "default"
+    """A name from `[materials]` or an inline material table."""
     transform: Transform = Transform()
+    """Scale (uniform only), rotate and translate."""
     interior: MediumRef = None
+    """Refused: a disk has no inside (the key exists for a clear error)."""
 
     @model_validator(mode="after")
     def _open(self):
@@ -748,12 +871,19 @@ class Quad(Strict):
     position +- u/2 +- v/2, like the quad light (two-sided)."""
 
     type: Literal["quad"]
+    """`"quad"`: a parallelogram, two-sided."""
     position: Vec3 = (0.0, 0.0, 0.0)
+    """Its centre: it spans position +- u/2 +- v/2."""
     u: Vec3
+    """First edge vector."""
     v: Vec3
+    """Second edge vector, not parallel to u."""
     material: MaterialRef = "default"
+    """A name from `[materials]` or an inline material table."""
     transform: Transform = Transform()
+    """Scale, rotate and translate."""
     interior: MediumRef = None
+    """Refused: a quad has no inside (the key exists for a clear error)."""
 
     @model_validator(mode="after")
     def _edges(self):
@@ -774,13 +904,21 @@ class Cylinder(Strict):
     ends with disks, otherwise it is an open tube."""
 
     type: Literal["cylinder"]
+    """`"cylinder"`."""
     p0: Vec3
+    """Centre of one end."""
     p1: Vec3
+    """Centre of the other end."""
     radius: FiniteFloat = Field(gt=0)
+    """Radius of the cylinder."""
     capped: bool = True
+    """true: both ends closed with disks; false: an open tube."""
     material: MaterialRef = "default"
+    """A name from `[materials]` or an inline material table."""
     transform: Transform = Transform()
+    """Scale (uniform only), rotate and translate."""
     interior: MediumRef = None
+    """Path mode: the medium inside a capped cylinder, a name in `[media]`."""
 
     @model_validator(mode="after")
     def _axis(self):
@@ -802,8 +940,11 @@ class Gltf(Strict):
     are not imported into a scene that places it (`raylume render file.glb` uses them)."""
 
     type: Literal["gltf"]
+    """`"gltf"`: the meshes and materials of a glTF 2.0 file (its cameras and lights are not imported)."""
     file: str
+    """The `.gltf` or `.glb` file, relative to the scene file."""
     transform: Transform = Transform()
+    """Applied after the file's own node transforms and the right- to left-handed conversion."""
 
     @property
     def material(self) -> str:
@@ -832,15 +973,22 @@ class Environment(Strict):
     as object transforms)."""
 
     color: Color | None = None
+    """Constant radiance `[r, g, b]` from every direction (give `color` or `file`)."""
     file: str | None = None
+    """An equirectangular `.hdr` or `.exr` image, relative to the scene file; importance-sampled in path mode."""
     intensity: FiniteFloat = Field(1.0, ge=0)
+    """Scales the environment."""
     rotate: Vec3 = (0.0, 0.0, 0.0)
+    """Degrees about x, then y, then z, as object transforms."""
     # Or the world-from-environment matrix itself (3 x 3 rows, orthogonal: a rotation, or one
     # with a mirror), as other renderers' files give it.
     matrix: tuple[Vec3, Vec3, Vec3] | None = None
+    """Instead of `rotate`: the world-from-environment matrix, 3 x 3 rows, orthogonal (a rotation, possibly with a
+    mirror)."""
     # How the file covers the sphere: "equirectangular", or pbrt-v4's square "equal-area"
     # octahedral map (converted to equirectangular when the scene is compiled).
     mapping: Literal["equirectangular", "equal-area"] = "equirectangular"
+    """How the image covers the sphere: `equirectangular`, or pbrt-v4's square `equal-area` octahedral map."""
 
     @field_validator("matrix")
     @classmethod
@@ -879,8 +1027,11 @@ class _MediumBase(Strict):
     # absorption and scattering coefficients per scene unit of length (RGB), and the
     # Henyey-Greenstein asymmetry g (-1 back, 0 isotropic, 1 forward; the ends excluded)
     sigma_a: Color = (0.0, 0.0, 0.0)
+    """Absorption coefficient per scene unit of length, a number or `[r, g, b]`."""
     sigma_s: Color = (0.0, 0.0, 0.0)
+    """Scattering coefficient per scene unit of length, a number or `[r, g, b]`."""
     g: FiniteFloat = Field(0.0, gt=-1, lt=1)
+    """Henyey-Greenstein asymmetry: -1 back, 0 isotropic, 1 forward (the ends excluded)."""
 
     @field_validator("sigma_a", "sigma_s", mode="before")
     @classmethod
@@ -892,6 +1043,7 @@ class HomogeneousMedium(_MediumBase):
     """A medium of the same density everywhere (fog, milk, smoke of even density)."""
 
     type: Literal["homogeneous"]
+    """`"homogeneous"`: the same density everywhere (fog, milk)."""
 
 
 class GridMedium(_MediumBase):
@@ -901,9 +1053,14 @@ class GridMedium(_MediumBase):
     Outside the box the density is 0."""
 
     type: Literal["grid"]
+    """`"grid"`: a density that varies, from a voxel grid."""
     density: str = Field(min_length=1)
+    """A `.npy` float array of shape (nz, ny, nx), >= 0, relative to the scene file; scales sigma_a and sigma_s,
+    trilinearly interpolated."""
     bounds_min: Vec3
+    """The world box's lower corner that the grid fills."""
     bounds_max: Vec3
+    """The world box's upper corner."""
 
     @model_validator(mode="after")
     def _box(self):
@@ -928,10 +1085,15 @@ class CameraKey(Strict):
     them, or taken from [camera])."""
 
     frame: int = Field(ge=0, lt=MAX_FRAMES)
+    """The frame this keyframe holds at, from 0."""
     position: Vec3 | None = None
+    """The camera's position at this frame."""
     look_at: Vec3 | None = None
+    """The camera's look_at at this frame."""
     up: Vec3 | None = None
+    """The camera's up at this frame."""
     fov: FiniteFloat | None = Field(None, gt=0, lt=180)
+    """The camera's vertical field of view at this frame, degrees."""
 
 
 class Animation(Strict):
@@ -939,9 +1101,13 @@ class Animation(Strict):
     of `[[animation.camera]]` (raylume/animation.py)."""
 
     frames: int = Field(ge=1, le=MAX_FRAMES)
+    """Number of frames."""
     fps: FiniteFloat = Field(24.0, gt=0, le=1000)
+    """Frames per second of a video."""
     interpolation: Literal["linear", "catmull-rom"] = "catmull-rom"
+    """`catmull-rom` (smooth through every keyframe) or `linear`."""
     camera: list[CameraKey] = []
+    """Camera keyframes, `[[animation.camera]]` tables."""
 
     @model_validator(mode="after")
     def _keyframes(self):
@@ -961,13 +1127,21 @@ class Animation(Strict):
 
 class Scene(Strict):
     render: RenderSettings = RenderSettings()
+    """How to render: size, samples, mode, encoding."""
     camera: Camera = Camera()
+    """The camera."""
     materials: dict[str, Material] = {}
+    """Named materials, `[materials.NAME]`, that objects refer to by name."""
     lights: list[Light] = []
+    """The lights, `[[lights]]` tables."""
     objects: list[SceneObject] = []
+    """The objects, `[[objects]]` tables."""
     environment: Environment | None = None
+    """Light from every direction for rays that hit nothing; replaces `background`."""
     animation: Animation | None = None
+    """A camera flight: frames and keyframes."""
     media: dict[str, Medium] = {}
+    """Named participating media, `[media.NAME]`, for objects' `interior` and `[render] medium`."""
 
     # Folder that relative paths (mesh files) are resolved against; set by the loader.
     _base_dir: Path = PrivateAttr(default_factory=Path.cwd)
