@@ -11,6 +11,9 @@ a = session.render(width=300, height=300)                   # ... render many ti
 b = session.render(camera={"position": [0, 1, -1]}, mode="cast")
 
 url = raylume.view(raylume.builtin_scene("seed"))           # a live view in the browser
+
+scene = raylume.load("scene.xml", defines={"spp": "64"})     # a Mitsuba 3 scene, its $spp set
+raylume.save_scene(scene, "scene.toml")                     # ... as raylume's own TOML
 """
 
 # The public names are imported on first use (PEP 562), so that `import raylume` and the
@@ -33,8 +36,10 @@ _HOMES = {
     "builtin_scene": ".scene.builtin",
     "camera_rays": ".query",
     "intersect": ".query",
+    "load": ".scene.load",
     "load_scene": ".scene.load",
     "occluded": ".query",
+    "save_scene": ".save",
     "scene_from_dict": ".scene.document",
     "view": ".viewer",
 }
@@ -63,10 +68,11 @@ if TYPE_CHECKING:
     from .image import Image
     from .kernels.film.film import Film
     from .query import camera_rays, intersect, occluded
+    from .save import save_scene
     from .scene.builtin import builtin_names, builtin_scene
     from .scene.checks import SceneWarning
     from .scene.document import scene_from_dict
-    from .scene.load import load_scene
+    from .scene.load import load, load_scene
     from .scene.model import Camera, Scene
     from .session import Session
     from .viewer import view
@@ -84,9 +90,11 @@ __all__ = [
     "builtin_scene",
     "camera_rays",
     "intersect",
+    "load",
     "load_scene",
     "occluded",
     "render",
+    "save_scene",
     "scene_from_dict",
     "view",
 ]

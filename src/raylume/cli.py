@@ -132,9 +132,23 @@ def _parse_aovs(specs: list[str], output: Path) -> tuple[dict[str, Path], list[s
     return files, layers
 
 
-def _resolve_scene(scene: str | None, overrides: list[str] | None = None, width=None, height=None, camera=None):
-    """(the scene, its label) for SCENE: a scene file, a glTF file (its camera, or the one
-    --camera names: scene/gltf_scene.py), a mesh file (framed for the image size the flags give,
+def _parse_defines(specs: list[str] | None) -> dict[str, str]:
+    """--define NAME=VALUE ... as {NAME: VALUE} (Mitsuba's -D)."""
+    defines = {}
+    for spec in specs or []:
+        name, sep, value = spec.partition("=")
+        if not sep or not name.strip():
+            raise SceneError(f"--define {spec}: expected NAME=VALUE, e.g. --define spp=64")
+        defines[name.strip()] = value
+    return defines
+
+
+def _resolve_scene(
+    scene: str | None, overrides: list[str] | None = None, width=None, height=None, camera=None, defines=None
+):
+    """(the scene, its label) for SCENE: a scene file (.toml, .json, or a Mitsuba .xml with its
+    --define parameters), a glTF file (its camera, or the one --camera names:
+    scene/gltf_scene.py), a mesh file (framed for the image size the flags give,
     scene/autoframe.py) or a built-in name (scene/open.py)."""
     from .scene.builtin import DEFAULT_SCENE
     from .scene.gltf import is_gltf_file
@@ -143,7 +157,7 @@ def _resolve_scene(scene: str | None, overrides: list[str] | None = None, width=
     name = scene or DEFAULT_SCENE
     if camera is not None and not is_gltf_file(name):
         raise SceneError(f"--camera {camera}: chooses a camera of a glTF file (.gltf, .glb), and {name} is not one")
-    return open_scene(name, overrides, width=width, height=height, camera=camera)
+    return open_scene(name, overrides, width=width, height=height, camera=camera, defines=_parse_defines(defines))
 
 
 def _check_distinct(out: Path, scene_label: str, others: list[Path]) -> None:
@@ -162,7 +176,8 @@ def render(
         str | None,
         typer.Argument(
             metavar="SCENE",
-            help="Scene file (.toml/.json), pbrt-v4 scene (.pbrt), glTF scene (.gltf .glb: its camera and lights), "
+            help="Scene file (.toml/.json), pbrt-v4 (.pbrt) or Mitsuba 3 (.xml) scene, glTF scene (.gltf .glb: its "
+            "camera and lights), "
             "mesh file (.obj .ply .stl .off: framed and lit automatically) or built-in name; default: seed",
         ),
     ] = None,
@@ -202,6 +217,15 @@ def render(
             metavar="KEY=VALUE",
             help="Set a scene key before validation, e.g. camera.fov=40 or objects.0.radius=0.5; "
             "VALUE is read as TOML (repeatable)",
+        ),
+    ] = None,
+    defines: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--define",
+            "-D",
+            metavar="NAME=VALUE",
+            help="Set the parameter $NAME of a Mitsuba scene (.xml), as Mitsuba's -D (repeatable)",
         ),
     ] = None,
     stats: Annotated[
@@ -284,6 +308,7 @@ def render(
                 frame=frame,
                 partial=partial,
                 camera=camera,
+                defines=defines,
             )
     except RenderInterrupted as exc:
         _interrupted(exc, output if partial else None, bit_depth)
@@ -324,6 +349,7 @@ def _render(
     frame: int | None,
     partial: bool,
     camera: str | None,
+    defines: list[str] | None = None,
 ) -> None:
     """`raylume render`: `flags` are the [render] values given as flags (settings.OVERRIDES)."""
     from .image import check_bit_depth, check_output_path, save_npy, write_atomic
@@ -358,7 +384,7 @@ def _render(
 
         parse_address(cluster)  # a malformed address fails before anything is read
     started = time.perf_counter()
-    scene_model, label = _resolve_scene(scene, assignments, flags.get("width"), flags.get("height"), camera)
+    scene_model, label = _resolve_scene(scene, assignments, flags.get("width"), flags.get("height"), camera, defines)
     _check_distinct(output, scene or "", [*aov_paths.values(), *([stats_path] if stats_path else [])])
     settings = resolve_settings(scene_model, flags, threads=threads, crop=_parse_crop(crop), source=label, flags=True)
     parse_seconds = time.perf_counter() - started
@@ -622,7 +648,8 @@ def view(
     scene: Annotated[
         str | None,
         typer.Argument(
-            metavar="SCENE", help="Scene file (.toml/.json/.pbrt), mesh file or built-in name; default: seed"
+            metavar="SCENE",
+            help="Scene file (.toml/.json/.pbrt/.xml), glTF or mesh file or built-in name; default: seed",
         ),
     ] = None,
     mode: Annotated[
@@ -659,6 +686,15 @@ def view(
         list[str] | None,
         typer.Option("--set", metavar="KEY=VALUE", help="Set a scene key, as for render (repeatable)"),
     ] = None,
+    defines: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--define",
+            "-D",
+            metavar="NAME=VALUE",
+            help="Set the parameter $NAME of a Mitsuba scene (.xml), as Mitsuba's -D (repeatable)",
+        ),
+    ] = None,
     threads: Annotated[
         int | None, typer.Option("--threads", metavar="T", help="Render threads (default: all cores)")
     ] = None,
@@ -672,12 +708,52 @@ def view(
     try:
         with _errors_exit_2(debug):
             with _echo_warnings():
-                scene_model, label = _resolve_scene(scene, assignments or [], width, height)
+                scene_model, label = _resolve_scene(scene, assignments or [], width, height, defines=defines)
                 settings = resolve_settings(scene_model, flags, threads=threads, source=label, flags=True)
             code = run_view(scene_model, label, settings, host=host, port=port, open_browser=not no_browser)
     except KeyboardInterrupt:
         raise typer.Exit(130) from None
     raise typer.Exit(code)
+
+
+@app.command(cls=_Command)
+def convert(
+    scene: Annotated[
+        str,
+        typer.Argument(
+            metavar="IN",
+            help="Any scene raylume reads: a Mitsuba .xml, a .toml/.json, a glTF or mesh file, a built-in name",
+        ),
+    ],
+    output: Annotated[
+        Path, typer.Option("-o", "--output", metavar="OUT", help="The raylume scene file to write: .toml or .json")
+    ],
+    assignments: Annotated[
+        list[str] | None,
+        typer.Option("--set", metavar="KEY=VALUE", help="Set a scene key, as for render (repeatable)"),
+    ] = None,
+    defines: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--define",
+            "-D",
+            metavar="NAME=VALUE",
+            help="Set the parameter $NAME of a Mitsuba scene (.xml), as Mitsuba's -D (repeatable)",
+        ),
+    ] = None,
+    debug: Annotated[bool, typer.Option("--debug", metavar=FLAG, help="Show tracebacks of errors")] = False,
+) -> None:
+    """Write IN as a raylume scene file (meshes and images stay where they are, referenced by path) that
+    renders the same image as IN."""
+    from .save import save_scene
+    from .scene.export import SUFFIXES
+
+    with _errors_exit_2(debug), _echo_warnings():
+        if output.suffix.lower() not in SUFFIXES:
+            raise OutputError(f"-o {output}: a raylume scene file ends in .toml or .json")
+        scene_model, label = _resolve_scene(scene, assignments or [], defines=defines)
+        _check_distinct(output, label, [])
+        save_scene(scene_model, output)
 
 
 def main() -> None:  # pragma: no cover - console entry point

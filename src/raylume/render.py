@@ -54,6 +54,7 @@ def render(
     status: Callable[[str], None] | None = None,
     cluster=None,
     settings: ResolvedSettings | None = None,
+    defines: dict[str, str] | None = None,
 ) -> Image:
     """Render `scene` (arguments override its [render] table): a Scene, a path to a scene,
     glTF or mesh file (a mesh is framed and lit), or a built-in scene's name, as the command
@@ -66,14 +67,14 @@ def render(
     it (see Session.render). `cluster`: a Dask scheduler's address, `local`, `local:N` or a
     `distributed.Client`: render in tiles on its workers, bit-identical (raylume.cluster).
     `settings`: settings already resolved (raylume.settings.resolve_settings), in place of
-    width ... denoise, threads and crop."""
+    width ... denoise, threads and crop. `defines`: a Mitsuba scene's $parameters (as --define)."""
     arguments = dict(locals())  # the call's arguments, before any other name is bound
     from .scene.open import open_scene
     from .session import Session
     from .settings import settings_of_call
 
     size = (width, height) if settings is None else (settings.render.width, settings.render.height)
-    scene, label = open_scene(scene, width=size[0], height=size[1])  # a mesh file is framed for that size
+    scene, label = open_scene(scene, width=size[0], height=size[1], defines=defines)  # a mesh: framed for that size
     source = label if source == "<scene>" else source
     settings = settings_of_call(scene, arguments, settings, source)  # fail before compiling
     session = Session(scene, source=source, accelerate=settings.render.mode != "raster")

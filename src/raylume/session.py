@@ -70,10 +70,17 @@ class Session:
 
     `accelerate=False` skips the BVH until a ray mode needs it (rasterizing never does)."""
 
-    def __init__(self, scene: SceneLike, *, source: str = "<scene>", accelerate: bool = True):
+    def __init__(
+        self,
+        scene: SceneLike,
+        *,
+        source: str = "<scene>",
+        accelerate: bool = True,
+        defines: dict[str, str] | None = None,
+    ):
         """`scene`: a Scene, a path to a scene, glTF or mesh file, or a built-in scene's name
-        (as raylume.render takes it)."""
-        scene, label = open_scene(scene)
+        (as raylume.render takes it); `defines`: a Mitsuba scene's $parameters (as --define)."""
+        scene, label = open_scene(scene, defines=defines)
         self.scene = scene
         self.source = label if source == "<scene>" else source
         self.bvh_builds = 0

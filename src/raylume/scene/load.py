@@ -1,9 +1,11 @@
 """Read a scene file into the validated model: TOML or JSON (scene/document.py), a pbrt-v4 file
-(scene/pbrt_scene.py), or a glTF or mesh file as a scene by itself (scene/gltf_scene.py,
-scene/autoframe.py)."""
+(scene/pbrt_scene.py), a Mitsuba 3 XML scene (scene/mitsuba_scene.py), or a glTF or mesh file as
+a scene by itself (scene/gltf_scene.py, scene/autoframe.py). Other renderers' scenes become a
+scene document first, so validation and `--set` overrides are the same for every kind of file."""
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 from ..errors import SceneError
@@ -15,12 +17,54 @@ from .model import Scene
 from .overrides import Overrides, apply_overrides
 from .pbrt_scene import pbrt_scene
 
-__all__ = ["SCENE_SUFFIXES", "load_scene", "parse_document", "scene_from_dict"]
+__all__ = [
+    "DEFINE_SUFFIXES",
+    "FOREIGN_SUFFIXES",
+    "SCENE_SUFFIXES",
+    "load",
+    "load_scene",
+    "parse_document",
+    "scene_from_dict",
+]
 
 SCENE_SUFFIXES = (".toml", ".json", ".pbrt")
+# Other renderers' scene files read into a scene document by foreign_document (.pbrt: pbrt_scene)
+FOREIGN_SUFFIXES = (".xml",)
+DEFINE_SUFFIXES = (".xml",)  # the files whose $parameters --define sets (Mitsuba's)
 
 
-def load_scene(path: str | Path, overrides: Overrides | None = None, source: str | None = None) -> Scene:
+def foreign_document(path: Path, defines: dict[str, str] | None) -> tuple[dict, dict[str, str]]:
+    """The scene document of another renderer's scene file, and where its tables came from
+    ({key path: "file:line element"}, for messages about values the model refuses)."""
+    suffix = path.suffix.lower()
+    if suffix == ".xml":
+        from .mitsuba_scene import mitsuba_document
+
+        return mitsuba_document(path, defines)
+    raise SceneError(f"{path}: not a scene file of another renderer ({', '.join(FOREIGN_SUFFIXES)})")
+
+
+def with_origins(message: str, origins: dict[str, str]) -> str:
+    """A validation message whose key paths name the element they came from:
+    'objects[2].radius: ...' -> 'objects[2].radius (scene.xml:12 <shape type="sphere">): ...'."""
+    keys = sorted(origins, key=len, reverse=True)
+
+    def named(match: re.Match) -> str:
+        path = match.group(1)
+        for key in keys:
+            if path == key or path.startswith((f"{key}.", f"{key}[")):
+                return f"{path} ({origins[key]}):"
+        return match.group(0)
+
+    return re.sub(r"(?<=[:;] )([A-Za-z_][\w.\[\]-]*):", named, message)
+
+
+def load_scene(
+    path: str | Path,
+    overrides: Overrides | None = None,
+    source: str | None = None,
+    defines: dict[str, str] | None = None,
+) -> Scene:
     """Load and validate a scene file; relative paths inside it are resolved against its folder.
     A pbrt-v4 file (.pbrt) is read as pbrt would render it (scene/pbrt_scene.py).
     A glTF file (.gltf, .glb) is a scene by itself, with its camera and lights
@@ -28,8 +72,19 @@ def load_scene(path: str | Path, overrides: Overrides | None = None, source: str
     camera, lit by a default rig (scene/autoframe.py). `overrides` ("KEY=VALUE" texts as
     --set takes them, or a {dotted key: value} mapping) edit the parsed document before
     validation (see scene/overrides.py). `source` names the scene in validation errors
-    (default: the path)."""
+    (default: the path). A Mitsuba scene (.xml) takes `defines`, {NAME: VALUE} for its $NAME
+    parameters (Mitsuba's -D); other files refuse them."""
     path = Path(path)
+    if defines and path.suffix.lower() not in DEFINE_SUFFIXES:
+        raise SceneError(f"{path}: --define sets parameters of a Mitsuba scene (.xml), and this is not one")
+    if path.suffix.lower() in FOREIGN_SUFFIXES:
+        document, origins = foreign_document(path, defines)
+        document = apply_overrides(document, overrides)
+        try:
+            scene = scene_from_dict(document, source=source or path, overrides=overrides)
+        except SceneError as exc:
+            raise SceneError(with_origins(str(exc), origins)) from None
+        return scene.with_base_dir(path.resolve().parent)
     if path.suffix.lower() in (".gltf", ".glb"):
         return gltf_scene(path, overrides, source=source)
     if path.suffix.lower() in SUPPORTED_EXTENSIONS:
@@ -38,8 +93,8 @@ def load_scene(path: str | Path, overrides: Overrides | None = None, source: str
         return pbrt_scene(path, overrides, source=source)
     if path.suffix.lower() not in SCENE_SUFFIXES:
         raise SceneError(
-            f"{path}: scene files end in .toml, .json or .pbrt, mesh files in {', '.join(SUPPORTED_EXTENSIONS)} "
-            f"(got {path.suffix or 'no extension'!r})"
+            f"{path}: scene files end in .toml, .json or .pbrt (or .xml: Mitsuba 3), mesh files in "
+            f"{', '.join(SUPPORTED_EXTENSIONS)} (got {path.suffix or 'no extension'!r})"
         )
     if path.is_dir():
         raise SceneError(f"{path}: is a folder, not a scene file")
@@ -52,3 +107,6 @@ def load_scene(path: str | Path, overrides: Overrides | None = None, source: str
     document = apply_overrides(parse_document(text, path), overrides)
     scene = scene_from_dict(document, source=source or path, overrides=overrides)
     return scene.with_base_dir(path.resolve().parent)
+
+
+load = load_scene  # raylume.load(path), as DESIGN.md section 7 names it

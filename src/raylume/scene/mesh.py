@@ -46,12 +46,14 @@ from __future__ import annotations
 
 import json
 import os
+import struct
 from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
 
 from .procedural import vertex_normals as _area_weighted_normals
+from .serialized import read_serialized
 
 __all__ = [
     "SUPPORTED_EXTENSIONS",
@@ -66,6 +68,7 @@ __all__ = [
 
 # Extension -> trimesh file type. Anything else is refused before trimesh is asked.
 SUPPORTED_EXTENSIONS = {".obj": "obj", ".ply": "ply", ".stl": "stl", ".off": "off", ".gltf": "gltf", ".glb": "glb"}
+SUPPORTED_EXTENSIONS[".serialized"] = "serialized"  # Mitsuba's own format (scene/serialized.py)
 
 # A face is degenerate when sin(angle at v0)^2 is below this: zero area up to
 # float64 rounding, including faces that repeat a vertex index.
@@ -169,9 +172,15 @@ def _why(exc: Exception) -> str:
     return (str(exc) or type(exc).__name__).rstrip(".!")
 
 
-def _read_parts(path: Path, file_type: str):
+def _read_parts(path: Path, file_type: str, shape_index: int = 0):
     """Every triangle mesh instance in the file as (vertices, faces, normals|None,
-    uvs|None) with its scene-graph transform baked in."""
+    uvs|None) with its scene-graph transform baked in (of a .serialized file, the mesh
+    `shape_index`)."""
+    if file_type == "serialized":
+        try:
+            return [read_serialized(path, shape_index)]
+        except (ValueError, struct.error) as exc:
+            raise MeshError(f"Mesh file {path} could not be read as a Mitsuba serialized mesh: {exc}.") from exc
     if file_type == "ply":
         strips = _read_strip_ply(path)
         if strips is not None:
@@ -467,6 +476,7 @@ def load_mesh(
     scale=(1.0, 1.0, 1.0),
     smooth=None,
     matrix: np.ndarray | None = None,
+    shape_index: int = 0,
 ) -> MeshData:
     """Load a triangle mesh file and place it in the world.
 
@@ -488,7 +498,7 @@ def load_mesh(
         raise MeshError(f"Mesh {path} cannot be placed: its scale has a zero component.")
 
     file_type = _check_file(path)
-    v, f, n, uv = _concatenate(_read_parts(path, file_type))
+    v, f, n, uv = _concatenate(_read_parts(path, file_type, shape_index))
     if not np.all(np.isfinite(v)):
         raise MeshError(f"Mesh file {path} has vertex coordinates that are NaN or infinite.")
     if file_type == "stl":

@@ -776,6 +776,8 @@ class Mesh(Strict):
     # "right": the file is right-handed (most OBJ and glTF): mirror x before the transform
     handedness: Literal["left", "right"] = "left"
     """`"right"`: the file is right-handed (most OBJ and glTF files), mirrored across x before the transform."""
+    shape_index: int = Field(0, ge=0)
+    """Which mesh of a Mitsuba `.serialized` file (it holds several), from 0: Mitsuba's `shape_index`."""
     # Copies of the mesh, each placed by a matrix after `transform` (column vectors, p' = M @ [p, 1]):
     # a .npy file of shape (N, 4, 4) or (N, 3, 4), relative to the scene file, or inline
     # transforms. The mesh and its BVH are stored once (scene/instances.py, compile/instances.py).

@@ -11,7 +11,7 @@ from .autoframe import MESH_SUFFIXES, is_mesh_file, mesh_scene
 from .builtin import DEFAULT_SCENE, builtin_names, builtin_scene
 from .gltf import is_gltf_file
 from .gltf_scene import gltf_scene
-from .load import SCENE_SUFFIXES, load_scene
+from .load import DEFINE_SUFFIXES, FOREIGN_SUFFIXES, SCENE_SUFFIXES, load_scene
 from .model import Scene
 
 SceneLike = Scene | str | os.PathLike | None
@@ -24,14 +24,15 @@ def open_scene(
     width: int | None = None,
     height: int | None = None,
     camera: str | None = None,
+    defines: dict[str, str] | None = None,
 ) -> tuple[Scene, str]:
     """(the Scene, its label for messages) for `scene`:
 
     * a Scene: itself (`overrides` do not apply to it);
     * None: the built-in `seed` scene;
     * a path or a name: a glTF file (its camera, or the one `camera` names), a mesh file
-      (framed and lit for a width x height image), a scene file (.toml, .json, .pbrt), or else a
-      built-in scene's name.
+      (framed and lit for a width x height image), a scene file (.toml, .json, .pbrt, or a
+      Mitsuba .xml, its $parameters set by `defines`), or else a built-in scene's name.
 
     `overrides` are `--set` style KEY=VALUE strings. A name that is none of these is a
     SceneError that lists the built-ins."""
@@ -43,15 +44,17 @@ def open_scene(
             f"got {type(scene).__name__}"
         )
     name = DEFAULT_SCENE if scene is None else os.fspath(scene)
+    if defines and Path(name).suffix.lower() not in DEFINE_SUFFIXES:
+        raise SceneError(f"{name}: --define sets parameters of a Mitsuba scene (.xml), and this is not one")
     if is_gltf_file(name):
         return gltf_scene(name, overrides, camera=camera, width=width, height=height), name
     if is_mesh_file(name):
         return mesh_scene(name, overrides, width=width, height=height), name
-    if Path(name).suffix.lower() in SCENE_SUFFIXES or os.sep in name or Path(name).exists():
-        return load_scene(name, overrides=overrides), name
+    if Path(name).suffix.lower() in (*SCENE_SUFFIXES, *FOREIGN_SUFFIXES) or os.sep in name or Path(name).exists():
+        return load_scene(name, overrides=overrides, defines=defines), name
     if name in builtin_names():
         return builtin_scene(name, overrides=overrides), f"built-in scene {name!r}"
     raise SceneError(
-        f"{name}: not a scene file (.toml, .json or .pbrt), a mesh file ({', '.join(MESH_SUFFIXES)}) nor a built-in "
-        f"scene; built-ins: {', '.join(builtin_names())}"
+        f"{name}: not a scene file (.toml, .json, .pbrt or .xml), a mesh file ({', '.join(MESH_SUFFIXES)}) nor a "
+        f"built-in scene; built-ins: {', '.join(builtin_names())}"
     )

@@ -51,7 +51,15 @@ def _key(path: Path, obj: Mesh):
         stat = os.stat(path)
     except OSError:
         return None  # load_mesh will say what is wrong with the file
-    return (str(path.resolve()), stat.st_mtime_ns, stat.st_size, obj.transform, obj.handedness, obj.smooth)
+    return (
+        str(path.resolve()),
+        stat.st_mtime_ns,
+        stat.st_size,
+        obj.transform,
+        obj.handedness,
+        obj.smooth,
+        obj.shape_index,
+    )
 
 
 def _place(path: Path, obj: Mesh) -> MeshData:
@@ -60,7 +68,15 @@ def _place(path: Path, obj: Mesh) -> MeshData:
     if obj.handedness == "right":
         sx = -sx  # mirrored first, in the file's own frame; load_mesh keeps normals and winding right
     matrix = None if t.matrix is None else np.array(t.matrix, dtype=np.float64)
-    mesh = load_mesh(path, translate=t.translate, rotate=t.rotate, scale=(sx, sy, sz), smooth=obj.smooth, matrix=matrix)
+    mesh = load_mesh(
+        path,
+        translate=t.translate,
+        rotate=t.rotate,
+        scale=(sx, sy, sz),
+        smooth=obj.smooth,
+        matrix=matrix,
+        shape_index=obj.shape_index,
+    )
     if t.fit is not None:
         mesh = fit_into_box(mesh, t.fit.center, t.fit.size)
     return mesh

@@ -43,20 +43,22 @@ def view(
     port: int = 0,
     threads: int | None = None,
     show: bool | None = None,
+    defines: dict[str, str] | None = None,
 ) -> ViewURL:
     """Serve a live view of `scene` (a Scene, a scene, glTF or mesh file, a built-in name, or
     None for `seed`) in the background and return its URL (with the token). In Jupyter (or when
     `show`) the page is also shown inline in an iframe. Port 0 (the default here) picks a free
     port, so several views can run at once; `url.stop()` ends one. `denoise`: path mode's
     frames shown denoised (SVGF while the camera moves, OIDN at rest), as `raylume view --denoise`;
-    `integrator`: path mode's, "path" or "bdpt" (as `raylume view --integrator`)."""
+    `integrator`: path mode's, "path" or "bdpt" (as `raylume view --integrator`). `defines`: a
+    Mitsuba scene's $parameters (as --define)."""
     arguments = dict(locals())  # the call's arguments, before any other name is bound
     from ..scene.open import open_scene
     from ..session import Session
     from ..settings import overrides_of, resolve_settings
     from .service import Viewer, warn_if_exposed
 
-    scene, source = open_scene(scene, width=width, height=height)
+    scene, source = open_scene(scene, width=width, height=height, defines=defines)
     settings = resolve_settings(scene, overrides_of(arguments), threads=threads, source=source)
     if settings.render.denoise:
         from ..denoise import require_denoiser

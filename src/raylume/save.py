@@ -1,0 +1,20 @@
+"""raylume.save_scene: a Scene written as a raylume scene file (the text: scene/export.py),
+atomically, as every output."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from .image import write_atomic
+from .scene.export import scene_text
+from .scene.model import Scene
+
+
+def save_scene(scene: Scene, path: str | Path) -> Path:
+    """Write `scene` as a .toml (or .json) scene file at `path`; returns the path. Meshes,
+    textures and images stay where they are, named relative to the new file's folder; loading
+    the file gives a scene that renders bit for bit the same image."""
+    path = Path(path)
+    data = scene_text(scene, path).encode()
+    write_atomic(path, lambda fh: fh.write(data))
+    return path
