@@ -164,6 +164,36 @@ def warm_kernels(part: int = 0, parts: int = 1, report: Callable[[str], None] | 
     return time.perf_counter() - started
 
 
+def warm_in_processes(processes: int, report: Callable[[str], None] | None = None) -> bool:
+    """`raylume warmup`: every job, in `processes` processes side by side (Numba compiles under
+    one lock per process, so processes are what uses several cores); each part's lines go to
+    `report` as it finishes. Returns whether every part succeeded."""
+    import subprocess
+    import sys
+
+    parts = max(1, min(processes, len(JOBS)))
+    started = time.perf_counter()
+    procs = [
+        subprocess.Popen(
+            [sys.executable, "-m", "raylume.warmup", "--part", f"{i}/{parts}"],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT,
+            text=True,
+        )
+        for i in range(parts)
+    ]
+    ok = True
+    for proc in procs:
+        out, _ = proc.communicate()
+        ok = ok and proc.returncode == 0
+        if report is not None:
+            for line in out.splitlines():
+                report(line)
+    if report is not None:
+        report(f"every kernel compiled (or loaded from the cache) in {time.perf_counter() - started:.1f} s")
+    return ok
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(prog="python -m raylume.warmup", description=__doc__.split("\n\n")[0])
     parser.add_argument("--part", default="0/1", help="I/N: the I-th of N parts of the jobs (0-based)")
