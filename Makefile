@@ -8,7 +8,7 @@ STAMP_RENDER := $(VENV)/.installed-render
 STAMP_DEV    := $(VENV)/.installed-dev
 STAMP_BENCH  := $(VENV)/.installed-bench
 
-.PHONY: render test lint bench clean
+.PHONY: render test lint bench wheel clean
 
 $(BIN)/python:
 	@command -v $(PYTHON) >/dev/null 2>&1 || { echo "need $(PYTHON) on PATH (or: make PYTHON=python3 ...)"; exit 1; }
@@ -44,5 +44,11 @@ lint: $(STAMP_DEV)
 bench: $(STAMP_BENCH)
 	$(BIN)/python benchmarks/run_all.py
 
+## wheel: build the sdist and wheel into dist/ and check the wheel installed alone (tools/check_wheel.py)
+wheel: $(STAMP_DEV)
+	rm -rf dist
+	$(BIN)/python -m build --outdir dist .
+	$(BIN)/python tools/check_wheel.py dist/raylume-*.whl
+
 clean:
-	rm -rf $(VENV) render.png .pytest_cache
+	rm -rf $(VENV) render.png .pytest_cache build dist

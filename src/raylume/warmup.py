@@ -28,6 +28,8 @@ from .session import Session
 _MATERIALS = {"m": {"color": [0.8, 0.6, 0.4], "specular": 50, "reflective": 0.2}}
 _LIGHTS = [{"type": "ambient", "intensity": 0.2}, {"type": "point", "position": [0, 2, -2], "intensity": 0.8}]
 _OBJECTS = {
+    # spheres alone in one BVH leaf: trace mode's wavefront without the BVH (variants.trace_features)
+    "spheres": [{"type": "sphere", "center": [0, 0, 3], "radius": 1, "material": "m"}],
     # spheres and opaque triangles only: features() is None
     "basic": [
         {"type": "sphere", "center": [0, 0, 3], "radius": 1, "material": "m"},
@@ -127,6 +129,7 @@ JOBS: list[tuple[Callable[[], None], float]] = [
     (_render("all", "path"), 39.0),
     (_render("all", "trace"), 23.0),
     (_render("basic", "trace"), 21.5),
+    (_render("spheres", "trace"), 13.0),
     (_render("all", "raster"), 19.0),
     (_intersect("all"), 6.9),
     (_render("all", "cast"), 6.3),

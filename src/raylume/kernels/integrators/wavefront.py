@@ -180,17 +180,19 @@ def _sphere_leaf(G):
 
 
 @inline_function
-def _closest_hits(G, X, R, I, C, m, leaf_first, leaf_count, node_stack, t_stack, scratch):
+def _closest_hits(G, X, B, R, I, C, m, leaf_first, leaf_count, node_stack, t_stack, scratch):
     """Closest hits of rays 0..m-1 into T, PRIM, B1, B2 (a sphere's barycentrics are 0, as the
     rows start). In a BVH that takes packets (packet.uses_packets), eight rays at a time where
     they are coherent (camera rays: neighbouring pixels), as cast mode traces them; others ray
-    by ray. The hits are closest_hit's either way."""
-    if leaf_count > 0:
-        fill(R[T : T + STRIDE], m, INF)
-        fill(I[PRIM : PRIM + STRIDE], m, NO_HIT)
-        tile_closest(R, I, (OX, OY, OZ, DX, DY, DZ, T, PRIM), m, C, leaf_first, leaf_count)
-        return
-    _bvh_closest_hits(G, X, R, I, m, node_stack, t_stack, scratch)
+    by ray. The hits are closest_hit's either way. B None: the root is a leaf of spheres, and
+    the BVH's code is not compiled (see wavefront_row)."""
+    if B is not None:
+        if leaf_count == 0:
+            _bvh_closest_hits(G, X, R, I, m, node_stack, t_stack, scratch)
+            return
+    fill(R[T : T + STRIDE], m, INF)
+    fill(I[PRIM : PRIM + STRIDE], m, NO_HIT)
+    tile_closest(R, I, (OX, OY, OZ, DX, DY, DZ, T, PRIM), m, C, leaf_first, leaf_count)
 
 
 # Calls, not inlined, which find their packets' scratch and the root's box themselves: the
@@ -417,12 +419,13 @@ def _sphere_surface_extras(G, F, X, R, I, m):
 
 
 @inline_function
-def _find_surfaces(G, F, X, R, I, m, leaf_count, textured):
+def _find_surfaces(G, F, X, B, R, I, m, leaf_count, textured):
     """Albedo, offset point and normal at each slot's hit (`textured`: whether any material
     has a texture)."""
-    if leaf_count == 0:
-        _surfaces(G, F, X, R, I, m)
-        return
+    if B is not None:
+        if leaf_count == 0:
+            _surfaces(G, F, X, R, I, m)
+            return
     leaving = _sphere_surfaces(R, I, m, F.epsilon_floor)
     if leaving > 0 or textured:
         _sphere_surface_extras(G, F, X, R, I, m)
@@ -488,15 +491,16 @@ def _needs_shadow(R, I, m):
 
 
 @inline_function
-def _shadows(G, X, R, I, C, m, leaf_first, leaf_count, node_stack, t_stack, directional, scratch):
+def _shadows(G, X, B, R, I, C, m, leaf_first, leaf_count, node_stack, t_stack, directional, scratch):
     """Shadow rays of the slots that need one (BLOCKED 0): BLOCKED becomes 1 where something
     lies between the point and the light. In a BVH that takes packets, eight slots at a time
     where their rays are coherent (neighbouring points towards one light), others ray by ray;
     any_hit's answers either way."""
-    if leaf_count > 0:
-        tile_blocks(R, I, (QX, QY, QZ, LX, LY, LZ, TMAX, BLOCKED), m, C, leaf_first, leaf_count, directional)
-        return
-    _bvh_shadows(G, X, R, I, m, node_stack, t_stack, scratch)
+    if B is not None:
+        if leaf_count == 0:
+            _bvh_shadows(G, X, R, I, m, node_stack, t_stack, scratch)
+            return
+    tile_blocks(R, I, (QX, QY, QZ, LX, LY, LZ, TMAX, BLOCKED), m, C, leaf_first, leaf_count, directional)
 
 
 @kernel_function
@@ -551,7 +555,7 @@ def _gather_light(R, I, m, r, g, b):
 
 
 @inline_function
-def _lighting(G, X, L, R, I, C, m, leaf_first, leaf_count, node_stack, t_stack, scratch):
+def _lighting(G, X, B, L, R, I, C, m, leaf_first, leaf_count, node_stack, t_stack, scratch):
     """Ambient + diffuse + specular light at every slot from every light; returns the shadow
     rays traced."""
     # The ambient lights before any other are the same sum for every slot (in trace_ray's order:
@@ -576,7 +580,7 @@ def _lighting(G, X, L, R, I, C, m, leaf_first, leaf_count, node_stack, t_stack, 
             continue
         rays += _towards_light(L, R, I, m, k)
         directional = at_infinity(L.kind[k])
-        _shadows(G, X, R, I, C, m, leaf_first, leaf_count, node_stack, t_stack, directional, scratch)
+        _shadows(G, X, B, R, I, C, m, leaf_first, leaf_count, node_stack, t_stack, directional, scratch)
         r, g, b = row3(L.data, k, LIGHT_INTENSITY)
         _gather_light(R, I, m, r, g, b)
     return rays
@@ -630,10 +634,13 @@ def _pinhole_directions(R, n, cam, i0, j, width, height, spread):
 
 
 @kernel_function
-def wavefront_row(G, F, L, X, Env, P, j, film, scratch, node_stack, t_stack):
+def wavefront_row(G, F, L, X, B, Env, P, j, film, scratch, node_stack, t_stack):
     """trace mode's _trace_row for a basic scene: the row's samples of pass P (film/image_pass.py),
     in pixel order, through the Whitted loop TILE at a time, then into the film in order.
-    Returns the rays traced."""
+    Returns the rays traced. B is None where the BVH root is one leaf of spheres (the seed:
+    variants.sphere_leaf, the host's _sphere_leaf), which compiles the sphere tests alone, no
+    BVH traversal, packets or triangles (a first run of the seed compiles ~40% less); else 0,
+    and the row takes either way as _sphere_leaf finds."""
     cam, filt, width, height, window, samples, seed, max_depth, bg = P
     R, I, M, C, _, _ = scratch
     first, count, total_spp = samples
@@ -682,11 +689,11 @@ def wavefront_row(G, F, L, X, Env, P, j, film, scratch, node_stack, t_stack):
         m = n
         depth = max_depth
         while m > 0:
-            _closest_hits(G, X, R, I, C, m, leaf_first, leaf_count, node_stack, t_stack, scratch)
+            _closest_hits(G, X, B, R, I, C, m, leaf_first, leaf_count, node_stack, t_stack, scratch)
             rays += m
             m = _compact_hits(G, Env, R, I, M, C, m, bg, leaf_count > 0, textured, emissive)
-            _find_surfaces(G, F, X, R, I, m, leaf_count, textured)
-            rays += _lighting(G, X, L, R, I, C, m, leaf_first, leaf_count, node_stack, t_stack, scratch)
+            _find_surfaces(G, F, X, B, R, I, m, leaf_count, textured)
+            rays += _lighting(G, X, B, L, R, I, C, m, leaf_first, leaf_count, node_stack, t_stack, scratch)
             last = depth <= 0
             _add_local_and_reflect(R, I, m, last)
             m = _compact_reflected(R, I, m, textured)
