@@ -7,6 +7,7 @@ import numpy as np
 from .geometry.layout import NODE_COUNT, NODE_FIRST, SPHERE_BLOCK
 from .geometry.shapes import PRIM_KIND, SPHERE
 from .scene import instances_of
+from .shading.materials import MAT_TEXTURE
 from .shading import textures
 from .shading.lights import SCENE_KINDS
 
@@ -71,6 +72,8 @@ def sphere_leaf(S) -> bool:
 
 def trace_features(S):
     """B of trace mode's kernel (frame.trace_lane): None for a basic scene whose BVH root is
-    one leaf of spheres (the seed: its wavefront compiles without the BVH's code, the first
-    run's compilation ~40% shorter), else 0 (one variant for the other basic scenes, as before)."""
-    return None if features(S) is None and sphere_leaf(S) else 0
+    one leaf of spheres, without an environment or textures (the seed: its wavefront compiles
+    without the code of the BVH, the environment and textures, the first run's compilation ~40%
+    shorter), else 0 (one variant for the other basic scenes, as before)."""
+    plain = not S.env_present and not (S.materials[:, MAT_TEXTURE] >= 0).any()
+    return None if features(S) is None and plain and sphere_leaf(S) else 0

@@ -279,7 +279,7 @@ def _finish_ray(R, I, i, col):
 
 
 @inline_function
-def _compact_hits(G, Env, R, I, M, C, m, bg, spheres, textured, emissive):
+def _compact_hits(G, Env, B, R, I, M, C, m, bg, spheres, textured, emissive):
     """The rays that hit something move to slots 0..k-1 (in order) and take their hit's
     material (and, in a leaf of `spheres`, the sphere's centre into QX..QZ); the others add the
     sky (the environment, else the background) and end. Returns k. What no later stage reads is
@@ -291,7 +291,10 @@ def _compact_hits(G, Env, R, I, M, C, m, bg, spheres, textured, emissive):
         if prim == NO_HIT:
             d = (R[at(DX, i)], R[at(DY, i)], R[at(DZ, i)])
             w = (R[at(WR, i)], R[at(WG, i)], R[at(WB, i)])
-            sky = environment_radiance(Env, d) if Env.present else bg
+            sky = bg
+            if B is not None:  # (B None: no environment; see wavefront_row)
+                if Env.present:
+                    sky = environment_radiance(Env, d)
             _finish_ray(
                 R, I, i, (R[at(CR, i)] + w[0] * sky[0], R[at(CG, i)] + w[1] * sky[1], R[at(CB, i)] + w[2] * sky[2])
             )
@@ -398,7 +401,7 @@ def _sphere_surfaces(R, I, m, epsilon_floor):
 
 
 @inline_function
-def _sphere_surface_extras(G, F, X, R, I, m):
+def _sphere_surface_extras(G, F, X, B, R, I, m):
     """What _sphere_surfaces leaves to rays one by one: absorption along the segment inside a
     sphere (a ray leaving it), and textures."""
     mat = F.materials
@@ -410,12 +413,14 @@ def _sphere_surface_extras(G, F, X, R, I, m):
             continue
         if leaving:
             R[WR + i], R[WG + i], R[WB + i] = beer_lambert(mat, mm, (R[WR + i], R[WG + i], R[WB + i]), R[T + i])
-        if textured:
-            d = (R[DX + i], R[DY + i], R[DZ + i])
-            p = _hit_point(R, i)
-            ng = (R[NX + i], R[NY + i], R[NZ + i])  # facing the ray, as trace_ray's after its flip
-            prim = I[PRIM + i]
-            R[AR + i], R[AG + i], R[AB + i] = albedo(G, F, X, mm, prim, R[B1 + i], R[B2 + i], p, d, ng, R[CONE + i])
+        if B is not None:  # (B None: no textures; see wavefront_row)
+            if textured:
+                d = (R[DX + i], R[DY + i], R[DZ + i])
+                p = _hit_point(R, i)
+                ng = (R[NX + i], R[NY + i], R[NZ + i])  # facing the ray, as trace_ray's after its flip
+                prim = I[PRIM + i]
+                uv = (R[B1 + i], R[B2 + i])
+                R[AR + i], R[AG + i], R[AB + i] = albedo(G, F, X, mm, prim, uv[0], uv[1], p, d, ng, R[CONE + i])
 
 
 @inline_function
@@ -428,7 +433,7 @@ def _find_surfaces(G, F, X, B, R, I, m, leaf_count, textured):
             return
     leaving = _sphere_surfaces(R, I, m, F.epsilon_floor)
     if leaving > 0 or textured:
-        _sphere_surface_extras(G, F, X, R, I, m)
+        _sphere_surface_extras(G, F, X, B, R, I, m)
 
 
 @vector_loop(fastmath=FAST)
@@ -638,9 +643,10 @@ def wavefront_row(G, F, L, X, B, Env, P, j, film, scratch, node_stack, t_stack):
     """trace mode's _trace_row for a basic scene: the row's samples of pass P (film/image_pass.py),
     in pixel order, through the Whitted loop TILE at a time, then into the film in order.
     Returns the rays traced. B is None where the BVH root is one leaf of spheres (the seed:
-    variants.sphere_leaf, the host's _sphere_leaf), which compiles the sphere tests alone, no
-    BVH traversal, packets or triangles (a first run of the seed compiles ~40% less); else 0,
-    and the row takes either way as _sphere_leaf finds."""
+    variants.sphere_leaf, the host's _sphere_leaf) and there is no environment and no texture
+    (variants.trace_features), which compiles the sphere tests alone, no BVH traversal, packets,
+    triangles, environment or textures (a first run of the seed compiles ~40% less); else 0,
+    and the row takes whichever way _sphere_leaf finds."""
     cam, filt, width, height, window, samples, seed, max_depth, bg = P
     R, I, M, C, _, _ = scratch
     first, count, total_spp = samples
@@ -691,7 +697,7 @@ def wavefront_row(G, F, L, X, B, Env, P, j, film, scratch, node_stack, t_stack):
         while m > 0:
             _closest_hits(G, X, B, R, I, C, m, leaf_first, leaf_count, node_stack, t_stack, scratch)
             rays += m
-            m = _compact_hits(G, Env, R, I, M, C, m, bg, leaf_count > 0, textured, emissive)
+            m = _compact_hits(G, Env, B, R, I, M, C, m, bg, leaf_count > 0, textured, emissive)
             _find_surfaces(G, F, X, B, R, I, m, leaf_count, textured)
             rays += _lighting(G, X, B, L, R, I, C, m, leaf_first, leaf_count, node_stack, t_stack, scratch)
             last = depth <= 0
