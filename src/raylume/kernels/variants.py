@@ -7,9 +7,9 @@ import numpy as np
 from .geometry.layout import NODE_COUNT, NODE_FIRST, SPHERE_BLOCK
 from .geometry.shapes import PRIM_KIND, SPHERE
 from .scene import instances_of
-from .shading.materials import MAT_TEXTURE
 from .shading import textures
 from .shading.lights import SCENE_KINDS
+from .shading.materials import MAT_TEXTURE
 
 # the scene's lights that trace mode samples at points (area lights: quad, sphere)
 _SAMPLED_LIGHTS = [kind.KIND for kind in SCENE_KINDS if not kind.DELTA and not kind.EVERYWHERE]
