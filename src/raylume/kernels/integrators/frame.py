@@ -111,7 +111,7 @@ def trace_lane(S, X, P, film, C, B):
     slots = stack_rows(P.max_depth)
     work = scratch_array(slots * RAY_WIDTH, np.float64).reshape((slots, RAY_WIDTH))
     G, F, L = geometry_of(S), surfaces_of(S), lights_of(S)
-    wave = wavefront_scratch(G, F)  # (a branch on X would not type: Numba unifies both arms)
+    wave = wavefront_scratch(G, F, B)  # (a branch on X would not type: Numba unifies both arms)
     Env = environment_of(S)
     x0, y0, x1, y1 = P.window
     while True:

@@ -125,14 +125,14 @@ M_WIDTH = (REFL - AR) // STRIDE + 1
 
 
 @kernel_function(_nrt=True)
-def wavefront_scratch(G, F):
+def wavefront_scratch(G, F, B):
     """One thread's wavefront arrays: float64 (WAVE_ROWS * STRIDE) and int64 (WAVE_INT_ROWS *
     STRIDE), flat as the rows' offsets say; the materials table (materials, M_WIDTH); each
     primitive's sphere row (primitives, 4: centre, radius; wavefront_spheres.py) when the root
     is a leaf of spheres; the packets' scratch (packet.py) and eight rays' origins, directions
     and ends as a packet takes them, (8, 3), (8, 3) and (8,). The rows start zeroed: the sphere
     tests compute whole vectors of eight slots, past the live ones too, and garbage there could
-    be subnormal (slow) numbers."""
+    be subnormal (slow) numbers. With B None (a leaf of spheres) the last two are None."""
     mat = F.materials
     M = np.empty((mat.shape[0], M_WIDTH))
     for m in range(mat.shape[0]):
@@ -150,6 +150,8 @@ def wavefront_scratch(G, F):
     I = scratch_array(WAVE_INT_ROWS * STRIDE, np.int64)
     R[:] = 0.0
     I[:] = 0
+    if B is None:  # a leaf of spheres (wavefront_row): no packets, none of their scratch compiled
+        return R, I, M, C, None, None
     origins = scratch_array(PACKET * 3, np.float64).reshape((PACKET, 3))
     directions = scratch_array(PACKET * 3, np.float64).reshape((PACKET, 3))
     return R, I, M, C, packet_scratch(), (origins, directions)
