@@ -73,7 +73,7 @@ def sphere_leaf(S) -> bool:
 def trace_features(S):
     """B of trace mode's kernel (frame.trace_lane): None for a basic scene whose BVH root is
     one leaf of spheres, without an environment or textures (the seed: its wavefront compiles
-    without the code of the BVH, the environment and textures, the first run's compilation ~40%
-    shorter), else 0 (one variant for the other basic scenes, as before)."""
+    without the code of the BVH, the environment and textures: the first run takes about half
+    the CPU), else 0 (one variant for the other basic scenes, as before)."""
     plain = not S.env_present and not (S.materials[:, MAT_TEXTURE] >= 0).any()
     return None if features(S) is None and plain and sphere_leaf(S) else 0

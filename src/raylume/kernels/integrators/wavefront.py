@@ -647,7 +647,7 @@ def wavefront_row(G, F, L, X, B, Env, P, j, film, scratch, node_stack, t_stack):
     Returns the rays traced. B is None where the BVH root is one leaf of spheres (the seed:
     variants.sphere_leaf, the host's _sphere_leaf) and there is no environment and no texture
     (variants.trace_features), which compiles the sphere tests alone, no BVH traversal, packets,
-    triangles, environment or textures (a first run of the seed compiles ~40% less); else 0,
+    triangles, environment or textures (a first run of the seed: about half the CPU); else 0,
     and the row takes whichever way _sphere_leaf finds."""
     cam, filt, width, height, window, samples, seed, max_depth, bg = P
     R, I, M, C, _, _ = scratch
