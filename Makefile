@@ -9,7 +9,7 @@ STAMP_DEV    := $(VENV)/.installed-dev
 STAMP_BENCH  := $(VENV)/.installed-bench
 STAMP_DOCS   := $(VENV)/.installed-docs
 
-.PHONY: render test lint bench docs gallery clean
+.PHONY: render test lint bench docs gallery wheel clean
 
 $(BIN)/python:
 	@command -v $(PYTHON) >/dev/null 2>&1 || { echo "need $(PYTHON) on PATH (or: make PYTHON=python3 ...)"; exit 1; }
@@ -59,5 +59,11 @@ docs: $(STAMP_DOCS)
 gallery: $(STAMP_DEV)
 	$(BIN)/python tools/gallery.py
 
+## wheel: build the sdist and wheel into dist/ and check the wheel installed alone (tools/check_wheel.py)
+wheel: $(STAMP_DEV)
+	rm -rf dist
+	$(BIN)/python -m build --outdir dist .
+	$(BIN)/python tools/check_wheel.py dist/raylume-*.whl
+
 clean:
-	rm -rf $(VENV) render.png .pytest_cache site
+	rm -rf $(VENV) render.png .pytest_cache site build dist

@@ -367,7 +367,7 @@ def _notice(terminal: bool):
 def test_compile_notice_shows_only_when_the_warm_up_is_slow(terminal):
     import time
 
-    from raylume.cli import COMPILING, NOTICE_AFTER
+    from raylume.cli import NOTICE_AFTER, compiling_notice
 
     notice, out = _notice(terminal)
     with notice as status:
@@ -380,7 +380,11 @@ def test_compile_notice_shows_only_when_the_warm_up_is_slow(terminal):
         status("compiling")
         time.sleep(NOTICE_AFTER + 0.5)  # compiling
         status("rendering")
-    assert COMPILING in out.getvalue()
+    # what compiles, and that it happens once per mode and kind of scene
+    assert compiling_notice("compiling", "trace") in " ".join(out.getvalue().split())
+    assert "trace-mode kernels" in compiling_notice("compiling", "trace") and "once per mode and kind of scene" in (
+        compiling_notice("compiling", "trace")
+    )
     assert notice.spinner is None and notice.timer is None  # stopped once the kernels are ready
     notice, out = _notice(terminal)
     with notice as status:

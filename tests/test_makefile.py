@@ -57,3 +57,36 @@ def test_docs_installs_the_docs_extra_and_builds_strictly(tmp_path):
     ).stdout
     assert "mkdocs build --strict" in build
     assert "make docs" in (REPO / ".ci" / "run").read_text()
+
+
+def test_wheel_builds_and_checks_with_the_dev_extras(tmp_path):
+    result = subprocess.run(
+        ["make", "-n", "-C", str(REPO), "wheel", f"VENV={tmp_path / 'venv'}"], capture_output=True, text=True
+    )
+    assert result.returncode == 0, result.stderr
+    lines = result.stdout.splitlines()
+    assert any("'.[dev]'" in line for line in lines)  # `build` is a dev extra
+    assert any("-m build" in line for line in lines) and any("tools/check_wheel.py" in line for line in lines)
+
+
+def test_every_data_file_of_the_package_goes_into_the_wheel():
+    """Files of src/raylume other than Python that the package reads at run time are package
+    data in pyproject.toml, and tools/check_wheel.py looks for each in the wheel."""
+    import fnmatch
+    import sys
+    import tomllib
+
+    sys.path.insert(0, str(REPO / "tools"))
+    try:
+        from check_wheel import PACKAGE_DATA
+    finally:
+        sys.path.pop(0)
+    package = REPO / "src" / "raylume"
+    data = sorted(
+        p.relative_to(package).as_posix()
+        for p in package.rglob("*")
+        if p.is_file() and p.suffix not in (".py", ".pyc") and "__pycache__" not in p.parts
+    )
+    globs = tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"]["package-data"]["raylume"]
+    assert data and all(any(fnmatch.fnmatch(name, g) for g in globs) for name in data), (data, globs)
+    assert sorted(name.removeprefix("raylume/") for name in PACKAGE_DATA) == data

@@ -571,3 +571,17 @@ def test_a_plus_x_feature_appears_on_the_side_the_handedness_says(tmp_path, hand
     cols = np.nonzero(hit)[1]
     arm_side = "right" if cols.max() - 32 > 32 - cols.min() else "left"
     assert arm_side == side
+
+
+def test_the_example_spot_faces_plus_z_as_a_mesh_scene_assumes():
+    """`raylume render examples/meshes/spot.obj` shows a mesh file's +z side (its front, as glTF
+    has it): the cow's head, its highest vertices (the horns and ears), lies on the +z side of
+    its bounding box. The repo's copy is the shared model turned 180 degrees about y, exactly."""
+    v = load_mesh(EXAMPLE_MESHES / "spot.obj").vertices
+    head = v[v[:, 1] > np.quantile(v[:, 1], 0.95)]
+    assert head[:, 2].mean() > 0.5 * (v[:, 2].min() + v[:, 2].max()) + 0.2
+    shared = SHARED_MODELS / "spot.obj"
+    if shared.exists():
+        original = load_mesh(shared).vertices
+        np.testing.assert_array_equal(v[:, [0, 2]], -original[:, [0, 2]])
+        np.testing.assert_array_equal(v[:, 1], original[:, 1])

@@ -361,3 +361,21 @@ def test_camera_rays_find_what_a_cast_render_sees(example):
     np.testing.assert_array_equal(prim, image.aovs["prim"])
     assert 0 < np.isfinite(t).sum() < t.size  # something hit, something missed
     np.testing.assert_allclose(t.astype(np.float32), image.aovs["depth"], rtol=2.0**-23, atol=0)
+
+
+def test_a_session_is_a_scene_to_query():
+    """raylume.intersect and raylume.occluded take a Session (its compiled scene and BVH) and
+    answer as for its Scene; what they cannot take is a TypeError naming what they take."""
+    scene = raylume.builtin_scene("seed")
+    session = raylume.Session(scene)
+    origins, directions = raylume.camera_rays(scene, 16, 12)
+    for a, b in zip(raylume.intersect(session, origins, directions), raylume.intersect(scene, origins, directions)):
+        np.testing.assert_array_equal(a, b)
+    np.testing.assert_array_equal(
+        raylume.occluded(session, origins, directions), raylume.occluded(scene, origins, directions)
+    )
+    # the red sphere's centre ray: a hit at distance 2 (the seed: centre (0, -1, 3), radius 1)
+    t, obj, _ = raylume.intersect(session, np.zeros((1, 3)), np.array([[0.0, -1.0, 3.0]]))
+    assert obj[0] == 0 and t[0] == pytest.approx(np.sqrt(10.0) - 1.0)
+    with pytest.raises(TypeError, match="Session, a Scene, a CompiledScene"):
+        raylume.intersect(42, origins, directions)

@@ -179,3 +179,34 @@ def test_the_vector_loops_are_vector_code():
     }
     for name, (function, args, op) in others.items():
         assert re.search(rf"{op}\w*\s+[^\n]*%[yz]mm", _asm(function, *args)), f"no packed {op} in {name}"
+
+
+def _spheres(n: int) -> list:
+    return [{"type": "sphere", "center": [float(k), 0.0, 5.0], "radius": 0.3} for k in range(n)]
+
+
+@pytest.mark.parametrize(
+    "objects",
+    [
+        _spheres(1),
+        _spheres(4),  # the seed's count: one leaf
+        _spheres(12),  # a BVH with inner nodes
+        [*_spheres(3), {"type": "triangle", "vertices": [[-1, -1, 4], [1, -1, 4], [0, 1, 4]]}],
+    ],
+)
+def test_the_hosts_sphere_leaf_is_the_kernels(objects):
+    """variants.sphere_leaf (numpy, which picks trace_lane's variant) answers as the kernel's
+    _sphere_leaf: the seed's variant, compiled without the BVH's code, never meets a BVH."""
+    from raylume.kernels.scene import geometry_of
+    from raylume.kernels.variants import sphere_leaf, trace_features
+
+    S = raylume.Session(raylume.scene_from_dict({"objects": objects})).compiled.kernel
+    first, count = wavefront._sphere_leaf(geometry_of(S))
+    assert sphere_leaf(S) == (count > 0)
+    assert (trace_features(S) is None) == (count > 0)
+
+
+def test_the_seed_takes_the_sphere_leaf_variant():
+    from raylume.kernels.variants import trace_features
+
+    assert trace_features(raylume.Session(raylume.builtin_scene("seed")).compiled.kernel) is None

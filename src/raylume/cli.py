@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import threading
 import time
 import warnings
@@ -18,7 +19,9 @@ from .errors import OutputError, RaylumeError, SceneError
 
 
 class _CleanHelp:
-    """Shows --help as the flag it is: no `<bool>` type beside it in the help text."""
+    """Shows --help as the flag it is: no `<bool>` type beside it in the help text. A flag that
+    cannot be parsed (`--spp abc`, an unknown option, a missing value) is bad input like any
+    other: one line `raylume: error: ...` and exit status 2, not Typer's boxed usage text."""
 
     def get_help_option(self, ctx):
         option = super().get_help_option(ctx)
@@ -26,9 +29,25 @@ class _CleanHelp:
             option.metavar = ""
         return option
 
+    def parse_args(self, ctx, args):
+        given = list(args)
+        try:
+            return super().parse_args(ctx, args)
+        except _UsageError as exc:
+            _fail_usage(exc, ctx, given)
+
+
+def _fail_usage(exc, ctx, args: list[str]) -> None:
+    command = "raylume" if ctx.parent is None else f"raylume {ctx.info_name}"
+    _fail(f"{_usage_text(exc, args)} (see {command} --help)")
+
 
 class _Group(_CleanHelp, TyperGroup):
-    pass
+    def resolve_command(self, ctx, args):
+        try:
+            return super().resolve_command(ctx, args)
+        except _UsageError as exc:  # no such command
+            _fail_usage(exc, ctx, list(args))
 
 
 class _Command(_CleanHelp, TyperCommand):
@@ -51,12 +70,50 @@ EXIT_BAD_INPUT = 2
 FLAG = ""  # metavar of an on/off flag: nothing follows it on the command line
 # Loading compiled kernels from Numba's cache takes a fraction of this; compiling them, tens of seconds.
 NOTICE_AFTER = 0.5
-COMPILING = "compiling kernels (first run only)..."
+
+
+def compiling_notice(what: str, mode: str) -> str:
+    """The line shown while Numba compiles: what, and that it happens once (then cached).
+    `what`: the status a render reports ("compiling": the mode's kernels; "compiling the BVH
+    builder")."""
+    if what == "compiling":
+        return f"compiling the {mode}-mode kernels (once per mode and kind of scene, then cached)..."
+    return f"{what} (once, then cached)..."
 
 
 def _fail(message: str) -> None:
     typer.echo(f"raylume: error: {message}", err=True)
     raise typer.Exit(EXIT_BAD_INPUT)
+
+
+# click's UsageError, the base of Typer's BadParameter: Typer's own copy of click where it has one
+_UsageError = typer.BadParameter.__bases__[0]
+
+
+def _usage_text(exc, args: list[str]) -> str:
+    """A usage error in one line: `--spp abc: Input should be a valid integer ...`, `No such
+    option: --bogus`."""
+    param = getattr(exc, "param", None)
+    if isinstance(exc, typer.BadParameter) and param is not None and getattr(param, "opts", None):
+        value = _given_value(args, param.opts)
+        name = "/".join(param.opts) if value is None else f"{_given_option(args, param.opts)} {value}"
+        return f"{name}: {' '.join(exc.message.split())}"
+    return " ".join(exc.format_message().split()) or "bad command line"
+
+
+def _given_option(args: list[str], opts: list[str]) -> str:
+    return next((a.split("=", 1)[0] for a in args if a in opts or a.split("=", 1)[0] in opts), opts[0])
+
+
+def _given_value(args: list[str], opts: list[str]) -> str | None:
+    """The text given for an option (`--spp abc` or `--spp=abc`), None where it is not an option's."""
+    for k, arg in enumerate(args):
+        if arg in opts and k + 1 < len(args):
+            return args[k + 1]
+        name, sep, value = arg.partition("=")
+        if sep and name in opts:
+            return value
+    return None
 
 
 def _warn(message: str) -> None:
@@ -430,7 +487,7 @@ def _render(
             "[camera]: write a video (-o out.mp4), a sequence (-o frames/f_%04d.png) or one frame (--frame K)"
         )
 
-    with _progress(quiet) as progress, _compile_notice(quiet) as status:
+    with _progress(quiet) as progress, _compile_notice(quiet, mode=settings.render.mode) as status:
         image = render_scene(
             scene_model,
             aovs=bool(set(aov_paths) - {"noisy"} or set(layers) - {"noisy"}),
@@ -482,6 +539,8 @@ def _warn_ignored(output: Path, settings, flags: dict) -> None:
         _warn("--filter has no effect in raster mode: it takes one sample at each pixel centre")
     elif pixel_filter is not None and settings.spp == 1:
         _warn("--filter has no effect with spp 1: the one sample is the pixel centre; use --spp 4 or more")
+    if flags.get("denoise") and settings.mode != "path":
+        _warn(f"--denoise has no effect in {settings.mode} mode: it denoises path-traced images (--mode path)")
 
 
 def summary(output: Path, s: dict) -> str:
@@ -520,7 +579,8 @@ class _progress:
         import time
 
         self.start = time.perf_counter()
-        return None if self.quiet else self.update
+        # no bar where stderr is no terminal (a log, a pipe): Rich would leave a blank line there
+        return None if self.quiet or not _stderr_console().is_terminal else self.update
 
     def update(self, done: int, total: int) -> None:
         import time
@@ -560,16 +620,18 @@ def _stderr_console():
 
 
 class _compile_notice:
-    """A spinner on stderr while the kernels compile (between status("compiling") and the next
+    """A spinner on stderr while kernels compile (between a status "compiling..." and the next
     status), shown only when that outlasts NOTICE_AFTER seconds: loading compiled kernels from
     the cache is quicker. Where stderr is no terminal, one plain line instead."""
 
-    def __init__(self, quiet: bool, console=None):
+    def __init__(self, quiet: bool, console=None, mode: str = "trace"):
         self.quiet = quiet
+        self.mode = mode
         self.console = console
         self.lock = threading.Lock()
         self.timer: threading.Timer | None = None
         self.spinner = None
+        self.message = ""
 
     def __enter__(self):
         return None if self.quiet else self.status
@@ -577,7 +639,8 @@ class _compile_notice:
     def status(self, what: str) -> None:
         with self.lock:
             self._stop()
-            if what == "compiling":
+            if what.startswith("compiling"):
+                self.message = compiling_notice(what, self.mode)
                 self.timer = threading.Timer(NOTICE_AFTER, self._show)
                 self.timer.daemon = True
                 self.timer.start()
@@ -589,10 +652,10 @@ class _compile_notice:
             self.timer = None
             console = self.console or _stderr_console()
             if console.is_terminal:
-                self.spinner = console.status(COMPILING)
+                self.spinner = console.status(self.message)
                 self.spinner.start()
             else:
-                console.print(f"raylume: {COMPILING}", markup=False, highlight=False)
+                console.print(f"raylume: {self.message}", markup=False, highlight=False, soft_wrap=True)
 
     def _stop(self) -> None:
         if self.timer is not None:
@@ -754,6 +817,26 @@ def convert(
         scene_model, label = _resolve_scene(scene, assignments or [], defines=defines)
         _check_distinct(output, label, [])
         save_scene(scene_model, output)
+
+
+@app.command(cls=_Command)
+def warmup(
+    processes: Annotated[
+        int | None,
+        typer.Option(
+            "--processes", "-j", metavar="N", help="Compile in N processes side by side (default: one per core)"
+        ),
+    ] = None,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", metavar=FLAG, help="Print nothing")] = False,
+) -> None:
+    """Compile every kernel (each mode, each kind of scene) into Numba's cache now, so that no later render waits."""
+    from .warmup import warm_in_processes
+
+    if processes is not None and processes < 1:
+        _fail(f"--processes {processes}: expected 1 or more")
+    report = None if quiet else (lambda line: typer.echo(f"raylume: warm-up: {line}", err=True))
+    if not warm_in_processes(processes or os.cpu_count() or 1, report):
+        _fail("the warm-up failed (see above); renders will compile their kernels when they need them")
 
 
 def main() -> None:  # pragma: no cover - console entry point

@@ -3,6 +3,9 @@ scene."""
 
 from __future__ import annotations
 
+import os
+from typing import TYPE_CHECKING
+
 import numba
 import numpy as np
 
@@ -12,6 +15,9 @@ from .kernels.geometry.query import grid_width
 from .kernels.variants import geometry_features
 from .query_lanes import intersect_rays, occluded_rays, ray_spans
 from .scene.model import Camera, Scene
+
+if TYPE_CHECKING:
+    from .session import Session
 
 _REFUSED = "directions must be finite and non-zero, origins finite"
 
@@ -51,14 +57,35 @@ def camera_rays(
     return origins, directions
 
 
+def _compiled(scene) -> CompiledScene:
+    """The compiled scene of what a query takes: a CompiledScene, a Session (its compiled
+    scene, with its BVH), a Scene, or what a Session takes by name (a scene, glTF or mesh file,
+    a built-in scene); anything else is a TypeError naming these."""
+    from .session import Session
+
+    if isinstance(scene, CompiledScene):
+        return scene
+    if isinstance(scene, Session):
+        if not scene._accelerated:  # a rasterizing session has no BVH yet
+            scene._compile(True)
+        return scene.compiled
+    if isinstance(scene, Scene):
+        return compile_scene(scene)
+    if isinstance(scene, (str, os.PathLike)):
+        return Session(scene).compiled
+    raise TypeError(
+        "raylume.intersect and raylume.occluded take a raylume.Session, a Scene, a CompiledScene "
+        f"(raylume.compile.compile_scene) or a scene's file or built-in name, not {type(scene).__name__}"
+    )
+
+
 def _query(scene, origins, directions, tmin, tmax):
     """What both queries hand their kernel: (S, X, origins, directions, tmin, tmax, the rays'
     leading shape). The scene compiled unless it is already (its kernel scene for a camera at the
     origin: the ray offset floor is then the scene's own extent); the rays as C-contiguous
     float64 (N, 3) arrays (copied only where they are not); tmin and tmax as the kernels read
     them (ray_spans)."""
-    compiled = scene if isinstance(scene, CompiledScene) else compile_scene(scene)
-    S = compiled.for_camera((0.0, 0.0, 0.0))
+    S = _compiled(scene).for_camera((0.0, 0.0, 0.0))
     origins = np.asarray(origins, dtype=np.float64)
     directions = np.asarray(directions, dtype=np.float64)
     if origins.shape != directions.shape or origins.shape[-1:] != (3,):
@@ -70,7 +97,7 @@ def _query(scene, origins, directions, tmin, tmax):
 
 
 def intersect(
-    scene: Scene | CompiledScene,
+    scene: Session | Scene | CompiledScene | str | os.PathLike,
     origins: np.ndarray,
     directions: np.ndarray,
     *,
@@ -86,8 +113,8 @@ def intersect(
 
     Directions need not be unit vectors: t is a distance (each is divided by its length, as
     numpy's d / norm(d) would). Misses give t = inf and -1 indices. A direction that is zero or
-    not finite, or an origin that is not finite, is a ValueError. Pass a CompiledScene
-    (raylume.compile.compile_scene) to reuse its BVH across calls. Rays shaped like an image,
+    not finite, or an origin that is not finite, is a ValueError. Pass a Session (or a
+    CompiledScene, raylume.compile.compile_scene) to reuse its BVH across calls. Rays shaped like an image,
     (..., H, W, 3) with W >= 8, are traced in packets of 4 x 2 neighbours (with one tmin and one
     tmax for all), faster on large meshes than rows of eight; the answers are the same."""
     S, X, origins, directions, tmin, tmax, shape = _query(scene, origins, directions, tmin, tmax)
@@ -108,7 +135,7 @@ def intersect(
 
 
 def occluded(
-    scene: Scene | CompiledScene,
+    scene: Session | Scene | CompiledScene | str | os.PathLike,
     origins: np.ndarray,
     directions: np.ndarray,
     *,

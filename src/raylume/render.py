@@ -64,7 +64,8 @@ def render(
     Session: it compiles once. `crop` = (x0, x1, y0, y1) renders only columns x0..x1-1 and
     rows y0..y1-1: the image is that window, equal to the same window of the full render.
     `status` is called with "compiling" before the kernels' first call and "rendering" after
-    it (see Session.render). `cluster`: a Dask scheduler's address, `local`, `local:N` or a
+    it (see Session.render), and with "compiling the BVH builder" and "building" around the
+    first build on a machine (see Session). `cluster`: a Dask scheduler's address, `local`, `local:N` or a
     `distributed.Client`: render in tiles on its workers, bit-identical (raylume.cluster).
     `settings`: settings already resolved (raylume.settings.resolve_settings), in place of
     width ... denoise, threads and crop. `defines`: a Mitsuba scene's $parameters (as --define)."""
@@ -77,5 +78,5 @@ def render(
     scene, label = open_scene(scene, width=size[0], height=size[1], defines=defines)  # a mesh: framed for that size
     source = label if source == "<scene>" else source
     settings = settings_of_call(scene, arguments, settings, source)  # fail before compiling
-    session = Session(scene, source=source, accelerate=settings.render.mode != "raster")
+    session = Session(scene, source=source, accelerate=settings.render.mode != "raster", status=status)
     return session.render(aovs=aovs, progress=progress, status=status, cluster=cluster, settings=settings)

@@ -40,7 +40,7 @@ from .kernels.integrators.frame import (
     path_lane,
     trace_lane,
 )
-from .kernels.variants import features, path_features
+from .kernels.variants import features, path_features, trace_features
 from .lanes import lane_pool
 from .scene.model import Camera, RenderSettings
 
@@ -183,6 +183,7 @@ def add_samples_to_film(S, cam, film: Film, spp: int, settings, aov: dict, progr
     X = features(S)  # None: the kernels' variant for spheres and opaque triangles only
     if settings.mode == "path":
         X = path_features(S)  # one variant of the path kernels for every scene (compiled once)
+    B = trace_features(S) if settings.mode == "trace" else 0  # None: the seed's leaf of spheres
     rejected = np.zeros(lanes * PROGRESS_STRIDE, dtype=np.int64)
     strategy = path_strategy()
     bd = bdpt_pass(S, film, lanes) if bidirectional else None
@@ -201,7 +202,7 @@ def add_samples_to_film(S, cam, film: Film, spp: int, settings, aov: dict, progr
         elif settings.mode == "path":
             path_lane(S, X, P, film.sums, C, strategy)
         else:
-            trace_lane(S, X, P, film.sums, C)
+            trace_lane(S, X, P, film.sums, C, B)
 
     status = status or (lambda what: None)
     status("compiling")

@@ -28,6 +28,8 @@ from .session import Session
 _MATERIALS = {"m": {"color": [0.8, 0.6, 0.4], "specular": 50, "reflective": 0.2}}
 _LIGHTS = [{"type": "ambient", "intensity": 0.2}, {"type": "point", "position": [0, 2, -2], "intensity": 0.8}]
 _OBJECTS = {
+    # spheres alone in one BVH leaf: trace mode's wavefront without the BVH (variants.trace_features)
+    "spheres": [{"type": "sphere", "center": [0, 0, 3], "radius": 1, "material": "m"}],
     # spheres and opaque triangles only: features() is None
     "basic": [
         {"type": "sphere", "center": [0, 0, 3], "radius": 1, "material": "m"},
@@ -128,6 +130,7 @@ JOBS: list[tuple[Callable[[], None], float]] = [
     (_render("all", "path", "bdpt"), 45.0),
     (_render("all", "trace"), 23.0),
     (_render("basic", "trace"), 21.5),
+    (_render("spheres", "trace"), 13.0),
     (_render("all", "raster"), 19.0),
     (_intersect("all"), 6.9),
     (_render("all", "cast"), 6.3),
@@ -163,6 +166,36 @@ def warm_kernels(part: int = 0, parts: int = 1, report: Callable[[str], None] | 
             if report is not None:
                 report(f"{job.__name__}: {time.perf_counter() - t:.1f} s")
     return time.perf_counter() - started
+
+
+def warm_in_processes(processes: int, report: Callable[[str], None] | None = None) -> bool:
+    """`raylume warmup`: every job, in `processes` processes side by side (Numba compiles under
+    one lock per process, so processes are what uses several cores); each part's lines go to
+    `report` as it finishes. Returns whether every part succeeded."""
+    import subprocess
+    import sys
+
+    parts = max(1, min(processes, len(JOBS)))
+    started = time.perf_counter()
+    procs = [
+        subprocess.Popen(
+            [sys.executable, "-m", "raylume.warmup", "--part", f"{i}/{parts}"],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT,
+            text=True,
+        )
+        for i in range(parts)
+    ]
+    ok = True
+    for proc in procs:
+        out, _ = proc.communicate()
+        ok = ok and proc.returncode == 0
+        if report is not None:
+            for line in out.splitlines():
+                report(line)
+    if report is not None:
+        report(f"every kernel compiled (or loaded from the cache) in {time.perf_counter() - started:.1f} s")
+    return ok
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -4,9 +4,12 @@ and lights."""
 
 import numpy as np
 
+from .geometry.layout import NODE_COUNT, NODE_FIRST, SPHERE_BLOCK
+from .geometry.shapes import PRIM_KIND, SPHERE
 from .scene import instances_of
 from .shading import textures
 from .shading.lights import SCENE_KINDS
+from .shading.materials import MAT_TEXTURE
 
 # the scene's lights that trace mode samples at points (area lights: quad, sphere)
 _SAMPLED_LIGHTS = [kind.KIND for kind in SCENE_KINDS if not kind.DELTA and not kind.EVERYWHERE]
@@ -51,3 +54,26 @@ def path_features(S):
     """X of path mode: one variant for every scene (a path-mode compile is ~55 s), the scene's
     Instances as for any scene that is not basic."""
     return instances_of(S)
+
+
+def sphere_leaf(S) -> bool:
+    """Whether the BVH root is one leaf of spheres alone: wavefront._sphere_leaf's answer
+    (count > 0), in numpy (tests/test_wavefront.py checks the two agree)."""
+    index = S.node_index
+    if not (index.shape[0] == 1 and index[0, NODE_COUNT, 1] == 0):
+        return False
+    first, count = int(index[0, NODE_FIRST, 0]), int(index[0, NODE_COUNT, 0])
+    if count < 0:  # a block: spheres when below -SPHERE_BLOCK
+        if count >= -SPHERE_BLOCK or S.prims[first, PRIM_KIND] != SPHERE:
+            return False
+        count = -count - SPHERE_BLOCK
+    return count > 0 and bool((S.prims[first : first + count, PRIM_KIND] == SPHERE).all())
+
+
+def trace_features(S):
+    """B of trace mode's kernel (frame.trace_lane): None for a basic scene whose BVH root is
+    one leaf of spheres, without an environment or textures (the seed: its wavefront compiles
+    without the code of the BVH, the environment and textures: the first run takes about half
+    the CPU), else 0 (one variant for the other basic scenes, as before)."""
+    plain = not S.env_present and not (S.materials[:, MAT_TEXTURE] >= 0).any()
+    return None if features(S) is None and plain and sphere_leaf(S) else 0

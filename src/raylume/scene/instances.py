@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .generated import generator_hint
 from .mesh import object_matrix_of
 from .model import Mesh
 
@@ -44,7 +45,9 @@ def instance_matrices(obj: Mesh, base_dir: Path) -> np.ndarray | None:
     path = instance_path(obj, base_dir)
     what = f"instances file {path}"
     if not path.is_file():
-        raise InstanceError(f"{what} does not exist" if not path.exists() else f"{what} is not a file")
+        if path.exists():
+            raise InstanceError(f"{what} is not a file")
+        raise InstanceError(f"{what} does not exist{generator_hint(path)}")
     try:
         array = np.load(path, allow_pickle=False)
     except (OSError, ValueError, EOFError) as exc:

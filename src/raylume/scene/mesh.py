@@ -52,6 +52,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from .generated import generator_hint
 from .procedural import vertex_normals as _area_weighted_normals
 from .serialized import read_serialized
 
@@ -140,7 +141,7 @@ def _apply(m: np.ndarray, v: np.ndarray, f: np.ndarray, n: np.ndarray | None):
 def _check_file(path: Path) -> str:
     """Fail early, with a plain message, on problems trimesh reports obscurely."""
     if not path.exists():
-        raise MeshError(f"Mesh file {path} does not exist.")
+        raise MeshError(f"Mesh file {path} does not exist{generator_hint(path)}.")
     if path.is_dir():
         raise MeshError(f"Mesh file {path} is a directory, not a file.")
     ext = path.suffix.lower()

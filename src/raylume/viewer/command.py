@@ -1,5 +1,5 @@
 """`raylume view`: load the scene as `raylume render` does, bind the port, print the URL as
-the first line on stdout, serve until Ctrl-C."""
+the first line on stdout, serve until Ctrl-C (exit status 130, as `raylume render`)."""
 
 from __future__ import annotations
 
@@ -45,11 +45,11 @@ def run_view(
     print(f"raylume: serving {label}, {what}; Ctrl-C stops", file=sys.stderr, flush=True)
     if open_browser:
         webbrowser.open(viewer.url)
-    viewer.run()
+    code = viewer.run()  # 130 after Ctrl-C, as `raylume render`
     print("raylume: view stopped", file=sys.stderr, flush=True)
     if viewer.renderer._thread is not None and viewer.renderer._thread.is_alive():
         # a pass (or a first kernel compilation) still runs: do not wait for it at exit
         sys.stdout.flush()
         sys.stderr.flush()
-        os._exit(0)
-    return 0
+        os._exit(code)
+    return code

@@ -406,7 +406,8 @@ class Renderer:
         of samples per band at rest. Returns the samples per pixel it added (0 for a first pass,
         whose time is no measure; -1 when a camera change or stop cut it short)."""
         s = job.settings
-        self.status = "rendering" if job.mode in self._warm else "compiling kernels (first run only)"
+        compiling = f"compiling the {job.mode}-mode kernels (once per mode and kind of scene)"
+        self.status = "rendering" if job.mode in self._warm else compiling
         first = job.mode not in self._warm
         rays, seconds, count = 0, 0.0, 1
         if not job.bands:
@@ -521,7 +522,7 @@ class Renderer:
         from ..svgf import Svgf
 
         if self._svgf is None:
-            self.status = "compiling the denoiser (first run only)"
+            self.status = "compiling the denoiser (once)"
             self._svgf = Svgf(threads=self.threads)
         if self._svgf_reset:
             self._svgf_reset = False

@@ -40,6 +40,7 @@ class Viewer:
         self._loop: asyncio.AbstractEventLoop | None = None
         self._stop: asyncio.Event | None = None
         self._thread: threading.Thread | None = None
+        self.stopped_by: int | None = None  # the signal that stopped run(): SIGINT (Ctrl-C) or SIGTERM
 
     async def serve(self, started: threading.Event | None = None, signals: bool = False) -> None:
         """Serve until stop() (or SIGINT/SIGTERM when `signals`), then close the port and stop
@@ -48,7 +49,7 @@ class Viewer:
         self._stop = asyncio.Event()
         if signals:
             for sig in (signal.SIGINT, signal.SIGTERM):
-                self._loop.add_signal_handler(sig, self._stop.set)
+                self._loop.add_signal_handler(sig, self._stopped_by, sig)
         self.server.start()
         self.renderer.start()
         if started is not None:
@@ -59,9 +60,15 @@ class Viewer:
             await self.server.stop()
             await asyncio.to_thread(self.renderer.stop, STOP_SECONDS)
 
-    def run(self) -> None:
-        """Serve in the foreground until Ctrl-C or SIGTERM."""
+    def _stopped_by(self, sig: int) -> None:
+        self.stopped_by = sig
+        self._stop.set()
+
+    def run(self) -> int:
+        """Serve in the foreground until Ctrl-C or SIGTERM; returns the exit status that signal
+        means, as `raylume render` exits on Ctrl-C: 128 + its number (130 for Ctrl-C)."""
         asyncio.run(self.serve(signals=True))
+        return 0 if self.stopped_by is None else 128 + int(self.stopped_by)
 
     def start(self) -> None:
         """Serve on a background thread (daemon: it never keeps the interpreter alive)."""

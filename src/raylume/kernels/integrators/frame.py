@@ -105,21 +105,22 @@ def claim_row(typingctx, control, counter):
 
 
 @njit(**LANE)
-def trace_lane(S, X, P, film, C):
+def trace_lane(S, X, P, film, C, B):
     """Whitted-traced samples of the lane's rows of pass P into the film; rays traced per row
-    into C.rays_per_row."""
+    into C.rays_per_row. B: None where X is None and the BVH root is one leaf of spheres (the
+    seed; variants.sphere_leaf), which compiles the wavefront without the BVH's code; else 0."""
     node_stack, t_stack = traversal_stacks()
     slots = stack_rows(P.max_depth)
     work = scratch_array(slots * RAY_WIDTH, np.float64).reshape((slots, RAY_WIDTH))
     G, F, L = geometry_of(S), surfaces_of(S), lights_of(S)
-    wave = wavefront_scratch(G, F)  # (a branch on X would not type: Numba unifies both arms)
+    wave = wavefront_scratch(G, F, B)  # (a branch on X would not type: Numba unifies both arms)
     Env = environment_of(S)
     x0, y0, x1, y1 = P.window
     while True:
         j = y0 + claim_row(C.control, C.counter)
         if j >= y1 or C.control[STOP] != 0:
             break
-        C.rays_per_row[j - y0] += _trace_row(G, F, L, X, Env, P, j, film, work, wave, node_stack, t_stack)
+        C.rays_per_row[j - y0] += _trace_row(G, F, L, X, B, Env, P, j, film, work, wave, node_stack, t_stack)
         C.rows_done[C.lane * PROGRESS_STRIDE] += 1
 
 
@@ -264,11 +265,11 @@ def _cast_row(G, F, X, Env, P, j, pair, film, node_stack, t_stack, packets, rays
 
 
 @kernel_function
-def _trace_row(G, F, L, X, Env, P, j, film, work, wave, node_stack, t_stack):
+def _trace_row(G, F, L, X, B, Env, P, j, film, work, wave, node_stack, t_stack):
     """Whitted-traced samples of row j into the film; returns the rays traced. Basic scenes go
     through the wavefront (wavefront.py), the others ray by ray (trace.py)."""
     if X is None:
-        return wavefront_row(G, F, L, X, Env, P, j, film, wave, node_stack, t_stack)
+        return wavefront_row(G, F, L, X, B, Env, P, j, film, wave, node_stack, t_stack)
     cam, filt, width, height, window, samples, seed, max_depth, bg = P
     first, count, total_spp = samples
     x0, y0, x1, y1 = window

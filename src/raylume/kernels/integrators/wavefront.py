@@ -125,14 +125,14 @@ M_WIDTH = (REFL - AR) // STRIDE + 1
 
 
 @kernel_function(_nrt=True)
-def wavefront_scratch(G, F):
+def wavefront_scratch(G, F, B):
     """One thread's wavefront arrays: float64 (WAVE_ROWS * STRIDE) and int64 (WAVE_INT_ROWS *
     STRIDE), flat as the rows' offsets say; the materials table (materials, M_WIDTH); each
     primitive's sphere row (primitives, 4: centre, radius; wavefront_spheres.py) when the root
     is a leaf of spheres; the packets' scratch (packet.py) and eight rays' origins, directions
     and ends as a packet takes them, (8, 3), (8, 3) and (8,). The rows start zeroed: the sphere
     tests compute whole vectors of eight slots, past the live ones too, and garbage there could
-    be subnormal (slow) numbers."""
+    be subnormal (slow) numbers. With B None (a leaf of spheres) the last two are None."""
     mat = F.materials
     M = np.empty((mat.shape[0], M_WIDTH))
     for m in range(mat.shape[0]):
@@ -150,6 +150,8 @@ def wavefront_scratch(G, F):
     I = scratch_array(WAVE_INT_ROWS * STRIDE, np.int64)
     R[:] = 0.0
     I[:] = 0
+    if B is None:  # a leaf of spheres (wavefront_row): no packets, none of their scratch compiled
+        return R, I, M, C, None, None
     origins = scratch_array(PACKET * 3, np.float64).reshape((PACKET, 3))
     directions = scratch_array(PACKET * 3, np.float64).reshape((PACKET, 3))
     return R, I, M, C, packet_scratch(), (origins, directions)
@@ -180,17 +182,19 @@ def _sphere_leaf(G):
 
 
 @inline_function
-def _closest_hits(G, X, R, I, C, m, leaf_first, leaf_count, node_stack, t_stack, scratch):
+def _closest_hits(G, X, B, R, I, C, m, leaf_first, leaf_count, node_stack, t_stack, scratch):
     """Closest hits of rays 0..m-1 into T, PRIM, B1, B2 (a sphere's barycentrics are 0, as the
     rows start). In a BVH that takes packets (packet.uses_packets), eight rays at a time where
     they are coherent (camera rays: neighbouring pixels), as cast mode traces them; others ray
-    by ray. The hits are closest_hit's either way."""
-    if leaf_count > 0:
-        fill(R[T : T + STRIDE], m, INF)
-        fill(I[PRIM : PRIM + STRIDE], m, NO_HIT)
-        tile_closest(R, I, (OX, OY, OZ, DX, DY, DZ, T, PRIM), m, C, leaf_first, leaf_count)
-        return
-    _bvh_closest_hits(G, X, R, I, m, node_stack, t_stack, scratch)
+    by ray. The hits are closest_hit's either way. B None: the root is a leaf of spheres, and
+    the BVH's code is not compiled (see wavefront_row)."""
+    if B is not None:
+        if leaf_count == 0:
+            _bvh_closest_hits(G, X, R, I, m, node_stack, t_stack, scratch)
+            return
+    fill(R[T : T + STRIDE], m, INF)
+    fill(I[PRIM : PRIM + STRIDE], m, NO_HIT)
+    tile_closest(R, I, (OX, OY, OZ, DX, DY, DZ, T, PRIM), m, C, leaf_first, leaf_count)
 
 
 # Calls, not inlined, which find their packets' scratch and the root's box themselves: the
@@ -277,7 +281,7 @@ def _finish_ray(R, I, i, col):
 
 
 @inline_function
-def _compact_hits(G, Env, R, I, M, C, m, bg, spheres, textured, emissive):
+def _compact_hits(G, Env, B, R, I, M, C, m, bg, spheres, textured, emissive):
     """The rays that hit something move to slots 0..k-1 (in order) and take their hit's
     material (and, in a leaf of `spheres`, the sphere's centre into QX..QZ); the others add the
     sky (the environment, else the background) and end. Returns k. What no later stage reads is
@@ -289,7 +293,10 @@ def _compact_hits(G, Env, R, I, M, C, m, bg, spheres, textured, emissive):
         if prim == NO_HIT:
             d = (R[at(DX, i)], R[at(DY, i)], R[at(DZ, i)])
             w = (R[at(WR, i)], R[at(WG, i)], R[at(WB, i)])
-            sky = environment_radiance(Env, d) if Env.present else bg
+            sky = bg
+            if B is not None:  # (B None: no environment; see wavefront_row)
+                if Env.present:
+                    sky = environment_radiance(Env, d)
             _finish_ray(
                 R, I, i, (R[at(CR, i)] + w[0] * sky[0], R[at(CG, i)] + w[1] * sky[1], R[at(CB, i)] + w[2] * sky[2])
             )
@@ -396,7 +403,7 @@ def _sphere_surfaces(R, I, m, epsilon_floor):
 
 
 @inline_function
-def _sphere_surface_extras(G, F, X, R, I, m):
+def _sphere_surface_extras(G, F, X, B, R, I, m):
     """What _sphere_surfaces leaves to rays one by one: absorption along the segment inside a
     sphere (a ray leaving it), and textures."""
     mat = F.materials
@@ -408,24 +415,27 @@ def _sphere_surface_extras(G, F, X, R, I, m):
             continue
         if leaving:
             R[WR + i], R[WG + i], R[WB + i] = beer_lambert(mat, mm, (R[WR + i], R[WG + i], R[WB + i]), R[T + i])
-        if textured:
-            d = (R[DX + i], R[DY + i], R[DZ + i])
-            p = _hit_point(R, i)
-            ng = (R[NX + i], R[NY + i], R[NZ + i])  # facing the ray, as trace_ray's after its flip
-            prim = I[PRIM + i]
-            R[AR + i], R[AG + i], R[AB + i] = albedo(G, F, X, mm, prim, R[B1 + i], R[B2 + i], p, d, ng, R[CONE + i])
+        if B is not None:  # (B None: no textures; see wavefront_row)
+            if textured:
+                d = (R[DX + i], R[DY + i], R[DZ + i])
+                p = _hit_point(R, i)
+                ng = (R[NX + i], R[NY + i], R[NZ + i])  # facing the ray, as trace_ray's after its flip
+                prim = I[PRIM + i]
+                uv = (R[B1 + i], R[B2 + i])
+                R[AR + i], R[AG + i], R[AB + i] = albedo(G, F, X, mm, prim, uv[0], uv[1], p, d, ng, R[CONE + i])
 
 
 @inline_function
-def _find_surfaces(G, F, X, R, I, m, leaf_count, textured):
+def _find_surfaces(G, F, X, B, R, I, m, leaf_count, textured):
     """Albedo, offset point and normal at each slot's hit (`textured`: whether any material
     has a texture)."""
-    if leaf_count == 0:
-        _surfaces(G, F, X, R, I, m)
-        return
+    if B is not None:
+        if leaf_count == 0:
+            _surfaces(G, F, X, R, I, m)
+            return
     leaving = _sphere_surfaces(R, I, m, F.epsilon_floor)
     if leaving > 0 or textured:
-        _sphere_surface_extras(G, F, X, R, I, m)
+        _sphere_surface_extras(G, F, X, B, R, I, m)
 
 
 @vector_loop(fastmath=FAST)
@@ -488,15 +498,16 @@ def _needs_shadow(R, I, m):
 
 
 @inline_function
-def _shadows(G, X, R, I, C, m, leaf_first, leaf_count, node_stack, t_stack, directional, scratch):
+def _shadows(G, X, B, R, I, C, m, leaf_first, leaf_count, node_stack, t_stack, directional, scratch):
     """Shadow rays of the slots that need one (BLOCKED 0): BLOCKED becomes 1 where something
     lies between the point and the light. In a BVH that takes packets, eight slots at a time
     where their rays are coherent (neighbouring points towards one light), others ray by ray;
     any_hit's answers either way."""
-    if leaf_count > 0:
-        tile_blocks(R, I, (QX, QY, QZ, LX, LY, LZ, TMAX, BLOCKED), m, C, leaf_first, leaf_count, directional)
-        return
-    _bvh_shadows(G, X, R, I, m, node_stack, t_stack, scratch)
+    if B is not None:
+        if leaf_count == 0:
+            _bvh_shadows(G, X, R, I, m, node_stack, t_stack, scratch)
+            return
+    tile_blocks(R, I, (QX, QY, QZ, LX, LY, LZ, TMAX, BLOCKED), m, C, leaf_first, leaf_count, directional)
 
 
 @kernel_function
@@ -551,7 +562,7 @@ def _gather_light(R, I, m, r, g, b):
 
 
 @inline_function
-def _lighting(G, X, L, R, I, C, m, leaf_first, leaf_count, node_stack, t_stack, scratch):
+def _lighting(G, X, B, L, R, I, C, m, leaf_first, leaf_count, node_stack, t_stack, scratch):
     """Ambient + diffuse + specular light at every slot from every light; returns the shadow
     rays traced."""
     # The ambient lights before any other are the same sum for every slot (in trace_ray's order:
@@ -576,7 +587,7 @@ def _lighting(G, X, L, R, I, C, m, leaf_first, leaf_count, node_stack, t_stack, 
             continue
         rays += _towards_light(L, R, I, m, k)
         directional = at_infinity(L.kind[k])
-        _shadows(G, X, R, I, C, m, leaf_first, leaf_count, node_stack, t_stack, directional, scratch)
+        _shadows(G, X, B, R, I, C, m, leaf_first, leaf_count, node_stack, t_stack, directional, scratch)
         r, g, b = row3(L.data, k, LIGHT_INTENSITY)
         _gather_light(R, I, m, r, g, b)
     return rays
@@ -630,10 +641,14 @@ def _pinhole_directions(R, n, cam, i0, j, width, height, spread):
 
 
 @kernel_function
-def wavefront_row(G, F, L, X, Env, P, j, film, scratch, node_stack, t_stack):
+def wavefront_row(G, F, L, X, B, Env, P, j, film, scratch, node_stack, t_stack):
     """trace mode's _trace_row for a basic scene: the row's samples of pass P (film/image_pass.py),
     in pixel order, through the Whitted loop TILE at a time, then into the film in order.
-    Returns the rays traced."""
+    Returns the rays traced. B is None where the BVH root is one leaf of spheres (the seed:
+    variants.sphere_leaf, the host's _sphere_leaf) and there is no environment and no texture
+    (variants.trace_features), which compiles the sphere tests alone, no BVH traversal, packets,
+    triangles, environment or textures (a first run of the seed: about half the CPU); else 0,
+    and the row takes whichever way _sphere_leaf finds."""
     cam, filt, width, height, window, samples, seed, max_depth, bg = P
     R, I, M, C, _, _ = scratch
     first, count, total_spp = samples
@@ -682,11 +697,11 @@ def wavefront_row(G, F, L, X, Env, P, j, film, scratch, node_stack, t_stack):
         m = n
         depth = max_depth
         while m > 0:
-            _closest_hits(G, X, R, I, C, m, leaf_first, leaf_count, node_stack, t_stack, scratch)
+            _closest_hits(G, X, B, R, I, C, m, leaf_first, leaf_count, node_stack, t_stack, scratch)
             rays += m
-            m = _compact_hits(G, Env, R, I, M, C, m, bg, leaf_count > 0, textured, emissive)
-            _find_surfaces(G, F, X, R, I, m, leaf_count, textured)
-            rays += _lighting(G, X, L, R, I, C, m, leaf_first, leaf_count, node_stack, t_stack, scratch)
+            m = _compact_hits(G, Env, B, R, I, M, C, m, bg, leaf_count > 0, textured, emissive)
+            _find_surfaces(G, F, X, B, R, I, m, leaf_count, textured)
+            rays += _lighting(G, X, B, L, R, I, C, m, leaf_first, leaf_count, node_stack, t_stack, scratch)
             last = depth <= 0
             _add_local_and_reflect(R, I, m, last)
             m = _compact_reflected(R, I, m, textured)

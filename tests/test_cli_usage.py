@@ -1,0 +1,140 @@
+"""What a newcomer meets first on the command line: usage errors in one line, warnings about
+flags without effect, clean stderr in logs, the same exit status on Ctrl-C from render and view,
+missing generated files, and `raylume warmup`."""
+
+from __future__ import annotations
+
+import select
+import signal
+import subprocess
+import sys
+import typing
+from pathlib import Path
+
+import pytest
+import typer
+from test_cli import GOOD_SCENE, assert_refused, raylume
+from typer.testing import CliRunner
+
+from raylume.cli import app
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture
+def good(tmp_path):
+    path = tmp_path / "scene.toml"
+    path.write_text(GOOD_SCENE)
+    return path
+
+
+def _typed_options():
+    """(command, option) for every option of every command that takes a number: found from
+    the commands themselves, so that a new one is covered too."""
+    found = []
+    for name, command in typer.main.get_command(app).commands.items():
+        hints = typing.get_type_hints(command.callback)
+        for param in command.params:
+            kind = hints.get(param.name)
+            if getattr(param, "is_flag", False) or kind is None:
+                continue
+            if set(typing.get_args(kind) or (kind,)) & {int, float}:
+                found.append((name, param.opts[-1] if param.opts[-1].startswith("--") else param.opts[0]))
+    return found
+
+
+def test_every_typed_option_has_numbers():
+    """The list below is not empty, and holds the ones a newcomer mistypes first."""
+    assert {("render", "--spp"), ("render", "--width"), ("render", "--exposure"), ("view", "--port")} <= set(
+        _typed_options()
+    )
+
+
+@pytest.mark.parametrize("command, option", _typed_options())
+def test_a_value_that_is_no_number_is_one_line_and_exit_2(command, option):
+    result = CliRunner().invoke(app, [command, option, "abc"])
+    assert result.exit_code == 2, result.output
+    lines = result.stderr.splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"raylume: error: {option} abc: "), result.stderr
+    assert f"raylume {command} --help" in lines[0]
+
+
+@pytest.mark.parametrize(
+    "args, words",
+    [
+        (["render", "--bogus"], "No such option: --bogus"),
+        (["render", "--spp"], "requires an argument"),
+        (["bogus"], "No such command 'bogus'"),
+        (["render", "a.toml", "b.toml"], "unexpected extra argument"),
+    ],
+)
+def test_other_usage_errors_are_one_line_too(args, words):
+    result = CliRunner().invoke(app, args)
+    assert result.exit_code == 2
+    assert len(result.stderr.splitlines()) == 1 and words in result.stderr, result.stderr
+    assert "╭" not in result.stderr and "Usage:" not in result.stderr
+
+
+def test_the_installed_command_answers_the_same(tmp_path):
+    """The real entry point (a subprocess), not only the test runner's call."""
+    result = raylume("render", "--spp", "abc", cwd=tmp_path)
+    assert_refused(result, "raylume: error: --spp abc:")
+    assert len(result.stderr.splitlines()) == 1, result.stderr
+
+
+def test_denoise_outside_path_mode_is_warned_about(tmp_path, good):
+    result = raylume("render", good, "-o", "out.png", "--denoise", cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    warnings = [line for line in result.stderr.splitlines() if line.startswith("raylume: warning:")]
+    assert any("--denoise" in line and "trace mode" in line and "--mode path" in line for line in warnings), (
+        result.stderr
+    )
+    plain = raylume("render", good, "-o", "out.png", cwd=tmp_path)
+    assert "warning" not in plain.stderr, plain.stderr
+
+
+def test_no_blank_lines_on_stderr_that_is_no_terminal(tmp_path, good):
+    """A render long enough for the progress bar (over half a second), stderr a pipe: every
+    line says something (Rich's bar, gone from a terminal, left an empty line in logs)."""
+    result = raylume("render", good, "-o", "out.png", "--width", 1200, "--height", 1200, "--spp", 16, cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    lines = result.stderr.splitlines()
+    assert lines and all(line.strip() for line in lines), repr(result.stderr)
+
+
+def test_a_missing_generated_file_names_its_script(tmp_path):
+    """examples/forest.toml needs what examples/forest/make_forest.py writes: a fresh clone
+    lacks it, and the error says what to run."""
+    scene_dir = tmp_path / "example"
+    (scene_dir / "forest").mkdir(parents=True)
+    (scene_dir / "forest.toml").write_text((REPO / "examples" / "forest.toml").read_text())
+    (scene_dir / "forest" / "make_forest.py").write_text((REPO / "examples" / "forest" / "make_forest.py").read_text())
+    result = raylume("render", "forest.toml", cwd=scene_dir)
+    assert_refused(result, "forest.toml", "does not exist", "python forest/make_forest.py")
+    assert not (scene_dir / "render.png").exists()
+
+
+def test_view_exits_130_on_ctrl_c_as_render_does(tmp_path):
+    """`raylume view` stopped by Ctrl-C (SIGINT) exits 130, `raylume render`'s status for it."""
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "raylume.cli", "view", "seed", "--width", "16", "--height", "12", "--port", "0",
+         "--no-browser"],
+        cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    try:
+        ready, _, _ = select.select([proc.stdout], [], [], 120)
+        assert ready, "raylume view printed no URL"
+        assert proc.stdout.readline().startswith("raylume view: http://127.0.0.1:")
+        proc.send_signal(signal.SIGINT)
+        assert proc.wait(timeout=30) == 130, proc.stderr.read()
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+
+
+def test_warmup_is_a_command(tmp_path):
+    result = CliRunner().invoke(app, ["warmup", "--help"])
+    assert result.exit_code == 0 and "Compile every kernel" in result.output
+    refused = CliRunner().invoke(app, ["warmup", "--processes", "0"])
+    assert refused.exit_code == 2 and "--processes 0" in refused.stderr
