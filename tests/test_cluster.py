@@ -100,6 +100,14 @@ def test_cluster_render_is_bit_identical_to_the_in_process_render(client, sessio
     assert sum(w["tasks"] for w in stats["per_worker"].values()) == stats["tasks"]
 
 
+def test_bdpt_cluster_render_is_bit_identical_to_the_in_process_render(client, session):
+    """Bidirectional path tracing on a cluster: every tile is the full render's window (its
+    splats come from every pixel's light subpath and are summed exactly), so the pasted tiles
+    are the in-process image bit for bit, with a filter whose splats cross tile edges."""
+    settings = dict(mode="path", integrator="bdpt", spp=3, filter="gaussian", seed=7)
+    assert_same(session.render(threads=2, **settings), session.render(cluster=client, **settings))
+
+
 def test_passes_and_tiles_finishing_in_shuffled_order_give_the_same_bits(client, session, monkeypatch):
     monkeypatch.setattr(C, "TILE_SECONDS", 1e-9)  # every tile as small as allowed, one sample per pass
     window = (4, 36, 2, 26)

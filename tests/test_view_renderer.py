@@ -278,3 +278,24 @@ def test_python_api_takes_denoise():
         assert (stats["mode"], stats["denoise"], stats["integrator"]) == ("path", True, "path")
     finally:
         url.stop()
+
+
+def test_bdpt_films_are_one_band_and_equal_its_renders():
+    """`raylume view --integrator bdpt`: a resting film is one band, however slow a pass (every
+    band would trace the whole image's light subpaths), and holds `raylume render`'s bdpt image
+    of 16 spp (splats included); /stats says the integrator."""
+    session = raylume.Session(cornell(spp=16, integrator="bdpt"))
+    r = vr.Renderer(session, resolve_settings(session.scene, threads=1))
+    r._cost[("path", False)] = 1.0  # as if a pass took a second: path mode would make row bands
+    r.add_watcher(1)
+    r.start()
+    try:
+        wait_for(lambda: r._job is not None and r._job.done_spp >= 16, timeout=300)
+    finally:
+        assert r.stop(5.0)
+    assert len(r._job.bands) == 1 and r.stats()["integrator"] == "bdpt"
+    expected = sum(
+        session.render(spp=16, seed=k, threads=1, aovs=False).rgb.astype(np.float64) * 16
+        for k in range(r._job.done_spp // 16)
+    )
+    np.testing.assert_array_equal(r._job.done_sum, expected)

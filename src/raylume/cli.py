@@ -245,6 +245,12 @@ def render(
     height: Annotated[int | None, typer.Option("--height", metavar="H", help="Image height in pixels")] = None,
     spp: Annotated[int | None, typer.Option("--spp", metavar="N", help="Samples per pixel")] = None,
     mode: Annotated[str | None, typer.Option("--mode", metavar="MODE", help="cast | trace | path | raster")] = None,
+    integrator: Annotated[
+        str | None,
+        typer.Option(
+            "--integrator", metavar="NAME", help="Path mode: path (path tracing) | bdpt (bidirectional path tracing)"
+        ),
+    ] = None,
     max_depth: Annotated[
         int | None, typer.Option("--max-depth", metavar="D", help="Reflection/refraction depth")
     ] = None,
@@ -711,6 +717,12 @@ def view(
     ] = None,
     mode: Annotated[
         str | None, typer.Option("--mode", metavar="MODE", help="cast | trace | path | raster (switchable on the page)")
+    ] = None,
+    integrator: Annotated[
+        str | None,
+        typer.Option(
+            "--integrator", metavar="NAME", help="Path mode: path (path tracing) | bdpt (bidirectional path tracing)"
+        ),
     ] = None,
     width: Annotated[int | None, typer.Option("--width", metavar="W", help="Image width in pixels")] = None,
     height: Annotated[int | None, typer.Option("--height", metavar="H", help="Image height in pixels")] = None,

@@ -276,7 +276,7 @@ def _render_tile(
     worker = _check_here(expected)
     result = render_window(
         compiled, camera, settings, window, aovs=aovs and previous is None, lanes=1, first=first, count=count,
-        sums=None if previous is None else previous.sums,
+        sums=None if previous is None else previous.sums, splats=None if previous is None else previous.splats,
     )  # fmt: skip
     record = (worker, result.seconds, result.rays)
     if previous is not None:

@@ -40,6 +40,7 @@ def render(
     height: int | None = None,
     spp: int | None = None,
     mode: str | None = None,
+    integrator: str | None = None,
     max_depth: int | None = None,
     seed: int | None = None,
     filter: str | None = None,

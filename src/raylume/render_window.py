@@ -26,6 +26,7 @@ from .kernels.film.camera import camera_of, set_cone_spread
 from .kernels.film.film import Film
 from .kernels.film.image_pass import Aovs, ImagePass
 from .kernels.frame_stack import on_roomy_frame_stack
+from .kernels.integrators.bdpt_setup import bdpt_pass, strategy_counts
 from .kernels.integrators.frame import (
     AOV_ROWS,
     CONTROL_SIZE,
@@ -34,6 +35,7 @@ from .kernels.integrators.frame import (
     STOP,
     LaneControl,
     aov_lane,
+    bdpt_lane,
     cast_lane,
     path_lane,
     trace_lane,
@@ -81,6 +83,8 @@ class WindowResult:
     rejected: int = 0
     sums: np.ndarray | None = None
     cluster: dict = field(default_factory=dict)  # statistics of a cluster render
+    strategies: dict = field(default_factory=dict)  # bdpt: samples per strategy "s,t"
+    splats: np.ndarray | None = None  # bdpt, while passes remain: the film's splat sums
 
 
 def render_window(
@@ -96,6 +100,7 @@ def render_window(
     first: int = 0,
     count: int | None = None,
     sums: np.ndarray | None = None,
+    splats: np.ndarray | None = None,
 ) -> WindowResult:
     """Render samples first..first+count-1 (default: all of settings.spp) of the pixels in
     `window` = (x0, x1, y0, y1) of the settings' image, continuing from the film `sums` of
@@ -123,6 +128,8 @@ def render_window(
     if sums is not None:
         film.sums[...] = sums
         film.spp = first
+        if splats is not None:
+            film.enable_splats()[...] = splats
     count = settings.spp - first if count is None else count
     aov_arrays = allocate_aovs(y1 - y0, x1 - x0) if aovs else {}
     kernel_seconds, rays = add_samples_to_film(
@@ -137,6 +144,8 @@ def render_window(
         int(rays),
         film.rejected,
         None if done else film.sums,
+        strategies=film.strategies,
+        splats=None if done else film.splats,
     )
 
 
@@ -159,7 +168,10 @@ def add_samples_to_film(S, cam, film: Film, spp: int, settings, aov: dict, progr
     W, H = film.width, film.height
     window = film.kernel_window
     rows = window[3] - window[1]
-    rays_per_row = np.zeros(rows, dtype=np.int64)
+    bidirectional = settings.mode == "path" and settings.integrator == "bdpt"
+    # bdpt's lanes go over every row of the image: light subpaths of any pixel may reach the window
+    image_rows = H if bidirectional else rows
+    rays_per_row = np.zeros(image_rows, dtype=np.int64)
     # the AOV pass counts apart: a lane still in it and one already in the image pass may add to
     # the same row's count at once, and one of the two additions was lost
     aov_rays_per_row = np.zeros(rows, dtype=np.int64)
@@ -174,6 +186,7 @@ def add_samples_to_film(S, cam, film: Film, spp: int, settings, aov: dict, progr
     B = trace_features(S) if settings.mode == "trace" else 0  # None: the seed's leaf of spheres
     rejected = np.zeros(lanes * PROGRESS_STRIDE, dtype=np.int64)
     strategy = path_strategy()
+    bd = bdpt_pass(S, film, lanes) if bidirectional else None
 
     aovs = Aovs(**{name: aov[name] for name in Aovs._fields}) if aov else None
 
@@ -184,6 +197,8 @@ def add_samples_to_film(S, cam, film: Film, spp: int, settings, aov: dict, progr
         C = LaneControl(lane, PASS_ROWS, rows_done, control, rays_per_row, rejected)
         if settings.mode == "cast":
             cast_lane(S, X, P, film.sums, C)
+        elif bidirectional:
+            bdpt_lane(S, X, P, film.sums, C, bd)
         elif settings.mode == "path":
             path_lane(S, X, P, film.sums, C, strategy)
         else:
@@ -192,10 +207,11 @@ def add_samples_to_film(S, cam, film: Film, spp: int, settings, aov: dict, progr
     status = status or (lambda what: None)
     status("compiling")
     # compile (or load from the cache): no rows; with room on the frame stack (frame_stack.py)
+    control[STOP] = 1  # (bdpt's lanes go over the image's rows, not the window's: no row at all)
     on_roomy_frame_stack(lane_job, 0, (window[0], window[1], window[2], window[1]))
     control[:] = 0  # (that claimed a row of the empty window)
     status("rendering")
-    total = rows * (2 if aov else 1)
+    total = rows * (1 if aov else 0) + image_rows
     pool = lane_pool(lanes)
     t0 = time.perf_counter()
     futures = [pool.submit(lane_job, lane, window) for lane in range(lanes)]
@@ -211,10 +227,14 @@ def add_samples_to_film(S, cam, film: Film, spp: int, settings, aov: dict, progr
         wait(futures)
         partial = Image(film.rgb(), aov, {}, settings.encoding, exposure=settings.exposure)
         done = int(rows_done.sum()) - (rows if aov else 0)
-        raise RenderInterrupted(partial, max(done, 0)) from None
+        raise RenderInterrupted(partial, max(min(done, rows), 0)) from None
     kernel_seconds = time.perf_counter() - t0
     for future in futures:
         future.result()  # re-raises a lane's exception
     film.spp += spp
     film.rejected += int(rejected.sum())
+    if bd is not None:
+        counts = strategy_counts(bd.counts)
+        for key, n in counts.items():
+            film.strategies[key] = film.strategies.get(key, 0) + n
     return kernel_seconds, rays_per_row.sum() + aov_rays_per_row.sum()

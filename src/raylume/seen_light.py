@@ -60,7 +60,9 @@ def first_segment(
 ):
     """The light seen directly (path mode with max_depth 1) in `window` = (x0, x1, y0, y1), at
     the render's own camera samples. Returns the WindowResult."""
-    seen = settings.model_copy(update={"max_depth": 1, "denoise": False})
+    # path tracing whatever the render's integrator: at one segment bdpt's only strategy is the
+    # camera ray meeting a light (s = 0, t = 2, weight 1), path tracing's own estimate
+    seen = settings.model_copy(update={"max_depth": 1, "denoise": False, "integrator": "path"})
     return render_window(compiled, camera, seen, window, aovs=False, lanes=lanes)
 
 
@@ -135,7 +137,9 @@ def denoise_path_image(
     tile_pixels = sum((a1 - a0) * (b1 - b0) for a0, a1, b0, b1 in tiles)
     stats.edge_spp = edge_spp(settings.spp, (x1 - x0) * (y1 - y0), tile_pixels)
     if stats.edge_spp:
-        more = settings.model_copy(update={"spp": stats.edge_spp, "denoise": False})
+        # the edge tiles by path tracing (the same image in expectation): a bdpt window would trace
+        # the whole image's light subpaths for its splats, tile after tile
+        more = settings.model_copy(update={"spp": stats.edge_spp, "denoise": False, "integrator": "path"})
         for a0, a1, b0, b1 in tiles:
             part = render_window(compiled, camera, more, (x0 + a0, x0 + a1, y0 + b0, y0 + b1), aovs=False, lanes=lanes)
             edges = mask[b0:b1, a0:a1]

@@ -121,6 +121,7 @@ class Session:
         height: int | None = None,
         spp: int | None = None,
         mode: str | None = None,
+        integrator: str | None = None,
         max_depth: int | None = None,
         seed: int | None = None,
         filter: str | None = None,
@@ -179,6 +180,10 @@ class Session:
         primary = 0 if table.mode == "raster" else (x1 - x0) * (y1 - y0) * table.spp
         if table.mode != "raster":
             extra["rejected_samples"] = part.rejected
+        if table.mode == "path":
+            extra["integrator"] = table.integrator
+        if part.strategies:
+            extra["bdpt_strategies"] = dict(sorted(part.strategies.items()))
         if denoising:
             noisy = rgb
             rgb, split = denoise_path_image(
@@ -218,6 +223,7 @@ class Session:
         camera: Camera | dict | None = None,
         *,
         mode: str | None = None,
+        integrator: str | None = None,
         max_depth: int | None = None,
         seed: int | None = None,
         threads: int | None = None,
@@ -234,10 +240,8 @@ class Session:
                 f"the film takes {film.total_spp} samples per pixel; {film.spp} are in and {spp} more would exceed it"
             )
         film_size = {"width": film.width, "height": film.height}
-        settings = resolve_settings(
-            self.scene, {**film_size, "mode": mode, "max_depth": max_depth, "seed": seed}, threads=threads,
-            source=self.source,
-        )  # fmt: skip
+        asked = {"mode": mode, "integrator": integrator, "max_depth": max_depth, "seed": seed}
+        settings = resolve_settings(self.scene, {**film_size, **asked}, threads=threads, source=self.source)
         table = settings.render
         if table.mode == "raster":
             raise ValueError("raster mode draws whole images; it adds no samples to a film")

@@ -71,14 +71,14 @@ def _scene(kind: str):
     )
 
 
-def _render(kind: str, mode: str) -> Callable[[], None]:
+def _render(kind: str, mode: str, integrator: str = "path") -> Callable[[], None]:
     def job() -> None:
         session = Session(_scene(kind))
-        session.render(mode=mode, spp=2, aovs=True)  # spp > 1: the pixel filter's code path too
+        session.render(mode=mode, spp=2, aovs=True, integrator=integrator)  # spp > 1: the pixel filter's code too
         if mode != "raster":
-            session.render(mode=mode, spp=1, aovs=False)
+            session.render(mode=mode, spp=1, aovs=False, integrator=integrator)
 
-    job.__name__ = f"{mode} ({kind})"
+    job.__name__ = f"{mode} ({kind})" if integrator == "path" else f"{mode} {integrator} ({kind})"
     return job
 
 
@@ -127,6 +127,7 @@ def _intersect(kind: str) -> Callable[[], None]:
 # their Instances are empty).
 JOBS: list[tuple[Callable[[], None], float]] = [
     (_render("all", "path"), 39.0),
+    (_render("all", "path", "bdpt"), 45.0),
     (_render("all", "trace"), 23.0),
     (_render("basic", "trace"), 21.5),
     (_render("spheres", "trace"), 13.0),

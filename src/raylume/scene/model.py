@@ -111,6 +111,11 @@ class RenderSettings(Strict):
     """`cast`: the hit material's colour, no lighting; `trace`: Whitted ray tracing with shadows, reflection,
     refraction and area lights; `path`: unbiased path tracing in radiometric units; `raster`: a z-buffer rasterizer
     with local lighting."""
+    # Path mode's integrator: "path" (path tracing) or "bdpt" (bidirectional path tracing).
+    integrator: Literal["path", "bdpt"] = "path"
+    """Path mode's integrator: `path` (path tracing) or `bdpt` (bidirectional path tracing: camera and light subpaths
+    connected by every strategy, weighted by MIS; for caustics and light through mirrors and glass). Both converge to
+    the same image."""
     background: Color = (0.0, 0.0, 0.0)
     """Colour of rays that hit nothing, `[r, g, b]` or `"#rrggbb"` (an `[environment]` replaces it)."""
     encoding: Literal["clamp", "srgb"] = "clamp"

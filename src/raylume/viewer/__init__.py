@@ -36,6 +36,7 @@ def view(
     width: int | None = None,
     height: int | None = None,
     mode: str | None = None,
+    integrator: str | None = None,
     spp: int | None = None,
     denoise: bool | None = None,
     host: str = "127.0.0.1",
@@ -48,8 +49,9 @@ def view(
     None for `seed`) in the background and return its URL (with the token). In Jupyter (or when
     `show`) the page is also shown inline in an iframe. Port 0 (the default here) picks a free
     port, so several views can run at once; `url.stop()` ends one. `denoise`: path mode's
-    frames shown denoised (SVGF while the camera moves, OIDN at rest), as `raylume view --denoise`.
-    `defines`: a Mitsuba scene's $parameters (as --define)."""
+    frames shown denoised (SVGF while the camera moves, OIDN at rest), as `raylume view --denoise`;
+    `integrator`: path mode's, "path" or "bdpt" (as `raylume view --integrator`). `defines`: a
+    Mitsuba scene's $parameters (as --define)."""
     arguments = dict(locals())  # the call's arguments, before any other name is bound
     from ..scene.open import open_scene
     from ..session import Session

@@ -397,8 +397,8 @@ class Renderer:
         """Bands for a full-size film at rest: a pass over one band should take about
         REST_PASS_SECONDS, so that a camera change waits for no more (a pass is not interrupted)."""
         cost = self._cost.get((mode, False), self._cost.get((mode, True)))
-        if cost is None:
-            return 1
+        if cost is None or (mode == "path" and self.integrator == "bdpt"):
+            return 1  # bdpt: every band would trace the whole image's light subpaths (its splats)
         return max(1, min(h, MAX_BANDS, math.ceil(cost * w * h / REST_PASS_SECONDS)))
 
     def _step(self, job: _Job, moving: bool) -> int:
@@ -424,8 +424,9 @@ class Renderer:
                 _, _, y0, y1 = band.window
                 aovs = {name: array[y0:y1] for name, array in job.aovs.items()} if fill else None
                 info = self.session.add_samples(
-                    band, count, job.camera, mode=job.mode, seed=seed, threads=self.threads, aovs=aovs
-                )
+                    band, count, job.camera, mode=job.mode, seed=seed, threads=self.threads, aovs=aovs,
+                    integrator=self.integrator if job.mode == "path" else None,
+                )  # fmt: skip
                 rays, seconds = rays + info["rays"], seconds + info["render_seconds"]
                 self._warm.add(job.mode)
             job.aovs_filled = job.aovs is not None

@@ -129,3 +129,65 @@ def camera_sample(cam, filt, seed, i, j, s, total_spp, width, height):
         lu, lv = lens_sample(key, s, total_spp)
         o, d = thin_lens_ray(cam, o, d, lu, lv)
     return o, d, weight, key
+
+
+# --- the camera as bidirectional path tracing sees it: its importance, pbrt's PerspectiveCamera
+
+
+@inline_function
+def lens_area(cam):
+    """The lens's area (pi r^2); 1 for the pinhole, whose position pdf is a delta (pbrt)."""
+    r = cam[CAM_LENS_RADIUS]
+    return math.pi * r * r if r > 0.0 else 1.0
+
+
+@kernel_function
+def lens_point(cam, u1, u2):
+    """A point uniform on the lens (the camera's position for the pinhole), as thin_lens_ray
+    places it."""
+    o = (cam[CAM_POSITION], cam[CAM_POSITION + 1], cam[CAM_POSITION + 2])
+    radius = cam[CAM_LENS_RADIUS]
+    if radius <= 0.0:
+        return o
+    lx, ly = concentric_disk(u1, u2)
+    sx = lx * radius / cam[CAM_HALF_WIDTH]
+    sy = ly * radius / cam[CAM_HALF_HEIGHT]
+    return (
+        o[0] + cam[CAM_RIGHT] * sx + cam[CAM_UP] * sy,
+        o[1] + cam[CAM_RIGHT + 1] * sx + cam[CAM_UP + 1] * sy,
+        o[2] + cam[CAM_RIGHT + 2] * sx + cam[CAM_UP + 2] * sy,
+    )
+
+
+@kernel_function
+def camera_importance(cam, width, height, o, d):
+    """The camera's importance We of the ray leaving lens point o along the unit d, the
+    solid-angle pdf with which camera rays take that direction, and the image point (x, y) in
+    pixels the ray belongs to; We = 0 outside the image. As pbrt's PerspectiveCamera: with A
+    the image plane's area at distance 1 (2w x 2h), We = 1 / (A lens_area cos^4) and the pdf
+    1 / (A cos^3), cos the angle to the viewing axis, so that We integrates to 1 over the image."""
+    f = (cam[CAM_FORWARD], cam[CAM_FORWARD + 1], cam[CAM_FORWARD + 2])
+    cos_t = d[0] * f[0] + d[1] * f[1] + d[2] * f[2]
+    if not (cos_t > 0.0):
+        return 0.0, 0.0, -1.0, -1.0
+    # the pinhole direction of the point where the ray meets the plane in focus
+    pd = (d[0], d[1], d[2])
+    if cam[CAM_LENS_RADIUS] > 0.0:
+        t = cam[CAM_FOCUS_DISTANCE] / cos_t
+        pd = (
+            o[0] + d[0] * t - cam[CAM_POSITION],
+            o[1] + d[1] * t - cam[CAM_POSITION + 1],
+            o[2] + d[2] * t - cam[CAM_POSITION + 2],
+        )
+    w = cam[CAM_HALF_WIDTH]
+    h = cam[CAM_HALF_HEIGHT]
+    k = pd[0] * f[0] + pd[1] * f[1] + pd[2] * f[2]
+    a = (pd[0] * cam[CAM_RIGHT] + pd[1] * cam[CAM_RIGHT + 1] + pd[2] * cam[CAM_RIGHT + 2]) / (k * w * w)
+    b = (pd[0] * cam[CAM_UP] + pd[1] * cam[CAM_UP + 1] + pd[2] * cam[CAM_UP + 2]) / (k * h * h)
+    x = (a + 1.0) * 0.5 * width
+    y = (1.0 - b) * 0.5 * height
+    if not (x >= 0.0 and x < width and y >= 0.0 and y < height):
+        return 0.0, 0.0, -1.0, -1.0
+    area = 4.0 * w * h
+    cos2 = cos_t * cos_t
+    return 1.0 / (area * lens_area(cam) * cos2 * cos2), 1.0 / (area * cos2 * cos_t), x, y

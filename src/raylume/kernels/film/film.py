@@ -167,6 +167,7 @@ class Film:
         self.window = (x0, x1, y0, y1)
         self.total_spp = total_spp
         self.filter = filter_array(pixel_filter)
+        self.filter_name = pixel_filter
         signed = np.isfinite(self.filter[FILTER_NEGATIVE])
         shape = (y1 - y0, x1 - x0, FILM_SIGNED_WIDTH if signed else FILM_WIDTH)
         self.sums = np.empty(shape, dtype=np.float64)
@@ -175,6 +176,16 @@ class Film:
         self.sums.fill(0.0)
         self.spp = 0  # samples per pixel added so far
         self.rejected = 0  # samples dropped as NaN, infinite or negative (path mode)
+        # bidirectional path tracing's splats (splat.py): exact int64 sums, (h, w, 3, 2) flat
+        self.splats: np.ndarray | None = None
+        self.strategies: dict[str, int] = {}  # bdpt: samples that contributed per strategy "s,t"
+
+    def enable_splats(self) -> np.ndarray:
+        """The splat sums of the film's window (made zero on first use)."""
+        if self.splats is None:
+            x0, x1, y0, y1 = self.window
+            self.splats = np.zeros((y1 - y0) * (x1 - x0) * 6, dtype=np.int64)
+        return self.splats
 
     @property
     def kernel_window(self) -> tuple[int, int, int, int]:
@@ -193,11 +204,27 @@ class Film:
         constant image stays constant; negative results of the lobes are clipped to 0."""
         out = np.empty(self.sums.shape[:2] + (3,), dtype=np.float32)
         _film_rgb(self.sums, out)
+        if self.splats is not None:
+            h, w = self.sums.shape[:2]
+            both = out.astype(np.float64) + splat_image(self.splats.reshape(h, w, 3, 2), self.spp)
+            out = np.maximum(both, 0.0).astype(np.float32)
         return out
 
     @staticmethod
     def max_bytes_per_pixel() -> int:
         return 8 * FILM_SIGNED_WIDTH
+
+
+# bidirectional path tracing's splat sums (splat.py): hi in units of 2^-16, lo in 2^-48
+SPLAT_HI_SCALE = 65536.0  # 2^16
+SPLAT_LO_SCALE = 4294967296.0  # 2^32
+
+
+def splat_image(sums: np.ndarray, spp: int) -> np.ndarray:
+    """float64 (h, w, 3): splat sums (h, w, 3, 2) as radiance, divided by the samples per pixel taken."""
+    hi = sums[..., 0].astype(np.float64)
+    lo = sums[..., 1].astype(np.float64)
+    return (hi / SPLAT_HI_SCALE + lo / (SPLAT_HI_SCALE * SPLAT_LO_SCALE)) / max(spp, 1)
 
 
 # IEEE arithmetic (no fast-math), so the image is what the numpy expression it replaced gave,

@@ -24,6 +24,8 @@ from ..scene import emitters_of, environment_of, geometry_of, lights_of, media_o
 from ..shading.environment import environment_radiance
 from ..shading.materials import albedo, aov_albedo
 from ..vec import FAST, dot, inline_function, kernel_function, madd, mul
+from .bdpt import MAX_SEGMENTS, bdpt_sample
+from .bdpt_vertex import V_WIDTH, Context
 from .path import finite_sample, path_ray
 from .trace import RAY_WIDTH, stack_rows, trace_ray
 from .wavefront import wavefront_row, wavefront_scratch
@@ -347,3 +349,61 @@ def _primary_aovs_row(G, F, X, P, j, A, node_stack, t_stack):
                 normal[r, c0, c] = ns[c]
                 albedo_out[r, c0, c] = a[c]
     return x1 - x0
+
+
+@njit(**LANE)
+def bdpt_lane(S, X, P, film, C, bd):
+    """Bidirectional path-traced samples (bdpt.py) of the lane's rows: rows of the whole image,
+    since a light subpath of any pixel may land in the window (t = 1). Pixels in pass P's window
+    get every strategy in the film; the others only trace their light subpaths for the splats.
+    bd = (bounding sphere, splat sums, splat filter, strategy counts (lanes, n, n), strategy);
+    rays per (image) row into C.rays_per_row, refused samples into C.rejected."""
+    node_stack, t_stack = traversal_stacks()
+    G, F, Em = geometry_of(S), surfaces_of(S), emitters_of(S)
+    Env = environment_of(S)
+    bounds, splats, filt, counts, strategy = bd
+    Vc = np.zeros((MAX_SEGMENTS + 2, V_WIDTH))
+    Vl = np.zeros((MAX_SEGMENTS + 2, V_WIDTH))
+    saved = np.zeros((1, V_WIDTH))
+    ctx = Context(G, F, X, Em, Env, P.camera, bounds, P.width, P.height, P.background)
+    lane_counts = counts[C.lane]
+    while True:
+        j = claim_row(C.control, C.counter)
+        if j >= P.height or C.control[STOP] != 0:
+            break
+        rays, bad = _bdpt_row(ctx, P, j, film, Vc, Vl, saved, splats, filt, lane_counts, strategy, node_stack, t_stack)
+        C.rays_per_row[j] += rays
+        C.rejected[C.lane * PROGRESS_STRIDE] += bad
+        C.rows_done[C.lane * PROGRESS_STRIDE] += 1
+
+
+@kernel_function
+def _bdpt_row(ctx, P, j, film, Vc, Vl, saved, splats, filt, counts, strategy, node_stack, t_stack):
+    """Row j of the image: every pixel's samples of this pass (bdpt_sample), those in the window
+    into the film. Returns (rays traced, samples and splats refused)."""
+    cam, pixel_filter, width, height, window, samples, seed, max_depth, bg = P
+    first, count, total_spp = samples
+    x0, y0, x1, y1 = window
+    spread = cam[CAM_CONE_SPREAD]
+    row_inside = j >= y0 and j < y1
+    rays = 0
+    rejected = 0
+    for i in range(width):
+        inside = row_inside and i >= x0 and i < x1
+        total = pixel_sums(film, j - y0, i - x0) if inside else pixel_sums(film, 0, 0)
+        for s in range(first, first + count):
+            o, d, w, key = camera_sample(cam, pixel_filter, seed, i, j, s, total_spp, width, height)
+            col, used, refused = bdpt_sample(
+                ctx, Vc, Vl, saved, o, d, spread * obliquity(cam, d), key, inside, max_depth, strategy, splats,
+                window, filt, counts, node_stack, t_stack,
+            )  # fmt: skip
+            rays += used
+            rejected += refused
+            if inside:
+                if not finite_sample(col):
+                    rejected += 1
+                    col = (0.0, 0.0, 0.0)
+                total = add_sample(total, col, w)
+        if inside:
+            store_sums(film, j - y0, i - x0, total)
+    return rays, rejected

@@ -8,7 +8,8 @@ import math
 import numpy as np
 
 from ...film.sampler import uniform_sphere
-from ...vec import inline_function, row3
+from ...vec import inline_function, mul, row3
+from .sampling import disk_density, disk_origin
 from .table import LIGHT_INTENSITY, mean_intensity, scene_light_row
 
 NAME = "ambient"
@@ -40,3 +41,18 @@ def sample(G, X, Em, Env, e, p, u1, u2, key):
 @inline_function
 def pdf(G, X, Em, Env, e, p, wi, dist, n_hit, hit):
     return 0.25 / math.pi
+
+
+@inline_function
+def emit(G, X, Em, Env, e, u1, u2, u3, u4, key, B):
+    """Bidirectional: a direction towards the light uniform over the sphere, the ray from the
+    disk of the scene's bounding sphere facing it (pbrt): (origin, -, direction of travel,
+    radiance, 1 / (pi R^2), 1 / (4 pi), -1)."""
+    to_light = uniform_sphere(u1, u2)
+    p, pdf_pos = disk_origin(B, to_light, u3, u4)
+    return p, (0.0, 0.0, 0.0), mul(to_light, -1.0), row3(Em.data, e, LIGHT_INTENSITY), pdf_pos, 0.25 / math.pi, -1
+
+
+@inline_function
+def emit_pdf(G, X, Em, Env, e, p, n, w, hit, B):
+    return row3(Em.data, e, LIGHT_INTENSITY), disk_density(B), 0.25 / math.pi

@@ -6,7 +6,8 @@ import math
 import numpy as np
 
 from ...geometry.transform import unit_vector
-from ...vec import inline_function, row3
+from ...vec import inline_function, mul, row3
+from .sampling import disk_density, disk_origin
 from .table import (
     LIGHT_DIRECTION,
     LIGHT_INTENSITY,
@@ -53,3 +54,18 @@ def sample(G, X, Em, Env, e, p, u1, u2, key):
 @inline_function
 def pdf(G, X, Em, Env, e, p, wi, dist, n_hit, hit):
     return 0.0
+
+
+@inline_function
+def emit(G, X, Em, Env, e, u1, u2, u3, u4, key, B):
+    """Bidirectional: parallel rays from the disk of the scene's bounding sphere facing the
+    light (pbrt): (origin, -, direction of travel, irradiance, 1 / (pi R^2), 1 (a delta), -1)."""
+    to_light = row3(Em.data, e, LIGHT_DIRECTION)
+    p, pdf_pos = disk_origin(B, to_light, u1, u2)
+    return p, (0.0, 0.0, 0.0), mul(to_light, -1.0), row3(Em.data, e, LIGHT_INTENSITY), pdf_pos, 1.0, -1
+
+
+@inline_function
+def emit_pdf(G, X, Em, Env, e, p, n, w, hit, B):
+    """No direction but its own: direction pdf 0 (a delta), as pbrt's PDF_Le."""
+    return row3(Em.data, e, LIGHT_INTENSITY), disk_density(B), 0.0

@@ -4,8 +4,9 @@ Trace mode sees it only as what rays that hit nothing meet."""
 
 import math
 
-from ...vec import inline_function
-from ..environment import environment_pdf, sample_environment
+from ...vec import inline_function, mul
+from ..environment import environment_pdf, environment_radiance, sample_environment
+from .sampling import disk_density, disk_origin
 
 NAME = "environment"
 KIND = 7
@@ -31,3 +32,18 @@ def sample(G, X, Em, Env, e, p, u1, u2, key):
 @inline_function
 def pdf(G, X, Em, Env, e, p, wi, dist, n_hit, hit):
     return environment_pdf(Env, wi)
+
+
+@inline_function
+def emit(G, X, Em, Env, e, u1, u2, u3, u4, key, B):
+    """Bidirectional: a direction towards the light sampled as `sample` does, the ray from the
+    disk of the scene's bounding sphere facing it (pbrt)."""
+    to_light, radiance, pdf_dir = sample_environment(Env, u1, u2)
+    p, pdf_pos = disk_origin(B, to_light, u3, u4)
+    return p, (0.0, 0.0, 0.0), mul(to_light, -1.0), radiance, pdf_pos, pdf_dir, -1
+
+
+@inline_function
+def emit_pdf(G, X, Em, Env, e, p, n, w, hit, B):
+    to_light = mul(w, -1.0)
+    return environment_radiance(Env, to_light), disk_density(B), environment_pdf(Env, to_light)

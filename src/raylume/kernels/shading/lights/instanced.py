@@ -10,9 +10,9 @@ import math
 import numpy as np
 
 from ...film.sampler import key_uniform2, sub_key
-from ...geometry.shapes import PRIM_ROW, split_hit
+from ...geometry.shapes import INSTANCE_SHIFT, PRIM_ROW, split_hit
 from ...vec import cross, inline_function, kernel_function, last_at_most, length, madd, normalize, row3, sub
-from .sampling import area_pdf, towards_point
+from .sampling import area_pdf, cosine_two_sided, towards_point, two_sided_pdf
 from .table import EMIT_AREA, EMIT_PRIM, INST_CDF, INST_COUNT, LIGHT_INTENSITY, TRI_CDF, TRI_COUNT
 
 NAME = "instanced"
@@ -132,3 +132,33 @@ def pdf(G, X, Em, Env, e, p, wi, dist, n_hit, hit):
     k, i = split_hit(X, hit)
     area = instanced_area(Em.dist, Em.data, e, X.inverse, i, G.triangles, np.int64(G.prims[k, PRIM_ROW]))
     return area_pdf(p, madd(p, wi, dist), n_hit, area)
+
+
+@inline_function
+def emit(G, X, Em, Env, e, u1, u2, u3, u4, key, B):
+    """Bidirectional: a point of one of the mesh's instances, as `sample` picks it, and a
+    cosine direction on either side (two more uniforms from `key`)."""
+    q, n, inv_density = sample_point(Em.dist, Em.data, e, X.inverse, G.prims, G.triangles, u1, u2, u3, u4)
+    v1, v2 = key_uniform2(sub_key(key, 3))
+    w = cosine_two_sided(n, v1, v2)
+    # the hit of the point: its instance and triangle, for emit_pdf (as a ray finds them)
+    hit = _sampled_hit(Em.dist, Em.data, e, u3, u4)
+    return q, n, w, row3(Em.data, e, LIGHT_INTENSITY), 1.0 / inv_density, two_sided_pdf(n, w), hit
+
+
+@kernel_function
+def _sampled_hit(dist, data, e, u3, u4):
+    """The hit id (instance + 1) << 32 | primitive of sample_point's choice for u3, u4."""
+    n_inst = int(data[e, INST_COUNT])
+    first = int(data[e, INST_CDF])
+    slot = _pick(dist, first, n_inst, u3)
+    i = int(dist[first + n_inst + 1 + slot])
+    k = int(data[e, EMIT_PRIM]) + _pick(dist, int(data[e, TRI_CDF]), int(data[e, TRI_COUNT]), u4)
+    return ((np.int64(i) + 1) << INSTANCE_SHIFT) | np.int64(k)
+
+
+@inline_function
+def emit_pdf(G, X, Em, Env, e, p, n, w, hit, B):
+    k, i = split_hit(X, hit)
+    area = instanced_area(Em.dist, Em.data, e, X.inverse, i, G.triangles, np.int64(G.prims[k, PRIM_ROW]))
+    return row3(Em.data, e, LIGHT_INTENSITY), 1.0 / area, two_sided_pdf(n, w)

@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 
+from ...film.sampler import uniform_sphere
 from ...vec import inline_function, length, mul, row3, sub
 from .table import LIGHT_INTENSITY, LIGHT_POSITION, mean_intensity, scene_light_row
 
@@ -52,3 +53,25 @@ def sample(G, X, Em, Env, e, p, u1, u2, key):
 def pdf(G, X, Em, Env, e, p, wi, dist, n_hit, hit):
     """No direction a BSDF samples meets a point."""
     return 0.0
+
+
+@inline_function
+def emit(G, X, Em, Env, e, u1, u2, u3, u4, key, B):
+    """Bidirectional: light leaving the point, a direction uniform over the sphere: (point,
+    normal (none), direction, intensity, position pdf 1 (a delta), direction pdf, hit -1)."""
+    w = uniform_sphere(u1, u2)
+    return (
+        row3(Em.data, e, LIGHT_POSITION),
+        (0.0, 0.0, 0.0),
+        w,
+        row3(Em.data, e, LIGHT_INTENSITY),
+        1.0,
+        0.25 / math.pi,
+        -1,
+    )
+
+
+@inline_function
+def emit_pdf(G, X, Em, Env, e, p, n, w, hit, B):
+    """(intensity along w, position pdf, direction pdf) of emit's light along w."""
+    return row3(Em.data, e, LIGHT_INTENSITY), 1.0, 0.25 / math.pi

@@ -10,7 +10,7 @@ import numpy as np
 
 from ...geometry.shape_plane import intersect_plane
 from ...vec import cross, dot, inline_function, kernel_function, length, madd, mul, row3, sub
-from .sampling import area_pdf, towards_point
+from .sampling import area_pdf, cosine_two_sided, towards_point, two_sided_pdf
 from .table import (
     AREA_SHADOW_SHORTEN,
     LIGHT_INTENSITY,
@@ -96,3 +96,30 @@ def hit(Em, e, o, d, tmax):
     if abs(a) <= 0.5 and abs(b) <= 0.5:
         return t, mul(n, 1.0 / math.sqrt(nn))
     return INF, (0.0, 0.0, 1.0)
+
+
+@inline_function
+def emit(G, X, Em, Env, e, u1, u2, u3, u4, key, B):
+    """Bidirectional: a point uniform over the area, a cosine direction on either side."""
+    data = Em.data
+    u = row3(data, e, LIGHT_U)
+    v = row3(data, e, LIGHT_V)
+    q = madd(madd(row3(data, e, LIGHT_POSITION), u, u1 - 0.5), v, u2 - 0.5)
+    n = cross(u, v)
+    area = length(n)
+    n = mul(n, 1.0 / area)
+    w = cosine_two_sided(n, u3, u4)
+    return q, n, w, row3(data, e, LIGHT_INTENSITY), 1.0 / area, two_sided_pdf(n, w), -1
+
+
+@inline_function
+def emit_pdf(G, X, Em, Env, e, p, n, w, hit, B):
+    area = length(cross(row3(Em.data, e, LIGHT_U), row3(Em.data, e, LIGHT_V)))
+    return row3(Em.data, e, LIGHT_INTENSITY), 1.0 / area, two_sided_pdf(n, w)
+
+
+def bounds(row: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(lo, hi) corners of the box around the quad (bidirectional path tracing's bounding sphere)."""
+    c = row[LIGHT_POSITION : LIGHT_POSITION + 3]
+    half = 0.5 * (np.abs(row[LIGHT_U : LIGHT_U + 3]) + np.abs(row[LIGHT_V : LIGHT_V + 3]))
+    return c - half, c + half

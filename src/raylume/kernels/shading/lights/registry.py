@@ -4,7 +4,11 @@ KINDS is the registry: one module per kind, each defining NAME, KIND (its number
 table's kind column), its flags, `power` (host side, for path mode's light distribution; its
 arguments are the kind's own), and the kernel functions path mode calls, `sample` (a direction
 towards the light, its distance, the radiance arriving, the solid-angle pdf, delta) and `pdf`
-(that pdf for a direction a BSDF sample found, for MIS). The scene's own lights (SCENE_KINDS)
+(that pdf for a direction a BSDF sample found, for MIS), and for bidirectional path tracing's light
+subpaths `emit` (a point on the light, a direction leaving it, the radiance or intensity along it,
+the position and direction pdfs, as pbrt's SampleLe) and `emit_pdf` (those for a given point and
+direction, pbrt's PDF_Le; lights at infinity start from the disk of the scene's bounding sphere
+that faces them). The scene's own lights (SCENE_KINDS)
 also have `pack` (model light -> table row) and trace mode's `trace_sample` (a point on the
 light seen from a shading point, in the seed's units: the lecture's ComputeLighting).
 
@@ -21,6 +25,7 @@ import numpy as np
 from ...switch import kind_switch
 from ...vec import inline_function, kernel_function
 from . import ambient, directional, environment, instanced, point, quad, sphere, spot, surface
+from .sampling import NO_EMISSION
 
 KINDS = (ambient, point, directional, quad, sphere, spot, surface, environment, instanced)
 SCENE_KINDS = (ambient, point, directional, quad, sphere, spot)  # the scene's [[lights]] types
@@ -51,6 +56,15 @@ at_infinity = _flag("INFINITE")
 # path mode: emitter row e seen from p
 sample_light = kind_switch("sample", f"{_PATH}, u1, u2, key", "Em.kind[e]", KINDS, _NONE, inline_function)
 light_pdf = kind_switch("pdf", f"{_PATH}, wi, dist, n_hit, hit", "Em.kind[e]", KINDS, 0.0, kernel_function)
+# bidirectional path tracing: light leaving emitter row e (a point, its normal, a direction, the
+# radiance or intensity along it, the position and direction pdfs, the hit of the point), and
+# those for a given point and direction (B: the scene's bounding sphere, for lights at infinity)
+sample_emission = kind_switch(
+    "emit", "G, X, Em, Env, e, u1, u2, u3, u4, key, B", "Em.kind[e]", KINDS, NO_EMISSION, kernel_function
+)
+emission_pdf = kind_switch(
+    "emit_pdf", "G, X, Em, Env, e, p, n, w, hit, B", "Em.kind[e]", KINDS, ((0.0, 0.0, 0.0), 0.0, 0.0), kernel_function
+)
 visible_hit = kind_switch(
     "hit", "Em, e, o, d, tmax", "Em.kind[e]", [k for k in KINDS if k.VISIBLE], (np.inf, (0.0, 0.0, 1.0)),
     inline_function,
@@ -67,6 +81,13 @@ trace_area = kind_switch(
 trace_falloff = kind_switch(
     "trace_falloff", "L, k, l", "L.kind[k]", [k for k in SCENE_KINDS if k.FALLOFF], 1.0, inline_function
 )
+
+
+def visible_bounds(kind: int, row: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """(lo, hi) of the box around a light that rays see beside the BVH (its kind's `bounds`), or
+    None for a kind without one."""
+    module = next((k for k in KINDS if k.KIND == kind), None)
+    return module.bounds(row) if module is not None and hasattr(module, "bounds") else None
 
 
 def pack_light(light) -> tuple[int, np.ndarray]:

@@ -3,7 +3,7 @@ point sampled on a surface, the cone a sphere subtends, and the last step toward
 
 import math
 
-from ...film.sampler import uniform_sphere
+from ...film.sampler import concentric_disk, uniform_sphere
 from ...geometry.shape_sphere import intersect_sphere
 from ...vec import dot, inline_function, kernel_function, length, madd, mul, normalize, sub
 
@@ -81,3 +81,52 @@ def sphere_cone_pdf(centre, radius, p, wi, dist):
         return area_pdf(p, q, normalize(sub(q, centre)), 4.0 * math.pi * radius * radius)
     cos_max = math.sqrt(max(0.0, 1.0 - radius * radius / dist2))
     return 1.0 / (2.0 * math.pi * (1.0 - cos_max))
+
+
+# --- emission (bidirectional path tracing's light subpaths: each kind's `emit` / `emit_pdf`) ---
+
+
+@kernel_function
+def cosine_about(n, u1, u2):
+    """A direction about the unit n with density cos / pi (cos = its cosine with n)."""
+    r = math.sqrt(u1)
+    phi = 2.0 * math.pi * u2
+    z = math.sqrt(max(0.0, 1.0 - u1))
+    e1, e2 = basis(n)
+    return normalize(madd(madd(mul(n, z), e1, r * math.cos(phi)), e2, r * math.sin(phi)))
+
+
+@kernel_function
+def cosine_two_sided(n, u1, u2):
+    """A direction leaving a two-sided emitter of unit normal n: either side (u1 < 1/2: n's),
+    then cosine-distributed there; density |cos| / (2 pi)."""
+    if u1 < 0.5:
+        return cosine_about(n, 2.0 * u1, u2)
+    return cosine_about(mul(n, -1.0), min(2.0 * u1 - 1.0, 1.0), u2)
+
+
+@inline_function
+def two_sided_pdf(n, w):
+    """The density of cosine_two_sided's direction w."""
+    return abs(dot(n, w)) * (0.5 / math.pi)
+
+
+@kernel_function
+def disk_origin(B, to_light, u1, u2):
+    """The origin of a ray from a light at infinity seen along to_light: a point on the disk of
+    the scene's bounding sphere B = (centre x, y, z, radius) that faces the light, outside the
+    sphere (pbrt's planar sampling), and its density 1 / (pi R^2)."""
+    e1, e2 = basis(to_light)
+    a, b = concentric_disk(u1, u2)
+    r = B[3]
+    c = (B[0], B[1], B[2])
+    p = madd(madd(madd(c, to_light, r), e1, a * r), e2, b * r)
+    return p, 1.0 / (math.pi * r * r)
+
+
+@inline_function
+def disk_density(B):
+    return 1.0 / (math.pi * B[3] * B[3])
+
+
+NO_EMISSION = ((0.0, 0.0, 0.0), (0.0, 0.0, 1.0), (0.0, 0.0, 1.0), (0.0, 0.0, 0.0), 0.0, 0.0, -1)

@@ -7,10 +7,10 @@ import math
 
 import numpy as np
 
-from ...film.sampler import concentric_disk
+from ...film.sampler import concentric_disk, uniform_sphere
 from ...geometry.shape_sphere import intersect_sphere
 from ...vec import inline_function, kernel_function, length, madd, normalize, row3, sub
-from .sampling import basis, sphere_cone, sphere_cone_pdf
+from .sampling import basis, cosine_two_sided, sphere_cone, sphere_cone_pdf, two_sided_pdf
 from .table import (
     AREA_SHADOW_SHORTEN,
     LIGHT_INTENSITY,
@@ -77,3 +77,26 @@ def hit(Em, e, o, d, tmax):
     if t < tmax:
         return t, normalize(sub(madd(o, d, t), c))
     return INF, (0.0, 0.0, 1.0)
+
+
+@inline_function
+def emit(G, X, Em, Env, e, u1, u2, u3, u4, key, B):
+    """Bidirectional: a point uniform over the sphere, a cosine direction on either side (path
+    mode's rays see it from inside too)."""
+    n = uniform_sphere(u1, u2)
+    r = Em.data[e, LIGHT_RADIUS]
+    q = madd(row3(Em.data, e, LIGHT_POSITION), n, r)
+    w = cosine_two_sided(n, u3, u4)
+    return q, n, w, row3(Em.data, e, LIGHT_INTENSITY), 1.0 / (4.0 * math.pi * r * r), two_sided_pdf(n, w), -1
+
+
+@inline_function
+def emit_pdf(G, X, Em, Env, e, p, n, w, hit, B):
+    r = Em.data[e, LIGHT_RADIUS]
+    return row3(Em.data, e, LIGHT_INTENSITY), 1.0 / (4.0 * math.pi * r * r), two_sided_pdf(n, w)
+
+
+def bounds(row: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(lo, hi) corners of the box around the sphere (bidirectional path tracing's bounding sphere)."""
+    c = row[LIGHT_POSITION : LIGHT_POSITION + 3]
+    return c - row[LIGHT_RADIUS], c + row[LIGHT_RADIUS]

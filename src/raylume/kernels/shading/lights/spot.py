@@ -7,8 +7,9 @@ import math
 import numpy as np
 
 from ...geometry.transform import unit_vector
-from ...vec import inline_function, length, mul, row3, sub
+from ...vec import dot, inline_function, length, madd, mul, normalize, row3, sub
 from . import point
+from .sampling import basis
 from .table import (
     LIGHT_AXIS,
     LIGHT_COS_INNER,
@@ -86,3 +87,33 @@ def sample(G, X, Em, Env, e, p, u1, u2, key):
 @inline_function
 def pdf(G, X, Em, Env, e, p, wi, dist, n_hit, hit):
     return 0.0
+
+
+@inline_function
+def emit(G, X, Em, Env, e, u1, u2, u3, u4, key, B):
+    """Bidirectional: a direction uniform in the outer cone, the intensity times the falloff."""
+    data = Em.data
+    axis = row3(data, e, LIGHT_AXIS)
+    cos_outer = data[e, LIGHT_COS_OUTER]
+    cos_t = 1.0 - u1 * (1.0 - cos_outer)
+    sin_t = math.sqrt(max(0.0, 1.0 - cos_t * cos_t))
+    phi = 2.0 * math.pi * u2
+    e1, e2 = basis(axis)
+    w = normalize(madd(madd(mul(axis, cos_t), e1, sin_t * math.cos(phi)), e2, sin_t * math.sin(phi)))
+    le = mul(row3(data, e, LIGHT_INTENSITY), falloff(data, e, mul(w, -1.0)))
+    return row3(data, e, LIGHT_POSITION), (0.0, 0.0, 0.0), w, le, 1.0, _cone_pdf(cos_outer), -1
+
+
+@inline_function
+def _cone_pdf(cos_outer):
+    return 1.0 / (2.0 * math.pi * max(1.0 - cos_outer, 1e-12))
+
+
+@inline_function
+def emit_pdf(G, X, Em, Env, e, p, n, w, hit, B):
+    data = Em.data
+    cos_t = dot(w, row3(data, e, LIGHT_AXIS))
+    if cos_t < data[e, LIGHT_COS_OUTER]:
+        return (0.0, 0.0, 0.0), 1.0, 0.0
+    le = mul(row3(data, e, LIGHT_INTENSITY), falloff(data, e, mul(w, -1.0)))
+    return le, 1.0, _cone_pdf(data[e, LIGHT_COS_OUTER])

@@ -9,11 +9,19 @@ import math
 
 import numpy as np
 
+from ...film.sampler import uniform_sphere
 from ...geometry import shape_sphere
 from ...geometry.shapes import PRIM_KIND, PRIM_ROW, sample_surface
 from ...geometry.shapes import SPHERE as SHAPE_SPHERE
 from ...vec import inline_function, madd, row3
-from .sampling import area_pdf, sphere_cone, sphere_cone_pdf, towards_point
+from .sampling import (
+    area_pdf,
+    cosine_two_sided,
+    sphere_cone,
+    sphere_cone_pdf,
+    towards_point,
+    two_sided_pdf,
+)
 from .table import EMIT_AREA, EMIT_PRIM, LIGHT_INTENSITY
 
 NAME = "surface"
@@ -56,3 +64,29 @@ def pdf(G, X, Em, Env, e, p, wi, dist, n_hit, hit):
             row3(G.shapes, row, shape_sphere.CENTER), G.shapes[row, shape_sphere.RADIUS], p, wi, dist
         )
     return area_pdf(p, madd(p, wi, dist), n_hit, data[e, EMIT_AREA])
+
+
+@inline_function
+def emit(G, X, Em, Env, e, u1, u2, u3, u4, key, B):
+    """Bidirectional: a point uniform over the primitive and a cosine direction on either side
+    (spheres too: path mode sees their emission from inside as well)."""
+    data = Em.data
+    k = int(data[e, EMIT_PRIM])
+    radiance = row3(data, e, LIGHT_INTENSITY)
+    pdf_pos = 1.0 / data[e, EMIT_AREA]
+    if G.prims[k, PRIM_KIND] == SHAPE_SPHERE:
+        row = np.int64(G.prims[k, PRIM_ROW])
+        n = uniform_sphere(u1, u2)
+        q = madd(row3(G.shapes, row, shape_sphere.CENTER), n, G.shapes[row, shape_sphere.RADIUS])
+        w = cosine_two_sided(n, u3, u4)
+        return q, n, w, radiance, pdf_pos, two_sided_pdf(n, w), np.int64(k)
+    q, n = sample_surface(G, k, u1, u2)
+    w = cosine_two_sided(n, u3, u4)
+    return q, n, w, radiance, pdf_pos, two_sided_pdf(n, w), np.int64(k)
+
+
+@inline_function
+def emit_pdf(G, X, Em, Env, e, p, n, w, hit, B):
+    data = Em.data
+    pdf_pos = 1.0 / data[e, EMIT_AREA]
+    return row3(data, e, LIGHT_INTENSITY), pdf_pos, two_sided_pdf(n, w)

@@ -13,7 +13,7 @@ from ...switch import kind_switch
 from ...vec import inline_function, kernel_function, mul
 from . import conductor, dielectric, diffuse, null, phong, plastic
 from .lobes import EVALUATE, FAILED, ZERO
-from .table import MAT_KIND, MAT_REFLECTIVE, MAT_SPECULAR, MAT_TRANSPARENCY
+from .table import MAT_IOR, MAT_KIND, MAT_REFLECTIVE, MAT_SPECULAR, MAT_TRANSPARENCY
 
 KINDS = (phong, diffuse, conductor, dielectric, plastic, null)
 BY_NAME = {kind.NAME: kind for kind in KINDS}
@@ -60,6 +60,20 @@ def bsdf_sample(mat, m, color, wo, u0, u1, u2):
     if not (w[0] - w[0] == 0.0 and w[1] - w[1] == 0.0 and w[2] - w[2] == 0.0):
         return FAILED
     return wi, w, pdf, False
+
+
+@inline_function
+def importance_delta_weight(mat, m, wo, wi, weight):
+    """The weight of a delta sample (wi from wo, as `bsdf_sample` gave it) for importance, as a
+    light subpath carries it (pbrt's TransportMode::Importance): a delta refraction's weight
+    loses the radiance factor (n_wo / n_wi)^2 that radiance transport has (lobes.py); every
+    other delta lobe (mirrors, the null boundary of index 1) is the same both ways. Kinds that
+    refract keep their index in MAT_IOR (the null boundary 1)."""
+    if (wo[2] > 0.0) == (wi[2] > 0.0):
+        return weight
+    ior = mat[m, MAT_IOR]
+    ratio = 1.0 / ior if wo[2] > 0.0 else ior  # n on wo's side / n on wi's side
+    return mul(weight, 1.0 / (ratio * ratio))
 
 
 def pack_material(mat, row) -> None:

@@ -1,0 +1,325 @@
+"""Bidirectional path tracing (`integrator = "bdpt"`): Veach's thesis, chapter 10, as pbrt-v4's
+BDPTIntegrator computes it.
+
+Every camera sample traces a camera subpath and a light subpath (bdpt_walk.py) and connects
+them by every strategy (s light vertices, t camera vertices) with s + t - 1 segments up to
+max_depth: s = 0 (the camera subpath meets a light by itself), s = 1 (a point on a light picked
+by power, a shadow ray), t = 1 (the light subpath's vertices seen by the camera: a splat on the
+film wherever they land, splat.py) and the connections between the two. Each is weighted by the
+balance heuristic over the strategies that could have made the same path (bdpt_mis.py), so the
+estimate is unbiased and converges to path mode's image.
+
+max_depth counts segments, as path mode (-1: unlimited, Russian roulette from segment 5, at most
+MAX_SEGMENTS). A strategy switch (RAYLUME_BDPT_STRATEGY="s,t", with or without MIS) renders one
+strategy alone, for tests."""
+
+import math
+
+import numpy as np
+
+from ..film.camera import CAM_FORWARD, camera_importance, lens_area, lens_point
+from ..film.sampler import dimension_key, key_uniform2, sub_key
+from ..film.splat import splat
+from ..geometry.shapes import offset_epsilon
+from ..geometry.traverse import any_hit
+from ..shading.lights import (
+    LIGHT_INTENSITY,
+    SHADOW_SHORTEN,
+    at_infinity,
+    emission_pdf,
+    environment_light,
+    is_delta,
+    pick_emitter,
+    sample_emission,
+)
+from ..shading.lights.registry import visible_hit
+from ..shading.materials import MAT_EMISSION, beer_lambert, two_sided
+from ..vec import add, dot, hadamard, kernel_function, madd, mul, row3
+from .bdpt_mis import mis_weight
+from .bdpt_vertex import (
+    CAMERA,
+    F_DELTA_LIGHT,
+    F_EMISSIVE,
+    F_INFINITE,
+    F_ON_SURFACE,
+    LIGHT,
+    SURFACE,
+    V_BETA,
+    V_DIR,
+    V_E,
+    V_M,
+    V_NG,
+    V_NS,
+    V_P,
+    V_PDF_FWD,
+    V_WIDTH,
+    connectible,
+    has_flag,
+    is_light,
+    kind_of,
+    pdf_light_origin,
+    put_vertex,
+    toward,
+    vertex_f,
+)
+from .bdpt_walk import camera_subpath, light_subpath
+
+INF = math.inf
+MAX_SEGMENTS = 64  # unlimited max_depth: subpaths end by Russian roulette, or here
+DIM_CONNECT_LIGHT = np.uint64(0x5A3D11E1)  # s = 1: the light point of each camera vertex
+DIM_CONNECT_LENS = np.uint64(0x1E25C0DE)  # t = 1: the lens point of each light vertex
+ZERO = (0.0, 0.0, 0.0)
+SAVED = 0  # the scratch row where a subpath's vertex waits while a sampled one takes its place
+
+
+@kernel_function
+def _nonzero(c):
+    return c[0] > 0.0 or c[1] > 0.0 or c[2] > 0.0
+
+
+@kernel_function
+def _visible(C, A, i, B, k, w, d2, node_stack, t_stack):
+    """Is the segment from A[i] towards B[k] (unit w, squared length d2, inf: to infinity) clear?
+    Offsets from surfaces as path mode's shadow rays; the far end shortened by SHADOW_SHORTEN."""
+    o = row3(A, i, V_P)
+    if kind_of(A, i) == SURFACE or has_flag(A, i, F_ON_SURFACE):
+        ng = row3(A, i, V_NG)
+        eps = offset_epsilon(C.F.epsilon_floor, o)
+        o = madd(o, ng, eps if dot(w, ng) > 0.0 else -eps)
+    tmax = math.sqrt(d2) * (1.0 - SHADOW_SHORTEN) if d2 < INF else INF
+    return not any_hit(C.G, C.X, o, w, 0.0, tmax, node_stack, t_stack)
+
+
+@kernel_function
+def _self_hidden(C, A, i, e, w, d2):
+    """Does area light e, which is not in the BVH (quad and sphere lights), hide its own point
+    at squared distance d2 along w from A[i] (the far side of a sphere light)?"""
+    if e >= C.Em.n_area or not (d2 < INF):
+        return False
+    t, _ = visible_hit(C.Em, e, row3(A, i, V_P), w, math.sqrt(d2) * (1.0 - 1e-6))
+    return t < INF
+
+
+@kernel_function
+def _into(C, A, i, w, d2):
+    """Does a connection leave surface vertex A[i] along w into a dielectric's inside?"""
+    if kind_of(A, i) != SURFACE or not (d2 < INF):
+        return False
+    return not two_sided(C.F.materials, int(A[i, V_M])) and dot(w, row3(A, i, V_NG)) < 0.0
+
+
+@kernel_function
+def _absorbed(C, A, i, w, d2, value):
+    """value attenuated over a connection that leaves A[i] along w into a dielectric's inside
+    (Beer-Lambert, as path mode's segments inside one)."""
+    if not _into(C, A, i, w, d2):
+        return value
+    return beer_lambert(C.F.materials, int(A[i, V_M]), value, math.sqrt(d2))
+
+
+@kernel_function
+def _emitted(C, Vc, pt):
+    """Radiance that camera vertex Vc[pt], a light, sends back along its subpath (s = 0)."""
+    if kind_of(Vc, pt) == LIGHT:
+        if has_flag(Vc, pt, F_INFINITE):
+            d = row3(Vc, pt, V_DIR)
+            le = environment_light(C.Env, d)
+            if C.Em.ambient_row >= 0:
+                le = add(le, row3(C.Em.data, C.Em.ambient_row, LIGHT_INTENSITY))
+            return le
+        return row3(C.Em.data, int(Vc[pt, V_E]), LIGHT_INTENSITY)
+    if has_flag(Vc, pt, F_EMISSIVE):
+        return row3(C.F.materials, int(Vc[pt, V_M]), MAT_EMISSION)
+    return ZERO
+
+
+@kernel_function
+def _copy_row(A, i, B, k):
+    for c in range(V_WIDTH):
+        B[k, c] = A[i, c]
+
+
+@kernel_function
+def connect(C, Vc, Vl, saved, s, t, key, mis, node_stack, t_stack):
+    """Strategy (s, t >= 2): (radiance for the pixel, rays traced)."""
+    pt = t - 1
+    if s > 0 and kind_of(Vc, pt) == LIGHT:
+        return ZERO, 0
+    beta_c = row3(Vc, pt, V_BETA)
+    if s == 0:
+        if not is_light(Vc, pt):
+            return ZERO, 0
+        value = hadamard(beta_c, _emitted(C, Vc, pt))
+        if not _nonzero(value):
+            return ZERO, 0
+        if not mis:
+            return value, 0
+        if kind_of(Vc, pt) == SURFACE and Vc[pt, V_E] < 0:
+            return value, 0  # an emitter no light strategy samples: only s = 0 finds it
+        return mul(value, mis_weight(C, Vc, Vl, 0, t)), 0
+    if not connectible(C.F, Vc, pt):
+        return ZERO, 0
+    if s == 1:
+        return _connect_light(C, Vc, Vl, saved, t, key, mis, node_stack, t_stack)
+    qs = s - 1
+    if not connectible(C.F, Vl, qs):
+        return ZERO, 0
+    w, d2 = toward(Vc, pt, Vl, qs)
+    if not (d2 > 0.0):
+        return ZERO, 0
+    f_c = vertex_f(C.F, Vc, pt, w, False)
+    if not _nonzero(f_c):
+        return ZERO, 0
+    f_l = vertex_f(C.F, Vl, qs, mul(w, -1.0), True)
+    g = abs(dot(row3(Vc, pt, V_NS), w)) * abs(dot(row3(Vl, qs, V_NS), w)) / d2
+    value = mul(hadamard(hadamard(beta_c, f_c), hadamard(f_l, row3(Vl, qs, V_BETA))), g)
+    if not _nonzero(value):
+        return ZERO, 0
+    if not _visible(C, Vc, pt, Vl, qs, w, d2, node_stack, t_stack):
+        return ZERO, 1
+    # a segment inside a dielectric: both its ends are on the inside; absorb once
+    if _into(C, Vl, qs, mul(w, -1.0), d2):
+        value = _absorbed(C, Vl, qs, mul(w, -1.0), d2, value)
+    else:
+        value = _absorbed(C, Vc, pt, w, d2, value)
+    if mis:
+        value = mul(value, mis_weight(C, Vc, Vl, s, t))
+    return value, 1
+
+
+@kernel_function
+def _connect_light(C, Vc, Vl, saved, t, key, mis, node_stack, t_stack):
+    """Strategy (1, t): a point on a light (picked by power, placed as a light subpath's first
+    vertex would be: each kind's `emit`) joined to camera vertex t - 1."""
+    G, F, X, Em, Env = C.G, C.F, C.X, C.Em, C.Env
+    if not (Em.cdf[Em.cdf.shape[0] - 1] > 0.0):
+        return ZERO, 0
+    pt = t - 1
+    k = dimension_key(key, DIM_CONNECT_LIGHT, t)
+    u_pick, _ = key_uniform2(k)
+    u1, u2 = key_uniform2(sub_key(k, 1))
+    u3, u4 = key_uniform2(sub_key(k, 2))
+    e, p_pick = pick_emitter(Em.cdf, u_pick)
+    p, n, w_emit, le, pdf_pos, pdf_dir, hit = sample_emission(G, X, Em, Env, e, u1, u2, u3, u4, k, C.B)
+    kind = Em.kind[e]
+    infinite = at_infinity(kind)
+    delta = is_delta(kind)
+    surface_point = not infinite and not delta
+    flags = (F_INFINITE if infinite else 0) | (F_DELTA_LIGHT if delta else 0) | (F_ON_SURFACE if surface_point else 0)
+    _copy_row(Vl, 0, saved, SAVED)
+    put_vertex(Vl, 0, LIGHT, p, n, n, w_emit, le, 0.0, -1, e, ZERO, hit, flags)
+    if infinite:
+        for c in range(3):
+            Vl[0, V_DIR + c] = -w_emit[c]
+    value = ZERO
+    rays = 0
+    w, d2 = toward(Vc, pt, Vl, 0)
+    if infinite:
+        ok = pdf_dir > 0.0 and p_pick > 0.0
+        light = mul(le, 1.0 / (p_pick * pdf_dir)) if ok else ZERO
+    else:
+        ok = d2 > 0.0 and pdf_pos > 0.0 and p_pick > 0.0
+        light = ZERO
+        if ok:
+            le, _, _ = emission_pdf(G, X, Em, Env, e, p, n, mul(w, -1.0), hit, C.B)
+            cos_l = abs(dot(n, w)) if surface_point else 1.0
+            light = mul(le, cos_l / (p_pick * pdf_pos * d2))
+    if ok and _nonzero(light):
+        f = vertex_f(F, Vc, pt, w, False)
+        value = hadamard(hadamard(row3(Vc, pt, V_BETA), f), mul(light, abs(dot(row3(Vc, pt, V_NS), w))))
+        if _nonzero(value):
+            rays = 1
+            if _visible(C, Vc, pt, Vl, 0, w, d2, node_stack, t_stack) and not _self_hidden(C, Vc, pt, e, w, d2):
+                value = _absorbed(C, Vc, pt, w, d2, value)
+                if mis:
+                    Vl[0, V_PDF_FWD] = pdf_light_origin(C, Vl, 0, Vc, pt)
+                    value = mul(value, mis_weight(C, Vc, Vl, 1, t))
+            else:
+                value = ZERO
+    _copy_row(saved, SAVED, Vl, 0)
+    return value, rays
+
+
+@kernel_function
+def connect_camera(C, Vc, Vl, saved, s, key, mis, node_stack, t_stack):
+    """Strategy (s >= 2, 1): light vertex s - 1 seen from a point on the lens. Returns (the
+    value to splat, image x, y, rays traced); value 0 when it reaches no pixel."""
+    qs = s - 1
+    if not connectible(C.F, Vl, qs):
+        return ZERO, -1.0, -1.0, 0
+    cam = C.cam
+    k = dimension_key(key, DIM_CONNECT_LENS, s)
+    u1, u2 = key_uniform2(k)
+    pl = lens_point(cam, u1, u2)
+    f_axis = (cam[CAM_FORWARD], cam[CAM_FORWARD + 1], cam[CAM_FORWARD + 2])
+    _copy_row(Vc, 0, saved, SAVED)
+    put_vertex(Vc, 0, CAMERA, pl, f_axis, f_axis, f_axis, (1.0, 1.0, 1.0), 1.0, -1, -1, ZERO, -1, 0)
+    w, d2 = toward(Vl, qs, Vc, 0)  # from the light vertex towards the lens
+    value = ZERO
+    x = -1.0
+    y = -1.0
+    rays = 0
+    if d2 > 0.0:
+        we, _, x, y = camera_importance(cam, C.width, C.height, pl, mul(w, -1.0))
+        cos_lens = abs(dot(f_axis, w))
+        if we > 0.0 and cos_lens > 0.0:
+            # the lens point's solid-angle density seen from the vertex: d2 / (cos lens_area)
+            beta_cam = we * cos_lens * lens_area(cam) / d2
+            f = vertex_f(C.F, Vl, qs, w, True)
+            value = mul(hadamard(row3(Vl, qs, V_BETA), f), abs(dot(row3(Vl, qs, V_NS), w)) * beta_cam)
+            if _nonzero(value):
+                rays = 1
+                for c in range(3):
+                    Vc[0, V_BETA + c] = beta_cam
+                if _visible(C, Vl, qs, Vc, 0, w, d2, node_stack, t_stack):
+                    value = _absorbed(C, Vl, qs, w, d2, value)
+                    if mis:
+                        value = mul(value, mis_weight(C, Vc, Vl, s, 1))
+                else:
+                    value = ZERO
+    _copy_row(saved, SAVED, Vc, 0)
+    return value, x, y, rays
+
+
+@kernel_function
+def bdpt_sample(
+    C, Vc, Vl, saved, o, d, spread, key, inside, depth, strategy, splats, window, filt, counts, node_stack, t_stack
+):
+    """One camera sample: its light subpath, splatted where the camera sees it (t = 1), and
+    when the pixel is in the window (`inside`) its camera subpath and every other strategy.
+    Returns (radiance for the pixel, rays traced, splats refused as not finite)."""
+    most = depth if depth >= 0 else MAX_SEGMENTS
+    s_only, t_only, mis_flag = strategy
+    mis = mis_flag != 0
+    n_light, rays = light_subpath(C, Vl, most, key, node_stack, t_stack)
+    refused = 0
+    for s in range(2, min(n_light, most) + 1):
+        if s_only >= 0 and not (s == s_only and t_only == 1):
+            continue
+        value, x, y, used = connect_camera(C, Vc, Vl, saved, s, key, mis, node_stack, t_stack)
+        rays += used
+        if _nonzero(value):
+            if splat(splats, window, filt, x, y, value):
+                counts[s, 1] += 1
+            else:
+                refused += 1
+    L = ZERO
+    if not inside:
+        return L, rays, refused
+    n_camera, used, backdrop = camera_subpath(C, Vc, most, o, d, spread, key, node_stack, t_stack)
+    rays += used
+    if backdrop and (s_only < 0 or (s_only == 0 and t_only == 2)):
+        L = C.background
+    for t in range(2, n_camera + 1):
+        for s in range(0, n_light + 1):
+            segments = s + t - 1
+            if segments > most:
+                break
+            if s_only >= 0 and not (s == s_only and t == t_only):
+                continue
+            value, used = connect(C, Vc, Vl, saved, s, t, key, mis, node_stack, t_stack)
+            rays += used
+            if _nonzero(value):
+                counts[s, t] += 1
+                L = add(L, value)
+    return L, rays, refused

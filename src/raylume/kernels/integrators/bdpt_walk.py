@@ -1,0 +1,229 @@
+"""Bidirectional path tracing's subpaths: the random walk from the camera (radiance) or from a
+light (importance), as pbrt-v4's GenerateCameraSubpath, GenerateLightSubpath and RandomWalk.
+
+Each vertex records its forward density (area measure; solid angle towards a light at infinity)
+and, once the walk leaves it, the reverse density of the vertex before it. The walk shades as
+path mode does (path.py): the same shading frame, two-sided rules, Beer-Lambert absorption
+inside dielectrics, area lights (quad, sphere lights) that end a ray, and Russian roulette from
+segment RR_DEPTH on (its 1 / q is in the throughput, not in the MIS densities: the weights stay a
+partition of unity, each strategy stays unbiased). Random numbers: the camera walk's BSDF samples
+from path mode's BSDF dimension, the light walk's from a dimension of its own, both keyed by the
+vertex's number along its subpath."""
+
+import math
+
+import numpy as np
+
+from ..film.camera import CAM_FORWARD, camera_importance
+from ..film.sampler import DIM_BSDF, dimension_key, key_uniform2, sub_key
+from ..geometry.shapes import NO_HIT, PRIM_LIGHT, offset_epsilon, split_hit, surface
+from ..geometry.traverse import closest_hit
+from ..shading.lights import at_infinity, hit_area_lights, is_delta, pick_emitter, sample_emission
+from ..shading.lights.sampling import basis
+from ..shading.materials import (
+    MAT_EMISSION,
+    albedo,
+    beer_lambert,
+    bsdf_eval,
+    bsdf_sample,
+    importance_delta_weight,
+    two_sided,
+)
+from ..vec import dot, hadamard, kernel_function, madd, mul, row3
+from .bdpt_vertex import (
+    CAMERA,
+    F_DELTA_LIGHT,
+    F_EMISSIVE,
+    F_INFINITE,
+    F_ON_SURFACE,
+    LIGHT,
+    SURFACE,
+    UNION,
+    V_DELTA,
+    V_DIR,
+    V_NG,
+    V_PDF_FWD,
+    V_PDF_REV,
+    convert_density,
+    infinite_density,
+    put_vertex,
+    shading_correction,
+)
+
+INF = math.inf
+RR_DEPTH = 5  # as path mode: Russian roulette from this many segments on
+DIM_EMIT = np.uint64(0xE3177E47)  # the light subpath's emitter, point and direction
+DIM_LIGHT_WALK = np.uint64(0x11647A1C)  # its BSDF samples
+DIM_WALK_ROULETTE = np.uint64(0x2077E11E)
+ZERO = (0.0, 0.0, 0.0)
+ONE = (1.0, 1.0, 1.0)
+
+
+@kernel_function
+def random_walk(C, V, start, o, d, beta, pdf_dir, most, importance, key, dim, spread, node_stack, t_stack):
+    """Extend subpath V (vertex start - 1 made, the ray (o, d) leaving it with solid-angle
+    density pdf_dir) by at most `most` vertices. Returns (vertices made, rays traced, the camera
+    ray left the scene with no light at infinity to meet: the backdrop)."""
+    G, F, X, Em, Env = C.G, C.F, C.X, C.Em, C.Env
+    mat = F.materials
+    pdf_fwd = pdf_dir
+    made = 0
+    rays = 0
+    walk = 1.0  # the walk's own throughput (BSDF weights), for Russian roulette
+    cone = 0.0
+    infinite_lights = Em.ambient_row >= 0 or Env.present
+    while made < most:
+        i = start + made
+        prev = i - 1
+        t, prim, b1, b2 = closest_hit(G, X, o, d, 0.0, INF, node_stack, t_stack)
+        rays += 1
+        if Em.n_area > 0:
+            tl, e, nl = hit_area_lights(Em, o, d, t)
+            if e >= 0:  # an area light ends the ray; a camera subpath keeps it as a light vertex
+                if not importance:
+                    put_vertex(
+                        V, i, LIGHT, madd(o, d, tl), nl, nl, mul(d, -1.0), beta, 0.0, -1, e, ZERO, NO_HIT, F_ON_SURFACE
+                    )
+                    V[i, V_PDF_FWD] = convert_density(pdf_fwd, V, prev, V, i)
+                    made += 1
+                break
+        if prim == NO_HIT:
+            if importance:
+                break
+            if not infinite_lights:
+                return made, rays, i == 1
+            put_vertex(V, i, LIGHT, o, d, d, mul(d, -1.0), beta, pdf_fwd, -1, UNION, ZERO, NO_HIT, F_INFINITE)
+            for c in range(3):
+                V[i, V_DIR + c] = d[c]
+            made += 1
+            break
+        p = madd(o, d, t)
+        ng, ns, m, obj, face = surface(G, X, prim, b1, b2, p)
+        entering = dot(ng, d) < 0.0
+        if not entering:
+            beta = beer_lambert(mat, m, beta, t)
+        cone += spread * t
+        colour = albedo(G, F, X, m, prim, b1, b2, p, d, ng, cone)
+        flags = 0
+        e = -1
+        if not importance:
+            emission = row3(mat, m, MAT_EMISSION)
+            if emission[0] > 0.0 or emission[1] > 0.0 or emission[2] > 0.0:
+                k, _ = split_hit(X, prim)
+                flags = F_EMISSIVE
+                e = np.int64(G.prims[k, PRIM_LIGHT])
+        put_vertex(V, i, SURFACE, p, ng, ns, mul(d, -1.0), beta, 0.0, m, e, colour, prim, flags)
+        V[i, V_PDF_FWD] = convert_density(pdf_fwd, V, prev, V, i)
+        made += 1
+        if made >= most:
+            break
+        # the shading frame as path mode makes it
+        two = two_sided(mat, m)
+        if two and not entering:
+            ng = mul(ng, -1.0)
+            ns = mul(ns, -1.0)
+        if dot(ns, ng) <= 0.0:
+            ns = ng
+        s_axis, t_axis = basis(ns)
+        wo_w = mul(d, -1.0)
+        wo = (dot(wo_w, s_axis), dot(wo_w, t_axis), dot(wo_w, ns))
+        k2 = dimension_key(key, dim, i)
+        u0, u1 = key_uniform2(k2)
+        u2, _ = key_uniform2(sub_key(k2, 1))
+        wi, weight, pdf, delta = bsdf_sample(mat, m, colour, wo, u0, u1, u2)
+        if not (pdf > 0.0) or not (weight[0] > 0.0 or weight[1] > 0.0 or weight[2] > 0.0):
+            break
+        wi_w = (
+            s_axis[0] * wi[0] + t_axis[0] * wi[1] + ns[0] * wi[2],
+            s_axis[1] * wi[0] + t_axis[1] * wi[1] + ns[1] * wi[2],
+            s_axis[2] * wi[0] + t_axis[2] * wi[1] + ns[2] * wi[2],
+        )
+        up = dot(wi_w, ng) > 0.0
+        if two and not up:
+            break  # a shading normal sent the path through the surface
+        if delta:
+            pdf_fwd = 0.0
+            pdf_rev = 0.0
+            V[i, V_DELTA] = 1.0
+            if importance:
+                weight = importance_delta_weight(mat, m, wo, wi, weight)
+        else:
+            pdf_fwd = pdf
+            f_rev, pdf_rev = bsdf_eval(mat, m, colour, wi, wo)
+            if importance:  # the adjoint BSDF: light goes on from wo's side to wi's
+                weight = mul(f_rev, abs(wi[2]) / pdf)
+        if importance:
+            weight = mul(weight, shading_correction(ng, ns, wo_w, wi_w))
+        beta = hadamard(beta, weight)
+        walk *= max(weight[0], weight[1], weight[2])
+        V[prev, V_PDF_REV] = convert_density(pdf_rev, V, i, V, prev)
+        eps = offset_epsilon(F.epsilon_floor, p)
+        o = madd(p, ng, eps if up else -eps)
+        d = wi_w
+        if i >= RR_DEPTH:
+            q = min(walk, 0.95)
+            u_rr, _ = key_uniform2(dimension_key(key, DIM_WALK_ROULETTE ^ dim, i))
+            if not (u_rr < q):
+                break
+            beta = mul(beta, 1.0 / q)
+            walk /= q
+    return made, rays, False
+
+
+@kernel_function
+def camera_subpath(C, Vc, most, o, d, spread, key, node_stack, t_stack):
+    """The camera subpath of the camera ray (o, d): the lens point, then at most `most`
+    vertices. Returns (vertices, rays, backdrop)."""
+    cam = C.cam
+    f = (cam[CAM_FORWARD], cam[CAM_FORWARD + 1], cam[CAM_FORWARD + 2])
+    put_vertex(Vc, 0, CAMERA, o, f, f, f, ONE, 1.0, -1, -1, ZERO, NO_HIT, 0)
+    _, pdf_dir, _, _ = camera_importance(cam, C.width, C.height, o, d)
+    made, rays, backdrop = random_walk(
+        C, Vc, 1, o, d, ONE, pdf_dir, most, False, key, DIM_BSDF, spread, node_stack, t_stack
+    )
+    return made + 1, rays, backdrop
+
+
+@kernel_function
+def light_subpath(C, Vl, most, key, node_stack, t_stack):
+    """The light subpath of a camera sample: a point on a light picked by power and a direction
+    leaving it (each kind's `emit`), then at most most - 1 more vertices. Returns (vertices, rays)."""
+    G, F, X, Em, Env = C.G, C.F, C.X, C.Em, C.Env
+    if most < 1 or not (Em.cdf[Em.cdf.shape[0] - 1] > 0.0):
+        return 0, 0
+    k = dimension_key(key, DIM_EMIT, 0)
+    u_pick, _ = key_uniform2(k)
+    u1, u2 = key_uniform2(sub_key(k, 1))
+    u3, u4 = key_uniform2(sub_key(k, 2))
+    e, p_pick = pick_emitter(Em.cdf, u_pick)
+    p, n, w, le, pdf_pos, pdf_dir, hit = sample_emission(G, X, Em, Env, e, u1, u2, u3, u4, k, C.B)
+    if not (pdf_pos > 0.0 and pdf_dir > 0.0 and p_pick > 0.0) or not (le[0] > 0.0 or le[1] > 0.0 or le[2] > 0.0):
+        return 0, 0
+    kind = Em.kind[e]
+    infinite = at_infinity(kind)
+    delta = is_delta(kind)
+    flags = (F_INFINITE if infinite else 0) | (F_DELTA_LIGHT if delta else 0)
+    surface_point = not infinite and not delta
+    if surface_point:
+        flags |= F_ON_SURFACE
+    put_vertex(Vl, 0, LIGHT, p, n, n, w, le, p_pick * pdf_pos, -1, e, ZERO, hit, flags)
+    cos_l = 1.0
+    if infinite:
+        for c in range(3):
+            Vl[0, V_DIR + c] = -w[c]
+    elif surface_point:
+        cos_l = abs(dot(n, w))
+    beta = mul(le, cos_l / (p_pick * pdf_pos * pdf_dir))
+    o = p
+    if surface_point:
+        eps = offset_epsilon(F.epsilon_floor, p)
+        o = madd(p, n, eps if dot(n, w) > 0.0 else -eps)
+    made, rays, _ = random_walk(
+        C, Vl, 1, o, w, beta, pdf_dir, most - 1, True, key, DIM_LIGHT_WALK, 0.0, node_stack, t_stack
+    )
+    if infinite:
+        # the first vertex's density is the disk's (planar), the light's own its direction's
+        if made > 0:
+            Vl[1, V_PDF_FWD] = pdf_pos * abs(dot(w, row3(Vl, 1, V_NG)))
+        Vl[0, V_PDF_FWD] = infinite_density(C, mul(w, -1.0))
+    return made + 1, rays
