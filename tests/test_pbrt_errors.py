@@ -16,7 +16,6 @@ from hypothesis import strategies as st
 from raylume.errors import SceneError
 from raylume.scene.checks import SceneWarning
 from raylume.scene.load import load_scene
-from raylume.scene.model import RenderSettings
 from raylume.scene.pbrt_scene import pbrt_document
 from raylume.scene.pbrt_tokens import PbrtError, tokenize
 
@@ -136,10 +135,11 @@ def test_unsupported_input_is_named_in_a_warning(tmp_path, text, words):
     assert any(all(word in m for word in words) for m in messages), messages
 
 
-@pytest.mark.skipif("integrator" in RenderSettings.model_fields, reason="this build renders bdpt")
-def test_bdpt_falls_back_to_path_with_a_warning(tmp_path):
-    messages = warned(tmp_path, 'Integrator "bdpt" "integer maxdepth" 2\n')
-    assert any('Integrator "bdpt"' in m and "path tracer" in m for m in messages), messages
+def test_bdpt_is_read_as_raylume_s_bdpt_integrator(tmp_path):
+    path = tmp_path / "b.pbrt"
+    path.write_text(CAMERA + 'Integrator "bdpt" "integer maxdepth" 2\n')
+    scene = load_scene(path)
+    assert scene.render.integrator == "bdpt" and scene.render.max_depth == 3
 
 
 def test_a_supported_file_reads_without_warnings(tmp_path):

@@ -598,8 +598,10 @@ def parse_command_line(args: list[str]) -> None:
             command.make_context(name, sub_args, parent=ctx)
     except Exception as error:  # click's exceptions, whichever click: told apart by name
         names = {klass.__name__ for klass in type(error).__mro__}
-        if "Exit" in names:  # --version, --help
-            return
+        if "Exit" in names:  # --version, --help; the CLI's own usage errors print a line and exit 2
+            if getattr(error, "exit_code", 0) in (0, None):
+                return
+            raise CommandLineError(f"raylume {shlex.join(args)}: refused (exit status {error.exit_code})") from None
         if "UsageError" in names or "BadParameter" in names:
             raise CommandLineError(f"raylume {shlex.join(args)}: {error.format_message()}") from None
         raise

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .model import MAX_DEPTH, RenderSettings
+from .model import MAX_DEPTH
 from .pbrt_params import Params
 from .pbrt_parse import Directive
 
@@ -163,10 +163,5 @@ class Options:
         if self.seed is not None:
             table["seed"] = self.seed
         if self.integrator == "bdpt":
-            # TODO(lead, on merging the bdpt branch): `[render] integrator` then exists and this
-            # branch is taken; the fallback below can go once it is on main.
-            if "integrator" in RenderSettings.model_fields:
-                table["integrator"] = "bdpt"
-            else:
-                warn_integrator('"bdpt" is rendered with raylume\'s path tracer (this build has no bdpt integrator)')
+            table["integrator"] = "bdpt"
         return table
