@@ -18,11 +18,12 @@ from typing import NamedTuple
 import numpy as np
 
 from ..errors import SceneError
+from ..kernels.geometry.shapes import ANALYTIC
 from ..kernels.shading.materials.registry import is_solid
 from ..kernels.shading.media import grid, homogeneous
 from ..kernels.shading.media.table import MED_KIND, MED_WIDTH
-from ..scene.model import Cylinder, GridMedium, Mesh, Scene, Sphere
-from .objects import object_matrix
+from ..scene.model import GridMedium, Mesh, Scene
+from .objects import ANALYTIC_MODELS, object_matrix
 
 NONE = -1  # no medium: clear space
 MAX_DENSITY_VALUES = 1 << 28  # 1 GiB of float32 densities at most
@@ -138,7 +139,7 @@ def _interfaces(scene: Scene, geometry, index: dict, outer: int, source: str) ->
         solids.append(_Solid(k, NONE if interior is None else index[interior], volume, contains))
     interface = np.full((max(len(scene.objects), 1), 2), outer, dtype=np.int32)
     for k, obj in enumerate(scene.objects):
-        point = _inner_point(obj, triangles.get(k))
+        point = _surface_point(obj, triangles.get(k))
         holders = [s for s in solids if s.obj != k and point is not None and s.contains(point)]
         around = min(holders, key=lambda s: s.volume).inside if holders else outer
         mine = next((s for s in solids if s.obj == k), None)
@@ -159,47 +160,36 @@ def _object_triangles(geometry) -> dict[int, np.ndarray]:
 
 
 def _containment(obj, triangles):
-    """(point -> inside?, bounding-box volume, closed) of a closed object; None for open shapes."""
-    if isinstance(obj, Sphere):
-        c, r = np.asarray(obj.center), obj.radius
-        return (lambda p: float(np.sum((p - c) ** 2)) < r * r), (2 * r) ** 3, True
-    if isinstance(obj, Cylinder) and obj.capped:
-        p0, p1, r = np.asarray(obj.p0), np.asarray(obj.p1), obj.radius
-        axis = p1 - p0
-        length2 = float(axis @ axis)
-        to_object = np.linalg.inv(object_matrix(obj))  # the cylinder's points are before its transform
-        scale = abs(float(np.linalg.det(object_matrix(obj)[:3, :3]))) ** (1 / 3)
-
-        def inside_cylinder(p):
-            q = to_object[:3, :3] @ p + to_object[:3, 3]
-            s = float((q - p0) @ axis) / length2
-            return 0.0 < s < 1.0 and float(np.sum((q - p0 - s * axis) ** 2)) < r * r
-
-        return inside_cylinder, float(np.sqrt(length2)) * (2 * r) ** 2 * scale**3, True
+    """(point -> inside?, volume, closed) of a closed object; None for open shapes. Analytic
+    shapes answer through their modules' `solid` (a sphere, a capped cylinder)."""
+    kind = ANALYTIC_MODELS.get(type(obj))
+    if kind is not None:
+        module = ANALYTIC[kind]
+        solid = getattr(module, "solid", None)
+        found = solid(module.pack(obj, object_matrix(obj))) if solid is not None else None
+        return None if found is None else (found[0], found[2], True)
     if isinstance(obj, Mesh) and triangles is not None and len(triangles):
         lo, hi = triangles.reshape(-1, 3).min(0), triangles.reshape(-1, 3).max(0)
         return (lambda p: _inside_mesh(triangles, p)), float(np.prod(np.maximum(hi - lo, 1e-300))), _closed(triangles)
     return None
 
 
-def _inner_point(obj, triangles) -> np.ndarray | None:
+def _surface_point(obj, triangles) -> np.ndarray | None:
     """A point on the object's surface (a mesh's first vertex) to find what holds it: not its
     centre, which a smaller object inside it may hold."""
-    if isinstance(obj, Sphere):
-        return np.asarray(obj.center, dtype=np.float64) + (0.0, obj.radius, 0.0)
-    if isinstance(obj, Cylinder):
-        m = object_matrix(obj)
-        p0, p1 = np.asarray(obj.p0, dtype=np.float64), np.asarray(obj.p1, dtype=np.float64)
-        axis = p1 - p0
-        side = np.cross(axis, (1.0, 0.0, 0.0) if abs(axis[0]) < 0.9 * np.linalg.norm(axis) else (0.0, 1.0, 0.0))
-        point = (p0 + p1) / 2 + obj.radius * side / np.linalg.norm(side)
-        return m[:3, :3] @ point + m[:3, 3]
+    kind = ANALYTIC_MODELS.get(type(obj))
+    if kind is not None:
+        module = ANALYTIC[kind]
+        solid = getattr(module, "solid", None)
+        found = solid(module.pack(obj, object_matrix(obj))) if solid is not None else None
+        if found is not None:
+            return np.asarray(found[1], dtype=np.float64)
     if triangles is not None and len(triangles):
         return triangles[0, 0]
-    for key in ("position", "center", "point"):
+    for key in ("position", "center", "point", "p0"):
         if hasattr(obj, key):
             return np.asarray(getattr(obj, key), dtype=np.float64)
-    if hasattr(obj, "vertices"):
+    if hasattr(obj, "vertices") and obj.vertices:
         return np.asarray(obj.vertices[0], dtype=np.float64)
     return None
 

@@ -39,6 +39,22 @@ def pack(obj, m: np.ndarray) -> list[float]:
     return [*p0, *p1, obj.radius * uniform_scale(m), 1.0 if obj.capped else 0.0, *axis, height, *e1]
 
 
+def solid(row) -> tuple | None:
+    """A capped cylinder as a solid (compile/media.py): (point -> inside?, a point of its
+    surface, its volume); None when it is an open tube, which has no inside."""
+    if row[CAPPED] == 0.0:
+        return None
+    p0, axis = np.asarray(row[P0 : P0 + 3]), np.asarray(row[AXIS : AXIS + 3])
+    radius, height = float(row[RADIUS]), float(row[HEIGHT])
+
+    def inside(p) -> bool:
+        s = float((np.asarray(p) - p0) @ axis)
+        return 0.0 < s < height and float(np.sum((np.asarray(p) - p0 - s * axis) ** 2)) < radius * radius
+
+    side = np.asarray(row[TANGENT : TANGENT + 3])
+    return inside, p0 + axis * height / 2 + radius * side, np.pi * radius * radius * height
+
+
 def bounds(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Exact boxes: the union of the two end circles' boxes."""
     a = rows[:, AXIS : AXIS + 3]

@@ -23,6 +23,17 @@ def pack(obj, m: np.ndarray) -> list[float]:
     return [*obj.center, obj.radius]
 
 
+def solid(row) -> tuple:
+    """The sphere as a solid (compile/media.py): (point -> inside?, a point of its surface,
+    its volume)."""
+    centre, radius = np.asarray(row[CENTER : CENTER + 3]), float(row[RADIUS])
+
+    def inside(p) -> bool:
+        return float(np.sum((np.asarray(p) - centre) ** 2)) < radius * radius
+
+    return inside, centre + (0.0, radius, 0.0), 4.0 / 3.0 * np.pi * radius**3
+
+
 def bounds(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return rows[:, CENTER : CENTER + 3] - rows[:, RADIUS : RADIUS + 1], rows[:, CENTER : CENTER + 3] + rows[
         :, RADIUS : RADIUS + 1
