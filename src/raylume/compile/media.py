@@ -64,9 +64,10 @@ def build_media(scene: Scene, geometry, material_kinds: dict, source: str) -> Me
     outer = NONE if scene.render.medium is None else index[scene.render.medium]
     null_boundaries = "null" in material_kinds.values()
     present = bool(names)
-    interface = np.full((max(len(scene.objects), 1), 2), outer, dtype=np.int32)
     if present:
         interface = _interfaces(scene, geometry, index, outer, source)
+    else:
+        interface = np.full((max(len(scene.objects), 1), 2), outer, dtype=np.int32)
     return MediaTables(
         data=data,
         density=np.concatenate(densities).astype(np.float32) if densities else np.zeros(1, np.float32),
@@ -113,7 +114,7 @@ class _Solid(NamedTuple):
 
     obj: int
     inside: int
-    volume: float  # of its bounding box: the innermost holder of a point is the smallest
+    volume: float  # its own, or a mesh's bounding box's: the innermost holder of a point is the smallest
     contains: object  # (3,) point -> bool
 
 
@@ -159,14 +160,18 @@ def _object_triangles(geometry) -> dict[int, np.ndarray]:
     return {k: np.concatenate(v) for k, v in parts.items()}
 
 
-def _containment(obj, triangles):
-    """(point -> inside?, volume, closed) of a closed object; None for open shapes. Analytic
-    shapes answer through their modules' `solid` (a sphere, a capped cylinder)."""
+def _analytic_solid(obj):
+    """(point -> inside?, a point of its surface, volume) of a closed analytic shape, from its
+    module's `solid` (a sphere, a capped cylinder); None for other objects and open shapes."""
     kind = ANALYTIC_MODELS.get(type(obj))
-    if kind is not None:
-        module = ANALYTIC[kind]
-        solid = getattr(module, "solid", None)
-        found = solid(module.pack(obj, object_matrix(obj))) if solid is not None else None
+    solid = None if kind is None else getattr(ANALYTIC[kind], "solid", None)
+    return None if solid is None else solid(ANALYTIC[kind].pack(obj, object_matrix(obj)))
+
+
+def _containment(obj, triangles):
+    """(point -> inside?, volume, closed) of a closed object; None for open shapes."""
+    if ANALYTIC_MODELS.get(type(obj)) is not None:
+        found = _analytic_solid(obj)
         return None if found is None else (found[0], found[2], True)
     if isinstance(obj, Mesh) and triangles is not None and len(triangles):
         lo, hi = triangles.reshape(-1, 3).min(0), triangles.reshape(-1, 3).max(0)
@@ -177,13 +182,9 @@ def _containment(obj, triangles):
 def _surface_point(obj, triangles) -> np.ndarray | None:
     """A point on the object's surface (a mesh's first vertex) to find what holds it: not its
     centre, which a smaller object inside it may hold."""
-    kind = ANALYTIC_MODELS.get(type(obj))
-    if kind is not None:
-        module = ANALYTIC[kind]
-        solid = getattr(module, "solid", None)
-        found = solid(module.pack(obj, object_matrix(obj))) if solid is not None else None
-        if found is not None:
-            return np.asarray(found[1], dtype=np.float64)
+    found = _analytic_solid(obj)
+    if found is not None:
+        return np.asarray(found[1], dtype=np.float64)
     if triangles is not None and len(triangles):
         return triangles[0, 0]
     for key in ("position", "center", "point", "p0"):
