@@ -270,3 +270,38 @@ def last_at_most(values, first, n, x):
         base = base + half if values[first + base + half] <= x else base
         length -= half
     return base
+
+
+# fdlibm's minimax polynomials for sin and cos on [-pi/4, pi/4] (k_sin.c, k_cos.c: error below
+# 2**-58 there), in Horner form.
+_S = (-1.66666666666666324348e-01, 8.33333333332248946124e-03, -1.98412698298579493134e-04,
+      2.75573137070700676789e-06, -2.50507602534068634195e-08, 1.58969099521155010221e-10)  # fmt: skip
+_C = (4.16666666666666019037e-02, -1.38888888888741095749e-03, 2.48015872894767294178e-05,
+      -2.75573143513906633035e-07, 2.08757232129817482790e-09, -1.13596475577881948265e-11)  # fmt: skip
+
+
+@kernel_function
+def quarter_sincos(a):
+    """(cos a, sin a) for |a| <= pi/4, to about an ulp, without a libm call."""
+    z = a * a
+    s = a + a * z * (_S[0] + z * (_S[1] + z * (_S[2] + z * (_S[3] + z * (_S[4] + z * _S[5])))))
+    c = 1.0 - 0.5 * z + z * z * (_C[0] + z * (_C[1] + z * (_C[2] + z * (_C[3] + z * (_C[4] + z * _C[5])))))
+    return c, s
+
+
+@kernel_function
+def turn(u):
+    """(cos 2 pi u, sin 2 pi u): the point at the fraction u of a turn around the unit circle.
+
+    Sampling draws angles as fractions of a turn, and reducing a fraction to the nearest
+    quarter turn is exact, so this is quarter_sincos after a subtraction and a swap: a few
+    multiply-adds in place of libm's sincos, which cost a call (and the spills around it in
+    the path kernel) per sampled direction, ~6% of the Cornell box's path time."""
+    q = math.floor(4.0 * u + 0.5)  # the nearest quarter turn
+    c, s = quarter_sincos(2.0 * math.pi * (u - 0.25 * q))
+    k = int(q) & 3
+    if k & 1:
+        c, s = -s, c  # a quarter turn on: (cos, sin)(a + pi/2) = (-sin a, cos a)
+    if k & 2:
+        c, s = -c, -s  # half a turn on
+    return c, s

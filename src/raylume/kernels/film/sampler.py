@@ -18,7 +18,7 @@ import math
 
 import numpy as np
 
-from ..vec import kernel_function
+from ..vec import kernel_function, quarter_sincos, turn
 
 _M1 = np.uint64(0xBF58476D1CE4E5B9)
 _M2 = np.uint64(0x94D049BB133111EB)
@@ -131,8 +131,8 @@ def uniform_sphere(u1, u2):
     """A unit vector uniform over the sphere for (u1, u2) in [0, 1)^2 (pdf 1 / 4 pi)."""
     z = 1.0 - 2.0 * u1
     r = math.sqrt(max(0.0, 1.0 - z * z))
-    phi = 2.0 * math.pi * u2
-    return (r * math.cos(phi), r * math.sin(phi), z)
+    c, s = turn(u2)
+    return (r * c, r * s, z)
 
 
 @kernel_function(error_model="numpy", _nrt=False)
@@ -180,9 +180,7 @@ def concentric_disk(u1, u2):
     if a == 0.0 and b == 0.0:
         return 0.0, 0.0
     if abs(a) > abs(b):
-        r = a
-        phi = (math.pi / 4.0) * (b / a)
-    else:
-        r = b
-        phi = math.pi / 2.0 - (math.pi / 4.0) * (a / b)
-    return r * math.cos(phi), r * math.sin(phi)
+        c, s = quarter_sincos((math.pi / 4.0) * (b / a))
+        return a * c, a * s
+    c, s = quarter_sincos((math.pi / 4.0) * (a / b))  # the angle pi/2 minus this one
+    return b * s, b * c

@@ -5,7 +5,7 @@ import math
 
 from ...film.sampler import concentric_disk, uniform_sphere
 from ...geometry.shape_sphere import intersect_sphere
-from ...vec import dot, inline_function, kernel_function, length, madd, mul, normalize, sub
+from ...vec import dot, inline_function, kernel_function, length, madd, mul, normalize, sub, turn
 
 INF = math.inf
 
@@ -62,9 +62,9 @@ def sphere_cone(centre, radius, p, u1, u2):
     cos_max = math.sqrt(max(0.0, 1.0 - sin2_max))
     cos_t = 1.0 - u1 * (1.0 - cos_max)
     sin_t = math.sqrt(max(0.0, 1.0 - cos_t * cos_t))
-    phi = 2.0 * math.pi * u2
+    c, s = turn(u2)
     e1, e2 = basis(w)
-    wi = normalize(madd(madd(mul(w, cos_t), e1, sin_t * math.cos(phi)), e2, sin_t * math.sin(phi)))
+    wi = normalize(madd(madd(mul(w, cos_t), e1, sin_t * c), e2, sin_t * s))
     dist = intersect_sphere(p, wi, centre, radius, 0.0, INF)
     if dist == INF:  # a direction on the cone's rim, missed by rounding: the tangent point
         dist = dot(wi, to_c)
@@ -90,10 +90,10 @@ def sphere_cone_pdf(centre, radius, p, wi, dist):
 def cosine_about(n, u1, u2):
     """A direction about the unit n with density cos / pi (cos = its cosine with n)."""
     r = math.sqrt(u1)
-    phi = 2.0 * math.pi * u2
+    c, s = turn(u2)
     z = math.sqrt(max(0.0, 1.0 - u1))
     e1, e2 = basis(n)
-    return normalize(madd(madd(mul(n, z), e1, r * math.cos(phi)), e2, r * math.sin(phi)))
+    return normalize(madd(madd(mul(n, z), e1, r * c), e2, r * s))
 
 
 @kernel_function

@@ -19,7 +19,7 @@ by (n_o / n_i)^2, as pbrt-v4 (TransportMode::Radiance) and Mitsuba 3 do."""
 
 import math
 
-from ...vec import dot, kernel_function, madd, mul
+from ...vec import dot, kernel_function, madd, mul, turn
 from ..optics import fresnel_dielectric
 
 INV_PI = 1.0 / math.pi
@@ -61,8 +61,8 @@ def reflect(v, m):
 def cosine_hemisphere(u1, u2):
     """A direction about +z with density cos / pi."""
     r = math.sqrt(u1)
-    phi = 2.0 * math.pi * u2
-    return (r * math.cos(phi), r * math.sin(phi), math.sqrt(max(0.0, 1.0 - u1)))
+    c, s = turn(u2)
+    return (r * c, r * s, math.sqrt(max(0.0, 1.0 - u1)))
 
 
 @kernel_function

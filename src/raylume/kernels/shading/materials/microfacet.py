@@ -3,7 +3,7 @@ sampling of visible normals. Roughness is the GGX alpha, as Mitsuba's rough plug
 
 import math
 
-from ...vec import add, cross, dot, kernel_function, mul, normalize
+from ...vec import add, cross, dot, kernel_function, mul, normalize, turn
 from .lobes import INV_PI, same_side
 
 
@@ -41,10 +41,10 @@ def sample_vndf(v, alpha, u1, u2):
         t1 = (1.0, 0.0, 0.0)
     t2 = cross(vh, t1)
     r = math.sqrt(u1)
-    phi = 2.0 * math.pi * u2
-    p1 = r * math.cos(phi)
+    cos_phi, sin_phi = turn(u2)
+    p1 = r * cos_phi
     s = 0.5 * (1.0 + vh[2])  # squeeze the disk's far half to the visible part
-    p2 = (1.0 - s) * math.sqrt(max(0.0, 1.0 - p1 * p1)) + s * r * math.sin(phi)
+    p2 = (1.0 - s) * math.sqrt(max(0.0, 1.0 - p1 * p1)) + s * r * sin_phi
     p3 = math.sqrt(max(0.0, 1.0 - p1 * p1 - p2 * p2))
     nh = add(add(mul(t1, p1), mul(t2, p2)), mul(vh, p3))
     return normalize((alpha * nh[0], alpha * nh[1], max(0.0, nh[2])))

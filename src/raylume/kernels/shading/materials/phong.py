@@ -24,7 +24,7 @@ import math
 
 import numpy as np
 
-from ...vec import dot, inline_function, kernel_function, madd, mul
+from ...vec import dot, inline_function, kernel_function, madd, mul, turn
 from .lobes import EVALUATE, FAILED, INV_PI, ONE, ZERO, cosine_hemisphere, mirror, same_side, side, smooth_dielectric
 from .table import MAT_ABSORPTION, MAT_IOR, MAT_REFLECTIVE, MAT_SPECULAR, MAT_TRANSPARENCY
 
@@ -105,8 +105,8 @@ def sample(mat, m, color, wo, u0, u1, u2):
         b2 = (b, sign + r[1] * r[1] * a, -r[1])
         cos_a = u1 ** (1.0 / (mat[m, MAT_SPECULAR] + 1.0))
         sin_a = math.sqrt(max(0.0, 1.0 - cos_a * cos_a))
-        phi = 2.0 * math.pi * u2
-        wi = madd(madd(mul(r, cos_a), b1, sin_a * math.cos(phi)), b2, sin_a * math.sin(phi))
+        cos_phi, sin_phi = turn(u2)
+        wi = madd(madd(mul(r, cos_a), b1, sin_a * cos_phi), b2, sin_a * sin_phi)
         return side(wi, s), ZERO, EVALUATE, False
     x -= wd + wp
     if x < wm or not (wt > 0.0):

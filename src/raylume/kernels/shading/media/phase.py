@@ -3,7 +3,7 @@ ways light travels: cos_theta = dot(d_in, d_out), so g > 0 scatters forward (d_o
 
 import math
 
-from ...vec import inline_function
+from ...vec import inline_function, turn
 from ..lights.sampling import basis
 
 INV_4PI = 0.25 / math.pi
@@ -26,9 +26,9 @@ def hg_sample(g, d, u1, u2):
         s = (1.0 - g * g) / (1.0 - g + 2.0 * g * u1)
         cos_theta = min(1.0, max(-1.0, (1.0 + g * g - s * s) / (2.0 * g)))
     sin_theta = math.sqrt(max(0.0, 1.0 - cos_theta * cos_theta))
-    phi = 2.0 * math.pi * u2
+    c, s = turn(u2)
     a, b = basis(d)
-    x, y = sin_theta * math.cos(phi), sin_theta * math.sin(phi)
+    x, y = sin_theta * c, sin_theta * s
     w = (
         a[0] * x + b[0] * y + d[0] * cos_theta,
         a[1] * x + b[1] * y + d[1] * cos_theta,
