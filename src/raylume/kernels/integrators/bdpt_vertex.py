@@ -21,8 +21,9 @@ from ..film.camera import camera_importance
 from ..geometry.shapes import NO_HIT
 from ..scene import Emitters, Geometry, Surfaces
 from ..shading.environment import Environment, environment_pdf
+from ..shading.frame import shading_frame, to_local
 from ..shading.lights import emission_pdf, pick_probability
-from ..shading.lights.sampling import basis, disk_density
+from ..shading.lights.sampling import disk_density
 from ..shading.materials import bsdf_eval, delta_only, two_sided
 from ..vec import dot, inline_function, kernel_function, mul, row3, sub
 
@@ -164,23 +165,18 @@ def convert_density(pdf, A, i, N, k):
 def surface_bsdf(F, V, i, wo_w, wi_w):
     """(f, pdf of wi given wo, pdf of wo given wi) of surface vertex V[i] for the world
     directions wo (the radiance's way out: towards the camera's side) and wi (towards the
-    light's side). The shading frame as path mode makes it (path.py): a two-sided material
-    faces wo's side and sees nothing from the other side."""
+    light's side). A two-sided material faces wo's side (shading/frame.py) and sees nothing
+    from the other side."""
     mat = F.materials
     m = int(V[i, V_M])
     ng = row3(V, i, V_NG)
     ns = row3(V, i, V_NS)
     two = two_sided(mat, m)
-    if two and dot(wo_w, ng) < 0.0:
-        ng = mul(ng, -1.0)
-        ns = mul(ns, -1.0)
-    if dot(ns, ng) <= 0.0:
-        ns = ng
+    ng, ns, s_axis, t_axis = shading_frame(two, dot(wo_w, ng) < 0.0, ng, ns)
     if two and not dot(wi_w, ng) > 0.0:
         return (0.0, 0.0, 0.0), 0.0, 0.0
-    s_axis, t_axis = basis(ns)
-    wo = (dot(wo_w, s_axis), dot(wo_w, t_axis), dot(wo_w, ns))
-    wi = (dot(wi_w, s_axis), dot(wi_w, t_axis), dot(wi_w, ns))
+    wo = to_local(wo_w, s_axis, t_axis, ns)
+    wi = to_local(wi_w, s_axis, t_axis, ns)
     colour = row3(V, i, V_COLOUR)
     f, pdf = bsdf_eval(mat, m, colour, wo, wi)
     _, pdf_rev = bsdf_eval(mat, m, colour, wi, wo)

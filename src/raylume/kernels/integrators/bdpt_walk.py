@@ -18,8 +18,8 @@ from ..film.camera import CAM_FORWARD, camera_importance
 from ..film.sampler import DIM_BSDF, dimension_key, key_uniform2, sub_key
 from ..geometry.shapes import NO_HIT, PRIM_LIGHT, offset_epsilon, split_hit, surface
 from ..geometry.traverse import closest_hit
+from ..shading.frame import shading_frame, to_local, to_world
 from ..shading.lights import at_infinity, hit_area_lights, is_delta, pick_emitter, sample_emission
-from ..shading.lights.sampling import basis
 from ..shading.materials import (
     MAT_EMISSION,
     albedo,
@@ -117,27 +117,17 @@ def random_walk(C, V, start, o, d, beta, pdf_dir, most, importance, key, dim, sp
         made += 1
         if made >= most:
             break
-        # the shading frame as path mode makes it
         two = two_sided(mat, m)
-        if two and not entering:
-            ng = mul(ng, -1.0)
-            ns = mul(ns, -1.0)
-        if dot(ns, ng) <= 0.0:
-            ns = ng
-        s_axis, t_axis = basis(ns)
+        ng, ns, s_axis, t_axis = shading_frame(two, not entering, ng, ns)
         wo_w = mul(d, -1.0)
-        wo = (dot(wo_w, s_axis), dot(wo_w, t_axis), dot(wo_w, ns))
+        wo = to_local(wo_w, s_axis, t_axis, ns)
         k2 = dimension_key(key, dim, i)
         u0, u1 = key_uniform2(k2)
         u2, _ = key_uniform2(sub_key(k2, 1))
         wi, weight, pdf, delta = bsdf_sample(mat, m, colour, wo, u0, u1, u2)
         if not (pdf > 0.0) or not (weight[0] > 0.0 or weight[1] > 0.0 or weight[2] > 0.0):
             break
-        wi_w = (
-            s_axis[0] * wi[0] + t_axis[0] * wi[1] + ns[0] * wi[2],
-            s_axis[1] * wi[0] + t_axis[1] * wi[1] + ns[1] * wi[2],
-            s_axis[2] * wi[0] + t_axis[2] * wi[1] + ns[2] * wi[2],
-        )
+        wi_w = to_world(wi, s_axis, t_axis, ns)
         up = dot(wi_w, ng) > 0.0
         if two and not up:
             break  # a shading normal sent the path through the surface

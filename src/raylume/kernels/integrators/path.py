@@ -22,6 +22,7 @@ from ..film.sampler import DIM_BSDF, DIM_LIGHT, dimension_key, key_uniform2, sub
 from ..geometry.shapes import NO_HIT, PRIM_LIGHT, offset_epsilon, split_hit, surface
 from ..geometry.traverse import any_hit, closest_hit
 from ..shading.environment import prefetch_environment
+from ..shading.frame import shading_frame, to_local, to_world
 from ..shading.lights import (
     LIGHT_INTENSITY,
     SHADOW_SHORTEN,
@@ -32,7 +33,6 @@ from ..shading.lights import (
     pick_probability,
     sample_light,
 )
-from ..shading.lights.sampling import basis
 from ..shading.materials import (
     MAT_EMISSION,
     albedo,
@@ -73,20 +73,6 @@ def power_heuristic(a, b):
 def _add_light(L, beta, le, w):
     """L plus radiance le arriving through path throughput beta, with MIS weight w."""
     return (L[0] + beta[0] * le[0] * w, L[1] + beta[1] * le[1] * w, L[2] + beta[2] * le[2] * w)
-
-
-@inline_function
-def _to_local(v, s, t, n):
-    return (dot(v, s), dot(v, t), dot(v, n))
-
-
-@inline_function
-def _to_world(v, s, t, n):
-    return (
-        s[0] * v[0] + t[0] * v[1] + n[0] * v[2],
-        s[1] * v[0] + t[1] * v[1] + n[1] * v[2],
-        s[2] * v[0] + t[2] * v[1] + n[2] * v[2],
-    )
 
 
 @inline_function
@@ -273,17 +259,10 @@ def path_ray(G, F, X, Em, Env, Md, o, d, spread, max_depth, background, key, nod
             L = _add_light(L, beta, emission, w)
         if max_depth >= 0 and depth >= max_depth:
             break
-        # The shading frame: for two-sided materials its z faces the incoming ray; for
-        # dielectrics it stays outward (the inside is the medium).
         n_geo = ng  # outward: which side is inside, for the media
         two_sided_here = two_sided(mat, m)
-        if two_sided_here and not entering:
-            ng = mul(ng, -1.0)
-            ns = mul(ns, -1.0)
-        if dot(ns, ng) <= 0.0:
-            ns = ng
-        s_axis, t_axis = basis(ns)
-        wo = _to_local(mul(d, -1.0), s_axis, t_axis, ns)
+        ng, ns, s_axis, t_axis = shading_frame(two_sided_here, not entering, ng, ns)
+        wo = to_local(mul(d, -1.0), s_axis, t_axis, ns)
         cone += spread * t
         colour = albedo(G, F, X, m, prim, b1, b2, p, d, ng, cone)
 
@@ -292,7 +271,7 @@ def path_ray(G, F, X, Em, Env, Md, o, d, spread, max_depth, background, key, nod
             le, p_pick = pick_emitter(Em.cdf, u_pick)
             wi, dist, li, pdf_l, delta_l = sample_light(G, X, Em, Env, le, p, u1, u2, light_key)
             if pdf_l > 0.0 and (li[0] > 0.0 or li[1] > 0.0 or li[2] > 0.0) and (delta_l or strategy != BSDF_ONLY):
-                wi_local = _to_local(wi, s_axis, t_axis, ns)
+                wi_local = to_local(wi, s_axis, t_axis, ns)
                 up = dot(wi, ng) > 0.0
                 # two-sided reflection: light from below the geometric surface cannot arrive
                 if up or not two_sided_here:
@@ -318,7 +297,7 @@ def path_ray(G, F, X, Em, Env, Md, o, d, spread, max_depth, background, key, nod
         wi_local, weight, pdf, delta = bsdf_sample(mat, m, colour, wo, u0, u1, u2)
         if not (pdf > 0.0) or not (weight[0] > 0.0 or weight[1] > 0.0 or weight[2] > 0.0):
             break
-        wi = _to_world(wi_local, s_axis, t_axis, ns)
+        wi = to_world(wi_local, s_axis, t_axis, ns)
         up = dot(wi, ng) > 0.0
         if two_sided_here and not up:
             break  # a shading normal sent the path through the surface
