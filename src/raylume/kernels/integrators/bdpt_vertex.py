@@ -24,7 +24,7 @@ from ..shading.environment import Environment, environment_pdf
 from ..shading.lights import emission_pdf, pick_probability
 from ..shading.lights.sampling import basis, disk_density
 from ..shading.materials import bsdf_eval, delta_only, two_sided
-from ..vec import dot, inline_function, kernel_function, mul, row3, sub
+from ..vec import dot, inline_function, mul, row3, sub
 
 INF = math.inf
 V_P = 0
@@ -131,7 +131,7 @@ def connectible(F, V, i):
     return not delta_only(F.materials, int(V[i, V_M]))
 
 
-@kernel_function
+@inline_function
 def toward(A, i, N, k):
     """The unit direction from vertex A[i] to N[k] and the squared distance (inf towards or from
     a light at infinity; 0: the same point)."""
@@ -146,7 +146,7 @@ def toward(A, i, N, k):
     return mul(w, 1.0 / math.sqrt(d2)), d2
 
 
-@kernel_function
+@inline_function
 def convert_density(pdf, A, i, N, k):
     """A solid-angle density at A[i] towards N[k] as an area density at N[k] (pbrt's
     ConvertDensity; unchanged towards a light at infinity)."""
@@ -160,9 +160,9 @@ def convert_density(pdf, A, i, N, k):
     return pdf / d2
 
 
-@kernel_function
+@inline_function
 def surface_bsdf(F, V, i, wo_w, wi_w):
-    """(f, pdf of wi given wo, pdf of wo given wi) of surface vertex V[i] for the world
+    """(f, pdf of wi given wo) of surface vertex V[i] for the world
     directions wo (the radiance's way out: towards the camera's side) and wi (towards the
     light's side). The shading frame as path mode makes it (path.py): a two-sided material
     faces wo's side and sees nothing from the other side."""
@@ -177,14 +177,12 @@ def surface_bsdf(F, V, i, wo_w, wi_w):
     if dot(ns, ng) <= 0.0:
         ns = ng
     if two and not dot(wi_w, ng) > 0.0:
-        return (0.0, 0.0, 0.0), 0.0, 0.0
+        return (0.0, 0.0, 0.0), 0.0
     s_axis, t_axis = basis(ns)
     wo = (dot(wo_w, s_axis), dot(wo_w, t_axis), dot(wo_w, ns))
     wi = (dot(wi_w, s_axis), dot(wi_w, t_axis), dot(wi_w, ns))
     colour = row3(V, i, V_COLOUR)
-    f, pdf = bsdf_eval(mat, m, colour, wo, wi)
-    _, pdf_rev = bsdf_eval(mat, m, colour, wi, wo)
-    return f, pdf, pdf_rev
+    return bsdf_eval(mat, m, colour, wo, wi)
 
 
 @inline_function
@@ -197,7 +195,7 @@ def shading_correction(ng, ns, w_prev, w_next):
     return abs(dot(w_prev, ns)) * abs(dot(w_next, ng)) / den
 
 
-@kernel_function
+@inline_function
 def vertex_f(F, V, i, w_next, importance):
     """f at surface vertex V[i] towards w_next (the other subpath's vertex), coming from its
     own subpath's vertex before it: radiance on a camera subpath, importance on a light subpath
@@ -205,9 +203,9 @@ def vertex_f(F, V, i, w_next, importance):
     correction)."""
     w_prev = row3(V, i, V_WO)
     if importance:
-        f, _, _ = surface_bsdf(F, V, i, w_next, w_prev)
+        f, _ = surface_bsdf(F, V, i, w_next, w_prev)
         return mul(f, shading_correction(row3(V, i, V_NG), row3(V, i, V_NS), w_prev, w_next))
-    f, _, _ = surface_bsdf(F, V, i, w_prev, w_next)
+    f, _ = surface_bsdf(F, V, i, w_prev, w_next)
     return f
 
 
@@ -220,7 +218,7 @@ def covered(B, p, to_light):
     return along <= B[3] and dot(rel, rel) - along * along <= B[3] * B[3]
 
 
-@kernel_function
+@inline_function
 def infinite_density(C, to_light):
     """The density with which light subpaths leave the lights at infinity towards -to_light:
     their pick probabilities times their direction pdfs, summed (pbrt's InfiniteLightDensity)."""
@@ -233,7 +231,7 @@ def infinite_density(C, to_light):
     return pdf
 
 
-@kernel_function
+@inline_function
 def pdf_light(C, A, i, N, k):
     """The area density at N[k] of light vertex A[i]'s emission towards it (pbrt's PdfLight)."""
     if has_flag(A, i, F_INFINITE) and kind_of(A, i) == LIGHT:
@@ -258,7 +256,7 @@ def pdf_light(C, A, i, N, k):
     return pdf
 
 
-@kernel_function
+@inline_function
 def pdf_light_origin(C, A, i, N, k):
     """The density with which a light subpath starts at light vertex A[i] (towards N[k]): the
     light's pick probability times its position density (pbrt's PdfLightOrigin)."""
@@ -276,7 +274,7 @@ def pdf_light_origin(C, A, i, N, k):
     return pick_probability(C.Em.cdf, e) * pdf_pos
 
 
-@kernel_function
+@inline_function
 def vertex_pdf(C, A, i, P, j, N, k):
     """The area density at N[k] with which vertex A[i], reached from P[j] (none for the camera),
     samples the direction towards N[k] (pbrt's Vertex::PDF)."""
@@ -292,7 +290,7 @@ def vertex_pdf(C, A, i, P, j, N, k):
         wp, d2p = toward(A, i, P, j)
         if not (d2p > 0.0):
             return 0.0
-        _, pdf, _ = surface_bsdf(C.F, A, i, wp, wn)
+        _, pdf = surface_bsdf(C.F, A, i, wp, wn)
     return convert_density(pdf, A, i, N, k)
 
 
