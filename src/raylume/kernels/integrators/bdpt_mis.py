@@ -10,7 +10,7 @@ vertices) and, for s = 1 and t = 1, a vertex itself (the caller writes the light
 sampled into the subpath's row and restores it after); they are set here for the strategy and
 restored before returning."""
 
-from ..vec import kernel_function
+from ..vec import inline_function, kernel_function
 from .bdpt_vertex import (
     V_DELTA,
     V_PDF_FWD,
@@ -22,12 +22,12 @@ from .bdpt_vertex import (
 )
 
 
-@kernel_function
+@inline_function
 def remap0(x):
     return x if x != 0.0 else 1.0
 
 
-@kernel_function
+@inline_function
 def ratio(rev, fwd):
     """A step of the ratio walk: rev / fwd with delta densities (0) taken as 1; 0 past a vertex
     that no light subpath reaches (UNREACHABLE: a light at infinity shines from the bounding

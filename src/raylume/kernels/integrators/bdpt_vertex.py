@@ -25,7 +25,7 @@ from ..shading.frame import shading_frame, to_local
 from ..shading.lights import emission_pdf, pick_probability
 from ..shading.lights.sampling import disk_density
 from ..shading.materials import bsdf_eval, delta_only, two_sided
-from ..vec import dot, inline_function, kernel_function, mul, row3, sub
+from ..vec import dot, inline_function, mul, row3, sub
 
 INF = math.inf
 V_P = 0
@@ -132,7 +132,7 @@ def connectible(F, V, i):
     return not delta_only(F.materials, int(V[i, V_M]))
 
 
-@kernel_function
+@inline_function
 def toward(A, i, N, k):
     """The unit direction from vertex A[i] to N[k] and the squared distance (inf towards or from
     a light at infinity; 0: the same point)."""
@@ -147,7 +147,7 @@ def toward(A, i, N, k):
     return mul(w, 1.0 / math.sqrt(d2)), d2
 
 
-@kernel_function
+@inline_function
 def convert_density(pdf, A, i, N, k):
     """A solid-angle density at A[i] towards N[k] as an area density at N[k] (pbrt's
     ConvertDensity; unchanged towards a light at infinity)."""
@@ -161,12 +161,11 @@ def convert_density(pdf, A, i, N, k):
     return pdf / d2
 
 
-@kernel_function
+@inline_function
 def surface_bsdf(F, V, i, wo_w, wi_w):
-    """(f, pdf of wi given wo, pdf of wo given wi) of surface vertex V[i] for the world
-    directions wo (the radiance's way out: towards the camera's side) and wi (towards the
-    light's side). A two-sided material faces wo's side (shading/frame.py) and sees nothing
-    from the other side."""
+    """(f, pdf of wi given wo) of surface vertex V[i] for the world directions wo (the
+    radiance's way out: towards the camera's side) and wi (towards the light's side). A
+    two-sided material faces wo's side (shading/frame.py) and sees nothing from the other side."""
     mat = F.materials
     m = int(V[i, V_M])
     ng = row3(V, i, V_NG)
@@ -174,13 +173,11 @@ def surface_bsdf(F, V, i, wo_w, wi_w):
     two = two_sided(mat, m)
     ng, ns, s_axis, t_axis = shading_frame(two, dot(wo_w, ng) < 0.0, ng, ns)
     if two and not dot(wi_w, ng) > 0.0:
-        return (0.0, 0.0, 0.0), 0.0, 0.0
+        return (0.0, 0.0, 0.0), 0.0
     wo = to_local(wo_w, s_axis, t_axis, ns)
     wi = to_local(wi_w, s_axis, t_axis, ns)
     colour = row3(V, i, V_COLOUR)
-    f, pdf = bsdf_eval(mat, m, colour, wo, wi)
-    _, pdf_rev = bsdf_eval(mat, m, colour, wi, wo)
-    return f, pdf, pdf_rev
+    return bsdf_eval(mat, m, colour, wo, wi)
 
 
 @inline_function
@@ -193,7 +190,7 @@ def shading_correction(ng, ns, w_prev, w_next):
     return abs(dot(w_prev, ns)) * abs(dot(w_next, ng)) / den
 
 
-@kernel_function
+@inline_function
 def vertex_f(F, V, i, w_next, importance):
     """f at surface vertex V[i] towards w_next (the other subpath's vertex), coming from its
     own subpath's vertex before it: radiance on a camera subpath, importance on a light subpath
@@ -201,9 +198,9 @@ def vertex_f(F, V, i, w_next, importance):
     correction)."""
     w_prev = row3(V, i, V_WO)
     if importance:
-        f, _, _ = surface_bsdf(F, V, i, w_next, w_prev)
+        f, _ = surface_bsdf(F, V, i, w_next, w_prev)
         return mul(f, shading_correction(row3(V, i, V_NG), row3(V, i, V_NS), w_prev, w_next))
-    f, _, _ = surface_bsdf(F, V, i, w_prev, w_next)
+    f, _ = surface_bsdf(F, V, i, w_prev, w_next)
     return f
 
 
@@ -216,7 +213,7 @@ def covered(B, p, to_light):
     return along <= B[3] and dot(rel, rel) - along * along <= B[3] * B[3]
 
 
-@kernel_function
+@inline_function
 def infinite_density(C, to_light):
     """The density with which light subpaths leave the lights at infinity towards -to_light:
     their pick probabilities times their direction pdfs, summed (pbrt's InfiniteLightDensity)."""
@@ -229,7 +226,7 @@ def infinite_density(C, to_light):
     return pdf
 
 
-@kernel_function
+@inline_function
 def pdf_light(C, A, i, N, k):
     """The area density at N[k] of light vertex A[i]'s emission towards it (pbrt's PdfLight)."""
     if has_flag(A, i, F_INFINITE) and kind_of(A, i) == LIGHT:
@@ -254,7 +251,7 @@ def pdf_light(C, A, i, N, k):
     return pdf
 
 
-@kernel_function
+@inline_function
 def pdf_light_origin(C, A, i, N, k):
     """The density with which a light subpath starts at light vertex A[i] (towards N[k]): the
     light's pick probability times its position density (pbrt's PdfLightOrigin)."""
@@ -272,7 +269,7 @@ def pdf_light_origin(C, A, i, N, k):
     return pick_probability(C.Em.cdf, e) * pdf_pos
 
 
-@kernel_function
+@inline_function
 def vertex_pdf(C, A, i, P, j, N, k):
     """The area density at N[k] with which vertex A[i], reached from P[j] (none for the camera),
     samples the direction towards N[k] (pbrt's Vertex::PDF)."""
@@ -288,7 +285,7 @@ def vertex_pdf(C, A, i, P, j, N, k):
         wp, d2p = toward(A, i, P, j)
         if not (d2p > 0.0):
             return 0.0
-        _, pdf, _ = surface_bsdf(C.F, A, i, wp, wn)
+        _, pdf = surface_bsdf(C.F, A, i, wp, wn)
     return convert_density(pdf, A, i, N, k)
 
 
