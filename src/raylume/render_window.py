@@ -209,6 +209,7 @@ def add_samples_to_film(S, cam, film: Film, spp: int, settings, aov: dict, progr
     # compile (or load from the cache): no rows; with room on the frame stack (frame_stack.py)
     control[STOP] = 1  # (bdpt's lanes go over the image's rows, not the window's: no row at all)
     on_roomy_frame_stack(lane_job, 0, (window[0], window[1], window[2], window[1]))
+    film.compile_rgb()
     control[:] = 0  # (that claimed a row of the empty window)
     status("rendering")
     total = rows * (1 if aov else 0) + image_rows

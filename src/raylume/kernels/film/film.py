@@ -193,6 +193,11 @@ class Film:
         x0, x1, y0, y1 = self.window
         return x0, y0, x1, y1
 
+    def compile_rgb(self) -> None:
+        """Compile (or load from the disk cache) what rgb() runs, on no pixels: a render does
+        it while it compiles its kernels, so that its compile time counts it."""
+        _film_rgb(self.sums[:0], np.empty((0,) + self.sums.shape[1:2] + (3,), dtype=np.float32))
+
     def rgb(self) -> np.ndarray:
         """float32 (H, W, 3): each pixel's filter-weighted mean. Weights are +-1, so a pixel's
         sum of weights is its sample count when the filter is positive (box, gaussian).
