@@ -11,6 +11,7 @@ from pathlib import Path
 from ..errors import SceneError
 from .autoframe import mesh_scene
 from .document import parse_document, scene_from_dict
+from .files import read_scene_text
 from .gltf_scene import gltf_scene
 from .mesh import SUPPORTED_EXTENSIONS
 from .model import Scene
@@ -96,15 +97,7 @@ def load_scene(
             f"{path}: scene files end in .toml, .json or .pbrt (or .xml: Mitsuba 3), mesh files in "
             f"{', '.join(SUPPORTED_EXTENSIONS)} (got {path.suffix or 'no extension'!r})"
         )
-    if path.is_dir():
-        raise SceneError(f"{path}: is a folder, not a scene file")
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise SceneError(f"{path}: no such scene file") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SceneError(f"{path}: cannot read the scene file ({exc})") from None
-    document = apply_overrides(parse_document(text, path), overrides)
+    document = apply_overrides(parse_document(read_scene_text(path), path), overrides)
     scene = scene_from_dict(document, source=source or path, overrides=overrides)
     return scene.with_base_dir(path.resolve().parent)
 

@@ -12,6 +12,7 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from .files import read_scene_text
 from .pbrt_tokens import PbrtError, Token, tokenize
 
 # Positional arguments of each directive: n a number, s a string, w a bare word, m a matrix (16
@@ -105,14 +106,7 @@ def parse_file(path: Path, search_dir: Path | None = None, _stack: tuple[Path, .
     search_dir = path.resolve().parent if search_dir is None else search_dir
     if len(_stack) > MAX_INCLUDE_DEPTH:
         raise PbrtError(f"{path}: files include each other more than {MAX_INCLUDE_DEPTH} deep")
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise PbrtError(f"{path}: no such pbrt file") from None
-    except IsADirectoryError:
-        raise PbrtError(f"{path}: is a folder, not a pbrt file") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise PbrtError(f"{path}: cannot read the pbrt file ({exc})") from None
+    text = read_scene_text(path, "pbrt file", PbrtError)
     stack = (*_stack, path.resolve())
     for directive in _directives(tokenize(text, path), search_dir):
         if directive.name in ("Include", "Import"):
