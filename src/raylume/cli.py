@@ -189,6 +189,18 @@ def _parse_aovs(specs: list[str], output: Path) -> tuple[dict[str, Path], list[s
     return files, layers
 
 
+# --define, as render, view and convert take it
+DefinesOption = Annotated[
+    list[str] | None,
+    typer.Option(
+        "--define",
+        "-D",
+        metavar="NAME=VALUE",
+        help="Set the parameter $NAME of a Mitsuba scene (.xml), as Mitsuba's -D (repeatable)",
+    ),
+]
+
+
 def _parse_defines(specs: list[str] | None) -> dict[str, str]:
     """--define NAME=VALUE ... as {NAME: VALUE} (Mitsuba's -D)."""
     defines = {}
@@ -276,15 +288,7 @@ def render(
             "VALUE is read as TOML (repeatable)",
         ),
     ] = None,
-    defines: Annotated[
-        list[str] | None,
-        typer.Option(
-            "--define",
-            "-D",
-            metavar="NAME=VALUE",
-            help="Set the parameter $NAME of a Mitsuba scene (.xml), as Mitsuba's -D (repeatable)",
-        ),
-    ] = None,
+    defines: DefinesOption = None,
     stats: Annotated[
         Path | None, typer.Option("--stats", metavar="PATH", help="Write render statistics as JSON")
     ] = None,
@@ -749,15 +753,7 @@ def view(
         list[str] | None,
         typer.Option("--set", metavar="KEY=VALUE", help="Set a scene key, as for render (repeatable)"),
     ] = None,
-    defines: Annotated[
-        list[str] | None,
-        typer.Option(
-            "--define",
-            "-D",
-            metavar="NAME=VALUE",
-            help="Set the parameter $NAME of a Mitsuba scene (.xml), as Mitsuba's -D (repeatable)",
-        ),
-    ] = None,
+    defines: DefinesOption = None,
     threads: Annotated[
         int | None, typer.Option("--threads", metavar="T", help="Render threads (default: all cores)")
     ] = None,
@@ -795,15 +791,7 @@ def convert(
         list[str] | None,
         typer.Option("--set", metavar="KEY=VALUE", help="Set a scene key, as for render (repeatable)"),
     ] = None,
-    defines: Annotated[
-        list[str] | None,
-        typer.Option(
-            "--define",
-            "-D",
-            metavar="NAME=VALUE",
-            help="Set the parameter $NAME of a Mitsuba scene (.xml), as Mitsuba's -D (repeatable)",
-        ),
-    ] = None,
+    defines: DefinesOption = None,
     debug: Annotated[bool, typer.Option("--debug", metavar=FLAG, help="Show tracebacks of errors")] = False,
 ) -> None:
     """Write IN as a raylume scene file (meshes and images stay where they are, referenced by path) that
