@@ -5,15 +5,13 @@ of Mitsuba scenes (--define, errors with file and line, nothing written on bad i
 
 from __future__ import annotations
 
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 from PIL import Image as PILImage
 from reference.mitsuba_xml_scenes import box_mesh, envmap_pixels, serialized_bytes, write_exr, write_obj
+from test_cli import raylume as cli
 
 import raylume
 from raylume.scene.export import scene_document
@@ -65,18 +63,6 @@ def write_mitsuba_scene(folder: Path) -> Path:
     path = folder / "scene.xml"
     path.write_text(SCENE)
     return path
-
-
-def cli(*args, cwd):
-    return subprocess.run(
-        [sys.executable, "-m", "raylume.cli", *map(str, args)],
-        cwd=cwd,
-        capture_output=True,
-        text=True,
-        env={**os.environ, "PYTHONUNBUFFERED": "1"},
-        timeout=300,
-        check=False,
-    )
 
 
 def renders(scene, modes=("path", "trace"), **kwargs) -> list[np.ndarray]:

@@ -18,6 +18,18 @@ from raylume.scene.pbrt_spectra import NAMED_RGB
 from raylume.scene.pbrt_transform import rotate
 
 
+def camera_statements(eye, target, fov, width, height, mirror=False) -> str:
+    """The pbrt statements of the camera the functions below compute with: LookAt (y up), a
+    perspective camera, an RGB film; `Scale -1 1 1` before them when `mirror`."""
+    return (
+        ("Scale -1 1 1\n" if mirror else "")
+        + f"""LookAt {" ".join(map(str, eye))}  {" ".join(map(str, target))}  0 1 0
+Camera "perspective" "float fov" {fov}
+Film "rgb" "integer xresolution" {width} "integer yresolution" {height}
+"""
+    )
+
+
 def pbrt_camera_from_world(eye, target, up, mirror_x=False) -> np.ndarray:
     """pbrt's LookAt (pbrt-v4 transform.cpp): columns right = normalize(cross(up, dir)),
     newUp = cross(dir, right), dir, eye of world-from-camera; the CTM gets its inverse."""
@@ -63,11 +75,8 @@ def test_point_light_irradiance_on_a_plane(tmp_path, width, height):
     eye, target, fov = (1.0, 3.0, -4.0), (0.0, 0.0, 0.5), 50.0
     light, intensity, rho = np.array([0.5, 2.0, 1.0]), np.array([3.0, 2.0, 1.0]), np.array([0.5, 0.25, 0.75])
     (tmp_path / "plane.pbrt").write_text(
-        f"""
-LookAt {" ".join(map(str, eye))}  {" ".join(map(str, target))}  0 1 0
-Camera "perspective" "float fov" {fov}
-Film "rgb" "integer xresolution" {width} "integer yresolution" {height}
-Sampler "independent" "integer pixelsamples" 1
+        camera_statements(eye, target, fov, width, height)
+        + f"""Sampler "independent" "integer pixelsamples" 1
 Integrator "path" "integer maxdepth" 1
 WorldBegin
 LightSource "point" "rgb I" [{" ".join(map(str, intensity))}] "point3 from" [{" ".join(map(str, light))}]
@@ -102,12 +111,8 @@ def test_a_point_lands_where_pbrts_projection_puts_it(tmp_path, mirror):
     eye, target, fov, width, height = (0.2, 1.0, -3.0), (0.0, 0.3, 1.0), 35.0, 32, 48
     point = np.array([0.7, 0.4, 1.3])
     (tmp_path / "dot.pbrt").write_text(
-        f"""
-{"Scale -1 1 1" if mirror else ""}
-LookAt {" ".join(map(str, eye))}  {" ".join(map(str, target))}  0 1 0
-Camera "perspective" "float fov" {fov}
-Film "rgb" "integer xresolution" {width} "integer yresolution" {height}
-WorldBegin
+        camera_statements(eye, target, fov, width, height, mirror)
+        + f"""WorldBegin
 LightSource "infinite" "rgb L" [1 1 1]
 Translate {" ".join(map(str, point))}
 Shape "sphere" "float radius" 0.15
@@ -219,12 +224,8 @@ def test_an_image_infinite_light_is_seen_where_pbrt_shows_it(tmp_path, mirror):
     save_array(tmp_path / "octants.exr", octant_map(64))
     eye, target, fov, width, height = (0.0, 0.0, 0.0), (1.0, 0.5, 1.0), 100.0, 48, 32
     (tmp_path / "sky.pbrt").write_text(
-        f"""
-{"Scale -1 1 1" if mirror else ""}
-LookAt {" ".join(map(str, eye))}  {" ".join(map(str, target))}  0 1 0
-Camera "perspective" "float fov" {fov}
-Film "rgb" "integer xresolution" {width} "integer yresolution" {height}
-WorldBegin
+        camera_statements(eye, target, fov, width, height, mirror)
+        + """WorldBegin
 AttributeBegin
   ConcatTransform [1 0 0 0  0 0 -1 0  0 1 0 0  0 0 0 1]
   LightSource "infinite" "string filename" "octants.exr" "float scale" 2

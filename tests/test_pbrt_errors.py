@@ -4,7 +4,6 @@ status 2 and no output from the command line) or reads with a warning naming wha
 from __future__ import annotations
 
 import os
-import subprocess
 import sys
 import warnings
 
@@ -12,12 +11,16 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from test_cli import assert_refused, raylume
 
 from raylume.errors import SceneError
 from raylume.scene.checks import SceneWarning
 from raylume.scene.load import load_scene
 from raylume.scene.pbrt_scene import pbrt_document
 from raylume.scene.pbrt_tokens import PbrtError, tokenize
+
+# the command line in a new process imports the raylume these tests import
+THIS_RAYLUME = {"PYTHONPATH": os.pathsep.join(sys.path)}
 
 CAMERA = 'Film "rgb" "integer xresolution" 8 "integer yresolution" 8\nWorldBegin\n'
 
@@ -204,18 +207,8 @@ def test_random_token_soup_reads_or_is_refused(tmp_path, words):
 
 def test_command_line_refuses_with_exit_2_and_writes_nothing(tmp_path):
     (tmp_path / "bad.pbrt").write_text(CAMERA + 'Shape "sphere" "float radius" [1\n')
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
-    result = subprocess.run(
-        [sys.executable, "-m", "raylume.cli", "render", "bad.pbrt", "-o", "out.png"],
-        cwd=tmp_path,
-        capture_output=True,
-        text=True,
-        env=env,
-        timeout=300,
-        check=False,
-    )
-    assert result.returncode == 2, result.stderr
-    assert "Traceback" not in result.stderr and "bad.pbrt:3" in result.stderr
+    result = raylume("render", "bad.pbrt", "-o", "out.png", cwd=tmp_path, env=THIS_RAYLUME)
+    assert_refused(result, "bad.pbrt:3")
     assert not (tmp_path / "out.png").exists()
 
 
@@ -224,30 +217,10 @@ def test_command_line_renders_a_pbrt_file_with_flags_and_warnings(tmp_path):
         CAMERA + 'LightSource "point" "rgb I" [1 1 1] "point3 from" [0 0 -1]\n'
         'Translate 0 0 3\nShape "sphere" "float fuzz" 1\n'
     )
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
-    result = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "raylume.cli",
-            "render",
-            "ok.pbrt",
-            "-o",
-            "out.npy",
-            "--set",
-            "render.width=6",
-            "--height",
-            "4",
-            "--stats",
-            "s.json",
-        ],
-        cwd=tmp_path,
-        capture_output=True,
-        text=True,
-        env=env,
-        timeout=300,
-        check=False,
-    )
+    result = raylume(
+        "render", "ok.pbrt", "-o", "out.npy", "--set", "render.width=6", "--height", "4", "--stats", "s.json",
+        cwd=tmp_path, env=THIS_RAYLUME,
+    )  # fmt: skip
     assert result.returncode == 0, result.stderr
     assert 'ok.pbrt:5: Shape "sphere": raylume does not use "float fuzz"' in result.stderr
     image = np.load(tmp_path / "out.npy")
