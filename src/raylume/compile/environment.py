@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import SceneError
-from ..kernels.shading.environment import Environment, alias_table, sampling_tables
+from ..kernels.shading.environment import Environment, alias_table, row_edges, sampling_tables
 from ..scene.mesh import transform_matrix
 from .equal_area import equal_area_to_equirectangular
 
@@ -75,7 +75,8 @@ def build_environment(
         fail("intensity", f"{intensity!r} times the image's brightest texel overflows float32")
     image = np.ascontiguousarray(scaled, dtype=np.float32)
     marginal, conditional = sampling_tables(image)
-    return Environment(image, marginal, conditional, alias_table(marginal, conditional), rotation, True)
+    alias = alias_table(marginal, conditional)
+    return Environment(image, marginal, conditional, alias, row_edges(image.shape[0]), rotation, True)
 
 
 def _finite_number(value) -> float | None:

@@ -108,6 +108,7 @@ def _compile_scene(scene: Scene, source: str, accelerate: bool) -> CompiledScene
         env_marginal_cdf=environment.marginal_cdf,
         env_conditional_cdf=environment.conditional_cdf,
         env_alias=environment.alias,
+        env_row_z=environment.row_z,
         env_rotation=environment.rotation,
         env_present=environment.present,
         has_transparency=bool((mat_rows[:, MAT_TRANSPARENCY] > 0).any()),

@@ -46,6 +46,7 @@ class KernelScene(NamedTuple):
     env_marginal_cdf: np.ndarray
     env_conditional_cdf: np.ndarray
     env_alias: np.ndarray
+    env_row_z: np.ndarray
     env_rotation: np.ndarray
     env_present: bool
     has_transparency: bool
@@ -204,7 +205,13 @@ def emitters_of(S):
 @kernel_function()
 def environment_of(S):
     return Environment(
-        S.env_image, S.env_marginal_cdf, S.env_conditional_cdf, S.env_alias, S.env_rotation, S.env_present
+        S.env_image,
+        S.env_marginal_cdf,
+        S.env_conditional_cdf,
+        S.env_alias,
+        S.env_row_z,
+        S.env_rotation,
+        S.env_present,
     )
 
 

@@ -289,6 +289,91 @@ def quarter_sincos(a):
     return c, s
 
 
+# fdlibm's arctangent (s_atan.c): atan(0.5), atan(1), atan(1.5) and atan(inf) = pi/2, each as a
+# float64 and the rest, and the odd polynomial for |x| <= 7/16, in Horner form.
+_ATAN_HI = (4.63647609000806093515e-01, 7.85398163397448278999e-01, 9.82793723247329054082e-01,
+            1.57079632679489655800e00)  # fmt: skip
+_ATAN_LO = (2.26987774529616870924e-17, 3.06161699786838301793e-17, 1.39033110312309984516e-17,
+            6.12323399573676603587e-17)  # fmt: skip
+_AT = (3.33333333333329318027e-01, -1.99999999998764832476e-01, 1.42857142725034663711e-01,
+       -1.11111104054623557880e-01, 9.09088713343650656196e-02, -7.69187620504482999495e-02,
+       6.66107313738753120669e-02, -5.83357013379057348645e-02, 4.97687799461593236017e-02,
+       -3.65315727442169155270e-02, 1.62858201153657823623e-02)  # fmt: skip
+# fdlibm's arc cosine (e_acos.c): pi and pi/2 as a float64 and the rest, and the rational
+# approximation of (asin(sqrt z) - sqrt z) / z**1.5 for z in [0, 1/4]
+_PI_HI, _PIO2_HI, _PIO2_LO = 3.14159265358979311600e00, 1.57079632679489655800e00, 6.12323399573676603587e-17
+_PS = (1.66666666666666657415e-01, -3.25565818622400915405e-01, 2.01212532134862925881e-01,
+       -4.00555345006794114027e-02, 7.91534994289814532176e-04, 3.47933107596021167570e-05)  # fmt: skip
+_QS = (-2.40339491173441421878e00, 2.02094576023350569471e00, -6.88283971605453293030e-01,
+       7.70381505559019352791e-02)  # fmt: skip
+
+
+@inline_function
+def _atan_nonnegative(x):
+    """atan(x) for x >= 0 (+inf included), by fdlibm's reduction to |x| <= 7/16 around 0.5, 1,
+    1.5 or infinity."""
+    if x < 0.4375:
+        z = x * x
+        w = z * z
+        s1 = z * (_AT[0] + w * (_AT[2] + w * (_AT[4] + w * (_AT[6] + w * (_AT[8] + w * _AT[10])))))
+        s2 = w * (_AT[1] + w * (_AT[3] + w * (_AT[5] + w * (_AT[7] + w * _AT[9]))))
+        return x - x * (s1 + s2)
+    if x < 1.1875:
+        if x < 0.6875:
+            hi, lo, x = _ATAN_HI[0], _ATAN_LO[0], (2.0 * x - 1.0) / (2.0 + x)
+        else:
+            hi, lo, x = _ATAN_HI[1], _ATAN_LO[1], (x - 1.0) / (x + 1.0)
+    elif x < 2.4375:
+        hi, lo, x = _ATAN_HI[2], _ATAN_LO[2], (x - 1.5) / (1.0 + 1.5 * x)
+    else:
+        hi, lo, x = _ATAN_HI[3], _ATAN_LO[3], -1.0 / x
+    z = x * x
+    w = z * z
+    s1 = z * (_AT[0] + w * (_AT[2] + w * (_AT[4] + w * (_AT[6] + w * (_AT[8] + w * _AT[10])))))
+    s2 = w * (_AT[1] + w * (_AT[3] + w * (_AT[5] + w * (_AT[7] + w * _AT[9]))))
+    return hi - ((x * (s1 + s2) - lo) - x)
+
+
+@kernel_function
+def atan2(y, x):
+    """The angle of the point (x, y) from the x axis, in [-pi, pi], as libm's atan2 to a few
+    ulps, for finite x, y (0 at the origin, +-pi at (-0, +-0)), without a libm call: the
+    environment's image coordinates take one per lookup, ~4% of path mode's time on
+    examples/materials.toml as a call."""
+    ax = abs(x)
+    ay = abs(y)
+    if ay <= ax:
+        a = _atan_nonnegative(ay / ax) if ax > 0.0 else 0.0
+    else:
+        a = _PIO2_HI - (_atan_nonnegative(ax / ay) - _PIO2_LO)  # pi/2 - atan(|x| / |y|)
+    if x < 0.0 or (x == 0.0 and math.copysign(1.0, x) < 0.0):
+        a = _PI_HI - (a - 2.0 * _PIO2_LO)  # pi - a
+    return math.copysign(a, y)
+
+
+@inline_function
+def _acos_ratio(z):
+    p = z * (_PS[0] + z * (_PS[1] + z * (_PS[2] + z * (_PS[3] + z * (_PS[4] + z * _PS[5])))))
+    q = 1.0 + z * (_QS[0] + z * (_QS[1] + z * (_QS[2] + z * _QS[3])))
+    return p / q
+
+
+@kernel_function
+def acos(x):
+    """The arc cosine of x in [-1, 1] (NaN outside), as libm's to a couple of ulps, without a libm
+    call (fdlibm's e_acos.c, less its last refinement near 1): pi/2 - asin(x) for |x| <= 1/2,
+    else twice the arc sine of sqrt((1 -+ x) / 2)."""
+    if x > 0.5:
+        z = (1.0 - x) * 0.5
+        s = math.sqrt(z)
+        return 2.0 * (s + s * _acos_ratio(z))
+    if x < -0.5:
+        z = (1.0 + x) * 0.5
+        s = math.sqrt(z)
+        return _PI_HI - 2.0 * (s + (s * _acos_ratio(z) - _PIO2_LO))
+    return _PIO2_HI - (x - (_PIO2_LO - x * _acos_ratio(x * x)))
+
+
 @kernel_function
 def turn(u):
     """(cos 2 pi u, sin 2 pi u): the point at the fraction u of a turn around the unit circle.

@@ -73,7 +73,7 @@ import numpy as np
 from numba import njit
 
 from ..geometry.wide_nodes import prefetch_row
-from ..vec import inline_function, kernel_function
+from ..vec import acos, atan2, inline_function, kernel_function, turn
 
 PI = math.pi
 TWO_PI = 2.0 * math.pi
@@ -88,6 +88,9 @@ class Environment(NamedTuple):
     # Walker's alias table over the H x W cells with the same probabilities (alias_table): per
     # cell k, float64 (threshold, alias cell): a sample picks one cell in one step
     alias: np.ndarray
+    # float64 (H + 1,): cos(pi i / H), the rows' edges in cos theta (row_edges): the cells' solid
+    # angles and the samples read them, so the kernels call no cos
+    row_z: np.ndarray
     rotation: np.ndarray  # float64 (3, 3) world-from-environment; its transpose maps back
     present: bool  # False: no [environment] (rays that miss see the background)
 
@@ -106,7 +109,7 @@ def _image_uv(E, d):
     z = r[0, 2] * d[0] + r[1, 2] * d[1] + r[2, 2] * d[2]
     n = math.sqrt(x * x + y * y + z * z)
     cos_theta = min(1.0, max(-1.0, y / n)) if n > 0.0 else 1.0
-    return math.atan2(x, z) / TWO_PI + 0.5, math.acos(cos_theta) / PI
+    return atan2(x, z) / TWO_PI + 0.5, acos(cos_theta) / PI
 
 
 @inline_function
@@ -161,11 +164,6 @@ def environment_radiance(E, d):
     return _bilinear(image, u, v)
 
 
-@inline_function
-def _cell_solid_angle(i, h, w):
-    return (math.cos(PI * i / h) - math.cos(PI * (i + 1) / h)) * (TWO_PI / w)
-
-
 @kernel_function
 def environment_pdf(E, d):
     """The solid-angle pdf with which sample_environment returns world direction d."""
@@ -178,7 +176,7 @@ def environment_pdf(E, d):
     j = min(max(int(u * w), 0), w - 1)
     p_row = E.marginal_cdf[i + 1] - E.marginal_cdf[i]
     p_col = E.conditional_cdf[i, j + 1] - E.conditional_cdf[i, j]
-    area = _cell_solid_angle(i, h, w)
+    area = (E.row_z[i] - E.row_z[i + 1]) * (TWO_PI / w)
     if area <= 0.0:
         return 0.0
     return p_row * p_col / area
@@ -226,17 +224,17 @@ def sample_environment(E, u1, u2):
         return (0.0, 0.0, 1.0), (0.0, 0.0, 0.0), 0.0
     dv = min(max(dv, 0.0), 1.0)
     du = u2
-    z0 = math.cos(PI * i / h)
-    z1 = math.cos(PI * (i + 1) / h)
+    z0 = E.row_z[i]
+    z1 = E.row_z[i + 1]
     area = (z0 - z1) * (TWO_PI / w)
     if area <= 0.0:
         return (0.0, 0.0, 1.0), (0.0, 0.0, 0.0), 0.0
     cos_theta = min(1.0, max(-1.0, z0 - (z0 - z1) * dv))
     sin_theta = math.sqrt(max(0.0, 1.0 - cos_theta * cos_theta))
     u = (j + du) / w
-    phi = TWO_PI * (u - 0.5)
-    x = math.sin(phi) * sin_theta
-    z = math.cos(phi) * sin_theta
+    cos_phi, sin_phi = turn(u - 0.5)  # phi = 2 pi (u - 0.5)
+    x = sin_phi * sin_theta
+    z = cos_phi * sin_theta
     r = E.rotation
     d = (
         r[0, 0] * x + r[0, 1] * cos_theta + r[0, 2] * z,
@@ -246,7 +244,7 @@ def sample_environment(E, u1, u2):
     if h == 1 and w == 1:  # a constant colour, as environment_radiance returns it
         rgb = (float(E.image[0, 0, 0]), float(E.image[0, 0, 1]), float(E.image[0, 0, 2]))
     else:
-        rgb = _bilinear(E.image, u, math.acos(cos_theta) / PI)
+        rgb = _bilinear(E.image, u, acos(cos_theta) / PI)
     return d, rgb, p_row * p_col / area
 
 
@@ -262,6 +260,7 @@ def no_environment() -> Environment:
         marginal_cdf=np.array([0.0, 1.0]),
         conditional_cdf=np.array([[0.0, 1.0]]),
         alias=np.array([[1.0, 0.0]]),
+        row_z=row_edges(1),
         rotation=np.eye(3),
         present=False,
     )
@@ -312,12 +311,22 @@ def cell_integrals(values: np.ndarray) -> np.ndarray:
     return rows * (TWO_PI / w)
 
 
+def row_edges(h: int) -> np.ndarray:
+    """float64 (H + 1,): cos(pi i / H) for i = 0 .. H, the edges of the image's rows in cos theta
+    (1 and -1 exactly at the poles). Computed once here, not per sample in the kernels: the
+    cells' solid angles in the sampling tables and in the pdf are then the same numbers, on
+    every machine of a cluster whatever its libm (the scene ships the table)."""
+    edges = np.cos(np.pi * np.arange(h + 1) / h)
+    edges[0], edges[-1] = 1.0, -1.0
+    return edges
+
+
 def sampling_tables(image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(marginal_cdf (H + 1,), conditional_cdf (H, W + 1)) for a float (H, W, 3) image: texel
     cells weighted by the integral of the lookup's mean channel over them (cell_integrals); an
     all-black image (or row) is sampled by solid angle alone (uniformly)."""
     h, w = image.shape[:2]
-    edges = np.cos(np.pi * np.arange(h + 1) / h)
+    edges = row_edges(h)
     band = np.maximum(edges[:-1] - edges[1:], 0.0)  # a row's solid angle / (2 pi)
     weights = cell_integrals(image.astype(np.float64).mean(axis=2))
     if not weights.sum() > 0.0:
