@@ -48,6 +48,17 @@ INTERIORS = {  # closed shapes filled with scattering media: a null boundary and
 }  # fmt: skip
 
 
+BEHIND_THE_LIGHT = {  # a big sphere light in fog: the fog behind it, lit, is hidden from the camera
+    # (light subpaths scattered there must not reach the camera through the light: 11% too bright)
+    "render": {"width": 32, "height": 24, "mode": "path", "max_depth": 2, "medium": "fog"},
+    "camera": {"position": [0, 0, -3], "look_at": [0, 0, 0], "fov": 40},
+    "media": {"fog": {"type": "homogeneous", "sigma_s": 0.5, "g": 0.0}},
+    "lights": [{"type": "sphere", "position": [0, 0, 0], "radius": 0.5, "intensity": 1}],
+    "objects": [{"type": "quad", "position": [0, 0, 30], "u": [1, 0, 0], "v": [0, 1, 0],
+                 "material": {"type": "diffuse", "color": [0, 0, 0]}}],
+}  # fmt: skip
+
+
 def _grid_scene(folder) -> raylume.Scene:
     """A grid medium ([render] medium: density only inside its box) of a soft blob of noise,
     under a uniform environment (whose light subpaths start on a disk beyond the grid's box) and
@@ -74,17 +85,21 @@ def _seed_images(session: raylume.Session, integrator: str, spp: int, first_seed
     return np.stack(images).astype(np.float64)
 
 
-@pytest.mark.parametrize("case", ["fog with a light in it", "interiors behind null and glass", "grid medium"])
+@pytest.mark.parametrize(
+    "case", ["fog with a light in it", "interiors behind null and glass", "grid medium", "fog behind a light"]
+)
 def test_bdpt_agrees_with_path_mode_through_media(case, tmp_path):
     """Scattering, absorption, chromatic media, multiple scattering up to max_depth, light
     subpaths that start in a medium (a sphere light in fog, a point light, the environment's
-    disk beyond a grid), connections through media and null boundaries, and glass around a
-    medium (only paths through its delta surfaces reach inside); bdpt at 8 samples per pixel
+    disk beyond a grid), connections through media and null boundaries, glass around a medium
+    (only paths through its delta surfaces reach inside), a light's body hiding the fog behind
+    it; bdpt at 8 samples per pixel
     against path mode at 32, SEEDS seeds each."""
     scene = {
         "fog with a light in it": lambda: raylume.scene_from_dict(FOG),
         "interiors behind null and glass": lambda: raylume.scene_from_dict(INTERIORS),
         "grid medium": lambda: _grid_scene(tmp_path),
+        "fog behind a light": lambda: raylume.scene_from_dict(BEHIND_THE_LIGHT),
     }[case]()
     session = raylume.Session(scene)
     bdpt = _seed_images(session, "bdpt", 8, 100)

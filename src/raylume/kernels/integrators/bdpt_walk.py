@@ -6,9 +6,13 @@ and, once the walk leaves it, the reverse density of the vertex before it. The w
 path mode does (path.py): the same shading frame, two-sided rules, Beer-Lambert absorption
 inside dielectrics, area lights (quad, sphere lights) that end a ray, and Russian roulette from
 segment RR_DEPTH on (its 1 / q is in the throughput, not in the MIS densities: the weights stay a
-partition of unity, each strategy stays unbiased). Random numbers: the camera walk's BSDF samples
-from path mode's BSDF dimension, the light walk's from a dimension of its own, both keyed by the
-vertex's number along its subpath."""
+partition of unity, each strategy stays unbiased). Participating media as path mode renders them:
+the walk carries the medium its ray travels in, each segment's free flight may end in a medium
+vertex (the phase function samples the next direction), null boundaries are passed without a
+vertex, and a transmission changes the medium by the interface table. Random numbers: the camera
+walk's BSDF and phase samples from path mode's BSDF dimension, the light walk's from a dimension
+of its own, both keyed by the vertex's number along its subpath; free flights from
+DIM_WALK_MEDIUM, keyed by the vertex and the null boundaries passed."""
 
 import math
 
