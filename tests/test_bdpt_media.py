@@ -1,14 +1,16 @@
 """Bidirectional path tracing (integrator = "bdpt") through participating media and null
 boundaries, against path mode's images (its own estimator, tested against Mitsuba 3's volpath
 in test_media_vs_mitsuba.py and against Beer-Lambert and white furnaces in test_media.py): per
-8 x 8 block and channel, over independent seeds (test_bdpt._assert_blocks_agree); and its
-determinism with media."""
+8 x 8 block and channel, over independent seeds (test_bdpt._assert_blocks_agree); a white
+furnace (every path returns 1); and its determinism with media."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 from test_bdpt import BDPT, _assert_blocks_agree, _block_means
+from test_media import furnace, seeds_mean
+from test_path import _assert_mean
 
 import raylume
 
@@ -108,6 +110,20 @@ def test_bdpt_agrees_with_path_mode_through_media(case, tmp_path):
     _assert_blocks_agree(_block_means(bdpt), _block_means(path), f"{case}, 8 x 8 blocks")
     # and the whole image, where a bias small against one block's noise shows sooner
     _assert_blocks_agree(bdpt.mean(axis=(1, 2), keepdims=True), path.mean(axis=(1, 2), keepdims=True), case)
+
+
+@pytest.mark.parametrize(
+    "medium",
+    [{"type": "homogeneous", "sigma_s": 2.0, "g": 0.0}, {"type": "homogeneous", "sigma_s": [0.5, 2.0, 6.0], "g": 0.7}],
+    ids=["grey isotropic", "chromatic forward"],
+)
+def test_a_white_furnace_medium_disappears(medium, tmp_path):
+    """test_media's white furnace by bdpt: a medium of albedo 1 in a null sphere under a uniform
+    environment of radiance 1 returns 1 everywhere, per channel (light subpaths from the
+    environment's disk scatter inside, connections cross the boundary)."""
+    mean, _ = seeds_mean(furnace(medium, tmp_path), range(6), integrator="bdpt")
+    for c in range(3):
+        _assert_mean(mean[..., c : c + 1], 1.0, f"channel {c}")
 
 
 @pytest.mark.parametrize("case", ["interiors", "grid"])
