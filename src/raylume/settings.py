@@ -66,37 +66,10 @@ def resolve_settings(
             else:
                 message = format_validation_error(exc, source, RenderSettings, context="render settings: ")
             raise SceneError(message) from None
-    if isinstance(base, Scene):
-        check_integrator(base, table, COMMAND_LINE if flags else source)
     threads = check_threads(threads, flags)
     crop_source = f"{COMMAND_LINE} (--crop)" if flags else source
     window = None if crop is None else check_crop(crop, table.width, table.height, crop_source)
     return ResolvedSettings(table, threads, window)
-
-
-def has_media(scene: Scene) -> bool:
-    """Does the scene hold participating media ([media.*], an object's `interior`, [render]
-    `medium`) or null boundaries (a `null` material: path mode steps through them, no vertex)?"""
-    materials = getattr(scene, "materials", None) or {}
-    return bool(
-        getattr(scene, "media", None)
-        or getattr(scene.render, "medium", None)
-        or any(getattr(obj, "interior", None) for obj in scene.objects)
-        or any(getattr(m, "type", None) == "null" for m in materials.values())
-        or any(getattr(getattr(obj, "material", None), "type", None) == "null" for obj in scene.objects)
-    )
-
-
-def check_integrator(scene: Scene, table: RenderSettings, source: str) -> None:
-    """Bidirectional path tracing does not render participating media (nor the null boundaries that
-    path mode steps through) yet: refuse such a scene (a SceneError: exit 2) rather than render it
-    without them."""
-    if table.mode == "path" and table.integrator == "bdpt" and has_media(scene):
-        raise SceneError(
-            f'{source}: integrator "bdpt" does not render participating media or null boundaries yet (the scene '
-            f'has [media], an object\'s interior, [render] medium or a "null" material); render it with '
-            f'integrator = "path"'
-        )
 
 
 def settings_of_call(

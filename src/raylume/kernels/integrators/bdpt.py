@@ -9,6 +9,14 @@ film wherever they land, splat.py) and the connections between the two. Each is 
 balance heuristic over the strategies that could have made the same path (bdpt_mis.py), so the
 estimate is unbiased and converges to path mode's image.
 
+Participating media as pbrt-v3's BDPT renders them: subpaths scatter in media (medium vertices,
+the phase function for a BSDF; bdpt_walk.py), pass null boundaries without a vertex and track
+the medium they travel in as path mode does; every connection multiplies in the transmittance
+of the media and null boundaries it passes (shadow.py's, path mode's shadow rays), from the
+medium on its starting vertex's side. The MIS densities leave out the free flights' distance
+sampling and the transmittance, the same for every strategy (pbrt-v3), so the weights still sum
+to one over the strategies that can make a path.
+
 max_depth counts segments, as path mode (-1: unlimited, Russian roulette from segment 5, at most
 MAX_SEGMENTS). A strategy switch (RAYLUME_BDPT_STRATEGY="s,t", with or without MIS) renders one
 strategy alone, for tests."""
@@ -28,13 +36,14 @@ from ..shading.lights import (
     at_infinity,
     emission_pdf,
     environment_light,
+    hit_area_lights,
     is_delta,
     pick_emitter,
     sample_emission,
 )
 from ..shading.lights.registry import visible_hit
 from ..shading.materials import MAT_EMISSION, beer_lambert, two_sided
-from ..vec import add, dot, hadamard, kernel_function, madd, mul, row3
+from ..vec import add, dot, hadamard, inline_function, kernel_function, madd, mul, row3
 from .bdpt_mis import mis_weight
 from .bdpt_vertex import (
     CAMERA,
@@ -49,26 +58,30 @@ from .bdpt_vertex import (
     V_E,
     V_M,
     V_NG,
-    V_NS,
     V_P,
     V_PDF_FWD,
     V_WIDTH,
     connectible,
+    cosine_at,
     has_flag,
     is_light,
     kind_of,
+    medium_towards,
     pdf_light_origin,
     put_vertex,
     toward,
     vertex_f,
 )
 from .bdpt_walk import camera_subpath, light_subpath
+from .shadow import shadow_transmittance
 
 INF = math.inf
 MAX_SEGMENTS = 64  # unlimited max_depth: subpaths end by Russian roulette, or here
 DIM_CONNECT_LIGHT = np.uint64(0x5A3D11E1)  # s = 1: the light point of each camera vertex
 DIM_CONNECT_LENS = np.uint64(0x1E25C0DE)  # t = 1: the lens point of each light vertex
+DIM_CONNECT_MEDIUM = np.uint64(0x5AD0B1D1)  # ratio tracking along each strategy's connection
 ZERO = (0.0, 0.0, 0.0)
+ONE = (1.0, 1.0, 1.0)
 SAVED = 0  # the scratch row where a subpath's vertex waits while a sampled one takes its place
 
 
@@ -78,16 +91,44 @@ def _nonzero(c):
 
 
 @kernel_function
-def _visible(C, A, i, B, k, w, d2, node_stack, t_stack):
-    """Is the segment from A[i] towards B[k] (unit w, squared length d2, inf: to infinity) clear?
-    Offsets from surfaces as path mode's shadow rays; the far end shortened by SHADOW_SHORTEN."""
+def _transmitted(C, A, i, w, d2, key, node_stack, t_stack):
+    """The fraction of light (RGB) that passes the segment from A[i] along unit w (squared
+    length d2, inf: to infinity): 0 or 1 by any_hit, or where the scene has media or null
+    boundaries, their transmittance (path mode's shadow rays, shadow.py) from the medium the
+    segment starts in. Offsets from surfaces as path mode's shadow rays; the far end shortened
+    by SHADOW_SHORTEN."""
     o = row3(A, i, V_P)
     if kind_of(A, i) == SURFACE or has_flag(A, i, F_ON_SURFACE):
         ng = row3(A, i, V_NG)
         eps = offset_epsilon(C.F.epsilon_floor, o)
         o = madd(o, ng, eps if dot(w, ng) > 0.0 else -eps)
     tmax = math.sqrt(d2) * (1.0 - SHADOW_SHORTEN) if d2 < INF else INF
-    return not any_hit(C.G, C.X, o, w, 0.0, tmax, node_stack, t_stack)
+    Md = C.Md
+    if Md.pass_through:
+        # quad and sphere lights (not in the BVH) stop the segment, as they stop path mode's rays
+        # and the subpaths' (bdpt_walk.py): light behind a sphere light in fog does not pass it.
+        # (Scenes without media or null boundaries keep their images: any_hit alone.)
+        if C.Em.n_area > 0:
+            _, blocker, _ = hit_area_lights(C.Em, o, w, tmax)
+            if blocker >= 0:
+                return ZERO
+        med = medium_towards(C, A, i, w)
+        return shadow_transmittance(C.G, C.F, C.X, Md, o, w, tmax, med, key, node_stack, t_stack)
+    if any_hit(C.G, C.X, o, w, 0.0, tmax, node_stack, t_stack):
+        return ZERO
+    return ONE
+
+
+@inline_function
+def _through(C, value, tr):
+    """value times the transmittance tr of its connection (unchanged without media)."""
+    return hadamard(value, tr) if C.Md.pass_through else value
+
+
+@inline_function
+def _connection_key(key, s, t):
+    """Ratio tracking's random numbers along strategy (s, t)'s connection."""
+    return sub_key(dimension_key(key, DIM_CONNECT_MEDIUM, s), t)
 
 
 @kernel_function
@@ -171,12 +212,14 @@ def connect(C, Vc, Vl, saved, s, t, key, mis, node_stack, t_stack):
     if not _nonzero(f_c):
         return ZERO, 0
     f_l = vertex_f(C.F, Vl, qs, mul(w, -1.0), True)
-    g = abs(dot(row3(Vc, pt, V_NS), w)) * abs(dot(row3(Vl, qs, V_NS), w)) / d2
+    g = cosine_at(Vc, pt, w) * cosine_at(Vl, qs, w) / d2
     value = mul(hadamard(hadamard(beta_c, f_c), hadamard(f_l, row3(Vl, qs, V_BETA))), g)
     if not _nonzero(value):
         return ZERO, 0
-    if not _visible(C, Vc, pt, Vl, qs, w, d2, node_stack, t_stack):
+    tr = _transmitted(C, Vc, pt, w, d2, _connection_key(key, s, t), node_stack, t_stack)
+    if not _nonzero(tr):
         return ZERO, 1
+    value = _through(C, value, tr)
     # a segment inside a dielectric: both its ends are on the inside; absorb once
     if _into(C, Vl, qs, mul(w, -1.0), d2):
         value = _absorbed(C, Vl, qs, mul(w, -1.0), d2, value)
@@ -226,11 +269,12 @@ def _connect_light(C, Vc, Vl, saved, t, key, mis, node_stack, t_stack):
             light = mul(le, cos_l / (p_pick * pdf_pos * d2))
     if ok and _nonzero(light):
         f = vertex_f(F, Vc, pt, w, False)
-        value = hadamard(hadamard(row3(Vc, pt, V_BETA), f), mul(light, abs(dot(row3(Vc, pt, V_NS), w))))
+        value = hadamard(hadamard(row3(Vc, pt, V_BETA), f), mul(light, cosine_at(Vc, pt, w)))
         if _nonzero(value):
             rays = 1
-            if _visible(C, Vc, pt, Vl, 0, w, d2, node_stack, t_stack) and not _self_hidden(C, Vc, pt, e, w, d2):
-                value = _absorbed(C, Vc, pt, w, d2, value)
+            tr = _transmitted(C, Vc, pt, w, d2, _connection_key(key, 1, t), node_stack, t_stack)
+            if _nonzero(tr) and not _self_hidden(C, Vc, pt, e, w, d2):
+                value = _absorbed(C, Vc, pt, w, d2, _through(C, value, tr))
                 if mis:
                     Vl[0, V_PDF_FWD] = pdf_light_origin(C, Vl, 0, Vc, pt)
                     value = mul(value, mis_weight(C, Vc, Vl, 1, t))
@@ -266,13 +310,14 @@ def connect_camera(C, Vc, Vl, saved, s, key, mis, node_stack, t_stack):
             # the lens point's solid-angle density seen from the vertex: d2 / (cos lens_area)
             beta_cam = we * cos_lens * lens_area(cam) / d2
             f = vertex_f(C.F, Vl, qs, w, True)
-            value = mul(hadamard(row3(Vl, qs, V_BETA), f), abs(dot(row3(Vl, qs, V_NS), w)) * beta_cam)
+            value = mul(hadamard(row3(Vl, qs, V_BETA), f), cosine_at(Vl, qs, w) * beta_cam)
             if _nonzero(value):
                 rays = 1
                 for c in range(3):
                     Vc[0, V_BETA + c] = beta_cam
-                if _visible(C, Vl, qs, Vc, 0, w, d2, node_stack, t_stack):
-                    value = _absorbed(C, Vl, qs, w, d2, value)
+                tr = _transmitted(C, Vl, qs, w, d2, _connection_key(key, s, 1), node_stack, t_stack)
+                if _nonzero(tr):
+                    value = _absorbed(C, Vl, qs, w, d2, _through(C, value, tr))
                     if mis:
                         value = mul(value, mis_weight(C, Vc, Vl, s, 1))
                 else:

@@ -9,6 +9,8 @@ import numpy as np
 
 from ..film.splat import splat_filter
 from ..shading.lights.registry import visible_bounds
+from ..shading.media import grid
+from ..shading.media.table import MED_BOX_MAX, MED_BOX_MIN, MED_KIND
 from .bdpt import MAX_SEGMENTS
 
 STRATEGY_VARIABLE = "RAYLUME_BDPT_STRATEGY"
@@ -33,9 +35,13 @@ def _box_of_nodes(nodes: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
 
 
 def bounding_sphere(S) -> np.ndarray:
-    """(centre x, y, z, radius) of a sphere around the scene's bounded geometry and area lights
-    (a little larger, so that the disk lies outside everything)."""
+    """(centre x, y, z, radius) of a sphere around the scene's bounded geometry, area lights and
+    grid media's boxes (a little larger, so that the disk lies outside everything)."""
     boxes = []
+    if S.media_present:
+        for row in S.medium_data:
+            if int(row[MED_KIND]) == grid.KIND:
+                boxes.append((row[MED_BOX_MIN : MED_BOX_MIN + 3].copy(), row[MED_BOX_MAX : MED_BOX_MAX + 3].copy()))
     if S.n_bounded > 0:
         boxes.append(_box_of_nodes(S.node_bounds))
     if S.instance_inverse.shape[0] > 0:

@@ -6,11 +6,15 @@ shading normals (outward, as `surface` gives them), the unit direction towards t
 it on its own subpath (wo), the throughput beta of the subpath up to it, the colour of its
 material there, for lights at infinity the direction towards the light, the forward and reverse
 area densities (pdfFwd: the density with which its own subpath made it, pdfRev: with which the
-other subpath would), its kind and flags, its material row, its light row and its hit.
+other subpath would), its kind and flags, its material row, its light row and its hit, and for
+participating media the medium it lies in (a surface: the medium its subpath's ray arrived
+through), its object and a medium vertex's Henyey-Greenstein asymmetry.
 
 Kinds: CAMERA (a point on the lens), LIGHT (a point on a light; a light at infinity, whose point
-is a direction; an area light that a camera subpath met, which ends it) and SURFACE. Densities
-of vertices at infinity are solid angles (pbrt's convention)."""
+is a direction; an area light that a camera subpath met, which ends it), SURFACE and MEDIUM (a
+scattering in a participating medium: the phase function in place of a BSDF, no normal, so its
+area densities have no cosine, pbrt-v3's ConvertDensity). Densities of vertices at infinity are
+solid angles (pbrt's convention)."""
 
 import math
 from typing import NamedTuple
@@ -19,12 +23,13 @@ import numpy as np
 
 from ..film.camera import camera_importance
 from ..geometry.shapes import NO_HIT
-from ..scene import Emitters, Geometry, Surfaces
+from ..scene import Emitters, Geometry, Media, Surfaces
 from ..shading.environment import Environment, environment_pdf
 from ..shading.frame import shading_frame, to_local
 from ..shading.lights import emission_pdf, pick_probability
 from ..shading.lights.sampling import disk_density
 from ..shading.materials import bsdf_eval, delta_only, two_sided
+from ..shading.media import hg_eval, medium_beyond
 from ..vec import dot, inline_function, mul, row3, sub
 
 INF = math.inf
@@ -43,11 +48,15 @@ V_FLAGS = 25
 V_M = 26  # material row (-1: none)
 V_E = 27  # light row (-1: none; a surface that emits without a light row: not sampled by lights)
 V_HIT = 28  # the primitive (or instance hit) of a surface or of a point on an emissive primitive
-V_WIDTH = 29
+V_MED = 29  # the medium (-1: none) of a medium vertex; a surface's: the one its ray arrived in
+V_OBJ = 30  # a surface's object (which media lie on its two sides)
+V_G = 31  # a medium vertex's Henyey-Greenstein asymmetry
+V_WIDTH = 32
 
 CAMERA = 0
 LIGHT = 1
 SURFACE = 2
+MEDIUM = 3
 F_INFINITE = 1  # a light at infinity (ambient, environment, directional; an escaped camera ray)
 F_DELTA_LIGHT = 2  # a point, spot or directional light
 F_ON_SURFACE = 4  # a light vertex with a normal: area lights, emissive surfaces
@@ -65,6 +74,7 @@ class Context(NamedTuple):
     X: object
     Em: Emitters
     Env: Environment
+    Md: Media
     cam: np.ndarray
     B: np.ndarray
     width: int
@@ -91,6 +101,18 @@ def put_vertex(V, i, kind, p, ng, ns, wo, beta, pdf_fwd, m, e, colour, hit, flag
     V[i, V_M] = m
     V[i, V_E] = e
     V[i, V_HIT] = hit
+    V[i, V_MED] = -1.0
+    V[i, V_OBJ] = -1.0
+    V[i, V_G] = 0.0
+
+
+@inline_function
+def put_medium_vertex(V, i, p, wo, beta, med, g):
+    """Write medium vertex i: a scattering at p in medium med (asymmetry g), wo towards the
+    vertex before it."""
+    put_vertex(V, i, MEDIUM, p, wo, wo, wo, beta, 0.0, -1, -1, (0.0, 0.0, 0.0), NO_HIT, 0)
+    V[i, V_MED] = med
+    V[i, V_G] = g
 
 
 @inline_function
@@ -125,7 +147,7 @@ def connectible(F, V, i):
     directional light, not at a light a camera subpath met (pbrt's IsConnectible and the rule
     that a camera subpath's light vertex is only for s = 0)."""
     k = kind_of(V, i)
-    if k == CAMERA:
+    if k == CAMERA or k == MEDIUM:
         return True
     if k == LIGHT:
         return not (has_flag(V, i, F_INFINITE) and has_flag(V, i, F_DELTA_LIGHT))
@@ -195,8 +217,11 @@ def vertex_f(F, V, i, w_next, importance):
     """f at surface vertex V[i] towards w_next (the other subpath's vertex), coming from its
     own subpath's vertex before it: radiance on a camera subpath, importance on a light subpath
     (the adjoint: light flows from the previous vertex on to w_next, with the shading-normal
-    correction)."""
+    correction); the phase function at a medium vertex, the same both ways."""
     w_prev = row3(V, i, V_WO)
+    if kind_of(V, i) == MEDIUM:
+        phase = hg_eval(V[i, V_G], -dot(w_prev, w_next))
+        return (phase, phase, phase)
     if importance:
         f, _ = surface_bsdf(F, V, i, w_next, w_prev)
         return mul(f, shading_correction(row3(V, i, V_NG), row3(V, i, V_NS), w_prev, w_next))
@@ -281,12 +306,45 @@ def vertex_pdf(C, A, i, P, j, N, k):
         return 0.0
     if kind == CAMERA:
         _, pdf, _, _ = camera_importance(C.cam, C.width, C.height, row3(A, i, V_P), wn)
+    elif kind == MEDIUM:
+        wp, d2p = toward(A, i, P, j)
+        if not (d2p > 0.0):
+            return 0.0
+        pdf = hg_eval(A[i, V_G], -dot(wp, wn))
     else:
         wp, d2p = toward(A, i, P, j)
         if not (d2p > 0.0):
             return 0.0
         _, pdf = surface_bsdf(C.F, A, i, wp, wn)
     return convert_density(pdf, A, i, N, k)
+
+
+@inline_function
+def cosine_at(V, i, w):
+    """|cos| between w and the shading normal of vertex V[i]; 1 at a medium vertex (no normal)."""
+    if kind_of(V, i) == MEDIUM:
+        return 1.0
+    return abs(dot(row3(V, i, V_NS), w))
+
+
+@inline_function
+def medium_towards(C, V, i, w):
+    """The medium a connection leaving vertex V[i] along w starts in: a medium vertex's own; at
+    a surface, the one its ray arrived in if w leaves on that side, else the medium beyond the
+    surface (path mode's rule for its shadow rays); the camera's otherwise."""
+    Md = C.Md
+    kind = kind_of(V, i)
+    if kind == MEDIUM:
+        return int(V[i, V_MED])
+    if kind != SURFACE:
+        return Md.camera
+    med = int(V[i, V_MED])
+    ng = row3(V, i, V_NG)
+    d_in = mul(row3(V, i, V_WO), -1.0)
+    entering = dot(ng, d_in) < 0.0
+    if Md.present and (dot(w, ng) < 0.0) == entering:
+        med = medium_beyond(Md, int(V[i, V_OBJ]), d_in, ng)
+    return med
 
 
 NO_VERTEX_HIT = NO_HIT

@@ -6,9 +6,13 @@ and, once the walk leaves it, the reverse density of the vertex before it. The w
 path mode does (path.py): the same shading frame, two-sided rules, Beer-Lambert absorption
 inside dielectrics, area lights (quad, sphere lights) that end a ray, and Russian roulette from
 segment RR_DEPTH on (its 1 / q is in the throughput, not in the MIS densities: the weights stay a
-partition of unity, each strategy stays unbiased). Random numbers: the camera walk's BSDF samples
-from path mode's BSDF dimension, the light walk's from a dimension of its own, both keyed by the
-vertex's number along its subpath."""
+partition of unity, each strategy stays unbiased). Participating media as path mode renders them:
+the walk carries the medium its ray travels in, each segment's free flight may end in a medium
+vertex (the phase function samples the next direction), null boundaries are passed without a
+vertex, and a transmission changes the medium by the interface table. Random numbers: the camera
+walk's BSDF and phase samples from path mode's BSDF dimension, the light walk's from a dimension
+of its own, both keyed by the vertex's number along its subpath; free flights from
+DIM_WALK_MEDIUM, keyed by the vertex and the null boundaries passed."""
 
 import math
 
@@ -27,9 +31,14 @@ from ..shading.materials import (
     bsdf_eval,
     bsdf_sample,
     importance_delta_weight,
+    index_matched,
     two_sided,
 )
-from ..vec import dot, hadamard, kernel_function, madd, mul, row3
+from ..shading.media import MED_G, free_flight, hg_sample, medium_beyond
+from ..shading.media import homogeneous as homogeneous_medium
+from ..shading.media.table import MED_KIND
+from ..shading.media.tracking import ABSORBED, SCATTERED
+from ..vec import dot, hadamard, inline_function, kernel_function, madd, mul, row3
 from .bdpt_vertex import (
     CAMERA,
     F_DELTA_LIGHT,
@@ -41,11 +50,14 @@ from .bdpt_vertex import (
     UNION,
     V_DELTA,
     V_DIR,
+    V_MED,
     V_NG,
+    V_OBJ,
     V_PDF_FWD,
     V_PDF_REV,
     convert_density,
     infinite_density,
+    put_medium_vertex,
     put_vertex,
     shading_correction,
 )
@@ -55,38 +67,85 @@ RR_DEPTH = 5  # as path mode: Russian roulette from this many segments on
 DIM_EMIT = np.uint64(0xE3177E47)  # the light subpath's emitter, point and direction
 DIM_LIGHT_WALK = np.uint64(0x11647A1C)  # its BSDF samples
 DIM_WALK_ROULETTE = np.uint64(0x2077E11E)
+DIM_WALK_MEDIUM = np.uint64(0x3ED1A11E)  # free flights: per vertex and null boundary passed (^ dim)
+FIRST_HIT = -2  # random_walk's medium: the one around the first surface the ray meets
+MAX_CROSSINGS = 1024  # null boundaries one subpath passes at most (as path mode)
 ZERO = (0.0, 0.0, 0.0)
 ONE = (1.0, 1.0, 1.0)
 
 
+@inline_function
+def _roulette(key, dim, i, beta, walk):
+    """Russian roulette after vertex i from RR_DEPTH on, by the walk's own throughput: (the walk
+    goes on, beta, walk)."""
+    if i < RR_DEPTH:
+        return True, beta, walk
+    q = min(walk, 0.95)
+    u_rr, _ = key_uniform2(dimension_key(key, DIM_WALK_ROULETTE ^ dim, i))
+    if not (u_rr < q):
+        return False, beta, walk
+    return True, mul(beta, 1.0 / q), walk / q
+
+
 @kernel_function
-def random_walk(C, V, start, o, d, beta, pdf_dir, most, importance, key, dim, spread, node_stack, t_stack):
+def random_walk(C, V, start, o, d, beta, pdf_dir, most, importance, key, dim, spread, med, node_stack, t_stack):
     """Extend subpath V (vertex start - 1 made, the ray (o, d) leaving it with solid-angle
-    density pdf_dir) by at most `most` vertices. Returns (vertices made, rays traced, the camera
-    ray left the scene with no light at infinity to meet: the backdrop)."""
-    G, F, X, Em, Env = C.G, C.F, C.X, C.Em, C.Env
+    density pdf_dir, in medium med: -1 none, FIRST_HIT the one the first surface met lies in)
+    by at most `most` vertices. Returns (vertices made, rays traced, the camera ray left the
+    scene with no light at infinity to meet: the backdrop)."""
+    G, F, X, Em, Env, Md = C.G, C.F, C.X, C.Em, C.Env, C.Md
     mat = F.materials
     pdf_fwd = pdf_dir
     made = 0
     rays = 0
     walk = 1.0  # the walk's own throughput (BSDF weights), for Russian roulette
     cone = 0.0
+    crossings = 0  # null boundaries passed
     infinite_lights = Em.ambient_row >= 0 or Env.present
     while made < most:
         i = start + made
         prev = i - 1
         t, prim, b1, b2 = closest_hit(G, X, o, d, 0.0, INF, node_stack, t_stack)
         rays += 1
+        tl, el, nl = INF, -1, d
         if Em.n_area > 0:
-            tl, e, nl = hit_area_lights(Em, o, d, t)
-            if e >= 0:  # an area light ends the ray; a camera subpath keeps it as a light vertex
-                if not importance:
-                    put_vertex(
-                        V, i, LIGHT, madd(o, d, tl), nl, nl, mul(d, -1.0), beta, 0.0, -1, e, ZERO, NO_HIT, F_ON_SURFACE
-                    )
-                    V[i, V_PDF_FWD] = convert_density(pdf_fwd, V, prev, V, i)
-                    made += 1
+            tl, el, nl = hit_area_lights(Em, o, d, t)
+        if med == FIRST_HIT:
+            med = _medium_ahead(G, X, Md, o, d, t, prim, b1, b2)
+        if med >= 0:
+            # the medium along the segment (path mode's free flight): a scattering before its end
+            # is a medium vertex, where the phase function samples the next direction
+            flight_key = sub_key(dimension_key(key, DIM_WALK_MEDIUM ^ dim, i), crossings)
+            status, ts, beta = free_flight(Md, med, o, d, tl if el >= 0 else t, flight_key, beta)
+            if status == ABSORBED:
                 break
+            if status == SCATTERED:
+                p = madd(o, d, ts)
+                g = Md.data[med, MED_G]
+                put_medium_vertex(V, i, p, mul(d, -1.0), beta, med, g)
+                V[i, V_PDF_FWD] = convert_density(pdf_fwd, V, prev, V, i)
+                made += 1
+                if made >= most:
+                    break
+                u_a, u_b = key_uniform2(dimension_key(key, dim, i))
+                wi_w, phase = hg_sample(g, d, u_a, u_b)
+                pdf_fwd = phase  # HG is symmetric: the reverse density is the same
+                V[prev, V_PDF_REV] = convert_density(phase, V, i, V, prev)
+                cone += spread * ts
+                o = p
+                d = wi_w
+                going, beta, walk = _roulette(key, dim, i, beta, walk)
+                if not going:
+                    break
+                continue
+        if el >= 0:  # an area light ends the ray; a camera subpath keeps it as a light vertex
+            if not importance:
+                put_vertex(
+                    V, i, LIGHT, madd(o, d, tl), nl, nl, mul(d, -1.0), beta, 0.0, -1, el, ZERO, NO_HIT, F_ON_SURFACE
+                )
+                V[i, V_PDF_FWD] = convert_density(pdf_fwd, V, prev, V, i)
+                made += 1
+            break
         if prim == NO_HIT:
             if importance:
                 break
@@ -100,6 +159,18 @@ def random_walk(C, V, start, o, d, beta, pdf_dir, most, importance, key, dim, sp
         p = madd(o, d, t)
         ng, ns, m, obj, face = surface(G, X, prim, b1, b2, p)
         entering = dot(ng, d) < 0.0
+        if Md.pass_through and index_matched(mat, m):
+            # a null boundary: the ray goes on unchanged into the medium beyond, no vertex (path
+            # mode's rule); the next vertex's density still converts from the vertex before
+            if Md.present:
+                med = medium_beyond(Md, obj, d, ng)
+            eps = offset_epsilon(F.epsilon_floor, p)
+            o = madd(p, ng, -eps if entering else eps)
+            cone += spread * t
+            crossings += 1
+            if crossings > MAX_CROSSINGS:
+                break
+            continue
         if not entering:
             beta = beer_lambert(mat, m, beta, t)
         cone += spread * t
@@ -114,9 +185,13 @@ def random_walk(C, V, start, o, d, beta, pdf_dir, most, importance, key, dim, sp
                 e = np.int64(G.prims[k, PRIM_LIGHT])
         put_vertex(V, i, SURFACE, p, ng, ns, mul(d, -1.0), beta, 0.0, m, e, colour, prim, flags)
         V[i, V_PDF_FWD] = convert_density(pdf_fwd, V, prev, V, i)
+        if Md.present:
+            V[i, V_MED] = med
+            V[i, V_OBJ] = obj
         made += 1
         if made >= most:
             break
+        n_geo = ng  # outward: which side is inside, for the media
         two = two_sided(mat, m)
         ng, ns, s_axis, t_axis = shading_frame(two, not entering, ng, ns)
         wo_w = mul(d, -1.0)
@@ -131,6 +206,8 @@ def random_walk(C, V, start, o, d, beta, pdf_dir, most, importance, key, dim, sp
         up = dot(wi_w, ng) > 0.0
         if two and not up:
             break  # a shading normal sent the path through the surface
+        if Md.present and (dot(wi_w, n_geo) < 0.0) == entering:
+            med = medium_beyond(Md, obj, d, n_geo)  # transmitted: into the medium beyond
         if delta:
             pdf_fwd = 0.0
             pdf_rev = 0.0
@@ -150,14 +227,23 @@ def random_walk(C, V, start, o, d, beta, pdf_dir, most, importance, key, dim, sp
         eps = offset_epsilon(F.epsilon_floor, p)
         o = madd(p, ng, eps if up else -eps)
         d = wi_w
-        if i >= RR_DEPTH:
-            q = min(walk, 0.95)
-            u_rr, _ = key_uniform2(dimension_key(key, DIM_WALK_ROULETTE ^ dim, i))
-            if not (u_rr < q):
-                break
-            beta = mul(beta, 1.0 / q)
-            walk /= q
+        going, beta, walk = _roulette(key, dim, i, beta, walk)
+        if not going:
+            break
     return made, rays, False
+
+
+@inline_function
+def _medium_ahead(G, X, Md, o, d, t, prim, b1, b2):
+    """The medium a ray from a light lies in, by the first surface it meets (hit from outside:
+    the medium around that object, from inside: its inside); the scene's outer medium when it
+    meets none. Lights are not objects: they sit in whatever encloses them."""
+    if not Md.present:
+        return -1
+    if prim == NO_HIT:
+        return Md.camera
+    ng, _, _, obj, _ = surface(G, X, prim, b1, b2, madd(o, d, t))
+    return Md.interface[obj, 1] if dot(d, ng) < 0.0 else Md.interface[obj, 0]
 
 
 @kernel_function
@@ -169,7 +255,7 @@ def camera_subpath(C, Vc, most, o, d, spread, key, node_stack, t_stack):
     put_vertex(Vc, 0, CAMERA, o, f, f, f, ONE, 1.0, -1, -1, ZERO, NO_HIT, 0)
     _, pdf_dir, _, _ = camera_importance(cam, C.width, C.height, o, d)
     made, rays, backdrop = random_walk(
-        C, Vc, 1, o, d, ONE, pdf_dir, most, False, key, DIM_BSDF, spread, node_stack, t_stack
+        C, Vc, 1, o, d, ONE, pdf_dir, most, False, key, DIM_BSDF, spread, C.Md.camera, node_stack, t_stack
     )
     return made + 1, rays, backdrop
 
@@ -208,8 +294,16 @@ def light_subpath(C, Vl, most, key, node_stack, t_stack):
     if surface_point:
         eps = offset_epsilon(F.epsilon_floor, p)
         o = madd(p, n, eps if dot(n, w) > 0.0 else -eps)
+    Md = C.Md
+    med = FIRST_HIT if Md.present else -1
+    if infinite and Md.present:
+        # from the bounding sphere's disk, which lies in the outer medium: a homogeneous one lets
+        # nothing through from infinitely far (a grid's box lies inside the sphere, bdpt_setup.py)
+        med = Md.camera
+        if med >= 0 and int(Md.data[med, MED_KIND]) == homogeneous_medium.KIND:
+            beta = hadamard(beta, homogeneous_medium.exact_transmittance(Md.data, med, INF))
     made, rays, _ = random_walk(
-        C, Vl, 1, o, w, beta, pdf_dir, most - 1, True, key, DIM_LIGHT_WALK, 0.0, node_stack, t_stack
+        C, Vl, 1, o, w, beta, pdf_dir, most - 1, True, key, DIM_LIGHT_WALK, 0.0, med, node_stack, t_stack
     )
     if infinite:
         # the first vertex's density is the disk's (planar), the light's own its direction's

@@ -360,12 +360,12 @@ def bdpt_lane(S, X, P, film, C, bd):
     rays per (image) row into C.rays_per_row, refused samples into C.rejected."""
     node_stack, t_stack = traversal_stacks()
     G, F, Em = geometry_of(S), surfaces_of(S), emitters_of(S)
-    Env = environment_of(S)
+    Env, Md = environment_of(S), media_of(S)
     bounds, splats, filt, counts, strategy = bd
     Vc = np.zeros((MAX_SEGMENTS + 2, V_WIDTH))
     Vl = np.zeros((MAX_SEGMENTS + 2, V_WIDTH))
     saved = np.zeros((1, V_WIDTH))
-    ctx = Context(G, F, X, Em, Env, P.camera, bounds, P.width, P.height, P.background)
+    ctx = Context(G, F, X, Em, Env, Md, P.camera, bounds, P.width, P.height, P.background)
     lane_counts = counts[C.lane]
     while True:
         j = claim_row(C.control, C.counter)

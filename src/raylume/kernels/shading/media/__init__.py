@@ -2,8 +2,8 @@
 its row of the medium table packed from the model and its coefficients at a point; table.py the
 table's columns; phase.py the Henyey-Greenstein phase function; tracking.py free-flight
 sampling and transmittance along a ray, the same for every kind over a piecewise-constant
-majorant; boundaries.py which medium lies on each side of an object. Path mode renders them;
-the other modes show the boundaries' materials alone."""
+majorant; boundaries.py which medium lies on each side of an object. Path mode renders them
+(both integrators); the other modes show the boundaries' materials alone."""
 
 from .boundaries import medium_beyond
 from .phase import hg_eval, hg_sample
