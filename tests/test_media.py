@@ -107,6 +107,25 @@ def test_an_absorbing_medium_attenuates_an_emitter_by_beer_lambert(medium, tmp_p
     assert np.all(np.abs(image_z) < 4.5 * math.sqrt(mean[..., 0].size)), image_z
 
 
+def test_a_medium_whose_null_coefficient_rounds_below_zero_loses_no_samples():
+    """sigma_a + sigma_s of the densest channel is the majorant, and mu - sigma_a - sigma_s rounds
+    to -1e-17 there for these coefficients: without clamping the null coefficient at 0, spectral
+    tracking turned a sixth of the samples' throughputs negative, and they were rejected (the
+    green channel 27% dark). Every sample counts, and the wall is Beer-Lambert's with sigma_t."""
+    sigma_a, sigma_s = (0.5, 0.3, 0.1), (0.0001, 0.0001, 0.0001)
+    s = absorbing_scene({"type": "homogeneous", "sigma_a": list(sigma_a), "sigma_s": list(sigma_s)})
+    assert raylume.render(s).stats["rejected_samples"] == 0
+    mean, se = seeds_mean(s, range(8))
+    origins, directions = raylume.camera_rays(s)
+    distance = WALL_Z / directions[..., 2]
+    expected = np.asarray(EMISSION) * np.exp(-np.add(sigma_a, sigma_s) * distance[..., None])
+    # (spectral tracking's estimate is unbiased; the rays that scatter, at most 1 - exp(-0.0001
+    # * 2.1) of them, end there at max_depth 1, as the expectation's sigma_t says)
+    n = mean[..., 0].size
+    image_z = (mean.mean((0, 1)) - expected.mean((0, 1))) / (np.sqrt((se**2).sum((0, 1))) / n + 1e-12)
+    assert np.all(np.abs(image_z) < 4.5), image_z
+
+
 # --- the white furnace ---------------------------------------------------------------------------
 
 

@@ -64,7 +64,12 @@ def _track(Md, k, o, d, t, t_end, mu, key, step, beta, ratio):
         if t >= t_end:
             break
         sa, ss = coefficients_at(Md, k, madd(o, d, t))
-        n0, n1, n2 = mu - sa[0] - ss[0], mu - sa[1] - ss[1], mu - sa[2] - ss[2]
+        # The null coefficients, at least 0: in the channel whose sigma_t is the majorant,
+        # mu - sigma_a - sigma_s rounds to a hair below 0 for some coefficients (0.5 + 0.0001,
+        # say), and a throughput times that would turn negative and lose the sample
+        n0 = max(mu - sa[0] - ss[0], 0.0)
+        n1 = max(mu - sa[1] - ss[1], 0.0)
+        n2 = max(mu - sa[2] - ss[2], 0.0)
         if ratio:
             beta = (beta[0] * n0 / mu, beta[1] * n1 / mu, beta[2] * n2 / mu)
             if beta[0] == 0.0 and beta[1] == 0.0 and beta[2] == 0.0:
