@@ -93,6 +93,25 @@ def test_bdpt_agrees_with_path_mode_on_a_glossy_room():
         assert strategies.get(key, 0) > 0, (key, strategies)
 
 
+def test_a_light_no_light_subpath_can_start_from_keeps_its_light():
+    """An infinite plane under a uniform sky and a point light: with no bounded geometry the
+    sky's pick probability is 0 (its power scales with the scene's extent), so only camera
+    subpaths that escape reach it. The MIS weights must then give those paths all of it; they
+    had counted its 0 density as a delta's (a ratio of 1) and credited strategies that can
+    never deliver it: the image came out ~28% dark."""
+    scene = raylume.scene_from_dict({
+        "render": {"width": 24, "height": 16, "spp": 16, "mode": "path", "max_depth": 3},
+        "camera": {"position": [0, 1, -3], "look_at": [0, 0, 0], "fov": 50},
+        "environment": {"color": [0.3, 0.4, 0.5]},
+        "lights": [{"type": "point", "position": [0, 2, 0], "intensity": [4, 4, 4]}],
+        "objects": [{"type": "plane", "point": [0, 0, 0], "normal": [0, 1, 0],
+                     "material": {"type": "diffuse", "color": [0.6, 0.6, 0.6]}}],
+    })  # fmt: skip
+    path = raylume.render(scene, spp=64, aovs=False).rgb
+    bdpt = raylume.render(scene, **BDPT, aovs=False).rgb
+    _diff_within(bdpt, path, "plane under a sky")
+
+
 def _every_light(folder):
     """tools/render_check.py's scene of every light, emitter and material kind."""
     import importlib.util

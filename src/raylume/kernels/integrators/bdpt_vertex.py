@@ -279,9 +279,13 @@ def pdf_light(C, A, i, N, k):
 @inline_function
 def pdf_light_origin(C, A, i, N, k):
     """The density with which a light subpath starts at light vertex A[i] (towards N[k]): the
-    light's pick probability times its position density (pbrt's PdfLightOrigin)."""
+    light's pick probability times its position density (pbrt's PdfLightOrigin); UNREACHABLE
+    where no light subpath can start there (a light of pick probability 0: the sky of a scene
+    with no bounded geometry, whose power scales with its extent). A 0 would read as a delta's
+    density in the ratio walk (remap0) and credit strategies that never make the path."""
     if has_flag(A, i, F_INFINITE) and kind_of(A, i) == LIGHT:
-        return infinite_density(C, row3(A, i, V_DIR))
+        pdf = infinite_density(C, row3(A, i, V_DIR))
+        return pdf if pdf > 0.0 else UNREACHABLE
     e = int(A[i, V_E])
     if e < 0:
         return 0.0
@@ -291,7 +295,8 @@ def pdf_light_origin(C, A, i, N, k):
     _, pdf_pos, _ = emission_pdf(
         C.G, C.X, C.Em, C.Env, e, row3(A, i, V_P), row3(A, i, V_NG), w, np.int64(A[i, V_HIT]), C.B
     )
-    return pick_probability(C.Em.cdf, e) * pdf_pos
+    pick = pick_probability(C.Em.cdf, e)
+    return pick * pdf_pos if pick > 0.0 else UNREACHABLE
 
 
 @inline_function
