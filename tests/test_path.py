@@ -334,3 +334,39 @@ def test_cli_noisy_aov_needs_denoise_and_path_mode(tmp_path):
     assert result.returncode == 2
     assert "--denoise" in result.stderr and "Traceback" not in result.stderr
     assert not (tmp_path / "o.png").exists()
+
+
+def _stacked_lights(lower: str) -> raylume.Scene:
+    """A floor under a small bright quad light, with a larger dim one between them: `lower`
+    is "light" (the dim light), "blocker" (a black quad in its place, no light) or "alone" (the
+    dim light without the bright one)."""
+    high = {"type": "quad", "position": [0, 3, 0], "u": [0.5, 0, 0], "v": [0, 0, 0.5], "intensity": [60, 60, 60]}
+    low = {"position": [0, 1.5, 0], "u": [1.5, 0, 0], "v": [0, 0, 1.5]}
+    lights = [] if lower == "alone" else [high]
+    objects = [{"type": "plane", "point": [0, 0, 0], "normal": [0, 1, 0],
+                "material": {"type": "diffuse", "color": [0.5, 0.5, 0.5]}}]  # fmt: skip
+    if lower == "blocker":
+        objects.append({"type": "quad", **low, "material": {"type": "diffuse", "color": [0, 0, 0]}})
+    else:
+        lights.append({"type": "quad", **low, "intensity": [1, 1, 1]})
+    return raylume.scene_from_dict({
+        "render": {"width": 24, "height": 16, "spp": 32, "mode": "path", "max_depth": 3},
+        "camera": {"position": [0, 2.2, -4], "look_at": [0, 0.5, 0], "fov": 55},
+        "objects": objects,
+        "lights": lights,
+    })  # fmt: skip
+
+
+@pytest.mark.parametrize("integrator", ["path", "bdpt"])
+def test_an_area_light_shadows_the_light_behind_it(integrator):
+    """Light is additive: the floor under two stacked quad lights is what it is under the
+    bright one with a black quad in the dim one's place, plus the dim one alone. Quad and sphere
+    lights are not in the BVH; shadow rays towards the bright light had passed through the dim
+    one, and the floor under it came out lit by both."""
+    kw = {"integrator": integrator, "aovs": False}
+    both = raylume.render(_stacked_lights("light"), seed=1, **kw).rgb
+    blocked = raylume.render(_stacked_lights("blocker"), seed=2, **kw).rgb
+    alone = raylume.render(_stacked_lights("alone"), seed=3, **kw).rgb
+    diff = (both.astype(np.float64) - blocked - alone).mean(axis=2)
+    se = diff.std(ddof=1) / math.sqrt(diff.size)
+    assert abs(diff.mean()) < Z * se + 1e-7, f"{integrator}: {diff.mean():.5f} +- {se:.5f}"

@@ -33,10 +33,10 @@ from ..geometry.traverse import any_hit
 from ..shading.lights import (
     LIGHT_INTENSITY,
     SHADOW_SHORTEN,
+    area_light_blocks,
     at_infinity,
     emission_pdf,
     environment_light,
-    hit_area_lights,
     is_delta,
     pick_emitter,
     sample_emission,
@@ -103,15 +103,13 @@ def _transmitted(C, A, i, w, d2, key, node_stack, t_stack):
         eps = offset_epsilon(C.F.epsilon_floor, o)
         o = madd(o, ng, eps if dot(w, ng) > 0.0 else -eps)
     tmax = math.sqrt(d2) * (1.0 - SHADOW_SHORTEN) if d2 < INF else INF
+    # quad and sphere lights (not in the BVH) stop the segment, as they stop path mode's rays,
+    # its shadow rays and the subpaths (bdpt_walk.py): light behind a sphere light does not
+    # pass it (the segment's ends are shortened off the light it may end on)
+    if area_light_blocks(C.Em, -1, o, w, tmax):
+        return ZERO
     Md = C.Md
     if Md.pass_through:
-        # quad and sphere lights (not in the BVH) stop the segment, as they stop path mode's rays
-        # and the subpaths' (bdpt_walk.py): light behind a sphere light in fog does not pass it.
-        # (Scenes without media or null boundaries keep their images: any_hit alone.)
-        if C.Em.n_area > 0:
-            _, blocker, _ = hit_area_lights(C.Em, o, w, tmax)
-            if blocker >= 0:
-                return ZERO
         med = medium_towards(C, A, i, w)
         return shadow_transmittance(C.G, C.F, C.X, Md, o, w, tmax, med, key, node_stack, t_stack)
     if any_hit(C.G, C.X, o, w, 0.0, tmax, node_stack, t_stack):

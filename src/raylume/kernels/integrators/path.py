@@ -26,6 +26,7 @@ from ..shading.frame import shading_frame, to_local, to_world
 from ..shading.lights import (
     LIGHT_INTENSITY,
     SHADOW_SHORTEN,
+    area_light_blocks,
     environment_light,
     hit_area_lights,
     light_pdf,
@@ -100,9 +101,12 @@ def _roulette(beta, key, depth):
 
 
 @inline_function
-def _shadow(G, F, X, Md, origin, wi, tmax, med, key, depth, node_stack, t_stack):
-    """Transmittance (RGB) of a shadow ray: through media and null boundaries where the scene
-    has them (shadow.py), else 0 or 1 by any_hit."""
+def _shadow(G, F, X, Em, Md, origin, wi, tmax, med, target, key, depth, node_stack, t_stack):
+    """Transmittance (RGB) of a shadow ray towards light row `target`: 0 where another area
+    light is in the way, else through media and null boundaries where the scene has them
+    (shadow.py), else 0 or 1 by any_hit."""
+    if area_light_blocks(Em, target, origin, wi, tmax):
+        return (0.0, 0.0, 0.0)
     if Md.pass_through:
         return shadow_transmittance(
             G, F, X, Md, origin, wi, tmax, med, dimension_key(key, DIM_SHADOW_MEDIUM, depth), node_stack, t_stack
@@ -167,7 +171,7 @@ def path_ray(G, F, X, Em, Env, Md, o, d, spread, max_depth, background, key, nod
                         phase = hg_eval(g, dot(d, wi))
                         tmax = dist * (1.0 - SHADOW_SHORTEN) if dist < INF else INF
                         rays += 1
-                        tr = _shadow(G, F, X, Md, p, wi, tmax, med, key, depth, node_stack, t_stack)
+                        tr = _shadow(G, F, X, Em, Md, p, wi, tmax, med, le, key, depth, node_stack, t_stack)
                         if tr[0] > 0.0 or tr[1] > 0.0 or tr[2] > 0.0:
                             w = 1.0 if delta_l or strategy == LIGHT_ONLY else power_heuristic(p_pick * pdf_l, phase)
                             L = _add_light(L, hadamard(beta, tr), li, phase * w / (p_pick * pdf_l))
@@ -284,7 +288,7 @@ def path_ray(G, F, X, Em, Env, Md, o, d, spread, max_depth, background, key, nod
                         shadow_med = med
                         if Md.present and (dot(wi, n_geo) < 0.0) == entering:
                             shadow_med = medium_beyond(Md, obj, d, n_geo)
-                        tr = _shadow(G, F, X, Md, origin, wi, tmax, shadow_med, key, depth, node_stack, t_stack)
+                        tr = _shadow(G, F, X, Em, Md, origin, wi, tmax, shadow_med, le, key, depth, node_stack, t_stack)
                         if tr[0] > 0.0 or tr[1] > 0.0 or tr[2] > 0.0:
                             w = 1.0 if delta_l or strategy == LIGHT_ONLY else power_heuristic(p_pick * pdf_l, pdf_b)
                             scale = abs(wi_local[2]) * w / (p_pick * pdf_l)

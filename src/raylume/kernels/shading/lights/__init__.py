@@ -7,7 +7,7 @@ distribution.py path mode's choice among lights. A new kind: its module, its lin
 registry.KINDS (and SCENE_KINDS), its model class (scene/model.py) — docs/architecture.md,
 "Adding a light"."""
 
-from .distribution import environment_light, hit_area_lights, pick_emitter, pick_probability
+from .distribution import area_light_blocks, environment_light, hit_area_lights, pick_emitter, pick_probability
 from .registry import (
     BY_NAME,
     KINDS,
@@ -76,6 +76,7 @@ __all__ = [
     "environment_light",
     "has_falloff",
     "hit_area_lights",
+    "area_light_blocks",
     "is_delta",
     "is_everywhere",
     "emission_pdf",

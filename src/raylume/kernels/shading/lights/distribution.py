@@ -40,6 +40,21 @@ def hit_area_lights(Em, o, d, tmax):
 
 
 @inline_function
+def area_light_blocks(Em, target, o, d, tmax):
+    """Whether an area light other than row `target` (-1: any) lies on the shadow ray before
+    tmax. Quad and sphere lights are not in the BVH, so any_hit does not see them; they stop
+    shadow rays as they stop every other ray (a light behind another is in its shadow, as in
+    Mitsuba, where emitters are shapes). A scene's one area light never blocks the rays aimed
+    at it: the loop is then empty."""
+    for e in range(Em.n_area):
+        if e != target:
+            t, _ = visible_hit(Em, e, o, d, tmax)
+            if t < tmax:
+                return True
+    return False
+
+
+@inline_function
 def environment_light(Env, d):
     """Radiance of the environment along d (zero without one)."""
     if Env.present:
