@@ -42,7 +42,7 @@ def hit_area_lights(Em, o, d, tmax):
 @inline_function
 def area_light_blocks(Em, target, o, d, tmax):
     """Whether an area light other than row `target` (-1: any) lies on the shadow ray before
-    tmax. Quad and sphere lights are not in the BVH, so any_hit does not see them; they stop
+    tmax. Area lights (quads, spheres) are not in the BVH, so any_hit does not see them; they stop
     shadow rays as they stop every other ray (a light behind another is in its shadow, as in
     Mitsuba, where emitters are shapes). A scene's one area light never blocks the rays aimed
     at it: the loop is then empty."""
