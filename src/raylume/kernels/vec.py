@@ -312,25 +312,23 @@ _QS = (-2.40339491173441421878e00, 2.02094576023350569471e00, -6.882839716054532
 def _atan_nonnegative(x):
     """atan(x) for x >= 0 (+inf included), by fdlibm's reduction to |x| <= 7/16 around 0.5, 1,
     1.5 or infinity."""
-    if x < 0.4375:
-        z = x * x
-        w = z * z
-        s1 = z * (_AT[0] + w * (_AT[2] + w * (_AT[4] + w * (_AT[6] + w * (_AT[8] + w * _AT[10])))))
-        s2 = w * (_AT[1] + w * (_AT[3] + w * (_AT[5] + w * (_AT[7] + w * _AT[9]))))
-        return x - x * (s1 + s2)
-    if x < 1.1875:
+    near_zero = x < 0.4375  # the polynomial at x itself
+    hi, lo = 0.0, 0.0
+    if not near_zero:  # atan(x) = atan(c) + atan of the reduced x
         if x < 0.6875:
             hi, lo, x = _ATAN_HI[0], _ATAN_LO[0], (2.0 * x - 1.0) / (2.0 + x)
-        else:
+        elif x < 1.1875:
             hi, lo, x = _ATAN_HI[1], _ATAN_LO[1], (x - 1.0) / (x + 1.0)
-    elif x < 2.4375:
-        hi, lo, x = _ATAN_HI[2], _ATAN_LO[2], (x - 1.5) / (1.0 + 1.5 * x)
-    else:
-        hi, lo, x = _ATAN_HI[3], _ATAN_LO[3], -1.0 / x
+        elif x < 2.4375:
+            hi, lo, x = _ATAN_HI[2], _ATAN_LO[2], (x - 1.5) / (1.0 + 1.5 * x)
+        else:
+            hi, lo, x = _ATAN_HI[3], _ATAN_LO[3], -1.0 / x
     z = x * x
     w = z * z
     s1 = z * (_AT[0] + w * (_AT[2] + w * (_AT[4] + w * (_AT[6] + w * (_AT[8] + w * _AT[10])))))
     s2 = w * (_AT[1] + w * (_AT[3] + w * (_AT[5] + w * (_AT[7] + w * _AT[9]))))
+    if near_zero:
+        return x - x * (s1 + s2)
     return hi - ((x * (s1 + s2) - lo) - x)
 
 

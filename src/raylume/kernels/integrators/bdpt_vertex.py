@@ -29,7 +29,7 @@ from ..shading.frame import shading_frame, to_local
 from ..shading.lights import emission_pdf, pick_probability
 from ..shading.lights.sampling import disk_density
 from ..shading.materials import bsdf_eval, delta_only, two_sided
-from ..shading.media import hg_eval, medium_beyond
+from ..shading.media import hg_eval, medium_leaving
 from ..vec import dot, inline_function, mul, row3, sub
 
 INF = math.inf
@@ -343,13 +343,8 @@ def medium_towards(C, V, i, w):
         return int(V[i, V_MED])
     if kind != SURFACE:
         return Md.camera
-    med = int(V[i, V_MED])
-    ng = row3(V, i, V_NG)
     d_in = mul(row3(V, i, V_WO), -1.0)
-    entering = dot(ng, d_in) < 0.0
-    if Md.present and (dot(w, ng) < 0.0) == entering:
-        med = medium_beyond(Md, int(V[i, V_OBJ]), d_in, ng)
-    return med
+    return medium_leaving(Md, int(V[i, V_MED]), int(V[i, V_OBJ]), d_in, row3(V, i, V_NG), w)
 
 
 NO_VERTEX_HIT = NO_HIT

@@ -34,7 +34,7 @@ from ..shading.materials import (
     index_matched,
     two_sided,
 )
-from ..shading.media import MED_G, free_flight, hg_sample, medium_beyond
+from ..shading.media import MED_G, free_flight, hg_sample, medium_beyond, medium_leaving
 from ..shading.media import homogeneous as homogeneous_medium
 from ..shading.media.table import MED_KIND
 from ..shading.media.tracking import ABSORBED, SCATTERED
@@ -206,8 +206,7 @@ def random_walk(C, V, start, o, d, beta, pdf_dir, most, importance, key, dim, sp
         up = dot(wi_w, ng) > 0.0
         if two and not up:
             break  # a shading normal sent the path through the surface
-        if Md.present and (dot(wi_w, n_geo) < 0.0) == entering:
-            med = medium_beyond(Md, obj, d, n_geo)  # transmitted: into the medium beyond
+        med = medium_leaving(Md, med, obj, d, n_geo, wi_w)  # transmitted: into the medium beyond
         if delta:
             pdf_fwd = 0.0
             pdf_rev = 0.0

@@ -44,7 +44,7 @@ from ..shading.materials import (
     index_matched,
     two_sided,
 )
-from ..shading.media import MED_G, free_flight, hg_eval, hg_sample, medium_beyond
+from ..shading.media import MED_G, free_flight, hg_eval, hg_sample, medium_beyond, medium_leaving
 from ..shading.media.tracking import ABSORBED, SCATTERED
 from ..vec import dot, hadamard, inline_function, madd, mul, row3
 from .shadow import shadow_transmittance
@@ -285,9 +285,7 @@ def path_ray(G, F, X, Em, Env, Md, o, d, spread, max_depth, background, key, nod
                         tmax = dist * (1.0 - SHADOW_SHORTEN) if dist < INF else INF
                         rays += 1
                         # the shadow ray leaves on the side of the incoming ray, or crosses
-                        shadow_med = med
-                        if Md.present and (dot(wi, n_geo) < 0.0) == entering:
-                            shadow_med = medium_beyond(Md, obj, d, n_geo)
+                        shadow_med = medium_leaving(Md, med, obj, d, n_geo, wi)
                         tr = _shadow(G, F, X, Em, Md, origin, wi, tmax, shadow_med, le, key, depth, node_stack, t_stack)
                         if tr[0] > 0.0 or tr[1] > 0.0 or tr[2] > 0.0:
                             w = 1.0 if delta_l or strategy == LIGHT_ONLY else power_heuristic(p_pick * pdf_l, pdf_b)
@@ -305,8 +303,7 @@ def path_ray(G, F, X, Em, Env, Md, o, d, spread, max_depth, background, key, nod
         up = dot(wi, ng) > 0.0
         if two_sided_here and not up:
             break  # a shading normal sent the path through the surface
-        if Md.present and (dot(wi, n_geo) < 0.0) == entering:
-            med = medium_beyond(Md, obj, d, n_geo)  # transmitted: into the medium beyond
+        med = medium_leaving(Md, med, obj, d, n_geo, wi)  # transmitted: into the medium beyond
         beta = hadamard(beta, weight)
         prev_pdf = pdf
         prev_delta = delta

@@ -20,6 +20,15 @@ def basis(w):
 
 
 @inline_function
+def about(axis, cos_t, sin_t, u):
+    """The unit direction at angle t (its cos_t and sin_t) from the unit axis, at the fraction u
+    of a turn around it in basis(axis)'s frame."""
+    c, s = turn(u)
+    e1, e2 = basis(axis)
+    return normalize(madd(madd(mul(axis, cos_t), e1, sin_t * c), e2, sin_t * s))
+
+
+@inline_function
 def area_pdf(p, q, n, area):
     """Solid-angle pdf at p of a point q (normal n) sampled uniformly on a surface of `area`."""
     to_q = sub(q, p)
@@ -62,9 +71,7 @@ def sphere_cone(centre, radius, p, u1, u2):
     cos_max = math.sqrt(max(0.0, 1.0 - sin2_max))
     cos_t = 1.0 - u1 * (1.0 - cos_max)
     sin_t = math.sqrt(max(0.0, 1.0 - cos_t * cos_t))
-    c, s = turn(u2)
-    e1, e2 = basis(w)
-    wi = normalize(madd(madd(mul(w, cos_t), e1, sin_t * c), e2, sin_t * s))
+    wi = about(w, cos_t, sin_t, u2)
     dist = intersect_sphere(p, wi, centre, radius, 0.0, INF)
     if dist == INF:  # a direction on the cone's rim, missed by rounding: the tangent point
         dist = dot(wi, to_c)
@@ -89,11 +96,7 @@ def sphere_cone_pdf(centre, radius, p, wi, dist):
 @kernel_function
 def cosine_about(n, u1, u2):
     """A direction about the unit n with density cos / pi (cos = its cosine with n)."""
-    r = math.sqrt(u1)
-    c, s = turn(u2)
-    z = math.sqrt(max(0.0, 1.0 - u1))
-    e1, e2 = basis(n)
-    return normalize(madd(madd(mul(n, z), e1, r * c), e2, r * s))
+    return about(n, math.sqrt(max(0.0, 1.0 - u1)), math.sqrt(u1), u2)
 
 
 @kernel_function

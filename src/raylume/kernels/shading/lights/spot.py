@@ -7,9 +7,9 @@ import math
 import numpy as np
 
 from ...geometry.transform import unit_vector
-from ...vec import dot, inline_function, length, madd, mul, normalize, row3, sub, turn
+from ...vec import dot, inline_function, length, mul, row3, sub
 from . import point
-from .sampling import basis
+from .sampling import about
 from .table import (
     LIGHT_AXIS,
     LIGHT_COS_INNER,
@@ -97,9 +97,7 @@ def emit(G, X, Em, Env, e, u1, u2, u3, u4, key, B):
     cos_outer = data[e, LIGHT_COS_OUTER]
     cos_t = 1.0 - u1 * (1.0 - cos_outer)
     sin_t = math.sqrt(max(0.0, 1.0 - cos_t * cos_t))
-    c, s = turn(u2)
-    e1, e2 = basis(axis)
-    w = normalize(madd(madd(mul(axis, cos_t), e1, sin_t * c), e2, sin_t * s))
+    w = about(axis, cos_t, sin_t, u2)
     le = mul(row3(data, e, LIGHT_INTENSITY), falloff(data, e, mul(w, -1.0)))
     return row3(data, e, LIGHT_POSITION), (0.0, 0.0, 0.0), w, le, 1.0, _cone_pdf(cos_outer), -1
 

@@ -5,9 +5,18 @@ sampling and transmittance along a ray, the same for every kind over a piecewise
 majorant; boundaries.py which medium lies on each side of an object. Path mode renders them
 (both integrators); the other modes show the boundaries' materials alone."""
 
-from .boundaries import medium_beyond
+from .boundaries import medium_beyond, medium_leaving
 from .phase import hg_eval, hg_sample
 from .table import MED_G, MED_WIDTH
 from .tracking import free_flight, transmittance
 
-__all__ = ["MED_G", "MED_WIDTH", "free_flight", "hg_eval", "hg_sample", "medium_beyond", "transmittance"]
+__all__ = [
+    "MED_G",
+    "MED_WIDTH",
+    "free_flight",
+    "hg_eval",
+    "hg_sample",
+    "medium_beyond",
+    "medium_leaving",
+    "transmittance",
+]

@@ -11,3 +11,14 @@ def medium_beyond(Md, obj, d, ng):
     """The medium a ray travelling along d enters when it crosses object obj's surface (outward
     geometric normal ng)."""
     return Md.interface[obj, 0] if dot(d, ng) < 0.0 else Md.interface[obj, 1]
+
+
+@inline_function
+def medium_leaving(Md, med, obj, d, ng, w):
+    """The medium a ray leaving object obj's surface along w travels in, the surface having been
+    reached along d through medium med: med where w goes back to d's side (a reflection), the
+    medium beyond the surface where it crosses (a transmission, or a shadow ray towards the other
+    side). ng: the outward geometric normal."""
+    if Md.present and (dot(w, ng) < 0.0) == (dot(d, ng) < 0.0):
+        return medium_beyond(Md, obj, d, ng)
+    return med
