@@ -118,12 +118,6 @@ def _transmitted(C, A, i, w, d2, key, node_stack, t_stack):
 
 
 @inline_function
-def _through(C, value, tr):
-    """value times the transmittance tr of its connection (unchanged without media)."""
-    return hadamard(value, tr) if C.Md.pass_through else value
-
-
-@inline_function
 def _connection_key(key, s, t):
     """Ratio tracking's random numbers along strategy (s, t)'s connection."""
     return sub_key(dimension_key(key, DIM_CONNECT_MEDIUM, s), t)
@@ -217,7 +211,7 @@ def connect(C, Vc, Vl, saved, s, t, key, mis, node_stack, t_stack):
     tr = _transmitted(C, Vc, pt, w, d2, _connection_key(key, s, t), node_stack, t_stack)
     if not _nonzero(tr):
         return ZERO, 1
-    value = _through(C, value, tr)
+    value = hadamard(value, tr)
     # a segment inside a dielectric: both its ends are on the inside; absorb once
     if _into(C, Vl, qs, mul(w, -1.0), d2):
         value = _absorbed(C, Vl, qs, mul(w, -1.0), d2, value)
@@ -272,7 +266,7 @@ def _connect_light(C, Vc, Vl, saved, t, key, mis, node_stack, t_stack):
             rays = 1
             tr = _transmitted(C, Vc, pt, w, d2, _connection_key(key, 1, t), node_stack, t_stack)
             if _nonzero(tr) and not _self_hidden(C, Vc, pt, e, w, d2):
-                value = _absorbed(C, Vc, pt, w, d2, _through(C, value, tr))
+                value = _absorbed(C, Vc, pt, w, d2, hadamard(value, tr))
                 if mis:
                     Vl[0, V_PDF_FWD] = pdf_light_origin(C, Vl, 0, Vc, pt)
                     value = mul(value, mis_weight(C, Vc, Vl, 1, t))
@@ -315,7 +309,7 @@ def connect_camera(C, Vc, Vl, saved, s, key, mis, node_stack, t_stack):
                     Vc[0, V_BETA + c] = beta_cam
                 tr = _transmitted(C, Vl, qs, w, d2, _connection_key(key, s, 1), node_stack, t_stack)
                 if _nonzero(tr):
-                    value = _absorbed(C, Vl, qs, w, d2, _through(C, value, tr))
+                    value = _absorbed(C, Vl, qs, w, d2, hadamard(value, tr))
                     if mis:
                         value = mul(value, mis_weight(C, Vc, Vl, s, 1))
                 else:
