@@ -203,10 +203,22 @@ def test_the_hosts_sphere_leaf_is_the_kernels(objects):
     S = raylume.Session(raylume.scene_from_dict({"objects": objects})).compiled.kernel
     first, count = wavefront._sphere_leaf(geometry_of(S))
     assert sphere_leaf(S) == (count > 0)
-    assert (trace_features(S) is None) == (count > 0)
+    assert (trace_features(S, True) is None) == (count > 0)
 
 
 def test_the_seed_takes_the_sphere_leaf_variant():
     from raylume.kernels.variants import trace_features
 
-    assert trace_features(raylume.Session(raylume.builtin_scene("seed")).compiled.kernel) is None
+    S = raylume.Session(raylume.builtin_scene("seed")).compiled.kernel
+    assert trace_features(S, True) is None
+    assert trace_features(S, False) == 0  # samples not at the pixel centres: the variant that samples
+
+
+def test_the_seed_variant_renders_as_the_basic_one(monkeypatch):
+    """The seed's first picture (B None: pixel centres, no BVH, no running sums) is the picture of
+    the basic variant (B 0) to the bit, rays included."""
+    scene = raylume.builtin_scene("seed").with_render(width=200, height=90)
+    first = raylume.render(scene, aovs=False)
+    monkeypatch.setattr(render_window, "trace_features", lambda S, centres_only: 0)
+    basic = raylume.render(scene, aovs=False)
+    _assert_same(first, basic)

@@ -22,8 +22,8 @@ import numpy as np
 from .compile import CompiledScene
 from .errors import RaylumeError
 from .image import Image
-from .kernels.film.camera import camera_of, set_cone_spread
-from .kernels.film.film import Film
+from .kernels.film.camera import CAM_LENS_RADIUS, camera_of, set_cone_spread
+from .kernels.film.film import FILM_WIDTH, Film
 from .kernels.film.image_pass import Aovs, ImagePass
 from .kernels.frame_stack import on_roomy_frame_stack
 from .kernels.integrators.bdpt_setup import bdpt_pass, strategy_counts
@@ -162,6 +162,12 @@ def path_strategy() -> int:
     return PATH_STRATEGIES[name]
 
 
+def _centres_only(cam: np.ndarray, film: Film) -> bool:
+    """Whether the film's samples are one at each pixel's centre, through a pinhole, into sums
+    without the unsigned half (variants.trace_features)."""
+    return film.total_spp == 1 and not cam[CAM_LENS_RADIUS] > 0.0 and film.sums.shape[2] == FILM_WIDTH
+
+
 def add_samples_to_film(S, cam, film: Film, spp: int, settings, aov: dict, progress, lanes: int, status=None):
     """Add the film's next `spp` samples per pixel (and fill the AOVs, of the film's window) on
     `lanes` threads. Returns (kernel seconds, rays traced)."""
@@ -183,7 +189,9 @@ def add_samples_to_film(S, cam, film: Film, spp: int, settings, aov: dict, progr
     X = features(S)  # None: the kernels' variant for spheres and opaque triangles only
     if settings.mode == "path":
         X = path_features(S)  # one variant of the path kernels for every scene (compiled once)
-    B = trace_features(S) if settings.mode == "trace" else 0  # None: the seed's leaf of spheres
+    B = 0  # trace mode's variant of a basic scene (X None): None for the seed's picture
+    if settings.mode == "trace" and X is None:
+        B = trace_features(S, _centres_only(cam, film))
     rejected = np.zeros(lanes * PROGRESS_STRIDE, dtype=np.int64)
     strategy = path_strategy()
     bd = bdpt_pass(S, film, lanes) if bidirectional else None

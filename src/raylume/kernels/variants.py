@@ -13,6 +13,8 @@ from .shading.materials import MAT_TEXTURE
 
 # the scene's lights that trace mode samples at points (area lights: quad, sphere)
 _SAMPLED_LIGHTS = [kind.KIND for kind in SCENE_KINDS if not kind.DELTA and not kind.EVERYWHERE]
+# the lights whose intensity trace mode scales by the direction (spot)
+_FALLOFF_LIGHTS = [kind.KIND for kind in SCENE_KINDS if kind.FALLOFF]
 
 # Basic scenes (spheres and opaque triangles, no image textures, no area lights: the seed scene,
 # most meshes) compile without the code for the other shapes, planes, transparent shadows,
@@ -70,10 +72,19 @@ def sphere_leaf(S) -> bool:
     return count > 0 and bool((S.prims[first : first + count, PRIM_KIND] == SPHERE).all())
 
 
-def trace_features(S):
-    """B of trace mode's kernel (frame.trace_lane): None for a basic scene whose BVH root is
-    one leaf of spheres, without an environment or textures (the seed: its wavefront compiles
-    without the code of the BVH, the environment and textures: the first run takes about half
-    the CPU), else 0 (one variant for the other basic scenes, as before)."""
-    plain = not S.env_present and not (S.materials[:, MAT_TEXTURE] >= 0).any()
-    return None if features(S) is None and plain and sphere_leaf(S) else 0
+def trace_features(S, centres_only: bool):
+    """B of trace mode's kernel (frame.trace_lane): None for the seed's kind of first picture,
+    else 0 (one variant for every other basic scene). None takes a basic scene whose BVH root
+    is one leaf of spheres, without an environment, textures or spot lights, rendered with one
+    sample at each pixel's centre (`centres_only`: a pinhole camera, one sample per pixel, a
+    film without unsigned sums). Its wavefront compiles without the code of the BVH, the
+    environment, textures, spot lights, camera and pixel-filter sampling, and the film's
+    running sums: the seed's first picture compiles in about a third of the CPU time. The same
+    scene at more samples takes 0 (its rays and images are the same either way)."""
+    plain = (
+        centres_only
+        and not S.env_present
+        and not (S.materials[:, MAT_TEXTURE] >= 0).any()
+        and not np.isin(S.light_kind[S.light_order], _FALLOFF_LIGHTS).any()
+    )
+    return None if plain and features(S) is None and sphere_leaf(S) else 0

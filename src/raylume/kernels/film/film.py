@@ -235,7 +235,7 @@ def splat_image(sums: np.ndarray, spp: int) -> np.ndarray:
 # IEEE arithmetic (no fast-math), so the image is what the numpy expression it replaced gave,
 # to the bit: that took 48 ms a megapixel, almost half the trace kernel's time for a 1024 x 1024
 # frame of the bunny.
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", no_cfunc_wrapper=True)
 def _film_rgb(sums, out):
     """Film.rgb's image of the running sums into out (float32 (H, W, 3))."""
     signed = sums.shape[2] > FILM_WIDTH

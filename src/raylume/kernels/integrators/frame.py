@@ -12,7 +12,7 @@ import numpy as np
 from llvmlite import ir
 from numba import njit, types
 from numba.core.errors import TypingError
-from numba.extending import intrinsic
+from numba.extending import intrinsic, overload
 
 from ..film.camera import CAM_CONE_SPREAD, camera_ray, camera_sample, obliquity
 from ..film.film import add_in_pixel_order, add_sample, next_sample, pixel_sums, store_sums
@@ -23,7 +23,7 @@ from ..geometry.wide_nodes import scratch_array, traversal_stacks
 from ..scene import emitters_of, environment_of, geometry_of, lights_of, media_of, surfaces_of
 from ..shading.environment import environment_radiance
 from ..shading.materials import albedo, aov_albedo
-from ..vec import FAST, dot, inline_function, kernel_function, madd, mul
+from ..vec import FAST, INLINE_OVERLOAD, dot, inline_function, kernel_function, madd, mul
 from .bdpt import MAX_SEGMENTS, bdpt_sample
 from .bdpt_vertex import V_WIDTH, Context
 from .path import finite_sample, path_ray
@@ -65,7 +65,7 @@ def _cast_shade(G, F, X, Env, o, d, t, prim, b1, b2, spread, background):
 # Every lane counts the rows it finished in rows_done[lane * PROGRESS_STRIDE] (counters a cache
 # line apart, against false sharing) and checks control[STOP] before each row: the waiting
 # thread shows progress from the counters and stops a render within a row's time.
-LANE = dict(nogil=True, cache=True, fastmath=FAST, error_model="numpy")
+LANE = dict(nogil=True, cache=True, fastmath=FAST, error_model="numpy", no_cfunc_wrapper=True)
 
 
 class LaneControl(NamedTuple):
@@ -104,14 +104,32 @@ def claim_row(typingctx, control, counter):
     return types.int64(control, counter), codegen
 
 
+def _trace_stacks(B, max_depth):
+    raise NotImplementedError("a Numba overload")
+
+
+@overload(_trace_stacks, jit_options=INLINE_OVERLOAD)
+def _trace_stacks_impl(B, max_depth):
+    """trace_lane's (node_stack, t_stack, work): the BVH's traversal stacks and trace_ray's
+    stack of rays; None each for B None, the seed's variant, which traverses no BVH and traces
+    no ray by ray (chosen by B's type: a branch on `B is None` compiles both arms for B 0)."""
+    if isinstance(B, types.NoneType):
+        return lambda B, max_depth: (None, None, None)
+
+    def impl(B, max_depth):
+        node_stack, t_stack = traversal_stacks()
+        slots = stack_rows(max_depth)
+        return node_stack, t_stack, scratch_array(slots * RAY_WIDTH, np.float64).reshape((slots, RAY_WIDTH))
+
+    return impl
+
+
 @njit(**LANE)
 def trace_lane(S, X, P, film, C, B):
     """Whitted-traced samples of the lane's rows of pass P into the film; rays traced per row
     into C.rays_per_row. B: None where X is None and the BVH root is one leaf of spheres (the
     seed; variants.sphere_leaf), which compiles the wavefront without the BVH's code; else 0."""
-    node_stack, t_stack = traversal_stacks()
-    slots = stack_rows(P.max_depth)
-    work = scratch_array(slots * RAY_WIDTH, np.float64).reshape((slots, RAY_WIDTH))
+    node_stack, t_stack, work = _trace_stacks(B, P.max_depth)
     G, F, L = geometry_of(S), surfaces_of(S), lights_of(S)
     wave = wavefront_scratch(G, F, B)  # (a branch on X would not type: Numba unifies both arms)
     Env = environment_of(S)

@@ -465,7 +465,7 @@ def _light_directions(R, I, m, directional, x, y, z):
 
 
 @inline_function
-def _towards_light(L, R, I, m, k):
+def _towards_light(L, B, R, I, m, k):
     """direct_lighting's steps for delta light row k up to its shadow ray: the unit direction l
     and distance towards it, and the Phong factor; BLOCKED starts as 'no ray needed' (-1) where
     the factor is 0, else 0. Returns the number of shadow rays."""
@@ -479,6 +479,8 @@ def _towards_light(L, R, I, m, k):
     for i in range(m):
         if I[HIGHLIGHT + i] != 0:
             R[SCALE + i] += highlight(R[COS_RV + i], R[SPEC + i])
+    if B is None:  # (no spot light: variants.trace_features)
+        return _needs_shadow(R, I, m)
     if has_falloff(L.kind[k]):
         for i in range(m):
             R[SCALE + i] *= trace_falloff(L, k, (R[LX + i], R[LY + i], R[LZ + i]))
@@ -585,7 +587,7 @@ def _lighting(G, X, B, L, R, I, C, m, leaf_first, leaf_count, node_stack, t_stac
                 R[IG + i] += intensity[1]
                 R[IB + i] += intensity[2]
             continue
-        rays += _towards_light(L, R, I, m, k)
+        rays += _towards_light(L, B, R, I, m, k)
         directional = at_infinity(L.kind[k])
         _shadows(G, X, B, R, I, C, m, leaf_first, leaf_count, node_stack, t_stack, directional, scratch)
         r, g, b = row3(L.data, k, LIGHT_INTENSITY)
@@ -640,15 +642,40 @@ def _pinhole_directions(R, n, cam, i0, j, width, height, spread):
         R[SPREAD + k] = spread * abs(x * fx + y * fy + z * fz)
 
 
+@inline_function
+def _centre_rays(R, n, cam, i0, j, width, height, spread):
+    """camera_sample's rays through the centres of pixels i0..i0+n-1 of row j (one sample per
+    pixel, a pinhole), without the unused random key."""
+    _pinhole_directions(R, n, cam, i0, j, width, height, spread)
+    for c, row in enumerate((OX, OY, OZ)):
+        fill(R[row : row + STRIDE], n, cam[CAM_POSITION + c])
+    fill(R[S_W : S_W + STRIDE], n, 1.0)
+
+
+@inline_function
+def _sampled_rays(R, n, cam, filt, seed, i0, s0, j, samples, width, height, spread):
+    """camera_sample's rays of the n samples from sample s0 of pixel i0 of row j on."""
+    total_spp = samples[2]
+    pi, ps = i0, s0
+    for k in range(n):
+        o, d, w, _ = camera_sample(cam, filt, seed, pi, j, ps, total_spp, width, height)
+        R[DX + k], R[DY + k], R[DZ + k] = d
+        R[SPREAD + k] = spread * obliquity(cam, d)
+        R[OX + k], R[OY + k], R[OZ + k] = o
+        R[S_W + k] = w
+        pi, ps = next_sample(pi, ps, samples)
+
+
 @kernel_function
 def wavefront_row(G, F, L, X, B, Env, P, j, film, scratch, node_stack, t_stack):
     """trace mode's _trace_row for a basic scene: the row's samples of pass P (film/image_pass.py),
     in pixel order, through the Whitted loop TILE at a time, then into the film in order.
-    Returns the rays traced. B is None where the BVH root is one leaf of spheres (the seed:
-    variants.sphere_leaf, the host's _sphere_leaf) and there is no environment and no texture
-    (variants.trace_features), which compiles the sphere tests alone, no BVH traversal, packets,
-    triangles, environment or textures (a first run of the seed: about half the CPU); else 0,
-    and the row takes whichever way _sphere_leaf finds."""
+    Returns the rays traced. B is None for the seed's kind of picture (variants.trace_features):
+    the BVH root one leaf of spheres (variants.sphere_leaf, the host's _sphere_leaf), no
+    environment, texture or spot light, one sample at each pixel's centre through a pinhole
+    into a film of signed sums only. That compiles the sphere tests alone, without BVH
+    traversal, packets, triangles, environment, textures, spot lights, camera sampling and the
+    film's running sums. Else B is 0, and the row takes whichever way _sphere_leaf finds."""
     cam, filt, width, height, window, samples, seed, max_depth, bg = P
     R, I, M, C, _, _ = scratch
     first, count, total_spp = samples
@@ -663,10 +690,15 @@ def wavefront_row(G, F, L, X, B, Env, P, j, film, scratch, node_stack, t_stack):
     pinhole_centres = total_spp == 1 and not cam[CAM_LENS_RADIUS] > 0.0
     total_samples = (x1 - x0) * count
     one_each = count == 1 and film.shape[2] == FILM_WIDTH  # one sample a pixel: film.add_one_each
+    # (B None: pinhole_centres and one_each hold; the branches on `B is None` below leave the
+    # other ways uncompiled)
     flat = film.reshape(film.size)
     rays = 0
     pixel = x0
-    total = pixel_sums(film, j - y0, 0)
+    if B is None:  # (one sample a pixel: no running sums)
+        total = ((0.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0))
+    else:
+        total = pixel_sums(film, j - y0, 0)
     i0, s0 = x0, first  # the pixel and sample number of the tile's first sample
     q = 0
     while q < total_samples:
@@ -675,20 +707,12 @@ def wavefront_row(G, F, L, X, B, Env, P, j, film, scratch, node_stack, t_stack):
         if one_each:  # the film's pixels of this tile, fetched while the tile is traced
             for k in range(film_at, film_at + n * FILM_WIDTH, 8):
                 prefetch_row(flat, k)
-        if pinhole_centres:  # camera_sample's rays through pixels i0.., without the unused random key
-            _pinhole_directions(R, n, cam, i0, j, width, height, spread)
-            for c, row in enumerate((OX, OY, OZ)):
-                fill(R[row : row + STRIDE], n, cam[CAM_POSITION + c])
-            fill(R[S_W : S_W + STRIDE], n, 1.0)
+        if B is None:
+            _centre_rays(R, n, cam, i0, j, width, height, spread)
+        elif pinhole_centres:
+            _centre_rays(R, n, cam, i0, j, width, height, spread)
         else:
-            pi, ps = i0, s0
-            for k in range(n):
-                o, d, w, _ = camera_sample(cam, filt, seed, pi, j, ps, total_spp, width, height)
-                R[DX + k], R[DY + k], R[DZ + k] = d
-                R[SPREAD + k] = spread * obliquity(cam, d)
-                R[OX + k], R[OY + k], R[OZ + k] = o
-                R[S_W + k] = w
-                pi, ps = next_sample(pi, ps, samples)
+            _sampled_rays(R, n, cam, filt, seed, i0, s0, j, samples, width, height, spread)
         for row in (WR, WG, WB):
             fill(R[row : row + STRIDE], n, 1.0)
         for row in (CONE, CR, CG, CB):
@@ -706,7 +730,10 @@ def wavefront_row(G, F, L, X, B, Env, P, j, film, scratch, node_stack, t_stack):
             _add_local_and_reflect(R, I, m, last)
             m = _compact_reflected(R, I, m, textured)
             depth -= 1
-        if one_each:
+        if B is None:
+            add_one_each(flat, film_at, R, (S_R, S_G, S_B, S_W), n)
+            i0 += n
+        elif one_each:
             add_one_each(flat, film_at, R, (S_R, S_G, S_B, S_W), n)
             i0 += n
         else:
@@ -715,6 +742,7 @@ def wavefront_row(G, F, L, X, B, Env, P, j, film, scratch, node_stack, t_stack):
                 pixel, total = add_in_pixel_order(film, j - y0, x0, pixel, total, i0, col, R[S_W + k])
                 i0, s0 = next_sample(i0, s0, samples)
         q += n
-    if not one_each:
-        store_sums(film, j - y0, pixel - x0, total)
+    if B is not None:
+        if not one_each:
+            store_sums(film, j - y0, pixel - x0, total)
     return rays
