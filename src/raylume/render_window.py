@@ -40,6 +40,7 @@ from .kernels.integrators.frame import (
     path_lane,
     trace_lane,
 )
+from .kernels.scene import trace_views
 from .kernels.variants import features, path_features, trace_features
 from .lanes import lane_pool
 from .scene.model import Camera, RenderSettings
@@ -193,6 +194,7 @@ def add_samples_to_film(S, cam, film: Film, spp: int, settings, aov: dict, progr
     if settings.mode == "trace" and X is None:
         B = trace_features(S, _centres_only(cam, film))
     rejected = np.zeros(lanes * PROGRESS_STRIDE, dtype=np.int64)
+    views = trace_views(S) if settings.mode == "trace" else None
     strategy = path_strategy()
     bd = bdpt_pass(S, film, lanes) if bidirectional else None
 
@@ -210,7 +212,7 @@ def add_samples_to_film(S, cam, film: Film, spp: int, settings, aov: dict, progr
         elif settings.mode == "path":
             path_lane(S, X, P, film.sums, C, strategy)
         else:
-            trace_lane(S, X, P, film.sums, C, B)
+            trace_lane(*views, X, P, film.sums, C, B)
 
     status = status or (lambda what: None)
     status("compiling")

@@ -239,3 +239,9 @@ def surfaces_of(S):
 @kernel_function()
 def lights_of(S):
     return Lights(S.light_kind, S.light_data, S.light_order)
+
+
+def trace_views(S: KernelScene) -> tuple[Geometry, Surfaces, Lights, Environment]:
+    """The views trace mode's lanes take (frame.trace_lane), made on the host by the kernels'
+    own accessors."""
+    return geometry_of.py_func(S), surfaces_of.py_func(S), lights_of.py_func(S), environment_of.py_func(S)

@@ -20,7 +20,7 @@ from ..geometry.packet import PACKET, packet_hit, packet_scratch, packet_trace, 
 from ..geometry.shapes import NO_HIT, instance_id, surface
 from ..geometry.traverse import closest_hit
 from ..geometry.wide_nodes import scratch_array, traversal_stacks
-from ..scene import emitters_of, environment_of, geometry_of, lights_of, media_of, surfaces_of
+from ..scene import emitters_of, environment_of, geometry_of, media_of, surfaces_of
 from ..shading.environment import environment_radiance
 from ..shading.materials import albedo, aov_albedo
 from ..vec import FAST, INLINE_OVERLOAD, dot, inline_function, kernel_function, madd, mul
@@ -125,14 +125,14 @@ def _trace_stacks_impl(B, max_depth):
 
 
 @njit(**LANE)
-def trace_lane(S, X, P, film, C, B):
+def trace_lane(G, F, L, Env, X, P, film, C, B):
     """Whitted-traced samples of the lane's rows of pass P into the film; rays traced per row
     into C.rays_per_row. B: None where X is None and the BVH root is one leaf of spheres (the
-    seed; variants.sphere_leaf), which compiles the wavefront without the BVH's code; else 0."""
+    seed; variants.sphere_leaf), which compiles the wavefront without the BVH's code; else 0.
+    The scene comes as trace_views(S): its CPython wrapper unboxes only the arrays trace mode
+    reads (a smaller kernel to compile than one taking the whole KernelScene)."""
     node_stack, t_stack, work = _trace_stacks(B, P.max_depth)
-    G, F, L = geometry_of(S), surfaces_of(S), lights_of(S)
     wave = wavefront_scratch(G, F, B)  # (a branch on X would not type: Numba unifies both arms)
-    Env = environment_of(S)
     x0, y0, x1, y1 = P.window
     while True:
         j = y0 + claim_row(C.control, C.counter)
