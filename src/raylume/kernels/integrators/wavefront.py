@@ -133,15 +133,19 @@ def wavefront_scratch(G, F, B):
     and ends as a packet takes them, (8, 3), (8, 3) and (8,). The rows start zeroed: the sphere
     tests compute whole vectors of eight slots, past the live ones too, and garbage there could
     be subnormal (slow) numbers. With B None (a leaf of spheres) the last two are None."""
+    # (every array a scratch_array, zeroed by its flat view: one allocation compiled for them all)
     mat = F.materials
-    M = np.empty((mat.shape[0], M_WIDTH))
+    M = scratch_array(mat.shape[0] * M_WIDTH, np.float64).reshape((mat.shape[0], M_WIDTH))
     for m in range(mat.shape[0]):
         M[m, 0], M[m, 1], M[m, 2] = row3(mat, m, MAT_COLOR)
         M[m, 3], M[m, 4], M[m, 5] = row3(mat, m, MAT_EMISSION)
         M[m, 6] = mat[m, MAT_SPECULAR]
         M[m, 7] = mat[m, MAT_REFLECTIVE]
     first, count = _sphere_leaf(G)
-    C = np.zeros((G.prims.shape[0] if count > 0 else 1, 4))
+    spheres = G.prims.shape[0] if count > 0 else 1
+    flat = scratch_array(spheres * 4, np.float64)
+    flat[:] = 0.0
+    C = flat.reshape((spheres, 4))
     for k in range(first, first + count):
         r = np.int64(G.prims[k, PRIM_ROW])
         C[k, SX], C[k, SY], C[k, SZ] = row3(G.shapes, r, CENTER)
