@@ -209,9 +209,18 @@ def test_the_hosts_sphere_leaf_is_the_kernels(objects):
 def test_the_seed_takes_the_sphere_leaf_variant():
     from raylume.kernels.variants import trace_features
 
-    S = raylume.Session(raylume.builtin_scene("seed")).compiled.kernel
+    seed = raylume.builtin_scene("seed")
+    S = raylume.Session(seed).compiled.kernel
     assert trace_features(S, True) is None
     assert trace_features(S, False) == 0  # samples not at the pixel centres: the variant that samples
+    # what the seed's variant compiles no code for: a spot light, an absorbing material
+    spot = {"type": "spot", "position": [0, 2, 0], "direction": [0, -1, 1], "angle": 30}
+    spot_light = raylume.scene_from_dict({"lights": [spot]}).lights[0]
+    with_spot = seed.model_copy(update={"lights": [*seed.lights, spot_light]})
+    assert trace_features(raylume.Session(with_spot).compiled.kernel, True) == 0
+    red = seed.materials["red"].model_copy(update={"absorption": (0.5, 0.5, 0.5)})
+    absorbing = seed.model_copy(update={"materials": {**seed.materials, "red": red}})
+    assert trace_features(raylume.Session(absorbing).compiled.kernel, True) == 0
 
 
 def test_the_seed_variant_renders_as_the_basic_one(monkeypatch):

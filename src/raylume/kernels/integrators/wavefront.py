@@ -438,6 +438,8 @@ def _find_surfaces(G, F, X, B, R, I, m, leaf_count, textured):
             _surfaces(G, F, X, R, I, m)
             return
     leaving = _sphere_surfaces(R, I, m, F.epsilon_floor)
+    if B is None:  # (no texture and no absorbing material: _sphere_surface_extras would change nothing)
+        return
     if leaving > 0 or textured:
         _sphere_surface_extras(G, F, X, B, R, I, m)
 
@@ -676,7 +678,7 @@ def wavefront_row(G, F, L, X, B, Env, P, j, film, scratch, node_stack, t_stack):
     in pixel order, through the Whitted loop TILE at a time, then into the film in order.
     Returns the rays traced. B is None for the seed's kind of picture (variants.trace_features):
     the BVH root one leaf of spheres (variants.sphere_leaf, the host's _sphere_leaf), no
-    environment, texture or spot light, one sample at each pixel's centre through a pinhole
+    environment, texture, absorbing material or spot light, one sample at each pixel's centre through a pinhole
     into a film of signed sums only. That compiles the sphere tests alone, without BVH
     traversal, packets, triangles, environment, textures, spot lights, camera sampling and the
     film's running sums. Else B is 0, and the row takes whichever way _sphere_leaf finds."""
