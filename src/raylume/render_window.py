@@ -40,6 +40,7 @@ from .kernels.integrators.frame import (
     path_lane,
     trace_lane,
 )
+from .kernels.integrators.wavefront import wavefront_tables
 from .kernels.scene import trace_views
 from .kernels.variants import features, path_features, trace_features
 from .lanes import lane_pool
@@ -212,7 +213,7 @@ def add_samples_to_film(S, cam, film: Film, spp: int, settings, aov: dict, progr
         elif settings.mode == "path":
             path_lane(S, X, P, film.sums, C, strategy)
         else:
-            trace_lane(*views, X, P, film.sums, C, B)
+            trace_lane(*views, X, P, film.sums, C, B, wavefront_tables(views[0], views[1]))
 
     status = status or (lambda what: None)
     status("compiling")

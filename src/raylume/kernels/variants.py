@@ -61,15 +61,22 @@ def path_features(S):
 def sphere_leaf(S) -> bool:
     """Whether the BVH root is one leaf of spheres alone: wavefront._sphere_leaf's answer
     (count > 0), in numpy (tests/test_wavefront.py checks the two agree)."""
-    index = S.node_index
+    return sphere_leaf_range(S.node_index, S.prims)[1] > 0
+
+
+def sphere_leaf_range(index: np.ndarray, prims: np.ndarray) -> tuple[int, int]:
+    """wavefront._sphere_leaf in numpy: (first, count) of the root leaf when the BVH root
+    (node_index `index`) is one leaf of spheres alone, else (0, 0)."""
     if not (index.shape[0] == 1 and index[0, NODE_COUNT, 1] == 0):
-        return False
+        return 0, 0
     first, count = int(index[0, NODE_FIRST, 0]), int(index[0, NODE_COUNT, 0])
     if count < 0:  # a block: spheres when below -SPHERE_BLOCK
-        if count >= -SPHERE_BLOCK or S.prims[first, PRIM_KIND] != SPHERE:
-            return False
+        if count >= -SPHERE_BLOCK or prims[first, PRIM_KIND] != SPHERE:
+            return 0, 0
         count = -count - SPHERE_BLOCK
-    return count > 0 and bool((S.prims[first : first + count, PRIM_KIND] == SPHERE).all())
+    if count <= 0 or not bool((prims[first : first + count, PRIM_KIND] == SPHERE).all()):
+        return 0, 0
+    return first, count
 
 
 def trace_features(S, centres_only: bool):

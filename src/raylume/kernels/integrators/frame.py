@@ -125,14 +125,15 @@ def _trace_stacks_impl(B, max_depth):
 
 
 @njit(**LANE)
-def trace_lane(G, F, L, Env, X, P, film, C, B):
+def trace_lane(G, F, L, Env, X, P, film, C, B, W):
     """Whitted-traced samples of the lane's rows of pass P into the film; rays traced per row
     into C.rays_per_row. B: None where X is None and the BVH root is one leaf of spheres (the
     seed; variants.sphere_leaf), which compiles the wavefront without the BVH's code; else 0.
     The scene comes as trace_views(S): its CPython wrapper unboxes only the arrays trace mode
-    reads (a smaller kernel to compile than one taking the whole KernelScene)."""
+    reads (a smaller kernel to compile than one taking the whole KernelScene); W, the lane's
+    wavefront arrays, as wavefront.wavefront_tables makes them on the host."""
     node_stack, t_stack, work = _trace_stacks(B, P.max_depth)
-    wave = wavefront_scratch(G, F, B)  # (a branch on X would not type: Numba unifies both arms)
+    wave = wavefront_scratch(W, B)  # (a branch on X would not type: Numba unifies both arms)
     x0, y0, x1, y1 = P.window
     while True:
         j = y0 + claim_row(C.control, C.counter)

@@ -24,6 +24,8 @@ checks the machine code. The rays' state is one flat array with rows a constant 
 import math
 
 import numpy as np
+from numba import types
+from numba.extending import overload
 
 from ..film.camera import (
     CAM_CONE_SPREAD,
@@ -50,8 +52,8 @@ from ..geometry.packet import (
 from ..geometry.shape_sphere import CENTER, RADIUS
 from ..geometry.shapes import NO_HIT, PRIM_KIND, PRIM_MATERIAL, PRIM_ROW, SPHERE, offset_epsilon, surface
 from ..geometry.traverse import _root_is_a_leaf, any_hit, closest_hit
-from ..geometry.wavefront_spheres import SR, SX, SY, SZ, tile_blocks, tile_closest
-from ..geometry.wide_nodes import prefetch_row, scratch_array
+from ..geometry.wavefront_spheres import SR, SX, SZ, tile_blocks, tile_closest
+from ..geometry.wide_nodes import SCRATCH_PAD, prefetch_row, scratch_array
 from ..shading.environment import environment_radiance
 from ..shading.lights import LIGHT_INTENSITY, LIGHT_POSITION, at_infinity, has_falloff, is_everywhere, trace_falloff
 from ..shading.materials import (
@@ -64,8 +66,10 @@ from ..shading.materials import (
     beer_lambert,
 )
 from ..shading.materials.seed_response import highlight
+from ..variants import sphere_leaf_range
 from ..vec import (
     FAST,
+    INLINE_OVERLOAD,
     count_up,
     dot,
     fill,
@@ -124,41 +128,55 @@ WAVE_INT_ROWS = 6
 M_WIDTH = (REFL - AR) // STRIDE + 1
 
 
-@kernel_function(_nrt=True)
-def wavefront_scratch(G, F, B):
-    """One thread's wavefront arrays: float64 (WAVE_ROWS * STRIDE) and int64 (WAVE_INT_ROWS *
-    STRIDE), flat as the rows' offsets say; the materials table (materials, M_WIDTH); each
-    primitive's sphere row (primitives, 4: centre, radius; wavefront_spheres.py) when the root
-    is a leaf of spheres; the packets' scratch (packet.py) and eight rays' origins, directions
-    and ends as a packet takes them, (8, 3), (8, 3) and (8,). The rows start zeroed: the sphere
-    tests compute whole vectors of eight slots, past the live ones too, and garbage there could
-    be subnormal (slow) numbers. With B None (a leaf of spheres) the last two are None."""
-    # (every array a scratch_array, zeroed by its flat view: one allocation compiled for them all)
+def wavefront_tables(G, F) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """One lane's wavefront arrays, made on the host (numpy) from trace_views' Geometry and
+    Surfaces: float64 (WAVE_ROWS * STRIDE) and int64 (WAVE_INT_ROWS * STRIDE), flat as the rows'
+    offsets say; the materials table (materials, M_WIDTH); each primitive's sphere row
+    (primitives, 4: centre, radius; wavefront_spheres.py) when the root is a leaf of spheres.
+    The rows start zeroed: the sphere tests compute whole vectors of eight slots, past the live
+    ones too, and garbage there could be subnormal (slow) numbers. Made in the kernel, with
+    numpy's allocation, reshapes and fills compiled into it, they had been ~10% of the seed's
+    first compile."""
     mat = F.materials
-    M = scratch_array(mat.shape[0] * M_WIDTH, np.float64).reshape((mat.shape[0], M_WIDTH))
-    for m in range(mat.shape[0]):
-        M[m, 0], M[m, 1], M[m, 2] = row3(mat, m, MAT_COLOR)
-        M[m, 3], M[m, 4], M[m, 5] = row3(mat, m, MAT_EMISSION)
-        M[m, 6] = mat[m, MAT_SPECULAR]
-        M[m, 7] = mat[m, MAT_REFLECTIVE]
-    first, count = _sphere_leaf(G)
-    spheres = G.prims.shape[0] if count > 0 else 1
-    flat = scratch_array(spheres * 4, np.float64)
-    flat[:] = 0.0
-    C = flat.reshape((spheres, 4))
-    for k in range(first, first + count):
-        r = np.int64(G.prims[k, PRIM_ROW])
-        C[k, SX], C[k, SY], C[k, SZ] = row3(G.shapes, r, CENTER)
-        C[k, SR] = G.shapes[r, RADIUS]
-    R = scratch_array(WAVE_ROWS * STRIDE, np.float64)
-    I = scratch_array(WAVE_INT_ROWS * STRIDE, np.int64)
-    R[:] = 0.0
-    I[:] = 0
-    if B is None:  # a leaf of spheres (wavefront_row): no packets, none of their scratch compiled
-        return R, I, M, C, None, None
-    origins = scratch_array(PACKET * 3, np.float64).reshape((PACKET, 3))
-    directions = scratch_array(PACKET * 3, np.float64).reshape((PACKET, 3))
-    return R, I, M, C, packet_scratch(), (origins, directions)
+    M = np.empty((mat.shape[0], M_WIDTH), np.float64)
+    M[:, 0:3] = mat[:, MAT_COLOR : MAT_COLOR + 3]
+    M[:, 3:6] = mat[:, MAT_EMISSION : MAT_EMISSION + 3]
+    M[:, 6] = mat[:, MAT_SPECULAR]
+    M[:, 7] = mat[:, MAT_REFLECTIVE]
+    first, count = sphere_leaf_range(G.node_index, G.prims)
+    C = np.zeros((G.prims.shape[0] if count > 0 else 1, 4), np.float64)
+    rows = G.prims[first : first + count, PRIM_ROW].astype(np.int64)
+    C[first : first + count, SX : SZ + 1] = G.shapes[rows, CENTER : CENTER + 3]
+    C[first : first + count, SR] = G.shapes[rows, RADIUS]
+    return _padded(WAVE_ROWS * STRIDE, np.float64), _padded(WAVE_INT_ROWS * STRIDE, np.int64), M, C
+
+
+def _padded(n: int, dtype) -> np.ndarray:
+    """n zeros with SCRATCH_PAD unused elements on either side against false sharing (as
+    wide_nodes.scratch_array's)."""
+    return np.zeros(n + 2 * SCRATCH_PAD, dtype)[SCRATCH_PAD : SCRATCH_PAD + n]
+
+
+def wavefront_scratch(tables, B):
+    raise NotImplementedError("a Numba overload")
+
+
+# with reference counting: it hands the host's arrays on, and its caller will release them
+@overload(wavefront_scratch, jit_options=dict(INLINE_OVERLOAD, _nrt=True))
+def _wavefront_scratch_impl(tables, B):
+    """A lane's wavefront scratch in the kernel: the host's wavefront_tables (R, I, M, C), then
+    the packets' scratch (packet.py) and eight rays' origins and directions as a packet takes
+    them, (8, 3) each; None each with B None (a leaf of spheres: wavefront_row takes no
+    packets, and none of their scratch is compiled; chosen by B's type, as frame._trace_stacks)."""
+    if isinstance(B, types.NoneType):
+        return lambda tables, B: (tables[0], tables[1], tables[2], tables[3], None, None)
+
+    def impl(tables, B):
+        origins = scratch_array(PACKET * 3, np.float64).reshape((PACKET, 3))
+        directions = scratch_array(PACKET * 3, np.float64).reshape((PACKET, 3))
+        return tables[0], tables[1], tables[2], tables[3], packet_scratch(), (origins, directions)
+
+    return impl
 
 
 # --- the stages --------------------------------------------------------------------------
