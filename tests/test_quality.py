@@ -587,12 +587,21 @@ def test_rgbe_never_fails(rgb):
     assert out.dtype == np.uint8 and out.shape == (1, 1, 4)
 
 
+@pytest.mark.parametrize("by_kernel", [True, False])
 @pytest.mark.parametrize("pixel_filter", ["box", "mitchell"])
-def test_film_image_is_the_weighted_mean_of_its_sums(pixel_filter):
+def test_film_image_is_the_weighted_mean_of_its_sums(pixel_filter, by_kernel, monkeypatch):
     """Film.rgb against its definition written in numpy: each pixel's weighted mean (weights
     below 0.5 count as 1), the plain mean of the samples where a negative-lobed filter's
-    weights cancel, negative values clipped to 0; NaN kept, -0.0 as 0.0."""
+    weights cancel, negative values clipped to 0; NaN kept, -0.0 as 0.0. Both ways rgb() takes:
+    the kernel (large films, or once it is compiled) and numpy (small films before that)."""
+    from raylume.kernels.film import film as film_module
     from raylume.kernels.film.film import FILM_ABS_RGB, FILM_COUNT, FILM_RGB, FILM_WEIGHT, FILM_WIDTH, Film
+
+    if by_kernel:
+        monkeypatch.setattr(film_module, "RGB_KERNEL_PIXELS", 1)
+    else:  # as before _film_rgb is compiled in the process
+        monkeypatch.setattr(film_module, "RGB_KERNEL_PIXELS", 1 << 40)
+        monkeypatch.setattr(film_module, "_film_rgb", _NotCompiled())
 
     rng = np.random.default_rng(3)
     film = Film(37, 23, pixel_filter, total_spp=8)
@@ -616,3 +625,12 @@ def test_film_image_is_the_weighted_mean_of_its_sums(pixel_filter):
     got = film.rgb()
     assert got.dtype == np.float32 and got.shape == (23, 37, 3)
     np.testing.assert_array_equal(got.view(np.uint32), want.view(np.uint32))  # to the bit, NaN too
+
+
+class _NotCompiled:
+    """Stands for the film's kernel before it is compiled: no signatures, and never called."""
+
+    signatures: list = []
+
+    def __call__(self, *args):
+        raise AssertionError("the kernel ran")

@@ -196,13 +196,19 @@ def _spheres(n: int) -> list:
 )
 def test_the_hosts_sphere_leaf_is_the_kernels(objects):
     """variants.sphere_leaf (numpy, which picks trace_lane's variant) answers as the kernel's
-    _sphere_leaf: the seed's variant, compiled without the BVH's code, never meets a BVH."""
+    _sphere_leaf: the seed's variant, compiled without the BVH's code, never meets a BVH; and
+    the host's wavefront tables hold the leaf's spheres where the kernel looks for them."""
     from raylume.kernels.scene import geometry_of
-    from raylume.kernels.variants import sphere_leaf, trace_features
+    from raylume.kernels.variants import sphere_leaf, sphere_leaf_range, trace_features
 
     S = raylume.Session(raylume.scene_from_dict({"objects": objects})).compiled.kernel
     first, count = wavefront._sphere_leaf(geometry_of(S))
     assert sphere_leaf(S) == (count > 0)
+    if count > 0:
+        assert sphere_leaf_range(S.node_index, S.prims) == (first, count)
+        rows = wavefront.wavefront_tables(S)[3][first : first + count]  # centre, radius
+        want = sorted((*o["center"], o["radius"]) for o in objects)
+        assert sorted(map(tuple, rows.tolist())) == want
     assert (trace_features(S, True) is None) == (count > 0)
 
 

@@ -195,7 +195,7 @@ def add_samples_to_film(S, cam, film: Film, spp: int, settings, aov: dict, progr
     if settings.mode == "trace" and X is None:
         B = trace_features(S, _centres_only(cam, film))
     rejected = np.zeros(lanes * PROGRESS_STRIDE, dtype=np.int64)
-    views = trace_views(S) if settings.mode == "trace" else None
+    views = trace_views(S, B) if settings.mode == "trace" else None
     strategy = path_strategy()
     bd = bdpt_pass(S, film, lanes) if bidirectional else None
 
@@ -213,7 +213,7 @@ def add_samples_to_film(S, cam, film: Film, spp: int, settings, aov: dict, progr
         elif settings.mode == "path":
             path_lane(S, X, P, film.sums, C, strategy)
         else:
-            trace_lane(*views, X, P, film.sums, C, B, wavefront_tables(views[0], views[1]))
+            trace_lane(*views, X, P, film.sums, C, B, wavefront_tables(S))
 
     status = status or (lambda what: None)
     status("compiling")

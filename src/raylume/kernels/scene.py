@@ -241,7 +241,31 @@ def lights_of(S):
     return Lights(S.light_kind, S.light_data, S.light_order)
 
 
-def trace_views(S: KernelScene) -> tuple[Geometry, Surfaces, Lights, Environment]:
+def trace_views(S: KernelScene, B=0) -> tuple:
     """The views trace mode's lanes take (frame.trace_lane), made on the host by the kernels'
-    own accessors."""
+    own accessors: (Geometry, Surfaces, Lights, Environment). For the seed's variant (B None,
+    variants.trace_features) only what its wavefront reads: SphereLeafGeometry,
+    SphereLeafSurfaces, the Lights and no environment, so that the kernel's CPython wrapper
+    unboxes 6 arrays of the scene instead of 20."""
+    if B is None:
+        return (
+            SphereLeafGeometry(S.prims, S.node_index),
+            SphereLeafSurfaces(S.materials, S.epsilon_floor),
+            lights_of.py_func(S),
+            None,
+        )
     return geometry_of.py_func(S), surfaces_of.py_func(S), lights_of.py_func(S), environment_of.py_func(S)
+
+
+class SphereLeafGeometry(NamedTuple):
+    """The Geometry fields that trace mode's seed variant reads: the root leaf of spheres."""
+
+    prims: np.ndarray
+    node_index: np.ndarray
+
+
+class SphereLeafSurfaces(NamedTuple):
+    """The Surfaces fields that trace mode's seed variant reads (no textures)."""
+
+    materials: np.ndarray
+    epsilon_floor: float

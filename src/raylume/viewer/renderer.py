@@ -126,6 +126,7 @@ class _Job:
             Film(s.width, s.height, s.filter, total_spp=self.batch, window=(0, s.width, y0, y1))
             for y0, y1 in zip(edges[:-1], edges[1:])
         ]
+        self.bands[0].compile_rgb(always=True)  # every frame's image by the kernel, however small
 
 
 class Renderer:

@@ -193,10 +193,18 @@ class Film:
         x0, x1, y0, y1 = self.window
         return x0, y0, x1, y1
 
-    def compile_rgb(self) -> None:
-        """Compile (or load from the disk cache) what rgb() runs, on no pixels: a render does
-        it while it compiles its kernels, so that its compile time counts it."""
-        _film_rgb(self.sums[:0], np.empty((0,) + self.sums.shape[1:2] + (3,), dtype=np.float32))
+    def compile_rgb(self, always: bool = False) -> None:
+        """Compile (or load from the disk cache) the kernel rgb() runs, on no pixels, where rgb()
+        will take it: a render does it while it compiles its kernels, so that its compile time
+        counts it. `always`: whatever the film's size (the live view, whose many small frames
+        gain from the kernel)."""
+        if always or self._rgb_by_kernel():
+            _film_rgb(self.sums[:0], np.empty((0,) + self.sums.shape[1:2] + (3,), dtype=np.float32))
+
+    def _rgb_by_kernel(self) -> bool:
+        """Whether rgb() runs the kernel: once it is compiled in this process, or for films of
+        RGB_KERNEL_PIXELS or more; smaller ones take numpy (the same image to the bit)."""
+        return bool(_film_rgb.signatures) or self.sums.shape[0] * self.sums.shape[1] >= RGB_KERNEL_PIXELS
 
     def rgb(self) -> np.ndarray:
         """float32 (H, W, 3): each pixel's filter-weighted mean. Weights are +-1, so a pixel's
@@ -207,8 +215,11 @@ class Film:
         nearly nothing. Where more than a quarter of a pixel's samples are negative (weight
         sum below half the count), it takes the plain mean of its samples instead, so a
         constant image stays constant; negative results of the lobes are clipped to 0."""
-        out = np.empty(self.sums.shape[:2] + (3,), dtype=np.float32)
-        _film_rgb(self.sums, out)
+        if self._rgb_by_kernel():
+            out = np.empty(self.sums.shape[:2] + (3,), dtype=np.float32)
+            _film_rgb(self.sums, out)
+        else:
+            out = film_rgb_numpy(self.sums)
         if self.splats is not None:
             h, w = self.sums.shape[:2]
             both = out.astype(np.float64) + splat_image(self.splats.reshape(h, w, 3, 2), self.spp)
@@ -232,9 +243,28 @@ def splat_image(sums: np.ndarray, spp: int) -> np.ndarray:
     return (hi / SPLAT_HI_SCALE + lo / (SPLAT_HI_SCALE * SPLAT_LO_SCALE)) / max(spp, 1)
 
 
-# IEEE arithmetic (no fast-math), so the image is what the numpy expression it replaced gave,
-# to the bit: that took 48 ms a megapixel, almost half the trace kernel's time for a 1024 x 1024
-# frame of the bunny.
+# Film.rgb in numpy, for films below RGB_KERNEL_PIXELS (~50 ms a megapixel) while _film_rgb is not
+# compiled in the process: compiling it takes ~0.35 s, a twentieth of the seed's first picture.
+RGB_KERNEL_PIXELS = 1 << 20
+
+
+def film_rgb_numpy(sums: np.ndarray) -> np.ndarray:
+    """float32 (H, W, 3): _film_rgb's image of the running sums, in numpy (IEEE arithmetic, the
+    same operations: the same image to the bit; tests/test_film.py)."""
+    w = sums[..., FILM_WEIGHT]
+    x = sums[..., FILM_RGB : FILM_RGB + 3] * (1.0 / np.where(w < 0.5, 1.0, w))[..., None]
+    if sums.shape[2] > FILM_WIDTH:  # signed sums: where they cancel, the plain mean
+        count = sums[..., FILM_COUNT]
+        cancelled = (w < 0.5 * count) & (count > 0.0)
+        mean = sums[..., FILM_ABS_RGB : FILM_ABS_RGB + 3] / np.maximum(count, 1.0)[..., None]
+        x = np.where(cancelled[..., None], mean, x)
+    # as np.maximum(x, 0.0): NaN kept (the image checks refuse it), -0.0 made 0.0
+    return np.where(x > 0.0, x, np.where(x == x, 0.0, x)).astype(np.float32)
+
+
+# IEEE arithmetic (no fast-math), so the image is what film_rgb_numpy gives, to the bit: numpy
+# took 48 ms a megapixel, almost half the trace kernel's time for a 1024 x 1024 frame of the
+# bunny.
 @njit(cache=True, error_model="numpy", no_cfunc_wrapper=True)
 def _film_rgb(sums, out):
     """Film.rgb's image of the running sums into out (float32 (H, W, 3))."""

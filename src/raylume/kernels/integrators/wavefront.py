@@ -128,26 +128,25 @@ WAVE_INT_ROWS = 6
 M_WIDTH = (REFL - AR) // STRIDE + 1
 
 
-def wavefront_tables(G, F) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """One lane's wavefront arrays, made on the host (numpy) from trace_views' Geometry and
-    Surfaces: float64 (WAVE_ROWS * STRIDE) and int64 (WAVE_INT_ROWS * STRIDE), flat as the rows'
+def wavefront_tables(S) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """One lane's wavefront arrays, made on the host (numpy) from the KernelScene S: float64 (WAVE_ROWS * STRIDE) and int64 (WAVE_INT_ROWS * STRIDE), flat as the rows'
     offsets say; the materials table (materials, M_WIDTH); each primitive's sphere row
     (primitives, 4: centre, radius; wavefront_spheres.py) when the root is a leaf of spheres.
     The rows start zeroed: the sphere tests compute whole vectors of eight slots, past the live
     ones too, and garbage there could be subnormal (slow) numbers. Made in the kernel, with
     numpy's allocation, reshapes and fills compiled into it, they had been ~10% of the seed's
     first compile."""
-    mat = F.materials
+    mat = S.materials
     M = np.empty((mat.shape[0], M_WIDTH), np.float64)
     M[:, 0:3] = mat[:, MAT_COLOR : MAT_COLOR + 3]
     M[:, 3:6] = mat[:, MAT_EMISSION : MAT_EMISSION + 3]
     M[:, 6] = mat[:, MAT_SPECULAR]
     M[:, 7] = mat[:, MAT_REFLECTIVE]
-    first, count = sphere_leaf_range(G.node_index, G.prims)
-    C = np.zeros((G.prims.shape[0] if count > 0 else 1, 4), np.float64)
-    rows = G.prims[first : first + count, PRIM_ROW].astype(np.int64)
-    C[first : first + count, SX : SZ + 1] = G.shapes[rows, CENTER : CENTER + 3]
-    C[first : first + count, SR] = G.shapes[rows, RADIUS]
+    first, count = sphere_leaf_range(S.node_index, S.prims)
+    C = np.zeros((S.prims.shape[0] if count > 0 else 1, 4), np.float64)
+    rows = S.prims[first : first + count, PRIM_ROW].astype(np.int64)
+    C[first : first + count, SX : SZ + 1] = S.shapes[rows, CENTER : CENTER + 3]
+    C[first : first + count, SR] = S.shapes[rows, RADIUS]
     return _padded(WAVE_ROWS * STRIDE, np.float64), _padded(WAVE_INT_ROWS * STRIDE, np.int64), M, C
 
 
