@@ -129,8 +129,9 @@ M_WIDTH = (REFL - AR) // STRIDE + 1
 
 
 def wavefront_tables(S) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """One lane's wavefront arrays, made on the host (numpy) from the KernelScene S: float64 (WAVE_ROWS * STRIDE) and int64 (WAVE_INT_ROWS * STRIDE), flat as the rows'
-    offsets say; the materials table (materials, M_WIDTH); each primitive's sphere row
+    """One lane's wavefront arrays, made on the host (numpy) from the KernelScene S: float64
+    (WAVE_ROWS * STRIDE) and int64 (WAVE_INT_ROWS * STRIDE), flat as the rows' offsets say;
+    the materials table (materials, M_WIDTH); each primitive's sphere row
     (primitives, 4: centre, radius; wavefront_spheres.py) when the root is a leaf of spheres.
     The rows start zeroed: the sphere tests compute whole vectors of eight slots, past the live
     ones too, and garbage there could be subnormal (slow) numbers. Made in the kernel, with
