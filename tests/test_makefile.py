@@ -90,3 +90,14 @@ def test_every_data_file_of_the_package_goes_into_the_wheel():
     globs = tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"]["package-data"]["raylume"]
     assert data and all(any(fnmatch.fnmatch(name, g) for g in globs) for name in data), (data, globs)
     assert sorted(name.removeprefix("raylume/") for name in PACKAGE_DATA) == data
+
+
+def test_installs_compile_the_bytecode(tmp_path):
+    """After an editable install each target compiles raylume's bytecode (as pip does a wheel's),
+    so that the first render does not."""
+    result = subprocess.run(
+        ["make", "-n", "-C", str(REPO), "render", f"VENV={tmp_path / 'venv'}"], capture_output=True, text=True
+    )
+    lines = result.stdout.splitlines()
+    install = next(k for k, line in enumerate(lines) if "pip install" in line and "-e ." in line)
+    assert any("compileall" in line and "src" in line for line in lines[install + 1 :]), lines
