@@ -4,7 +4,8 @@ kernel sources, every room's: Numba checks only the timestamp of the file holdin
 entry point, so an edit to a function it calls (in another module) would otherwise run stale
 machine code. Kernels import only kernels (tests/test_architecture.py), so everything compiled
 into a kernel, constants included, is in this hash. It also makes Python's garbage collector
-run less often while Numba compiles (compile_gc.py)."""
+run less often while Numba compiles (compile_gc.py), and loads raylume's kernels from the cache
+without Numba's registry refresh (cache_load.py)."""
 
 import hashlib
 import os
@@ -12,6 +13,7 @@ from pathlib import Path
 
 import numba
 
+from .cache_load import load_without_refresh
 from .compile_gc import collect_less_while_compiling
 
 
@@ -33,3 +35,4 @@ def _configure_cache() -> None:
 
 _configure_cache()
 collect_less_while_compiling()
+load_without_refresh()
