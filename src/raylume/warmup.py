@@ -110,6 +110,17 @@ def _svgf() -> None:
 _svgf.__name__ = "svgf"
 
 
+def _film() -> None:
+    """Film.rgb's kernel, which renders under a megapixel (the warm-up's) read in numpy until it
+    is compiled: the live view and large images take it."""
+    from .kernels.film.film import Film
+
+    Film(8, 6).compile_rgb(always=True)
+
+
+_film.__name__ = "film"
+
+
 def _intersect(kind: str) -> Callable[[], None]:
     def job() -> None:
         from .query import intersect
@@ -138,6 +149,7 @@ JOBS: list[tuple[Callable[[], None], float]] = [
     (_intersect("basic"), 2.9),
     (_svgf, 1.0),
     (_bvh, 0.4),
+    (_film, 0.05),
 ]
 
 
