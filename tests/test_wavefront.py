@@ -237,3 +237,21 @@ def test_the_seed_variant_renders_as_the_basic_one(monkeypatch):
     monkeypatch.setattr(render_window, "trace_features", lambda S, centres_only: 0)
     basic = raylume.render(scene, aovs=False)
     _assert_same(first, basic)
+
+
+def test_the_hosts_wavefront_rows_start_on_cache_lines():
+    """The rows' arrays start on a 64-byte boundary and are zeros, with room on either side
+    against false sharing (every row then starts on a cache line: STRIDE is a multiple of 64
+    bytes), and the materials table holds the materials' columns the kernel reads."""
+    from raylume.kernels.geometry.wide_nodes import SCRATCH_PAD
+    from raylume.kernels.shading.materials import MAT_COLOR, MAT_REFLECTIVE
+
+    S = raylume.Session(raylume.builtin_scene("seed")).compiled.kernel
+    R, I, M, _ = wavefront.wavefront_tables(S)
+    assert (wavefront.STRIDE * 8) % 64 == 0
+    for rows, count in ((R, wavefront.WAVE_ROWS), (I, wavefront.WAVE_INT_ROWS)):
+        assert rows.ctypes.data % 64 == 0 and rows.shape == (count * wavefront.STRIDE,) and not rows.any()
+        before = (rows.ctypes.data - rows.base.ctypes.data) // rows.itemsize
+        assert before >= SCRATCH_PAD and rows.base.size - before - rows.size >= SCRATCH_PAD
+    np.testing.assert_array_equal(M[:, 0:3], S.materials[:, MAT_COLOR : MAT_COLOR + 3])
+    np.testing.assert_array_equal(M[:, 7], S.materials[:, MAT_REFLECTIVE])

@@ -250,7 +250,7 @@ RGB_KERNEL_PIXELS = 1 << 20
 
 def film_rgb_numpy(sums: np.ndarray) -> np.ndarray:
     """float32 (H, W, 3): _film_rgb's image of the running sums, in numpy (IEEE arithmetic, the
-    same operations: the same image to the bit; tests/test_film.py)."""
+    same operations: the same image to the bit; tests/test_quality.py)."""
     w = sums[..., FILM_WEIGHT]
     x = sums[..., FILM_RGB : FILM_RGB + 3] * (1.0 / np.where(w < 0.5, 1.0, w))[..., None]
     if sums.shape[2] > FILM_WIDTH:  # signed sums: where they cancel, the plain mean

@@ -152,9 +152,13 @@ def wavefront_tables(S) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 
 
 def _padded(n: int, dtype) -> np.ndarray:
-    """n zeros with SCRATCH_PAD unused elements on either side against false sharing (as
-    wide_nodes.scratch_array's)."""
-    return np.zeros(n + 2 * SCRATCH_PAD, dtype)[SCRATCH_PAD : SCRATCH_PAD + n]
+    """n zeros starting on a 64-byte boundary (a cache line, an AVX-512 vector: the rows are
+    STRIDE slots, a multiple of 64 bytes, so every row starts on one), with SCRATCH_PAD unused
+    elements or more on either side against false sharing (as wide_nodes.scratch_array's)."""
+    size = np.dtype(dtype).itemsize
+    block = np.zeros(n + 2 * SCRATCH_PAD + 64 // size, dtype)
+    first = SCRATCH_PAD + (-(block.ctypes.data + SCRATCH_PAD * size) % 64) // size
+    return block[first : first + n]
 
 
 def wavefront_scratch(tables, B):
