@@ -202,9 +202,11 @@ class Film:
             _film_rgb(self.sums[:0], np.empty((0,) + self.sums.shape[1:2] + (3,), dtype=np.float32))
 
     def _rgb_by_kernel(self) -> bool:
-        """Whether rgb() runs the kernel: once it is compiled in this process, or for films of
-        RGB_KERNEL_PIXELS or more; smaller ones take numpy (the same image to the bit)."""
-        return bool(_film_rgb.signatures) or self.sums.shape[0] * self.sums.shape[1] >= RGB_KERNEL_PIXELS
+        """Whether rgb() runs the kernel: once it is compiled in this process, for signed sums,
+        or for films of RGB_KERNEL_PIXELS or more; the others take numpy (the same image to the
+        bit, film_rgb_numpy)."""
+        h, w, columns = self.sums.shape
+        return bool(_film_rgb.signatures) or columns > FILM_WIDTH or h * w >= RGB_KERNEL_PIXELS
 
     def rgb(self) -> np.ndarray:
         """float32 (H, W, 3): each pixel's filter-weighted mean. Weights are +-1, so a pixel's
@@ -243,8 +245,10 @@ def splat_image(sums: np.ndarray, spp: int) -> np.ndarray:
     return (hi / SPLAT_HI_SCALE + lo / (SPLAT_HI_SCALE * SPLAT_LO_SCALE)) / max(spp, 1)
 
 
-# Film.rgb in numpy, for films below RGB_KERNEL_PIXELS (~50 ms a megapixel) while _film_rgb is not
-# compiled in the process: compiling it takes ~0.35 s, a twentieth of the seed's first picture.
+# Film.rgb in numpy for films of unsigned sums below RGB_KERNEL_PIXELS while _film_rgb is not
+# compiled in the process: as fast as the kernel there (600 x 600: 9.6 ms each), and compiling
+# the kernel takes ~0.35 s, a twentieth of the seed's first picture. Signed sums (filters with
+# negative lobes) take the kernel: their cancelled pixels cost numpy 2.7x its time.
 RGB_KERNEL_PIXELS = 1 << 20
 
 
@@ -252,14 +256,17 @@ def film_rgb_numpy(sums: np.ndarray) -> np.ndarray:
     """float32 (H, W, 3): _film_rgb's image of the running sums, in numpy (IEEE arithmetic, the
     same operations: the same image to the bit; tests/test_quality.py)."""
     w = sums[..., FILM_WEIGHT]
-    x = sums[..., FILM_RGB : FILM_RGB + 3] * (1.0 / np.where(w < 0.5, 1.0, w))[..., None]
+    inv = np.where(w < 0.5, 1.0, w)
+    np.divide(1.0, inv, out=inv)
+    x = sums[..., FILM_RGB : FILM_RGB + 3] * inv[..., None]
     if sums.shape[2] > FILM_WIDTH:  # signed sums: where they cancel, the plain mean
         count = sums[..., FILM_COUNT]
         cancelled = (w < 0.5 * count) & (count > 0.0)
         mean = sums[..., FILM_ABS_RGB : FILM_ABS_RGB + 3] / np.maximum(count, 1.0)[..., None]
         x = np.where(cancelled[..., None], mean, x)
-    # as np.maximum(x, 0.0): NaN kept (the image checks refuse it), -0.0 made 0.0
-    return np.where(x > 0.0, x, np.where(x == x, 0.0, x)).astype(np.float32)
+    # NaN kept (the image checks refuse it), -0.0 made 0.0: np.maximum(x, 0.0) does both
+    np.maximum(x, 0.0, out=x)
+    return x.astype(np.float32)
 
 
 # IEEE arithmetic (no fast-math), so the image is what film_rgb_numpy gives, to the bit: numpy
