@@ -206,7 +206,7 @@ def test_the_hosts_sphere_leaf_is_the_kernels(objects):
     assert sphere_leaf(S) == (count > 0)
     if count > 0:
         assert sphere_leaf_range(S.node_index, S.prims) == (first, count)
-        rows = wavefront.wavefront_tables(S)[3][first : first + count]  # centre, radius
+        rows = wavefront.wavefront_tables(S)[1][first : first + count]  # centre, radius
         want = sorted((*o["center"], o["radius"]) for o in objects)
         assert sorted(map(tuple, rows.tolist())) == want
     assert (trace_features(S, True) is None) == (count > 0)
@@ -247,7 +247,8 @@ def test_the_hosts_wavefront_rows_start_on_cache_lines():
     from raylume.kernels.shading.materials import MAT_COLOR, MAT_REFLECTIVE
 
     S = raylume.Session(raylume.builtin_scene("seed")).compiled.kernel
-    R, I, M, _ = wavefront.wavefront_tables(S)
+    R, I = wavefront.wavefront_rows()
+    M, _ = wavefront.wavefront_tables(S)
     assert (wavefront.STRIDE * 8) % 64 == 0
     for rows, count in ((R, wavefront.WAVE_ROWS), (I, wavefront.WAVE_INT_ROWS)):
         assert rows.ctypes.data % 64 == 0 and rows.shape == (count * wavefront.STRIDE,) and not rows.any()

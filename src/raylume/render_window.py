@@ -40,7 +40,7 @@ from .kernels.integrators.frame import (
     path_lane,
     trace_lane,
 )
-from .kernels.integrators.wavefront import wavefront_tables
+from .kernels.integrators.wavefront import wavefront_rows, wavefront_tables
 from .kernels.scene import trace_views
 from .kernels.variants import features, path_features, trace_features
 from .lanes import lane_pool
@@ -196,6 +196,7 @@ def add_samples_to_film(S, cam, film: Film, spp: int, settings, aov: dict, progr
         B = trace_features(S, _centres_only(cam, film))
     rejected = np.zeros(lanes * PROGRESS_STRIDE, dtype=np.int64)
     views = trace_views(S, B) if settings.mode == "trace" else None
+    tables = wavefront_tables(S) if settings.mode == "trace" else None  # read by every lane
     strategy = path_strategy()
     bd = bdpt_pass(S, film, lanes) if bidirectional else None
 
@@ -213,7 +214,7 @@ def add_samples_to_film(S, cam, film: Film, spp: int, settings, aov: dict, progr
         elif settings.mode == "path":
             path_lane(S, X, P, film.sums, C, strategy)
         else:
-            trace_lane(*views, X, P, film.sums, C, B, wavefront_tables(S))
+            trace_lane(*views, X, P, film.sums, C, B, (*wavefront_rows(), *tables))
 
     status = status or (lambda what: None)
     status("compiling")

@@ -131,7 +131,8 @@ def trace_lane(G, F, L, Env, X, P, film, C, B, W):
     seed; variants.sphere_leaf), which compiles the wavefront without the BVH's code; else 0.
     The scene comes as trace_views(S): its CPython wrapper unboxes only the arrays trace mode
     reads (a smaller kernel to compile than one taking the whole KernelScene); W, the lane's
-    wavefront arrays, as wavefront.wavefront_tables makes them on the host."""
+    wavefront arrays made on the host: its rows (wavefront.wavefront_rows) and the scene's
+    tables (wavefront.wavefront_tables)."""
     node_stack, t_stack, work = _trace_stacks(B, P.max_depth)
     wave = wavefront_scratch(W, B)  # (a branch on X would not type: Numba unifies both arms)
     x0, y0, x1, y1 = P.window

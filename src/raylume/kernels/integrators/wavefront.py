@@ -128,15 +128,12 @@ WAVE_INT_ROWS = 6
 M_WIDTH = (REFL - AR) // STRIDE + 1
 
 
-def wavefront_tables(S) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """One lane's wavefront arrays, made on the host (numpy) from the KernelScene S: float64
-    (WAVE_ROWS * STRIDE) and int64 (WAVE_INT_ROWS * STRIDE), flat as the rows' offsets say;
-    the materials table (materials, M_WIDTH); each primitive's sphere row
+def wavefront_tables(S) -> tuple[np.ndarray, np.ndarray]:
+    """The scene's wavefront tables, made on the host (numpy) from the KernelScene S and read by
+    every lane: the materials table (materials, M_WIDTH) and each primitive's sphere row
     (primitives, 4: centre, radius; wavefront_spheres.py) when the root is a leaf of spheres.
-    The rows start zeroed: the sphere tests compute whole vectors of eight slots, past the live
-    ones too, and garbage there could be subnormal (slow) numbers. Made in the kernel, with
-    numpy's allocation, reshapes and fills compiled into it, they had been ~10% of the seed's
-    first compile."""
+    Made in the kernel, with numpy's allocation, reshapes and fills compiled into it, they and
+    the rows (wavefront_rows) had been ~10% of the seed's first compile."""
     mat = S.materials
     M = np.empty((mat.shape[0], M_WIDTH), np.float64)
     M[:, 0:3] = mat[:, MAT_COLOR : MAT_COLOR + 3]
@@ -148,7 +145,15 @@ def wavefront_tables(S) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
     rows = S.prims[first : first + count, PRIM_ROW].astype(np.int64)
     C[first : first + count, SX : SZ + 1] = S.shapes[rows, CENTER : CENTER + 3]
     C[first : first + count, SR] = S.shapes[rows, RADIUS]
-    return _padded(WAVE_ROWS * STRIDE, np.float64), _padded(WAVE_INT_ROWS * STRIDE, np.int64), M, C
+    return M, C
+
+
+def wavefront_rows() -> tuple[np.ndarray, np.ndarray]:
+    """One lane's rays, made on the host: float64 (WAVE_ROWS * STRIDE) and int64
+    (WAVE_INT_ROWS * STRIDE), flat as the rows' offsets say. They start zeroed: the sphere
+    tests compute whole vectors of eight slots, past the live ones too, and garbage there could
+    be subnormal (slow) numbers."""
+    return _padded(WAVE_ROWS * STRIDE, np.float64), _padded(WAVE_INT_ROWS * STRIDE, np.int64)
 
 
 def _padded(n: int, dtype) -> np.ndarray:
@@ -168,7 +173,8 @@ def wavefront_scratch(tables, B):
 # with reference counting: it hands the host's arrays on, and its caller will release them
 @overload(wavefront_scratch, jit_options=dict(INLINE_OVERLOAD, _nrt=True))
 def _wavefront_scratch_impl(tables, B):
-    """A lane's wavefront scratch in the kernel: the host's wavefront_tables (R, I, M, C), then
+    """A lane's wavefront scratch in the kernel: the host's (R, I, M, C) (wavefront_rows and
+    wavefront_tables), then
     the packets' scratch (packet.py) and eight rays' origins and directions as a packet takes
     them, (8, 3) each; None each with B None (a leaf of spheres: wavefront_row takes no
     packets, and none of their scratch is compiled; chosen by B's type, as frame._trace_stacks)."""
