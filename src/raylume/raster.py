@@ -89,7 +89,9 @@ def rasterize(
 @roomy_frame_stack  # (frame_stack.py)
 def _warm_up(S, cam, near, background):
     """Compile the kernels (or load them from the cache) on empty input, outside the timing."""
-    empty = S._replace(triangles=S.triangles[:0], triangle_columns=triangle_columns(S.triangles[:0]))
+    empty = S._replace(
+        triangles=S.triangles[:0], triangle_columns=triangle_columns(S.triangles[:0]), sweep=S.sweep[:, :0]
+    )
     rgb = np.zeros((1, 1, 3), np.float32)
     none = np.zeros(0, np.int32)
     parts = Parts(none, np.zeros((0, 9)), none, np.zeros(0), np.zeros(len(S.prims), np.int32))
@@ -172,7 +174,8 @@ def flatten_instances(S):
         instance_inverse=S.instance_inverse[:0],
         instance_index=S.instance_index[:0],
     )
-    flat_s = flat_s._replace(triangle_columns=triangle_columns(flat_s.triangles))
+    # the flattened triangles are no longer the sweep table's (geometry/sweep.py): the BVH walk
+    flat_s = flat_s._replace(triangle_columns=triangle_columns(flat_s.triangles), sweep=S.sweep[:, :0])
     prim_instance = np.zeros(len(prims), np.int32)
     prim_instance[n_world : n_world + len(flat)] = np.concatenate(ids)
     return flat_s, prim_instance

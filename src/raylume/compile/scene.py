@@ -19,6 +19,7 @@ from ..accel.wide import wide_nbytes
 from ..kernels.frame_stack import roomy_frame_stack
 from ..kernels.geometry.shape_triangle import triangle_columns
 from ..kernels.geometry.shapes import PRIM_KIND, Shape
+from ..kernels.geometry.sweep import sweep_table
 from ..kernels.jit_clock import JitClock
 from ..kernels.scene import KernelScene
 from ..kernels.shading.materials import MAT_TRANSPARENCY
@@ -91,6 +92,9 @@ def _compile_scene(scene: Scene, source: str, accelerate: bool) -> CompiledScene
         triangle_normals=g.triangle_normals,
         triangle_smooth=g.triangle_smooth,
         triangle_uvs=g.triangle_uvs,
+        sweep=sweep_table(
+            g.triangles, g.prims, g.shapes, g.n_bounded, instanced=len(inst.prims) > 0 or len(inst.inverse) > 0
+        ),
         node_bounds=g.bvh.node_bounds,
         node_index=g.bvh.node_index,
         materials=mat_rows,

@@ -21,6 +21,9 @@ class KernelScene(NamedTuple):
     triangle_normals: np.ndarray  # float32 (T, 9) vertex normals, or (1, 9) when no mesh is smooth
     triangle_smooth: np.ndarray  # bool (T,)
     triangle_uvs: np.ndarray  # float32 (T, 6): uv0, uv1, uv2, or (1, 6) when no triangle needs UVs
+    # small scenes' triangles for the sweep instead of the BVH walk: float32 (SWEEP_ROWS, 32), or
+    # (SWEEP_ROWS, 0) for the walk (geometry/sweep.py)
+    sweep: np.ndarray
     # W-wide BVH nodes (accel/wide.py): float32 (N, NODE_ROWS, W) records, the child boxes SoA,
     # then child node / first prim and 0 / prim count; node_index is the same records as int32
     node_bounds: np.ndarray
@@ -108,6 +111,7 @@ class Geometry(NamedTuple):
     triangle_normals: np.ndarray
     triangle_smooth: np.ndarray
     triangle_uvs: np.ndarray
+    sweep: np.ndarray
     node_bounds: np.ndarray
     node_index: np.ndarray
 
@@ -226,6 +230,7 @@ def geometry_of(S):
         S.triangle_normals,
         S.triangle_smooth,
         S.triangle_uvs,
+        S.sweep,
         S.node_bounds,
         S.node_index,
     )

@@ -73,6 +73,11 @@ def uv(rows, i, p):
     return min(max(a + 0.5, 0.0), 1.0), min(max(b + 0.5, 0.0), 1.0)
 
 
+# tessellate's triangles are exactly the parallelogram: a small scene's sweep filters rays with
+# them (shapes.exact_triangles, sweep.py)
+TESSELLATION_IS_EXACT = True
+
+
 def tessellate(row: np.ndarray, view) -> np.ndarray:
     """Two triangles: exactly the parallelogram."""
     k = corners(np.asarray(row, dtype=np.float64)[None, :])[0]

@@ -114,7 +114,13 @@ def _columns_codegen(context, builder, sig, args):
     return _block_codegen(context, builder, sig, args, columns=True)
 
 
-def _block_codegen(context, builder, sig, args, columns):
+def _gathered_codegen(context, builder, sig, args):
+    """The same test on four rows given by index (sweep.py's candidates): a tuple of four rows in
+    place of `first`, lanes past count masked."""
+    return _block_codegen(context, builder, sig, args, columns=False, gathered=True)
+
+
+def _block_codegen(context, builder, sig, args, columns, gathered=False):
     n = TRIANGLES_PER_TEST
     f32, f64, i32, i64 = ir.FloatType(), ir.DoubleType(), ir.IntType(32), ir.IntType(64)
     v4 = ir.VectorType(f64, n)
@@ -122,7 +128,14 @@ def _block_codegen(context, builder, sig, args, columns):
     zero_idx = ir.Constant(ir.VectorType(i32, n), [0] * n)
     tri_t, first_t, count_t, o_t, shear_t, tmin_t, tmax_t = sig.args
     tri = context.make_array(tri_t)(context, builder, args[0])
-    first = context.cast(builder, args[1], first_t, types.int64)
+    if gathered:
+        given = [
+            context.cast(builder, r, t, types.int64)
+            for r, t in zip(cgutils.unpack_tuple(builder, args[1], n), first_t, strict=True)
+        ]
+        first = ir.Constant(i64, 0)
+    else:
+        first = context.cast(builder, args[1], first_t, types.int64)
     count = context.cast(builder, args[2], count_t, types.int64)
     o = [
         context.cast(builder, x, t, types.float64)
@@ -161,6 +174,9 @@ def _block_codegen(context, builder, sig, args, columns):
         rows = []
         for j in range(n):
             jj = ir.Constant(i64, j)
+            if gathered:  # the caller repeats a row in the lanes past count
+                rows.append(builder.mul(given[j], ir.Constant(i64, 9)))
+                continue
             lane = builder.select(builder.icmp_signed("<", jj, count), jj, last)
             rows.append(builder.mul(builder.add(first, lane), ir.Constant(i64, 9)))
 
@@ -339,6 +355,17 @@ def _triangles4_columns(typingctx, cols, first, count, o, shear, tmin, tmax):
         raise TypingError("_triangles4_columns: cols must be a C-contiguous float32 (9, T + COLUMN_PAD) array")
     ret = types.Tuple((types.float64, types.int64, types.float64, types.float64))
     return ret(cols, first, count, o, shear, tmin, tmax), _columns_codegen
+
+
+@intrinsic
+def triangles4_gathered(typingctx, tri, rows, count, o, shear, tmin, tmax):
+    """intersect_triangles on rows rows[0 .. count - 1] of tri (float32 (T, 9)), rows a tuple of
+    four int64 (those past count repeat a valid row): (t, lane, b1, b2), each lane's numbers
+    bit-identical to intersect_triangle's, the lowest lane on ties."""
+    if not (isinstance(tri, types.Array) and tri.dtype == types.float32 and tri.ndim == 2 and tri.layout == "C"):
+        raise TypingError("triangles4_gathered: tri must be a C-contiguous float32 (T, 9) array")
+    ret = types.Tuple((types.float64, types.int64, types.float64, types.float64))
+    return ret(tri, rows, count, o, shear, tmin, tmax), _gathered_codegen
 
 
 @inline_function

@@ -9,9 +9,10 @@ that kind's storage (triangles: the float32 triangle table; every other shape: t
 object (the `prim` AOV; 0 for analytic shapes) and the light the primitive emits for (-1 for
 none; path tracing's emitters will find their light here).
 
-To add a shape: write `shape_NAME.py` (pack, bounds, intersect, normal, uv, tessellate; see
-shape_disk.py), add its kind below and a line in each switch, and register its model class in
-scene/model.py and compile/objects.py. docs/architecture.md lists the places.
+To add a shape: write `shape_NAME.py` (pack, bounds, intersect, normal, uv, tessellate, and
+TESSELLATION_IS_EXACT where its tessellation is exactly the shape; see shape_disk.py), add its
+kind below and a line in each switch, and register its model class in scene/model.py and
+compile/objects.py. docs/architecture.md lists the places.
 """
 
 import math
@@ -292,6 +293,14 @@ def tessellate(kind: Shape, row: np.ndarray, view) -> tuple[np.ndarray, np.ndarr
     result = ANALYTIC[kind].tessellate(row, view)
     tris, part = result if isinstance(result, tuple) else (result, None)
     return tris, (np.zeros(len(tris)) if part is None else part)
+
+
+def exact_triangles(kind: Shape, row: np.ndarray) -> np.ndarray | None:
+    """float64 (N, 9) triangles that are exactly the analytic shape (a flat polygon's:
+    TESSELLATION_IS_EXACT in its module), or None: small scenes sweep such shapes with their
+    triangles (sweep.py) and test only the candidates by the shape's own test."""
+    module = ANALYTIC[kind]
+    return module.tessellate(row, None) if getattr(module, "TESSELLATION_IS_EXACT", False) else None
 
 
 @inline_function

@@ -20,7 +20,7 @@ import numpy as np
 
 from ..film.sampler import DIM_BSDF, DIM_LIGHT, dimension_key, key_uniform2, sub_key
 from ..geometry.shapes import NO_HIT, PRIM_LIGHT, offset_epsilon, split_hit, surface
-from ..geometry.traverse import any_hit, closest_hit
+from ..geometry.traverse import any_hit_leaving, closest_hit_leaving
 from ..shading.environment import prefetch_environment
 from ..shading.frame import shading_frame, to_local, to_world
 from ..shading.lights import (
@@ -101,17 +101,18 @@ def _roulette(beta, key, depth):
 
 
 @inline_function
-def _shadow(G, F, X, Em, Md, origin, wi, tmax, med, target, key, depth, node_stack, t_stack):
+def _shadow(G, F, X, Em, Md, origin, wi, tmax, med, target, key, depth, leaving, node_stack, t_stack):
     """Transmittance (RGB) of a shadow ray towards light row `target`: 0 where another area
     light is in the way, else through media and null boundaries where the scene has them
-    (shadow.py), else 0 or 1 by any_hit."""
+    (shadow.py), else 0 or 1 by any_hit. `leaving`: the primitive it leaves from (NO_HIT: a
+    point in a medium), as traverse.any_hit_leaving takes it."""
     if area_light_blocks(Em, target, origin, wi, tmax):
         return (0.0, 0.0, 0.0)
     if Md.pass_through:
         return shadow_transmittance(
             G, F, X, Md, origin, wi, tmax, med, dimension_key(key, DIM_SHADOW_MEDIUM, depth), node_stack, t_stack
         )
-    if any_hit(G, X, origin, wi, 0.0, tmax, node_stack, t_stack):
+    if any_hit_leaving(G, X, origin, wi, 0.0, tmax, leaving, node_stack, t_stack):
         return (0.0, 0.0, 0.0)
     return (1.0, 1.0, 1.0)
 
@@ -134,6 +135,7 @@ def path_ray(G, F, X, Em, Env, Md, o, d, spread, max_depth, background, key, nod
     mis_o = o
     mis_t = 0.0
     crossings = 0  # null boundaries passed
+    leaving = np.int64(NO_HIT)  # the surface o lies on, offset towards d (none for the camera)
     while True:
         # Next-event estimation's numbers for the surface this segment may reach, drawn before
         # its traversal so that the environment's alias slot (a cache miss: ~11% of
@@ -143,7 +145,7 @@ def path_ray(G, F, X, Em, Env, Md, o, d, spread, max_depth, background, key, nod
         u1, u2 = key_uniform2(sub_key(light_key, 1))
         if Env.present:
             prefetch_environment(Env, u1)
-        t, prim, b1, b2 = closest_hit(G, X, o, d, 0.0, INF, node_stack, t_stack)
+        t, prim, b1, b2 = closest_hit_leaving(G, X, o, d, 0.0, INF, leaving, node_stack, t_stack)
         rays += 1
         depth += 1
         tl, e, nl = INF, -1, d
@@ -171,7 +173,9 @@ def path_ray(G, F, X, Em, Env, Md, o, d, spread, max_depth, background, key, nod
                         phase = hg_eval(g, dot(d, wi))
                         tmax = dist * (1.0 - SHADOW_SHORTEN) if dist < INF else INF
                         rays += 1
-                        tr = _shadow(G, F, X, Em, Md, p, wi, tmax, med, le, key, depth, node_stack, t_stack)
+                        tr = _shadow(
+                            G, F, X, Em, Md, p, wi, tmax, med, le, key, depth, np.int64(NO_HIT), node_stack, t_stack
+                        )
                         if tr[0] > 0.0 or tr[1] > 0.0 or tr[2] > 0.0:
                             w = 1.0 if delta_l or strategy == LIGHT_ONLY else power_heuristic(p_pick * pdf_l, phase)
                             L = _add_light(L, hadamard(beta, tr), li, phase * w / (p_pick * pdf_l))
@@ -184,6 +188,7 @@ def path_ray(G, F, X, Em, Env, Md, o, d, spread, max_depth, background, key, nod
                 d = wi
                 mis_o = p
                 mis_t = 0.0
+                leaving = np.int64(NO_HIT)
                 going, beta = _roulette(beta, key, depth)
                 if not going:
                     break
@@ -230,6 +235,7 @@ def path_ray(G, F, X, Em, Env, Md, o, d, spread, max_depth, background, key, nod
             if Md.present:
                 med = medium_beyond(Md, obj, d, ng)
             o = madd(p, ng, -eps if entering else eps)
+            leaving = prim
             mis_t += t
             cone += spread * t
             depth -= 1
@@ -286,7 +292,9 @@ def path_ray(G, F, X, Em, Env, Md, o, d, spread, max_depth, background, key, nod
                         rays += 1
                         # the shadow ray leaves on the side of the incoming ray, or crosses
                         shadow_med = medium_leaving(Md, med, obj, d, n_geo, wi)
-                        tr = _shadow(G, F, X, Em, Md, origin, wi, tmax, shadow_med, le, key, depth, node_stack, t_stack)
+                        tr = _shadow(
+                            G, F, X, Em, Md, origin, wi, tmax, shadow_med, le, key, depth, prim, node_stack, t_stack
+                        )
                         if tr[0] > 0.0 or tr[1] > 0.0 or tr[2] > 0.0:
                             w = 1.0 if delta_l or strategy == LIGHT_ONLY else power_heuristic(p_pick * pdf_l, pdf_b)
                             scale = abs(wi_local[2]) * w / (p_pick * pdf_l)
@@ -308,6 +316,7 @@ def path_ray(G, F, X, Em, Env, Md, o, d, spread, max_depth, background, key, nod
         prev_pdf = pdf
         prev_delta = delta
         o = madd(p, ng, eps if up else -eps)
+        leaving = prim
         d = wi
         mis_o = o
         mis_t = 0.0

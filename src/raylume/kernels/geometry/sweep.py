@@ -1,0 +1,289 @@
+"""Small scenes without a BVH walk: every triangle against the ray at once, in float32, then the
+exact test on the few that may be hit.
+
+A scene of a few dozen triangles (the Cornell box: 30, and its light, a quad) and a few other
+bounded primitives spends most of a ray's time in the BVH's bookkeeping: one node's slab test, the sort
+of the leaves it enters, two or three leaf tests that each wait for the last one's distance.
+`sweep_hit` instead tests all the triangles (SWEEP_LANES) as four groups of eight float32 lanes, independent
+of each other (no distance carried from one to the next), in a conservative form of the
+watertight test (Woop, Benthin and Wald 2013): each edge function may be off by at most its
+rounding error bound, so a lane counts as a candidate unless its edge functions are of opposite
+signs beyond that bound, its determinant's sign is certain and its distance lies certainly
+outside (tmin, tmax). Every triangle the exact float64 test hits is a candidate (the bound is
+derived below and checked by tests/test_sweep.py against the exact test on adversarial rays);
+a ray has one to three candidates in a closed box (its own surface behind it among them), and
+those go through the exact test (shape_triangle.triangles4_gathered, four at a time; one from the
+column table). The hit is the exact test's, to the bit; on an exact tie (a ray through an edge
+two triangles share) the lowest triangle row's. A ray that leaves a triangle, its origin offset
+to the side it goes to (path mode's rays), leaves it out: the exact test cannot hit it, and it
+would otherwise be a candidate of every such ray. Flat polygons (quads) take lanes as their
+exact triangles (shapes.exact_triangles), their candidates tested by the shape's own test; the
+scene's other bounded primitives (at most SWEEP_OTHERS) by theirs, for every ray.
+
+The bound. With R = max |vertex coordinate| + max |origin coordinate| (per triangle and ray),
+the float32 coordinates relative to the origin are off by at most 2 u R (u = 2^-24: the
+origin's and the difference's roundings; 3 u R for a polygon's triangles, whose corners are
+rounded to float32 too, which the margins below absorb), the sheared ones (|s| <= 1, so |x'| <= 2 R) by at
+most 7 u R, the products of an edge function (<= 4 R^2) by 32 u R^2 each with their rounding,
+and the edge function by 72 u R^2 < 2^-17.8 R^2. SWEEP_TOLERANCE is 2^-16 R^2: 3.5 times that.
+A determinant whose magnitude is below SWEEP_UNCERTAIN R^2 may have either sign, and the lane
+is a candidate whatever its distance. Otherwise the numerator (<= 24 R^3) is off by at most
+~2^-14 R^3 and the determinant by 3 x 2^-16 R^2, so the distance by at most 2^-7.2 R +
+3 x 2^-10 |t|: SWEEP_MARGIN covers twice that.
+"""
+
+import numpy as np
+from llvmlite import ir
+from numba import types
+from numba.core import cgutils
+from numba.core.errors import TypingError
+from numba.extending import intrinsic
+
+from ..vec import inline_function
+from .shape_triangle import intersect_triangle_block, triangles4_gathered
+from .shapes import NO_HIT, PRIM_KIND, PRIM_ROW, TRIANGLE, Shape, exact_triangles, intersect
+
+SWEEP_LANES = 32  # four groups of eight float32 lanes
+SWEEP_OTHERS = 8  # bounded primitives other than triangles and quads a swept scene may have
+# The table's rows: the nine vertex coordinates (v0, v1, v2) of each lane's triangle by columns,
+# its largest coordinate magnitude, its primitive (as a float32: exact below 2^24; -1 in unused
+# lanes), the other bounded primitives (-1 after the last), and in SWEEP_COUNTS' first lane the
+# number of triangles. Lanes 0 .. T - 1 are the scene's triangles (lane = triangle row); the
+# triangles of flat polygons follow (a quad's two, exactly the parallelogram, rounded to
+# float32: the bound allows for that rounding), their candidates tested by the shape's own test.
+SWEEP_MAGNITUDE, SWEEP_PRIM, SWEEP_OTHER, SWEEP_COUNTS = 9, 10, 11, 12
+SWEEP_ROWS = 13
+SWEEP_TOLERANCE = 2.0**-16  # times R^2: the edge functions' error bound, with margin
+SWEEP_UNCERTAIN = 2.0**-6  # times R^2: a determinant below it may have either sign
+SWEEP_MARGIN = (2.0**-6, 2.0**-8)  # times (R, |t|): the distance's error bound, with margin
+
+
+def sweep_table(
+    triangles: np.ndarray, prims: np.ndarray, shapes: np.ndarray, n_bounded: int, instanced: bool
+) -> np.ndarray:
+    """float32 (SWEEP_ROWS, SWEEP_LANES) for a scene that sweep_hit can take: no instances, more
+    than four triangles, triangles and the triangles of flat polygons (quads: two each) within
+    SWEEP_LANES, at most SWEEP_OTHERS other bounded primitives. Otherwise (SWEEP_ROWS, 0): the
+    BVH walk."""
+    tri = np.asarray(triangles, np.float32)
+    n_tris = len(tri)
+    kinds = prims[:n_bounded, PRIM_KIND]
+    is_tri = kinds == TRIANGLE
+    polygons, others, halves = [], [], []
+    for k in np.flatnonzero(~is_tri):
+        parts = exact_triangles(Shape(kinds[k]), shapes[prims[k, PRIM_ROW]])
+        if parts is None:
+            others.append(k)
+        else:
+            polygons += [k] * len(parts)
+            halves.append(parts)
+    lanes = n_tris + len(polygons)
+    if instanced or n_tris <= 4 or lanes > SWEEP_LANES or len(others) > SWEEP_OTHERS or is_tri.sum() != n_tris:
+        return np.zeros((SWEEP_ROWS, 0), np.float32)
+    lane_tris = np.concatenate([tri] + [h.astype(np.float32) for h in halves])
+    table = np.zeros((SWEEP_ROWS, SWEEP_LANES), np.float32)
+    table[:9, :lanes] = lane_tris.T
+    table[SWEEP_MAGNITUDE, :lanes] = np.abs(lane_tris).max(axis=1)  # exact: |x| of a float32 is one
+    table[SWEEP_PRIM] = -1.0
+    table[SWEEP_PRIM, prims[:n_bounded, PRIM_ROW][is_tri]] = np.flatnonzero(is_tri)
+    table[SWEEP_PRIM, n_tris:lanes] = polygons
+    table[SWEEP_OTHER] = -1.0
+    table[SWEEP_OTHER, : len(others)] = others
+    table[SWEEP_COUNTS, 0] = n_tris
+    return table
+
+
+def _lanes_codegen(context, builder, sig, args):
+    f32, i32, i64 = ir.FloatType(), ir.IntType(32), ir.IntType(64)
+    n = 8
+    v8 = ir.VectorType(f32, n)
+    vi = ir.VectorType(i32, n)
+    undef = ir.Constant(v8, ir.Undefined)
+    zeros = ir.Constant(vi, [0] * n)
+    table_t, o_t, shear_t, tmin_t, tmax_t = sig.args
+    table = context.make_array(table_t)(context, builder, args[0])
+    o64 = [
+        context.cast(builder, x, t, types.float64)
+        for x, t in zip(cgutils.unpack_tuple(builder, args[1], 3), o_t, strict=True)
+    ]
+    sh = cgutils.unpack_tuple(builder, args[2], 6)
+    kx, ky, kz = (context.cast(builder, sh[i], shear_t[i], types.int64) for i in range(3))
+    sx, sy, sz = (
+        builder.fptrunc(context.cast(builder, sh[3 + i], shear_t[3 + i], types.float64), f32) for i in range(3)
+    )
+    tmin = builder.fptrunc(context.cast(builder, args[3], tmin_t, types.float64), f32)
+    tmax = builder.fptrunc(context.cast(builder, args[4], tmax_t, types.float64), f32)
+    flags = ("arcp",)  # IEEE arithmetic: no contraction, no reassociation (the bound assumes it)
+
+    def fadd(a, b):
+        return builder.fadd(a, b, flags=flags)
+
+    def fsub(a, b):
+        return builder.fsub(a, b, flags=flags)
+
+    def fmul(a, b):
+        return builder.fmul(a, b, flags=flags)
+
+    def lt(a, b):
+        return builder.fcmp_ordered("<", a, b, flags=flags)
+
+    def splat(x):
+        return builder.shuffle_vector(builder.insert_element(undef, x, ir.Constant(i32, 0)), undef, zeros)
+
+    fabs = cgutils.get_or_insert_function(builder.module, ir.FunctionType(f32, [f32]), "llvm.fabs.f32")
+    vabs = cgutils.get_or_insert_function(builder.module, ir.FunctionType(v8, [v8]), "llvm.fabs.v8f32")
+    o = [builder.fptrunc(x, f32) for x in o64]
+    omax = builder.call(fabs, [o[0]])
+    for x in o[1:]:
+        ax = builder.call(fabs, [x])
+        omax = builder.select(builder.fcmp_unordered(">", ax, omax), ax, omax)  # NaN: every lane a candidate
+
+    def pick(k):
+        return builder.select(
+            builder.icmp_signed("==", k, ir.Constant(i64, 0)),
+            o[0],
+            builder.select(builder.icmp_signed("==", k, ir.Constant(i64, 1)), o[1], o[2]),
+        )
+
+    stride = builder.extract_value(table.strides, 0)
+    base = builder.ptrtoint(table.data, i64)
+    c3, c6 = ir.Constant(i64, 3), ir.Constant(i64, 6)
+    coordinate_rows = (kx, ky, kz, builder.add(kx, c3), builder.add(ky, c3), builder.add(kz, c3))
+    coordinate_rows += (builder.add(kx, c6), builder.add(ky, c6), builder.add(kz, c6))
+    offsets = [builder.mul(r, stride) for r in coordinate_rows]
+    magnitude_offset = builder.mul(ir.Constant(i64, SWEEP_MAGNITUDE), stride)
+    prim_offset = builder.mul(ir.Constant(i64, SWEEP_PRIM), stride)
+    ox, oy, oz = splat(pick(kx)), splat(pick(ky)), splat(pick(kz))
+    ssx, ssy, ssz = splat(sx), splat(sy), splat(sz)
+    vomax, vtmin, vtmax = splat(omax), splat(tmin), splat(tmax)
+    zero = ir.Constant(v8, [0.0] * n)
+
+    def constant(x):
+        return ir.Constant(v8, [x] * n)
+
+    mask = ir.Constant(i64, 0)
+    for g in range(SWEEP_LANES // n):
+        at = builder.add(base, ir.Constant(i64, 4 * n * g))
+
+        def load(offset, at=at):
+            return builder.load(builder.inttoptr(builder.add(at, offset), v8.as_pointer()), align=4)
+
+        col = [load(off) for off in offsets]
+        az, bz, cz = fsub(col[2], oz), fsub(col[5], oz), fsub(col[8], oz)
+        ax = fsub(fsub(col[0], ox), fmul(ssx, az))
+        ay = fsub(fsub(col[1], oy), fmul(ssy, az))
+        bx = fsub(fsub(col[3], ox), fmul(ssx, bz))
+        by = fsub(fsub(col[4], oy), fmul(ssy, bz))
+        cx = fsub(fsub(col[6], ox), fmul(ssx, cz))
+        cy = fsub(fsub(col[7], oy), fmul(ssy, cz))
+        u = fsub(fmul(cx, by), fmul(cy, bx))
+        v = fsub(fmul(ax, cy), fmul(ay, cx))
+        w = fsub(fmul(bx, ay), fmul(by, ax))
+        r = fadd(load(magnitude_offset), vomax)
+        r2 = fmul(r, r)
+        tol = fmul(r2, constant(SWEEP_TOLERANCE))
+        ntol = builder.fneg(tol)
+        neg = builder.or_(builder.or_(lt(u, ntol), lt(v, ntol)), lt(w, ntol))
+        pos = builder.or_(builder.or_(lt(tol, u), lt(tol, v)), lt(tol, w))
+        inside = builder.not_(builder.and_(neg, pos))
+        det = fadd(fadd(u, v), w)
+        num = fadd(fadd(fmul(u, az), fmul(v, bz)), fmul(w, cz))
+        certain = lt(fmul(r2, constant(SWEEP_UNCERTAIN)), builder.call(vabs, [det]))
+        t = builder.fdiv(fmul(num, ssz), det, flags=flags)
+        margin = fadd(fmul(r, constant(SWEEP_MARGIN[0])), fmul(builder.call(vabs, [t]), constant(SWEEP_MARGIN[1])))
+        outside = builder.or_(lt(t, fsub(vtmin, margin)), lt(fadd(vtmax, margin), t))
+        candidate = builder.and_(inside, builder.or_(builder.not_(certain), builder.not_(outside)))
+        used = builder.fcmp_ordered(">=", load(prim_offset), zero)
+        candidate = builder.and_(candidate, used)
+        bits = builder.zext(builder.bitcast(candidate, ir.IntType(n)), i64)
+        mask = builder.or_(mask, builder.shl(bits, ir.Constant(i64, n * g)))
+    return mask
+
+
+@intrinsic
+def sweep_candidates(typingctx, table, o, shear, tmin, tmax):
+    """Bit r set for each triangle row r of the sweep table that the exact test may hit in
+    (tmin, tmax) (module docstring)."""
+    if not (
+        isinstance(table, types.Array) and table.dtype == types.float32 and table.ndim == 2 and table.layout == "C"
+    ):
+        raise TypingError("sweep_candidates: table must be a C-contiguous float32 (SWEEP_ROWS, 32) array")
+    return types.int64(table, o, shear, tmin, tmax), _lanes_codegen
+
+
+@intrinsic
+def _lowest_bit(typingctx, x):
+    """The index of x's lowest set bit (x != 0)."""
+
+    def codegen(context, builder, sig, args):
+        cttz = cgutils.get_or_insert_function(
+            builder.module, ir.FunctionType(ir.IntType(64), [ir.IntType(64), ir.IntType(1)]), "llvm.cttz.i64"
+        )
+        return builder.call(cttz, [args[0], ir.Constant(ir.IntType(1), 1)])
+
+    return types.int64(types.int64), codegen
+
+
+@inline_function
+def _next_row(mask, row):
+    """(the lowest candidate row of mask, or `row` when none is left; mask without it; whether one was)."""
+    if mask == 0:
+        return row, mask, False
+    return _lowest_bit(mask), mask & (mask - 1), True
+
+
+@inline_function
+def sweep_hit(G, X, o, d, shear, tmin, best_t, prim, b1, b2, stop_at_first, leaving):
+    """The nearest hit in (tmin, best_t) among a swept scene's bounded primitives (module
+    docstring), or (best_t, prim, b1, b2) unchanged; with stop_at_first, the first hit found.
+    `leaving`: the triangle the ray leaves from (NO_HIT: none), its origin offset to the side it
+    goes to, so that the exact test cannot hit it: left out of the candidates (each ray leaving
+    a surface has it among them otherwise). The same hit as the exact test of every primitive in
+    table order (the lowest triangle row on ties)."""
+    S = G.sweep
+    mask = sweep_candidates(S, o, shear, tmin, best_t)
+    if leaving != NO_HIT and G.prims[leaving, PRIM_KIND] == TRIANGLE:
+        mask &= ~(np.int64(1) << np.int64(G.prims[leaving, PRIM_ROW]))
+    n_tris = np.int64(S[SWEEP_COUNTS, 0])
+    rest = mask >> n_tris  # candidate polygons' triangles
+    mask &= (np.int64(1) << n_tris) - 1
+    while mask != 0:
+        r0 = _lowest_bit(mask)
+        mask &= mask - 1
+        if mask == 0:  # one candidate (most rays): from the column table, one load a coordinate
+            t, j, u, v = intersect_triangle_block(o, shear, G.triangles, G.triangle_columns, r0, 1, tmin, best_t)
+            row = r0
+        else:
+            r1, mask, ok1 = _next_row(mask, r0)
+            r2, mask, ok2 = _next_row(mask, r0)
+            r3, mask, ok3 = _next_row(mask, r0)
+            count = 1 + ok1 + ok2 + ok3
+            t, j, u, v = triangles4_gathered(G.triangles, (r0, r1, r2, r3), count, o, shear, tmin, best_t)
+            row = r0 if j == 0 else (r1 if j == 1 else (r2 if j == 2 else r3))
+        if t < best_t:
+            best_t, prim, b1, b2 = t, np.int64(S[SWEEP_PRIM, row]), u, v
+            if stop_at_first:
+                return best_t, prim, b1, b2
+    last = NO_HIT
+    while rest != 0:
+        lane = n_tris + _lowest_bit(rest)
+        rest &= rest - 1
+        k = np.int64(S[SWEEP_PRIM, lane])
+        if k == last:  # another triangle of the polygon just tested
+            continue
+        last = k
+        t, u, v = intersect(G, X, k, o, d, shear, tmin, best_t)
+        if t < best_t:
+            best_t, prim, b1, b2 = t, k, u, v
+            if stop_at_first:
+                return best_t, prim, b1, b2
+    for i in range(SWEEP_OTHERS):
+        k = np.int64(S[SWEEP_OTHER, i])
+        if k < 0:
+            break
+        t, u, v = intersect(G, X, k, o, d, shear, tmin, best_t)
+        if t < best_t:
+            best_t, prim, b1, b2 = t, k, u, v
+            if stop_at_first:
+                break
+    return best_t, prim, b1, b2
