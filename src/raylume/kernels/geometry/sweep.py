@@ -242,7 +242,7 @@ def sweep_hit(G, X, o, d, shear, tmin, best_t, prim, b1, b2, stop_at_first, leav
     table order (the lowest triangle row on ties)."""
     S = G.sweep
     mask = sweep_candidates(S, o, shear, tmin, best_t)
-    if leaving != NO_HIT and G.prims[leaving, PRIM_KIND] == TRIANGLE:
+    if 0 <= leaving < G.n_bounded and G.prims[leaving, PRIM_KIND] == TRIANGLE:
         mask &= ~(np.int64(1) << np.int64(G.prims[leaving, PRIM_ROW]))
     n_tris = np.int64(S[SWEEP_COUNTS, 0])
     rest = mask >> n_tris  # candidate polygons' triangles

@@ -28,8 +28,8 @@ import numpy as np
 from ..film.camera import CAM_FORWARD, camera_importance, lens_area, lens_point
 from ..film.sampler import dimension_key, key_uniform2, sub_key
 from ..film.splat import splat
-from ..geometry.shapes import offset_epsilon
-from ..geometry.traverse import any_hit
+from ..geometry.shapes import NO_HIT, offset_epsilon
+from ..geometry.traverse import any_hit_leaving
 from ..shading.lights import (
     LIGHT_INTENSITY,
     SHADOW_SHORTEN,
@@ -56,6 +56,7 @@ from .bdpt_vertex import (
     V_BETA,
     V_DIR,
     V_E,
+    V_HIT,
     V_M,
     V_NG,
     V_P,
@@ -98,10 +99,12 @@ def _transmitted(C, A, i, w, d2, key, node_stack, t_stack):
     segment starts in. Offsets from surfaces as path mode's shadow rays; the far end shortened
     by SHADOW_SHORTEN."""
     o = row3(A, i, V_P)
+    leaving = np.int64(NO_HIT)  # the surface the segment leaves, offset towards w (traverse.py)
     if kind_of(A, i) == SURFACE or has_flag(A, i, F_ON_SURFACE):
         ng = row3(A, i, V_NG)
         eps = offset_epsilon(C.F.epsilon_floor, o)
         o = madd(o, ng, eps if dot(w, ng) > 0.0 else -eps)
+        leaving = np.int64(A[i, V_HIT])
     tmax = math.sqrt(d2) * (1.0 - SHADOW_SHORTEN) if d2 < INF else INF
     # quad and sphere lights (not in the BVH) stop the segment, as they stop path mode's rays,
     # its shadow rays and the subpaths (bdpt_walk.py): light behind a sphere light does not
@@ -112,7 +115,7 @@ def _transmitted(C, A, i, w, d2, key, node_stack, t_stack):
     if Md.pass_through:
         med = medium_towards(C, A, i, w)
         return shadow_transmittance(C.G, C.F, C.X, Md, o, w, tmax, med, key, node_stack, t_stack)
-    if any_hit(C.G, C.X, o, w, 0.0, tmax, node_stack, t_stack):
+    if any_hit_leaving(C.G, C.X, o, w, 0.0, tmax, leaving, node_stack, t_stack):
         return ZERO
     return ONE
 

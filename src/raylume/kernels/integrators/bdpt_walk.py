@@ -21,7 +21,7 @@ import numpy as np
 from ..film.camera import CAM_FORWARD, camera_importance
 from ..film.sampler import DIM_BSDF, dimension_key, key_uniform2, sub_key
 from ..geometry.shapes import NO_HIT, PRIM_LIGHT, offset_epsilon, split_hit, surface
-from ..geometry.traverse import closest_hit
+from ..geometry.traverse import closest_hit_leaving
 from ..shading.frame import shading_frame, to_local, to_world
 from ..shading.lights import at_infinity, hit_area_lights, is_delta, pick_emitter, sample_emission
 from ..shading.materials import (
@@ -102,10 +102,11 @@ def random_walk(C, V, start, o, d, beta, pdf_dir, most, importance, key, dim, sp
     cone = 0.0
     crossings = 0  # null boundaries passed
     infinite_lights = Em.ambient_row >= 0 or Env.present
+    leaving = np.int64(NO_HIT)  # the surface o lies on, offset towards d (path mode's rule)
     while made < most:
         i = start + made
         prev = i - 1
-        t, prim, b1, b2 = closest_hit(G, X, o, d, 0.0, INF, node_stack, t_stack)
+        t, prim, b1, b2 = closest_hit_leaving(G, X, o, d, 0.0, INF, leaving, node_stack, t_stack)
         rays += 1
         tl, el, nl = INF, -1, d
         if Em.n_area > 0:
@@ -133,6 +134,7 @@ def random_walk(C, V, start, o, d, beta, pdf_dir, most, importance, key, dim, sp
                 V[prev, V_PDF_REV] = convert_density(phase, V, i, V, prev)
                 cone += spread * ts
                 o = p
+                leaving = np.int64(NO_HIT)
                 d = wi_w
                 going, beta, walk = _roulette(key, dim, i, beta, walk)
                 if not going:
@@ -166,6 +168,7 @@ def random_walk(C, V, start, o, d, beta, pdf_dir, most, importance, key, dim, sp
                 med = medium_beyond(Md, obj, d, ng)
             eps = offset_epsilon(F.epsilon_floor, p)
             o = madd(p, ng, -eps if entering else eps)
+            leaving = prim
             cone += spread * t
             crossings += 1
             if crossings > MAX_CROSSINGS:
@@ -225,6 +228,7 @@ def random_walk(C, V, start, o, d, beta, pdf_dir, most, importance, key, dim, sp
         V[prev, V_PDF_REV] = convert_density(pdf_rev, V, i, V, prev)
         eps = offset_epsilon(F.epsilon_floor, p)
         o = madd(p, ng, eps if up else -eps)
+        leaving = prim
         d = wi_w
         going, beta, walk = _roulette(key, dim, i, beta, walk)
         if not going:
