@@ -23,6 +23,7 @@ from raylume.image import rgbe_encode, save_array
 from raylume.kernels.shading.environment import (
     environment_pdf,
     environment_radiance,
+    environment_radiance_pdf,
     no_environment,
     sample_environment,
 )
@@ -272,6 +273,36 @@ def test_no_environment_is_black_has_pdf_zero_and_the_same_numba_type():
     assert sample_environment(none, 0.5, 0.5)[2] == 0.0
     assert numba.typeof(none) == numba.typeof(build_environment(color=(1, 1, 1)))
     assert numba.typeof(none) == numba.typeof(build_environment(file="sky.hdr", base_dir=EXAMPLES))
+
+
+@njit(cache=False)
+def _radiance_pdf_many(E, dirs):
+    rgb = np.empty((dirs.shape[0], 3))
+    pdf = np.empty(dirs.shape[0])
+    for k in range(dirs.shape[0]):
+        r, pdf[k] = environment_radiance_pdf(E, (dirs[k, 0], dirs[k, 1], dirs[k, 2]))
+        rgb[k, 0], rgb[k, 1], rgb[k, 2] = r
+    return rgb, pdf
+
+
+@pytest.mark.parametrize("kind", ["image", "rotated", "colour", "none"])
+def test_radiance_and_pdf_together_are_each_alone(tmp_path, kind):
+    """environment_radiance_pdf (what a path leaving the scene looks up, one atan2 and acos for
+    both) gives environment_radiance's and environment_pdf's numbers, to the bit: at random
+    directions, the poles and the seam."""
+    if kind == "colour":
+        E = build_environment(color=(0.5, 1.0, 2.0))
+    elif kind == "none":
+        E = no_environment()
+    else:
+        E = env_from(make_image(5), tmp_path, rotate=(20, 35, -10) if kind == "rotated" else (0, 0, 0))
+    rng = np.random.default_rng(8)
+    dirs = rng.normal(size=(4000, 3))
+    dirs[:4] = [[0, 1, 0], [0, -1, 0], [0, 0, -1], [1e-9, 0.3, -1]]  # poles, the seam, beside it
+    rgb, pdf = _radiance_pdf_many(E, dirs)
+    np.testing.assert_array_equal(rgb, _radiance_many(E, dirs))
+    np.testing.assert_array_equal(pdf, _pdf_many(E, dirs))
+    assert (pdf > 0).all() if kind != "none" else (pdf == 0).all()
 
 
 # ---------------------------------------------------------------------------------------------

@@ -27,7 +27,7 @@ from ..shading.lights import (
     LIGHT_INTENSITY,
     SHADOW_SHORTEN,
     area_light_blocks,
-    environment_light,
+    environment_arrival,
     hit_area_lights,
     light_pdf,
     pick_emitter,
@@ -85,6 +85,16 @@ def _emitter_weight(G, X, Em, Env, e, hit, prev_p, d, t, n_hit, prev_pdf, prev_d
     if strategy == LIGHT_ONLY:
         return 0.0
     pdf_l = pick_probability(Em.cdf, e) * light_pdf(G, X, Em, Env, e, prev_p, d, t, n_hit, hit)
+    return power_heuristic(prev_pdf, pdf_l)
+
+
+@inline_function
+def _weight_against(pdf_l, e, prev_pdf, prev_delta, strategy):
+    """_emitter_weight with the light's density (pick probability included) already known."""
+    if prev_delta or e < 0 or strategy == BSDF_ONLY:
+        return 1.0
+    if strategy == LIGHT_ONLY:
+        return 0.0
     return power_heuristic(prev_pdf, pdf_l)
 
 
@@ -206,22 +216,9 @@ def path_ray(G, F, X, Em, Env, Md, o, d, spread, max_depth, background, key, nod
                 )
                 L = _add_light(L, beta, row3(Em.data, Em.ambient_row, LIGHT_INTENSITY), w)
             if Env.present:
-                w = _emitter_weight(
-                    G,
-                    X,
-                    Em,
-                    Env,
-                    Em.environment_row,
-                    np.int64(NO_HIT),
-                    mis_o,
-                    d,
-                    INF,
-                    d,
-                    prev_pdf,
-                    prev_delta,
-                    strategy,
-                )
-                L = _add_light(L, beta, environment_light(Env, d), w)
+                le_env, pdf_env = environment_arrival(Em, Env, d)  # one lookup of d for both
+                w = _weight_against(pdf_env, Em.environment_row, prev_pdf, prev_delta, strategy)
+                L = _add_light(L, beta, le_env, w)
             elif depth == 1 and Em.ambient_row < 0:  # the background: a backdrop, not a light
                 L = _add_light(L, (1.0, 1.0, 1.0), background, 1.0)
             break

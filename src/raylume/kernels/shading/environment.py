@@ -170,6 +170,28 @@ def environment_pdf(E, d):
     if not E.present:
         return 0.0
     u, v = _image_uv(E, d)
+    return _pdf_at(E, u, v)
+
+
+@kernel_function
+def environment_radiance_pdf(E, d):
+    """(environment_radiance(E, d), environment_pdf(E, d)) from one lookup of d's image
+    coordinates: what a path that leaves the scene needs (its radiance and, for MIS, the pdf of
+    sampling it), one atan2, acos and square root instead of two."""
+    if not E.present:
+        return (0.0, 0.0, 0.0), 0.0
+    u, v = _image_uv(E, d)
+    image = E.image
+    if image.shape[0] == 1 and image.shape[1] == 1:  # a constant colour: as environment_radiance
+        rgb = (float(image[0, 0, 0]), float(image[0, 0, 1]), float(image[0, 0, 2]))
+    else:
+        rgb = _bilinear(image, u, v)
+    return rgb, _pdf_at(E, u, v)
+
+
+@inline_function
+def _pdf_at(E, u, v):
+    """environment_pdf at image coordinates (u, v)."""
     h = E.image.shape[0]
     w = E.image.shape[1]
     i = min(max(int(v * h), 0), h - 1)

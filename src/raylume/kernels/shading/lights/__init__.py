@@ -7,7 +7,14 @@ distribution.py path mode's choice among lights. A new kind: its module, its lin
 registry.KINDS (and SCENE_KINDS), its model class (scene/model.py) — docs/architecture.md,
 "Adding a light"."""
 
-from .distribution import area_light_blocks, environment_light, hit_area_lights, pick_emitter, pick_probability
+from .distribution import (
+    area_light_blocks,
+    environment_arrival,
+    environment_light,
+    hit_area_lights,
+    pick_emitter,
+    pick_probability,
+)
 from .registry import (
     BY_NAME,
     KINDS,
@@ -73,6 +80,7 @@ __all__ = [
     "TRI_CDF",
     "TRI_COUNT",
     "at_infinity",
+    "environment_arrival",
     "environment_light",
     "has_falloff",
     "hit_area_lights",

@@ -4,7 +4,7 @@
 import math
 
 from ...vec import inline_function, kernel_function, last_at_most
-from ..environment import environment_radiance
+from ..environment import environment_radiance, environment_radiance_pdf
 from .registry import visible_hit
 
 INF = math.inf
@@ -60,3 +60,14 @@ def environment_light(Env, d):
     if Env.present:
         return environment_radiance(Env, d)
     return (0.0, 0.0, 0.0)
+
+
+@inline_function
+def environment_arrival(Em, Env, d):
+    """What a ray that leaves the scene along d meets of the environment: (its radiance, the
+    density with which next-event estimation picks and samples that direction), one lookup of
+    d's image coordinates for both. Zero and 0 without an environment."""
+    if not Env.present:
+        return (0.0, 0.0, 0.0), 0.0
+    rgb, pdf = environment_radiance_pdf(Env, d)
+    return rgb, pick_probability(Em.cdf, Em.environment_row) * pdf

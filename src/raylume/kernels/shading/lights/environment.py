@@ -5,7 +5,7 @@ Trace mode sees it only as what rays that hit nothing meet."""
 import math
 
 from ...vec import inline_function, mul
-from ..environment import environment_pdf, environment_radiance, sample_environment
+from ..environment import environment_pdf, environment_radiance_pdf, sample_environment
 from .sampling import disk_density, disk_origin
 
 NAME = "environment"
@@ -45,5 +45,5 @@ def emit(G, X, Em, Env, e, u1, u2, u3, u4, key, B):
 
 @inline_function
 def emit_pdf(G, X, Em, Env, e, p, n, w, hit, B):
-    to_light = mul(w, -1.0)
-    return environment_radiance(Env, to_light), disk_density(B), environment_pdf(Env, to_light)
+    radiance, pdf_dir = environment_radiance_pdf(Env, mul(w, -1.0))
+    return radiance, disk_density(B), pdf_dir
