@@ -40,7 +40,7 @@ from numba.core.errors import TypingError
 from numba.extending import intrinsic
 
 from ..vec import inline_function
-from .shape_triangle import intersect_triangle_block, triangles4_gathered
+from .shape_triangle import EXACT, exact_ops, intersect_triangle_block, triangles4_gathered
 from .shapes import NO_HIT, PRIM_KIND, PRIM_ROW, TRIANGLE, Shape, exact_triangles, intersect
 
 SWEEP_LANES = 32  # four groups of eight float32 lanes
@@ -113,19 +113,8 @@ def _lanes_codegen(context, builder, sig, args):
     )
     tmin = builder.fptrunc(context.cast(builder, args[3], tmin_t, types.float64), f32)
     tmax = builder.fptrunc(context.cast(builder, args[4], tmax_t, types.float64), f32)
-    flags = ("arcp",)  # IEEE arithmetic: no contraction, no reassociation (the bound assumes it)
-
-    def fadd(a, b):
-        return builder.fadd(a, b, flags=flags)
-
-    def fsub(a, b):
-        return builder.fsub(a, b, flags=flags)
-
-    def fmul(a, b):
-        return builder.fmul(a, b, flags=flags)
-
-    def lt(a, b):
-        return builder.fcmp_ordered("<", a, b, flags=flags)
+    # IEEE arithmetic: no contraction, no reassociation (the bound assumes it)
+    fadd, fsub, fmul, lt = exact_ops(builder)
 
     def splat(x):
         return builder.shuffle_vector(builder.insert_element(undef, x, ir.Constant(i32, 0)), undef, zeros)
@@ -189,7 +178,7 @@ def _lanes_codegen(context, builder, sig, args):
         det = fadd(fadd(u, v), w)
         num = fadd(fadd(fmul(u, az), fmul(v, bz)), fmul(w, cz))
         certain = lt(fmul(r2, constant(SWEEP_UNCERTAIN)), builder.call(vabs, [det]))
-        t = builder.fdiv(fmul(num, ssz), det, flags=flags)
+        t = builder.fdiv(fmul(num, ssz), det, flags=EXACT)
         margin = fadd(fmul(r, constant(SWEEP_MARGIN[0])), fmul(builder.call(vabs, [t]), constant(SWEEP_MARGIN[1])))
         outside = builder.or_(lt(t, fsub(vtmin, margin)), lt(fadd(vtmax, margin), t))
         candidate = builder.and_(inside, builder.or_(builder.not_(certain), builder.not_(outside)))
