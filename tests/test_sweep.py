@@ -15,7 +15,7 @@ import raylume
 from raylume.compile import compile_scene
 from raylume.kernels.geometry.shape_triangle import INF, intersect_triangle, ray_shear
 from raylume.kernels.geometry.shapes import NO_HIT, PRIM_KIND, PRIM_ROW, PRIM_WIDTH, TRIANGLE, offset_epsilon
-from raylume.kernels.geometry.sweep import SWEEP_LANES, sweep_candidates, sweep_table
+from raylume.kernels.geometry.sweep import SWEEP_LANES, SWEEP_ROWS, sweep_candidates, sweep_table
 from raylume.kernels.geometry.traverse import any_hit, any_hit_leaving, closest_hit, closest_hit_leaving
 from raylume.kernels.geometry.wide_nodes import traversal_stacks
 from raylume.kernels.scene import geometry_of
@@ -268,7 +268,7 @@ def test_a_swept_scene_renders_the_walked_ones_image(mode, monkeypatch):
     scene = raylume.load(EXAMPLES / "cornell.toml")
     how = dict(mode="path", integrator="bdpt") if mode == "bdpt" else dict(mode=mode)
     swept = raylume.Session(scene).render(width=40, height=32, spp=4, **how).rgb
-    monkeypatch.setattr(compile_module, "sweep_table", lambda *a, **k: np.zeros((13, 0), np.float32))
+    monkeypatch.setattr(compile_module, "sweep_table", lambda *a, **k: np.zeros((SWEEP_ROWS, 0), np.float32))
     walked_session = raylume.Session(scene)
     assert walked_session.compiled.kernel.sweep.shape[1] == 0
     walked = walked_session.render(width=40, height=32, spp=4, **how).rgb

@@ -47,12 +47,13 @@ SWEEP_LANES = 32  # four groups of eight float32 lanes
 SWEEP_OTHERS = 8  # bounded primitives other than triangles and quads a swept scene may have
 # The table's rows: the nine vertex coordinates (v0, v1, v2) of each lane's triangle by columns,
 # its largest coordinate magnitude, its primitive (as a float32: exact below 2^24; -1 in unused
-# lanes), the other bounded primitives (-1 after the last), and in SWEEP_COUNTS' first lane the
-# number of triangles. Lanes 0 .. T - 1 are the scene's triangles (lane = triangle row); the
+# lanes) and the other bounded primitives (-1 after the last). Lanes 0 .. T - 1 are the scene's
+# triangles (lane = triangle row: a swept scene has no instances, so its triangle table is its
+# T triangles alone); the
 # triangles of flat polygons follow (a quad's two, exactly the parallelogram, rounded to
 # float32: the bound allows for that rounding), their candidates tested by the shape's own test.
-SWEEP_MAGNITUDE, SWEEP_PRIM, SWEEP_OTHER, SWEEP_COUNTS = 9, 10, 11, 12
-SWEEP_ROWS = 13
+SWEEP_MAGNITUDE, SWEEP_PRIM, SWEEP_OTHER = 9, 10, 11
+SWEEP_ROWS = 12
 SWEEP_TOLERANCE = 2.0**-16  # times R^2: the edge functions' error bound, with margin
 SWEEP_UNCERTAIN = 2.0**-6  # times R^2: a determinant below it may have either sign
 SWEEP_MARGIN = (2.0**-6, 2.0**-8)  # times (R, |t|): the distance's error bound, with margin
@@ -89,7 +90,6 @@ def sweep_table(
     table[SWEEP_PRIM, n_tris:lanes] = polygons
     table[SWEEP_OTHER] = -1.0
     table[SWEEP_OTHER, : len(others)] = others
-    table[SWEEP_COUNTS, 0] = n_tris
     return table
 
 
@@ -233,7 +233,7 @@ def sweep_hit(G, X, o, d, shear, tmin, best_t, prim, b1, b2, stop_at_first, leav
     mask = sweep_candidates(S, o, shear, tmin, best_t)
     if 0 <= leaving < G.n_bounded and G.prims[leaving, PRIM_KIND] == TRIANGLE:
         mask &= ~(np.int64(1) << np.int64(G.prims[leaving, PRIM_ROW]))
-    n_tris = np.int64(S[SWEEP_COUNTS, 0])
+    n_tris = np.int64(G.triangles.shape[0])  # the lanes before the polygons' (sweep_table)
     rest = mask >> n_tris  # candidate polygons' triangles
     mask &= (np.int64(1) << n_tris) - 1
     while mask != 0:
