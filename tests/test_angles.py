@@ -76,3 +76,14 @@ def test_atan2_and_acos_at_the_special_points():
         expected = math.atan2(y, x)
         got = atan2(y, x)
         assert got == expected and math.copysign(1.0, got) == math.copysign(1.0, expected), (y, x, got)
+
+
+def test_turn_either_side_of_each_quarter_turn():
+    # turn picks the quadrant's (cos, sin) by index from the nearest quarter turn: both sides of
+    # every boundary between quarters, and of the eighths where the nearest one changes
+    for k in range(8):
+        for step in range(-3, 4):
+            u = float(np.clip(k / 8 + step * 2.0**-53, 0.0, np.nextafter(1.0, 0.0)))
+            c, s = turn(u)
+            assert abs(c - math.cos(2.0 * math.pi * u)) <= 4 * ULP
+            assert abs(s - math.sin(2.0 * math.pi * u)) <= 4 * ULP
