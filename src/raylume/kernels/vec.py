@@ -291,12 +291,11 @@ def quarter_sincos(a):
     return c, s
 
 
-# fdlibm's arctangent (s_atan.c): atan(0.5), atan(1), atan(1.5) and atan(inf) = pi/2, each as a
-# float64 and the rest, and the odd polynomial for |x| <= 7/16, in Horner form.
-_ATAN_HI = (4.63647609000806093515e-01, 7.85398163397448278999e-01, 9.82793723247329054082e-01,
-            1.57079632679489655800e00)  # fmt: skip
-_ATAN_LO = (2.26987774529616870924e-17, 3.06161699786838301793e-17, 1.39033110312309984516e-17,
-            6.12323399573676603587e-17)  # fmt: skip
+# fdlibm's arctangent (s_atan.c): atan(0.5) and atan(1), each as a float64 and the rest (its
+# reductions around 1.5 and infinity are not needed: atan2 takes atan of numbers in [0, 1]), and
+# the odd polynomial for |x| <= 7/16, in Horner form.
+_ATAN_HI = (4.63647609000806093515e-01, 7.85398163397448278999e-01)
+_ATAN_LO = (2.26987774529616870924e-17, 3.06161699786838301793e-17)
 _AT = (3.33333333333329318027e-01, -1.99999999998764832476e-01, 1.42857142725034663711e-01,
        -1.11111104054623557880e-01, 9.09088713343650656196e-02, -7.69187620504482999495e-02,
        6.66107313738753120669e-02, -5.83357013379057348645e-02, 4.97687799461593236017e-02,
@@ -311,27 +310,22 @@ _QS = (-2.40339491173441421878e00, 2.02094576023350569471e00, -6.882839716054532
 
 
 @inline_function
-def _atan_nonnegative(x):
-    """atan(x) for x >= 0 (+inf included), by fdlibm's reduction to |x| <= 7/16 around 0.5, 1,
-    1.5 or infinity."""
-    near_zero = x < 0.4375  # the polynomial at x itself
-    hi, lo = 0.0, 0.0
-    if not near_zero:  # atan(x) = atan(c) + atan of the reduced x
-        if x < 0.6875:
-            hi, lo, x = _ATAN_HI[0], _ATAN_LO[0], (2.0 * x - 1.0) / (2.0 + x)
-        elif x < 1.1875:
-            hi, lo, x = _ATAN_HI[1], _ATAN_LO[1], (x - 1.0) / (x + 1.0)
-        elif x < 2.4375:
-            hi, lo, x = _ATAN_HI[2], _ATAN_LO[2], (x - 1.5) / (1.0 + 1.5 * x)
-        else:
-            hi, lo, x = _ATAN_HI[3], _ATAN_LO[3], -1.0 / x
+def _atan_unit(x):
+    """atan(x) for x in [0, 1], by fdlibm's reduction to |x| <= 7/16 around 0, 0.5 or 1, each
+    written as atan(c) + atan((a x + b) / (p x + q)): the case is an index, its constants picked
+    by it (element), so that a random x costs no mispredicted branch."""
+    case = int(x >= 0.4375) + int(x >= 0.6875)  # near 0 (the polynomial at x itself), 0.5, 1
+    # x / 1; (2 x - 1) / (2 + x); (x - 1) / (x + 1): the products by 0, 1 and 2 are exact
+    x = (element((1.0, 2.0, 1.0), case) * x + element((0.0, -1.0, -1.0), case)) / (
+        element((0.0, 1.0, 1.0), case) * x + element((1.0, 2.0, 1.0), case)
+    )
+    hi = element((0.0, _ATAN_HI[0], _ATAN_HI[1]), case)
+    lo = element((0.0, _ATAN_LO[0], _ATAN_LO[1]), case)
     z = x * x
     w = z * z
     s1 = z * (_AT[0] + w * (_AT[2] + w * (_AT[4] + w * (_AT[6] + w * (_AT[8] + w * _AT[10])))))
     s2 = w * (_AT[1] + w * (_AT[3] + w * (_AT[5] + w * (_AT[7] + w * _AT[9]))))
-    if near_zero:
-        return x - x * (s1 + s2)
-    return hi - ((x * (s1 + s2) - lo) - x)
+    return element((x - x * (s1 + s2), hi - ((x * (s1 + s2) - lo) - x)), int(case > 0))
 
 
 @kernel_function
@@ -339,15 +333,15 @@ def atan2(y, x):
     """The angle of the point (x, y) from the x axis, in [-pi, pi], as libm's atan2 to a few
     ulps, for finite x, y (0 at the origin, +-pi at (-0, +-0)), without a libm call: the
     environment's image coordinates take one per lookup, ~4% of path mode's time on
-    examples/materials.toml as a call."""
+    examples/materials.toml as a call. Without branches (a random direction's octant is
+    unpredictable): atan of the smaller over the larger of |x|, |y|, then turned by picks."""
     ax = abs(x)
     ay = abs(y)
-    if ay <= ax:
-        a = _atan_nonnegative(ay / ax) if ax > 0.0 else 0.0
-    else:
-        a = _PIO2_HI - (_atan_nonnegative(ax / ay) - _PIO2_LO)  # pi/2 - atan(|x| / |y|)
-    if x < 0.0 or (x == 0.0 and math.copysign(1.0, x) < 0.0):
-        a = _PI_HI - (a - 2.0 * _PIO2_LO)  # pi - a
+    steep = int(ay > ax)  # atan(|y| / |x|) = pi/2 - atan(|x| / |y|)
+    # the smaller over the larger; 0 at the origin (5e-324: the least float above 0)
+    a = _atan_unit(element((ay, ax), steep) / max(element((ax, ay), steep), 5e-324))
+    a = element((a, _PIO2_HI - (a - _PIO2_LO)), steep)
+    a = element((a, _PI_HI - (a - 2.0 * _PIO2_LO)), int(math.copysign(1.0, x) < 0.0))  # x < 0 or -0: pi - a
     return math.copysign(a, y)
 
 
