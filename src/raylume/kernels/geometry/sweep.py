@@ -20,8 +20,9 @@ would otherwise be a candidate of every such ray. Flat polygons (quads) take lan
 exact triangles (shapes.exact_triangles), their candidates tested by the shape's own test; the
 scene's other bounded primitives (at most SWEEP_OTHERS) by theirs, for every ray.
 
-The bound. With R = max |vertex coordinate| + max |origin coordinate| (per triangle and ray),
-the float32 coordinates relative to the origin are off by at most 2 u R (u = 2^-24: the
+The bound. With R = max |vertex coordinate| + max |origin coordinate| (over all the table's
+lanes, and the ray; per lane would be tighter, but one R a ray saves each lane five
+instructions), the float32 coordinates relative to the origin are off by at most 2 u R (u = 2^-24: the
 origin's and the difference's roundings; 3 u R for a polygon's triangles, whose corners are
 rounded to float32 too, which the margins below absorb), the sheared ones (|s| <= 1, so |x'| <= 2 R) by at
 most 7 u R, the products of an edge function (<= 4 R^2) by 32 u R^2 each with their rounding,
@@ -29,7 +30,11 @@ and the edge function by 72 u R^2 < 2^-17.8 R^2. SWEEP_TOLERANCE is 2^-16 R^2: 3
 A determinant whose magnitude is below SWEEP_UNCERTAIN R^2 may have either sign, and the lane
 is a candidate whatever its distance. Otherwise the numerator (<= 24 R^3) is off by at most
 ~2^-14 R^3 and the determinant by 3 x 2^-16 R^2, so the distance by at most 2^-7.2 R +
-3 x 2^-10 |t|: SWEEP_MARGIN covers twice that.
+3 x 2^-10 |t|: SWEEP_MARGIN covers twice that. The shears, the edge functions' differences of
+products and the numerator are fused multiply-adds: one rounding where the bound counts two,
+so they are within it (a quarter less arithmetic a lane than separate operations). The edge
+functions' signs are tested on their least and greatest (selects that return one of them, so
+no test is less conservative than comparing each).
 """
 
 import numpy as np
@@ -46,12 +51,12 @@ from .shapes import NO_HIT, PRIM_KIND, PRIM_ROW, TRIANGLE, Shape, exact_triangle
 SWEEP_LANES = 32  # four groups of eight float32 lanes
 SWEEP_OTHERS = 8  # bounded primitives other than triangles and quads a swept scene may have
 # The table's rows: the nine vertex coordinates (v0, v1, v2) of each lane's triangle by columns,
-# its largest coordinate magnitude, its primitive (as a float32: exact below 2^24; -1 in unused
-# lanes) and the other bounded primitives (-1 after the last). Lanes 0 .. T - 1 are the scene's
-# triangles (lane = triangle row: a swept scene has no instances, so its triangle table is its
-# T triangles alone); the
-# triangles of flat polygons follow (a quad's two, exactly the parallelogram, rounded to
-# float32: the bound allows for that rounding), their candidates tested by the shape's own test.
+# the largest coordinate magnitude of all the lanes (the same in each), each lane's primitive
+# (as a float32: exact below 2^24; -1 in unused lanes) and the other bounded primitives (-1
+# after the last). Lanes 0 .. T - 1 are the scene's triangles (lane = triangle row: a swept
+# scene has no instances, so its triangle table is its T triangles alone); the triangles of flat
+# polygons follow (a quad's two, exactly the parallelogram, rounded to float32: the bound allows
+# for that rounding), their candidates tested by the shape's own test.
 SWEEP_MAGNITUDE, SWEEP_PRIM, SWEEP_OTHER = 9, 10, 11
 SWEEP_ROWS = 12
 SWEEP_TOLERANCE = 2.0**-16  # times R^2: the edge functions' error bound, with margin
@@ -84,7 +89,7 @@ def sweep_table(
     lane_tris = np.concatenate([tri] + [h.astype(np.float32) for h in halves])
     table = np.zeros((SWEEP_ROWS, SWEEP_LANES), np.float32)
     table[:9, :lanes] = lane_tris.T
-    table[SWEEP_MAGNITUDE, :lanes] = np.abs(lane_tris).max(axis=1)  # exact: |x| of a float32 is one
+    table[SWEEP_MAGNITUDE] = np.abs(lane_tris).max()  # exact: |x| of a float32 is one
     table[SWEEP_PRIM] = -1.0
     table[SWEEP_PRIM, prims[:n_bounded, PRIM_ROW][is_tri]] = np.flatnonzero(is_tri)
     table[SWEEP_PRIM, n_tris:lanes] = polygons
@@ -144,11 +149,35 @@ def _lanes_codegen(context, builder, sig, args):
     prim_offset = builder.mul(ir.Constant(i64, SWEEP_PRIM), stride)
     ox, oy, oz = splat(pick(kx)), splat(pick(ky)), splat(pick(kz))
     ssx, ssy, ssz = splat(sx), splat(sy), splat(sz)
-    vomax, vtmin, vtmax = splat(omax), splat(tmin), splat(tmax)
+    # R (the module docstring's) once per ray: the largest magnitude of all the lanes (the
+    # table's row, lane 0) plus the origin's, the same for every lane (a looser bound than each
+    # lane's own, for less arithmetic a lane)
+    magnitude = builder.load(builder.inttoptr(builder.add(base, magnitude_offset), f32.as_pointer()), align=4)
+    r = fadd(magnitude, omax)
+    r2 = fmul(r, r)
+    tol = splat(fmul(r2, ir.Constant(f32, SWEEP_TOLERANCE)))
+    ntol = builder.fneg(tol)
+    uncertain = splat(fmul(r2, ir.Constant(f32, SWEEP_UNCERTAIN)))
+    margin_r = splat(fmul(r, ir.Constant(f32, SWEEP_MARGIN[0])))
+    vtmin, vtmax = splat(tmin), splat(tmax)
     zero = ir.Constant(v8, [0.0] * n)
+    vfma = cgutils.get_or_insert_function(builder.module, ir.FunctionType(v8, [v8, v8, v8]), "llvm.fma.v8f32")
+
+    def fma(a, b, c):  # a b + c rounded once: within the bound (one rounding, not two)
+        return builder.call(vfma, [a, b, c])
 
     def constant(x):
         return ir.Constant(v8, [x] * n)
+
+    # minps / maxps: one of the two, b where either is NaN: never beyond the others (the tests
+    # below stay as conservative as comparing each edge function)
+    def smaller(a, b):
+        return builder.select(lt(a, b), a, b)
+
+    def larger(a, b):
+        return builder.select(lt(b, a), a, b)
+
+    nsx, nsy = builder.fneg(ssx), builder.fneg(ssy)
 
     mask = ir.Constant(i64, 0)
     for g in range(SWEEP_LANES // n):
@@ -159,27 +188,24 @@ def _lanes_codegen(context, builder, sig, args):
 
         col = [load(off) for off in offsets]
         az, bz, cz = fsub(col[2], oz), fsub(col[5], oz), fsub(col[8], oz)
-        ax = fsub(fsub(col[0], ox), fmul(ssx, az))
-        ay = fsub(fsub(col[1], oy), fmul(ssy, az))
-        bx = fsub(fsub(col[3], ox), fmul(ssx, bz))
-        by = fsub(fsub(col[4], oy), fmul(ssy, bz))
-        cx = fsub(fsub(col[6], ox), fmul(ssx, cz))
-        cy = fsub(fsub(col[7], oy), fmul(ssy, cz))
-        u = fsub(fmul(cx, by), fmul(cy, bx))
-        v = fsub(fmul(ax, cy), fmul(ay, cx))
-        w = fsub(fmul(bx, ay), fmul(by, ax))
-        r = fadd(load(magnitude_offset), vomax)
-        r2 = fmul(r, r)
-        tol = fmul(r2, constant(SWEEP_TOLERANCE))
-        ntol = builder.fneg(tol)
-        neg = builder.or_(builder.or_(lt(u, ntol), lt(v, ntol)), lt(w, ntol))
-        pos = builder.or_(builder.or_(lt(tol, u), lt(tol, v)), lt(tol, w))
+        ax = fma(nsx, az, fsub(col[0], ox))
+        ay = fma(nsy, az, fsub(col[1], oy))
+        bx = fma(nsx, bz, fsub(col[3], ox))
+        by = fma(nsy, bz, fsub(col[4], oy))
+        cx = fma(nsx, cz, fsub(col[6], ox))
+        cy = fma(nsy, cz, fsub(col[7], oy))
+        u = fma(cx, by, builder.fneg(fmul(cy, bx)))
+        v = fma(ax, cy, builder.fneg(fmul(ay, cx)))
+        w = fma(bx, ay, builder.fneg(fmul(by, ax)))
+        # inside unless one edge function is below -tol and another above tol (any NaN: inside)
+        neg = lt(smaller(smaller(u, v), w), ntol)
+        pos = lt(tol, larger(larger(u, v), w))
         inside = builder.not_(builder.and_(neg, pos))
         det = fadd(fadd(u, v), w)
-        num = fadd(fadd(fmul(u, az), fmul(v, bz)), fmul(w, cz))
-        certain = lt(fmul(r2, constant(SWEEP_UNCERTAIN)), builder.call(vabs, [det]))
+        num = fma(u, az, fma(v, bz, fmul(w, cz)))
+        certain = lt(uncertain, builder.call(vabs, [det]))
         t = builder.fdiv(fmul(num, ssz), det, flags=EXACT)
-        margin = fadd(fmul(r, constant(SWEEP_MARGIN[0])), fmul(builder.call(vabs, [t]), constant(SWEEP_MARGIN[1])))
+        margin = fma(builder.call(vabs, [t]), constant(SWEEP_MARGIN[1]), margin_r)
         outside = builder.or_(lt(t, fsub(vtmin, margin)), lt(fadd(vtmax, margin), t))
         candidate = builder.and_(inside, builder.or_(builder.not_(certain), builder.not_(outside)))
         used = builder.fcmp_ordered(">=", load(prim_offset), zero)
