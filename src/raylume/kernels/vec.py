@@ -392,7 +392,9 @@ def stack_element(builder, values, k):
     """values[k] (LLVM values of one type; k an i64 in range) as a load from a stack copy of them.
     A chain of selects says the same, but LLVM's x86 backend turns selects on a ray's critical
     path into branches, and on random rays (path mode's bounces) those are mispredicted about
-    half the time: ray_shear took 17.5 ns a random direction with them, 6.3 ns with the load."""
+    half the time: `turn` took 15 ns a random fraction with them, 8-10 ns with the load. Not a
+    rule: where one branch lets LLVM specialise much code below it, the branch can be cheaper
+    (docs/architecture.md, kernel conventions)."""
     slots = cgutils.alloca_once(builder, ir.ArrayType(values[0].type, len(values)))  # in the entry block
     i32 = ir.IntType(32)
     for i, x in enumerate(values):
