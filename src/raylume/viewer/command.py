@@ -39,13 +39,16 @@ def run_view(
 
         require_denoiser()  # a missing package fails now, not on the first frame
     viewer = Viewer(Session(scene_model, source=label), settings, host=host, port=port)
-    print(f"raylume view: {viewer.url}", flush=True)
-    warn_if_exposed(host)
     what = f"{s.width}x{s.height} {s.mode}" + (", denoised" if s.denoise else "")
-    print(f"raylume: serving {label}, {what}; Ctrl-C stops", file=sys.stderr, flush=True)
-    if open_browser:
-        webbrowser.open(viewer.url)
-    code = viewer.run()  # 130 after Ctrl-C, as `raylume render`
+
+    def ready() -> None:  # serving, with Ctrl-C handled (Viewer.run)
+        print(f"raylume view: {viewer.url}", flush=True)
+        warn_if_exposed(host)
+        print(f"raylume: serving {label}, {what}; Ctrl-C stops", file=sys.stderr, flush=True)
+        if open_browser:
+            webbrowser.open(viewer.url)
+
+    code = viewer.run(ready)  # 130 after Ctrl-C, as `raylume render`
     print("raylume: view stopped", file=sys.stderr, flush=True)
     if viewer.renderer._thread is not None and viewer.renderer._thread.is_alive():
         # a pass (or a first kernel compilation) still runs: do not wait for it at exit

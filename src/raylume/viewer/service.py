@@ -8,6 +8,7 @@ import ipaddress
 import signal
 import sys
 import threading
+from collections.abc import Callable
 
 from ..session import Session
 from ..settings import ResolvedSettings
@@ -42,9 +43,11 @@ class Viewer:
         self._thread: threading.Thread | None = None
         self.stopped_by: int | None = None  # the signal that stopped run(): SIGINT (Ctrl-C) or SIGTERM
 
-    async def serve(self, started: threading.Event | None = None, signals: bool = False) -> None:
+    async def serve(
+        self, started: threading.Event | None = None, signals: bool = False, ready: Callable[[], None] | None = None
+    ) -> None:
         """Serve until stop() (or SIGINT/SIGTERM when `signals`), then close the port and stop
-        the render thread."""
+        the render thread. `ready` is called once the port serves and the signals are handled."""
         self._loop = asyncio.get_running_loop()
         self._stop = asyncio.Event()
         if signals:
@@ -54,6 +57,8 @@ class Viewer:
         self.renderer.start()
         if started is not None:
             started.set()
+        if ready is not None:
+            ready()
         try:
             await self._stop.wait()
         finally:
@@ -64,10 +69,12 @@ class Viewer:
         self.stopped_by = sig
         self._stop.set()
 
-    def run(self) -> int:
+    def run(self, ready: Callable[[], None] | None = None) -> int:
         """Serve in the foreground until Ctrl-C or SIGTERM; returns the exit status that signal
-        means, as `raylume render` exits on Ctrl-C: 128 + its number (130 for Ctrl-C)."""
-        asyncio.run(self.serve(signals=True))
+        means, as `raylume render` exits on Ctrl-C: 128 + its number (130 for Ctrl-C). `ready`
+        is called once Ctrl-C is handled by the server (where `raylume view` prints its URL: a
+        Ctrl-C right after it then stops the server, never an import or start-up half done)."""
+        asyncio.run(self.serve(signals=True, ready=ready))
         return 0 if self.stopped_by is None else 128 + int(self.stopped_by)
 
     def start(self) -> None:
