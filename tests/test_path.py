@@ -370,3 +370,42 @@ def test_an_area_light_shadows_the_light_behind_it(integrator):
     diff = (both.astype(np.float64) - blocked - alone).mean(axis=2)
     se = diff.std(ddof=1) / math.sqrt(diff.size)
     assert abs(diff.mean()) < Z * se + 1e-7, f"{integrator}: {diff.mean():.5f} +- {se:.5f}"
+
+
+@pytest.mark.parametrize("integrator", ["path", "bdpt"])
+def test_next_event_estimation_reaches_an_emitter_beside_a_surface(integrator, monkeypatch):
+    """A lamp (an emissive quad, emitting both ways) hangs half a unit over a floor, far from the
+    origin (x = 400: the rays' offset from surfaces, 1e-7 of the coordinates, is then 4e-5). Its
+    underside lights the floor around it at grazing angles. A shadow ray towards a point on the
+    lamp leaves the floor offset towards the lamp; aimed from the unoffset point and stopped
+    1e-5 of the distance short, it met the lamp's own plane before its end and counted the lamp
+    as its own blocker, so next-event estimation alone left that light out. Light sampling alone
+    and BSDF sampling alone are unbiased estimators of the same floor: they agree within
+    standard errors (bdpt: against path mode's BSDF sampling)."""
+    scene = raylume.scene_from_dict(
+        {
+            "render": {"width": 32, "height": 24, "spp": 128, "mode": "path", "max_depth": 2},
+            "camera": {"position": [400, 40, -30], "look_at": [400, 0, 0], "fov": 50},
+            "materials": {
+                "white": {"type": "diffuse", "color": [0.8, 0.8, 0.8]},
+                "lamp": {"type": "diffuse", "color": [0, 0, 0], "emission": [10, 10, 10]},
+            },
+            "objects": [
+                {"type": "quad", "position": [0, 0, 0], "u": [1000, 0, 0], "v": [0, 0, 1000], "material": "white"},
+                {"type": "quad", "position": [400, 0.5, 0], "u": [20, 0, 0], "v": [0, 0, 20], "material": "lamp"},
+            ],
+        }
+    )
+    monkeypatch.setenv("RAYLUME_PATH_STRATEGY", "bsdf")
+    reference = raylume.render(scene, aovs=False).rgb.mean(axis=2)
+    if integrator == "path":
+        monkeypatch.setenv("RAYLUME_PATH_STRATEGY", "light")
+        estimate = raylume.render(scene, aovs=False, seed=7).rgb.mean(axis=2)
+    else:
+        monkeypatch.delenv("RAYLUME_PATH_STRATEGY")
+        estimate = raylume.render(scene, aovs=False, seed=7, integrator="bdpt").rgb.mean(axis=2)
+    floor = (reference < 5.0) & (estimate < 5.0)  # not the lamp's own pixels (its emission, 10)
+    diff = (estimate - reference)[floor]
+    se = diff.std(ddof=1) / math.sqrt(diff.size)
+    assert reference[floor].mean() > 10 * se  # the underside's light is there to find
+    assert abs(diff.mean()) < Z * se, (integrator, diff.mean(), se, reference[floor].mean())

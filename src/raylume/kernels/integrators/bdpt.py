@@ -43,7 +43,7 @@ from ..shading.lights import (
 )
 from ..shading.lights.registry import visible_hit
 from ..shading.materials import MAT_EMISSION, beer_lambert, two_sided
-from ..vec import add, dot, hadamard, inline_function, kernel_function, madd, mul, row3
+from ..vec import add, dot, hadamard, inline_function, kernel_function, mul, row3
 from .bdpt_mis import mis_weight
 from .bdpt_vertex import (
     CAMERA,
@@ -74,7 +74,7 @@ from .bdpt_vertex import (
     vertex_f,
 )
 from .bdpt_walk import camera_subpath, light_subpath
-from .shadow import shadow_transmittance
+from .shadow import shadow_ray, shadow_transmittance
 
 INF = math.inf
 MAX_SEGMENTS = 64  # unlimited max_depth: subpaths end by Russian roulette, or here
@@ -103,9 +103,12 @@ def _transmitted(C, A, i, w, d2, key, node_stack, t_stack):
     if kind_of(A, i) == SURFACE or has_flag(A, i, F_ON_SURFACE):
         ng = row3(A, i, V_NG)
         eps = offset_epsilon(C.F.epsilon_floor, o)
-        o = madd(o, ng, eps if dot(w, ng) > 0.0 else -eps)
+        # aimed from the offset point at the far end (shadow.shadow_ray: aimed from the vertex, a
+        # grazing segment crossed the far end's surface before its shortened end)
+        o, w, tmax = shadow_ray(o, ng, eps if dot(w, ng) > 0.0 else -eps, w, math.sqrt(d2) if d2 < INF else INF)
         leaving = np.int64(A[i, V_HIT])
-    tmax = math.sqrt(d2) * (1.0 - SHADOW_SHORTEN) if d2 < INF else INF
+    else:
+        tmax = math.sqrt(d2) * (1.0 - SHADOW_SHORTEN) if d2 < INF else INF
     # quad and sphere lights (not in the BVH) stop the segment, as they stop path mode's rays,
     # its shadow rays and the subpaths (bdpt_walk.py): light behind a sphere light does not
     # pass it (the segment's ends are shortened off the light it may end on)

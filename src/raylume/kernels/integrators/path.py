@@ -47,7 +47,7 @@ from ..shading.materials import (
 from ..shading.media import MED_G, free_flight, hg_eval, hg_sample, medium_beyond, medium_leaving
 from ..shading.media.tracking import ABSORBED, SCATTERED
 from ..vec import dot, hadamard, inline_function, madd, mul, row3
-from .shadow import shadow_transmittance
+from .shadow import shadow_ray, shadow_transmittance
 
 INF = math.inf
 RR_DEPTH = 5  # Mitsuba's rr_depth: Russian roulette from this many segments on
@@ -284,13 +284,12 @@ def path_ray(G, F, X, Em, Env, Md, o, d, spread, max_depth, background, key, nod
                 if up or not two_sided_here:
                     f, pdf_b = bsdf_eval(mat, m, colour, wo, wi_local)
                     if f[0] > 0.0 or f[1] > 0.0 or f[2] > 0.0:
-                        origin = madd(p, ng, eps if up else -eps)
-                        tmax = dist * (1.0 - SHADOW_SHORTEN) if dist < INF else INF
+                        origin, aim, tmax = shadow_ray(p, ng, eps if up else -eps, wi, dist)
                         rays += 1
                         # the shadow ray leaves on the side of the incoming ray, or crosses
                         shadow_med = medium_leaving(Md, med, obj, d, n_geo, wi)
                         tr = _shadow(
-                            G, F, X, Em, Md, origin, wi, tmax, shadow_med, le, key, depth, prim, node_stack, t_stack
+                            G, F, X, Em, Md, origin, aim, tmax, shadow_med, le, key, depth, prim, node_stack, t_stack
                         )
                         if tr[0] > 0.0 or tr[1] > 0.0 or tr[2] > 0.0:
                             w = 1.0 if delta_l or strategy == LIGHT_ONLY else power_heuristic(p_pick * pdf_l, pdf_b)

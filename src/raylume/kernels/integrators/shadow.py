@@ -1,18 +1,39 @@
-"""Shadow rays of path mode where light may pass things on its way: through index-matched (null)
-boundaries, and through participating media, whose transmittance it multiplies in (Mitsuba 3's
-volpath does the same). Scenes with neither take any_hit instead (path.py)."""
+"""Shadow rays: where they start and end (`shadow_ray`: path mode's next-event estimation and
+bdpt's connections), and, where light may pass things on its way, their transmittance: through
+index-matched (null) boundaries and participating media, whose transmittance it multiplies in
+(Mitsuba 3's volpath does the same). Scenes with neither take any_hit instead (path.py)."""
+
+import math
 
 from ..film.sampler import sub_key
 from ..geometry.shapes import NO_HIT, offset_epsilon, surface
 from ..geometry.traverse import closest_hit
+from ..shading.lights import SHADOW_SHORTEN
 from ..shading.materials import index_matched
 from ..shading.media import medium_beyond, transmittance
-from ..vec import dot, hadamard, inline_function, madd
+from ..vec import dot, hadamard, inline_function, madd, mul, sub
 
 ZERO3 = (0.0, 0.0, 0.0)
 # Boundaries one shadow ray passes at most (a guard: a ray grazing a mesh could otherwise
 # cross and re-cross it by rounding without end)
 MAX_CROSSINGS = 256
+INF = math.inf
+
+
+@inline_function
+def shadow_ray(p, n, offset, wi, dist):
+    """(origin, direction, tmax) of the shadow ray from surface point p towards the point at
+    `dist` along unit wi (inf: a direction): from p offset along n, aimed at that point and
+    ending SHADOW_SHORTEN of its length short of it, as pbrt spawns rays to a point. Aimed from
+    p itself, the offset origin's ray crossed the target's own surface before its shortened end
+    wherever it met it at a grazing angle (offset / sin > SHADOW_SHORTEN x dist), and the light
+    blocked itself."""
+    origin = madd(p, n, offset)
+    if not dist < INF:
+        return origin, wi, INF
+    to = sub(madd(p, wi, dist), origin)
+    length = math.sqrt(dot(to, to))
+    return origin, mul(to, 1.0 / length), length * (1.0 - SHADOW_SHORTEN)
 
 
 @inline_function
