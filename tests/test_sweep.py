@@ -14,10 +14,26 @@ from numba import njit
 import raylume
 from raylume.compile import compile_scene
 from raylume.kernels.geometry.shape_triangle import INF, intersect_triangle, ray_shear
-from raylume.kernels.geometry.shapes import NO_HIT, PRIM_KIND, PRIM_ROW, PRIM_WIDTH, TRIANGLE, offset_epsilon
+from raylume.kernels.geometry.shapes import (
+    NO_HIT,
+    PRIM_KIND,
+    PRIM_ROW,
+    PRIM_WIDTH,
+    QUAD,
+    TRIANGLE,
+    offset_epsilon,
+    sample_surface,
+)
 from raylume.kernels.geometry.sweep import SWEEP_LANES, SWEEP_ROWS, sweep_candidates, sweep_table
-from raylume.kernels.geometry.traverse import any_hit, any_hit_leaving, closest_hit, closest_hit_leaving
+from raylume.kernels.geometry.traverse import (
+    any_hit,
+    any_hit_between,
+    any_hit_leaving,
+    closest_hit,
+    closest_hit_leaving,
+)
 from raylume.kernels.geometry.wide_nodes import traversal_stacks
+from raylume.kernels.integrators.shadow import shadow_ray
 from raylume.kernels.scene import geometry_of
 from raylume.kernels.variants import features
 
@@ -257,6 +273,62 @@ def test_swept_hits_are_the_bvh_walks(name):
     np.testing.assert_array_equal(prim_l, prim)
     np.testing.assert_array_equal(b_l, b)
     np.testing.assert_array_equal(blocked_l, blocked)
+
+
+@njit
+def _shadow_rays(S, W, X, P, K, U, floor, out, stacks):
+    """Shadow rays as path mode makes them (shadow.shadow_ray), from a point of triangle
+    primitive K[i, 0] at barycentrics P[i] towards a point sampled on flat primitive K[i, 1] (a
+    triangle or a quad) by U[i]: blocked in S (swept, both primitives named) and in W (walked)."""
+    G, GW = geometry_of(S), geometry_of(W)
+    node_stack, t_stack = stacks
+    for i in range(P.shape[0]):
+        row = G.prims[K[i, 0], PRIM_ROW]
+        tri = G.triangles
+        v = [(float(tri[row, 3 * j]), float(tri[row, 3 * j + 1]), float(tri[row, 3 * j + 2])) for j in range(3)]
+        p = (
+            v[0][0] + P[i, 0] * (v[1][0] - v[0][0]) + P[i, 1] * (v[2][0] - v[0][0]),
+            v[0][1] + P[i, 0] * (v[1][1] - v[0][1]) + P[i, 1] * (v[2][1] - v[0][1]),
+            v[0][2] + P[i, 0] * (v[1][2] - v[0][2]) + P[i, 1] * (v[2][2] - v[0][2]),
+        )
+        e1 = (v[1][0] - v[0][0], v[1][1] - v[0][1], v[1][2] - v[0][2])
+        e2 = (v[2][0] - v[0][0], v[2][1] - v[0][1], v[2][2] - v[0][2])
+        ng = (e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0])
+        length = np.sqrt(ng[0] ** 2 + ng[1] ** 2 + ng[2] ** 2)
+        ng = (ng[0] / length, ng[1] / length, ng[2] / length)
+        q, _ = sample_surface(G, K[i, 1], U[i, 0], U[i, 1])
+        to = (q[0] - p[0], q[1] - p[1], q[2] - p[2])
+        dist = np.sqrt(to[0] ** 2 + to[1] ** 2 + to[2] ** 2)
+        wi = (to[0] / dist, to[1] / dist, to[2] / dist)
+        eps = offset_epsilon(floor, p)
+        up = wi[0] * ng[0] + wi[1] * ng[1] + wi[2] * ng[2] > 0.0
+        o, aim, tmax = shadow_ray(p, ng, eps if up else -eps, wi, dist)
+        out[i, 0] = any_hit_between(G, X, o, aim, 0.0, tmax, K[i, 0], K[i, 1], node_stack, t_stack)
+        out[i, 1] = any_hit(GW, X, o, aim, 0.0, tmax, node_stack, t_stack)
+
+
+@pytest.mark.parametrize("name", ["cornell", "mixed"])
+def test_shadow_rays_leave_their_ends_out_as_the_walk_finds(name):
+    """A shadow ray aimed at a point of a flat primitive and ending short of it (shadow.shadow_ray)
+    cannot hit that primitive, nor the one it leaves: the sweep leaves both out of its candidates
+    (any_hit_between) and answers every ray as the walk does, which tests them all. Points on
+    every triangle towards points on every flat primitive, neighbours and coplanar ones (grazing
+    rays) among them."""
+    S = compile_scene(raylume.load(EXAMPLES / "cornell.toml")).kernel if name == "cornell" else mixed_scene()
+    walked = S._replace(sweep=S.sweep[:, :0])
+    kinds = S.prims[: S.n_bounded, PRIM_KIND]
+    triangles = np.flatnonzero(kinds == TRIANGLE)
+    flat = np.flatnonzero((kinds == TRIANGLE) | (kinds == QUAD))
+    assert (kinds == QUAD).any()
+    rng = np.random.default_rng(11)
+    n = 60_000
+    K = np.stack([rng.choice(triangles, n), rng.choice(flat, n)], axis=1).astype(np.int64)
+    P = rng.dirichlet((1, 1, 1), n)[:, 1:].copy()
+    U = rng.random((n, 2))
+    out = np.empty((n, 2), np.bool_)
+    _shadow_rays(S, walked, features(S), P, K, U, S.epsilon_floor, out, traversal_stacks())
+    assert 0.1 < out[:, 1].mean() < 0.9
+    np.testing.assert_array_equal(out[:, 0], out[:, 1])
 
 
 @pytest.mark.parametrize("mode", ["path", "bdpt", "cast"])

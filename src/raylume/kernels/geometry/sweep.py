@@ -248,17 +248,25 @@ def _next_row(mask, row):
 
 
 @inline_function
-def sweep_hit(G, X, o, d, shear, tmin, best_t, prim, b1, b2, stop_at_first, leaving):
+def _lane_bit(G, k):
+    """The sweep lane bit of primitive k if it is a triangle (0 for NO_HIT and other shapes)."""
+    if 0 <= k < G.n_bounded and G.prims[k, PRIM_KIND] == TRIANGLE:
+        return np.int64(1) << np.int64(G.prims[k, PRIM_ROW])
+    return np.int64(0)
+
+
+@inline_function
+def sweep_hit(G, X, o, d, shear, tmin, best_t, prim, b1, b2, stop_at_first, leaving, arriving):
     """The nearest hit in (tmin, best_t) among a swept scene's bounded primitives (module
     docstring), or (best_t, prim, b1, b2) unchanged; with stop_at_first, the first hit found.
-    `leaving`: the triangle the ray leaves from (NO_HIT: none), its origin offset to the side it
-    goes to, so that the exact test cannot hit it: left out of the candidates (each ray leaving
-    a surface has it among them otherwise). The same hit as the exact test of every primitive in
+    `leaving`: the primitive the ray leaves from (NO_HIT: none), its origin offset to the side
+    it goes to, and `arriving`: the one a shadow ray is aimed at, ending short of it
+    (shadow.shadow_ray): the exact test cannot hit either if it is flat (a triangle or a
+    polygon's), so they are left out of the candidates (each such ray has them among them
+    otherwise). The same hit as the exact test of every primitive in
     table order (the lowest triangle row on ties)."""
     S = G.sweep
-    mask = sweep_candidates(S, o, shear, tmin, best_t)
-    if 0 <= leaving < G.n_bounded and G.prims[leaving, PRIM_KIND] == TRIANGLE:
-        mask &= ~(np.int64(1) << np.int64(G.prims[leaving, PRIM_ROW]))
+    mask = sweep_candidates(S, o, shear, tmin, best_t) & ~_lane_bit(G, leaving) & ~_lane_bit(G, arriving)
     n_tris = np.int64(G.triangles.shape[0])  # the lanes before the polygons' (sweep_table)
     rest = mask >> n_tris  # candidate polygons' triangles
     mask &= (np.int64(1) << n_tris) - 1
@@ -287,6 +295,8 @@ def sweep_hit(G, X, o, d, shear, tmin, best_t, prim, b1, b2, stop_at_first, leav
         if k == last:  # another triangle of the polygon just tested
             continue
         last = k
+        if k == leaving or k == arriving:  # flat: as the triangles above
+            continue
         t, u, v = intersect(G, X, k, o, d, shear, tmin, best_t)
         if t < best_t:
             best_t, prim, b1, b2 = t, k, u, v

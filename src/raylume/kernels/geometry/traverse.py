@@ -176,18 +176,28 @@ def closest_hit_leaving(G, X, o, d, tmin, tmax, leaving, node_stack, t_stack):
         if G.n_bounded < G.prims.shape[0]:
             best_t, prim, b1, b2 = _unbounded_hit(G, X, o, d, shear, tmin, tmax)
         best_t, prim, b1, b2 = _instances_hit(G, X, o, d, tmin, best_t, prim, b1, b2, node_stack, t_stack, False)
-    return _bvh_hit(G, X, o, d, shear, lazy_shear, tmin, best_t, prim, b1, b2, node_stack, t_stack, False, leaving)
+    return _bvh_hit(
+        G, X, o, d, shear, lazy_shear, tmin, best_t, prim, b1, b2, node_stack, t_stack, False, leaving, NO_HIT
+    )
 
 
 @inline_function
 def any_hit(G, X, o, d, tmin, tmax, node_stack, t_stack):
     """True when anything lies in (tmin, tmax): stops at the first blocker found."""
-    return any_hit_leaving(G, X, o, d, tmin, tmax, NO_HIT, node_stack, t_stack)
+    return any_hit_between(G, X, o, d, tmin, tmax, NO_HIT, NO_HIT, node_stack, t_stack)
 
 
 @inline_function
 def any_hit_leaving(G, X, o, d, tmin, tmax, leaving, node_stack, t_stack):
     """any_hit for a ray leaving primitive `leaving`, as closest_hit_leaving."""
+    return any_hit_between(G, X, o, d, tmin, tmax, leaving, NO_HIT, node_stack, t_stack)
+
+
+@inline_function
+def any_hit_between(G, X, o, d, tmin, tmax, leaving, arriving, node_stack, t_stack):
+    """any_hit for a shadow ray leaving primitive `leaving` (as closest_hit_leaving) and aimed at
+    a point of primitive `arriving` (NO_HIT: none), ending short of it (shadow.shadow_ray): the
+    exact test cannot hit a flat one there either, which small scenes use (sweep.py)."""
     lazy_shear = X is None and G.triangles.shape[0] > 0  # as in closest_hit
     shear = ray_shear(d) if X is not None and G.triangles.shape[0] > 0 else NO_SHEAR
     if X is not None:
@@ -195,12 +205,16 @@ def any_hit_leaving(G, X, o, d, tmin, tmax, leaving, node_stack, t_stack):
             return True
         if _instances_hit(G, X, o, d, tmin, tmax, NO_HIT, 0.0, 0.0, node_stack, t_stack, True)[1] != NO_HIT:
             return True
-    hit = _bvh_hit(G, X, o, d, shear, lazy_shear, tmin, tmax, NO_HIT, 0.0, 0.0, node_stack, t_stack, True, leaving)
+    hit = _bvh_hit(
+        G, X, o, d, shear, lazy_shear, tmin, tmax, NO_HIT, 0.0, 0.0, node_stack, t_stack, True, leaving, arriving
+    )
     return hit[1] != NO_HIT
 
 
 @inline_function
-def _bvh_hit(G, X, o, d, shear, lazy_shear, tmin, best_t, prim, b1, b2, node_stack, t_stack, stop_at_first, leaving):
+def _bvh_hit(
+    G, X, o, d, shear, lazy_shear, tmin, best_t, prim, b1, b2, node_stack, t_stack, stop_at_first, leaving, arriving
+):
     """The nearest hit in the BVH in (tmin, best_t), or (best_t, prim, b1, b2) unchanged; with
     stop_at_first, the first hit of the first leaf that has one (any_hit). Both visit the
     children nearest first: a shadow ray that a surface blocks near its origin (its own
@@ -210,7 +224,7 @@ def _bvh_hit(G, X, o, d, shear, lazy_shear, tmin, best_t, prim, b1, b2, node_sta
     if G.sweep.shape[1] > 0:  # a small scene: every triangle at once (sweep.py)
         if lazy_shear:
             shear = ray_shear(d)
-        return sweep_hit(G, X, o, d, shear, tmin, best_t, prim, b1, b2, stop_at_first, leaving)
+        return sweep_hit(G, X, o, d, shear, tmin, best_t, prim, b1, b2, stop_at_first, leaving, arriving)
     index = G.node_index
     bounds = G.node_bounds
     if _root_is_a_leaf(index):

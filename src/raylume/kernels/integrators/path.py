@@ -20,7 +20,7 @@ import numpy as np
 
 from ..film.sampler import DIM_BSDF, DIM_LIGHT, dimension_key, key_uniform2, sub_key
 from ..geometry.shapes import NO_HIT, PRIM_LIGHT, offset_epsilon, split_hit, surface
-from ..geometry.traverse import any_hit_leaving, closest_hit_leaving
+from ..geometry.traverse import any_hit_between, closest_hit_leaving
 from ..shading.environment import prefetch_environment
 from ..shading.frame import shading_frame, to_local, to_world
 from ..shading.lights import (
@@ -30,6 +30,7 @@ from ..shading.lights import (
     environment_arrival,
     hit_area_lights,
     light_pdf,
+    light_primitive,
     pick_emitter,
     pick_probability,
     sample_light,
@@ -115,14 +116,15 @@ def _shadow(G, F, X, Em, Md, origin, wi, tmax, med, target, key, depth, leaving,
     """Transmittance (RGB) of a shadow ray towards light row `target`: 0 where another area
     light is in the way, else through media and null boundaries where the scene has them
     (shadow.py), else 0 or 1 by any_hit. `leaving`: the primitive it leaves from (NO_HIT: a
-    point in a medium), as traverse.any_hit_leaving takes it."""
+    point in a medium), and the target's primitive (lights.light_primitive), which it ends
+    short of, as traverse.any_hit_between takes them."""
     if area_light_blocks(Em, target, origin, wi, tmax):
         return (0.0, 0.0, 0.0)
     if Md.pass_through:
         return shadow_transmittance(
             G, F, X, Md, origin, wi, tmax, med, dimension_key(key, DIM_SHADOW_MEDIUM, depth), node_stack, t_stack
         )
-    if any_hit_leaving(G, X, origin, wi, 0.0, tmax, leaving, node_stack, t_stack):
+    if any_hit_between(G, X, origin, wi, 0.0, tmax, leaving, light_primitive(Em, target), node_stack, t_stack):
         return (0.0, 0.0, 0.0)
     return (1.0, 1.0, 1.0)
 

@@ -12,6 +12,7 @@ from .distribution import (
     environment_arrival,
     environment_light,
     hit_area_lights,
+    light_primitive,
     pick_emitter,
     pick_probability,
 )
@@ -84,6 +85,7 @@ __all__ = [
     "environment_light",
     "has_falloff",
     "hit_area_lights",
+    "light_primitive",
     "area_light_blocks",
     "is_delta",
     "is_everywhere",
