@@ -99,16 +99,17 @@ def _transmitted(C, A, i, w, d2, key, node_stack, t_stack):
     segment starts in. Offsets from surfaces as path mode's shadow rays; the far end shortened
     by SHADOW_SHORTEN."""
     o = row3(A, i, V_P)
+    dist = math.sqrt(d2) if d2 < INF else INF
     leaving = np.int64(NO_HIT)  # the surface the segment leaves, offset towards w (traverse.py)
     if kind_of(A, i) == SURFACE or has_flag(A, i, F_ON_SURFACE):
         ng = row3(A, i, V_NG)
         eps = offset_epsilon(C.F.epsilon_floor, o)
         # aimed from the offset point at the far end (shadow.shadow_ray: aimed from the vertex, a
         # grazing segment crossed the far end's surface before its shortened end)
-        o, w, tmax = shadow_ray(o, ng, eps if dot(w, ng) > 0.0 else -eps, w, math.sqrt(d2) if d2 < INF else INF)
+        o, w, tmax = shadow_ray(o, ng, eps if dot(w, ng) > 0.0 else -eps, w, dist)
         leaving = np.int64(A[i, V_HIT])
     else:
-        tmax = math.sqrt(d2) * (1.0 - SHADOW_SHORTEN) if d2 < INF else INF
+        tmax = dist * (1.0 - SHADOW_SHORTEN)  # inf for inf
     # quad and sphere lights (not in the BVH) stop the segment, as they stop path mode's rays,
     # its shadow rays and the subpaths (bdpt_walk.py): light behind a sphere light does not
     # pass it (the segment's ends are shortened off the light it may end on)

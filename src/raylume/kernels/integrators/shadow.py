@@ -11,7 +11,7 @@ from ..geometry.traverse import closest_hit
 from ..shading.lights import SHADOW_SHORTEN
 from ..shading.materials import index_matched
 from ..shading.media import medium_beyond, transmittance
-from ..vec import dot, hadamard, inline_function, madd, mul, sub
+from ..vec import dot, hadamard, inline_function, length, madd, mul, sub
 
 ZERO3 = (0.0, 0.0, 0.0)
 # Boundaries one shadow ray passes at most (a guard: a ray grazing a mesh could otherwise
@@ -32,8 +32,8 @@ def shadow_ray(p, n, offset, wi, dist):
     if not dist < INF:
         return origin, wi, INF
     to = sub(madd(p, wi, dist), origin)
-    length = math.sqrt(dot(to, to))
-    return origin, mul(to, 1.0 / length), length * (1.0 - SHADOW_SHORTEN)
+    span = length(to)
+    return origin, mul(to, 1.0 / span), span * (1.0 - SHADOW_SHORTEN)
 
 
 @inline_function

@@ -12,7 +12,6 @@ from .distribution import (
     environment_arrival,
     environment_light,
     hit_area_lights,
-    light_primitive,
     pick_emitter,
     pick_probability,
 )
@@ -26,6 +25,7 @@ from .registry import (
     is_delta,
     is_everywhere,
     light_pdf,
+    light_primitive,
     pack_light,
     sample_emission,
     sample_light,

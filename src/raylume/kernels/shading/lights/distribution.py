@@ -3,13 +3,9 @@
 
 import math
 
-import numpy as np
-
 from ...vec import inline_function, kernel_function, last_at_most
 from ..environment import environment_radiance, environment_radiance_pdf
-from . import surface
 from .registry import visible_hit
-from .table import EMIT_PRIM
 
 INF = math.inf
 
@@ -56,16 +52,6 @@ def area_light_blocks(Em, target, o, d, tmax):
             if t < tmax:
                 return True
     return False
-
-
-@inline_function
-def light_primitive(Em, e):
-    """The primitive whose points light row e's samples lie on (an emissive primitive's row,
-    the surface kind), NO_HIT (-1) for every other kind: what a shadow ray towards it ends on
-    (traverse.any_hit_between's `arriving`)."""
-    if 0 <= e < Em.kind.shape[0] and Em.kind[e] == surface.KIND:
-        return np.int64(Em.data[e, EMIT_PRIM])
-    return np.int64(-1)
 
 
 @inline_function

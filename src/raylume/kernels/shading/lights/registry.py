@@ -65,6 +65,11 @@ sample_emission = kind_switch(
 emission_pdf = kind_switch(
     "emit_pdf", "G, X, Em, Env, e, p, n, w, hit, B", "Em.kind[e]", KINDS, ((0.0, 0.0, 0.0), 0.0, 0.0), kernel_function
 )
+# the primitive a light row's points lie on (kinds that are primitives: surface), NO_HIT (-1) for
+# the others: what a shadow ray towards it ends short of
+light_primitive = kind_switch(
+    "primitive", "Em, e", "Em.kind[e]", [k for k in KINDS if hasattr(k, "primitive")], np.int64(-1), inline_function
+)
 visible_hit = kind_switch(
     "hit", "Em, e, o, d, tmax", "Em.kind[e]", [k for k in KINDS if k.VISIBLE], (np.inf, (0.0, 0.0, 1.0)),
     inline_function,

@@ -55,6 +55,13 @@ def sample(G, X, Em, Env, e, p, u1, u2, key):
 
 
 @inline_function
+def primitive(Em, e):
+    """The primitive this light's points lie on: what a shadow ray towards it ends short of
+    (traverse.any_hit_between's `arriving`)."""
+    return np.int64(Em.data[e, EMIT_PRIM])
+
+
+@inline_function
 def pdf(G, X, Em, Env, e, p, wi, dist, n_hit, hit):
     data = Em.data
     k = int(data[e, EMIT_PRIM])
