@@ -276,27 +276,16 @@ def test_swept_hits_are_the_bvh_walks(name):
 
 
 @njit
-def _shadow_rays(S, W, X, P, K, U, floor, out, stacks):
+def _shadow_rays(S, W, X, K, U, floor, out, stacks):
     """Shadow rays as path mode makes them (shadow.shadow_ray), from a point of triangle
-    primitive K[i, 0] at barycentrics P[i] towards a point sampled on flat primitive K[i, 1] (a
-    triangle or a quad) by U[i]: blocked in S (swept, both primitives named) and in W (walked)."""
+    primitive K[i, 0] (by U[i, :2]) towards a point of flat primitive K[i, 1] (a triangle or a
+    quad, by U[i, 2:]), both drawn by shapes.sample_surface: blocked in S (swept, both
+    primitives named) and in W (walked)."""
     G, GW = geometry_of(S), geometry_of(W)
     node_stack, t_stack = stacks
-    for i in range(P.shape[0]):
-        row = G.prims[K[i, 0], PRIM_ROW]
-        tri = G.triangles
-        v = [(float(tri[row, 3 * j]), float(tri[row, 3 * j + 1]), float(tri[row, 3 * j + 2])) for j in range(3)]
-        p = (
-            v[0][0] + P[i, 0] * (v[1][0] - v[0][0]) + P[i, 1] * (v[2][0] - v[0][0]),
-            v[0][1] + P[i, 0] * (v[1][1] - v[0][1]) + P[i, 1] * (v[2][1] - v[0][1]),
-            v[0][2] + P[i, 0] * (v[1][2] - v[0][2]) + P[i, 1] * (v[2][2] - v[0][2]),
-        )
-        e1 = (v[1][0] - v[0][0], v[1][1] - v[0][1], v[1][2] - v[0][2])
-        e2 = (v[2][0] - v[0][0], v[2][1] - v[0][1], v[2][2] - v[0][2])
-        ng = (e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0])
-        length = np.sqrt(ng[0] ** 2 + ng[1] ** 2 + ng[2] ** 2)
-        ng = (ng[0] / length, ng[1] / length, ng[2] / length)
-        q, _ = sample_surface(G, K[i, 1], U[i, 0], U[i, 1])
+    for i in range(U.shape[0]):
+        p, ng = sample_surface(G, K[i, 0], U[i, 0], U[i, 1])
+        q, _ = sample_surface(G, K[i, 1], U[i, 2], U[i, 3])
         to = (q[0] - p[0], q[1] - p[1], q[2] - p[2])
         dist = np.sqrt(to[0] ** 2 + to[1] ** 2 + to[2] ** 2)
         wi = (to[0] / dist, to[1] / dist, to[2] / dist)
@@ -323,10 +312,9 @@ def test_shadow_rays_leave_their_ends_out_as_the_walk_finds(name):
     rng = np.random.default_rng(11)
     n = 60_000
     K = np.stack([rng.choice(triangles, n), rng.choice(flat, n)], axis=1).astype(np.int64)
-    P = rng.dirichlet((1, 1, 1), n)[:, 1:].copy()
-    U = rng.random((n, 2))
+    U = rng.random((n, 4))
     out = np.empty((n, 2), np.bool_)
-    _shadow_rays(S, walked, features(S), P, K, U, S.epsilon_floor, out, traversal_stacks())
+    _shadow_rays(S, walked, features(S), K, U, S.epsilon_floor, out, traversal_stacks())
     assert 0.1 < out[:, 1].mean() < 0.9
     np.testing.assert_array_equal(out[:, 0], out[:, 1])
 
