@@ -50,7 +50,7 @@ def triangle_table(tris: np.ndarray) -> np.ndarray:
 
 @njit
 def _candidates(table, o, d, tmin, tmax):
-    return sweep_candidates(table, (o[0], o[1], o[2]), ray_shear((d[0], d[1], d[2])), tmin, tmax)
+    return sweep_candidates(table, (o[0], o[1], o[2]), (d[0], d[1], d[2]), ray_shear((d[0], d[1], d[2])), tmin, tmax)
 
 
 def exact_hits(tris, o, d, tmin, tmax) -> set[int]:
@@ -149,6 +149,34 @@ def test_candidates_are_few():
         d = rng.normal(size=3)
         counts.append(len(candidate_rows(S.sweep, o, d / np.linalg.norm(d), 0.0, INF)))
     assert 1 <= np.mean(counts) <= 4
+
+
+def test_the_distance_leaves_out_what_lies_just_beyond_the_ray():
+    """The distance is filtered on each lane's plane, within ~1e-5 (R + |t|) / |cos| (module
+    docstring): a triangle a thousandth of R beyond a shadow ray's end, as the Cornell box's
+    ceiling lies 0.1 above its light, is no candidate, and one a thousandth before it is."""
+    rng = np.random.default_rng(3)
+    checked = 0
+    for seed in range(300):
+        tris, _, _, _ = scene_and_ray(seed, 12, int(rng.integers(-2, 4)), int(rng.integers(0, 3)), "random", False)
+        row = int(rng.integers(len(tris)))
+        v = tris[row].astype(np.float64).reshape(3, 3)
+        target = rng.dirichlet((1, 1, 1)) @ v
+        normal = np.cross(v[1] - v[0], v[2] - v[0])
+        normal /= np.linalg.norm(normal)
+        r = np.abs(tris).max() + np.abs(target).max() * 2
+        d = rng.normal(size=3)
+        d /= np.linalg.norm(d)
+        cos = abs(d @ normal)
+        if cos < 0.1:
+            continue
+        o = target - d * rng.uniform(0.1, 2.0) * r
+        t = float((target - o) @ normal / (d @ normal))
+        gap = 1e-3 * (r + t) / cos
+        assert row not in candidate_rows(triangle_table(tris), o, d, 0.0, t - gap), seed
+        assert row in candidate_rows(triangle_table(tris), o, d, 0.0, t + gap), seed
+        checked += 1
+    assert checked > 100
 
 
 def test_small_scenes_are_swept():

@@ -8,11 +8,11 @@ of the leaves it enters, two or three leaf tests that each wait for the last one
 of each other (no distance carried from one to the next), in a conservative form of the
 watertight test (Woop, Benthin and Wald 2013): each edge function may be off by at most its
 rounding error bound, so a lane counts as a candidate unless its edge functions are of opposite
-signs beyond that bound, its determinant's sign is certain and its distance lies certainly
-outside (tmin, tmax). Every triangle the exact float64 test hits is a candidate (the bound is
-derived below and checked by tests/test_sweep.py against the exact test on adversarial rays);
-a ray has one to three candidates in a closed box (its own surface behind it among them), and
-those go through the exact test (shape_triangle.triangles4_gathered, four at a time; one from the
+signs beyond that bound or its distance, from its plane, lies certainly outside (tmin, tmax).
+Every triangle the exact float64 test hits is a candidate (the bounds are derived below and
+checked by tests/test_sweep.py against the exact test on adversarial rays); a ray has one to
+three candidates in a closed box (its hit, what lies beyond it along an edge), and those go
+through the exact test (shape_triangle.triangles4_gathered, four at a time; one from the
 column table). The hit is the exact test's, to the bit; on an exact tie (a ray through an edge
 two triangles share) the lowest triangle row's. A ray that leaves a triangle, its origin offset
 to the side it goes to (path mode's rays), leaves it out: the exact test cannot hit it, and it
@@ -27,14 +27,26 @@ origin's and the difference's roundings; 3 u R for a polygon's triangles, whose 
 rounded to float32 too, which the margins below absorb), the sheared ones (|s| <= 1, so |x'| <= 2 R) by at
 most 7 u R, the products of an edge function (<= 4 R^2) by 32 u R^2 each with their rounding,
 and the edge function by 72 u R^2 < 2^-17.8 R^2. SWEEP_TOLERANCE is 2^-16 R^2: 3.5 times that.
-A determinant whose magnitude is below SWEEP_UNCERTAIN R^2 may have either sign, and the lane
-is a candidate whatever its distance. Otherwise the numerator (<= 24 R^3) is off by at most
-~2^-14 R^3 and the determinant by 3 x 2^-16 R^2, so the distance by at most 2^-7.2 R +
-3 x 2^-10 |t|: SWEEP_MARGIN covers twice that. The shears, the edge functions' differences of
-products and the numerator are fused multiply-adds: one rounding where the bound counts two,
-so they are within it (a quarter less arithmetic a lane than separate operations). The edge
-functions' signs are tested on their least and greatest (selects that return one of them, so
-no test is less conservative than comparing each).
+The shears and the edge functions' differences of products are fused multiply-adds: one
+rounding where the bound counts two, so they are within it (a quarter less arithmetic a lane
+than separate operations). The edge functions' signs are tested on their least and greatest
+(selects that return one of them, so no test is less conservative than comparing each).
+
+The distance is taken from each lane's plane (rows SWEEP_PLANE: a unit normal n and k = n . v0,
+computed in float64 from the float32 vertices and rounded once), not from the edge functions,
+whose numerator and determinant are bounded only in R (the Cornell box's ceiling, 0.1 above its
+light, was a candidate of every shadow ray with those bounds: 2^-6 R = 17 there). With D = max
+|d_i|, f(t) = n . (o + t d) - k = a + t b, computed by fused multiply-adds from float32 o and d,
+is within 16.4 u R + 7 u D |t| of the true plane's value at any point of the lane's triangle:
+the rounding of n (u |x - v0|_1 <= 6 u R), of k (sqrt 3 u R), of a polygon's corners (sqrt 3 u
+R), of o and d (sqrt 3 u each), and of the three fused multiply-adds of a (3 sqrt 3 u R) and of
+b (3 sqrt 3 u D). So the exact test's distance lies within (16.4 u R + 7 u D |t|) / |b| of
+-a / b, |b| >= SWEEP_STEEP D making the |t| on either side the same to 0.1%; SWEEP_PLANE_BOUND,
+2^-17 (R + D |t|), is about eight times that, and covers the roundings of the test itself
+((t - tmin) |b| against the bound: no division). A lane with |b| below SWEEP_STEEP D (a ray
+along its plane, or a degenerate triangle's zero normal) keeps its distance unknown. A lane is a
+candidate unless its edge functions have opposite signs beyond their bound or its distance is
+known and lies outside (tmin, tmax) by more than the bound.
 """
 
 import numpy as np
@@ -52,16 +64,17 @@ SWEEP_LANES = 32  # four groups of eight float32 lanes
 SWEEP_OTHERS = 8  # bounded primitives other than triangles and quads a swept scene may have
 # The table's rows: the nine vertex coordinates (v0, v1, v2) of each lane's triangle by columns,
 # the largest coordinate magnitude of all the lanes (the same in each), each lane's primitive
-# (as a float32: exact below 2^24; -1 in unused lanes) and the other bounded primitives (-1
-# after the last). Lanes 0 .. T - 1 are the scene's triangles (lane = triangle row: a swept
+# (as a float32: exact below 2^24; -1 in unused lanes), the other bounded primitives (-1
+# after the last) and each lane's plane. Lanes 0 .. T - 1 are the scene's triangles (lane = triangle row: a swept
 # scene has no instances, so its triangle table is its T triangles alone); the triangles of flat
 # polygons follow (a quad's two, exactly the parallelogram, rounded to float32: the bound allows
 # for that rounding), their candidates tested by the shape's own test.
 SWEEP_MAGNITUDE, SWEEP_PRIM, SWEEP_OTHER = 9, 10, 11
-SWEEP_ROWS = 12
+SWEEP_PLANE = 12  # rows 12 .. 15: each lane's plane, a unit normal n and n . v0 (float32)
+SWEEP_ROWS = 16
 SWEEP_TOLERANCE = 2.0**-16  # times R^2: the edge functions' error bound, with margin
-SWEEP_UNCERTAIN = 2.0**-6  # times R^2: a determinant below it may have either sign
-SWEEP_MARGIN = (2.0**-6, 2.0**-8)  # times (R, |t|): the distance's error bound, with margin
+SWEEP_PLANE_BOUND = 2.0**-17  # times (R + D |t|): the plane function's error bound, about 8x
+SWEEP_STEEP = 2.0**-8  # times D: |n . d| below it leaves the distance uncertain
 
 
 def sweep_table(
@@ -95,7 +108,20 @@ def sweep_table(
     table[SWEEP_PRIM, n_tris:lanes] = polygons
     table[SWEEP_OTHER] = -1.0
     table[SWEEP_OTHER, : len(others)] = others
+    table[SWEEP_PLANE : SWEEP_PLANE + 4, :lanes] = lane_planes(lane_tris).T
     return table
+
+
+def lane_planes(triangles: np.ndarray) -> np.ndarray:
+    """float32 (n, 4): each float32 triangle's unit normal and its offset n . v0, from float64
+    arithmetic on the vertices, each rounded once (zero for a degenerate triangle: its
+    distance then stays uncertain)."""
+    v = np.asarray(triangles, np.float64).reshape(-1, 3, 3)
+    n = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])
+    length = np.linalg.norm(n, axis=1)
+    n = np.divide(n, length[:, None], out=np.zeros_like(n), where=length[:, None] > 0.0).astype(np.float32)
+    k = np.einsum("ij,ij->i", n.astype(np.float64), v[:, 0])
+    return np.column_stack([n, k]).astype(np.float32)
 
 
 def _lanes_codegen(context, builder, sig, args):
@@ -105,19 +131,20 @@ def _lanes_codegen(context, builder, sig, args):
     vi = ir.VectorType(i32, n)
     undef = ir.Constant(v8, ir.Undefined)
     zeros = ir.Constant(vi, [0] * n)
-    table_t, o_t, shear_t, tmin_t, tmax_t = sig.args
+    table_t, o_t, d_t, shear_t, tmin_t, tmax_t = sig.args
     table = context.make_array(table_t)(context, builder, args[0])
-    o64 = [
-        context.cast(builder, x, t, types.float64)
-        for x, t in zip(cgutils.unpack_tuple(builder, args[1], 3), o_t, strict=True)
-    ]
-    sh = cgutils.unpack_tuple(builder, args[2], 6)
+
+    def floats(value, tuple_t):
+        return [
+            builder.fptrunc(context.cast(builder, x, t, types.float64), f32)
+            for x, t in zip(cgutils.unpack_tuple(builder, value, 3), tuple_t, strict=True)
+        ]
+
+    sh = cgutils.unpack_tuple(builder, args[3], 6)
     kx, ky, kz = (context.cast(builder, sh[i], shear_t[i], types.int64) for i in range(3))
-    sx, sy, sz = (
-        builder.fptrunc(context.cast(builder, sh[3 + i], shear_t[3 + i], types.float64), f32) for i in range(3)
-    )
-    tmin = builder.fptrunc(context.cast(builder, args[3], tmin_t, types.float64), f32)
-    tmax = builder.fptrunc(context.cast(builder, args[4], tmax_t, types.float64), f32)
+    sx, sy = (builder.fptrunc(context.cast(builder, sh[3 + i], shear_t[3 + i], types.float64), f32) for i in range(2))
+    tmin = builder.fptrunc(context.cast(builder, args[4], tmin_t, types.float64), f32)
+    tmax = builder.fptrunc(context.cast(builder, args[5], tmax_t, types.float64), f32)
     # IEEE arithmetic: no contraction, no reassociation (the bound assumes it)
     fadd, fsub, fmul, lt = exact_ops(builder)
 
@@ -126,11 +153,16 @@ def _lanes_codegen(context, builder, sig, args):
 
     fabs = cgutils.get_or_insert_function(builder.module, ir.FunctionType(f32, [f32]), "llvm.fabs.f32")
     vabs = cgutils.get_or_insert_function(builder.module, ir.FunctionType(v8, [v8]), "llvm.fabs.v8f32")
-    o = [builder.fptrunc(x, f32) for x in o64]
-    omax = builder.call(fabs, [o[0]])
-    for x in o[1:]:
-        ax = builder.call(fabs, [x])
-        omax = builder.select(builder.fcmp_unordered(">", ax, omax), ax, omax)  # NaN: every lane a candidate
+    o, d = floats(args[1], o_t), floats(args[2], d_t)
+
+    def largest_magnitude(xs):
+        out = builder.call(fabs, [xs[0]])
+        for x in xs[1:]:
+            ax = builder.call(fabs, [x])
+            out = builder.select(builder.fcmp_unordered(">", ax, out), ax, out)  # NaN: every lane a candidate
+        return out
+
+    omax, dmax = largest_magnitude(o), largest_magnitude(d)
 
     def pick(k):
         return builder.select(
@@ -148,7 +180,7 @@ def _lanes_codegen(context, builder, sig, args):
     magnitude_offset = builder.mul(ir.Constant(i64, SWEEP_MAGNITUDE), stride)
     prim_offset = builder.mul(ir.Constant(i64, SWEEP_PRIM), stride)
     ox, oy, oz = splat(pick(kx)), splat(pick(ky)), splat(pick(kz))
-    ssx, ssy, ssz = splat(sx), splat(sy), splat(sz)
+    ssx, ssy = splat(sx), splat(sy)
     # R (the module docstring's) once per ray: the largest magnitude of all the lanes (the
     # table's row, lane 0) plus the origin's, the same for every lane (a looser bound than each
     # lane's own, for less arithmetic a lane)
@@ -157,9 +189,12 @@ def _lanes_codegen(context, builder, sig, args):
     r2 = fmul(r, r)
     tol = splat(fmul(r2, ir.Constant(f32, SWEEP_TOLERANCE)))
     ntol = builder.fneg(tol)
-    uncertain = splat(fmul(r2, ir.Constant(f32, SWEEP_UNCERTAIN)))
-    margin_r = splat(fmul(r, ir.Constant(f32, SWEEP_MARGIN[0])))
+    bound_r = splat(fmul(r, ir.Constant(f32, SWEEP_PLANE_BOUND)))
+    bound_t = splat(fmul(dmax, ir.Constant(f32, SWEEP_PLANE_BOUND)))
+    steep = splat(fmul(dmax, ir.Constant(f32, SWEEP_STEEP)))
     vtmin, vtmax = splat(tmin), splat(tmax)
+    world_o, world_d = [splat(x) for x in o], [splat(x) for x in d]
+    plane_offsets = [builder.mul(ir.Constant(i64, SWEEP_PLANE + i), stride) for i in range(4)]
     zero = ir.Constant(v8, [0.0] * n)
     vfma = cgutils.get_or_insert_function(builder.module, ir.FunctionType(v8, [v8, v8, v8]), "llvm.fma.v8f32")
 
@@ -201,13 +236,18 @@ def _lanes_codegen(context, builder, sig, args):
         neg = lt(smaller(smaller(u, v), w), ntol)
         pos = lt(tol, larger(larger(u, v), w))
         inside = builder.not_(builder.and_(neg, pos))
-        det = fadd(fadd(u, v), w)
-        num = fma(u, az, fma(v, bz, fmul(w, cz)))
-        certain = lt(uncertain, builder.call(vabs, [det]))
-        t = builder.fdiv(fmul(num, ssz), det, flags=EXACT)
-        margin = fma(builder.call(vabs, [t]), constant(SWEEP_MARGIN[1]), margin_r)
-        outside = builder.or_(lt(t, fsub(vtmin, margin)), lt(fadd(vtmax, margin), t))
-        candidate = builder.and_(inside, builder.or_(builder.not_(certain), builder.not_(outside)))
+        # the distance from the lane's plane: f(t) = n . (o + t d) - k = a + t b
+        nx, ny, nz, k = (load(off) for off in plane_offsets)
+        a = fma(nx, world_o[0], fma(ny, world_o[1], fma(nz, world_o[2], builder.fneg(k))))
+        b = fma(nx, world_d[0], fma(ny, world_d[1], fmul(nz, world_d[2])))
+        t = builder.fdiv(builder.fneg(a), b, flags=EXACT)
+        abs_b = builder.call(vabs, [b])
+        known = lt(steep, abs_b)  # else the distance may be anywhere (NaN: unknown)
+        bound = fma(builder.call(vabs, [t]), bound_t, bound_r)  # f's error bound near t, with margin
+        after_start = fmul(fsub(t, vtmin), abs_b)  # (t - tmin) |b|: no division
+        after_end = fmul(fsub(t, vtmax), abs_b)
+        outside = builder.or_(lt(after_start, builder.fneg(bound)), lt(bound, after_end))
+        candidate = builder.and_(inside, builder.not_(builder.and_(known, outside)))
         used = builder.fcmp_ordered(">=", load(prim_offset), zero)
         candidate = builder.and_(candidate, used)
         bits = builder.zext(builder.bitcast(candidate, ir.IntType(n)), i64)
@@ -216,14 +256,14 @@ def _lanes_codegen(context, builder, sig, args):
 
 
 @intrinsic
-def sweep_candidates(typingctx, table, o, shear, tmin, tmax):
+def sweep_candidates(typingctx, table, o, d, shear, tmin, tmax):
     """Bit r set for each triangle row r of the sweep table that the exact test may hit in
     (tmin, tmax) (module docstring)."""
     if not (
         isinstance(table, types.Array) and table.dtype == types.float32 and table.ndim == 2 and table.layout == "C"
     ):
         raise TypingError("sweep_candidates: table must be a C-contiguous float32 (SWEEP_ROWS, 32) array")
-    return types.int64(table, o, shear, tmin, tmax), _lanes_codegen
+    return types.int64(table, o, d, shear, tmin, tmax), _lanes_codegen
 
 
 @intrinsic
@@ -266,7 +306,7 @@ def sweep_hit(G, X, o, d, shear, tmin, best_t, prim, b1, b2, stop_at_first, leav
     otherwise). The same hit as the exact test of every primitive in
     table order (the lowest triangle row on ties)."""
     S = G.sweep
-    mask = sweep_candidates(S, o, shear, tmin, best_t) & ~_lane_bit(G, leaving) & ~_lane_bit(G, arriving)
+    mask = sweep_candidates(S, o, d, shear, tmin, best_t) & ~_lane_bit(G, leaving) & ~_lane_bit(G, arriving)
     n_tris = np.int64(G.triangles.shape[0])  # the lanes before the polygons' (sweep_table)
     rest = mask >> n_tris  # candidate polygons' triangles
     mask &= (np.int64(1) << n_tris) - 1
