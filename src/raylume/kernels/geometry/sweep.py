@@ -131,7 +131,7 @@ def _lanes_codegen(context, builder, sig, args):
     vi = ir.VectorType(i32, n)
     undef = ir.Constant(v8, ir.Undefined)
     zeros = ir.Constant(vi, [0] * n)
-    table_t, o_t, d_t, shear_t, tmin_t, tmax_t = sig.args
+    table_t, o_t, d_t, shear_t, tmin_t, tmax_t, leaving_t, arriving_t = sig.args
     table = context.make_array(table_t)(context, builder, args[0])
 
     def floats(value, tuple_t):
@@ -193,6 +193,11 @@ def _lanes_codegen(context, builder, sig, args):
     bound_t = splat(fmul(dmax, ir.Constant(f32, SWEEP_PLANE_BOUND)))
     steep = splat(fmul(dmax, ir.Constant(f32, SWEEP_STEEP)))
     vtmin, vtmax = splat(tmin), splat(tmax)
+    # the primitives a ray leaves and arrives at, as the table's float32 primitive row has them
+    ends = [
+        splat(builder.sitofp(context.cast(builder, args[i], t, types.int64), f32))
+        for i, t in ((6, leaving_t), (7, arriving_t))
+    ]
     world_o, world_d = [splat(x) for x in o], [splat(x) for x in d]
     plane_offsets = [builder.mul(ir.Constant(i64, SWEEP_PLANE + i), stride) for i in range(4)]
     zero = ir.Constant(v8, [0.0] * n)
@@ -248,22 +253,24 @@ def _lanes_codegen(context, builder, sig, args):
         after_end = fmul(fsub(t, vtmax), abs_b)
         outside = builder.or_(lt(after_start, builder.fneg(bound)), lt(bound, after_end))
         candidate = builder.and_(inside, builder.not_(builder.and_(known, outside)))
-        used = builder.fcmp_ordered(">=", load(prim_offset), zero)
-        candidate = builder.and_(candidate, used)
+        prims = load(prim_offset)
+        used = builder.fcmp_ordered(">=", prims, zero)
+        an_end = builder.or_(*(builder.fcmp_ordered("==", prims, end) for end in ends))
+        candidate = builder.and_(candidate, builder.and_(used, builder.not_(an_end)))
         bits = builder.zext(builder.bitcast(candidate, ir.IntType(n)), i64)
         mask = builder.or_(mask, builder.shl(bits, ir.Constant(i64, n * g)))
     return mask
 
 
 @intrinsic
-def sweep_candidates(typingctx, table, o, d, shear, tmin, tmax):
-    """Bit r set for each triangle row r of the sweep table that the exact test may hit in
-    (tmin, tmax) (module docstring)."""
+def sweep_candidates(typingctx, table, o, d, shear, tmin, tmax, leaving, arriving):
+    """Bit r set for each lane r of the sweep table that the exact test may hit in (tmin, tmax)
+    (module docstring), but the lanes of primitives `leaving` and `arriving` (sweep_hit)."""
     if not (
         isinstance(table, types.Array) and table.dtype == types.float32 and table.ndim == 2 and table.layout == "C"
     ):
         raise TypingError("sweep_candidates: table must be a C-contiguous float32 (SWEEP_ROWS, 32) array")
-    return types.int64(table, o, d, shear, tmin, tmax), _lanes_codegen
+    return types.int64(table, o, d, shear, tmin, tmax, leaving, arriving), _lanes_codegen
 
 
 @intrinsic
@@ -288,14 +295,6 @@ def _next_row(mask, row):
 
 
 @inline_function
-def _lane_bit(G, k):
-    """The sweep lane bit of primitive k if it is a triangle (0 for NO_HIT and other shapes)."""
-    if 0 <= k < G.n_bounded and G.prims[k, PRIM_KIND] == TRIANGLE:
-        return np.int64(1) << np.int64(G.prims[k, PRIM_ROW])
-    return np.int64(0)
-
-
-@inline_function
 def sweep_hit(G, X, o, d, shear, tmin, best_t, prim, b1, b2, stop_at_first, leaving, arriving):
     """The nearest hit in (tmin, best_t) among a swept scene's bounded primitives (module
     docstring), or (best_t, prim, b1, b2) unchanged; with stop_at_first, the first hit found.
@@ -306,7 +305,7 @@ def sweep_hit(G, X, o, d, shear, tmin, best_t, prim, b1, b2, stop_at_first, leav
     otherwise). The same hit as the exact test of every primitive in
     table order (the lowest triangle row on ties)."""
     S = G.sweep
-    mask = sweep_candidates(S, o, d, shear, tmin, best_t) & ~_lane_bit(G, leaving) & ~_lane_bit(G, arriving)
+    mask = sweep_candidates(S, o, d, shear, tmin, best_t, leaving, arriving)
     n_tris = np.int64(G.triangles.shape[0])  # the lanes before the polygons' (sweep_table)
     rest = mask >> n_tris  # candidate polygons' triangles
     mask &= (np.int64(1) << n_tris) - 1
@@ -335,8 +334,6 @@ def sweep_hit(G, X, o, d, shear, tmin, best_t, prim, b1, b2, stop_at_first, leav
         if k == last:  # another triangle of the polygon just tested
             continue
         last = k
-        if k == leaving or k == arriving:  # flat: as the triangles above
-            continue
         t, u, v = intersect(G, X, k, o, d, shear, tmin, best_t)
         if t < best_t:
             best_t, prim, b1, b2 = t, k, u, v
