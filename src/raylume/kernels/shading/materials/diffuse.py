@@ -6,7 +6,7 @@ import math
 import numpy as np
 
 from ...vec import inline_function, kernel_function, mul
-from .lobes import EVALUATE, INV_PI, ZERO, cosine_hemisphere, same_side, side
+from .lobes import INV_PI, ZERO, cosine_hemisphere, same_side, side
 
 NAME = "diffuse"
 KIND = 1
@@ -33,7 +33,10 @@ def evaluate(mat, m, color, wo, wi):
 
 @kernel_function
 def sample(mat, m, color, wo, u0, u1, u2):
-    return side(cosine_hemisphere(u1, u2), math.copysign(1.0, wo[2])), ZERO, EVALUATE, False
+    """The cosine's direction, weighed f cos / pdf = the colour itself, with evaluate's pdf:
+    no second dispatch to evaluate (lobes.py); cos > 0, as sqrt(1 - u1) is for u1 < 1."""
+    wi = side(cosine_hemisphere(u1, u2), math.copysign(1.0, wo[2]))
+    return wi, color, abs(wi[2]) * INV_PI, False
 
 
 @inline_function

@@ -6,7 +6,9 @@ the viewer (the previous path vertex), wi towards the next vertex or the light. 
 without the cosine factor; pdf the solid-angle density with which the kind's `sample` returns
 wi, lobe-selection probabilities included. A kind's `sample` returns (wi, weight, pdf, delta):
 for a delta lobe or a failure the weight and pdf themselves; for any other direction pdf =
-EVALUATE, and registry.bsdf_sample then weighs wi with the kind's `evaluate` (all lobes).
+EVALUATE, and registry.bsdf_sample then weighs wi with the kind's `evaluate` (all lobes), unless
+the kind has one lobe whose weight f cos / pdf it knows in closed form (diffuse: its colour),
+which it returns with its pdf (the same value `evaluate` gives: the chi-square tests check it).
 A failed sample (grazing wo, a direction below the surface) has weight (0, 0, 0) and pdf 0.
 
 Sides. A two-sided kind acts on wo's side, like Mitsuba's `twosided` adapter: it samples on the

@@ -46,8 +46,9 @@ def index_matched(mat, m):
 @inline_function  # one call site (path.py); a call cost ~25 ns a bounce
 def bsdf_sample(mat, m, color, wo, u0, u1, u2):
     """(wi, weight, pdf, delta) of material row m for wo, from uniforms u0 (the lobe), u1, u2
-    (the direction) in [0, 1): a delta lobe as its kind returns it, any other direction
-    weighted f |cos wi| / pdf with the f and pdf of all the kind's lobes (evaluate)."""
+    (the direction) in [0, 1): a delta lobe, or a lobe whose weight the kind knows (diffuse), as
+    its kind returns it, any other direction weighted f |cos wi| / pdf with the f and pdf of all
+    the kind's lobes (evaluate)."""
     if wo[2] == 0.0:
         return FAILED
     wi, w, pdf, delta = sample_lobe(mat, m, color, wo, u0, u1, u2)
