@@ -206,9 +206,6 @@ def _lanes_codegen(context, builder, sig, args):
     def fma(a, b, c):  # a b + c rounded once: within the bound (one rounding, not two)
         return builder.call(vfma, [a, b, c])
 
-    def constant(x):
-        return ir.Constant(v8, [x] * n)
-
     # minps / maxps: one of the two, b where either is NaN: never beyond the others (the tests
     # below stay as conservative as comparing each edge function)
     def smaller(a, b):
