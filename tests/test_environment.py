@@ -806,3 +806,9 @@ def test_the_alias_table_picks_each_cell_with_its_probability():
     np.testing.assert_allclose(got, want / want.sum(), rtol=1e-10, atol=1e-15)
     assert (want[:13] == 0).all() and (got[:13] == 0).all()
     assert ((table[:, 0] >= 0) & (table[:, 0] <= 1)).all()
+    # each slot carries its cell's solid-angle pdf and its alias cell's: P(cell) / the cell's
+    # solid angle, 2 pi / W times the band between the row's polar edges
+    theta = np.linspace(0.0, np.pi, 9 + 1)
+    solid_angle = np.repeat((np.cos(theta[:-1]) - np.cos(theta[1:])) * 2 * np.pi / 13, 13)
+    np.testing.assert_allclose(table[:, 2], want / want.sum() / solid_angle, rtol=1e-12)
+    np.testing.assert_array_equal(table[:, 3], table[table[:, 1].astype(int), 2])

@@ -86,7 +86,8 @@ class Environment(NamedTuple):
     marginal_cdf: np.ndarray  # float64 (H + 1,): P(row < i); 0 first, exactly 1 last
     conditional_cdf: np.ndarray  # float64 (H, W + 1): P(column < j | row i); 0 first, exactly 1 last
     # Walker's alias table over the H x W cells with the same probabilities (alias_table): per
-    # cell k, float64 (threshold, alias cell): a sample picks one cell in one step
+    # slot k, float64 (threshold, alias cell, cell k's pdf, the alias cell's pdf): a sample picks
+    # one cell in one step, its pdf with it; column 2 is also environment_pdf's table
     alias: np.ndarray
     # float64 (H + 1,): cos(pi i / H), the rows' edges in cos theta (row_edges): the cells' solid
     # angles and the samples read them, so the kernels call no cos
@@ -196,12 +197,7 @@ def _pdf_at(E, u, v):
     w = E.image.shape[1]
     i = min(max(int(v * h), 0), h - 1)
     j = min(max(int(u * w), 0), w - 1)
-    p_row = E.marginal_cdf[i + 1] - E.marginal_cdf[i]
-    p_col = E.conditional_cdf[i, j + 1] - E.conditional_cdf[i, j]
-    area = (E.row_z[i] - E.row_z[i + 1]) * (TWO_PI / w)
-    if area <= 0.0:
-        return 0.0
-    return p_row * p_col / area
+    return E.alias[i * w + j, 2]  # the cell's pdf (alias_table)
 
 
 @inline_function
@@ -236,20 +232,16 @@ def sample_environment(E, u1, u2):
     # frac < threshold was mispredicted about as often as not)
     above = int(frac >= threshold)
     cell = element((k, int(E.alias[k, 1])), above)
+    pdf = element((E.alias[k, 2], E.alias[k, 3]), above)  # the cell's, from the same slot
     dv = (frac - element((0.0, threshold), above)) / element((threshold, 1.0 - threshold), above)
+    if not pdf > 0.0:
+        return (0.0, 0.0, 1.0), (0.0, 0.0, 0.0), 0.0
     i = cell // w
     j = cell - i * w
-    p_row = E.marginal_cdf[i + 1] - E.marginal_cdf[i]
-    p_col = E.conditional_cdf[i, j + 1] - E.conditional_cdf[i, j]
-    if p_row <= 0.0 or p_col <= 0.0:
-        return (0.0, 0.0, 1.0), (0.0, 0.0, 0.0), 0.0
     dv = min(max(dv, 0.0), 1.0)
     du = u2
     z0 = E.row_z[i]
     z1 = E.row_z[i + 1]
-    area = (z0 - z1) * (TWO_PI / w)
-    if area <= 0.0:
-        return (0.0, 0.0, 1.0), (0.0, 0.0, 0.0), 0.0
     cos_theta = min(1.0, max(-1.0, z0 - (z0 - z1) * dv))
     sin_theta = math.sqrt(max(0.0, 1.0 - cos_theta * cos_theta))
     u = (j + du) / w
@@ -266,7 +258,7 @@ def sample_environment(E, u1, u2):
         rgb = (float(E.image[0, 0, 0]), float(E.image[0, 0, 1]), float(E.image[0, 0, 2]))
     else:
         rgb = _bilinear(E.image, u, acos(cos_theta) / PI)
-    return d, rgb, p_row * p_col / area
+    return d, rgb, pdf
 
 
 # ---------------------------------------------------------------------------------------------
@@ -280,7 +272,7 @@ def no_environment() -> Environment:
         image=np.zeros((1, 1, 3), dtype=np.float32),
         marginal_cdf=np.array([0.0, 1.0]),
         conditional_cdf=np.array([[0.0, 1.0]]),
-        alias=np.array([[1.0, 0.0]]),
+        alias=np.array([[1.0, 0.0, 0.0, 0.0]]),
         row_z=row_edges(1),
         rotation=np.eye(3),
         present=False,
@@ -369,12 +361,21 @@ def sampling_tables(image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def alias_table(marginal: np.ndarray, conditional: np.ndarray) -> np.ndarray:
     """Walker's alias table (Vose's construction) of the cells' probabilities P(row i) P(column j
-    | row i), row-major: float64 (H W, 2), per cell its threshold and its alias cell. A sample
-    u in [0, 1) picks slot k = floor(u H W); the cell is k if the remainder is below k's
-    threshold, else k's alias: each cell is picked with exactly its probability (up to
-    rounding), cells of probability 0 never."""
-    p = (np.diff(marginal)[:, None] * np.diff(conditional, axis=1)).ravel()
-    return _vose(p / p.sum())
+    | row i), row-major: float64 (H W, 4), per slot k its threshold, its alias cell, cell k's
+    solid-angle pdf and the alias cell's. A sample u in [0, 1) picks slot k = floor(u H W); the
+    cell is k if the remainder is below k's threshold, else k's alias: each cell is picked with
+    exactly its probability (up to rounding), cells of probability 0 never. The pdfs come with
+    the slot (no second lookup of the cdfs, a cache miss, for a sample), and column 2 is every
+    cell's pdf for environment_pdf, so that a sample and a lookup of its direction agree to the
+    bit (MIS)."""
+    h, w = len(marginal) - 1, conditional.shape[1] - 1
+    p_cells = np.diff(marginal)[:, None] * np.diff(conditional, axis=1)
+    z = row_edges(h)
+    area = ((z[:-1] - z[1:]) * (TWO_PI / w))[:, None]
+    pdf = np.divide(p_cells, area, out=np.zeros_like(p_cells), where=area > 0.0).ravel()
+    p = p_cells.ravel()
+    slots = _vose(p / p.sum())
+    return np.column_stack([slots, pdf, pdf[slots[:, 1].astype(np.int64)]])
 
 
 @njit(cache=True)
