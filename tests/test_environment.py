@@ -26,6 +26,7 @@ from raylume.kernels.shading.environment import (
     environment_radiance_pdf,
     no_environment,
     sample_environment,
+    sampling_tables,
 )
 from raylume.scene.mesh import transform_matrix
 
@@ -446,7 +447,8 @@ def test_cell_weights_are_the_lookups_integral_over_each_cell(tmp_path, shape):
     np.testing.assert_allclose(cell_means_numeric(img, solid_angle=False), blur, rtol=1e-12)
 
     E = env_from(img, tmp_path)
-    prob = np.diff(E.marginal_cdf)[:, None] * np.diff(E.conditional_cdf, axis=1)
+    marginal, conditional = sampling_tables(E.image)
+    prob = np.diff(marginal)[:, None] * np.diff(conditional, axis=1)
     z = np.cos(np.pi * np.arange(h + 1) / h)
     area = (z[:-1] - z[1:])[:, None] * np.full(w, 2 * np.pi / w)[None, :]
     integral = cell_means_numeric(img, n=128) * area  # midpoint rule in theta: error ~1e-6

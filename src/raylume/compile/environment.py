@@ -74,9 +74,8 @@ def build_environment(
     if not np.all(scaled <= np.finfo(np.float32).max):
         fail("intensity", f"{intensity!r} times the image's brightest texel overflows float32")
     image = np.ascontiguousarray(scaled, dtype=np.float32)
-    marginal, conditional = sampling_tables(image)
-    alias = alias_table(marginal, conditional)
-    return Environment(image, marginal, conditional, alias, row_edges(image.shape[0]), rotation, True)
+    alias = alias_table(*sampling_tables(image))
+    return Environment(image, alias, row_edges(image.shape[0]), rotation, True)
 
 
 def _finite_number(value) -> float | None:

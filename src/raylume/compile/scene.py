@@ -109,8 +109,6 @@ def _compile_scene(scene: Scene, source: str, accelerate: bool) -> CompiledScene
         environment_row=lights.environment_row,
         ambient_row=lights.ambient_row,
         env_image=environment.image,
-        env_marginal_cdf=environment.marginal_cdf,
-        env_conditional_cdf=environment.conditional_cdf,
         env_alias=environment.alias,
         env_row_z=environment.row_z,
         env_rotation=environment.rotation,

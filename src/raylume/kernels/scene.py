@@ -46,8 +46,6 @@ class KernelScene(NamedTuple):
     # the environment (environment.py's Environment, flattened: parallel kernels take no
     # nested tuples)
     env_image: np.ndarray
-    env_marginal_cdf: np.ndarray
-    env_conditional_cdf: np.ndarray
     env_alias: np.ndarray
     env_row_z: np.ndarray
     env_rotation: np.ndarray
@@ -210,8 +208,6 @@ def emitters_of(S):
 def environment_of(S):
     return Environment(
         S.env_image,
-        S.env_marginal_cdf,
-        S.env_conditional_cdf,
         S.env_alias,
         S.env_row_z,
         S.env_rotation,

@@ -77,17 +77,16 @@ from ..vec import acos, atan2, element, inline_function, kernel_function, turn
 
 PI = math.pi
 TWO_PI = 2.0 * math.pi
-# Largest float64 below 1: random numbers are clamped to it so the CDF search stays in range.
+# Largest float64 below 1: random numbers are clamped to it so the alias slot stays in range.
 ONE_MINUS_EPSILON = 1.0 - 2.0**-53
 
 
 class Environment(NamedTuple):
     image: np.ndarray  # float32 (H, W, 3) linear radiance, intensity applied; (1, 1, 3) for a constant colour
-    marginal_cdf: np.ndarray  # float64 (H + 1,): P(row < i); 0 first, exactly 1 last
-    conditional_cdf: np.ndarray  # float64 (H, W + 1): P(column < j | row i); 0 first, exactly 1 last
-    # Walker's alias table over the H x W cells with the same probabilities (alias_table): per
-    # slot k, float64 (threshold, alias cell, cell k's pdf, the alias cell's pdf): a sample picks
-    # one cell in one step, its pdf with it; column 2 is also environment_pdf's table
+    # Walker's alias table over the H x W cells with the probabilities of sampling_tables' cdfs
+    # (alias_table; the kernels read no cdf): per slot k, float64 (threshold, alias cell, cell
+    # k's pdf, the alias cell's pdf): a sample picks one cell in one step, its pdf with it;
+    # column 2 is also environment_pdf's table
     alias: np.ndarray
     # float64 (H + 1,): cos(pi i / H), the rows' edges in cos theta (row_edges): the cells' solid
     # angles and the samples read them, so the kernels call no cos
@@ -270,8 +269,6 @@ def no_environment() -> Environment:
     kernels compile once for both)."""
     return Environment(
         image=np.zeros((1, 1, 3), dtype=np.float32),
-        marginal_cdf=np.array([0.0, 1.0]),
-        conditional_cdf=np.array([[0.0, 1.0]]),
         alias=np.array([[1.0, 0.0, 0.0, 0.0]]),
         row_z=row_edges(1),
         rotation=np.eye(3),
