@@ -67,8 +67,10 @@ def candidate_rows(table, o, d, tmin, tmax) -> set[int]:
 
 def scene_and_ray(seed: int, n: int, scale_exp: int, shift_exp: int, how: str, finite: bool):
     """n triangles, a fan sharing vertices and edges, at a scale and an offset from the origin
-    (where float32 loses the most), and a ray: at random, aimed at a vertex or an edge of one of
-    them, or leaving one of them as a path does (offset to the side it goes to)."""
+    (where float32 loses the most), and a ray (o, d, tmin, tmax): at random, aimed at a vertex or
+    an edge of one of them, or leaving one of them as a path does (offset to the side it goes
+    to); its span ending a hair beyond or before its nearest hit ("up to"), or starting a hair
+    before it ("from")."""
     rng = np.random.default_rng(seed)
     scale = 10.0**scale_exp
     shift = rng.uniform(-1, 1, 3) * scale * 10.0**shift_exp
@@ -78,7 +80,7 @@ def scene_and_ray(seed: int, n: int, scale_exp: int, shift_exp: int, how: str, f
     tris = (tris * scale + np.tile(shift, 3)).astype(np.float32)
     v = tris[int(rng.integers(n))].astype(np.float64).reshape(3, 3)
     o = shift + rng.uniform(-3, 3, 3) * scale
-    if how in ("vertex", "up to"):
+    if how in ("vertex", "up to", "from"):
         d = v[int(rng.integers(3))] - o
     elif how == "edge":
         a = rng.uniform()
@@ -93,16 +95,18 @@ def scene_and_ray(seed: int, n: int, scale_exp: int, shift_exp: int, how: str, f
             side = -side
         o = p + ng / np.linalg.norm(ng) * offset_epsilon(0.0, tuple(p)) * side
     d = d / np.linalg.norm(d)
-    tmax = float(rng.uniform(0, 5) * scale) if finite else INF
-    if how == "up to":  # tmax a hair beyond or before the nearest exact hit
+    tmin, tmax = 0.0, float(rng.uniform(0, 5) * scale) if finite else INF
+    if how in ("up to", "from"):
         hits = [intersect_triangle(tuple(o), ray_shear(tuple(d)), tris, r, 0.0, INF)[0] for r in range(n)]
         t = min(hits)
-        if t < INF:
+        if t < INF and how == "up to":  # tmax a hair beyond or before the nearest exact hit
             tmax = float(np.nextafter(t, INF if finite else 0.0))
-    return tris, o, d, tmax
+        elif t < INF:  # tmin a hair before it (the near end of the span at the hit)
+            tmin = float(np.nextafter(t, 0.0))
+    return tris, o, d, tmin, tmax
 
 
-HOWS = ["random", "vertex", "edge", "leaving", "arriving", "up to"]
+HOWS = ["random", "vertex", "edge", "leaving", "arriving", "up to", "from"]
 
 
 @settings(max_examples=400, deadline=None)
@@ -115,8 +119,8 @@ HOWS = ["random", "vertex", "edge", "leaving", "arriving", "up to"]
     st.booleans(),
 )
 def test_every_triangle_the_exact_test_hits_is_a_candidate(seed, n, scale_exp, shift_exp, how, finite):
-    tris, o, d, tmax = scene_and_ray(seed, n, scale_exp, shift_exp, how, finite)
-    assert exact_hits(tris, o, d, 0.0, tmax) <= candidate_rows(triangle_table(tris), o, d, 0.0, tmax)
+    tris, o, d, tmin, tmax = scene_and_ray(seed, n, scale_exp, shift_exp, how, finite)
+    assert exact_hits(tris, o, d, tmin, tmax) <= candidate_rows(triangle_table(tris), o, d, tmin, tmax)
 
 
 def test_many_rays_hit_and_are_candidates():
@@ -132,9 +136,9 @@ def test_many_rays_hit_and_are_candidates():
             HOWS[k % len(HOWS)],
             k % 4 == 0,
         )
-        tris, o, d, tmax = case
-        hits = exact_hits(tris, o, d, 0.0, tmax)
-        assert hits <= candidate_rows(triangle_table(tris), o, d, 0.0, tmax), k
+        tris, o, d, tmin, tmax = case
+        hits = exact_hits(tris, o, d, tmin, tmax)
+        assert hits <= candidate_rows(triangle_table(tris), o, d, tmin, tmax), k
         hit += bool(hits)
     assert hit > 1000
 
@@ -159,7 +163,7 @@ def test_the_distance_leaves_out_what_lies_just_beyond_the_ray():
     rng = np.random.default_rng(3)
     checked = 0
     for seed in range(300):
-        tris, _, _, _ = scene_and_ray(seed, 12, int(rng.integers(-2, 4)), int(rng.integers(0, 3)), "random", False)
+        tris, *_ = scene_and_ray(seed, 12, int(rng.integers(-2, 4)), int(rng.integers(0, 3)), "random", False)
         row = int(rng.integers(len(tris)))
         v = tris[row].astype(np.float64).reshape(3, 3)
         target = rng.dirichlet((1, 1, 1)) @ v

@@ -32,21 +32,26 @@ rounding where the bound counts two, so they are within it (a quarter less arith
 than separate operations). The edge functions' signs are tested on their least and greatest
 (selects that return one of them, so no test is less conservative than comparing each).
 
-The distance is taken from each lane's plane (rows SWEEP_PLANE: a unit normal n and k = n . v0,
+The distance is taken from each lane's plane (rows SWEEP_PLANE: a unit normal n and c = -n . v0,
 computed in float64 from the float32 vertices and rounded once), not from the edge functions,
 whose numerator and determinant are bounded only in R (the Cornell box's ceiling, 0.1 above its
-light, was a candidate of every shadow ray with those bounds: 2^-6 R = 17 there). With D = max
-|d_i|, f(t) = n . (o + t d) - k = a + t b, computed by fused multiply-adds from float32 o and d,
-is within 16.4 u R + 7 u D |t| of the true plane's value at any point of the lane's triangle:
-the rounding of n (u |x - v0|_1 <= 6 u R), of k (sqrt 3 u R), of a polygon's corners (sqrt 3 u
-R), of o and d (sqrt 3 u each), and of the three fused multiply-adds of a (3 sqrt 3 u R) and of
-b (3 sqrt 3 u D). So the exact test's distance lies within (16.4 u R + 7 u D |t|) / |b| of
--a / b, |b| >= SWEEP_STEEP D making the |t| on either side the same to 0.1%; SWEEP_PLANE_BOUND,
-2^-17 (R + D |t|), is about eight times that, and covers the roundings of the test itself
-((t - tmin) |b| against the bound: no division). A lane with |b| below SWEEP_STEEP D (a ray
-along its plane, or a degenerate triangle's zero normal) keeps its distance unknown. A lane is a
-candidate unless its edge functions have opposite signs beyond their bound or its distance is
-known and lies outside (tmin, tmax) by more than the bound.
+light, was a candidate of every shadow ray with those bounds: 2^-6 R = 17 there). The plane
+function g(x) = n . x + c is evaluated at the two ends of the ray's span, p0 = o + tmin d and
+p1 = o + far d, far = min(tmax, 2 R / D) with D = max |d_i| (no point of any lane lies farther
+along the ray: |x - o| <= sqrt 3 R and |d| >= D), each point computed in float64 and rounded
+once, g by three fused multiply-adds. At the exact test's hit point x* (on the exact primitive)
+|g(x*)| <= 9.4 u R: the rounding of n (u |x - v0|_1 <= 6 u R), of c (sqrt 3 u R) and of a
+polygon's corners (sqrt 3 u R). g computed at p = o + t d is within 12.1 u R + 6.9 u D |t| of g
+exact there: p's rounding (sqrt 3 u (R + D |t|)) and the three fused multiply-adds (3 sqrt 3 u
+(2 R + D |t|)). g is linear along the ray, so where both ends exceed the bound E =
+SWEEP_PLANE_BOUND (R + D T) on the same side, T = max(|tmin|, far), g keeps that sign over the
+whole span by more than 9.4 u R and the plane is crossed outside it: E is about six times the
+21.5 u R + 6.9 u D T that needs, and its margin (~100 u R of g) is far beyond the exact test's
+own float64 rounding of the distance. A ray along the plane needs no special case (both ends
+have the same sign), and a degenerate triangle's zero normal gives g = 0 (a candidate). A lane
+is a candidate unless its edge functions have opposite signs beyond their bound or its plane
+function is beyond E with one sign at both ends of the span; unused lanes have n = 0 and c =
+inf, and never are (but for a ray with a NaN, whose every comparison fails).
 """
 
 import numpy as np
@@ -70,11 +75,10 @@ SWEEP_OTHERS = 8  # bounded primitives other than triangles and quads a swept sc
 # polygons follow (a quad's two, exactly the parallelogram, rounded to float32: the bound allows
 # for that rounding), their candidates tested by the shape's own test.
 SWEEP_MAGNITUDE, SWEEP_PRIM, SWEEP_OTHER = 9, 10, 11
-SWEEP_PLANE = 12  # rows 12 .. 15: each lane's plane, a unit normal n and n . v0 (float32)
+SWEEP_PLANE = 12  # rows 12 .. 15: each lane's plane, a unit normal n and c = -n . v0 (float32)
 SWEEP_ROWS = 16
 SWEEP_TOLERANCE = 2.0**-16  # times R^2: the edge functions' error bound, with margin
-SWEEP_PLANE_BOUND = 2.0**-17  # times (R + D |t|): the plane function's error bound, about 8x
-SWEEP_STEEP = 2.0**-8  # times D: |n . d| below it leaves the distance uncertain
+SWEEP_PLANE_BOUND = 2.0**-17  # times (R + D T): the plane function's bound at the span's ends, ~6x
 
 
 def sweep_table(
@@ -108,20 +112,22 @@ def sweep_table(
     table[SWEEP_PRIM, n_tris:lanes] = polygons
     table[SWEEP_OTHER] = -1.0
     table[SWEEP_OTHER, : len(others)] = others
+    # unused lanes: n = 0 and c = inf, a plane function positive everywhere
+    table[SWEEP_PLANE + 3] = np.inf
     table[SWEEP_PLANE : SWEEP_PLANE + 4, :lanes] = lane_planes(lane_tris).T
     return table
 
 
 def lane_planes(triangles: np.ndarray) -> np.ndarray:
-    """float32 (n, 4): each float32 triangle's unit normal and its offset n . v0, from float64
-    arithmetic on the vertices, each rounded once (zero for a degenerate triangle: its
-    distance then stays uncertain)."""
+    """float32 (n, 4): each float32 triangle's plane n . x + c = 0, its unit normal n and c = -n .
+    v0, from float64 arithmetic on the vertices, each rounded once (zero for a degenerate
+    triangle: its plane function is then 0 everywhere, within every bound)."""
     v = np.asarray(triangles, np.float64).reshape(-1, 3, 3)
     n = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])
     length = np.linalg.norm(n, axis=1)
     n = np.divide(n, length[:, None], out=np.zeros_like(n), where=length[:, None] > 0.0).astype(np.float32)
-    k = np.einsum("ij,ij->i", n.astype(np.float64), v[:, 0])
-    return np.column_stack([n, k]).astype(np.float32)
+    c = -np.einsum("ij,ij->i", n.astype(np.float64), v[:, 0])
+    return np.column_stack([n, c]).astype(np.float32)
 
 
 def _lanes_codegen(context, builder, sig, args):
@@ -134,17 +140,18 @@ def _lanes_codegen(context, builder, sig, args):
     table_t, o_t, d_t, shear_t, tmin_t, tmax_t, leaving_t, arriving_t = sig.args
     table = context.make_array(table_t)(context, builder, args[0])
 
-    def floats(value, tuple_t):
+    def doubles(value, tuple_t):
         return [
-            builder.fptrunc(context.cast(builder, x, t, types.float64), f32)
+            context.cast(builder, x, t, types.float64)
             for x, t in zip(cgutils.unpack_tuple(builder, value, 3), tuple_t, strict=True)
         ]
+
+    def floats(value, tuple_t):
+        return [builder.fptrunc(x, f32) for x in doubles(value, tuple_t)]
 
     sh = cgutils.unpack_tuple(builder, args[3], 6)
     kx, ky, kz = (context.cast(builder, sh[i], shear_t[i], types.int64) for i in range(3))
     sx, sy = (builder.fptrunc(context.cast(builder, sh[3 + i], shear_t[3 + i], types.float64), f32) for i in range(2))
-    tmin = builder.fptrunc(context.cast(builder, args[4], tmin_t, types.float64), f32)
-    tmax = builder.fptrunc(context.cast(builder, args[5], tmax_t, types.float64), f32)
     # IEEE arithmetic: no contraction, no reassociation (the bound assumes it)
     fadd, fsub, fmul, lt = exact_ops(builder)
 
@@ -152,7 +159,6 @@ def _lanes_codegen(context, builder, sig, args):
         return builder.shuffle_vector(builder.insert_element(undef, x, ir.Constant(i32, 0)), undef, zeros)
 
     fabs = cgutils.get_or_insert_function(builder.module, ir.FunctionType(f32, [f32]), "llvm.fabs.f32")
-    vabs = cgutils.get_or_insert_function(builder.module, ir.FunctionType(v8, [v8]), "llvm.fabs.v8f32")
     o, d = floats(args[1], o_t), floats(args[2], d_t)
 
     def largest_magnitude(xs):
@@ -189,18 +195,32 @@ def _lanes_codegen(context, builder, sig, args):
     r2 = fmul(r, r)
     tol = splat(fmul(r2, ir.Constant(f32, SWEEP_TOLERANCE)))
     ntol = builder.fneg(tol)
-    bound_r = splat(fmul(r, ir.Constant(f32, SWEEP_PLANE_BOUND)))
-    bound_t = splat(fmul(dmax, ir.Constant(f32, SWEEP_PLANE_BOUND)))
-    steep = splat(fmul(dmax, ir.Constant(f32, SWEEP_STEEP)))
-    vtmin, vtmax = splat(tmin), splat(tmax)
+    # The plane function at the ends of the ray's span (tmin, far), far = min(tmax, 2 R / D): no
+    # triangle point lies farther along the ray (module docstring). Per ray in float64, each
+    # point rounded once.
+    f64 = ir.DoubleType()
+    o64, d64 = doubles(args[1], o_t), doubles(args[2], d_t)
+    tmin64 = context.cast(builder, args[4], tmin_t, types.float64)
+    tmax64 = context.cast(builder, args[5], tmax_t, types.float64)
+    r64, dmax64 = builder.fpext(r, f64), builder.fpext(dmax, f64)
+    reach = builder.fdiv(fmul(ir.Constant(f64, 2.0), r64), dmax64, flags=EXACT)
+    far = builder.select(lt(tmax64, reach), tmax64, reach)
+    fabs64 = cgutils.get_or_insert_function(builder.module, ir.FunctionType(f64, [f64]), "llvm.fabs.f64")
+    abs_tmin = builder.call(fabs64, [tmin64])
+    longest = builder.select(lt(far, abs_tmin), abs_tmin, far)
+    bound = splat(builder.fptrunc(fmul(ir.Constant(f64, SWEEP_PLANE_BOUND), fadd(r64, fmul(dmax64, longest))), f32))
+    nbound = builder.fneg(bound)
+
+    def point(t):
+        return [splat(builder.fptrunc(fadd(oi, fmul(t, di)), f32)) for oi, di in zip(o64, d64, strict=True)]
+
+    near_point, far_point = point(tmin64), point(far)
     # the primitives a ray leaves and arrives at, as the table's float32 primitive row has them
     ends = [
         splat(builder.sitofp(context.cast(builder, args[i], t, types.int64), f32))
         for i, t in ((6, leaving_t), (7, arriving_t))
     ]
-    world_o, world_d = [splat(x) for x in o], [splat(x) for x in d]
     plane_offsets = [builder.mul(ir.Constant(i64, SWEEP_PLANE + i), stride) for i in range(4)]
-    zero = ir.Constant(v8, [0.0] * n)
     vfma = cgutils.get_or_insert_function(builder.module, ir.FunctionType(v8, [v8, v8, v8]), "llvm.fma.v8f32")
 
     def fma(a, b, c):  # a b + c rounded once: within the bound (one rounding, not two)
@@ -238,22 +258,18 @@ def _lanes_codegen(context, builder, sig, args):
         neg = lt(smaller(smaller(u, v), w), ntol)
         pos = lt(tol, larger(larger(u, v), w))
         inside = builder.not_(builder.and_(neg, pos))
-        # the distance from the lane's plane: f(t) = n . (o + t d) - k = a + t b
-        nx, ny, nz, k = (load(off) for off in plane_offsets)
-        a = fma(nx, world_o[0], fma(ny, world_o[1], fma(nz, world_o[2], builder.fneg(k))))
-        b = fma(nx, world_d[0], fma(ny, world_d[1], fmul(nz, world_d[2])))
-        t = builder.fdiv(builder.fneg(a), b, flags=EXACT)
-        abs_b = builder.call(vabs, [b])
-        known = lt(steep, abs_b)  # else the distance may be anywhere (NaN: unknown)
-        bound = fma(builder.call(vabs, [t]), bound_t, bound_r)  # f's error bound near t, with margin
-        after_start = fmul(fsub(t, vtmin), abs_b)  # (t - tmin) |b|: no division
-        after_end = fmul(fsub(t, vtmax), abs_b)
-        outside = builder.or_(lt(after_start, builder.fneg(bound)), lt(bound, after_end))
-        candidate = builder.and_(inside, builder.not_(builder.and_(known, outside)))
+        # the plane function n . x + c (c = -n . v0) at the span's ends: beyond the bound and of
+        # one sign at both, the plane is crossed outside the span (any NaN: a candidate; unused
+        # lanes, n = 0 and c = inf, never are)
+        nx, ny, nz, c = (load(off) for off in plane_offsets)
+        f0 = fma(nx, near_point[0], fma(ny, near_point[1], fma(nz, near_point[2], c)))
+        f1 = fma(nx, far_point[0], fma(ny, far_point[1], fma(nz, far_point[2], c)))
+        above = builder.and_(lt(bound, f0), lt(bound, f1))
+        below = builder.and_(lt(f0, nbound), lt(f1, nbound))
+        candidate = builder.and_(inside, builder.not_(builder.or_(above, below)))
         prims = load(prim_offset)
-        used = builder.fcmp_ordered(">=", prims, zero)
         an_end = builder.or_(*(builder.fcmp_ordered("==", prims, end) for end in ends))
-        candidate = builder.and_(candidate, builder.and_(used, builder.not_(an_end)))
+        candidate = builder.and_(candidate, builder.not_(an_end))
         bits = builder.zext(builder.bitcast(candidate, ir.IntType(n)), i64)
         mask = builder.or_(mask, builder.shl(bits, ir.Constant(i64, n * g)))
     return mask
@@ -328,6 +344,8 @@ def sweep_hit(G, X, o, d, shear, tmin, best_t, prim, b1, b2, stop_at_first, leav
         lane = n_tris + _lowest_bit(rest)
         rest &= rest - 1
         k = np.int64(S[SWEEP_PRIM, lane])
+        if k < 0:  # the unused lanes after the polygons' (a candidate only for a ray with a NaN)
+            break
         if k == last:  # another triangle of the polygon just tested
             continue
         last = k
