@@ -51,7 +51,7 @@ def triangle_table(tris: np.ndarray) -> np.ndarray:
 @njit
 def _candidates(table, o, d, tmin, tmax):
     o, d = (o[0], o[1], o[2]), (d[0], d[1], d[2])
-    return sweep_candidates(table, o, d, ray_shear(d), tmin, tmax, NO_HIT, NO_HIT)
+    return sweep_candidates(table, o, d, tmin, tmax, NO_HIT, NO_HIT)
 
 
 def exact_hits(tris, o, d, tmin, tmax) -> set[int]:

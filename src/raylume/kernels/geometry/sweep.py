@@ -6,9 +6,11 @@ bounded primitives spends most of a ray's time in the BVH's bookkeeping: one nod
 of the leaves it enters, two or three leaf tests that each wait for the last one's distance.
 `sweep_hit` instead tests all the triangles (SWEEP_LANES) as four groups of eight float32 lanes, independent
 of each other (no distance carried from one to the next), in a conservative form of the
-watertight test (Woop, Benthin and Wald 2013): each edge function may be off by at most its
-rounding error bound, so a lane counts as a candidate unless its edge functions are of opposite
-signs beyond that bound or its distance, from its plane, lies certainly outside (tmin, tmax).
+watertight test (Woop, Benthin and Wald 2013): which side of each edge the ray passes, as the sign
+of the permuted inner product of the ray's and the edge's Plücker coordinates (the watertight
+test's sheared edge functions times -d_k, d_k the ray's largest direction component), may be off by at
+most its rounding error bound, so a lane counts as a candidate unless two of its edges' sides are
+of opposite signs beyond that bound or the ray's span lies certainly on one side of its plane.
 Every triangle the exact float64 test hits is a candidate (the bounds are derived below and
 checked by tests/test_sweep.py against the exact test on adversarial rays); a ray has one to
 three candidates in a closed box (its hit, what lies beyond it along an edge), and those go
@@ -20,17 +22,24 @@ would otherwise be a candidate of every such ray. Flat polygons (quads) take lan
 exact triangles (shapes.exact_triangles), their candidates tested by the shape's own test; the
 scene's other bounded primitives (at most SWEEP_OTHERS) by theirs, for every ray.
 
-The bound. With R = max |vertex coordinate| + max |origin coordinate| (over all the table's
-lanes, and the ray; per lane would be tighter, but one R a ray saves each lane five
-instructions), the float32 coordinates relative to the origin are off by at most 2 u R (u = 2^-24: the
-origin's and the difference's roundings; 3 u R for a polygon's triangles, whose corners are
-rounded to float32 too, which the margins below absorb), the sheared ones (|s| <= 1, so |x'| <= 2 R) by at
-most 7 u R, the products of an edge function (<= 4 R^2) by 32 u R^2 each with their rounding,
-and the edge function by 72 u R^2 < 2^-17.8 R^2. SWEEP_TOLERANCE is 2^-16 R^2: 3.5 times that.
-The shears and the edge functions' differences of products are fused multiply-adds: one
-rounding where the bound counts two, so they are within it (a quarter less arithmetic a lane
-than separate operations). The edge functions' signs are tested on their least and greatest
-(selects that return one of them, so no test is less conservative than comparing each).
+The bound. With R = M + max |origin coordinate|, M = max |vertex coordinate| over all the table's
+lanes (per lane would be tighter, but one R a ray saves each lane instructions), and D = max
+|d_i|, an edge from p to q has the side d . m + e . w of the ray (o, d): m = p x q and e = q - p
+are the table's (rows SWEEP_EDGES, lane_edges: float64 from the float32 vertices, each rounded
+once, so off by u |m_j| and u |e_j|, u = 2^-24), w = o x d is the ray's moment (float64, rounded
+once) and d is rounded to float32: each product off by 2 u of its size. The six terms are summed
+by one product and five fused multiply-adds, each rounding within u of the sum of the terms'
+sizes, T = sum |d_j| |m_j| + sum |e_j| |w_j| <= 6 D M^2 + 12 D M max|o| <= 6 D R^2 (|m_j| <= 2
+M^2, |e_j| <= 2 M, |w_j| <= 2 max|o| D). So a side is within 8 u T <= 48 u D R^2 = 2^-18.4 D R^2
+of its exact value for the lane's triangle; a polygon's triangles, whose corners are rounded to
+float32 too, move it by at most 12 u D R^2 more. SWEEP_TOLERANCE is 2^-16 D R^2, ~4x the sum.
+The exact test hits only where its float64 sheared edge functions, the exact sides over -d_k to
+within float64 rounding, have no two of opposite signs, so every such lane is inside. The sides'
+signs are tested on their least and greatest (selects that return one of them, so no test is
+less conservative than comparing each). Against the sheared edge functions of the first version
+(the vertices relative to the origin, sheared, three differences of products: 30 instructions a
+group) the Plücker form is 18 (six fused multiply-adds an edge, the table's rows as memory
+operands) and needs no shear: the mask ~36 ns a ray against ~41.
 
 The distance is taken from each lane's plane (rows SWEEP_PLANE: a unit normal n and c = -n . v0,
 computed in float64 from the float32 vertices and rounded once), not from the edge functions,
@@ -74,10 +83,11 @@ SWEEP_OTHERS = 8  # bounded primitives other than triangles and quads a swept sc
 # scene has no instances, so its triangle table is its T triangles alone); the triangles of flat
 # polygons follow (a quad's two, exactly the parallelogram, rounded to float32: the bound allows
 # for that rounding), their candidates tested by the shape's own test.
-SWEEP_MAGNITUDE, SWEEP_PRIM, SWEEP_OTHER = 9, 10, 11
-SWEEP_PLANE = 12  # rows 12 .. 15: each lane's plane, a unit normal n and c = -n . v0 (float32)
-SWEEP_ROWS = 16
-SWEEP_TOLERANCE = 2.0**-16  # times R^2: the edge functions' error bound, with margin
+SWEEP_EDGES = 0  # rows 0 .. 17: each lane's three edges, moment and direction (lane_edges)
+SWEEP_MAGNITUDE, SWEEP_PRIM, SWEEP_OTHER = 18, 19, 20
+SWEEP_PLANE = 21  # rows 21 .. 24: each lane's plane, a unit normal n and c = -n . v0 (float32)
+SWEEP_ROWS = 25
+SWEEP_TOLERANCE = 2.0**-16  # times D R^2: the edges' sides' error bound, ~5x
 SWEEP_PLANE_BOUND = 2.0**-17  # times (R + D T): the plane function's bound at the span's ends, ~6x
 
 
@@ -105,7 +115,7 @@ def sweep_table(
         return np.zeros((SWEEP_ROWS, 0), np.float32)
     lane_tris = np.concatenate([tri] + [h.astype(np.float32) for h in halves])
     table = np.zeros((SWEEP_ROWS, SWEEP_LANES), np.float32)
-    table[:9, :lanes] = lane_tris.T
+    table[:SWEEP_MAGNITUDE, :lanes] = lane_edges(lane_tris).T
     table[SWEEP_MAGNITUDE] = np.abs(lane_tris).max()  # exact: |x| of a float32 is one
     table[SWEEP_PRIM] = -1.0
     table[SWEEP_PRIM, prims[:n_bounded, PRIM_ROW][is_tri]] = np.flatnonzero(is_tri)
@@ -116,6 +126,15 @@ def sweep_table(
     table[SWEEP_PLANE + 3] = np.inf
     table[SWEEP_PLANE : SWEEP_PLANE + 4, :lanes] = lane_planes(lane_tris).T
     return table
+
+
+def lane_edges(triangles: np.ndarray) -> np.ndarray:
+    """float32 (n, 18): each float32 triangle's edges v0 v1, v1 v2, v2 v0 (p to q) in Plücker
+    coordinates, their moment p x q and direction q - p, from float64 arithmetic on the
+    vertices, each rounded once."""
+    v = np.asarray(triangles, np.float64).reshape(-1, 3, 3)
+    p, q = v, np.roll(v, -1, axis=1)
+    return np.concatenate([np.cross(p, q), q - p], axis=2).reshape(-1, 18).astype(np.float32)
 
 
 def lane_planes(triangles: np.ndarray) -> np.ndarray:
@@ -131,14 +150,16 @@ def lane_planes(triangles: np.ndarray) -> np.ndarray:
 
 
 def _lanes_codegen(context, builder, sig, args):
-    f32, i32, i64 = ir.FloatType(), ir.IntType(32), ir.IntType(64)
+    f32, f64, i32, i64 = ir.FloatType(), ir.DoubleType(), ir.IntType(32), ir.IntType(64)
     n = 8
     v8 = ir.VectorType(f32, n)
     vi = ir.VectorType(i32, n)
     undef = ir.Constant(v8, ir.Undefined)
     zeros = ir.Constant(vi, [0] * n)
-    table_t, o_t, d_t, shear_t, tmin_t, tmax_t, leaving_t, arriving_t = sig.args
+    table_t, o_t, d_t, tmin_t, tmax_t, leaving_t, arriving_t = sig.args
     table = context.make_array(table_t)(context, builder, args[0])
+    # IEEE arithmetic: no contraction, no reassociation (the bound assumes it)
+    fadd, fsub, fmul, lt = exact_ops(builder)
 
     def doubles(value, tuple_t):
         return [
@@ -146,20 +167,12 @@ def _lanes_codegen(context, builder, sig, args):
             for x, t in zip(cgutils.unpack_tuple(builder, value, 3), tuple_t, strict=True)
         ]
 
-    def floats(value, tuple_t):
-        return [builder.fptrunc(x, f32) for x in doubles(value, tuple_t)]
-
-    sh = cgutils.unpack_tuple(builder, args[3], 6)
-    kx, ky, kz = (context.cast(builder, sh[i], shear_t[i], types.int64) for i in range(3))
-    sx, sy = (builder.fptrunc(context.cast(builder, sh[3 + i], shear_t[3 + i], types.float64), f32) for i in range(2))
-    # IEEE arithmetic: no contraction, no reassociation (the bound assumes it)
-    fadd, fsub, fmul, lt = exact_ops(builder)
-
     def splat(x):
         return builder.shuffle_vector(builder.insert_element(undef, x, ir.Constant(i32, 0)), undef, zeros)
 
     fabs = cgutils.get_or_insert_function(builder.module, ir.FunctionType(f32, [f32]), "llvm.fabs.f32")
-    o, d = floats(args[1], o_t), floats(args[2], d_t)
+    o64, d64 = doubles(args[1], o_t), doubles(args[2], d_t)
+    o, d = [builder.fptrunc(x, f32) for x in o64], [builder.fptrunc(x, f32) for x in d64]
 
     def largest_magnitude(xs):
         out = builder.call(fabs, [xs[0]])
@@ -169,39 +182,31 @@ def _lanes_codegen(context, builder, sig, args):
         return out
 
     omax, dmax = largest_magnitude(o), largest_magnitude(d)
-
-    def pick(k):
-        return builder.select(
-            builder.icmp_signed("==", k, ir.Constant(i64, 0)),
-            o[0],
-            builder.select(builder.icmp_signed("==", k, ir.Constant(i64, 1)), o[1], o[2]),
-        )
-
     stride = builder.extract_value(table.strides, 0)
     base = builder.ptrtoint(table.data, i64)
-    c3, c6 = ir.Constant(i64, 3), ir.Constant(i64, 6)
-    coordinate_rows = (kx, ky, kz, builder.add(kx, c3), builder.add(ky, c3), builder.add(kz, c3))
-    coordinate_rows += (builder.add(kx, c6), builder.add(ky, c6), builder.add(kz, c6))
-    offsets = [builder.mul(r, stride) for r in coordinate_rows]
-    magnitude_offset = builder.mul(ir.Constant(i64, SWEEP_MAGNITUDE), stride)
-    prim_offset = builder.mul(ir.Constant(i64, SWEEP_PRIM), stride)
-    ox, oy, oz = splat(pick(kx)), splat(pick(ky)), splat(pick(kz))
-    ssx, ssy = splat(sx), splat(sy)
+
+    def row_offset(row):
+        return builder.mul(ir.Constant(i64, row), stride)
+
     # R (the module docstring's) once per ray: the largest magnitude of all the lanes (the
     # table's row, lane 0) plus the origin's, the same for every lane (a looser bound than each
     # lane's own, for less arithmetic a lane)
-    magnitude = builder.load(builder.inttoptr(builder.add(base, magnitude_offset), f32.as_pointer()), align=4)
+    magnitude = builder.load(
+        builder.inttoptr(builder.add(base, row_offset(SWEEP_MAGNITUDE)), f32.as_pointer()), align=4
+    )
     r = fadd(magnitude, omax)
-    r2 = fmul(r, r)
-    tol = splat(fmul(r2, ir.Constant(f32, SWEEP_TOLERANCE)))
+    tol = splat(fmul(fmul(fmul(r, r), dmax), ir.Constant(f32, SWEEP_TOLERANCE)))
     ntol = builder.fneg(tol)
+    # the ray in Plücker coordinates: its direction and its moment o x d, in float64 rounded once
+    moment = [
+        builder.fptrunc(fsub(fmul(o64[i], d64[j]), fmul(o64[j], d64[i])), f32) for i, j in ((1, 2), (2, 0), (0, 1))
+    ]
+    ray_d, ray_m = [splat(x) for x in d], [splat(x) for x in moment]
     # The plane function at the ends of the ray's span (tmin, far), far = min(tmax, 2 R / D): no
     # triangle point lies farther along the ray (module docstring). Per ray in float64, each
     # point rounded once.
-    f64 = ir.DoubleType()
-    o64, d64 = doubles(args[1], o_t), doubles(args[2], d_t)
-    tmin64 = context.cast(builder, args[4], tmin_t, types.float64)
-    tmax64 = context.cast(builder, args[5], tmax_t, types.float64)
+    tmin64 = context.cast(builder, args[3], tmin_t, types.float64)
+    tmax64 = context.cast(builder, args[4], tmax_t, types.float64)
     r64, dmax64 = builder.fpext(r, f64), builder.fpext(dmax, f64)
     reach = builder.fdiv(fmul(ir.Constant(f64, 2.0), r64), dmax64, flags=EXACT)
     far = builder.select(lt(tmax64, reach), tmax64, reach)
@@ -218,23 +223,23 @@ def _lanes_codegen(context, builder, sig, args):
     # the primitives a ray leaves and arrives at, as the table's float32 primitive row has them
     ends = [
         splat(builder.sitofp(context.cast(builder, args[i], t, types.int64), f32))
-        for i, t in ((6, leaving_t), (7, arriving_t))
+        for i, t in ((5, leaving_t), (6, arriving_t))
     ]
-    plane_offsets = [builder.mul(ir.Constant(i64, SWEEP_PLANE + i), stride) for i in range(4)]
+    edge_offsets = [row_offset(SWEEP_EDGES + i) for i in range(18)]
+    plane_offsets = [row_offset(SWEEP_PLANE + i) for i in range(4)]
+    prim_offset = row_offset(SWEEP_PRIM)
     vfma = cgutils.get_or_insert_function(builder.module, ir.FunctionType(v8, [v8, v8, v8]), "llvm.fma.v8f32")
 
     def fma(a, b, c):  # a b + c rounded once: within the bound (one rounding, not two)
         return builder.call(vfma, [a, b, c])
 
     # minps / maxps: one of the two, b where either is NaN: never beyond the others (the tests
-    # below stay as conservative as comparing each edge function)
+    # below stay as conservative as comparing each side)
     def smaller(a, b):
         return builder.select(lt(a, b), a, b)
 
     def larger(a, b):
         return builder.select(lt(b, a), a, b)
-
-    nsx, nsy = builder.fneg(ssx), builder.fneg(ssy)
 
     mask = ir.Constant(i64, 0)
     for g in range(SWEEP_LANES // n):
@@ -243,18 +248,18 @@ def _lanes_codegen(context, builder, sig, args):
         def load(offset, at=at):
             return builder.load(builder.inttoptr(builder.add(at, offset), v8.as_pointer()), align=4)
 
-        col = [load(off) for off in offsets]
-        az, bz, cz = fsub(col[2], oz), fsub(col[5], oz), fsub(col[8], oz)
-        ax = fma(nsx, az, fsub(col[0], ox))
-        ay = fma(nsy, az, fsub(col[1], oy))
-        bx = fma(nsx, bz, fsub(col[3], ox))
-        by = fma(nsy, bz, fsub(col[4], oy))
-        cx = fma(nsx, cz, fsub(col[6], ox))
-        cy = fma(nsy, cz, fsub(col[7], oy))
-        u = fma(cx, by, builder.fneg(fmul(cy, bx)))
-        v = fma(ax, cy, builder.fneg(fmul(ay, cx)))
-        w = fma(bx, ay, builder.fneg(fmul(by, ax)))
-        # inside unless one edge function is below -tol and another above tol (any NaN: inside)
+        # each edge's side of the ray: d . (p x q) + (q - p) . (o x d)
+        sides = []
+        for e in range(3):
+            rows = [load(off) for off in edge_offsets[6 * e : 6 * e + 6]]
+            side = fmul(ray_m[2], rows[5])
+            side = fma(ray_m[1], rows[4], side)
+            side = fma(ray_m[0], rows[3], side)
+            side = fma(ray_d[2], rows[2], side)
+            side = fma(ray_d[1], rows[1], side)
+            sides.append(fma(ray_d[0], rows[0], side))
+        u, v, w = sides
+        # inside unless one side is below -tol and another above tol (any NaN: inside)
         neg = lt(smaller(smaller(u, v), w), ntol)
         pos = lt(tol, larger(larger(u, v), w))
         inside = builder.not_(builder.and_(neg, pos))
@@ -276,14 +281,14 @@ def _lanes_codegen(context, builder, sig, args):
 
 
 @intrinsic
-def sweep_candidates(typingctx, table, o, d, shear, tmin, tmax, leaving, arriving):
+def sweep_candidates(typingctx, table, o, d, tmin, tmax, leaving, arriving):
     """Bit r set for each lane r of the sweep table that the exact test may hit in (tmin, tmax)
     (module docstring), but the lanes of primitives `leaving` and `arriving` (sweep_hit)."""
     if not (
         isinstance(table, types.Array) and table.dtype == types.float32 and table.ndim == 2 and table.layout == "C"
     ):
         raise TypingError("sweep_candidates: table must be a C-contiguous float32 (SWEEP_ROWS, 32) array")
-    return types.int64(table, o, d, shear, tmin, tmax, leaving, arriving), _lanes_codegen
+    return types.int64(table, o, d, tmin, tmax, leaving, arriving), _lanes_codegen
 
 
 @intrinsic
@@ -318,7 +323,7 @@ def sweep_hit(G, X, o, d, shear, tmin, best_t, prim, b1, b2, stop_at_first, leav
     otherwise). The same hit as the exact test of every primitive in
     table order (the lowest triangle row on ties)."""
     S = G.sweep
-    mask = sweep_candidates(S, o, d, shear, tmin, best_t, leaving, arriving)
+    mask = sweep_candidates(S, o, d, tmin, best_t, leaving, arriving)
     n_tris = np.int64(G.triangles.shape[0])  # the lanes before the polygons' (sweep_table)
     rest = mask >> n_tris  # candidate polygons' triangles
     mask &= (np.int64(1) << n_tris) - 1
