@@ -71,7 +71,7 @@ from numba.core.errors import TypingError
 from numba.extending import intrinsic
 
 from ..vec import inline_function
-from .shape_triangle import EXACT, exact_ops, intersect_triangle_block, triangles4_gathered
+from .shape_triangle import EXACT, exact_ops, intersect_triangle_block, ray_shear, triangles4_gathered
 from .shapes import NO_HIT, PRIM_KIND, PRIM_ROW, TRIANGLE, Shape, exact_triangles, intersect
 
 SWEEP_LANES = 32  # four groups of eight float32 lanes
@@ -313,17 +313,20 @@ def _next_row(mask, row):
 
 
 @inline_function
-def sweep_hit(G, X, o, d, shear, tmin, best_t, prim, b1, b2, stop_at_first, leaving, arriving):
+def sweep_hit(G, X, o, d, shear, lazy_shear, tmin, best_t, prim, b1, b2, stop_at_first, leaving, arriving):
     """The nearest hit in (tmin, best_t) among a swept scene's bounded primitives (module
     docstring), or (best_t, prim, b1, b2) unchanged; with stop_at_first, the first hit found.
     `leaving`: the primitive the ray leaves from (NO_HIT: none), its origin offset to the side
     it goes to, and `arriving`: the one a shadow ray is aimed at, ending short of it
     (shadow.shadow_ray): the exact test cannot hit either if it is flat (a triangle or a
     polygon's), so they are left out of the candidates (each such ray has them among them
-    otherwise). The same hit as the exact test of every primitive in
-    table order (the lowest triangle row on ties)."""
+    otherwise). With lazy_shear, `shear` is computed here, for a ray with primitives to test.
+    The same hit as the exact test of every primitive in table order (the lowest triangle row
+    on ties)."""
     S = G.sweep
     mask = sweep_candidates(S, o, d, tmin, best_t, leaving, arriving)
+    if lazy_shear and (mask != 0 or S[SWEEP_OTHER, 0] >= 0.0):
+        shear = ray_shear(d)  # the exact tests' constants, for a ray with something to test
     n_tris = np.int64(G.triangles.shape[0])  # the lanes before the polygons' (sweep_table)
     rest = mask >> n_tris  # candidate polygons' triangles
     mask &= (np.int64(1) << n_tris) - 1

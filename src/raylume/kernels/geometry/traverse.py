@@ -153,6 +153,16 @@ def _root_is_a_leaf(index):
 
 
 @inline_function
+def _lazy_shear(G, X):
+    """Whether a ray's shear (the exact triangle test's constants) waits until a triangle is to be
+    tested: without planes or instances, which test before the BVH. A swept scene without planes
+    (its instances are none) computes it only for a ray with candidates (sweep.py)."""
+    if G.triangles.shape[0] == 0:
+        return False
+    return X is None or (G.sweep.shape[1] > 0 and G.n_bounded == G.prims.shape[0])
+
+
+@inline_function
 def closest_hit(G, X, o, d, tmin, tmax, node_stack, t_stack):
     """Nearest hit in (tmin, tmax): (t, primitive, b1, b2); primitive NO_HIT when nothing.
     b1, b2 are the barycentric weights of a triangle's second and third vertices."""
@@ -169,8 +179,8 @@ def closest_hit_leaving(G, X, o, d, tmin, tmax, leaving, node_stack, t_stack):
     # through the first node visits (bunny and bumpy 10k-1M frames ~8% less time, their hit
     # rays ~3%; benchmarks/bench_hits.py, alternating builds). Planes and instances need it
     # before the traversal.
-    lazy_shear = X is None and G.triangles.shape[0] > 0
-    shear = ray_shear(d) if X is not None and G.triangles.shape[0] > 0 else NO_SHEAR
+    lazy_shear = _lazy_shear(G, X)
+    shear = ray_shear(d) if G.triangles.shape[0] > 0 and not lazy_shear else NO_SHEAR
     best_t, prim, b1, b2 = tmax, NO_HIT, 0.0, 0.0
     if X is not None:
         if G.n_bounded < G.prims.shape[0]:
@@ -198,8 +208,8 @@ def any_hit_between(G, X, o, d, tmin, tmax, leaving, arriving, node_stack, t_sta
     """any_hit for a shadow ray leaving primitive `leaving` (as closest_hit_leaving) and aimed at
     a point of primitive `arriving` (NO_HIT: none), ending short of it (shadow.shadow_ray): the
     exact test cannot hit a flat one there either, which small scenes use (sweep.py)."""
-    lazy_shear = X is None and G.triangles.shape[0] > 0  # as in closest_hit
-    shear = ray_shear(d) if X is not None and G.triangles.shape[0] > 0 else NO_SHEAR
+    lazy_shear = _lazy_shear(G, X)  # as in closest_hit
+    shear = ray_shear(d) if G.triangles.shape[0] > 0 and not lazy_shear else NO_SHEAR
     if X is not None:
         if G.n_bounded < G.prims.shape[0] and _unbounded_hit(G, X, o, d, shear, tmin, tmax)[1] >= 0:
             return True
@@ -222,9 +232,7 @@ def _bvh_hit(
     lane order leads (bench_shadows.py's rays one by one: bumpy 4M 10-15% less time, 40k 2-3%,
     than with the unsorted stack any-hit had; alternating builds in one process)."""
     if G.sweep.shape[1] > 0:  # a small scene: every triangle at once (sweep.py)
-        if lazy_shear:
-            shear = ray_shear(d)
-        return sweep_hit(G, X, o, d, shear, tmin, best_t, prim, b1, b2, stop_at_first, leaving, arriving)
+        return sweep_hit(G, X, o, d, shear, lazy_shear, tmin, best_t, prim, b1, b2, stop_at_first, leaving, arriving)
     index = G.node_index
     bounds = G.node_bounds
     if _root_is_a_leaf(index):
