@@ -22,17 +22,18 @@ would otherwise be a candidate of every such ray. Flat polygons (quads) take lan
 exact triangles (shapes.exact_triangles), their candidates tested by the shape's own test; the
 scene's other bounded primitives (at most SWEEP_OTHERS) by theirs, for every ray.
 
-The bound. With R = M + max |origin coordinate|, M = max |vertex coordinate| over all the table's
-lanes (per lane would be tighter, but one R a ray saves each lane instructions), and D = max
-|d_i|, an edge from p to q has the side d . m + e . w of the ray (o, d): m = p x q and e = q - p
-are the table's (rows SWEEP_EDGES, lane_edges: float64 from the float32 vertices, each rounded
-once, so off by u |m_j| and u |e_j|, u = 2^-24), w = o x d is the ray's moment (float64, rounded
-once) and d is rounded to float32: each product off by 2 u of its size. The six terms are summed
-by one product and five fused multiply-adds, each rounding within u of the sum of the terms'
-sizes, T = sum |d_j| |m_j| + sum |e_j| |w_j| <= 6 D M^2 + 12 D M max|o| <= 6 D R^2 (|m_j| <= 2
-M^2, |e_j| <= 2 M, |w_j| <= 2 max|o| D). So a side is within 8 u T <= 48 u D R^2 = 2^-18.4 D R^2
-of its exact value for the lane's triangle; a polygon's triangles, whose corners are rounded to
-float32 too, move it by at most 12 u D R^2 more. SWEEP_TOLERANCE is 2^-16 D R^2, ~4x the sum.
+The bound. With R = M + max |origin coordinate|, M = max |vertex coordinate| over all the
+table's lanes (per lane would be tighter, but one R a ray saves each lane instructions), and D =
+max |d_i|, an edge from p to q has the side d . m + e . w of the ray (o, d): m = p x q and
+e = q - p are the table's (rows SWEEP_EDGES, lane_edges: float64 from the float32 vertices, each
+rounded once, so off by u |m_j| and u |e_j|, u = 2^-24), w = o x d is the ray's moment (float64,
+rounded once) and d is rounded to float32: each product off by 2 u of its size. The six terms
+are summed by one product and five fused multiply-adds, each rounding within u of the sum of the
+terms' sizes, T = sum |d_j| |m_j| + sum |e_j| |w_j| <= 6 D M^2 + 12 D M max|o| <= 6 D R^2 (|m_j|
+<= 2 M^2, |e_j| <= 2 M, |w_j| <= 2 max|o| D). So a side is within 8 u T <= 48 u D R^2 = 2^-18.4
+D R^2 (and float64's roundings of w, below 2^-48 D R^2) of its exact value for the lane's
+triangle; a polygon's triangles, whose corners are rounded to float32 too, move it by at most 12
+u D R^2 more. SWEEP_TOLERANCE is 2^-16 D R^2, ~4x the sum.
 The exact test hits only where its float64 sheared edge functions, the exact sides over -d_k to
 within float64 rounding, have no two of opposite signs, so every such lane is inside. The sides'
 signs are tested on their least and greatest (selects that return one of them, so no test is
@@ -76,8 +77,8 @@ from .shapes import NO_HIT, PRIM_KIND, PRIM_ROW, TRIANGLE, Shape, exact_triangle
 
 SWEEP_LANES = 32  # four groups of eight float32 lanes
 SWEEP_OTHERS = 8  # bounded primitives other than triangles and quads a swept scene may have
-# The table's rows: the nine vertex coordinates (v0, v1, v2) of each lane's triangle by columns,
-# the largest coordinate magnitude of all the lanes (the same in each), each lane's primitive
+# The table's rows: the Plücker coordinates of each lane's three edges (18 rows), the largest
+# vertex coordinate magnitude of all the lanes (the same in each), each lane's primitive
 # (as a float32: exact below 2^24; -1 in unused lanes), the other bounded primitives (-1
 # after the last) and each lane's plane. Lanes 0 .. T - 1 are the scene's triangles (lane = triangle row: a swept
 # scene has no instances, so its triangle table is its T triangles alone); the triangles of flat
@@ -87,7 +88,7 @@ SWEEP_EDGES = 0  # rows 0 .. 17: each lane's three edges, moment and direction (
 SWEEP_MAGNITUDE, SWEEP_PRIM, SWEEP_OTHER = 18, 19, 20
 SWEEP_PLANE = 21  # rows 21 .. 24: each lane's plane, a unit normal n and c = -n . v0 (float32)
 SWEEP_ROWS = 25
-SWEEP_TOLERANCE = 2.0**-16  # times D R^2: the edges' sides' error bound, ~5x
+SWEEP_TOLERANCE = 2.0**-16  # times D R^2: the edges' sides' error bound, ~4x
 SWEEP_PLANE_BOUND = 2.0**-17  # times (R + D T): the plane function's bound at the span's ends, ~6x
 
 
