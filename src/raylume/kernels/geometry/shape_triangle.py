@@ -4,6 +4,7 @@ and Wald (2013)."""
 
 import math
 
+import numpy as np
 from llvmlite import ir
 from numba import types
 from numba.core import cgutils
@@ -16,7 +17,7 @@ INF = math.inf
 BOUNDED = True
 
 
-@kernel_function
+@inline_function
 def ray_shear(d):
     """Per-ray constants of the watertight test."""
     kx, ky, kz = shear_axes(d)
@@ -24,27 +25,48 @@ def ray_shear(d):
     return kx, ky, kz, _component(d, kx) * sz, _component(d, ky) * sz, sz
 
 
-@inline_function
-def _component(v, k):
-    """v[k] for a runtime k in 0..2 as two selects (a tuple indexed at run time compiles to a
-    bounds check and a jump table)."""
-    return v[0] if k == 0 else (v[1] if k == 1 else v[2])
+def component_at(builder, values, k):
+    """values[k] (three float64 IR values) for a runtime index k in 0..2, through a small stack
+    array: no branch. Two selects on k compile to branches on x86 (a float select on an integer
+    condition is expanded to a jump), which the random axes of diffuse bounces mispredicted."""
+    f64 = ir.DoubleType()
+    i32 = ir.IntType(32)
+    slots = cgutils.alloca_once(builder, ir.ArrayType(f64, 3))
+    for i, x in enumerate(values):
+        builder.store(x, builder.gep(slots, [ir.Constant(i32, 0), ir.Constant(i32, i)]))
+    return builder.load(builder.gep(slots, [ir.Constant(i32, 0), builder.trunc(k, i32)]))
+
+
+@intrinsic
+def _component(typingctx, v, k):
+    """v[k] for a float64 3-tuple v and a runtime k in 0..2, without a branch (component_at)."""
+    if not (isinstance(v, types.BaseTuple) and len(v) == 3 and isinstance(k, types.Integer)):
+        raise TypingError("_component: a 3-tuple of floats and an integer index")
+
+    def codegen(context, builder, sig, args):
+        values = [
+            context.cast(builder, x, t, types.float64)
+            for x, t in zip(cgutils.unpack_tuple(builder, args[0], 3), sig.args[0], strict=True)
+        ]
+        return component_at(builder, values, context.cast(builder, args[1], sig.args[1], types.int64))
+
+    return types.float64(v, k), codegen
 
 
 @inline_function
 def shear_axes(d):
-    """The watertight test's axis order for direction d: kz its dominant axis, (kx, ky) the
-    other two in the order that keeps the triangles' winding."""
+    """The watertight test's axis order for direction d: kz its dominant axis (the first of
+    equal ones but y over z), (kx, ky) the other two in the order that keeps the triangles'
+    winding. Without branches: the dominant axis and the sign of d along it are random for
+    diffuse bounces, and as branches they were mispredicted every other ray."""
     ax, ay, az = abs(d[0]), abs(d[1]), abs(d[2])
-    kz = 0
-    if ay > ax and ay >= az:
-        kz = 1
-    elif az > ax and az > ay:
-        kz = 2
-    kx = 1 if kz == 0 else (2 if kz == 1 else 0)  # (kz + 1) % 3, (kx + 1) % 3 without divisions
-    ky = 2 if kz == 0 else (0 if kz == 1 else 1)
+    y_wins = (ay > ax) & (ay >= az)
+    z_wins = (az > ax) & (az > ay)
+    kz = np.int64(y_wins) + 2 * np.int64(z_wins)
+    kx = kz + 1 - 3 * np.int64(kz == 2)  # (kz + 1) % 3, (kx + 1) % 3 without divisions
+    ky = kx + 1 - 3 * np.int64(kx == 2)
     if _component(d, kz) < 0.0:
-        kx, ky = ky, kx
+        return ky, kx, kz
     return kx, ky, kz
 
 
@@ -153,11 +175,7 @@ def _block_codegen(context, builder, sig, args, columns, gathered=False):
     _, fsub, _, lt = exact_ops(builder)
 
     def pick(k):  # o[k] for a runtime k in 0..2
-        return builder.select(
-            builder.icmp_signed("==", k, ir.Constant(i64, 0)),
-            o[0],
-            builder.select(builder.icmp_signed("==", k, ir.Constant(i64, 1)), o[1], o[2]),
-        )
+        return component_at(builder, o, k)
 
     # column(c): float64 vector of coordinate c (runtime) of rows first .. first + 3
     if columns:  # one load; lanes past count read the next rows or the table's padding (masked below)
