@@ -17,6 +17,8 @@ INF = math.inf
 BOUNDED = True
 
 
+# Inlined: a call returned the six constants through memory (the Cornell box in path mode ~0.98x
+# the time inlined, 6 alternating rounds against the call).
 @inline_function
 def ray_shear(d):
     """Per-ray constants of the watertight test."""
