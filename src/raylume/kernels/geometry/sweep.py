@@ -116,7 +116,7 @@ def sweep_table(
         return np.zeros((SWEEP_ROWS, 0), np.float32)
     lane_tris = np.concatenate([tri] + [h.astype(np.float32) for h in halves])
     table = np.zeros((SWEEP_ROWS, SWEEP_LANES), np.float32)
-    table[:SWEEP_MAGNITUDE, :lanes] = lane_edges(lane_tris).T
+    table[SWEEP_EDGES : SWEEP_EDGES + 18, :lanes] = lane_edges(lane_tris).T
     table[SWEEP_MAGNITUDE] = np.abs(lane_tris).max()  # exact: |x| of a float32 is one
     table[SWEEP_PRIM] = -1.0
     table[SWEEP_PRIM, prims[:n_bounded, PRIM_ROW][is_tri]] = np.flatnonzero(is_tri)
