@@ -4,8 +4,9 @@ exact test on the few that may be hit.
 A scene of a few dozen triangles (the Cornell box: 30, and its light, a quad) and a few other
 bounded primitives spends most of a ray's time in the BVH's bookkeeping: one node's slab test, the sort
 of the leaves it enters, two or three leaf tests that each wait for the last one's distance.
-`sweep_hit` instead tests all the triangles (SWEEP_LANES) as four groups of eight float32 lanes, independent
-of each other (no distance carried from one to the next), in a conservative form of the
+`sweep_hit` instead tests all the triangles (SWEEP_LANES) as up to four groups of eight float32 lanes (as
+many as the scene fills, one a pass of a loop), independent of each other (no distance carried
+from one to the next), in a conservative form of the
 watertight test (Woop, Benthin and Wald 2013): which side of each edge the ray passes, as the sign
 of the permuted inner product of the ray's and the edge's Plücker coordinates (the watertight
 test's sheared edge functions times -d_k, d_k the ray's largest direction component), may be off by at
@@ -47,8 +48,9 @@ computed in float64 from the float32 vertices and rounded once), not from the ed
 whose numerator and determinant are bounded only in R (the Cornell box's ceiling, 0.1 above its
 light, was a candidate of every shadow ray with those bounds: 2^-6 R = 17 there). The plane
 function g(x) = n . x + c is evaluated at the two ends of the ray's span, p0 = o + tmin d and
-p1 = o + far d, far = min(tmax, 2 R / D) with D = max |d_i| (no point of any lane lies farther
-along the ray: |x - o| <= sqrt 3 R and |d| >= D), each point computed in float64 and rounded
+p1 = o + far d, far = min(tmax, 2 R B) with D = max |d_i| and B the power of two at or above 1 / D
+(no point of any lane lies farther along the ray: |x - o| <= sqrt 3 R and |d| >= D; B, from D's
+exponent bits, spares the ray a division), each point computed in float64 and rounded
 once, g by three fused multiply-adds. At the exact test's hit point x* (on the exact primitive)
 |g(x*)| <= 9.4 u R: the rounding of n (u |x - v0|_1 <= 6 u R), of c (sqrt 3 u R) and of a
 polygon's corners (sqrt 3 u R). g computed at p = o + t d is within 12.1 u R + 6.9 u D |t| of g
@@ -72,10 +74,10 @@ from numba.core.errors import TypingError
 from numba.extending import intrinsic
 
 from ..vec import inline_function
-from .shape_triangle import EXACT, exact_ops, intersect_triangle_block, ray_shear, triangles4_gathered
+from .shape_triangle import exact_ops, intersect_triangle_block, ray_shear, triangles4_gathered
 from .shapes import NO_HIT, PRIM_KIND, PRIM_ROW, TRIANGLE, Shape, exact_triangles, intersect
 
-SWEEP_LANES = 32  # four groups of eight float32 lanes
+SWEEP_LANES = 32  # up to four groups of eight float32 lanes
 SWEEP_OTHERS = 8  # bounded primitives other than triangles and quads a swept scene may have
 # The table's rows: the Plücker coordinates of each lane's three edges (18 rows), the largest
 # vertex coordinate magnitude of all the lanes (the same in each), each lane's primitive
@@ -88,6 +90,8 @@ SWEEP_EDGES = 0  # rows 0 .. 17: each lane's three edges, moment and direction (
 SWEEP_MAGNITUDE, SWEEP_PRIM, SWEEP_OTHER = 18, 19, 20
 SWEEP_PLANE = 21  # rows 21 .. 24: each lane's plane, a unit normal n and c = -n . v0 (float32)
 SWEEP_ROWS = 25
+# the number of groups of eight lanes in use, stored in the others' row's last lane (byte offset)
+SWEEP_GROUPS_AT = 4 * (SWEEP_OTHER * SWEEP_LANES + SWEEP_LANES - 1)
 SWEEP_TOLERANCE = 2.0**-16  # times D R^2: the edges' sides' error bound, ~4x
 SWEEP_PLANE_BOUND = 2.0**-17  # times (R + D T): the plane function's bound at the span's ends, ~6x
 
@@ -123,6 +127,7 @@ def sweep_table(
     table[SWEEP_PRIM, n_tris:lanes] = polygons
     table[SWEEP_OTHER] = -1.0
     table[SWEEP_OTHER, : len(others)] = others
+    table[SWEEP_OTHER, SWEEP_LANES - 1] = -(-lanes // 8)  # the groups of eight lanes in use
     # unused lanes: n = 0 and c = inf, a plane function positive everywhere
     table[SWEEP_PLANE + 3] = np.inf
     table[SWEEP_PLANE : SWEEP_PLANE + 4, :lanes] = lane_planes(lane_tris).T
@@ -183,11 +188,13 @@ def _lanes_codegen(context, builder, sig, args):
         return out
 
     omax, dmax = largest_magnitude(o), largest_magnitude(d)
-    stride = builder.extract_value(table.strides, 0)
+    # rows at constant offsets (the table is C-contiguous (SWEEP_ROWS, SWEEP_LANES) float32
+    # whenever it is swept): each row's load then takes an immediate offset, where the strides'
+    # products had been kept on the stack and reloaded into registers
     base = builder.ptrtoint(table.data, i64)
 
     def row_offset(row):
-        return builder.mul(ir.Constant(i64, row), stride)
+        return ir.Constant(i64, row * 4 * SWEEP_LANES)
 
     # R (the module docstring's) once per ray: the largest magnitude of all the lanes (the
     # table's row, lane 0) plus the origin's, the same for every lane (a looser bound than each
@@ -203,13 +210,13 @@ def _lanes_codegen(context, builder, sig, args):
         builder.fptrunc(fsub(fmul(o64[i], d64[j]), fmul(o64[j], d64[i])), f32) for i, j in ((1, 2), (2, 0), (0, 1))
     ]
     ray_d, ray_m = [splat(x) for x in d], [splat(x) for x in moment]
-    # The plane function at the ends of the ray's span (tmin, far), far = min(tmax, 2 R / D): no
+    # The plane function at the ends of the ray's span (tmin, far), far = min(tmax, 2 R B): no
     # triangle point lies farther along the ray (module docstring). Per ray in float64, each
     # point rounded once.
     tmin64 = context.cast(builder, args[3], tmin_t, types.float64)
     tmax64 = context.cast(builder, args[4], tmax_t, types.float64)
     r64, dmax64 = builder.fpext(r, f64), builder.fpext(dmax, f64)
-    reach = builder.fdiv(fmul(ir.Constant(f64, 2.0), r64), dmax64, flags=EXACT)
+    reach = fmul(fmul(ir.Constant(f64, 2.0), r64), _reciprocal_bound(builder, dmax64))
     far = builder.select(lt(tmax64, reach), tmax64, reach)
     fabs64 = cgutils.get_or_insert_function(builder.module, ir.FunctionType(f64, [f64]), "llvm.fabs.f64")
     abs_tmin = builder.call(fabs64, [tmin64])
@@ -242,43 +249,79 @@ def _lanes_codegen(context, builder, sig, args):
     def larger(a, b):
         return builder.select(lt(b, a), a, b)
 
-    mask = ir.Constant(i64, 0)
-    for g in range(SWEEP_LANES // n):
-        at = builder.add(base, ir.Constant(i64, 4 * n * g))
+    # One group of eight lanes per pass of a loop (not unrolled: the table's group count is
+    # read at run time). Unrolled, LLVM interleaved the four groups, and the ray's ~18 broadcast
+    # values and the groups' partial sums outgrew the 16 vector registers: a third of the
+    # mask's instructions were spills and reloads.
+    groups = builder.fptosi(
+        builder.load(builder.inttoptr(builder.add(base, ir.Constant(i64, SWEEP_GROUPS_AT)), f32.as_pointer()), align=4),
+        i64,
+    )
+    entry = builder.block
+    loop = builder.append_basic_block("sweep_group")
+    done = builder.append_basic_block("sweep_done")
+    builder.branch(loop)
+    builder.position_at_end(loop)
+    g = builder.phi(i64)
+    mask_in = builder.phi(i64)
+    at = builder.add(base, builder.mul(g, ir.Constant(i64, 4 * n)))
 
-        def load(offset, at=at):
-            return builder.load(builder.inttoptr(builder.add(at, offset), v8.as_pointer()), align=4)
+    def load(offset):
+        return builder.load(builder.inttoptr(builder.add(at, offset), v8.as_pointer()), align=4)
 
-        # each edge's side of the ray: d . (p x q) + (q - p) . (o x d)
-        sides = []
-        for e in range(3):
-            rows = [load(off) for off in edge_offsets[6 * e : 6 * e + 6]]
-            side = fmul(ray_m[2], rows[5])
-            side = fma(ray_m[1], rows[4], side)
-            side = fma(ray_m[0], rows[3], side)
-            side = fma(ray_d[2], rows[2], side)
-            side = fma(ray_d[1], rows[1], side)
-            sides.append(fma(ray_d[0], rows[0], side))
-        u, v, w = sides
-        # inside unless one side is below -tol and another above tol (any NaN: inside)
-        neg = lt(smaller(smaller(u, v), w), ntol)
-        pos = lt(tol, larger(larger(u, v), w))
-        inside = builder.not_(builder.and_(neg, pos))
-        # the plane function n . x + c (c = -n . v0) at the span's ends: beyond the bound and of
-        # one sign at both, the plane is crossed outside the span (any NaN: a candidate; unused
-        # lanes, n = 0 and c = inf, never are)
-        nx, ny, nz, c = (load(off) for off in plane_offsets)
-        f0 = fma(nx, near_point[0], fma(ny, near_point[1], fma(nz, near_point[2], c)))
-        f1 = fma(nx, far_point[0], fma(ny, far_point[1], fma(nz, far_point[2], c)))
-        above = builder.and_(lt(bound, f0), lt(bound, f1))
-        below = builder.and_(lt(f0, nbound), lt(f1, nbound))
-        candidate = builder.and_(inside, builder.not_(builder.or_(above, below)))
-        prims = load(prim_offset)
-        an_end = builder.or_(*(builder.fcmp_ordered("==", prims, end) for end in ends))
-        candidate = builder.and_(candidate, builder.not_(an_end))
-        bits = builder.zext(builder.bitcast(candidate, ir.IntType(n)), i64)
-        mask = builder.or_(mask, builder.shl(bits, ir.Constant(i64, n * g)))
+    # each edge's side of the ray: d . (p x q) + (q - p) . (o x d)
+    sides = []
+    for e in range(3):
+        rows = [load(off) for off in edge_offsets[6 * e : 6 * e + 6]]
+        side = fmul(ray_m[2], rows[5])
+        side = fma(ray_m[1], rows[4], side)
+        side = fma(ray_m[0], rows[3], side)
+        side = fma(ray_d[2], rows[2], side)
+        side = fma(ray_d[1], rows[1], side)
+        sides.append(fma(ray_d[0], rows[0], side))
+    u, v, w = sides
+    # inside unless one side is below -tol and another above tol (any NaN: inside)
+    neg = lt(smaller(smaller(u, v), w), ntol)
+    pos = lt(tol, larger(larger(u, v), w))
+    inside = builder.not_(builder.and_(neg, pos))
+    # the plane function n . x + c (c = -n . v0) at the span's ends: beyond the bound and of
+    # one sign at both, the plane is crossed outside the span (any NaN: a candidate; unused
+    # lanes, n = 0 and c = inf, never are)
+    nx, ny, nz, c = (load(off) for off in plane_offsets)
+    f0 = fma(nx, near_point[0], fma(ny, near_point[1], fma(nz, near_point[2], c)))
+    f1 = fma(nx, far_point[0], fma(ny, far_point[1], fma(nz, far_point[2], c)))
+    above = builder.and_(lt(bound, f0), lt(bound, f1))
+    below = builder.and_(lt(f0, nbound), lt(f1, nbound))
+    candidate = builder.and_(inside, builder.not_(builder.or_(above, below)))
+    prims = load(prim_offset)
+    an_end = builder.or_(*(builder.fcmp_ordered("==", prims, end) for end in ends))
+    candidate = builder.and_(candidate, builder.not_(an_end))
+    bits = builder.zext(builder.bitcast(candidate, ir.IntType(n)), i64)
+    mask = builder.or_(mask_in, builder.shl(bits, builder.mul(g, ir.Constant(i64, n))))
+    g_next = builder.add(g, ir.Constant(i64, 1))
+    builder.cbranch(builder.icmp_signed("<", g_next, groups), loop, done)
+    g.add_incoming(ir.Constant(i64, 0), entry)
+    g.add_incoming(g_next, loop)
+    mask_in.add_incoming(ir.Constant(i64, 0), entry)
+    mask_in.add_incoming(mask, loop)
+    builder.position_at_end(done)
     return mask
+
+
+def _reciprocal_bound(builder, x):
+    """A power of two at least 1 / x for a float32 x >= 0 widened to float64 (+inf for 0, 0 for
+    inf and NaN, as 2 R / D's uses want them), from the exponent's bits: x >= 2^e, so 1 / x <=
+    2^-e, at most twice 1 / x. A division's ~13 cycles of latency sat on every ray's way to its
+    mask (the span's far end waits for it)."""
+    i64, f64 = ir.IntType(64), ir.DoubleType()
+    exponent = builder.and_(builder.bitcast(x, i64), ir.Constant(i64, 0x7FF0000000000000))
+    # 2^(1023 - E) has the biased exponent 2046 - E: exact for E in 1 .. 2045, which holds every
+    # finite float32 but 0 (its subnormals are normal in float64)
+    flipped = builder.bitcast(builder.sub(ir.Constant(i64, 0x7FE0000000000000), exponent), f64)
+    zero = builder.icmp_unsigned("==", exponent, ir.Constant(i64, 0))
+    special = builder.icmp_unsigned("==", exponent, ir.Constant(i64, 0x7FF0000000000000))
+    out = builder.select(zero, ir.Constant(f64, float("inf")), flipped)
+    return builder.select(special, ir.Constant(f64, 0.0), out)
 
 
 @intrinsic
@@ -288,7 +331,7 @@ def sweep_candidates(typingctx, table, o, d, tmin, tmax, leaving, arriving):
     if not (
         isinstance(table, types.Array) and table.dtype == types.float32 and table.ndim == 2 and table.layout == "C"
     ):
-        raise TypingError("sweep_candidates: table must be a C-contiguous float32 (SWEEP_ROWS, 32) array")
+        raise TypingError("sweep_candidates: table must be a C-contiguous float32 (SWEEP_ROWS, SWEEP_LANES) array")
     return types.int64(table, o, d, tmin, tmax, leaving, arriving), _lanes_codegen
 
 
