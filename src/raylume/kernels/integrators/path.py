@@ -72,6 +72,15 @@ def power_heuristic(a, b):
 
 
 @inline_function
+def _light_weight(pdf_l, pdf_b, weighed):
+    """A light sample's MIS weight over its density pdf_l: the power heuristic against the BSDF's
+    pdf_b when `weighed`, else 1, divided by pdf_l; one division (w / a = a / (a^2 + b^2))."""
+    if weighed:
+        return pdf_l / (pdf_l * pdf_l + pdf_b * pdf_b)
+    return 1.0 / pdf_l
+
+
+@inline_function
 def _add_light(L, beta, le, w):
     """L plus radiance le arriving through path throughput beta, with MIS weight w."""
     return (L[0] + beta[0] * le[0] * w, L[1] + beta[1] * le[1] * w, L[2] + beta[2] * le[2] * w)
@@ -294,8 +303,8 @@ def path_ray(G, F, X, Em, Env, Md, o, d, spread, max_depth, background, key, nod
                             G, F, X, Em, Md, origin, aim, tmax, shadow_med, le, key, depth, prim, node_stack, t_stack
                         )
                         if tr[0] > 0.0 or tr[1] > 0.0 or tr[2] > 0.0:
-                            w = 1.0 if delta_l or strategy == LIGHT_ONLY else power_heuristic(p_pick * pdf_l, pdf_b)
-                            scale = abs(wi_local[2]) * w / (p_pick * pdf_l)
+                            weighed = not delta_l and strategy != LIGHT_ONLY
+                            scale = abs(wi_local[2]) * _light_weight(p_pick * pdf_l, pdf_b, weighed)
                             L = _add_light(L, hadamard(hadamard(beta, f), tr), li, scale)
 
         # continue the path

@@ -33,10 +33,11 @@ def area_pdf(p, q, n, area):
     """Solid-angle pdf at p of a point q (normal n) sampled uniformly on a surface of `area`."""
     to_q = sub(q, p)
     dist2 = dot(to_q, to_q)
-    cos_l = abs(dot(n, to_q)) / math.sqrt(dist2) if dist2 > 0.0 else 0.0
-    if cos_l <= 0.0 or area <= 0.0:
+    # dist^2 / (area cos) with cos = |n . to_q| / dist: one division, not two in a chain
+    facing = abs(dot(n, to_q)) * area
+    if not facing > 0.0:  # edge-on, no area, or q = p
         return 0.0
-    return dist2 / (area * cos_l)
+    return dist2 * math.sqrt(dist2) / facing
 
 
 @inline_function
