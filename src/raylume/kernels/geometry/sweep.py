@@ -227,7 +227,15 @@ def _lanes_codegen(context, builder, sig, args):
     def point(t):
         return [splat(builder.fptrunc(fadd(oi, fmul(t, di)), f32)) for oi, di in zip(o64, d64, strict=True)]
 
-    near_point, far_point = point(tmin64), point(far)
+    # a span from the origin (every path ray's) starts at o itself: the same point (0 d is 0 for
+    # a finite d; an infinite one makes the far end NaN, a candidate), and after inlining LLVM
+    # drops the multiply-adds and reuses o's float32 rounding
+    from_origin = builder.fcmp_ordered("==", tmin64, ir.Constant(f64, 0.0))
+    near_point = [
+        splat(builder.select(from_origin, oi, builder.fptrunc(fadd(oi64, fmul(tmin64, di)), f32)))
+        for oi, oi64, di in zip(o, o64, d64, strict=True)
+    ]
+    far_point = point(far)
     # the primitives a ray leaves and arrives at, as the table's float32 primitive row has them
     ends = [
         splat(builder.sitofp(context.cast(builder, args[i], t, types.int64), f32))
