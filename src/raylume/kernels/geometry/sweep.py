@@ -298,8 +298,11 @@ def _lanes_codegen(context, builder, sig, args):
     nx, ny, nz, c = (load(off) for off in plane_offsets)
     f0 = fma(nx, near_point[0], fma(ny, near_point[1], fma(nz, near_point[2], c)))
     f1 = fma(nx, far_point[0], fma(ny, far_point[1], fma(nz, far_point[2], c)))
-    above = builder.and_(lt(bound, f0), lt(bound, f1))
-    below = builder.and_(lt(f0, nbound), lt(f1, nbound))
+    # both ends beyond the bound on one side: the nearer of the two to zero is. smaller / larger
+    # return f1 where either is NaN, and f1 is NaN wherever f0 is (but for tmin = inf, an empty
+    # span), so a NaN still fails both tests
+    above = lt(bound, smaller(f0, f1))
+    below = lt(larger(f0, f1), nbound)
     candidate = builder.and_(inside, builder.not_(builder.or_(above, below)))
     prims = load(prim_offset)
     an_end = builder.or_(*(builder.fcmp_ordered("==", prims, end) for end in ends))
