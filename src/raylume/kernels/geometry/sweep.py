@@ -78,6 +78,7 @@ from .shape_triangle import exact_ops, intersect_triangle_block, ray_shear, tria
 from .shapes import NO_HIT, PRIM_KIND, PRIM_ROW, TRIANGLE, Shape, exact_triangles, intersect
 
 SWEEP_LANES = 32  # up to four groups of eight float32 lanes
+SWEEP_GROUP = 8  # lanes a group: one AVX2 vector of float32
 SWEEP_OTHERS = 8  # bounded primitives other than triangles and quads a swept scene may have
 # The table's rows: the Plücker coordinates of each lane's three edges (18 rows), the largest
 # vertex coordinate magnitude of all the lanes (the same in each), each lane's primitive
@@ -127,7 +128,7 @@ def sweep_table(
     table[SWEEP_PRIM, n_tris:lanes] = polygons
     table[SWEEP_OTHER] = -1.0
     table[SWEEP_OTHER, : len(others)] = others
-    table[SWEEP_OTHER, SWEEP_LANES - 1] = -(-lanes // 8)  # the groups of eight lanes in use
+    table[SWEEP_OTHER, SWEEP_LANES - 1] = -(-lanes // SWEEP_GROUP)  # the groups in use
     # unused lanes: n = 0 and c = inf, a plane function positive everywhere
     table[SWEEP_PLANE + 3] = np.inf
     table[SWEEP_PLANE : SWEEP_PLANE + 4, :lanes] = lane_planes(lane_tris).T
@@ -157,7 +158,7 @@ def lane_planes(triangles: np.ndarray) -> np.ndarray:
 
 def _lanes_codegen(context, builder, sig, args):
     f32, f64, i32, i64 = ir.FloatType(), ir.DoubleType(), ir.IntType(32), ir.IntType(64)
-    n = 8
+    n = SWEEP_GROUP
     v8 = ir.VectorType(f32, n)
     vi = ir.VectorType(i32, n)
     undef = ir.Constant(v8, ir.Undefined)
