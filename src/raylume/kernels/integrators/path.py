@@ -198,8 +198,10 @@ def path_ray(G, F, X, Em, Env, Md, o, d, spread, max_depth, background, key, nod
                             G, F, X, Em, Md, p, wi, tmax, med, le, key, depth, np.int64(NO_HIT), node_stack, t_stack
                         )
                         if tr[0] > 0.0 or tr[1] > 0.0 or tr[2] > 0.0:
-                            w = 1.0 if delta_l or strategy == LIGHT_ONLY else power_heuristic(p_pick * pdf_l, phase)
-                            L = _add_light(L, hadamard(beta, tr), li, phase * w / (p_pick * pdf_l))
+                            weighed = not delta_l and strategy != LIGHT_ONLY
+                            L = _add_light(
+                                L, hadamard(beta, tr), li, phase * _light_weight(p_pick * pdf_l, phase, weighed)
+                            )
                 u_a, u_b = key_uniform2(dimension_key(key, DIM_BSDF, depth))
                 wi, phase = hg_sample(g, d, u_a, u_b)
                 prev_pdf = phase
