@@ -351,4 +351,9 @@ def test_denoise_works_with_bdpt():
     scene = raylume.load_scene(REPO / "examples" / "cornell.toml")
     img = raylume.render(scene, **BDPT, width=32, height=32, spp=4, denoise=True)
     assert np.isfinite(img.rgb).all() and img.rgb.min() >= 0
-    assert "noisy" in img.aovs and img.rgb.std() < img.aovs["noisy"].std()
+    assert "noisy" in img.aovs
+    # denoised, the image is nearer the converged one (path mode, 256 spp) than the noisy image is
+    # (mean absolute error: the light's edges would outweigh everything else in a squared error)
+    converged = raylume.render(scene, mode="path", width=32, height=32, spp=256).rgb
+    error = [np.abs(np.asarray(x, np.float64) - converged).mean() for x in (img.rgb, img.aovs["noisy"])]
+    assert error[0] < 0.7 * error[1], error  # 0.34-0.48 over seeds 0-4
