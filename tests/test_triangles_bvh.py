@@ -15,6 +15,7 @@ import raylume
 from raylume.accel.wide import NODE_COUNT, NODE_FIRST, NODE_ROWS
 from raylume.compile import compile_scene
 from raylume.kernels.geometry.shape_triangle import INF, intersect_triangle, ray_shear
+from raylume.kernels.geometry.shape_triangle import normals as triangle_normals_at
 from raylume.kernels.geometry.shapes import PRIM_FACE, PRIM_KIND, TRIANGLE
 from raylume.kernels.geometry.traverse import any_hit, closest_hit
 from raylume.kernels.geometry.wide_nodes import BVH_WIDTH, TRAVERSAL_STACK
@@ -539,3 +540,40 @@ def test_four_triangles_at_once_equal_the_scalar_test_to_the_bit():
         assert intersect_triangle_block(o, shear, tris, no_cols, first, count, 0.0, tmax) == want, (k, first, count)
         checked += want[0] < INF
     assert checked > 200
+
+
+@njit
+def _face_normals_at_hits(G, n):
+    out = np.empty((n, 3))
+    for i in range(n):
+        ng, _ = triangle_normals_at(G, i, 0.25, 0.25)
+        out[i] = ng
+    return out
+
+
+def test_face_normals_of_small_scenes_are_read_and_large_ones_computed_alike():
+    """Scenes of at most COLUMNS_UP_TO triangles read each hit's geometric normal from a table
+    made once (face_normals), larger ones compute it at the hit: both the unit normal of the
+    winding (v1 - v0) x (v2 - v0), against numpy's (the table's to float64 rounding, the
+    computed one to float32's, as it always was), zero for a degenerate triangle."""
+    from raylume.kernels.geometry.shape_triangle import COLUMNS_UP_TO, face_normals
+
+    rng = np.random.default_rng(8)
+    tris = rng.uniform(-1, 1, size=(300, 9)).astype(np.float32)
+    tris[7, 6:9] = tris[7, 0:3]  # degenerate
+    v = tris.astype(np.float64).reshape(-1, 3, 3)
+    want = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])
+    length = np.linalg.norm(want, axis=1)
+    want[length > 0] /= length[length > 0, None]
+    S = compile_scene(
+        raylume.scene_from_dict({"objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1}]})
+    ).kernel
+    S = S._replace(triangles=tris, triangle_smooth=np.zeros(len(tris), bool))  # the table's rows
+    small = S._replace(triangle_face_normals=face_normals(tris))
+    large = S._replace(triangle_face_normals=face_normals(np.zeros((COLUMNS_UP_TO + 1, 9))))
+    assert large.triangle_face_normals.shape[0] == 0  # a large scene's: none
+    read = _face_normals_at_hits(geometry_of(small), len(tris))
+    computed = _face_normals_at_hits(geometry_of(large), len(tris))
+    np.testing.assert_allclose(read, want, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(computed, want, rtol=0, atol=1e-5)
+    assert not read[7].any() and not computed[7].any()

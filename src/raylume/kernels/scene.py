@@ -5,7 +5,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .geometry.shape_triangle import triangle_columns
+from .geometry.shape_triangle import face_normals, triangle_columns
 from .shading.environment import Environment
 from .vec import kernel_function
 
@@ -18,6 +18,8 @@ class KernelScene(NamedTuple):
     # the same by columns, float32 (9, T + 4), for the block test of scenes of at most 4096
     # triangles; (9, 4) otherwise (shape_triangle.triangle_columns)
     triangle_columns: np.ndarray
+    # their unit face normals, float64 (T, 3), in the same scenes; (0, 3) otherwise
+    triangle_face_normals: np.ndarray
     triangle_normals: np.ndarray  # float32 (T, 9) vertex normals, or (1, 9) when no mesh is smooth
     triangle_smooth: np.ndarray  # bool (T,)
     triangle_uvs: np.ndarray  # float32 (T, 6): uv0, uv1, uv2, or (1, 6) when no triangle needs UVs
@@ -80,8 +82,9 @@ class KernelScene(NamedTuple):
     def __reduce__(self):
         # node_index is node_bounds' memory seen as int32: pickled as they are, each would be
         # copied, doubling the nodes' memory where the scene is unpickled (cluster workers) and
-        # splitting each node record in two; the triangle columns are made again there
-        return _unpickle_scene, (tuple(self._replace(node_index=None, inst_node_index=None, triangle_columns=None)),)
+        # splitting each node record in two; the triangle columns and face normals are made again there
+        made_again = dict(triangle_columns=None, triangle_face_normals=None)
+        return _unpickle_scene, (tuple(self._replace(node_index=None, inst_node_index=None, **made_again)),)
 
 
 def _unpickle_scene(fields: tuple) -> KernelScene:
@@ -90,6 +93,7 @@ def _unpickle_scene(fields: tuple) -> KernelScene:
         node_index=s.node_bounds.view(np.int32),
         inst_node_index=s.inst_node_bounds.view(np.int32),
         triangle_columns=triangle_columns(s.triangles),
+        triangle_face_normals=face_normals(s.triangles),
     )
 
 
@@ -106,6 +110,7 @@ class Geometry(NamedTuple):
     shapes: np.ndarray
     triangles: np.ndarray
     triangle_columns: np.ndarray
+    triangle_face_normals: np.ndarray
     triangle_normals: np.ndarray
     triangle_smooth: np.ndarray
     triangle_uvs: np.ndarray
@@ -223,6 +228,7 @@ def geometry_of(S):
         S.shapes,
         S.triangles,
         S.triangle_columns,
+        S.triangle_face_normals,
         S.triangle_normals,
         S.triangle_smooth,
         S.triangle_uvs,
