@@ -318,18 +318,35 @@ def _path_row(G, F, Em, Env, Md, X, P, j, film, node_stack, t_stack, strategy):
     spread = cam[CAM_CONE_SPREAD]
     rays = 0
     rejected = 0
-    for i in range(x0, x1):
-        total = pixel_sums(film, j - y0, i - x0)
-        for s in range(first, first + count):
-            o, d, w, key = camera_sample(cam, filt, seed, i, j, s, total_spp, width, height)
-            cone = spread * obliquity(cam, d)
-            col, used = path_ray(G, F, X, Em, Env, Md, o, d, cone, max_depth, bg, key, node_stack, t_stack, strategy)
-            rays += used
-            if not finite_sample(col):
-                rejected += 1
-                col = (0.0, 0.0, 0.0)
-            total = add_sample(total, col, w)
-        store_sums(film, j - y0, i - x0, total)
+    n = (x1 - x0) * count
+    if n <= 0:
+        return rays, rejected
+    # The samples of the row in one loop, each one's camera ray made before the path of the one
+    # before it: its square root and division (~35 cycles) had started every path, with nothing
+    # else in the window to overlap them; made a path ahead, they run beside its first traversal.
+    i, s = x0, first
+    o, d, w, key = camera_sample(cam, filt, seed, i, j, s, total_spp, width, height)
+    total = pixel_sums(film, j - y0, i - x0)
+    for k in range(n):
+        next_i, next_s = (i, s + 1) if s + 1 < first + count else (i + 1, first)
+        if k + 1 < n:
+            next_o, next_d, next_w, next_key = camera_sample(
+                cam, filt, seed, next_i, j, next_s, total_spp, width, height
+            )
+        else:
+            next_o, next_d, next_w, next_key = o, d, w, key
+        cone = spread * obliquity(cam, d)
+        col, used = path_ray(G, F, X, Em, Env, Md, o, d, cone, max_depth, bg, key, node_stack, t_stack, strategy)
+        rays += used
+        if not finite_sample(col):
+            rejected += 1
+            col = (0.0, 0.0, 0.0)
+        total = add_sample(total, col, w)
+        if next_i != i:  # the pixel's last sample
+            store_sums(film, j - y0, i - x0, total)
+            if k + 1 < n:
+                total = pixel_sums(film, j - y0, next_i - x0)
+        i, s, o, d, w, key = next_i, next_s, next_o, next_d, next_w, next_key
     return rays, rejected
 
 
