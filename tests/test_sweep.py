@@ -33,8 +33,8 @@ from raylume.kernels.geometry.traverse import (
     closest_hit_leaving,
 )
 from raylume.kernels.geometry.wide_nodes import traversal_stacks
-from raylume.kernels.integrators.shadow import shadow_ray
-from raylume.kernels.scene import geometry_of
+from raylume.kernels.integrators.shadow import scale_free_shadows, shadow_ray, shadow_segment
+from raylume.kernels.scene import emitters_of, geometry_of, media_of
 from raylume.kernels.variants import features
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
@@ -313,7 +313,8 @@ def _shadow_rays(S, W, X, K, U, floor, out, stacks):
     """Shadow rays as path mode makes them (shadow.shadow_ray), from a point of triangle
     primitive K[i, 0] (by U[i, :2]) towards a point of flat primitive K[i, 1] (a triangle or a
     quad, by U[i, 2:]), both drawn by shapes.sample_surface: blocked in S (swept, both
-    primitives named) and in W (walked)."""
+    primitives named), in W (walked), and in S along the unnormalized segment (shadow_segment,
+    path mode's where scale_free_shadows)."""
     G, GW = geometry_of(S), geometry_of(W)
     node_stack, t_stack = stacks
     for i in range(U.shape[0]):
@@ -327,6 +328,13 @@ def _shadow_rays(S, W, X, K, U, floor, out, stacks):
         o, aim, tmax = shadow_ray(p, ng, eps if up else -eps, wi, dist)
         out[i, 0] = any_hit_between(G, X, o, aim, 0.0, tmax, K[i, 0], K[i, 1], node_stack, t_stack)
         out[i, 1] = any_hit(GW, X, o, aim, 0.0, tmax, node_stack, t_stack)
+        o, seg, tmax = shadow_segment(p, ng, eps if up else -eps, wi, dist)
+        out[i, 2] = any_hit_between(G, X, o, seg, 0.0, tmax, K[i, 0], K[i, 1], node_stack, t_stack)
+
+
+@njit
+def _scale_free(S):
+    return scale_free_shadows(geometry_of(S), emitters_of(S), media_of(S))
 
 
 @pytest.mark.parametrize("name", ["cornell", "mixed"])
@@ -346,10 +354,15 @@ def test_shadow_rays_leave_their_ends_out_as_the_walk_finds(name):
     n = 60_000
     K = np.stack([rng.choice(triangles, n), rng.choice(flat, n)], axis=1).astype(np.int64)
     U = rng.random((n, 4))
-    out = np.empty((n, 2), np.bool_)
+    out = np.empty((n, 3), np.bool_)
     _shadow_rays(S, walked, features(S), K, U, S.epsilon_floor, out, traversal_stacks())
     assert 0.1 < out[:, 1].mean() < 0.9
     np.testing.assert_array_equal(out[:, 0], out[:, 1])
+    # path mode's unnormalized shadow segments: in the Cornell box (triangles and a quad alone)
+    # the same answers; the mixed scene has a sphere, whose test wants unit directions
+    assert _scale_free(S) == (name == "cornell") and not _scale_free(walked)
+    if name == "cornell":
+        np.testing.assert_array_equal(out[:, 2], out[:, 1])
 
 
 @pytest.mark.parametrize("mode", ["path", "bdpt", "cast"])

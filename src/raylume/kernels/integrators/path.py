@@ -48,7 +48,7 @@ from ..shading.materials import (
 from ..shading.media import MED_G, free_flight, hg_eval, hg_sample, medium_beyond, medium_leaving
 from ..shading.media.tracking import ABSORBED, SCATTERED
 from ..vec import dot, hadamard, inline_function, madd, mul, row3
-from .shadow import shadow_ray, shadow_transmittance
+from .shadow import scale_free_shadows, shadow_ray, shadow_segment, shadow_transmittance
 
 INF = math.inf
 RR_DEPTH = 5  # Mitsuba's rr_depth: Russian roulette from this many segments on
@@ -157,6 +157,7 @@ def path_ray(G, F, X, Em, Env, Md, o, d, spread, max_depth, background, key, nod
     mis_t = 0.0
     crossings = 0  # null boundaries passed
     leaving = np.int64(NO_HIT)  # the surface o lies on, offset towards d (none for the camera)
+    unnormalized_shadows = scale_free_shadows(G, Em, Md)
     while True:
         # Next-event estimation's numbers for the surface this segment may reach, drawn before
         # its traversal so that the environment's alias slot (a cache miss: ~11% of
@@ -297,7 +298,10 @@ def path_ray(G, F, X, Em, Env, Md, o, d, spread, max_depth, background, key, nod
                 if up or not two_sided_here:
                     f, pdf_b = bsdf_eval(mat, m, colour, wo, wi_local)
                     if f[0] > 0.0 or f[1] > 0.0 or f[2] > 0.0:
-                        origin, aim, tmax = shadow_ray(p, ng, eps if up else -eps, wi, dist)
+                        if unnormalized_shadows:
+                            origin, aim, tmax = shadow_segment(p, ng, eps if up else -eps, wi, dist)
+                        else:
+                            origin, aim, tmax = shadow_ray(p, ng, eps if up else -eps, wi, dist)
                         rays += 1
                         # the shadow ray leaves on the side of the incoming ray, or crosses
                         shadow_med = medium_leaving(Md, med, obj, d, n_geo, wi)
