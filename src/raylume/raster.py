@@ -29,7 +29,7 @@ from .accel.wide import NODE_COUNT, NODE_FIRST
 from .kernels.film.camera import CAM_POSITION, CAM_UP
 from .kernels.film.image_pass import Aovs
 from .kernels.frame_stack import roomy_frame_stack
-from .kernels.geometry.shape_triangle import face_normals, triangle_columns
+from .kernels.geometry.shape_triangle import triangle_tables
 from .kernels.geometry.shapes import PRIM_KIND, PRIM_ROW, Shape
 from .kernels.geometry.shapes import tessellate as tessellate_shape
 from .kernels.raster.raster_kernel import Parts, rasterize_arrays
@@ -89,12 +89,7 @@ def rasterize(
 @roomy_frame_stack  # (frame_stack.py)
 def _warm_up(S, cam, near, background):
     """Compile the kernels (or load them from the cache) on empty input, outside the timing."""
-    empty = S._replace(
-        triangles=S.triangles[:0],
-        triangle_columns=triangle_columns(S.triangles[:0]),
-        triangle_face_normals=face_normals(S.triangles[:0]),
-        sweep=S.sweep[:, :0],
-    )
+    empty = S._replace(triangles=S.triangles[:0], **triangle_tables(S.triangles[:0]), sweep=S.sweep[:, :0])
     rgb = np.zeros((1, 1, 3), np.float32)
     none = np.zeros(0, np.int32)
     parts = Parts(none, np.zeros((0, 9)), none, np.zeros(0), np.zeros(len(S.prims), np.int32))
@@ -178,11 +173,7 @@ def flatten_instances(S):
         instance_index=S.instance_index[:0],
     )
     # the flattened triangles are no longer the sweep table's (geometry/sweep.py): the BVH walk
-    flat_s = flat_s._replace(
-        triangle_columns=triangle_columns(flat_s.triangles),
-        triangle_face_normals=face_normals(flat_s.triangles),
-        sweep=S.sweep[:, :0],
-    )
+    flat_s = flat_s._replace(**triangle_tables(flat_s.triangles), sweep=S.sweep[:, :0])
     prim_instance = np.zeros(len(prims), np.int32)
     prim_instance[n_world : n_world + len(flat)] = np.concatenate(ids)
     return flat_s, prim_instance

@@ -17,7 +17,7 @@ import numpy as np
 
 from ..accel.wide import wide_nbytes
 from ..kernels.frame_stack import roomy_frame_stack
-from ..kernels.geometry.shape_triangle import face_normals, triangle_columns
+from ..kernels.geometry.shape_triangle import triangle_tables
 from ..kernels.geometry.shapes import PRIM_KIND, Shape
 from ..kernels.geometry.sweep import sweep_table
 from ..kernels.jit_clock import JitClock
@@ -88,8 +88,7 @@ def _compile_scene(scene: Scene, source: str, accelerate: bool) -> CompiledScene
         n_bounded=g.n_bounded,
         shapes=g.shapes,
         triangles=g.triangles,
-        triangle_columns=triangle_columns(g.triangles),
-        triangle_face_normals=face_normals(g.triangles),
+        **triangle_tables(g.triangles),
         triangle_normals=g.triangle_normals,
         triangle_smooth=g.triangle_smooth,
         triangle_uvs=g.triangle_uvs,

@@ -5,7 +5,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .geometry.shape_triangle import face_normals, triangle_columns
+from .geometry.shape_triangle import TRIANGLE_TABLES, triangle_tables
 from .shading.environment import Environment
 from .vec import kernel_function
 
@@ -82,8 +82,8 @@ class KernelScene(NamedTuple):
     def __reduce__(self):
         # node_index is node_bounds' memory seen as int32: pickled as they are, each would be
         # copied, doubling the nodes' memory where the scene is unpickled (cluster workers) and
-        # splitting each node record in two; the triangle columns and face normals are made again there
-        made_again = dict(triangle_columns=None, triangle_face_normals=None)
+        # splitting each node record in two; the tables made from the triangles are made again there
+        made_again = dict.fromkeys(TRIANGLE_TABLES)
         return _unpickle_scene, (tuple(self._replace(node_index=None, inst_node_index=None, **made_again)),)
 
 
@@ -92,8 +92,7 @@ def _unpickle_scene(fields: tuple) -> KernelScene:
     return s._replace(
         node_index=s.node_bounds.view(np.int32),
         inst_node_index=s.inst_node_bounds.view(np.int32),
-        triangle_columns=triangle_columns(s.triangles),
-        triangle_face_normals=face_normals(s.triangles),
+        **triangle_tables(s.triangles),
     )
 
 

@@ -416,6 +416,16 @@ def face_normals(triangles):
     return np.divide(n, length[:, None], out=np.zeros_like(n), where=length[:, None] > 0.0)
 
 
+# The KernelScene fields made from its triangle table: wherever the triangles change (compiling,
+# unpickling, the rasterizer's flattened instances), all of them are made again together.
+TRIANGLE_TABLES = ("triangle_columns", "triangle_face_normals")
+
+
+def triangle_tables(triangles) -> dict:
+    """The fields TRIANGLE_TABLES of a scene whose triangle table is `triangles`."""
+    return {"triangle_columns": triangle_columns(triangles), "triangle_face_normals": face_normals(triangles)}
+
+
 # Inlined into the traversal (a call per leaf passed the arrays and spilled the ray's state: the
 # hit rays of a 10k-triangle mesh took 6-9% longer); its arithmetic is protected from the
 # caller's fast-math flags inside _triangles_codegen.
