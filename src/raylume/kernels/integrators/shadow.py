@@ -22,17 +22,28 @@ INF = math.inf
 
 
 @inline_function
-def shadow_ray(p, n, offset, wi, dist):
+def shadow_segment(p, n, offset, wi, dist):
     """(origin, direction, tmax) of the shadow ray from surface point p towards the point at
-    `dist` along unit wi (inf: a direction): from p offset along n, aimed at that point and
-    ending SHADOW_SHORTEN of its length short of it, as pbrt spawns rays to a point. Aimed from
-    p itself, the offset origin's ray crossed the target's own surface before its shortened end
-    wherever it met it at a grazing angle (offset / sin > SHADOW_SHORTEN x dist), and the light
-    blocked itself."""
+    `dist` along unit wi (inf: a direction, then wi itself and tmax inf): from p offset along n,
+    its direction the whole segment from there to that point and tmax 1 - SHADOW_SHORTEN, short
+    of it, as pbrt spawns rays to a point. Aimed from p itself, the offset origin's ray crossed
+    the target's own surface before its shortened end wherever it met it at a grazing angle
+    (offset / sin > SHADOW_SHORTEN x dist), and the light blocked itself. Unnormalized: for
+    scenes where scale_free_shadows (the normalization, a square root and a division in a chain,
+    was ~4% of the Cornell box's path time in a cpu-clock profile); shadow_ray elsewhere."""
     origin = madd(p, n, offset)
     if not dist < INF:
         return origin, wi, INF
-    to = sub(madd(p, wi, dist), origin)
+    return origin, sub(madd(p, wi, dist), origin), 1.0 - SHADOW_SHORTEN
+
+
+@inline_function
+def shadow_ray(p, n, offset, wi, dist):
+    """shadow_segment's ray with a unit direction, tmax SHADOW_SHORTEN of its length short of the
+    point (a sphere's test and distances through media want unit directions)."""
+    origin, to, tmax = shadow_segment(p, n, offset, wi, dist)
+    if not dist < INF:
+        return origin, to, tmax
     span = length(to)
     return origin, mul(to, 1.0 / span), span * (1.0 - SHADOW_SHORTEN)
 
@@ -51,17 +62,6 @@ def scale_free_shadows(G, Em, Md):
         and Em.n_area == 0
         and not Md.pass_through
     )
-
-
-@inline_function
-def shadow_segment(p, n, offset, wi, dist):
-    """shadow_ray where scale_free_shadows: the same origin and target, the direction the whole
-    segment between them and tmax 1 - SHADOW_SHORTEN, without the normalization (a square root
-    and a division in a chain, ~4% of the Cornell box's path time in a cpu-clock profile)."""
-    origin = madd(p, n, offset)
-    if not dist < INF:
-        return origin, wi, INF
-    return origin, sub(madd(p, wi, dist), origin), 1.0 - SHADOW_SHORTEN
 
 
 @inline_function
