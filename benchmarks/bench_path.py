@@ -252,6 +252,15 @@ def speed(args, bench: BenchScene, have_mitsuba: bool, llvm_ok: bool) -> dict:
             rows,
         )
     )
+    # the VM's speed drifts between rounds: each round's own ratio (raylume's time over the render
+    # just after it) is the steadier measure; their median and range
+    for threads in configs:
+        for e in engines[1:]:
+            ratios = [r / o for r, o in zip(times["raylume", threads], times[e.name, threads], strict=True)]
+            print(
+                f"per-round ratio raylume / {e.name}, {threads} thread(s): median {median_of(ratios):.3f}, "
+                f"range {min(ratios):.3f}-{max(ratios):.3f} over {len(ratios)} rounds"
+            )
     if bench.notes and have_mitsuba:
         print("\nMitsuba's scene approximates raylume's: " + "; ".join(bench.notes) + ".")
     setup = [
