@@ -18,9 +18,10 @@ the material showcase (examples/materials.toml), and error against time on the C
      bilinearly (`python benchmarks/mitsuba_scene.py compare` shows both images).
    All in this process, alternating raylume, Mitsuba, raylume, Mitsuba, ... for --rounds rounds,
    each round on all cores and on 1 thread. Times are the wall time of the render call (raylume's
-   kernel time beside it, and its rays per sample), after a warm-up render: raylume's Numba
-   compilation (or cache load) is reported apart, and at the very end a cold compile in a new
-   process with an empty Numba cache (--no-cold skips it).
+   kernel time beside it, and its rays per sample; then each round's own ratio, median and
+   range), after a warm-up render: raylume's Numba compilation (or cache load) is reported apart,
+   and at the very end a cold compile in a new process with an empty Numba cache (--no-cold
+   skips it).
 2. Error against time (Cornell box only): 64 x 64 against tests/reference/cornell_mitsuba.npz
    (Mitsuba's mean over 65536 spp), the pixels that see any of the light left out, RMSE over
    linear RGB. raylume and Mitsuba scalar_rgb at 4 .. 1024 spp, and raylume's 16 spp denoised by
@@ -252,8 +253,8 @@ def speed(args, bench: BenchScene, have_mitsuba: bool, llvm_ok: bool) -> dict:
             rows,
         )
     )
-    # the VM's speed drifts between rounds: each round's own ratio (raylume's time over the render
-    # just after it) is the steadier measure; their median and range
+    # the VM's speed drifts between rounds: each round's own ratio (raylume's time over the other
+    # renderer's in the same round, a few seconds apart) is the steadier measure; their median and range
     for threads in configs:
         for e in engines[1:]:
             ratios = [r / o for r, o in zip(times["raylume", threads], times[e.name, threads], strict=True)]
