@@ -28,7 +28,7 @@ from numba import njit
 
 import raylume
 from raylume.compile import compile_scene
-from raylume.kernels.film.sampler import DIM_BSDF, DIM_LIGHT, dimension_key, key_uniform2, mix64, sample_key, sub_key
+from raylume.kernels.film.sampler import DIM_BSDF, DIM_LIGHT, dimension_key, key_uniform2, sample_key, sub_key
 from raylume.kernels.geometry.shape_quad import CENTER, NORMAL, U, V, area
 from raylume.kernels.geometry.shapes import NO_HIT, PRIM_KIND, PRIM_MATERIAL, PRIM_ROW, QUAD, TRIANGLE, offset_epsilon
 from raylume.kernels.geometry.traverse import any_hit_between, closest_hit_leaving
@@ -49,6 +49,8 @@ INV_PI = 1.0 / math.pi
 
 @inline_function
 def turn_sel(u):
+    """vec.turn's (cos, sin) of a fraction of a turn, its quarter picked by selects, which LLVM
+    vectorises (vec.turn picks it by index from a stack copy: a scalar load per lane)."""
     q = math.floor(4.0 * u + 0.5)
     c, s = quarter_sincos(2.0 * math.pi * (u - 0.25 * q))
     k = q - 4.0 * math.floor(q * 0.25)
@@ -62,9 +64,9 @@ def turn_sel(u):
 
 @vector_loop(fastmath=True)
 def shade_diffuse(R, m, Q):
-    """For queue slots 0..m-1: next-event sample of the quad light Q (corner, edges, normal, area,
-    radiance: QUAD_*), its MIS weight (power heuristic), the diffuse BSDF's cosine sample, the
-    throughput."""
+    """For queue slots 0..m-1: next-event sample of the quad light Q (corner 0-2, edges u 3-5 and
+    v 6-8, unit normal 9-11, area 12, radiance 13-15), its MIS weight (power heuristic), the
+    diffuse BSDF's cosine sample, the throughput."""
     for k in range(m):
         px, py, pz = R[PX * T + k], R[PY * T + k], R[PZ * T + k]
         nx, ny, nz = R[NX * T + k], R[NY * T + k], R[NZ * T + k]
@@ -102,6 +104,9 @@ def shade_diffuse(R, m, Q):
 
 @njit(fastmath=True)
 def render_rows(S, X, img, W, H, spp, seed, stacks, R, I, light, Q, max_depth, shade):
+    """spp samples of every pixel into img (sums), a row's pixels a tile, one sample at a time,
+    through the Cornell box's pinhole (its TOML's position and fov; the image comes out mirrored,
+    which no mean minds). Returns the rays traced."""
     G = geometry_of(S)
     ns, ts = stacks
     mats = S.materials
@@ -200,7 +205,7 @@ def render_rows(S, X, img, W, H, spp, seed, stacks, R, I, light, Q, max_depth, s
                     if depth >= 5:
                         beta_max = max(R[BR * T + q], R[BG * T + q], R[BB * T + q])
                         qq = min(beta_max, 0.95)
-                        u_rr, _ = key_uniform2(mix64(np.uint64(pix * 7919 + depth) + np.uint64(s)))
+                        u_rr, _ = key_uniform2(sub_key(sample_key(seed, j * W + pix, s), depth))
                         if u_rr >= qq:
                             going = False
                         else:
