@@ -237,12 +237,14 @@ def quad_light(S) -> tuple[int, tuple[float, ...]]:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--size", type=int, default=256)
+    ap.add_argument("--size", type=int, default=256, help=f"image width and height, at most {T}")
     ap.add_argument("--spp", type=int, default=8)
     ap.add_argument("--rounds", type=int, default=6)
     ap.add_argument("--max-depth", type=int, default=8)
     ap.add_argument("--scalar", action="store_true", help="the shading loop inlined and scalar")
     args = ap.parse_args()
+    if not 1 <= args.size <= T:
+        ap.error(f"--size: a row is one tile of at most {T} paths")
     W = H = args.size
     S = compile_scene(raylume.load(CORNELL)).kernel
     X = path_features(S)
