@@ -103,16 +103,16 @@ def shade_diffuse(R, m, Q):
 
 
 @njit(fastmath=True)
-def render_rows(S, X, img, W, H, spp, seed, stacks, R, I, light, Q, max_depth, shade):
+def render_rows(S, X, img, W, H, spp, seed, stacks, R, I, light, Q, C, max_depth, shade):
     """spp samples of every pixel into img (sums), a row's pixels a tile, one sample at a time,
-    through the Cornell box's pinhole (its TOML's position and fov; the image comes out mirrored,
-    which no mean minds). Returns the rays traced."""
+    through the pinhole C (position, tan of half the vertical fov: pinhole(); the image comes out
+    mirrored, which no mean minds). Returns the rays traced."""
     G = geometry_of(S)
     ns, ts = stacks
     mats = S.materials
     fn = S.triangle_face_normals
-    cam = np.array([278.0, 273.0, -800.0])
-    tanh = math.tan(0.5 * 39.30764811610662 * math.pi / 180.0)
+    cam = (C[0], C[1], C[2])
+    tanh = C[3]
     rays = 0
     for j in range(H):
         for s in range(spp):
@@ -235,6 +235,16 @@ def quad_light(S) -> tuple[int, tuple[float, ...]]:
     return k, tuple(float(x) for x in q + list(m[MAT_EMISSION : MAT_EMISSION + 3]))
 
 
+def pinhole(scene) -> tuple[float, float, float, float]:
+    """The scene camera's position and tan of half its vertical fov; the probe's camera rays look
+    along +z with +y up, as the Cornell box's camera does (anything else is refused)."""
+    c = scene.camera
+    forward = np.subtract(c.look_at, c.position)
+    if not (forward[0] == forward[1] == 0.0 < forward[2] and tuple(c.up) == (0.0, 1.0, 0.0) and c.aperture == 0.0):
+        raise SystemExit("probe_wavefront_path: the camera must be a pinhole looking along +z with +y up")
+    return (*map(float, c.position), math.tan(0.5 * math.radians(c.fov)))
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--size", type=int, default=256, help=f"image width and height, at most {T}")
@@ -246,7 +256,9 @@ def main() -> None:
     if not 1 <= args.size <= T:
         ap.error(f"--size: a row is one tile of at most {T} paths")
     W = H = args.size
-    S = compile_scene(raylume.load(CORNELL)).kernel
+    scene = raylume.load(CORNELL)
+    S = compile_scene(scene).kernel
+    C = pinhole(scene)
     X = path_features(S)
     light, Q = quad_light(S)
     shade = njit(fastmath=True, inline="always")(shade_diffuse.py_func) if args.scalar else shade_diffuse
@@ -254,15 +266,15 @@ def main() -> None:
     R = np.zeros(ROWS * T)
     I = np.zeros(2 * T, np.int64)
     img = np.zeros((H, W, 3))
-    render_rows(S, X, img, W, H, 1, 1, stacks, R, I, light, Q, args.max_depth, shade)
-    session = raylume.Session(raylume.load_scene(CORNELL))
+    render_rows(S, X, img, W, H, 1, 1, stacks, R, I, light, Q, C, args.max_depth, shade)
+    session = raylume.Session(scene)  # the scene loaded once, for both
     size = dict(width=W, height=H, mode="path", max_depth=args.max_depth, aovs=False)
     session.render(**size, spp=1, threads=1)
     wave, path = [], []
     for r in range(args.rounds):
         img[:] = 0.0
         t = time.process_time()
-        rays = render_rows(S, X, img, W, H, args.spp, 7 + r, stacks, R, I, light, Q, args.max_depth, shade)
+        rays = render_rows(S, X, img, W, H, args.spp, 7 + r, stacks, R, I, light, Q, C, args.max_depth, shade)
         wave.append(time.process_time() - t)
         t = time.process_time()
         ref = session.render(**size, spp=args.spp, seed=7 + r, threads=1)
