@@ -410,6 +410,14 @@ def face_normals(triangles):
 
     if len(triangles) > COLUMNS_UP_TO:
         return np.zeros((0, 3))
+    return unit_normals(triangles)
+
+
+def unit_normals(triangles):
+    """float64 (T, 3): each triangle's (v1 - v0) x (v2 - v0) normalized in float64, zero for a
+    degenerate one (face_normals' table, and the sweep's lane planes)."""
+    import numpy as np
+
     v = np.asarray(triangles, np.float64).reshape(-1, 3, 3)
     n = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])
     length = np.sqrt(np.einsum("ij,ij->i", n, n))

@@ -74,7 +74,7 @@ from numba.core.errors import TypingError
 from numba.extending import intrinsic
 
 from ..vec import inline_function
-from .shape_triangle import exact_ops, intersect_triangle_block, ray_shear, triangles4_gathered
+from .shape_triangle import exact_ops, intersect_triangle_block, ray_shear, triangles4_gathered, unit_normals
 from .shapes import NO_HIT, PRIM_KIND, PRIM_ROW, TRIANGLE, Shape, exact_triangles, intersect
 
 SWEEP_LANES = 32  # up to four groups of eight float32 lanes
@@ -149,9 +149,7 @@ def lane_planes(triangles: np.ndarray) -> np.ndarray:
     v0, from float64 arithmetic on the vertices, each rounded once (zero for a degenerate
     triangle: its plane function is then 0 everywhere, within every bound)."""
     v = np.asarray(triangles, np.float64).reshape(-1, 3, 3)
-    n = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])
-    length = np.linalg.norm(n, axis=1)
-    n = np.divide(n, length[:, None], out=np.zeros_like(n), where=length[:, None] > 0.0).astype(np.float32)
+    n = unit_normals(v).astype(np.float32)
     c = -np.einsum("ij,ij->i", n.astype(np.float64), v[:, 0])
     return np.column_stack([n, c]).astype(np.float32)
 
