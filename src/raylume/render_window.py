@@ -38,6 +38,7 @@ from .kernels.integrators.frame import (
     bdpt_lane,
     cast_lane,
     path_lane,
+    path_wave_lane,
     trace_lane,
 )
 from .kernels.integrators.wavefront import wavefront_rows, wavefront_tables
@@ -164,6 +165,16 @@ def path_strategy() -> int:
     return PATH_STRATEGIES[name]
 
 
+def path_kernel():
+    """Path mode's kernel: the wavefront (path_wavefront.py), unless the environment variable
+    RAYLUME_PATH_KERNEL asks for the scalar one, a path at a time (path.py; for tests, which
+    compare the two, and debugging). Both give the same images in expectation."""
+    name = os.environ.get("RAYLUME_PATH_KERNEL", "wavefront")
+    if name not in ("wavefront", "scalar"):
+        raise RaylumeError(f"RAYLUME_PATH_KERNEL={name!r}: expected wavefront or scalar")
+    return path_wave_lane if name == "wavefront" else path_lane
+
+
 def _centres_only(cam: np.ndarray, film: Film) -> bool:
     """Whether the film's samples are one at each pixel's centre, through a pinhole, into sums
     without the unsigned half (variants.trace_features)."""
@@ -198,6 +209,7 @@ def add_samples_to_film(S, cam, film: Film, spp: int, settings, aov: dict, progr
     views = trace_views(S, B) if settings.mode == "trace" else None
     tables = wavefront_tables(S) if settings.mode == "trace" else None  # read by every lane
     strategy = path_strategy()
+    path_kernel_lane = path_kernel() if settings.mode == "path" else None
     bd = bdpt_pass(S, film, lanes) if bidirectional else None
 
     aovs = Aovs(**{name: aov[name] for name in Aovs._fields}) if aov else None
@@ -212,7 +224,7 @@ def add_samples_to_film(S, cam, film: Film, spp: int, settings, aov: dict, progr
         elif bidirectional:
             bdpt_lane(S, X, P, film.sums, C, bd)
         elif settings.mode == "path":
-            path_lane(S, X, P, film.sums, C, strategy)
+            path_kernel_lane(S, X, P, film.sums, C, strategy)
         else:
             trace_lane(*views, X, P, film.sums, C, B, (*wavefront_rows(), *tables))
 

@@ -3,6 +3,7 @@ decorators of every per-ray function (`kernel_function`, `inline_function`)."""
 
 import math
 
+import numpy as np
 from llvmlite import ir
 from numba import njit
 from numba.core import cgutils, compiler, config, types
@@ -383,6 +384,29 @@ def turn(u):
     k = int(q)
     turned = (c, s, -c, -s)
     return element(turned, -k & 3), element(turned, (1 - k) & 3)
+
+
+@inline_function
+def at(row, slot):
+    """The index of a slot of a row, unsigned: Numba wraps negative indices around, a compare
+    and a conditional move on every scalar access that LLVM cannot prove non-negative (a
+    counter of kept rays, an index loaded from a table)."""
+    return np.uint64(row + slot)
+
+
+@inline_function
+def turn_in_lanes(u):
+    """turn(u) for vector loops: the quarter turn picked by selects, which LLVM vectorises (turn's
+    load from a stack copy is a scalar load per lane; its selects there became branches)."""
+    q = math.floor(4.0 * u + 0.5)
+    c, s = quarter_sincos(2.0 * math.pi * (u - 0.25 * q))
+    k = q - 4.0 * math.floor(q * 0.25)  # q mod 4, as a float
+    odd = (k == 1.0) or (k == 3.0)
+    neg_c = (k == 1.0) or (k == 2.0)
+    neg_s = (k == 2.0) or (k == 3.0)
+    cc = s if odd else c
+    ss = c if odd else s
+    return (-cc if neg_c else cc), (-ss if neg_s else ss)
 
 
 # --- a tuple's element at a run-time index, without a branch --------------------------------

@@ -27,6 +27,7 @@ from ..vec import FAST, INLINE_OVERLOAD, dot, inline_function, kernel_function, 
 from .bdpt import MAX_SEGMENTS, bdpt_sample
 from .bdpt_vertex import V_WIDTH, Context
 from .path import finite_sample, path_ray
+from .path_wavefront import path_wave_row, path_wave_scratch
 from .trace import RAY_WIDTH, stack_rows, trace_ray
 from .wavefront import wavefront_row, wavefront_scratch
 
@@ -158,6 +159,24 @@ def path_lane(S, X, P, film, C, strategy):
         if j >= y1 or C.control[STOP] != 0:
             break
         rays, bad = _path_row(G, F, Em, Env, Md, X, P, j, film, node_stack, t_stack, strategy)
+        C.rays_per_row[j - y0] += rays
+        C.rejected[C.lane * PROGRESS_STRIDE] += bad
+        C.rows_done[C.lane * PROGRESS_STRIDE] += 1
+
+
+@njit(**LANE)
+def path_wave_lane(S, X, P, film, C, strategy):
+    """path_lane's samples by the wavefront (path_wavefront.py): the same in expectation."""
+    node_stack, t_stack = traversal_stacks()
+    wave = path_wave_scratch()
+    G, F, Em = geometry_of(S), surfaces_of(S), emitters_of(S)
+    Env, Md = environment_of(S), media_of(S)
+    x0, y0, x1, y1 = P.window
+    while True:
+        j = y0 + claim_row(C.control, C.counter)
+        if j >= y1 or C.control[STOP] != 0:
+            break
+        rays, bad = path_wave_row(G, F, Em, Env, Md, X, P, j, film, wave, node_stack, t_stack, strategy)
         C.rays_per_row[j - y0] += rays
         C.rejected[C.lane * PROGRESS_STRIDE] += bad
         C.rows_done[C.lane * PROGRESS_STRIDE] += 1

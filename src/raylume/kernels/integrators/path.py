@@ -22,7 +22,7 @@ from ..film.sampler import DIM_BSDF, DIM_LIGHT, dimension_key, key_uniform2, sub
 from ..geometry.shapes import NO_HIT, PRIM_LIGHT, offset_epsilon, split_hit, surface
 from ..geometry.traverse import any_hit_between, closest_hit_leaving
 from ..shading.environment import prefetch_environment
-from ..shading.frame import shading_frame, to_local, to_world
+from ..shading.frame import facing_normals, to_local, to_world
 from ..shading.lights import (
     LIGHT_INTENSITY,
     SHADOW_SHORTEN,
@@ -30,11 +30,13 @@ from ..shading.lights import (
     environment_arrival,
     hit_area_lights,
     light_pdf,
+    light_point,
     light_primitive,
     pick_emitter,
     pick_probability,
     sample_light,
 )
+from ..shading.lights.sampling import basis
 from ..shading.materials import (
     MAT_EMISSION,
     albedo,
@@ -43,6 +45,7 @@ from ..shading.materials import (
     bsdf_sample,
     delta_only,
     index_matched,
+    is_diffuse,
     two_sided,
 )
 from ..shading.media import MED_G, free_flight, hg_eval, hg_sample, medium_beyond, medium_leaving
@@ -138,205 +141,301 @@ def _shadow(G, F, X, Em, Md, origin, wi, tmax, med, target, key, depth, leaving,
     return (1.0, 1.0, 1.0)
 
 
+# What path_segment says of the path it advanced
+GO = 0  # the path goes on: its state holds its next ray
+DONE = 1  # the path has ended: its state's L is its radiance
+DEFERRED = 2  # at a diffuse surface whose shading the caller does (path_wavefront.py)
+ZERO3 = (0.0, 0.0, 0.0)
+
+
+@inline_function
+def path_start(Md, o, d):
+    """The state of a path leaving the camera along (o, d): (o, d, beta, L, rays, depth,
+    prev_pdf, prev_delta, cone, med, mis_o, mis_t, crossings, leaving), as path_segment takes it.
+    MIS weighs emission met by a sampled direction with the light's pdf seen from the vertex
+    that sampled it, mis_o, mis_t before o along d (null boundaries pass a ray unchanged);
+    `leaving` is the surface o lies on, offset towards d (none for the camera); `cone` the ray
+    cone's radius at o; `med` the medium the ray travels in (-1: none); the camera ray sees
+    emitters at full weight (prev_delta)."""
+    return (o, d, (1.0, 1.0, 1.0), ZERO3, 0, 0, 0.0, True, 0.0, Md.camera, o, 0.0, 0, np.int64(NO_HIT))
+
+
+@inline_function
+def _deferred_light(G, X, Em, Env, lights, p, u_pick, u1, u2, light_key, strategy):
+    """Next-event estimation's light sample at a diffuse surface whose shading is deferred: (on a
+    surface, the point there or else the direction, the point's unit normal, the surface's area,
+    the direction's distance, radiance, density, MIS weighs it, the light row). For a point
+    uniform over a surface (lights.light_point) the density is the light's pick probability:
+    the caller finds the direction and its solid-angle density (sampling.towards_point); for
+    the other kinds, their `sample`'s, pick included. Density 0: no light to add."""
+    if not lights:
+        return False, ZERO3, ZERO3, 0.0, 0.0, ZERO3, 0.0, False, np.int64(-1)
+    le, p_pick = pick_emitter(Em.cdf, u_pick)
+    on_surface, q, n_l, area, li = light_point(G, X, Em, le, u1, u2)
+    lit = li[0] > 0.0 or li[1] > 0.0 or li[2] > 0.0
+    if on_surface:
+        usable = lit and strategy != BSDF_ONLY
+        return True, q, n_l, area, 0.0, li, p_pick if usable else 0.0, strategy != LIGHT_ONLY, np.int64(le)
+    wi, dist, li, pdf_l, delta_l = sample_light(G, X, Em, Env, le, p, u1, u2, light_key)
+    usable = pdf_l > 0.0 and (li[0] > 0.0 or li[1] > 0.0 or li[2] > 0.0) and (delta_l or strategy != BSDF_ONLY)
+    weighed = not delta_l and strategy != LIGHT_ONLY
+    return False, wi, ZERO3, 0.0, dist, li, p_pick * pdf_l if usable else 0.0, weighed, np.int64(le)
+
+
 @inline_function
 def path_ray(G, F, X, Em, Env, Md, o, d, spread, max_depth, background, key, node_stack, t_stack, strategy):
     """Radiance along the camera ray (o, d) by one path; textures are filtered over a ray cone
     growing by `spread` per unit distance (as trace_ray's). Returns (rgb, rays traced)."""
-    L = (0.0, 0.0, 0.0)  # radiance gathered so far
-    beta = (1.0, 1.0, 1.0)
-    rays = 0
-    depth = 0  # segments traced so far
-    prev_pdf = 0.0
-    prev_delta = True  # the camera ray sees emitters at full weight
-    cone = 0.0  # the ray cone's radius at o
-    mat = F.materials
-    med = Md.camera  # the medium the ray travels in (-1: none)
-    # MIS weighs emission met by a sampled direction with the light's pdf seen from the vertex
-    # that sampled it, mis_o, mis_t before o along d (null boundaries pass a ray unchanged)
-    mis_o = o
-    mis_t = 0.0
-    crossings = 0  # null boundaries passed
-    leaving = np.int64(NO_HIT)  # the surface o lies on, offset towards d (none for the camera)
+    st = path_start(Md, o, d)
     unnormalized_shadows = scale_free_shadows(G, Em, Md)
     while True:
-        # Next-event estimation's numbers for the surface this segment may reach, drawn before
-        # its traversal so that the environment's alias slot (a cache miss: ~11% of
-        # materials.toml's time waited for it) arrives meanwhile.
-        light_key = dimension_key(key, DIM_LIGHT, depth + 1)
-        u_pick, _ = key_uniform2(light_key)
-        u1, u2 = key_uniform2(sub_key(light_key, 1))
-        if Env.present:
-            prefetch_environment(Env, u1)
-        t, prim, b1, b2 = closest_hit_leaving(G, X, o, d, 0.0, INF, leaving, node_stack, t_stack)
-        rays += 1
-        depth += 1
-        tl, e, nl = INF, -1, d
-        if Em.n_area > 0:
-            tl, e, nl = hit_area_lights(Em, o, d, t)
-        if med >= 0:
-            # the medium along the segment: a scattering before its end makes a path vertex there
-            flight_key = sub_key(dimension_key(key, DIM_MEDIUM, depth), crossings)
-            status, ts, beta = free_flight(Md, med, o, d, tl if e >= 0 else t, flight_key, beta)
-            if status == ABSORBED:
-                break
-            if status == SCATTERED:
-                if max_depth >= 0 and depth >= max_depth:
-                    break
-                p = madd(o, d, ts)
-                g = Md.data[med, MED_G]
-                if Em.cdf[Em.cdf.shape[0] - 1] > 0.0:
-                    le, p_pick = pick_emitter(Em.cdf, u_pick)
-                    wi, dist, li, pdf_l, delta_l = sample_light(G, X, Em, Env, le, p, u1, u2, light_key)
-                    if (
-                        pdf_l > 0.0
-                        and (li[0] > 0.0 or li[1] > 0.0 or li[2] > 0.0)
-                        and (delta_l or strategy != BSDF_ONLY)
-                    ):
-                        phase = hg_eval(g, dot(d, wi))
-                        tmax = dist * (1.0 - SHADOW_SHORTEN) if dist < INF else INF
-                        rays += 1
-                        tr = _shadow(
-                            G, F, X, Em, Md, p, wi, tmax, med, le, key, depth, np.int64(NO_HIT), node_stack, t_stack
-                        )
-                        if tr[0] > 0.0 or tr[1] > 0.0 or tr[2] > 0.0:
-                            weighed = not delta_l and strategy != LIGHT_ONLY
-                            L = _add_light(
-                                L, hadamard(beta, tr), li, phase * _light_weight(p_pick * pdf_l, phase, weighed)
-                            )
-                u_a, u_b = key_uniform2(dimension_key(key, DIM_BSDF, depth))
-                wi, phase = hg_sample(g, d, u_a, u_b)
-                prev_pdf = phase
-                prev_delta = False
-                cone += spread * ts
-                o = p
-                d = wi
-                mis_o = p
-                mis_t = 0.0
-                leaving = np.int64(NO_HIT)
-                going, beta = _roulette(beta, key, depth)
-                if not going:
-                    break
-                continue
-        if e >= 0:
-            w = _emitter_weight(
-                G, X, Em, Env, e, np.int64(NO_HIT), mis_o, d, mis_t + tl, nl, prev_pdf, prev_delta, strategy
+        status, st, _ = path_segment(
+            G, F, X, Em, Env, Md, st, spread, max_depth, background, key, node_stack, t_stack, strategy,
+            unnormalized_shadows, False,
+        )  # fmt: skip
+        if status == DONE:
+            return st[3], st[4]
+
+
+@inline_function
+def path_segment(
+    G, F, X, Em, Env, Md, st, spread, max_depth, background, key, node_stack, t_stack, strategy, unnormalized_shadows,
+    defer,
+):  # fmt: skip
+    """One segment of the path in state st (path_start): its ray to the next vertex, the light
+    met there and the next ray. Returns (GO or DONE, the new state, the deferred surface). With
+    `defer`, a diffuse surface whose light sample next-event estimation may use is left
+    unshaded (DEFERRED): the state's beta and L as they reach it, and the surface to shade, (p,
+    ng, ns, colour, eps, *light sample, u1, u2, light row): the normals turned to face the ray
+    (shading_frame's), the light sample as _deferred_light gives it, the BSDF's two uniforms.
+    The shadow ray of a diffuse surface's light leaves on the incoming ray's side: in its
+    medium."""
+    o, d, beta, L, rays, depth, prev_pdf, prev_delta, cone, med, mis_o, mis_t, crossings, leaving = st
+    mat = F.materials
+    nothing = (
+        ZERO3,
+        ZERO3,
+        ZERO3,
+        ZERO3,
+        0.0,
+        False,
+        ZERO3,
+        ZERO3,
+        0.0,
+        0.0,
+        ZERO3,
+        0.0,
+        False,
+        0.0,
+        0.0,
+        np.int64(-1),
+    )
+    # Next-event estimation's numbers for the surface this segment may reach, drawn before
+    # its traversal so that the environment's alias slot (a cache miss: ~11% of
+    # materials.toml's time waited for it) arrives meanwhile.
+    light_key = dimension_key(key, DIM_LIGHT, depth + 1)
+    u_pick, _ = key_uniform2(light_key)
+    u1, u2 = key_uniform2(sub_key(light_key, 1))
+    if Env.present:
+        prefetch_environment(Env, u1)
+    t, prim, b1, b2 = closest_hit_leaving(G, X, o, d, 0.0, INF, leaving, node_stack, t_stack)
+    rays += 1
+    depth += 1
+    tl, e, nl = INF, -1, d
+    if Em.n_area > 0:
+        tl, e, nl = hit_area_lights(Em, o, d, t)
+    if med >= 0:
+        # the medium along the segment: a scattering before its end makes a path vertex there
+        flight_key = sub_key(dimension_key(key, DIM_MEDIUM, depth), crossings)
+        status, ts, beta = free_flight(Md, med, o, d, tl if e >= 0 else t, flight_key, beta)
+        if status == ABSORBED:
+            return (
+                DONE,
+                (o, d, beta, L, rays, depth, prev_pdf, prev_delta, cone, med, mis_o, mis_t, crossings, leaving),
+                nothing,
             )
-            L = _add_light(L, beta, row3(Em.data, e, LIGHT_INTENSITY), w)
-            break
-        if prim == NO_HIT:
-            if Em.ambient_row >= 0:
-                w = _emitter_weight(
-                    G, X, Em, Env, Em.ambient_row, np.int64(NO_HIT), mis_o, d, INF, d, prev_pdf, prev_delta, strategy
+        if status == SCATTERED:
+            if max_depth >= 0 and depth >= max_depth:
+                return (
+                    DONE,
+                    (o, d, beta, L, rays, depth, prev_pdf, prev_delta, cone, med, mis_o, mis_t, crossings, leaving),
+                    nothing,
                 )
-                L = _add_light(L, beta, row3(Em.data, Em.ambient_row, LIGHT_INTENSITY), w)
-            if Env.present:
-                le_env, pdf_env = environment_arrival(Em, Env, d)  # one lookup of d for both
-                w = _weight_against(pdf_env, Em.environment_row, prev_pdf, prev_delta, strategy)
-                L = _add_light(L, beta, le_env, w)
-            elif depth == 1 and Em.ambient_row < 0:  # the background: a backdrop, not a light
-                L = _add_light(L, (1.0, 1.0, 1.0), background, 1.0)
-            break
-        p = madd(o, d, t)
-        ng, ns, m, obj, face = surface(G, X, prim, b1, b2, p)
-        entering = dot(ng, d) < 0.0
-        eps = offset_epsilon(F.epsilon_floor, p)
-        if index_matched(mat, m):
-            # an index-matched boundary: the ray goes on unchanged into the medium beyond, and
-            # the segment does not count as one (Mitsuba's volpath)
-            if Md.present:
-                med = medium_beyond(Md, obj, d, ng)
-            o = madd(p, ng, -eps if entering else eps)
-            leaving = prim
-            mis_t += t
-            cone += spread * t
-            depth -= 1
-            crossings += 1
-            if crossings > MAX_CROSSINGS:
-                break
-            continue
-        if not entering:
-            # the segment just travelled lay inside this surface's medium
-            beta = beer_lambert(mat, m, beta, t)
-        emission = row3(mat, m, MAT_EMISSION)
-        if emission[0] > 0.0 or emission[1] > 0.0 or emission[2] > 0.0:
-            k, _ = split_hit(X, prim)
-            # the light row as int64, as at the other call sites: one compilation of the MIS
-            # weight and of every light kind's pdf, not a second one for an int32 row
-            w = _emitter_weight(
-                G,
-                X,
-                Em,
-                Env,
-                np.int64(G.prims[k, PRIM_LIGHT]),
-                prim,
-                mis_o,
-                d,
-                mis_t + t,
-                ng,
-                prev_pdf,
-                prev_delta,
-                strategy,
+            p = madd(o, d, ts)
+            g = Md.data[med, MED_G]
+            if Em.cdf[Em.cdf.shape[0] - 1] > 0.0:
+                le, p_pick = pick_emitter(Em.cdf, u_pick)
+                wi, dist, li, pdf_l, delta_l = sample_light(G, X, Em, Env, le, p, u1, u2, light_key)
+                if pdf_l > 0.0 and (li[0] > 0.0 or li[1] > 0.0 or li[2] > 0.0) and (delta_l or strategy != BSDF_ONLY):
+                    phase = hg_eval(g, dot(d, wi))
+                    tmax = dist * (1.0 - SHADOW_SHORTEN) if dist < INF else INF
+                    rays += 1
+                    tr = _shadow(
+                        G, F, X, Em, Md, p, wi, tmax, med, le, key, depth, np.int64(NO_HIT), node_stack, t_stack
+                    )
+                    if tr[0] > 0.0 or tr[1] > 0.0 or tr[2] > 0.0:
+                        weighed = not delta_l and strategy != LIGHT_ONLY
+                        L = _add_light(L, hadamard(beta, tr), li, phase * _light_weight(p_pick * pdf_l, phase, weighed))
+            u_a, u_b = key_uniform2(dimension_key(key, DIM_BSDF, depth))
+            wi, phase = hg_sample(g, d, u_a, u_b)
+            going, beta = _roulette(beta, key, depth)
+            st = (
+                p,
+                wi,
+                beta,
+                L,
+                rays,
+                depth,
+                phase,
+                False,
+                cone + spread * ts,
+                med,
+                p,
+                0.0,
+                crossings,
+                np.int64(NO_HIT),
             )
-            L = _add_light(L, beta, emission, w)
-        if max_depth >= 0 and depth >= max_depth:
-            break
-        n_geo = ng  # outward: which side is inside, for the media
-        two_sided_here = two_sided(mat, m)
-        ng, ns, s_axis, t_axis = shading_frame(two_sided_here, not entering, ng, ns)
-        wo = to_local(mul(d, -1.0), s_axis, t_axis, ns)
-        cone += spread * t
-        colour = albedo(G, F, X, m, prim, b1, b2, p, d, ng, cone)
+            return (GO if going else DONE), st, nothing
+    if e >= 0:
+        w = _emitter_weight(
+            G, X, Em, Env, e, np.int64(NO_HIT), mis_o, d, mis_t + tl, nl, prev_pdf, prev_delta, strategy
+        )
+        L = _add_light(L, beta, row3(Em.data, e, LIGHT_INTENSITY), w)
+        return (
+            DONE,
+            (o, d, beta, L, rays, depth, prev_pdf, prev_delta, cone, med, mis_o, mis_t, crossings, leaving),
+            nothing,
+        )
+    if prim == NO_HIT:
+        if Em.ambient_row >= 0:
+            w = _emitter_weight(
+                G, X, Em, Env, Em.ambient_row, np.int64(NO_HIT), mis_o, d, INF, d, prev_pdf, prev_delta, strategy
+            )
+            L = _add_light(L, beta, row3(Em.data, Em.ambient_row, LIGHT_INTENSITY), w)
+        if Env.present:
+            le_env, pdf_env = environment_arrival(Em, Env, d)  # one lookup of d for both
+            w = _weight_against(pdf_env, Em.environment_row, prev_pdf, prev_delta, strategy)
+            L = _add_light(L, beta, le_env, w)
+        elif depth == 1 and Em.ambient_row < 0:  # the background: a backdrop, not a light
+            L = _add_light(L, (1.0, 1.0, 1.0), background, 1.0)
+        return (
+            DONE,
+            (o, d, beta, L, rays, depth, prev_pdf, prev_delta, cone, med, mis_o, mis_t, crossings, leaving),
+            nothing,
+        )
+    p = madd(o, d, t)
+    ng, ns, m, obj, face = surface(G, X, prim, b1, b2, p)
+    entering = dot(ng, d) < 0.0
+    eps = offset_epsilon(F.epsilon_floor, p)
+    if index_matched(mat, m):
+        # an index-matched boundary: the ray goes on unchanged into the medium beyond, and
+        # the segment does not count as one (Mitsuba's volpath)
+        if Md.present:
+            med = medium_beyond(Md, obj, d, ng)
+        st = (madd(p, ng, -eps if entering else eps), d, beta, L, rays, depth - 1, prev_pdf, prev_delta,
+              cone + spread * t, med, mis_o, mis_t + t, crossings + 1, prim)  # fmt: skip
+        return (DONE if crossings + 1 > MAX_CROSSINGS else GO), st, nothing
+    if not entering:
+        # the segment just travelled lay inside this surface's medium
+        beta = beer_lambert(mat, m, beta, t)
+    emission = row3(mat, m, MAT_EMISSION)
+    if emission[0] > 0.0 or emission[1] > 0.0 or emission[2] > 0.0:
+        k, _ = split_hit(X, prim)
+        # the light row as int64, as at the other call sites: one compilation of the MIS
+        # weight and of every light kind's pdf, not a second one for an int32 row
+        w = _emitter_weight(
+            G,
+            X,
+            Em,
+            Env,
+            np.int64(G.prims[k, PRIM_LIGHT]),
+            prim,
+            mis_o,
+            d,
+            mis_t + t,
+            ng,
+            prev_pdf,
+            prev_delta,
+            strategy,
+        )
+        L = _add_light(L, beta, emission, w)
+    if max_depth >= 0 and depth >= max_depth:
+        return (
+            DONE,
+            (o, d, beta, L, rays, depth, prev_pdf, prev_delta, cone, med, mis_o, mis_t, crossings, leaving),
+            nothing,
+        )
+    n_geo = ng  # outward: which side is inside, for the media
+    two_sided_here = two_sided(mat, m)
+    ng, ns = facing_normals(two_sided_here, not entering, ng, ns)
+    cone += spread * t
+    colour = albedo(G, F, X, m, prim, b1, b2, p, d, ng, cone)
+    bsdf_key = dimension_key(key, DIM_BSDF, depth)
+    lights = Em.cdf[Em.cdf.shape[0] - 1] > 0.0 and not delta_only(mat, m)
+    if defer and is_diffuse(mat, m):
+        # the facing normals and the light sample, for the caller's SIMD stage
+        on_surface, aim, n_l, area, dist, li, density, weighed, le = _deferred_light(
+            G, X, Em, Env, lights, p, u_pick, u1, u2, light_key, strategy
+        )
+        b_u1, b_u2 = key_uniform2(bsdf_key)
+        deferred = (p, ng, ns, colour, eps, on_surface, aim, n_l, area, dist, li, density, weighed, b_u1, b_u2, le)
+        st = (o, d, beta, L, rays, depth, prev_pdf, prev_delta, cone, med, mis_o, mis_t, crossings, prim)
+        return DEFERRED, st, deferred
+    s_axis, t_axis = basis(ns)
+    wo = to_local(mul(d, -1.0), s_axis, t_axis, ns)
 
-        # next-event estimation
-        if Em.cdf[Em.cdf.shape[0] - 1] > 0.0 and not delta_only(mat, m):
-            le, p_pick = pick_emitter(Em.cdf, u_pick)
-            wi, dist, li, pdf_l, delta_l = sample_light(G, X, Em, Env, le, p, u1, u2, light_key)
-            if pdf_l > 0.0 and (li[0] > 0.0 or li[1] > 0.0 or li[2] > 0.0) and (delta_l or strategy != BSDF_ONLY):
-                wi_local = to_local(wi, s_axis, t_axis, ns)
-                up = dot(wi, ng) > 0.0
-                # two-sided reflection: light from below the geometric surface cannot arrive
-                if up or not two_sided_here:
-                    f, pdf_b = bsdf_eval(mat, m, colour, wo, wi_local)
-                    if f[0] > 0.0 or f[1] > 0.0 or f[2] > 0.0:
-                        if unnormalized_shadows:
-                            origin, aim, tmax = shadow_segment(p, ng, eps if up else -eps, wi, dist)
-                        else:
-                            origin, aim, tmax = shadow_ray(p, ng, eps if up else -eps, wi, dist)
-                        rays += 1
-                        # the shadow ray leaves on the side of the incoming ray, or crosses
-                        shadow_med = medium_leaving(Md, med, obj, d, n_geo, wi)
-                        tr = _shadow(
-                            G, F, X, Em, Md, origin, aim, tmax, shadow_med, le, key, depth, prim, node_stack, t_stack
-                        )
-                        if tr[0] > 0.0 or tr[1] > 0.0 or tr[2] > 0.0:
-                            weighed = not delta_l and strategy != LIGHT_ONLY
-                            scale = abs(wi_local[2]) * _light_weight(p_pick * pdf_l, pdf_b, weighed)
-                            L = _add_light(L, hadamard(hadamard(beta, f), tr), li, scale)
+    # next-event estimation
+    if lights:
+        le, p_pick = pick_emitter(Em.cdf, u_pick)
+        wi, dist, li, pdf_l, delta_l = sample_light(G, X, Em, Env, le, p, u1, u2, light_key)
+        usable = pdf_l > 0.0 and (li[0] > 0.0 or li[1] > 0.0 or li[2] > 0.0) and (delta_l or strategy != BSDF_ONLY)
+        if usable:
+            wi_local = to_local(wi, s_axis, t_axis, ns)
+            up = dot(wi, ng) > 0.0
+            # two-sided reflection: light from below the geometric surface cannot arrive
+            if up or not two_sided_here:
+                f, pdf_b = bsdf_eval(mat, m, colour, wo, wi_local)
+                if f[0] > 0.0 or f[1] > 0.0 or f[2] > 0.0:
+                    if unnormalized_shadows:
+                        origin, aim, tmax = shadow_segment(p, ng, eps if up else -eps, wi, dist)
+                    else:
+                        origin, aim, tmax = shadow_ray(p, ng, eps if up else -eps, wi, dist)
+                    rays += 1
+                    # the shadow ray leaves on the side of the incoming ray, or crosses
+                    shadow_med = medium_leaving(Md, med, obj, d, n_geo, wi)
+                    tr = _shadow(
+                        G, F, X, Em, Md, origin, aim, tmax, shadow_med, le, key, depth, prim, node_stack, t_stack
+                    )
+                    if tr[0] > 0.0 or tr[1] > 0.0 or tr[2] > 0.0:
+                        weighed = not delta_l and strategy != LIGHT_ONLY
+                        scale = abs(wi_local[2]) * _light_weight(p_pick * pdf_l, pdf_b, weighed)
+                        L = _add_light(L, hadamard(hadamard(beta, f), tr), li, scale)
 
-        # continue the path
-        bsdf_key = dimension_key(key, DIM_BSDF, depth)
-        u0, u1 = key_uniform2(bsdf_key)
-        u2, _ = key_uniform2(sub_key(bsdf_key, 1))
-        wi_local, weight, pdf, delta = bsdf_sample(mat, m, colour, wo, u0, u1, u2)
-        if not (pdf > 0.0) or not (weight[0] > 0.0 or weight[1] > 0.0 or weight[2] > 0.0):
-            break
-        wi = to_world(wi_local, s_axis, t_axis, ns)
-        up = dot(wi, ng) > 0.0
-        if two_sided_here and not up:
-            break  # a shading normal sent the path through the surface
-        med = medium_leaving(Md, med, obj, d, n_geo, wi)  # transmitted: into the medium beyond
-        beta = hadamard(beta, weight)
-        prev_pdf = pdf
-        prev_delta = delta
-        o = madd(p, ng, eps if up else -eps)
-        leaving = prim
-        d = wi
-        mis_o = o
-        mis_t = 0.0
-        going, beta = _roulette(beta, key, depth)
-        if not going:
-            break
-    return L, rays
+    # continue the path
+    u0, u1 = key_uniform2(bsdf_key)
+    u2, _ = key_uniform2(sub_key(bsdf_key, 1))
+    wi_local, weight, pdf, delta = bsdf_sample(mat, m, colour, wo, u0, u1, u2)
+    if not (pdf > 0.0) or not (weight[0] > 0.0 or weight[1] > 0.0 or weight[2] > 0.0):
+        return (
+            DONE,
+            (o, d, beta, L, rays, depth, prev_pdf, prev_delta, cone, med, mis_o, mis_t, crossings, leaving),
+            nothing,
+        )
+    wi = to_world(wi_local, s_axis, t_axis, ns)
+    up = dot(wi, ng) > 0.0
+    if two_sided_here and not up:
+        # a shading normal sent the path through the surface
+        return (
+            DONE,
+            (o, d, beta, L, rays, depth, prev_pdf, prev_delta, cone, med, mis_o, mis_t, crossings, leaving),
+            nothing,
+        )
+    med = medium_leaving(Md, med, obj, d, n_geo, wi)  # transmitted: into the medium beyond
+    beta = hadamard(beta, weight)
+    o = madd(p, ng, eps if up else -eps)
+    going, beta = _roulette(beta, key, depth)
+    st = (o, wi, beta, L, rays, depth, pdf, delta, cone, med, o, 0.0, crossings, prim)
+    return (GO if going else DONE), st, nothing
 
 
 @inline_function

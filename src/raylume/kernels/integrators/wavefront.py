@@ -70,6 +70,7 @@ from ..variants import sphere_leaf_range
 from ..vec import (
     FAST,
     INLINE_OVERLOAD,
+    at,
     count_up,
     dot,
     fill,
@@ -275,14 +276,6 @@ def _load_packet(R, i0, n, origin, direction, origins, directions):
         for c in range(3):
             origins[k, c] = R[origin + c * STRIDE + i0 + k]
             directions[k, c] = R[direction + c * STRIDE + i0 + k]
-
-
-@inline_function
-def at(row, slot):
-    """The index of a slot of a row, unsigned: Numba wraps negative indices around, a compare
-    and a conditional move on every scalar access that LLVM cannot prove non-negative (a
-    counter of kept rays, an index loaded from a table)."""
-    return np.uint64(row + slot)
 
 
 @inline_function

@@ -11,15 +11,22 @@ from .lights.sampling import basis
 
 
 @inline_function
-def shading_frame(two_sided, behind, ng, ns):
-    """(ng, ns, s, t) for outward normals ng (geometric) and ns (shading): both turned over
-    when the material is two-sided and the incoming side is `behind` ng; (s, t, ns) the
-    orthonormal frame of local directions."""
+def facing_normals(two_sided, behind, ng, ns):
+    """(ng, ns) of shading_frame, without the frame's other two axes."""
     if two_sided and behind:
         ng = mul(ng, -1.0)
         ns = mul(ns, -1.0)
     if dot(ns, ng) <= 0.0:
         ns = ng
+    return ng, ns
+
+
+@inline_function
+def shading_frame(two_sided, behind, ng, ns):
+    """(ng, ns, s, t) for outward normals ng (geometric) and ns (shading): both turned over
+    when the material is two-sided and the incoming side is `behind` ng; (s, t, ns) the
+    orthonormal frame of local directions."""
+    ng, ns = facing_normals(two_sided, behind, ng, ns)
     s, t = basis(ns)
     return ng, ns, s, t
 

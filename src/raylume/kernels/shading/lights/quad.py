@@ -57,16 +57,21 @@ def trace_sample(L, k, p, u1, u2):
 
 
 @inline_function
-def sample(G, X, Em, Env, e, p, u1, u2, key):
-    """Path mode: a point uniform over its area, seen from p."""
+def surface_point(G, X, Em, e, u1, u2):
+    """A point uniform over its area: (True, the point, the unit normal, the area, radiance)."""
     data = Em.data
-    radiance = row3(data, e, LIGHT_INTENSITY)
     u = row3(data, e, LIGHT_U)
     v = row3(data, e, LIGHT_V)
     q = madd(madd(row3(data, e, LIGHT_POSITION), u, u1 - 0.5), v, u2 - 0.5)
     n = cross(u, v)
     area = length(n)
-    n = mul(n, 1.0 / area)
+    return True, q, mul(n, 1.0 / area), area, row3(data, e, LIGHT_INTENSITY)
+
+
+@inline_function
+def sample(G, X, Em, Env, e, p, u1, u2, key):
+    """Path mode: a point uniform over its area, seen from p."""
+    _, q, n, area, radiance = surface_point(G, X, Em, e, u1, u2)
     return towards_point(p, q, n, area, radiance)
 
 

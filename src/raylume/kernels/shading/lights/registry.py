@@ -4,7 +4,8 @@ KINDS is the registry: one module per kind, each defining NAME, KIND (its number
 table's kind column), its flags, `power` (host side, for path mode's light distribution; its
 arguments are the kind's own), and the kernel functions path mode calls, `sample` (a direction
 towards the light, its distance, the radiance arriving, the solid-angle pdf, delta) and `pdf`
-(that pdf for a direction a BSDF sample found, for MIS), and for bidirectional path tracing's light
+(that pdf for a direction a BSDF sample found, for MIS), kinds sampled by a point uniform over
+a surface also `surface_point` (that point, which `sample` takes on from), and for bidirectional path tracing's light
 subpaths `emit` (a point on the light, a direction leaving it, the radiance or intensity along it,
 the position and direction pdfs, as pbrt's SampleLe) and `emit_pdf` (those for a given point and
 direction, pbrt's PDF_Le; lights at infinity start from the disk of the scene's bounding sphere
@@ -56,6 +57,13 @@ at_infinity = _flag("INFINITE")
 # path mode: emitter row e seen from p
 sample_light = kind_switch("sample", f"{_PATH}, u1, u2, key", "Em.kind[e]", KINDS, _NONE, inline_function)
 light_pdf = kind_switch("pdf", f"{_PATH}, wi, dist, n_hit, hit", "Em.kind[e]", KINDS, 0.0, kernel_function)
+# the kinds whose sample is a point uniform over a surface: (whether this row's is, the point, its
+# unit normal, the surface's area, its radiance), from which `sample` makes the direction and the
+# solid-angle pdf seen from p (sampling.towards_point); path mode's wavefront does that step SIMD
+light_point = kind_switch(
+    "light_point", "G, X, Em, e, u1, u2", "Em.kind[e]", [k for k in KINDS if hasattr(k, "surface_point")],
+    (False, (0.0, 0.0, 0.0), (0.0, 0.0, 1.0), 0.0, (0.0, 0.0, 0.0)), inline_function, attribute="surface_point",
+)  # fmt: skip
 # bidirectional path tracing: light leaving emitter row e (a point, its normal, a direction, the
 # radiance or intensity along it, the position and direction pdfs, the hit of the point), and
 # those for a given point and direction (B: the scene's bounding sphere, for lights at infinity)

@@ -39,19 +39,30 @@ def power(area: np.ndarray, radiance: np.ndarray) -> np.ndarray:
 
 
 @inline_function
-def sample(G, X, Em, Env, e, p, u1, u2, key):
-    """Path mode: a point of the primitive seen from p (a sphere: a direction in its cone)."""
+def surface_point(G, X, Em, e, u1, u2):
+    """A point uniform over the primitive: (True, the point, its unit normal, the area,
+    radiance); (False, ...) for a sphere, which `sample` samples by its cone instead."""
     data = Em.data
     radiance = row3(data, e, LIGHT_INTENSITY)
     k = int(data[e, EMIT_PRIM])
     if G.prims[k, PRIM_KIND] == SHAPE_SPHERE:
-        row = np.int64(G.prims[k, PRIM_ROW])
-        centre = row3(G.shapes, row, shape_sphere.CENTER)
-        radius = G.shapes[row, shape_sphere.RADIUS]
-        wi, dist, pdf_ = sphere_cone(centre, radius, p, u1, u2)
-        return wi, dist, radiance, pdf_, False
+        return False, (0.0, 0.0, 0.0), (0.0, 0.0, 1.0), 0.0, radiance
     q, n = sample_surface(G, k, u1, u2)
-    return towards_point(p, q, n, data[e, EMIT_AREA], radiance)
+    return True, q, n, data[e, EMIT_AREA], radiance
+
+
+@inline_function
+def sample(G, X, Em, Env, e, p, u1, u2, key):
+    """Path mode: a point of the primitive seen from p (a sphere: a direction in its cone)."""
+    on_surface, q, n, area, radiance = surface_point(G, X, Em, e, u1, u2)
+    if on_surface:
+        return towards_point(p, q, n, area, radiance)
+    data = Em.data
+    row = np.int64(G.prims[int(data[e, EMIT_PRIM]), PRIM_ROW])
+    centre = row3(G.shapes, row, shape_sphere.CENTER)
+    radius = G.shapes[row, shape_sphere.RADIUS]
+    wi, dist, pdf_ = sphere_cone(centre, radius, p, u1, u2)
+    return wi, dist, radiance, pdf_, False
 
 
 @inline_function

@@ -5,7 +5,7 @@ import math
 
 import numpy as np
 
-from ...vec import inline_function, kernel_function, mul
+from ...vec import inline_function, kernel_function, mul, turn_in_lanes
 from .lobes import INV_PI, ZERO, cosine_hemisphere, same_side, side
 
 NAME = "diffuse"
@@ -37,6 +37,16 @@ def sample(mat, m, color, wo, u0, u1, u2):
     no second dispatch to evaluate (lobes.py); cos > 0, as sqrt(1 - u1) is for u1 < 1."""
     wi = side(cosine_hemisphere(u1, u2), math.copysign(1.0, wo[2]))
     return wi, color, abs(wi[2]) * INV_PI, False
+
+
+@inline_function
+def lane_sample(wo_z, u1, u2):
+    """`sample`'s direction and pdf for a vector loop over paths (path_wavefront.py), from wo's z
+    alone: the same cosine (up to turn's rounding), the side picked by a select, not copysign."""
+    r = math.sqrt(u1)
+    c, s = turn_in_lanes(u2)
+    z = math.sqrt(max(0.0, 1.0 - u1))
+    return (r * c, r * s, z if wo_z >= 0.0 else -z), z * INV_PI
 
 
 @inline_function

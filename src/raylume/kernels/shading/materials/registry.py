@@ -37,6 +37,12 @@ aov_albedo = _switch("aov_albedo", "mat, m, color", ZERO, inline_function)
 
 
 @inline_function
+def is_diffuse(mat, m):
+    """A Lambertian surface: path mode's wavefront shades these together (path_wavefront.py)."""
+    return int(mat[m, MAT_KIND]) == diffuse.KIND
+
+
+@inline_function
 def index_matched(mat, m):
     """A boundary that light passes unchanged (the null kind): path mode steps through it without
     a path vertex, and its shadow rays see through it."""
