@@ -146,6 +146,9 @@ GO = 0  # the path goes on: its state holds its next ray
 DONE = 1  # the path has ended: its state's L is its radiance
 DEFERRED = 2  # at a diffuse surface whose shading the caller does (path_wavefront.py)
 ZERO3 = (0.0, 0.0, 0.0)
+# path_segment's deferred surface when there is none
+NOTHING_DEFERRED = (ZERO3, ZERO3, ZERO3, ZERO3, 0.0, False, ZERO3, ZERO3, 0.0, 0.0, ZERO3, 0.0, False, 0.0, 0.0,
+                    np.int64(-1))  # fmt: skip
 
 
 @inline_function
@@ -212,24 +215,7 @@ def path_segment(
     medium."""
     o, d, beta, L, rays, depth, prev_pdf, prev_delta, cone, med, mis_o, mis_t, crossings, leaving = st
     mat = F.materials
-    nothing = (
-        ZERO3,
-        ZERO3,
-        ZERO3,
-        ZERO3,
-        0.0,
-        False,
-        ZERO3,
-        ZERO3,
-        0.0,
-        0.0,
-        ZERO3,
-        0.0,
-        False,
-        0.0,
-        0.0,
-        np.int64(-1),
-    )
+    nothing = NOTHING_DEFERRED
     # Next-event estimation's numbers for the surface this segment may reach, drawn before
     # its traversal so that the environment's alias slot (a cache miss: ~11% of
     # materials.toml's time waited for it) arrives meanwhile.

@@ -33,7 +33,7 @@ from ..geometry.wide_nodes import scratch_array
 from ..shading.lights import SHADOW_SHORTEN
 from ..shading.materials.diffuse import lane_sample
 from ..vec import at, inline_function, kernel_function, vector_loop
-from .path import DEFERRED, DONE, _roulette, _shadow, finite_sample, path_segment, path_start
+from .path import DONE, GO, NOTHING_DEFERRED, _roulette, _shadow, finite_sample, path_segment, path_start
 from .shadow import scale_free_shadows
 
 INF = math.inf
@@ -46,15 +46,15 @@ def _rows(first: int, n: int) -> tuple[int, ...]:
     return tuple((first + r) * STRIDE for r in range(n))
 
 
-# The paths' state, by slot (the sample's place in the tile), float64 rows of S: path_start's
-# state with its tuples spread over rows
-OX, OY, OZ, DX, DY, DZ, BR, BG, BB, LR, LG, LB = _rows(0, 12)
-PREV_PDF, CONE, MX, MY, MZ, MIS_T, SPREAD, WEIGHT = _rows(12, 8)
-STATE_ROWS = 20
+# The paths' state between rounds, by slot (the sample's place in the tile), float64 rows of S:
+# the camera ray, and what the diffuse queue does not carry of path.path_start's state ...
+OX, OY, OZ, DX, DY, DZ, LR, LG, LB, CONE, SPREAD, WEIGHT = _rows(0, 12)
+STATE_ROWS = 12
 # ... and int64 rows of N (the sample's key is in the uint64 row K[slot]), with the place in
-# the diffuse queue (-1: none) and the light row its shadow ray aims at
-RAYS, DEPTH, PREV_DELTA, MED, CROSSINGS, LEAVING, QUEUED, LIGHT = _rows(0, 8)
-STATE_INT_ROWS = 8
+# the diffuse queue (-1: none yet, the path starts at the camera) and the light row its shadow
+# ray aims at
+RAYS, DEPTH, MED, CROSSINGS, LEAVING, QUEUED, LIGHT = _rows(0, 7)
+STATE_INT_ROWS = 7
 # The diffuse queue, by place in the queue, float64 rows of Q: what path_segment deferred
 # (the point, the facing normals, the colour, the offset, the light sample as
 # path._deferred_light gives it, the path's throughput and incoming direction, the BSDF's
@@ -156,41 +156,6 @@ def _shade_diffuse(Q, m, unnormalized):
 
 
 @inline_function
-def _store(S, N, k, st):
-    """Path state st (path.path_start) into slot k."""
-    o, d, beta, L, rays, depth, prev_pdf, prev_delta, cone, med, mis_o, mis_t, crossings, leaving = st
-    S[at(OX, k)], S[at(OY, k)], S[at(OZ, k)] = o
-    S[at(DX, k)], S[at(DY, k)], S[at(DZ, k)] = d
-    S[at(BR, k)], S[at(BG, k)], S[at(BB, k)] = beta
-    S[at(LR, k)], S[at(LG, k)], S[at(LB, k)] = L
-    S[at(MX, k)], S[at(MY, k)], S[at(MZ, k)] = mis_o
-    S[at(PREV_PDF, k)], S[at(CONE, k)], S[at(MIS_T, k)] = prev_pdf, cone, mis_t
-    N[at(RAYS, k)], N[at(DEPTH, k)], N[at(PREV_DELTA, k)] = rays, depth, 1 if prev_delta else 0
-    N[at(MED, k)], N[at(CROSSINGS, k)], N[at(LEAVING, k)] = med, crossings, leaving
-
-
-@inline_function
-def _load(S, N, k):
-    """Slot k's path state."""
-    return (
-        (S[at(OX, k)], S[at(OY, k)], S[at(OZ, k)]),
-        (S[at(DX, k)], S[at(DY, k)], S[at(DZ, k)]),
-        (S[at(BR, k)], S[at(BG, k)], S[at(BB, k)]),
-        (S[at(LR, k)], S[at(LG, k)], S[at(LB, k)]),
-        N[at(RAYS, k)],
-        N[at(DEPTH, k)],
-        S[at(PREV_PDF, k)],
-        N[at(PREV_DELTA, k)] != 0,
-        S[at(CONE, k)],
-        N[at(MED, k)],
-        (S[at(MX, k)], S[at(MY, k)], S[at(MZ, k)]),
-        S[at(MIS_T, k)],
-        N[at(CROSSINGS, k)],
-        N[at(LEAVING, k)],
-    )
-
-
-@inline_function
 def _enqueue(Q, N, k, q, st, deferred):
     """The deferred diffuse surface of slot k, path state st, into queue place q."""
     p, ng, ns, colour, eps, on_surface, aim, n_l, area, dist, li, density, weighed, u1, u2, light = deferred
@@ -274,13 +239,16 @@ def path_wave_row(G, F, Em, Env, Md, X, P, j, film, wave, node_stack, t_stack, s
         first_i, first_s = i, s
         for k in range(m):
             o, d, w, key = camera_sample(cam, filt, seed, i, j, s, total_spp, width, height)
-            _store(S, N, k, path_start(Md, o, d))
+            S[at(OX, k)], S[at(OY, k)], S[at(OZ, k)] = o
+            S[at(DX, k)], S[at(DY, k)], S[at(DZ, k)] = d
             S[at(SPREAD, k)], S[at(WEIGHT, k)], K[at(0, k)] = spread * obliquity(cam, d), w, key
             N[at(QUEUED, k)] = -1
             live[at(0, k)] = k
             i, s = next_sample(i, s, samples)
         alive = m
         while alive > 0:
+            # each live path from the camera or its diffuse surface on to its next diffuse
+            # surface (deferred: queued) or its end; the queue is shaded after the round
             queued = 0
             still = 0
             for a in range(alive):
@@ -289,25 +257,24 @@ def path_wave_row(G, F, Em, Env, Md, X, P, j, film, wave, node_stack, t_stack, s
                 q = N[at(QUEUED, k)]
                 if q >= 0:
                     going, st = _resume_diffuse(G, F, X, Em, Md, S, N, Q, k, q, key, node_stack, t_stack)
-                    if not going:
-                        _store_result(S, N, k, st)
-                        continue
                 else:
-                    st = _load(S, N, k)
-                status, st, deferred = path_segment(
-                    G, F, X, Em, Env, Md, st, S[at(SPREAD, k)], max_depth, bg, key, node_stack, t_stack, strategy,
-                    unnormalized, True,
-                )  # fmt: skip
+                    going = True
+                    st = path_start(
+                        Md, (S[at(OX, k)], S[at(OY, k)], S[at(OZ, k)]), (S[at(DX, k)], S[at(DY, k)], S[at(DZ, k)])
+                    )
+                status = GO if going else DONE
+                deferred = NOTHING_DEFERRED
+                while status == GO:  # other kinds' surfaces, media and null boundaries: in registers
+                    status, st, deferred = path_segment(
+                        G, F, X, Em, Env, Md, st, S[at(SPREAD, k)], max_depth, bg, key, node_stack, t_stack, strategy,
+                        unnormalized, True,
+                    )  # fmt: skip
                 if status == DONE:
                     _store_result(S, N, k, st)
                     continue
-                if status == DEFERRED:
-                    _store_kept(S, N, k, st)
-                    _enqueue(Q, N, k, queued, st, deferred)
-                    queued += 1
-                else:
-                    _store(S, N, k, st)
-                    N[at(QUEUED, k)] = -1
+                _store_kept(S, N, k, st)
+                _enqueue(Q, N, k, queued, st, deferred)
+                queued += 1
                 live[at(0, still)] = k
                 still += 1
             alive = still
