@@ -58,7 +58,7 @@ def test_the_diffuse_stage_is_vector_code():
     """Packed square roots and divisions in _shade_diffuse: 4 float64 lanes on AVX2 (ymm), 8 on
     AVX-512 (zmm). Should LLVM stop vectorising it, this fails (the images would not change)."""
     Q = np.zeros(path_wavefront.QUEUE_ROWS * path_wavefront.STRIDE)
-    args = (Q, 16, True)
+    args = (Q, 16, True, True, (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0))
     function = path_wavefront._shade_diffuse
     function.compile(tuple(typeof(a) for a in args))
     asm = function.overloads[tuple(typeof(a) for a in args)].library.get_asm_str()

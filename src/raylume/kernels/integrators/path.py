@@ -21,7 +21,7 @@ import numpy as np
 from ..film.sampler import DIM_BSDF, DIM_LIGHT, dimension_key, key_uniform2, sub_key
 from ..geometry.shapes import NO_HIT, PRIM_LIGHT, offset_epsilon, split_hit, surface
 from ..geometry.traverse import any_hit_between, closest_hit_leaving
-from ..shading.environment import prefetch_environment
+from ..shading.environment import environment_cell, prefetch_environment
 from ..shading.frame import facing_normals, to_local, to_world
 from ..shading.lights import (
     LIGHT_INTENSITY,
@@ -147,7 +147,7 @@ DONE = 1  # the path has ended: its state's L is its radiance
 DEFERRED = 2  # at a diffuse surface whose shading the caller does (path_wavefront.py)
 ZERO3 = (0.0, 0.0, 0.0)
 # path_segment's deferred surface when there is none
-NOTHING_DEFERRED = (ZERO3, ZERO3, ZERO3, ZERO3, 0.0, False, ZERO3, ZERO3, 0.0, 0.0, ZERO3, 0.0, False, 0.0, 0.0,
+NOTHING_DEFERRED = (ZERO3, ZERO3, ZERO3, ZERO3, 0.0, 0, ZERO3, ZERO3, 0.0, 0.0, ZERO3, 0.0, False, 0.0, 0.0,
                     np.int64(-1))  # fmt: skip
 
 
@@ -163,26 +163,48 @@ def path_start(Md, o, d):
     return (o, d, (1.0, 1.0, 1.0), ZERO3, 0, 0, 0.0, True, 0.0, Md.camera, o, 0.0, 0, np.int64(NO_HIT))
 
 
+# How _deferred_light gives a light sample
+GIVEN = 0  # the direction, its distance, radiance and density (pick included)
+SURFACE_POINT = 1  # a point uniform over a surface: the point, its unit normal, the area, radiance
+ENVIRONMENT_CELL = 2  # the environment's choice (environment.environment_cell): (cos theta, u, 0)
+
+
 @inline_function
 def _deferred_light(G, X, Em, Env, lights, p, u_pick, u1, u2, light_key, strategy):
-    """Next-event estimation's light sample at a diffuse surface whose shading is deferred: (on a
-    surface, the point there or else the direction, the point's unit normal, the surface's area,
-    the direction's distance, radiance, density, MIS weighs it, the light row). For a point
-    uniform over a surface (lights.light_point) the density is the light's pick probability:
-    the caller finds the direction and its solid-angle density (sampling.towards_point); for
-    the other kinds, their `sample`'s, pick included. Density 0: no light to add."""
+    """Next-event estimation's light sample at a diffuse surface whose shading is deferred:
+    (form, the direction or point or cell, the point's unit normal, the surface's area, the
+    direction's distance, radiance, density, MIS weighs it, the light row). The caller finishes
+    a SURFACE_POINT as sampling.towards_point would (its density here is the light's pick
+    probability), an ENVIRONMENT_CELL as environment.sample_environment would (its density is
+    the cell's, pick included; its radiance is looked up once the shadow ray is known to arrive,
+    its radiance here (1, 1, 1)). Density 0: no light to add."""
     if not lights:
-        return False, ZERO3, ZERO3, 0.0, 0.0, ZERO3, 0.0, False, np.int64(-1)
+        return GIVEN, ZERO3, ZERO3, 0.0, 0.0, ZERO3, 0.0, False, np.int64(-1)
     le, p_pick = pick_emitter(Em.cdf, u_pick)
+    if le == Em.environment_row:
+        pdf_cell, cos_theta, u = environment_cell(Env, u1, u2)
+        usable = pdf_cell > 0.0 and strategy != BSDF_ONLY
+        density = p_pick * pdf_cell if usable else 0.0
+        return (
+            ENVIRONMENT_CELL,
+            (cos_theta, u, 0.0),
+            ZERO3,
+            0.0,
+            INF,
+            (1.0, 1.0, 1.0),
+            density,
+            strategy != LIGHT_ONLY,
+            np.int64(le),
+        )
     on_surface, q, n_l, area, li = light_point(G, X, Em, le, u1, u2)
     lit = li[0] > 0.0 or li[1] > 0.0 or li[2] > 0.0
     if on_surface:
         usable = lit and strategy != BSDF_ONLY
-        return True, q, n_l, area, 0.0, li, p_pick if usable else 0.0, strategy != LIGHT_ONLY, np.int64(le)
+        return SURFACE_POINT, q, n_l, area, 0.0, li, p_pick if usable else 0.0, strategy != LIGHT_ONLY, np.int64(le)
     wi, dist, li, pdf_l, delta_l = sample_light(G, X, Em, Env, le, p, u1, u2, light_key)
     usable = pdf_l > 0.0 and (li[0] > 0.0 or li[1] > 0.0 or li[2] > 0.0) and (delta_l or strategy != BSDF_ONLY)
     weighed = not delta_l and strategy != LIGHT_ONLY
-    return False, wi, ZERO3, 0.0, dist, li, p_pick * pdf_l if usable else 0.0, weighed, np.int64(le)
+    return GIVEN, wi, ZERO3, 0.0, dist, li, p_pick * pdf_l if usable else 0.0, weighed, np.int64(le)
 
 
 @inline_function
@@ -360,11 +382,11 @@ def path_segment(
     lights = Em.cdf[Em.cdf.shape[0] - 1] > 0.0 and not delta_only(mat, m)
     if defer and is_diffuse(mat, m):
         # the facing normals and the light sample, for the caller's SIMD stage
-        on_surface, aim, n_l, area, dist, li, density, weighed, le = _deferred_light(
+        form, aim, n_l, area, dist, li, density, weighed, le = _deferred_light(
             G, X, Em, Env, lights, p, u_pick, u1, u2, light_key, strategy
         )
         b_u1, b_u2 = key_uniform2(bsdf_key)
-        deferred = (p, ng, ns, colour, eps, on_surface, aim, n_l, area, dist, li, density, weighed, b_u1, b_u2, le)
+        deferred = (p, ng, ns, colour, eps, form, aim, n_l, area, dist, li, density, weighed, b_u1, b_u2, le)
         st = (o, d, beta, L, rays, depth, prev_pdf, prev_delta, cone, med, mis_o, mis_t, crossings, prim)
         return DEFERRED, st, deferred
     s_axis, t_axis = basis(ns)

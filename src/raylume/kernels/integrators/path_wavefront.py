@@ -1,26 +1,27 @@
-"""Path mode as a wavefront: a row's camera samples, TILE at a time, go through each segment
+"""Path mode as a wavefront: a row's camera samples, TILE at a time, go through the path tracer
 together, so that the shading every diffuse surface needs runs SIMD across paths (Laine,
 Karras and Aila, "Megakernels considered harmful", HPG 2013: path state in arrays, one stage a
-loop, one queue per material kind).
+loop, one queue per material kind; here the diffuse kind's).
 
-Each round of the wavefront advances every live path by one segment (path.path_segment, the
-scalar path kernel's own loop body: the traversal, emission, media, the shading of every kind
-but diffuse). A path that reaches a diffuse surface with its light sample drawn comes back
-DEFERRED and joins the diffuse queue; after the round, one vector loop (`_shade_diffuse`) does
-for all of them what path_segment would have done next: the light sample's BSDF value and MIS
-weight, the shadow ray's ends, the cosine-sampled next direction (diffuse.lane_sample), the
-throughput. At the start of the next round each of those paths traces its shadow ray, adds the
-light that arrives and takes Russian roulette, then goes on like the others. LLVM vectorises
-that loop (4 paths an AVX2 register; tests/test_path_wavefront.py checks the machine code):
-its square roots and divisions were most of a diffuse bounce's time.
+In each round every live path runs segment after segment (path.path_segment, the scalar
+kernel's own loop body: traversal, emission, media, null boundaries, the shading of every kind
+but diffuse) with its state in registers, until it ends or reaches a diffuse surface. There
+path_segment draws next-event estimation's light sample and defers the rest: the path's state
+goes into its slot's rows and the surface into the diffuse queue. After the round, one vector
+loop (`_shade_diffuse`) does for the whole queue what path_segment would have done next: the
+light sample's direction and density where it is a point on a surface or the environment's
+cell, the BSDF's value and the MIS weight, the shadow ray's ends, the cosine-sampled next
+direction (diffuse.lane_sample), the throughput. At the start of the next round each queued
+path traces its shadow ray, adds the light that arrives and takes Russian roulette, then goes
+on. LLVM vectorises that loop (4 paths an AVX2 register; tests/test_path_wavefront.py checks
+the machine code): its square roots and divisions were the slowest chain of a diffuse bounce.
 
-The random numbers are path_segment's, keyed by (seed, pixel, sample, segment); the diffuse
-surfaces' shading frame (and so which direction a given pair of numbers makes) differs from the
-scalar kernel's in rounding only where the frame does, so images agree with path_ray's in
-expectation, not to the bit. Each path's arithmetic depends on nothing but its own state (the
-vector loop runs without fast-math, so a lane computes what the loop's scalar remainder
-would), and each pixel's samples are added in sample order: an image is the same whatever
-the threads, tiles and crops.
+The random numbers are path_segment's, keyed by (seed, pixel, sample, segment), and the diffuse
+frame is the scalar kernel's, so images agree with path_ray's in expectation, differing in
+rounding (the contribution's products in another order), not in distribution. Each path's
+arithmetic depends on nothing but its own state (the vector loop runs without fast-math, so a
+lane computes what the loop's scalar remainder would), and each pixel's samples are added in
+sample order: an image is the same whatever the threads, tiles and crops.
 """
 
 import math
@@ -30,10 +31,22 @@ import numpy as np
 from ..film.camera import CAM_CONE_SPREAD, camera_sample, obliquity
 from ..film.film import add_in_pixel_order, next_sample, pixel_sums, store_sums
 from ..geometry.wide_nodes import scratch_array
+from ..shading.environment import environment_at, environment_direction, environment_rotation
 from ..shading.lights import SHADOW_SHORTEN
 from ..shading.materials.diffuse import lane_sample
-from ..vec import at, inline_function, kernel_function, vector_loop
-from .path import DONE, GO, NOTHING_DEFERRED, _roulette, _shadow, finite_sample, path_segment, path_start
+from ..vec import at, hadamard, inline_function, kernel_function, turn_in_lanes, vector_loop
+from .path import (
+    DONE,
+    ENVIRONMENT_CELL,
+    GO,
+    NOTHING_DEFERRED,
+    SURFACE_POINT,
+    _roulette,
+    _shadow,
+    finite_sample,
+    path_segment,
+    path_start,
+)
 from .shadow import scale_free_shadows
 
 INF = math.inf
@@ -49,18 +62,19 @@ def _rows(first: int, n: int) -> tuple[int, ...]:
 # The paths' state between rounds, by slot (the sample's place in the tile), float64 rows of S:
 # the camera ray, and what the diffuse queue does not carry of path.path_start's state ...
 OX, OY, OZ, DX, DY, DZ, LR, LG, LB, CONE, SPREAD, WEIGHT = _rows(0, 12)
-STATE_ROWS = 12
+ENV_U, ENV_COS = _rows(12, 2)  # an environment cell's light sample: its radiance is looked up last
+STATE_ROWS = 14
 # ... and int64 rows of N (the sample's key is in the uint64 row K[slot]), with the place in
 # the diffuse queue (-1: none yet, the path starts at the camera) and the light row its shadow
-# ray aims at
-RAYS, DEPTH, MED, CROSSINGS, LEAVING, QUEUED, LIGHT = _rows(0, 7)
-STATE_INT_ROWS = 7
+# ray aims at, and the form of that light's sample (path._deferred_light)
+RAYS, DEPTH, MED, CROSSINGS, LEAVING, QUEUED, LIGHT, FORM = _rows(0, 8)
+STATE_INT_ROWS = 8
 # The diffuse queue, by place in the queue, float64 rows of Q: what path_segment deferred
 # (the point, the facing normals, the colour, the offset, the light sample as
 # path._deferred_light gives it, the path's throughput and incoming direction, the BSDF's
 # numbers) ...
 PX, PY, PZ, GX, GY, GZ, NX, NY, NZ, CR, CG, CB, EPS = _rows(0, 13)
-ON_SURFACE, WX, WY, WZ, LNX, LNY, LNZ, AREA, DIST, IR, IG, IB, DENSITY, WEIGHED = _rows(13, 14)
+LIGHT_FORM, WX, WY, WZ, LNX, LNY, LNZ, AREA, DIST, IR, IG, IB, DENSITY, WEIGHED = _rows(13, 14)
 U1, U2, INR, ING, INB, INX, INY, INZ = _rows(27, 8)
 # ... and what _shade_diffuse makes of it: the light's contribution before its shadow ray, the
 # shadow ray, the next ray, its throughput and pdf, and whether the path goes on (1.0) at all
@@ -85,28 +99,37 @@ def path_wave_scratch():
 
 
 @vector_loop
-def _shade_diffuse(Q, m, unnormalized):
+def _shade_diffuse(Q, m, unnormalized, cells, rotation):
     """For queue places 0..m-1, the rest of path_segment's shading of a diffuse surface: the
     light sample's contribution (diffuse f, |cos|, the power heuristic; the shadow ray decides
-    whether it arrives), the shadow ray as path_segment spawns it (shadow.shadow_segment, or
-    normalized as shadow_ray unless `unnormalized`), the BSDF's sample and the path's next ray."""
+    whether it arrives, and for an environment cell the radiance is looked up after it), the
+    shadow ray as path_segment spawns it (shadow.shadow_segment, or normalized as shadow_ray
+    unless `unnormalized`), the BSDF's sample and the path's next ray. `cells`: the scene has
+    an environment, rotated by `rotation` (environment.environment_rotation)."""
     for q in range(m):
         px, py, pz = Q[PX + q], Q[PY + q], Q[PZ + q]
         gx, gy, gz = Q[GX + q], Q[GY + q], Q[GZ + q]
         nx, ny, nz = Q[NX + q], Q[NY + q], Q[NZ + q]
         cr, cg, cb = Q[CR + q], Q[CG + q], Q[CB + q]
         eps = Q[EPS + q]
-        # the light sample: a point on a surface seen from p (sampling.towards_point), or given
-        on_surface = Q[ON_SURFACE + q] > 0.0
+        # the light sample: a point on a surface seen from p (sampling.towards_point), the
+        # environment's cell (environment.sample_environment; rotation: environment_rotation),
+        # or given
+        on_surface = Q[LIGHT_FORM + q] == SURFACE_POINT
+        cell = Q[LIGHT_FORM + q] == ENVIRONMENT_CELL
+        ex, ey, ez = 0.0, 0.0, 1.0
+        if cells:  # (the same all along the loop: LLVM makes a loop without the environment)
+            cos_phi, sin_phi = turn_in_lanes(Q[WY + q] - 0.5)
+            ex, ey, ez = environment_direction(rotation, Q[WX + q], cos_phi, sin_phi)
         qx, qy, qz = Q[WX + q] - px, Q[WY + q] - py, Q[WZ + q] - pz
         d2 = qx * qx + qy * qy + qz * qz
         reach = math.sqrt(d2)
         facing = abs(Q[LNX + q] * qx + Q[LNY + q] * qy + Q[LNZ + q] * qz) * Q[AREA + q]
         seen = on_surface and reach > 0.0 and facing > 0.0
         inv_reach = 1.0 / reach if seen else 1.0
-        wx = qx * inv_reach if on_surface else Q[WX + q]
-        wy = qy * inv_reach if on_surface else Q[WY + q]
-        wz = qz * inv_reach if on_surface else Q[WZ + q]
+        wx = qx * inv_reach if on_surface else (ex if cell else Q[WX + q])
+        wy = qy * inv_reach if on_surface else (ey if cell else Q[WY + q])
+        wz = qz * inv_reach if on_surface else (ez if cell else Q[WZ + q])
         dist = reach if on_surface else Q[DIST + q]
         pdf_l = Q[DENSITY + q] * (d2 * reach / facing if seen else 0.0) if on_surface else Q[DENSITY + q]
         br, bg, bb = Q[INR + q], Q[ING + q], Q[INB + q]
@@ -156,9 +179,9 @@ def _shade_diffuse(Q, m, unnormalized):
 
 
 @inline_function
-def _enqueue(Q, N, k, q, st, deferred):
+def _enqueue(S, Q, N, k, q, st, deferred):
     """The deferred diffuse surface of slot k, path state st, into queue place q."""
-    p, ng, ns, colour, eps, on_surface, aim, n_l, area, dist, li, density, weighed, u1, u2, light = deferred
+    p, ng, ns, colour, eps, form, aim, n_l, area, dist, li, density, weighed, u1, u2, light = deferred
     d, beta = st[1], st[2]
     Q[at(PX, q)], Q[at(PY, q)], Q[at(PZ, q)] = p
     Q[at(GX, q)], Q[at(GY, q)], Q[at(GZ, q)] = ng
@@ -166,13 +189,15 @@ def _enqueue(Q, N, k, q, st, deferred):
     Q[at(CR, q)], Q[at(CG, q)], Q[at(CB, q)] = colour
     Q[at(WX, q)], Q[at(WY, q)], Q[at(WZ, q)] = aim
     Q[at(LNX, q)], Q[at(LNY, q)], Q[at(LNZ, q)] = n_l
-    Q[at(ON_SURFACE, q)], Q[at(AREA, q)] = 1.0 if on_surface else 0.0, area
+    Q[at(LIGHT_FORM, q)], Q[at(AREA, q)] = form, area
     Q[at(IR, q)], Q[at(IG, q)], Q[at(IB, q)] = li
     Q[at(INR, q)], Q[at(ING, q)], Q[at(INB, q)] = beta
     Q[at(INX, q)], Q[at(INY, q)], Q[at(INZ, q)] = d
     Q[at(EPS, q)], Q[at(DIST, q)], Q[at(DENSITY, q)] = eps, dist, density
     Q[at(WEIGHED, q)], Q[at(U1, q)], Q[at(U2, q)] = 1.0 if weighed else 0.0, u1, u2
-    N[at(QUEUED, k)], N[at(LIGHT, k)] = q, light
+    N[at(QUEUED, k)], N[at(LIGHT, k)], N[at(FORM, k)] = q, light, form
+    if form == ENVIRONMENT_CELL:
+        S[at(ENV_COS, k)], S[at(ENV_U, k)] = aim[0], aim[1]
 
 
 @inline_function
@@ -193,7 +218,7 @@ def _store_kept(S, N, k, st):
 
 
 @inline_function
-def _resume_diffuse(G, F, X, Em, Md, S, N, Q, k, q, key, node_stack, t_stack):
+def _resume_diffuse(G, F, X, Em, Env, Md, S, N, Q, k, q, key, node_stack, t_stack):
     """Slot k's path state after its diffuse surface in queue place q: the light its shadow ray
     lets through added, the next ray taken and Russian roulette. Returns (the path goes on,
     its state)."""
@@ -208,6 +233,8 @@ def _resume_diffuse(G, F, X, Em, Md, S, N, Q, k, q, key, node_stack, t_stack):
             G, F, X, Em, Md, origin, aim, Q[at(STMAX, q)], med, N[at(LIGHT, k)], key, depth, leaving,
             node_stack, t_stack,
         )  # fmt: skip
+        if N[at(FORM, k)] == ENVIRONMENT_CELL and (tr[0] > 0.0 or tr[1] > 0.0 or tr[2] > 0.0):
+            tr = hadamard(tr, environment_at(Env, S[at(ENV_U, k)], S[at(ENV_COS, k)]))
         L = (L[0] + c[0] * tr[0], L[1] + c[1] * tr[1], L[2] + c[2] * tr[2])
     o = (Q[at(NOX, q)], Q[at(NOY, q)], Q[at(NOZ, q)])
     d = (Q[at(NDX, q)], Q[at(NDY, q)], Q[at(NDZ, q)])
@@ -229,6 +256,7 @@ def path_wave_row(G, F, Em, Env, Md, X, P, j, film, wave, node_stack, t_stack, s
     S, N, K, Q, live = wave
     spread = cam[CAM_CONE_SPREAD]
     unnormalized = scale_free_shadows(G, Em, Md)
+    rotation = environment_rotation(Env)
     rays = 0
     rejected = 0
     n = (x1 - x0) * count
@@ -256,7 +284,7 @@ def path_wave_row(G, F, Em, Env, Md, X, P, j, film, wave, node_stack, t_stack, s
                 key = K[at(0, k)]
                 q = N[at(QUEUED, k)]
                 if q >= 0:
-                    going, st = _resume_diffuse(G, F, X, Em, Md, S, N, Q, k, q, key, node_stack, t_stack)
+                    going, st = _resume_diffuse(G, F, X, Em, Env, Md, S, N, Q, k, q, key, node_stack, t_stack)
                 else:
                     going = True
                     st = path_start(
@@ -273,13 +301,13 @@ def path_wave_row(G, F, Em, Env, Md, X, P, j, film, wave, node_stack, t_stack, s
                     _store_result(S, N, k, st)
                     continue
                 _store_kept(S, N, k, st)
-                _enqueue(Q, N, k, queued, st, deferred)
+                _enqueue(S, Q, N, k, queued, st, deferred)
                 queued += 1
                 live[at(0, still)] = k
                 still += 1
             alive = still
             if queued > 0:
-                _shade_diffuse(Q, queued, unnormalized)
+                _shade_diffuse(Q, queued, unnormalized, Env.present, rotation)
         # the tile's samples into the film, in sample order
         i, s = first_i, first_s
         for k in range(m):

@@ -206,19 +206,18 @@ def prefetch_environment(E, u1):
     prefetch_row(E.alias, min(int(u1 * n), n - 1))
 
 
-@kernel_function
-def sample_environment(E, u1, u2):
-    """A world direction for the random numbers u1 (the cell) and u2 (the column inside it) in
-    [0, 1): (direction, its radiance (r, g, b), its solid-angle pdf). The pdf is 0 for a failed
-    sample (no environment). The cell comes from the alias table in one step: the two searches
-    of the cdfs it replaced mispredicted a branch at about every other of their ~15 steps (~10%
-    of path mode's samples in examples/materials.toml's profile); now what is left is one load,
-    often a cache miss (materials.toml 640 x 320, 16 spp, 1 thread, CPU time: 0.93x at the
-    minimum of 5 alternating runs, 0.98x at the median). u1's remainder places the direction in
-    the cell's rows, u2 in its columns."""
+@inline_function
+def environment_cell(E, u1, u2):
+    """sample_environment's choice for the random numbers u1 (the cell) and u2 (the column inside
+    it) in [0, 1): (the cell's pdf, the direction's polar cosine in the environment's frame, its
+    image u). The pdf is 0 for a failed sample (no environment). The cell comes from the alias
+    table in one step: the two searches of the cdfs it replaced mispredicted a branch at about
+    every other of their ~15 steps (~10% of path mode's samples in examples/materials.toml's
+    profile); now what is left is one load, often a cache miss (materials.toml 640 x 320, 16
+    spp, 1 thread, CPU time: 0.93x at the minimum of 5 alternating runs, 0.98x at the median).
+    u1's remainder places the direction in the cell's rows, u2 in its columns."""
     if not E.present:
-        return (0.0, 0.0, 1.0), (0.0, 0.0, 0.0), 0.0
-    h = E.image.shape[0]
+        return 0.0, 1.0, 0.0
     w = E.image.shape[1]
     u1 = min(max(u1, 0.0), ONE_MINUS_EPSILON)
     u2 = min(max(u2, 0.0), ONE_MINUS_EPSILON)
@@ -234,30 +233,55 @@ def sample_environment(E, u1, u2):
     pdf = element((E.alias[k, 2], E.alias[k, 3]), above)  # the cell's, from the same slot
     dv = (frac - element((0.0, threshold), above)) / element((threshold, 1.0 - threshold), above)
     if not pdf > 0.0:
-        return (0.0, 0.0, 1.0), (0.0, 0.0, 0.0), 0.0
+        return 0.0, 1.0, 0.0
     i = cell // w
     j = cell - i * w
     dv = min(max(dv, 0.0), 1.0)
-    du = u2
     z0 = E.row_z[i]
     z1 = E.row_z[i + 1]
     cos_theta = min(1.0, max(-1.0, z0 - (z0 - z1) * dv))
+    return pdf, cos_theta, (j + u2) / w
+
+
+@inline_function
+def environment_rotation(E):
+    """The environment's rotation matrix as a tuple, row by row (environment_direction's `r`)."""
+    r = E.rotation
+    return (r[0, 0], r[0, 1], r[0, 2], r[1, 0], r[1, 1], r[1, 2], r[2, 0], r[2, 1], r[2, 2])
+
+
+@inline_function
+def environment_direction(r, cos_theta, cos_phi, sin_phi):
+    """The world direction at polar cosine cos_theta and azimuth phi (its cosine and sine: turn(u
+    - 0.5) of the image's u) in the environment's frame rotated by r (environment_rotation)."""
     sin_theta = math.sqrt(max(0.0, 1.0 - cos_theta * cos_theta))
-    u = (j + du) / w
-    cos_phi, sin_phi = turn(u - 0.5)  # phi = 2 pi (u - 0.5)
     x = sin_phi * sin_theta
     z = cos_phi * sin_theta
-    r = E.rotation
-    d = (
-        r[0, 0] * x + r[0, 1] * cos_theta + r[0, 2] * z,
-        r[1, 0] * x + r[1, 1] * cos_theta + r[1, 2] * z,
-        r[2, 0] * x + r[2, 1] * cos_theta + r[2, 2] * z,
+    return (
+        r[0] * x + r[1] * cos_theta + r[2] * z,
+        r[3] * x + r[4] * cos_theta + r[5] * z,
+        r[6] * x + r[7] * cos_theta + r[8] * z,
     )
-    if h == 1 and w == 1:  # a constant colour, as environment_radiance returns it
-        rgb = (float(E.image[0, 0, 0]), float(E.image[0, 0, 1]), float(E.image[0, 0, 2]))
-    else:
-        rgb = _bilinear(E.image, u, acos(cos_theta) / PI)
-    return d, rgb, pdf
+
+
+@inline_function
+def environment_at(E, u, cos_theta):
+    """The radiance sample_environment returns for image u and polar cosine cos_theta."""
+    if E.image.shape[0] == 1 and E.image.shape[1] == 1:  # a constant colour, as environment_radiance
+        return (float(E.image[0, 0, 0]), float(E.image[0, 0, 1]), float(E.image[0, 0, 2]))
+    return _bilinear(E.image, u, acos(cos_theta) / PI)
+
+
+@kernel_function
+def sample_environment(E, u1, u2):
+    """A world direction for the random numbers u1, u2 in [0, 1) (environment_cell): (direction,
+    its radiance (r, g, b), its solid-angle pdf). The pdf is 0 for a failed sample."""
+    pdf, cos_theta, u = environment_cell(E, u1, u2)
+    if not pdf > 0.0:
+        return (0.0, 0.0, 1.0), (0.0, 0.0, 0.0), 0.0
+    cos_phi, sin_phi = turn(u - 0.5)  # phi = 2 pi (u - 0.5)
+    d = environment_direction(environment_rotation(E), cos_theta, cos_phi, sin_phi)
+    return d, environment_at(E, u, cos_theta), pdf
 
 
 # ---------------------------------------------------------------------------------------------
