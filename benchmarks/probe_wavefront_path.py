@@ -1,5 +1,7 @@
 """A probe, not product code: path mode on the Cornell box as a wavefront, to measure what
 shading across paths in SIMD would give (issue 44), beside path mode's kernel in this process.
+It led to path mode's wavefront kernel (kernels/integrators/path_wavefront.py); its recorded
+figures compare it with the scalar kernel, which RAYLUME_PATH_KERNEL=scalar still selects.
 
     python benchmarks/probe_wavefront_path.py [--size 256] [--spp 8] [--rounds 6] [--max-depth 8]
 

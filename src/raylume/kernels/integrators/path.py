@@ -163,6 +163,12 @@ def path_start(Md, o, d):
     return (o, d, (1.0, 1.0, 1.0), ZERO3, 0, 0, 0.0, True, 0.0, Md.camera, o, 0.0, 0, np.int64(NO_HIT))
 
 
+@inline_function
+def _ended(st, L, rays):
+    """The state of a path that ended with radiance L after `rays` rays (all that is read of it)."""
+    return (st[0], st[1], st[2], L, rays, st[5], st[6], st[7], st[8], st[9], st[10], st[11], st[12], st[13])
+
+
 # How _deferred_light gives a light sample
 GIVEN = 0  # the direction, its distance, radiance and density (pick included)
 SURFACE_POINT = 1  # a point uniform over a surface: the point, its unit normal, the area, radiance
@@ -257,18 +263,10 @@ def path_segment(
         flight_key = sub_key(dimension_key(key, DIM_MEDIUM, depth), crossings)
         status, ts, beta = free_flight(Md, med, o, d, tl if e >= 0 else t, flight_key, beta)
         if status == ABSORBED:
-            return (
-                DONE,
-                (o, d, beta, L, rays, depth, prev_pdf, prev_delta, cone, med, mis_o, mis_t, crossings, leaving),
-                nothing,
-            )
+            return DONE, _ended(st, L, rays), nothing
         if status == SCATTERED:
             if max_depth >= 0 and depth >= max_depth:
-                return (
-                    DONE,
-                    (o, d, beta, L, rays, depth, prev_pdf, prev_delta, cone, med, mis_o, mis_t, crossings, leaving),
-                    nothing,
-                )
+                return DONE, _ended(st, L, rays), nothing
             p = madd(o, d, ts)
             g = Md.data[med, MED_G]
             if Em.cdf[Em.cdf.shape[0] - 1] > 0.0:
@@ -309,11 +307,7 @@ def path_segment(
             G, X, Em, Env, e, np.int64(NO_HIT), mis_o, d, mis_t + tl, nl, prev_pdf, prev_delta, strategy
         )
         L = _add_light(L, beta, row3(Em.data, e, LIGHT_INTENSITY), w)
-        return (
-            DONE,
-            (o, d, beta, L, rays, depth, prev_pdf, prev_delta, cone, med, mis_o, mis_t, crossings, leaving),
-            nothing,
-        )
+        return DONE, _ended(st, L, rays), nothing
     if prim == NO_HIT:
         if Em.ambient_row >= 0:
             w = _emitter_weight(
@@ -326,11 +320,7 @@ def path_segment(
             L = _add_light(L, beta, le_env, w)
         elif depth == 1 and Em.ambient_row < 0:  # the background: a backdrop, not a light
             L = _add_light(L, (1.0, 1.0, 1.0), background, 1.0)
-        return (
-            DONE,
-            (o, d, beta, L, rays, depth, prev_pdf, prev_delta, cone, med, mis_o, mis_t, crossings, leaving),
-            nothing,
-        )
+        return DONE, _ended(st, L, rays), nothing
     p = madd(o, d, t)
     ng, ns, m, obj, face = surface(G, X, prim, b1, b2, p)
     entering = dot(ng, d) < 0.0
@@ -368,11 +358,7 @@ def path_segment(
         )
         L = _add_light(L, beta, emission, w)
     if max_depth >= 0 and depth >= max_depth:
-        return (
-            DONE,
-            (o, d, beta, L, rays, depth, prev_pdf, prev_delta, cone, med, mis_o, mis_t, crossings, leaving),
-            nothing,
-        )
+        return DONE, _ended(st, L, rays), nothing
     n_geo = ng  # outward: which side is inside, for the media
     two_sided_here = two_sided(mat, m)
     ng, ns = facing_normals(two_sided_here, not entering, ng, ns)
@@ -424,20 +410,12 @@ def path_segment(
     u2, _ = key_uniform2(sub_key(bsdf_key, 1))
     wi_local, weight, pdf, delta = bsdf_sample(mat, m, colour, wo, u0, u1, u2)
     if not (pdf > 0.0) or not (weight[0] > 0.0 or weight[1] > 0.0 or weight[2] > 0.0):
-        return (
-            DONE,
-            (o, d, beta, L, rays, depth, prev_pdf, prev_delta, cone, med, mis_o, mis_t, crossings, leaving),
-            nothing,
-        )
+        return DONE, _ended(st, L, rays), nothing
     wi = to_world(wi_local, s_axis, t_axis, ns)
     up = dot(wi, ng) > 0.0
     if two_sided_here and not up:
         # a shading normal sent the path through the surface
-        return (
-            DONE,
-            (o, d, beta, L, rays, depth, prev_pdf, prev_delta, cone, med, mis_o, mis_t, crossings, leaving),
-            nothing,
-        )
+        return DONE, _ended(st, L, rays), nothing
     med = medium_leaving(Md, med, obj, d, n_geo, wi)  # transmitted: into the medium beyond
     beta = hadamard(beta, weight)
     o = madd(p, ng, eps if up else -eps)
