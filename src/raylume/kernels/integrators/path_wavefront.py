@@ -11,7 +11,7 @@ goes into its slot's rows and the surface into the diffuse queue. After the roun
 loop (`_shade_diffuse`) does for the whole queue what path_segment would have done next: the
 light sample's direction and density where it is a point on a surface or the environment's
 cell, the BSDF's value and the MIS weight, the shadow ray's ends, the cosine-sampled next
-direction (diffuse.lane_sample), the throughput. At the start of the next round each queued
+direction (the diffuse kind's lane_sample), the throughput. At the start of the next round each queued
 path traces its shadow ray, adds the light that arrives and takes Russian roulette, then goes
 on. LLVM vectorises that loop (4 paths an AVX2 register; tests/test_path_wavefront.py checks
 the machine code): its square roots and divisions were the slowest chain of a diffuse bounce.
@@ -33,7 +33,7 @@ from ..film.film import add_in_pixel_order, next_sample, pixel_sums, store_sums
 from ..geometry.wide_nodes import scratch_array
 from ..shading.environment import environment_at, environment_direction, environment_rotation
 from ..shading.lights import SHADOW_SHORTEN
-from ..shading.materials.diffuse import lane_sample
+from ..shading.materials import diffuse_lane_sample
 from ..vec import at, hadamard, inline_function, kernel_function, turn_in_lanes, vector_loop
 from .path import (
     DONE,
@@ -160,7 +160,7 @@ def _shade_diffuse(Q, m, unnormalized, cells, rotation):
             tmax = span * (1.0 - SHADOW_SHORTEN) if finite else INF
         Q[SAX + q], Q[SAY + q], Q[SAZ + q], Q[STMAX + q] = ax, ay, az, tmax
         # the next ray: the cosine's direction in the frame (s, t, n) of sampling.basis(n)
-        (lx, ly, lz), pdf = lane_sample(wo_z, Q[U1 + q], Q[U2 + q])
+        (lx, ly, lz), pdf = diffuse_lane_sample(wo_z, Q[U1 + q], Q[U2 + q])
         sign = 1.0 if nz >= 0.0 else -1.0
         a = -1.0 / (sign + nz)
         b = nx * ny * a

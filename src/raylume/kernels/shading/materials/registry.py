@@ -42,6 +42,10 @@ def is_diffuse(mat, m):
     return int(mat[m, MAT_KIND]) == diffuse.KIND
 
 
+# and the diffuse kind's direction sample as its vector loop takes it
+diffuse_lane_sample = diffuse.lane_sample
+
+
 @inline_function
 def index_matched(mat, m):
     """A boundary that light passes unchanged (the null kind): path mode steps through it without
