@@ -11,9 +11,9 @@ goes into its slot's rows and the surface into the diffuse queue. After the roun
 loop (`_shade_diffuse`) does for the whole queue what path_segment would have done next: the
 light sample's direction and density where it is a point on a surface or the environment's
 cell, the BSDF's value and the MIS weight, the shadow ray's ends, the cosine-sampled next
-direction (the diffuse kind's lane_sample), the throughput. At the start of the next round each queued
-path traces its shadow ray, adds the light that arrives and takes Russian roulette, then goes
-on. LLVM vectorises that loop (4 paths an AVX2 register; tests/test_path_wavefront.py checks
+direction (the diffuse kind's lane_sample), the throughput. At the start of the next round
+each queued path traces its shadow ray, adds the light that arrives and takes Russian roulette,
+then goes on. LLVM vectorises that loop (4 paths an AVX2 register; tests/test_path_wavefront.py checks
 the machine code): its square roots and divisions were the slowest chain of a diffuse bounce.
 
 The random numbers are path_segment's, keyed by (seed, pixel, sample, segment), and the diffuse
@@ -51,7 +51,7 @@ from .shadow import scale_free_shadows
 
 INF = math.inf
 INV_PI = 1.0 / math.pi
-TILE = 256  # paths a wavefront: its ~70 rows of float64 (~150 KB) stay in the L2 cache
+TILE = 256  # paths a wavefront: its ~80 rows of 8-byte values (~165 KB) stay in the L2 cache
 STRIDE = TILE + 8  # slots a row: a cache line of padding keeps rows out of one L1 set (wavefront.py)
 
 
