@@ -5,10 +5,11 @@ table's kind column), its flags, `power` (host side, for path mode's light distr
 arguments are the kind's own), and the kernel functions path mode calls, `sample` (a direction
 towards the light, its distance, the radiance arriving, the solid-angle pdf, delta) and `pdf`
 (that pdf for a direction a BSDF sample found, for MIS), kinds sampled by a point uniform over
-a surface also `surface_point` (that point, which `sample` takes on from), and for bidirectional path tracing's light
-subpaths `emit` (a point on the light, a direction leaving it, the radiance or intensity along it,
-the position and direction pdfs, as pbrt's SampleLe) and `emit_pdf` (those for a given point and
-direction, pbrt's PDF_Le; lights at infinity start from the disk of the scene's bounding sphere
+a surface also `surface_point` (that point, which `sample` takes on from), and for
+bidirectional path tracing's light subpaths `emit` (a point on the light, a direction leaving
+it, the radiance or intensity along it, the position and direction pdfs, as pbrt's SampleLe)
+and `emit_pdf` (those for a given point and direction, pbrt's PDF_Le; lights at infinity start
+from the disk of the scene's bounding sphere
 that faces them). The scene's own lights (SCENE_KINDS)
 also have `pack` (model light -> table row) and trace mode's `trace_sample` (a point on the
 light seen from a shading point, in the seed's units: the lecture's ComputeLighting).
