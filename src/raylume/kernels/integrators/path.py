@@ -169,48 +169,25 @@ def _ended(st, L, rays):
     return (st[0], st[1], st[2], L, rays, st[5], st[6], st[7], st[8], st[9], st[10], st[11], st[12], st[13])
 
 
-# How _deferred_light gives a light sample
+# How a deferred surface's light sample is given (path_segment, _partial_light)
 GIVEN = 0  # the direction, its distance, radiance and density (pick included)
 SURFACE_POINT = 1  # a point uniform over a surface: the point, its unit normal, the area, radiance
 ENVIRONMENT_CELL = 2  # the environment's choice (environment.environment_cell): (cos theta, u, 0)
 
 
 @inline_function
-def _deferred_light(G, X, Em, Env, lights, p, u_pick, u1, u2, light_key, strategy):
-    """Next-event estimation's light sample at a diffuse surface whose shading is deferred:
-    (form, the direction or point or cell, the point's unit normal, the surface's area, the
-    direction's distance, radiance, density, MIS weighs it, the light row). The caller finishes
-    a SURFACE_POINT as sampling.towards_point would (its density here is the light's pick
-    probability), an ENVIRONMENT_CELL as environment.sample_environment would (its density is
-    the cell's, pick included; its radiance is looked up once the shadow ray is known to arrive,
-    its radiance here (1, 1, 1)). Density 0: no light to add."""
-    if not lights:
-        return GIVEN, ZERO3, ZERO3, 0.0, 0.0, ZERO3, 0.0, False, np.int64(-1)
-    le, p_pick = pick_emitter(Em.cdf, u_pick)
+def _partial_light(G, X, Em, Env, le, u1, u2):
+    """Light row le's sample where path_segment defers it: (form, the point or cell, the point's
+    unit normal, the surface's area or the cell's pdf, radiance). A SURFACE_POINT's caller
+    finishes it as sampling.towards_point would; an ENVIRONMENT_CELL's as
+    environment.sample_environment would, looking its radiance up only once the shadow ray is
+    known to arrive (here (1, 1, 1)); the other kinds are GIVEN: sampled whole (sample_light)."""
     if le == Em.environment_row:
         pdf_cell, cos_theta, u = environment_cell(Env, u1, u2)
-        usable = pdf_cell > 0.0 and strategy != BSDF_ONLY
-        density = p_pick * pdf_cell if usable else 0.0
-        return (
-            ENVIRONMENT_CELL,
-            (cos_theta, u, 0.0),
-            ZERO3,
-            0.0,
-            INF,
-            (1.0, 1.0, 1.0),
-            density,
-            strategy != LIGHT_ONLY,
-            np.int64(le),
-        )
+        lit = 1.0 if pdf_cell > 0.0 else 0.0
+        return ENVIRONMENT_CELL, (cos_theta, u, 0.0), ZERO3, pdf_cell, (lit, lit, lit)
     on_surface, q, n_l, area, li = light_point(G, X, Em, le, u1, u2)
-    lit = li[0] > 0.0 or li[1] > 0.0 or li[2] > 0.0
-    if on_surface:
-        usable = lit and strategy != BSDF_ONLY
-        return SURFACE_POINT, q, n_l, area, 0.0, li, p_pick if usable else 0.0, strategy != LIGHT_ONLY, np.int64(le)
-    wi, dist, li, pdf_l, delta_l = sample_light(G, X, Em, Env, le, p, u1, u2, light_key)
-    usable = pdf_l > 0.0 and (li[0] > 0.0 or li[1] > 0.0 or li[2] > 0.0) and (delta_l or strategy != BSDF_ONLY)
-    weighed = not delta_l and strategy != LIGHT_ONLY
-    return GIVEN, wi, ZERO3, 0.0, dist, li, p_pick * pdf_l if usable else 0.0, weighed, np.int64(le)
+    return (SURFACE_POINT if on_surface else GIVEN), q, n_l, area, li
 
 
 @inline_function
@@ -238,7 +215,9 @@ def path_segment(
     `defer`, a diffuse surface whose light sample next-event estimation may use is left
     unshaded (DEFERRED): the state's beta and L as they reach it, and the surface to shade, (p,
     ng, ns, colour, eps, *light sample, u1, u2, light row): the normals turned to face the ray
-    (shading_frame's), the light sample as _deferred_light gives it, the BSDF's two uniforms.
+    (shading_frame's), the light sample (its form, the direction, point or cell, the point's
+    normal, the area or the cell's pdf, distance, radiance, density with the pick's: for a point
+    only the pick's; 0: no light to add; whether MIS weighs it), the BSDF's two uniforms.
     The shadow ray of a diffuse surface's light leaves on the incoming ray's side: in its
     medium."""
     o, d, beta, L, rays, depth, prev_pdf, prev_delta, cone, med, mis_o, mis_t, crossings, leaving = st
@@ -366,44 +345,57 @@ def path_segment(
     colour = albedo(G, F, X, m, prim, b1, b2, p, d, ng, cone)
     bsdf_key = dimension_key(key, DIM_BSDF, depth)
     lights = Em.cdf[Em.cdf.shape[0] - 1] > 0.0 and not delta_only(mat, m)
-    if defer and is_diffuse(mat, m):
+    deferring = defer and is_diffuse(mat, m)
+    # next-event estimation's light sample: where the shading is deferred, a point on a surface
+    # or an environment cell for the caller to finish, else the kind's whole sample (one call
+    # site of sample_light, which inlines every kind's)
+    form, aim, n_l, area, li = GIVEN, ZERO3, ZERO3, 0.0, ZERO3
+    le, p_pick = np.int64(-1), 0.0
+    wi, dist, pdf_l, delta_l = ZERO3, 0.0, 0.0, False
+    if lights:
+        le, p_pick = pick_emitter(Em.cdf, u_pick)
+        if deferring:
+            form, aim, n_l, area, li = _partial_light(G, X, Em, Env, le, u1, u2)
+        if form == GIVEN:
+            wi, dist, li, pdf_l, delta_l = sample_light(G, X, Em, Env, le, p, u1, u2, light_key)
+    lit = li[0] > 0.0 or li[1] > 0.0 or li[2] > 0.0
+    usable = lights and pdf_l > 0.0 and lit and (delta_l or strategy != BSDF_ONLY)
+    if deferring:
         # the facing normals and the light sample, for the caller's SIMD stage
-        form, aim, n_l, area, dist, li, density, weighed, le = _deferred_light(
-            G, X, Em, Env, lights, p, u_pick, u1, u2, light_key, strategy
-        )
+        weighed = not delta_l and strategy != LIGHT_ONLY
+        if form == GIVEN:
+            aim, density = wi, p_pick * pdf_l if usable else 0.0
+        else:  # its density is the pick's (a point) or the cell's with the pick's
+            density = p_pick * area if form == ENVIRONMENT_CELL else p_pick
+            density = density if lights and lit and strategy != BSDF_ONLY else 0.0
+            dist = INF if form == ENVIRONMENT_CELL else 0.0
         b_u1, b_u2 = key_uniform2(bsdf_key)
-        deferred = (p, ng, ns, colour, eps, form, aim, n_l, area, dist, li, density, weighed, b_u1, b_u2, le)
+        deferred = (p, ng, ns, colour, eps, form, aim, n_l, area, dist, li, density, weighed, b_u1, b_u2, np.int64(le))
         st = (o, d, beta, L, rays, depth, prev_pdf, prev_delta, cone, med, mis_o, mis_t, crossings, prim)
         return DEFERRED, st, deferred
     s_axis, t_axis = basis(ns)
     wo = to_local(mul(d, -1.0), s_axis, t_axis, ns)
 
     # next-event estimation
-    if lights:
-        le, p_pick = pick_emitter(Em.cdf, u_pick)
-        wi, dist, li, pdf_l, delta_l = sample_light(G, X, Em, Env, le, p, u1, u2, light_key)
-        usable = pdf_l > 0.0 and (li[0] > 0.0 or li[1] > 0.0 or li[2] > 0.0) and (delta_l or strategy != BSDF_ONLY)
-        if usable:
-            wi_local = to_local(wi, s_axis, t_axis, ns)
-            up = dot(wi, ng) > 0.0
-            # two-sided reflection: light from below the geometric surface cannot arrive
-            if up or not two_sided_here:
-                f, pdf_b = bsdf_eval(mat, m, colour, wo, wi_local)
-                if f[0] > 0.0 or f[1] > 0.0 or f[2] > 0.0:
-                    if unnormalized_shadows:
-                        origin, aim, tmax = shadow_segment(p, ng, eps if up else -eps, wi, dist)
-                    else:
-                        origin, aim, tmax = shadow_ray(p, ng, eps if up else -eps, wi, dist)
-                    rays += 1
-                    # the shadow ray leaves on the side of the incoming ray, or crosses
-                    shadow_med = medium_leaving(Md, med, obj, d, n_geo, wi)
-                    tr = _shadow(
-                        G, F, X, Em, Md, origin, aim, tmax, shadow_med, le, key, depth, prim, node_stack, t_stack
-                    )
-                    if tr[0] > 0.0 or tr[1] > 0.0 or tr[2] > 0.0:
-                        weighed = not delta_l and strategy != LIGHT_ONLY
-                        scale = abs(wi_local[2]) * _light_weight(p_pick * pdf_l, pdf_b, weighed)
-                        L = _add_light(L, hadamard(hadamard(beta, f), tr), li, scale)
+    if usable:
+        wi_local = to_local(wi, s_axis, t_axis, ns)
+        up = dot(wi, ng) > 0.0
+        # two-sided reflection: light from below the geometric surface cannot arrive
+        if up or not two_sided_here:
+            f, pdf_b = bsdf_eval(mat, m, colour, wo, wi_local)
+            if f[0] > 0.0 or f[1] > 0.0 or f[2] > 0.0:
+                if unnormalized_shadows:
+                    origin, aim, tmax = shadow_segment(p, ng, eps if up else -eps, wi, dist)
+                else:
+                    origin, aim, tmax = shadow_ray(p, ng, eps if up else -eps, wi, dist)
+                rays += 1
+                # the shadow ray leaves on the side of the incoming ray, or crosses
+                shadow_med = medium_leaving(Md, med, obj, d, n_geo, wi)
+                tr = _shadow(G, F, X, Em, Md, origin, aim, tmax, shadow_med, le, key, depth, prim, node_stack, t_stack)
+                if tr[0] > 0.0 or tr[1] > 0.0 or tr[2] > 0.0:
+                    weighed = not delta_l and strategy != LIGHT_ONLY
+                    scale = abs(wi_local[2]) * _light_weight(p_pick * pdf_l, pdf_b, weighed)
+                    L = _add_light(L, hadamard(hadamard(beta, f), tr), li, scale)
 
     # continue the path
     u0, u1 = key_uniform2(bsdf_key)

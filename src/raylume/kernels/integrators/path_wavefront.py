@@ -66,12 +66,12 @@ ENV_U, ENV_COS = _rows(12, 2)  # an environment cell's light sample: its radianc
 STATE_ROWS = 14
 # ... and int64 rows of N (the sample's key is in the uint64 row K[slot]), with the place in
 # the diffuse queue (-1: none yet, the path starts at the camera) and the light row its shadow
-# ray aims at, and the form of that light's sample (path._deferred_light)
+# ray aims at, and the form of that light's sample (path._partial_light)
 RAYS, DEPTH, MED, CROSSINGS, LEAVING, QUEUED, LIGHT, FORM = _rows(0, 8)
 STATE_INT_ROWS = 8
 # The diffuse queue, by place in the queue, float64 rows of Q: what path_segment deferred
 # (the point, the facing normals, the colour, the offset, the light sample as
-# path._deferred_light gives it, the path's throughput and incoming direction, the BSDF's
+# path_segment defers it, the path's throughput and incoming direction, the BSDF's
 # numbers) ...
 PX, PY, PZ, GX, GY, GZ, NX, NY, NZ, CR, CG, CB, EPS = _rows(0, 13)
 LIGHT_FORM, WX, WY, WZ, LNX, LNY, LNZ, AREA, DIST, IR, IG, IB, DENSITY, WEIGHED = _rows(13, 14)
