@@ -38,7 +38,7 @@ from raylume.kernels.geometry.wide_nodes import traversal_stacks
 from raylume.kernels.scene import geometry_of
 from raylume.kernels.shading.materials import MAT_COLOR, MAT_EMISSION
 from raylume.kernels.variants import path_features
-from raylume.kernels.vec import inline_function, quarter_sincos, vector_loop
+from raylume.kernels.vec import turn_in_lanes, vector_loop
 
 CORNELL = Path(__file__).resolve().parent.parent / "examples" / "cornell.toml"
 T = 256  # paths a tile
@@ -47,21 +47,6 @@ T = 256  # paths a tile
 OX, OY, OZ, DX, DY, DZ, BR, BG, BB, PX, PY, PZ, NX, NY, NZ, U1, U2, U3, U4, AR, AG, AB = range(22)
 SX, SY, SZ, CR, CG, CB, NDX, NDY, NDZ, PREV, ROWS = range(22, 33)
 INV_PI = 1.0 / math.pi
-
-
-@inline_function
-def turn_sel(u):
-    """vec.turn's (cos, sin) of a fraction of a turn, its quarter picked by selects, which LLVM
-    vectorises (vec.turn picks it by index from a stack copy: a scalar load per lane)."""
-    q = math.floor(4.0 * u + 0.5)
-    c, s = quarter_sincos(2.0 * math.pi * (u - 0.25 * q))
-    k = q - 4.0 * math.floor(q * 0.25)
-    odd = (k == 1.0) or (k == 3.0)
-    neg_c = (k == 1.0) or (k == 2.0)
-    neg_s = (k == 2.0) or (k == 3.0)
-    cc = s if odd else c
-    ss = c if odd else s
-    return (-cc if neg_c else cc), (-ss if neg_s else ss)
 
 
 @vector_loop(fastmath=True)
@@ -95,7 +80,7 @@ def shade_diffuse(R, m, Q):
         sx, sy, sz = 1.0 + sign * nx * nx * a, sign * b, -sign * nx
         vx, vy, vz = b, sign + ny * ny * a, -ny
         r = math.sqrt(R[U3 * T + k])
-        c, s = turn_sel(R[U4 * T + k])
+        c, s = turn_in_lanes(R[U4 * T + k])
         lx, ly, lz = r * c, r * s, math.sqrt(max(0.0, 1.0 - R[U3 * T + k]))
         R[NDX * T + k] = lx * sx + ly * vx + lz * nx
         R[NDY * T + k] = lx * sy + ly * vy + lz * ny
