@@ -35,6 +35,7 @@ from .kernels.integrators.frame import (
     STOP,
     LaneControl,
     aov_lane,
+    bdpt_glint_guide,
     bdpt_lane,
     cast_lane,
     path_lane,
@@ -210,7 +211,14 @@ def add_samples_to_film(S, cam, film: Film, spp: int, settings, aov: dict, progr
     tables = wavefront_tables(S) if settings.mode == "trace" else None  # read by every lane
     strategy = path_strategy()
     path_kernel_lane = path_kernel() if settings.mode == "path" else None
-    bd = bdpt_pass(S, film, lanes) if bidirectional else None
+    bd = None
+    if bidirectional:
+
+        def guide_of(bounds: np.ndarray, guide: np.ndarray) -> None:
+            P = ImagePass(cam, film.filter, W, H, window, samples, settings.seed, settings.depth, background)
+            on_roomy_frame_stack(bdpt_glint_guide, S, X, P, bounds, guide)
+
+        bd = bdpt_pass(S, film, lanes, guide_of)
 
     aovs = Aovs(**{name: aov[name] for name in Aovs._fields}) if aov else None
 

@@ -179,6 +179,7 @@ class Film:
         # bidirectional path tracing's splats (splat.py): exact int64 sums, (h, w, 3, 2) flat
         self.splats: np.ndarray | None = None
         self.strategies: dict[str, int] = {}  # bdpt: samples that contributed per strategy "s,t"
+        self.glint: np.ndarray | None = None  # bdpt: the glint strategy's cdf, made by its first pass
 
     def enable_splats(self) -> np.ndarray:
         """The splat sums of the film's window (made zero on first use)."""

@@ -70,12 +70,10 @@ def splat(flat, window, filt, x, y, rgb):
     """Add rgb at image point (x, y) (pixels) to the splat sums (int64 (h, w, 3, 2) of the window
     (x0, y0, x1, y1), flat): to each pixel in the filter's radius, weighted. Returns False (nothing
     added) for a value that is not finite or too large."""
-    for c in range(3):
-        if not (abs(rgb[c]) < SPLAT_LIMIT):
-            return False
+    if not splat_finite(rgb):
+        return False
     x0, y0, x1, y1 = window
     r = filt[SPLAT_RADIUS]
-    w = x1 - x0
     for py in range(max(int(math.floor(y - r)), y0), min(int(math.floor(y + r)) + 1, y1)):
         wy = _profile(filt, y - (py + 0.5))
         if wy == 0.0:
@@ -84,14 +82,30 @@ def splat(flat, window, filt, x, y, rgb):
             wt = wy * _profile(filt, x - (px + 0.5))
             if wt == 0.0:
                 continue
-            at = ((py - y0) * w + (px - x0)) * 6
-            for c in range(3):
-                v = rgb[c] * wt * HI_SCALE
-                a = math.floor(v)
-                b = math.floor((v - a) * LO_SCALE)
-                atomic_add(flat, at + 2 * c, np.int64(a))
-                atomic_add(flat, at + 2 * c + 1, np.int64(b))
+            splat_pixel(flat, window, px, py, rgb, wt)
     return True
+
+
+@inline_function
+def splat_finite(rgb):
+    """Whether rgb can be splatted: finite and below SPLAT_LIMIT."""
+    for c in range(3):
+        if not (abs(rgb[c]) < SPLAT_LIMIT):
+            return False
+    return True
+
+
+@inline_function
+def splat_pixel(flat, window, px, py, rgb, wt):
+    """Add rgb * wt to pixel (px, py) of the window's splat sums (exactly: fixed point)."""
+    x0, y0, x1, _ = window
+    at = ((py - y0) * (x1 - x0) + (px - x0)) * 6
+    for c in range(3):
+        v = rgb[c] * wt * HI_SCALE
+        a = math.floor(v)
+        b = math.floor((v - a) * LO_SCALE)
+        atomic_add(flat, at + 2 * c, np.int64(a))
+        atomic_add(flat, at + 2 * c + 1, np.int64(b))
 
 
 def splat_filter(name: str) -> np.ndarray:

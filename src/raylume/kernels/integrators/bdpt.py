@@ -44,6 +44,7 @@ from ..shading.lights import (
 from ..shading.lights.registry import visible_hit
 from ..shading.materials import MAT_EMISSION, beer_lambert, two_sided
 from ..vec import add, dot, hadamard, inline_function, kernel_function, mul, row3
+from .bdpt_glint import GLINT_COUNT, glint_sample, pixel_weight, through_delta_only
 from .bdpt_mis import mis_weight
 from .bdpt_vertex import (
     CAMERA,
@@ -78,6 +79,8 @@ from .shadow import shadow_ray, shadow_transmittance
 
 INF = math.inf
 MAX_SEGMENTS = 64  # unlimited max_depth: subpaths end by Russian roulette, or here
+GLINT_ONLY = -2  # the strategy switch's s for the glint strategy alone (bdpt_setup.strategy_switch)
+NO_GLINT = -3  # ... and for every strategy but the glint strategy
 DIM_CONNECT_LIGHT = np.uint64(0x5A3D11E1)  # s = 1: the light point of each camera vertex
 DIM_CONNECT_LENS = np.uint64(0x1E25C0DE)  # t = 1: the lens point of each light vertex
 DIM_CONNECT_MEDIUM = np.uint64(0x5AD0B1D1)  # ratio tracking along each strategy's connection
@@ -327,16 +330,28 @@ def connect_camera(C, Vc, Vl, saved, s, key, mis, node_stack, t_stack):
 
 @kernel_function
 def bdpt_sample(
-    C, Vc, Vl, saved, o, d, spread, key, inside, depth, strategy, splats, window, filt, counts, node_stack, t_stack
-):
-    """One camera sample: its light subpath, splatted where the camera sees it (t = 1), and
-    when the pixel is in the window (`inside`) its camera subpath and every other strategy.
-    Returns (radiance for the pixel, rays traced, splats refused as not finite)."""
+    C, Vc, Vl, saved, o, d, spread, key, inside, depth, strategy, splats, window, filt, counts, px, py,
+    node_stack, t_stack,
+):  # fmt: skip
+    """One camera sample of pixel (px, py): its light subpath, splatted where the camera sees it
+    (t = 1), the glint strategy's sample (splatted, bdpt_glint.py), and when the pixel is in the
+    window (`inside`) its camera subpath and every other strategy. Returns (radiance for the
+    pixel, rays traced, splats refused as not finite)."""
     most = depth if depth >= 0 else MAX_SEGMENTS
     s_only, t_only, mis_flag = strategy
     mis = mis_flag != 0
-    n_light, rays = light_subpath(C, Vl, most, key, node_stack, t_stack)
+    rays = 0
     refused = 0
+    glints = C.glint.shape[0] > 1
+    if glints and (s_only == -1 or s_only == GLINT_ONLY):
+        used, added, bad = glint_sample(C, key, most, splats, window, node_stack, t_stack)
+        rays += used
+        refused += bad
+        counts[GLINT_COUNT] += added
+    if s_only == GLINT_ONLY:
+        return ZERO, rays, refused
+    n_light, used = light_subpath(C, Vl, most, key, node_stack, t_stack)
+    rays += used
     for s in range(2, min(n_light, most) + 1):
         if s_only >= 0 and not (s == s_only and t_only == 1):
             continue
@@ -363,6 +378,8 @@ def bdpt_sample(
                 continue
             value, used = connect(C, Vc, Vl, saved, s, t, key, mis, node_stack, t_stack)
             rays += used
+            if s == 0 and mis and glints and _nonzero(value) and through_delta_only(C, Vc, t - 1):
+                value = mul(value, pixel_weight(C, Vc, px, py))  # shared with the glint strategy
             if _nonzero(value):
                 counts[s, t] += 1
                 L = add(L, value)

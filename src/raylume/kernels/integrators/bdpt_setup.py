@@ -3,15 +3,18 @@ sphere (lights at infinity send their light subpaths from its disk), the splat s
 the strategy counts, and the strategy switch for tests."""
 
 import os
+from collections.abc import Callable
 from typing import NamedTuple
 
 import numpy as np
 
+from ..film.film import FILTER_NEGATIVE
 from ..film.splat import splat_filter
 from ..shading.lights.registry import visible_bounds
 from ..shading.media import grid
 from ..shading.media.table import MED_BOX_MAX, MED_BOX_MIN, MED_KIND
-from .bdpt import MAX_SEGMENTS
+from .bdpt import GLINT_ONLY, MAX_SEGMENTS, NO_GLINT
+from .bdpt_glint import GLINT_COUNT
 
 STRATEGY_VARIABLE = "RAYLUME_BDPT_STRATEGY"
 
@@ -23,7 +26,8 @@ class BdptPass(NamedTuple):
     splats: np.ndarray  # int64, the film window's splat sums (splat.py)
     filter: np.ndarray  # the splat filter (splat.splat_filter)
     counts: np.ndarray  # int64 (lanes, n, n): samples with a nonzero contribution per (s, t)
-    strategy: tuple  # (s, t, mis): s = -1 for every strategy
+    strategy: tuple  # (s, t, mis): s = -1 for every strategy, GLINT_ONLY the glint strategy alone
+    glint: np.ndarray  # the glint strategy's cdf over the image's pixels; (1,) without it (bdpt_glint.py)
 
 
 def _box_of_nodes(nodes: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
@@ -61,10 +65,16 @@ def bounding_sphere(S) -> np.ndarray:
 def strategy_switch() -> tuple[int, int, int]:
     """(s, t, mis) from RAYLUME_BDPT_STRATEGY: unset, every strategy with MIS (-1, -1, 1);
     "s,t" that strategy alone with its MIS weight (its share of the image); "s,t,nomis" alone,
-    unweighted (the whole image of paths of s + t - 1 segments, where it can make them)."""
+    unweighted (the whole image of paths of s + t - 1 segments, where it can make them);
+    "glint" the glint strategy alone, weighted (GLINT_ONLY); "noglint" every strategy but the
+    glint strategy (NO_GLINT: bdpt as Veach's, for comparisons)."""
     text = os.environ.get(STRATEGY_VARIABLE, "")
     if not text:
         return -1, -1, 1
+    if text.strip() == "glint":
+        return GLINT_ONLY, GLINT_ONLY, 1
+    if text.strip() == "noglint":
+        return NO_GLINT, NO_GLINT, 1
     parts = text.split(",")
     try:
         s, t = int(parts[0]), int(parts[1])
@@ -74,19 +84,57 @@ def strategy_switch() -> tuple[int, int, int]:
     return s, t, int(mis)
 
 
-def bdpt_pass(S, film, lanes: int) -> BdptPass:
-    """The extra argument of a bidirectional pass that adds to `film` (its splat sums)."""
+def bdpt_pass(S, film, lanes: int, guide_of: Callable[[np.ndarray, np.ndarray], None]) -> BdptPass:
+    """The extra argument of a bidirectional pass that adds to `film` (its splat sums).
+    guide_of(bounds, guide) fills the glint strategy's guide (frame.bdpt_glint_guide)."""
     n = MAX_SEGMENTS + 2
+    bounds = bounding_sphere(S)
+    strategy = strategy_switch()
     return BdptPass(
-        bounding_sphere(S),
+        bounds,
         film.enable_splats(),
         splat_filter(film.filter_name),
         np.zeros((lanes, n, n), dtype=np.int64),
-        strategy_switch(),
+        strategy,
+        glint_cdf(S, film, strategy, lambda guide: guide_of(bounds, guide)),
     )
 
 
+def glint_cdf(S, film, strategy: tuple, guide_of: Callable[[np.ndarray], None]) -> np.ndarray:
+    """The glint strategy's cdf over the image's pixels (row-major, a leading 0), made once per
+    film (every pass of an image samples the same guide); (1,) where the strategy takes no part:
+    scenes with media or null boundaries, images of 1 sample per pixel (the pixel's centre, not
+    its filter's area), filters with negative lobes, the switch's "noglint" and unweighted
+    strategies, or nothing found."""
+    if film.glint is None:
+        off = S.media_present or S.pass_through or film.total_spp == 1
+        off = off or np.isfinite(film.filter[FILTER_NEGATIVE]) or strategy[0] == NO_GLINT or strategy[2] == 0
+        cdf = np.zeros(1)
+        if not off:
+            guide = np.zeros((film.height, film.width))
+            guide_of(guide)
+            guide = _spread(guide)
+            sums = np.concatenate([[0.0], np.cumsum(guide.ravel())])  # in order: the same bits anywhere
+            if sums[-1] > 0.0 and np.isfinite(sums[-1]):
+                cdf = sums
+        film.glint = cdf
+    return film.glint
+
+
+def _spread(guide: np.ndarray) -> np.ndarray:
+    """The guide summed over each pixel's 3 x 3 neighbourhood: a glint's image straddles pixels
+    that its pilot samples may all have missed (any guide keeps the image unbiased). On the head
+    lamp at 128 x 72 (6 seeds), bdpt's whole-image RMSE against path mode's at the same time:
+    0.82x unspread (a glint pixel without guide), 8.1x over 3 x 3, 6.7x over 5 x 5 (fewer of
+    the strategy's samples where the glint is)."""
+    padded = np.pad(guide, 1)
+    h, w = guide.shape
+    rows = padded[0:h, :] + padded[1 : h + 1, :] + padded[2 : h + 2, :]
+    return rows[:, 0:w] + rows[:, 1 : w + 1] + rows[:, 2 : w + 2]
+
+
 def strategy_counts(counts: np.ndarray) -> dict[str, int]:
-    """{"s,t": samples} of the strategies that contributed."""
+    """{"s,t": samples} of the strategies that contributed ("glint": the glint strategy's)."""
     total = counts.sum(axis=0)
-    return {f"{s},{t}": int(total[s, t]) for s, t in zip(*np.nonzero(total))}
+    names = {GLINT_COUNT: "glint"}
+    return {names.get((s, t), f"{s},{t}"): int(total[s, t]) for s, t in zip(*np.nonzero(total))}

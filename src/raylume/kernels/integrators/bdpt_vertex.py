@@ -80,6 +80,8 @@ class Context(NamedTuple):
     width: int
     height: int
     background: tuple  # what a camera ray that leaves a scene without lights at infinity sees
+    glint: np.ndarray  # the glint strategy's guide as a cdf over the image's pixels; (1,) without (bdpt_glint.py)
+    pixel_filter: np.ndarray  # the film's pixel filter (film.filter_array)
 
 
 @inline_function

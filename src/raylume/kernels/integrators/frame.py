@@ -25,6 +25,7 @@ from ..shading.environment import environment_radiance
 from ..shading.materials import albedo, aov_albedo
 from ..vec import FAST, INLINE_OVERLOAD, dot, inline_function, kernel_function, madd, mul
 from .bdpt import MAX_SEGMENTS, bdpt_sample
+from .bdpt_glint import glint_guide
 from .bdpt_vertex import V_WIDTH, Context
 from .path import finite_sample, path_ray
 from .path_wavefront import path_wave_row, path_wave_scratch
@@ -417,11 +418,11 @@ def bdpt_lane(S, X, P, film, C, bd):
     node_stack, t_stack = traversal_stacks()
     G, F, Em = geometry_of(S), surfaces_of(S), emitters_of(S)
     Env, Md = environment_of(S), media_of(S)
-    bounds, splats, filt, counts, strategy = bd
+    bounds, splats, filt, counts, strategy, glint = bd
     Vc = np.zeros((MAX_SEGMENTS + 2, V_WIDTH))
     Vl = np.zeros((MAX_SEGMENTS + 2, V_WIDTH))
     saved = np.zeros((1, V_WIDTH))
-    ctx = Context(G, F, X, Em, Env, Md, P.camera, bounds, P.width, P.height, P.background)
+    ctx = Context(G, F, X, Em, Env, Md, P.camera, bounds, P.width, P.height, P.background, glint, P.pixel_filter)
     lane_counts = counts[C.lane]
     while True:
         j = claim_row(C.control, C.counter)
@@ -431,6 +432,18 @@ def bdpt_lane(S, X, P, film, C, bd):
         C.rays_per_row[j] += rays
         C.rejected[C.lane * PROGRESS_STRIDE] += bad
         C.rows_done[C.lane * PROGRESS_STRIDE] += 1
+
+
+@njit(**LANE)
+def bdpt_glint_guide(S, X, P, bounds, guide):
+    """The glint strategy's guide of pass P's image into guide (float64 (height, width),
+    bdpt_glint.glint_guide), on one thread; returns the rays traced."""
+    node_stack, t_stack = traversal_stacks()
+    G, F, Em = geometry_of(S), surfaces_of(S), emitters_of(S)
+    ctx = Context(G, F, X, Em, environment_of(S), media_of(S), P.camera, bounds, P.width, P.height,
+                  P.background, np.zeros(1), P.pixel_filter)  # fmt: skip
+    most = P.max_depth if P.max_depth >= 0 else MAX_SEGMENTS
+    return glint_guide(ctx, P.seed, most, guide, node_stack, t_stack)
 
 
 @kernel_function
@@ -451,7 +464,7 @@ def _bdpt_row(ctx, P, j, film, Vc, Vl, saved, splats, filt, counts, strategy, no
             o, d, w, key = camera_sample(cam, pixel_filter, seed, i, j, s, total_spp, width, height)
             col, used, refused = bdpt_sample(
                 ctx, Vc, Vl, saved, o, d, spread * obliquity(cam, d), key, inside, max_depth, strategy, splats,
-                window, filt, counts, node_stack, t_stack,
+                window, filt, counts, i, j, node_stack, t_stack,
             )  # fmt: skip
             rays += used
             rejected += refused
