@@ -215,8 +215,14 @@ def add_samples_to_film(S, cam, film: Film, spp: int, settings, aov: dict, progr
     if bidirectional:
 
         def guide_of(bounds: np.ndarray, guide: np.ndarray) -> None:
+            """The glint guide, its rows in bands on the lanes (each pixel's score its own: the
+            same bits on any number of lanes)."""
             P = ImagePass(cam, film.filter, W, H, window, samples, settings.seed, settings.depth, background)
-            on_roomy_frame_stack(bdpt_glint_guide, S, X, P, bounds, guide)
+            on_roomy_frame_stack(bdpt_glint_guide, S, X, P, bounds, guide, (0, 0))  # compile or load
+            bands = np.linspace(0, H, lanes + 1).astype(int)
+            jobs = [(int(a), int(b)) for a, b in zip(bands[:-1], bands[1:], strict=True)]
+            for job in [lane_pool(lanes).submit(bdpt_glint_guide, S, X, P, bounds, guide, rows) for rows in jobs]:
+                job.result()
 
         bd = bdpt_pass(S, film, lanes, guide_of)
 

@@ -435,15 +435,15 @@ def bdpt_lane(S, X, P, film, C, bd):
 
 
 @njit(**LANE)
-def bdpt_glint_guide(S, X, P, bounds, guide):
-    """The glint strategy's guide of pass P's image into guide (float64 (height, width),
-    bdpt_glint.glint_guide), on one thread; returns the rays traced."""
+def bdpt_glint_guide(S, X, P, bounds, guide, rows):
+    """The glint strategy's guide of pass P's image, rows rows[0] .. rows[1] - 1, into guide
+    (float64 (height, width), bdpt_glint.glint_guide); returns the rays traced."""
     node_stack, t_stack = traversal_stacks()
     G, F, Em = geometry_of(S), surfaces_of(S), emitters_of(S)
     ctx = Context(G, F, X, Em, environment_of(S), media_of(S), P.camera, bounds, P.width, P.height,
                   P.background, np.zeros(1), P.pixel_filter)  # fmt: skip
     most = P.max_depth if P.max_depth >= 0 else MAX_SEGMENTS
-    return glint_guide(ctx, P.seed, most, guide, node_stack, t_stack)
+    return glint_guide(ctx, P.seed, most, guide, rows, node_stack, t_stack)
 
 
 @kernel_function
