@@ -19,17 +19,19 @@ film where a guide says such paths are, instead of only pixel by pixel:
   point x from the guide (its pixel by the guide's cdf, uniform inside it) and follows its ray
   through delta surfaces as the camera subpath would (the same shading, absorption, offsets and
   cone; no Russian roulette). An emitter met after at least one delta vertex is splatted to the
-  pixels j around x: f_j(x) L / (|f_j(x)| + R q(x)), f_j the pixel filter's normalised weight
-  and R = width x height (the strategy's samples per sample per pixel).
+  pixels j around x: f_j(x) L / (f_j(x) + R q(x)), f_j the density at x of pixel j's own sample
+  positions (`fis_density`) and R = width x height (the strategy's samples per sample per
+  pixel).
 * **The weights.** A pixel's own sample at x whose camera subpath is such a path (s = 0 through
-  delta, non-emissive vertices) takes the weight |f_j(x)| / (|f_j(x)| + R q(x)). With the
-  strategy's, the two sum to one for every path of the class (the balance heuristic of the
-  pixel's samples and the strategy's, counted per unit film area), so the image converges to
-  the same as without it.
+  delta, non-emissive vertices, ending on an emitter that is not at infinity) takes the weight
+  f_j(x) / (f_j(x) + R q(x)). With the strategy's, the two sum to one for every path of the
+  class (the balance heuristic of the pixel's samples and the strategy's, counted per unit film
+  area), so the image converges to the same as without it.
 
 Scenes with media or null boundaries, images of 1 sample per pixel (a pixel's centre, not its
-filtered area) and renders of one (s, t) strategy alone take no guide: the images are those of
-bdpt without this strategy, bit for bit. `RAYLUME_BDPT_STRATEGY=glint` renders its share alone."""
+filtered area), filters with negative lobes, and the strategy switch's unweighted strategies
+and "noglint" take no guide (bdpt_setup.glint_cdf): their images are those of bdpt without this
+strategy, bit for bit. `RAYLUME_BDPT_STRATEGY=glint` renders its share alone."""
 
 import math
 
@@ -237,9 +239,8 @@ def glint_sample(C, key, most, splats, window, node_stack, t_stack):
 def fis_density(filt, d):
     """The density of a pixel's sample offsets along one axis at offset d from its centre, as
     film.filter_sample places them: uniform for the box, else the tabulated inverse cdf's
-    (piecewise constant). The glint strategy weighs against this, not the filter's own curve:
-    a gaussian's table is coarse in its tails, and weights from the curve left the image 1-2%
-    off where the strategy's share is large."""
+    (piecewise constant). The weights need the density the pixel's samples really have: the
+    filter's own curve differs from it where the table is coarse (a gaussian's tails)."""
     if filt[FILTER_KIND] == FILTER_BOX:
         return 1.0 if d >= -0.5 and d < 0.5 else 0.0
     n = FILTER_TABLE_SIZE
