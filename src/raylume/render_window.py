@@ -26,7 +26,7 @@ from .kernels.film.camera import CAM_LENS_RADIUS, camera_of, set_cone_spread
 from .kernels.film.film import FILM_WIDTH, Film
 from .kernels.film.image_pass import Aovs, ImagePass
 from .kernels.frame_stack import on_roomy_frame_stack
-from .kernels.integrators.bdpt_setup import bdpt_pass, strategy_counts
+from .kernels.integrators.bdpt_setup import bdpt_pass, glint_cdf, strategy_counts
 from .kernels.integrators.frame import (
     AOV_ROWS,
     CONTROL_SIZE,
@@ -211,20 +211,17 @@ def add_samples_to_film(S, cam, film: Film, spp: int, settings, aov: dict, progr
     tables = wavefront_tables(S) if settings.mode == "trace" else None  # read by every lane
     strategy = path_strategy()
     path_kernel_lane = path_kernel() if settings.mode == "path" else None
-    bd = None
-    if bidirectional:
+    bd = bdpt_pass(S, film, lanes) if bidirectional else None
+    image_pass = ImagePass(cam, film.filter, W, H, window, samples, settings.seed, settings.depth, background)
 
-        def guide_of(bounds: np.ndarray, guide: np.ndarray) -> None:
-            """The glint guide, its rows in bands on the lanes (each pixel's score its own: the
-            same bits on any number of lanes)."""
-            P = ImagePass(cam, film.filter, W, H, window, samples, settings.seed, settings.depth, background)
-            on_roomy_frame_stack(bdpt_glint_guide, S, X, P, bounds, guide, (0, 0))  # compile or load
-            bands = np.linspace(0, H, lanes + 1).astype(int)
-            jobs = [(int(a), int(b)) for a, b in zip(bands[:-1], bands[1:], strict=True)]
-            for job in [lane_pool(lanes).submit(bdpt_glint_guide, S, X, P, bounds, guide, rows) for rows in jobs]:
-                job.result()
-
-        bd = bdpt_pass(S, film, lanes, guide_of)
+    def glint_guide(guide: np.ndarray) -> None:
+        """bdpt's glint guide, its rows in bands on the lanes (each pixel's score its own: the
+        same bits on any number of lanes)."""
+        bands = np.linspace(0, H, lanes + 1).astype(int)
+        rows = [(int(a), int(b)) for a, b in zip(bands[:-1], bands[1:], strict=True)]
+        args = (S, X, image_pass, bd.bounds, guide)
+        for job in [lane_pool(lanes).submit(bdpt_glint_guide, *args, band) for band in rows]:
+            job.result()
 
     aovs = Aovs(**{name: aov[name] for name in Aovs._fields}) if aov else None
 
@@ -247,12 +244,16 @@ def add_samples_to_film(S, cam, film: Film, spp: int, settings, aov: dict, progr
     # compile (or load from the cache): no rows; with room on the frame stack (frame_stack.py)
     control[STOP] = 1  # (bdpt's lanes go over the image's rows, not the window's: no row at all)
     on_roomy_frame_stack(lane_job, 0, (window[0], window[1], window[2], window[1]))
+    if bidirectional:  # the glint guide's kernel, on no rows
+        on_roomy_frame_stack(bdpt_glint_guide, S, X, image_pass, bd.bounds, np.zeros((1, 1)), (0, 0))
     film.compile_rgb()
     control[:] = 0  # (that claimed a row of the empty window)
     status("rendering")
     total = rows * (1 if aov else 0) + image_rows
     pool = lane_pool(lanes)
     t0 = time.perf_counter()
+    if bidirectional:  # made by the film's first pass, in the render's time
+        bd = bd._replace(glint=glint_cdf(S, film, bd.strategy, glint_guide))
     futures = [pool.submit(lane_job, lane, window) for lane in range(lanes)]
     try:
         while True:

@@ -84,19 +84,17 @@ def strategy_switch() -> tuple[int, int, int]:
     return s, t, int(mis)
 
 
-def bdpt_pass(S, film, lanes: int, guide_of: Callable[[np.ndarray, np.ndarray], None]) -> BdptPass:
-    """The extra argument of a bidirectional pass that adds to `film` (its splat sums).
-    guide_of(bounds, guide) fills the glint strategy's guide (frame.bdpt_glint_guide)."""
+def bdpt_pass(S, film, lanes: int) -> BdptPass:
+    """The extra argument of a bidirectional pass that adds to `film` (its splat sums), the glint
+    strategy's cdf the film's if made, else none yet (glint_cdf makes it)."""
     n = MAX_SEGMENTS + 2
-    bounds = bounding_sphere(S)
-    strategy = strategy_switch()
     return BdptPass(
-        bounds,
+        bounding_sphere(S),
         film.enable_splats(),
         splat_filter(film.filter_name),
         np.zeros((lanes, n, n), dtype=np.int64),
-        strategy,
-        glint_cdf(S, film, strategy, lambda guide: guide_of(bounds, guide)),
+        strategy_switch(),
+        film.glint if film.glint is not None else np.zeros(1),
     )
 
 
