@@ -15,14 +15,14 @@ import raylume
 STRATEGY = "RAYLUME_BDPT_STRATEGY"
 
 
-def _glint_scene(bulb_radius: float, pixel_filter: str = "box") -> raylume.Scene:
+def _glint_scene(bulb_radius: float, pixel_filter: str = "box", aperture: float = 0.0) -> raylume.Scene:
     """A small emissive sphere (a bulb) seen in a mirror sphere through a glass slab; a diffuse
     floor, a dim sky. The bulb's reflection is a glint of about two pixels (radius 0.1), or of a
     fraction of one (0.05)."""
     return raylume.scene_from_dict(
         {
             "render": {"width": 32, "height": 32, "max_depth": 5, "mode": "path", "filter": pixel_filter},
-            "camera": {"position": [0, 0.6, -3], "look_at": [0, 0.4, 0], "fov": 35},
+            "camera": {"position": [0, 0.6, -3], "look_at": [0, 0.4, 0], "fov": 35, "aperture": aperture},
             "lights": [{"type": "ambient", "intensity": 0.05}],
             "objects": [
                 {"type": "quad", "position": [0, 0, 0], "u": [6, 0, 0], "v": [0, 0, 6],
@@ -61,21 +61,22 @@ def test_the_guide_finds_the_glint_and_the_strategy_adds_to_it(monkeypatch):
     assert share[28:, :].sum() == 0.0  # the floor below the sphere: no mirror or glass there
 
 
-@pytest.mark.parametrize("pixel_filter", ["box", "gaussian"])
-def test_bdpt_with_glints_agrees_with_bdpt_without_and_with_path_mode(pixel_filter, monkeypatch):
+@pytest.mark.parametrize("pixel_filter, aperture", [("box", 0.0), ("gaussian", 0.0), ("box", 0.1)])
+def test_bdpt_with_glints_agrees_with_bdpt_without_and_with_path_mode(pixel_filter, aperture, monkeypatch):
     """Per 8 x 8 block and channel (Welch's z within the Bonferroni-corrected t limit), bdpt with
     the glint strategy against bdpt without it (RAYLUME_BDPT_STRATEGY=noglint: the pixels' own
     samples alone make these paths) and against path mode at 8x the samples; a glint of a few
-    pixels, so that all three estimate it with a finite spread."""
-    session = raylume.Session(_glint_scene(0.1, pixel_filter))
+    pixels, so that all three estimate it with a finite spread; a pinhole with two filters, and
+    a thin lens (the strategy's lens points uniform, the pixels' stratified)."""
+    session = raylume.Session(_glint_scene(0.1, pixel_filter, aperture))
     seeds = range(10)
     glint = _block_means(_renders(session, 16, seeds, "", monkeypatch))
     plain = _block_means(_renders(session, 16, [100 + s for s in seeds], "noglint", monkeypatch))
     path = _block_means(
         np.stack([session.render(spp=128, seed=200 + s, aovs=False).rgb for s in seeds]).astype(np.float64)
     )
-    _assert_blocks_agree(glint, plain, f"glint / noglint, {pixel_filter}")
-    _assert_blocks_agree(glint, path, f"glint / path, {pixel_filter}")
+    _assert_blocks_agree(glint, plain, f"glint / noglint, {pixel_filter}, aperture {aperture}")
+    _assert_blocks_agree(glint, path, f"glint / path, {pixel_filter}, aperture {aperture}")
 
 
 def test_a_glint_smaller_than_a_pixel_has_far_less_noise(monkeypatch):

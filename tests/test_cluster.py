@@ -108,6 +108,18 @@ def test_bdpt_cluster_render_is_bit_identical_to_the_in_process_render(client, s
     assert_same(session.render(threads=2, **settings), session.render(cluster=client, **settings))
 
 
+def test_bdpt_glints_on_a_cluster_are_bit_identical_to_the_in_process_render(client):
+    """bdpt's glint strategy on a cluster: each tile makes the whole image's guide (the same bits
+    on any worker) and splats the strategy's samples of every pixel into its window."""
+    from test_bdpt_glint import _glint_scene
+
+    glints = rl.Session(_glint_scene(0.05))
+    settings = dict(mode="path", integrator="bdpt", spp=3, seed=7)
+    local = glints.render(threads=2, **settings)
+    assert local.stats["bdpt_strategies"].get("glint", 0) > 0
+    assert_same(local, glints.render(cluster=client, **settings))
+
+
 def test_passes_and_tiles_finishing_in_shuffled_order_give_the_same_bits(client, session, monkeypatch):
     monkeypatch.setattr(C, "TILE_SECONDS", 1e-9)  # every tile as small as allowed, one sample per pass
     window = (4, 36, 2, 26)
