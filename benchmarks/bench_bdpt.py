@@ -9,7 +9,8 @@ Head lamp: its image at --size (small: the converged reference is long) against 
 by bdpt at --reference-spp (cached in benchmarks/.cache; seeds 1000.., none of the runs'). RMSE over
 linear RGB, on the whole image and on the beam: the pixels of the reference whose luminance is
 above a quarter of its 99.5th percentile, right of the image's left third; and on that left third,
-the lamp, where the glints are that only the camera subpath makes (s = 0). bdpt at 4 ..
+the lamp, where the glints are (the bulb through the lens and the mirror: paths no connection
+can make, which bdpt's glint strategy samples and path mode finds by chance). bdpt at 4 ..
 50 spp against path at 16 .. 1024 spp, rounds alternating bdpt and path, each render timed (the
 render call's wall time, kernels compiled before), new seeds each round. The ratio reported is
 path mode's RMSE at bdpt's 50-spp time (interpolated log-log between path's runs) over bdpt's.
@@ -133,7 +134,7 @@ def main() -> None:
         beam = lum > 0.25 * np.percentile(lum, 99.5)
         beam[:, : w // 3] = False
         lamp = np.zeros((h, w), bool)
-        lamp[:, : w // 3] = True  # the lamp's glints: paths through its lens and mirror that only s = 0 makes
+        lamp[:, : w // 3] = True  # the lamp's glints: paths through its lens and mirror (bdpt_glint.py)
         masks = {"image": np.ones((h, w), bool), "beam": beam, "lamp": lamp}
         runs = {"bdpt": [4, 8, 16, 32, 50], "path": [16, 64, 256, 1024]}
         result = curves(session, reference, {k: v[..., None].repeat(3, 2) for k, v in masks.items()}, runs,
