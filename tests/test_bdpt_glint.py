@@ -6,6 +6,9 @@ summing to the image; and the determinism of the guide and the splats."""
 
 from __future__ import annotations
 
+import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -127,12 +130,24 @@ def test_glint_images_are_the_same_on_any_threads_passes_and_crops():
 EXAMPLES = sorted((Path(__file__).resolve().parent.parent / "examples").glob("*.toml"))
 
 
+def _load_example(example: Path, tmp_path: Path) -> raylume.Scene:
+    """The example's scene; one whose data a script generates (examples/NAME/make_NAME.py) from
+    a copy of examples/ in tmp_path where the script has run, whatever the checkout holds."""
+    script = Path(example.stem) / f"make_{example.stem}.py"
+    if not (example.parent / script).exists():
+        return raylume.load(example)
+    copy = tmp_path / "examples"
+    shutil.copytree(example.parent, copy)
+    subprocess.run([sys.executable, str(copy / script)], check=True, capture_output=True)
+    return raylume.load(copy / example.name)
+
+
 @pytest.mark.parametrize("example", EXAMPLES, ids=lambda p: p.stem)
-def test_every_example_agrees_with_and_without_glints(example, monkeypatch):
+def test_every_example_agrees_with_and_without_glints(example, tmp_path, monkeypatch):
     """Every example by bdpt, 32 x 24, 4 samples per pixel, max_depth 6, 6 seeds each way: with
     the glint strategy against without it, per 8 x 8 block and channel (where the guide finds
     nothing, or the scene has media, the two are the same bits)."""
-    scene = raylume.load(example)
+    scene = _load_example(example, tmp_path)
     scene = scene.model_copy(update={"render": scene.render.model_copy(update={"mode": "path", "integrator": "bdpt"})})
     session = raylume.Session(scene)
     kw = dict(width=32, height=24, max_depth=6, threads=1)
