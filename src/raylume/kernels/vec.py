@@ -228,6 +228,12 @@ def dot(a, b):
 
 
 @kernel_function
+def any_positive(c):
+    """Whether any component of the triple c is above 0 (a colour that carries light)."""
+    return c[0] > 0.0 or c[1] > 0.0 or c[2] > 0.0
+
+
+@kernel_function
 def cross(a, b):
     return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 

@@ -43,7 +43,7 @@ from ..shading.lights import (
 )
 from ..shading.lights.registry import visible_hit
 from ..shading.materials import MAT_EMISSION, beer_lambert, two_sided
-from ..vec import add, dot, hadamard, inline_function, kernel_function, mul, row3
+from ..vec import add, any_positive, dot, hadamard, inline_function, kernel_function, mul, row3
 from .bdpt_glint import GLINT_COUNT, glint_sample, pixel_weight, through_delta_only
 from .bdpt_mis import mis_weight
 from .bdpt_vertex import (
@@ -87,11 +87,6 @@ DIM_CONNECT_MEDIUM = np.uint64(0x5AD0B1D1)  # ratio tracking along each strategy
 ZERO = (0.0, 0.0, 0.0)
 ONE = (1.0, 1.0, 1.0)
 SAVED = 0  # the scratch row where a subpath's vertex waits while a sampled one takes its place
-
-
-@kernel_function
-def _nonzero(c):
-    return c[0] > 0.0 or c[1] > 0.0 or c[2] > 0.0
 
 
 @kernel_function
@@ -193,7 +188,7 @@ def connect(C, Vc, Vl, saved, s, t, key, mis, node_stack, t_stack):
         if not is_light(Vc, pt):
             return ZERO, 0
         value = hadamard(beta_c, _emitted(C, Vc, pt))
-        if not _nonzero(value):
+        if not any_positive(value):
             return ZERO, 0
         if not mis:
             return value, 0
@@ -211,15 +206,15 @@ def connect(C, Vc, Vl, saved, s, t, key, mis, node_stack, t_stack):
     if not (d2 > 0.0):
         return ZERO, 0
     f_c = vertex_f(C.F, Vc, pt, w, False)
-    if not _nonzero(f_c):
+    if not any_positive(f_c):
         return ZERO, 0
     f_l = vertex_f(C.F, Vl, qs, mul(w, -1.0), True)
     g = cosine_at(Vc, pt, w) * cosine_at(Vl, qs, w) / d2
     value = mul(hadamard(hadamard(beta_c, f_c), hadamard(f_l, row3(Vl, qs, V_BETA))), g)
-    if not _nonzero(value):
+    if not any_positive(value):
         return ZERO, 0
     tr = _transmitted(C, Vc, pt, w, d2, _connection_key(key, s, t), node_stack, t_stack)
-    if not _nonzero(tr):
+    if not any_positive(tr):
         return ZERO, 1
     value = hadamard(value, tr)
     # a segment inside a dielectric: both its ends are on the inside; absorb once
@@ -269,13 +264,13 @@ def _connect_light(C, Vc, Vl, saved, t, key, mis, node_stack, t_stack):
             le, _, _ = emission_pdf(G, X, Em, Env, e, p, n, mul(w, -1.0), hit, C.B)
             cos_l = abs(dot(n, w)) if surface_point else 1.0
             light = mul(le, cos_l / (p_pick * pdf_pos * d2))
-    if ok and _nonzero(light):
+    if ok and any_positive(light):
         f = vertex_f(F, Vc, pt, w, False)
         value = hadamard(hadamard(row3(Vc, pt, V_BETA), f), mul(light, cosine_at(Vc, pt, w)))
-        if _nonzero(value):
+        if any_positive(value):
             rays = 1
             tr = _transmitted(C, Vc, pt, w, d2, _connection_key(key, 1, t), node_stack, t_stack)
-            if _nonzero(tr) and not _self_hidden(C, Vc, pt, e, w, d2):
+            if any_positive(tr) and not _self_hidden(C, Vc, pt, e, w, d2):
                 value = _absorbed(C, Vc, pt, w, d2, hadamard(value, tr))
                 if mis:
                     Vl[0, V_PDF_FWD] = pdf_light_origin(C, Vl, 0, Vc, pt)
@@ -313,12 +308,12 @@ def connect_camera(C, Vc, Vl, saved, s, key, mis, node_stack, t_stack):
             beta_cam = we * cos_lens * lens_area(cam) / d2
             f = vertex_f(C.F, Vl, qs, w, True)
             value = mul(hadamard(row3(Vl, qs, V_BETA), f), cosine_at(Vl, qs, w) * beta_cam)
-            if _nonzero(value):
+            if any_positive(value):
                 rays = 1
                 for c in range(3):
                     Vc[0, V_BETA + c] = beta_cam
                 tr = _transmitted(C, Vl, qs, w, d2, _connection_key(key, s, 1), node_stack, t_stack)
-                if _nonzero(tr):
+                if any_positive(tr):
                     value = _absorbed(C, Vl, qs, w, d2, hadamard(value, tr))
                     if mis:
                         value = mul(value, mis_weight(C, Vc, Vl, s, 1))
@@ -357,7 +352,7 @@ def bdpt_sample(
             continue
         value, x, y, used = connect_camera(C, Vc, Vl, saved, s, key, mis, node_stack, t_stack)
         rays += used
-        if _nonzero(value):
+        if any_positive(value):
             if splat(splats, window, filt, x, y, value):
                 counts[s, 1] += 1
             else:
@@ -378,9 +373,9 @@ def bdpt_sample(
                 continue
             value, used = connect(C, Vc, Vl, saved, s, t, key, mis, node_stack, t_stack)
             rays += used
-            if s == 0 and mis and glints and _nonzero(value) and through_delta_only(C, Vc, t - 1):
+            if s == 0 and mis and glints and any_positive(value) and through_delta_only(C, Vc, t - 1):
                 value = mul(value, pixel_weight(C, Vc, px, py))  # shared with the glint strategy
-            if _nonzero(value):
+            if any_positive(value):
                 counts[s, t] += 1
                 L = add(L, value)
     return L, rays, refused

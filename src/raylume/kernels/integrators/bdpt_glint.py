@@ -44,10 +44,11 @@ from ..film.splat import splat_finite, splat_pixel
 from ..geometry.shapes import NO_HIT, offset_epsilon, surface
 from ..geometry.traverse import closest_hit_leaving
 from ..shading.frame import shading_frame, to_local, to_world
-from ..shading.lights import LIGHT_INTENSITY, at_infinity, hit_area_lights, is_delta, pick_emitter, sample_emission
+from ..shading.lights import LIGHT_INTENSITY, at_infinity, hit_area_lights, is_delta, pick_emitter
 from ..shading.materials import MAT_EMISSION, albedo, beer_lambert, bsdf_sample, two_sided
-from ..vec import dot, hadamard, kernel_function, last_at_most, madd, mul, row3, sub
+from ..vec import any_positive, dot, hadamard, kernel_function, last_at_most, madd, mul, row3, sub
 from .bdpt_vertex import F_EMISSIVE, F_INFINITE, V_DELTA, V_FLAGS, V_P
+from .bdpt_walk import emitter_sample
 
 INF = math.inf
 DIM_GLINT = np.uint64(0x611E7C0D)  # the strategy's film point (and lens point)
@@ -63,11 +64,6 @@ ZERO = (0.0, 0.0, 0.0)
 
 
 @kernel_function
-def _emits(c):
-    return c[0] > 0.0 or c[1] > 0.0 or c[2] > 0.0
-
-
-@kernel_function
 def glint_walk(C, o, d, spread, most, key, target, le_target, node_stack, t_stack):
     """The camera ray (o, d) followed through delta surfaces, at most `most` segments: (the
     radiance of the emitter it meets after at least one delta vertex, or 0; the guide's score
@@ -79,7 +75,7 @@ def glint_walk(C, o, d, spread, most, key, target, le_target, node_stack, t_stac
     cone = 0.0
     rays = 0
     leaving = np.int64(NO_HIT)
-    aim = _emits(le_target)
+    aim = any_positive(le_target)
     for i in range(1, most + 1):  # vertex i of the camera subpath
         t, prim, b1, b2 = closest_hit_leaving(G, X, o, d, 0.0, INF, leaving, node_stack, t_stack)
         rays += 1
@@ -99,7 +95,7 @@ def glint_walk(C, o, d, spread, most, key, target, le_target, node_stack, t_stac
             beta = beer_lambert(mat, m, beta, t)
         cone += spread * t
         emission = row3(mat, m, MAT_EMISSION)
-        if _emits(emission):  # the path ends at its first emitter (an emitter is no delta vertex here)
+        if any_positive(emission):  # the path ends at its first emitter (an emitter is no delta vertex here)
             if i > 1:
                 return hadamard(beta, emission), score, rays
             break
@@ -111,7 +107,7 @@ def glint_walk(C, o, d, spread, most, key, target, le_target, node_stack, t_stac
         u0, u1 = key_uniform2(k2)
         u2, _ = key_uniform2(sub_key(k2, 1))
         wi, weight, pdf, delta = bsdf_sample(mat, m, colour, wo, u0, u1, u2)
-        if not delta or not (pdf > 0.0) or not _emits(weight):
+        if not delta or not (pdf > 0.0) or not any_positive(weight):
             break
         wi_w = to_world(wi, s_axis, t_axis, ns)
         up = dot(wi_w, ng) > 0.0
@@ -151,16 +147,9 @@ def _pilot_light(C, key):
     Em = C.Em
     if not (Em.cdf[Em.cdf.shape[0] - 1] > 0.0):
         return ZERO, ZERO
-    k = dimension_key(key, DIM_GUIDE_LIGHT, 0)
-    u_pick, _ = key_uniform2(k)
-    u1, u2 = key_uniform2(sub_key(k, 1))
-    u3, u4 = key_uniform2(sub_key(k, 2))
-    e, _ = pick_emitter(Em.cdf, u_pick)
+    e, _, p, _, _, le, pdf_pos, _, _ = emitter_sample(C, dimension_key(key, DIM_GUIDE_LIGHT, 0))
     kind = Em.kind[e]
-    if at_infinity(kind) or is_delta(kind):
-        return ZERO, ZERO
-    p, _, _, le, pdf_pos, _, _ = sample_emission(C.G, C.X, Em, C.Env, e, u1, u2, u3, u4, k, C.B)
-    if not (pdf_pos > 0.0):
+    if at_infinity(kind) or is_delta(kind) or not (pdf_pos > 0.0):
         return ZERO, ZERO
     return p, le
 
@@ -215,7 +204,7 @@ def glint_sample(C, key, most, splats, window, node_stack, t_stack):
     o, d = film_ray(cam, x, y, width, height, u_1, u_2)
     spread = cam[CAM_CONE_SPREAD] * obliquity(cam, d)
     value, _, rays = glint_walk(C, o, d, spread, most, k, ZERO, ZERO, node_stack, t_stack)
-    if not _emits(value):
+    if not any_positive(value):
         return rays, 0, 0
     if not splat_finite(value):
         return rays, 0, 1

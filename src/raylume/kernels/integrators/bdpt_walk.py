@@ -264,18 +264,27 @@ def camera_subpath(C, Vc, most, o, d, spread, key, node_stack, t_stack):
 
 
 @kernel_function
-def light_subpath(C, Vl, most, key, node_stack, t_stack):
-    """The light subpath of a camera sample: a point on a light picked by power and a direction
-    leaving it (each kind's `emit`), then at most most - 1 more vertices. Returns (vertices, rays)."""
-    G, F, X, Em, Env = C.G, C.F, C.X, C.Em, C.Env
-    if most < 1 or not (Em.cdf[Em.cdf.shape[0] - 1] > 0.0):
-        return 0, 0
-    k = dimension_key(key, DIM_EMIT, 0)
+def emitter_sample(C, k):
+    """A light picked by power and a point and direction leaving it (each kind's `emit`), from
+    the numbers of key k: (light, its pick probability, point, normal, direction, radiance,
+    position density, direction density, primitive hit). The light subpath's first vertex, and
+    the glint guide's pilots' light points (bdpt_glint.py)."""
     u_pick, _ = key_uniform2(k)
     u1, u2 = key_uniform2(sub_key(k, 1))
     u3, u4 = key_uniform2(sub_key(k, 2))
-    e, p_pick = pick_emitter(Em.cdf, u_pick)
-    p, n, w, le, pdf_pos, pdf_dir, hit = sample_emission(G, X, Em, Env, e, u1, u2, u3, u4, k, C.B)
+    e, p_pick = pick_emitter(C.Em.cdf, u_pick)
+    p, n, w, le, pdf_pos, pdf_dir, hit = sample_emission(C.G, C.X, C.Em, C.Env, e, u1, u2, u3, u4, k, C.B)
+    return e, p_pick, p, n, w, le, pdf_pos, pdf_dir, hit
+
+
+@kernel_function
+def light_subpath(C, Vl, most, key, node_stack, t_stack):
+    """The light subpath of a camera sample: a point on a light picked by power and a direction
+    leaving it (each kind's `emit`), then at most most - 1 more vertices. Returns (vertices, rays)."""
+    F, Em = C.F, C.Em
+    if most < 1 or not (Em.cdf[Em.cdf.shape[0] - 1] > 0.0):
+        return 0, 0
+    e, p_pick, p, n, w, le, pdf_pos, pdf_dir, hit = emitter_sample(C, dimension_key(key, DIM_EMIT, 0))
     if not (pdf_pos > 0.0 and pdf_dir > 0.0 and p_pick > 0.0) or not (le[0] > 0.0 or le[1] > 0.0 or le[2] > 0.0):
         return 0, 0
     kind = Em.kind[e]
