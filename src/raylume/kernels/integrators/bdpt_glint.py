@@ -244,8 +244,8 @@ def fis_density(filt, d):
 def through_delta_only(C, Vc, pt):
     """Whether camera vertices 1 .. pt - 1 (pt >= 2) are all delta and none emits, and vertex pt
     is not a light at infinity: the class of paths this strategy samples too, when vertex pt
-    emits (s = 0)."""
-    if pt < 2 or C.glint.shape[0] < 2 or (int(Vc[pt, V_FLAGS]) & F_INFINITE) != 0:
+    emits (s = 0). Asked only where the image has a guide (bdpt_sample)."""
+    if pt < 2 or (int(Vc[pt, V_FLAGS]) & F_INFINITE) != 0:
         return False
     for i in range(1, pt):
         if Vc[i, V_DELTA] == 0.0 or (int(Vc[i, V_FLAGS]) & F_EMISSIVE) != 0:
