@@ -373,7 +373,7 @@ def bdpt_sample(
                 continue
             value, used = connect(C, Vc, Vl, saved, s, t, key, mis, node_stack, t_stack)
             rays += used
-            if s == 0 and mis and glints and any_positive(value) and through_delta_only(C, Vc, t - 1):
+            if s == 0 and mis and glints and any_positive(value) and through_delta_only(Vc, t - 1):
                 value = mul(value, pixel_weight(C, Vc, px, py))  # shared with the glint strategy
             if any_positive(value):
                 counts[s, t] += 1

@@ -241,7 +241,7 @@ def fis_density(filt, d):
 
 
 @kernel_function
-def through_delta_only(C, Vc, pt):
+def through_delta_only(Vc, pt):
     """Whether camera vertices 1 .. pt - 1 (pt >= 2) are all delta and none emits, and vertex pt
     is not a light at infinity: the class of paths this strategy samples too, when vertex pt
     emits (s = 0). Asked only where the image has a guide (bdpt_sample)."""
