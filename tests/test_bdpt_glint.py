@@ -66,6 +66,34 @@ def test_the_guide_finds_the_glint_and_the_strategy_adds_to_it(monkeypatch):
     assert share[28:, :].sum() == 0.0  # the floor below the sphere: no mirror or glass there
 
 
+def test_the_guides_pilot_rays_are_counted_in_the_stats(monkeypatch):
+    """--stats' rays include the guide's pilots: in a scene without mirrors or glass every pixel
+    takes PILOTS_FIRST pilots of one ray each and the strategy finds nothing to sample, so the
+    render traces exactly that many rays more than with the strategy switched off."""
+    from raylume.kernels.integrators.bdpt_glint import PILOTS_FIRST
+
+    scene = raylume.scene_from_dict(
+        {
+            "render": {"width": 12, "height": 10, "max_depth": 3, "mode": "path"},
+            "camera": {"position": [0, 1, -3], "look_at": [0, 0.5, 0], "fov": 40},
+            "lights": [{"type": "point", "position": [1, 3, -1], "intensity": 8}],
+            "objects": [
+                {"type": "quad", "position": [0, 0, 0], "u": [4, 0, 0], "v": [0, 0, 4],
+                 "material": {"type": "diffuse", "color": [0.6, 0.6, 0.6]}},
+                {"type": "sphere", "center": [0, 0.5, 0], "radius": 0.5,
+                 "material": {"type": "diffuse", "color": [0.8, 0.3, 0.2]}},
+            ],
+        }
+    )  # fmt: skip
+    session = raylume.Session(scene)
+    monkeypatch.setenv(STRATEGY, "noglint")
+    without = session.render(integrator="bdpt", spp=2, aovs=False).stats
+    monkeypatch.delenv(STRATEGY)
+    with_guide = session.render(integrator="bdpt", spp=2, aovs=False).stats
+    assert with_guide["bdpt_strategies"].get("glint", 0) == 0
+    assert with_guide["rays"] - without["rays"] == 12 * 10 * PILOTS_FIRST
+
+
 @pytest.mark.parametrize("pixel_filter, aperture", [("box", 0.0), ("gaussian", 0.0), ("box", 0.1)])
 def test_bdpt_with_glints_agrees_with_bdpt_without_and_with_path_mode(pixel_filter, aperture, monkeypatch):
     """Per 8 x 8 block and channel (Welch's z within the Bonferroni-corrected t limit), bdpt with

@@ -214,14 +214,17 @@ def add_samples_to_film(S, cam, film: Film, spp: int, settings, aov: dict, progr
     bd = bdpt_pass(S, film, lanes) if bidirectional else None
     image_pass = ImagePass(cam, film.filter, W, H, window, samples, settings.seed, settings.depth, background)
 
+    pilot_rays = 0  # the glint guide's, counted in the render's rays
+
     def glint_guide(guide: np.ndarray) -> None:
         """bdpt's glint guide, its rows in bands on the lanes (each pixel's score its own: the
         same bits on any number of lanes)."""
+        nonlocal pilot_rays
         bands = np.linspace(0, H, lanes + 1).astype(int)
         rows = [(int(a), int(b)) for a, b in zip(bands[:-1], bands[1:], strict=True)]
         args = (S, X, image_pass, bd.bounds, guide)
         for job in [lane_pool(lanes).submit(bdpt_glint_guide, *args, band) for band in rows]:
-            job.result()
+            pilot_rays += int(job.result())
 
     aovs = Aovs(**{name: aov[name] for name in Aovs._fields}) if aov else None
 
@@ -277,4 +280,4 @@ def add_samples_to_film(S, cam, film: Film, spp: int, settings, aov: dict, progr
         counts = strategy_counts(bd.counts)
         for key, n in counts.items():
             film.strategies[key] = film.strategies.get(key, 0) + n
-    return kernel_seconds, rays_per_row.sum() + aov_rays_per_row.sum()
+    return kernel_seconds, rays_per_row.sum() + aov_rays_per_row.sum() + pilot_rays
