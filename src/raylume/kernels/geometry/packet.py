@@ -781,10 +781,17 @@ def packet_closest(G, X, root, rows, axes, active, box, lane, prim, node_stack, 
             prefetch_child_rows(index, ref)
             masks = packet_node(bounds, ref, box, rows, lane, mask, t_stack, top)
             k = 0
-            for c in range(BVH_WIDTH):
-                m = (masks >> (8 * c)) & 0xFF
-                if m == 0:
-                    continue
+            # the lowest bit of each byte of `masks` set where that child has a ray: the loop
+            # visits those children alone, in lane order
+            some = masks | (masks >> 4)
+            some |= some >> 2
+            some |= some >> 1
+            some &= 0x0101010101010101
+            while some != 0:
+                b = lowest_bit(some)
+                some &= some - 1
+                c = b >> 3
+                m = (masks >> b) & 0xFF
                 u = np.uint64(c)
                 t = t_stack[np.uint64(top + c)]
                 if index[np.uint64(ref), NODE_COUNT, u] == 0:
