@@ -32,10 +32,10 @@ import numpy as np
 from bench_hits import frame_rays, mesh
 from common import table
 
-from raylume.accel.wide import NODE_COUNT, NODE_FIRST, NODE_ROWS
+from raylume.accel.wide import NODE_ROWS
 from raylume.kernels.geometry import traverse
 from raylume.kernels.geometry.shape_triangle import ray_shear
-from raylume.kernels.geometry.wide_nodes import _LANE_SHIFT, BVH_WIDTH
+from raylume.kernels.geometry.wide_nodes import BVH_WIDTH, leaf_count, leaf_first
 from raylume.kernels.scene import geometry_of
 
 NODE, LEAF = 0, 1
@@ -70,9 +70,7 @@ def log_reads(G, O, D, log, node_stack, t_stack):
                     ref = node_stack[top]
                     continue
             else:
-                leaf = -1 - ref
-                node, lane = leaf >> _LANE_SHIFT, leaf & (BVH_WIDTH - 1)
-                first, count = index[node, NODE_FIRST, lane], index[node, NODE_COUNT, lane]
+                first, count = leaf_first(ref), leaf_count(ref)
                 log[n, 0], log[n, 1], log[n, 2] = LEAF, first, abs(count)
                 n += 1
                 best_t, prim, b1, b2 = traverse.intersect_leaf(

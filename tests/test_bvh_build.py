@@ -550,10 +550,11 @@ def _area(box):
     return e[0] * e[1] + e[1] * e[2] + e[2] * e[0]
 
 
-def least_collapse_area(bvh, width):
-    """The least summed surface area of the wide nodes over every way to collapse the binary
-    tree, by brute force: every subset of its inner nodes (the root always in) that leaves each
-    chosen node at most `width` lanes (the leaves and chosen nodes first met below it)."""
+def least_collapse_area(bvh, width, node_cost):
+    """The least summed surface area of the wide nodes, each `node_cost` more, over every way to
+    collapse the binary tree, by brute force: every subset of its inner nodes (the root always
+    in) that leaves each chosen node at most `width` lanes (the leaves and chosen nodes first met
+    below it)."""
     nb_, ni, na, _ = bvh
     inner = [n for n in range(len(na)) if na[n] >= 0]
 
@@ -567,17 +568,21 @@ def least_collapse_area(bvh, width):
     for bits in itertools.product((False, True), repeat=len(inner) - 1):
         chosen = {0} | {n for n, keep in zip(inner[1:], bits, strict=True) if keep}
         if all(len(lanes(n, chosen)) <= width for n in chosen):
-            best = min(best, sum(_area(nb_[n]) for n in chosen))
+            best = min(best, sum(_area(nb_[n]) + node_cost for n in chosen))
     return best
 
 
 @pytest.mark.parametrize("width", [2, 3, 4, 8])
-def test_collapse_has_the_least_summed_node_area(width):
+@pytest.mark.parametrize("node_cost", [None, 0.0, 40.0])
+def test_collapse_has_the_least_summed_node_area(width, node_cost, monkeypatch):
     """The optimal collapse against all collapses of small trees: its wide nodes' summed area
-    (each node's box: the union of its lanes') is the least possible, and every lane, leaf or
-    node, is used by exactly one parent."""
+    (each node's box: the union of its lanes'), plus NODE_COST / leaves of the root's area per
+    node, is the least possible (with the cost raylume uses, none, and a high one), and every
+    lane, leaf or node, is used by exactly one parent."""
     from raylume.accel import wide
 
+    if node_cost is not None:
+        monkeypatch.setattr(wide, "NODE_COST", node_cost)
     rng = np.random.default_rng(width)
     for trial in range(6):
         n = int(rng.integers(9, 15))
@@ -585,12 +590,13 @@ def test_collapse_has_the_least_summed_node_area(width):
         bvh = build_bvh(lo, lo + rng.uniform(0.01, 0.3, size=(n, 3)), max_leaf_size=1)
         got = wide.collapse(bvh, width)
         used = got.node_bounds[:, 0, :] <= got.node_bounds[:, 3, :]
-        total = 0.0
+        per_node = wide.NODE_COST / (bvh.node_axis < 0).sum() * _area(bvh.node_bounds[0])
+        total = per_node * len(got.node_index)
         for m in range(len(got.node_index)):
             lanes = got.node_bounds[m, :6][:, used[m]]  # (6, lanes used)
             box = np.concatenate([lanes[:3].min(axis=1), lanes[3:].max(axis=1)])
             total += _area(box)
-        assert total == pytest.approx(least_collapse_area(bvh, width), rel=1e-6), trial
+        assert total == pytest.approx(least_collapse_area(bvh, width, per_node), rel=1e-6), trial
         assert used.sum(axis=1).max() <= width
         assert used.sum() == (bvh.node_axis < 0).sum() + len(got.node_index) - 1
 

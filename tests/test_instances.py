@@ -12,7 +12,7 @@ import trimesh
 from typer.testing import CliRunner
 
 import raylume
-from raylume.accel.wide import NODE_COUNT, NODE_FIRST
+from raylume.accel.wide import NODE_REF, leaf_count, leaf_first
 from raylume.cli import app
 from raylume.scene.mesh import transform_matrix
 
@@ -389,15 +389,15 @@ def test_top_level_lanes_hold_one_instance_each_and_bound_it(scenes):
     k = compile_scene(inst).kernel
     bounds, index = k.inst_node_bounds, k.inst_node_index
     n_tlas = int(k.instance_index[:, 0].min())  # the BLASes' nodes follow the TLAS's
-    lanes = [(m, j) for m in range(n_tlas) for j in range(index.shape[2]) if index[m, NODE_COUNT, j] != 0]
-    assert sorted(int(index[m, NODE_FIRST, j]) for m, j in lanes) == list(range(len(mats)))
-    assert all(index[m, NODE_COUNT, j] == 1 for m, j in lanes)
+    lanes = [(m, j) for m in range(n_tlas) for j in range(index.shape[2]) if index[m, NODE_REF, j] < 0]
+    assert sorted(int(leaf_first(index[m, NODE_REF, j])) for m, j in lanes) == list(range(len(mats)))
+    assert all(leaf_count(index[m, NODE_REF, j]) == 1 for m, j in lanes)
     v = np.asarray(mesh.vertices).astype(np.float32).astype(np.float64)  # as the scene stores them
     corners = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)])
     corners = v.min(axis=0) + corners * (v.max(axis=0) - v.min(axis=0))
     tighter = 0
     for m, j in lanes:
-        row = int(index[m, NODE_FIRST, j])
+        row = int(leaf_first(index[m, NODE_REF, j]))
         a = mats[k.instance_index[row, 1]]
         lo, hi = bounds[m, :3, j].astype(np.float64), bounds[m, 3:6, j].astype(np.float64)
         placed = v @ a[:3, :3].T + a[:3, 3]

@@ -8,7 +8,7 @@ import numpy as np
 from numba import njit
 
 import raylume
-from raylume.accel.wide import NODE_COUNT, SPHERE_BLOCK
+from raylume.accel.wide import NODE_REF, SPHERE_BLOCK, leaf_count
 from raylume.compile import compile_scene
 from raylume.kernels.geometry.shape_sphere import intersect_sphere, intersect_spheres
 from raylume.kernels.vec import FAST
@@ -70,7 +70,7 @@ def test_block_test_is_vectorised():
 def test_seed_scene_is_one_leaf_of_four_spheres():
     kernel = compile_scene(raylume.builtin_scene("seed")).kernel
     assert kernel.node_index.shape[0] == 1
-    assert kernel.node_index[0, NODE_COUNT, 0] == -(SPHERE_BLOCK + 4)
+    assert leaf_count(kernel.node_index[0, NODE_REF, 0]) == -(SPHERE_BLOCK + 4)
 
 
 def _closed_form(centers, radii, o, d):
@@ -92,8 +92,8 @@ def test_hits_in_a_bvh_of_sphere_blocks_match_closed_form():
         {"objects": [{"type": "sphere", "center": c.tolist(), "radius": float(r)} for c, r in zip(centers, radii)]}
     )
     compiled = compile_scene(scene)
-    counts = compiled.kernel.node_index[:, NODE_COUNT, :]
-    assert (counts < -SPHERE_BLOCK).any(), "no leaf became a sphere block"
+    refs = compiled.kernel.node_index[:, NODE_REF, :]
+    assert ((refs < 0) & (leaf_count(refs) < -SPHERE_BLOCK)).any(), "no leaf became a sphere block"
     o = np.tile([0.0, 0.0, -12.0], (4000, 1))
     d = np.column_stack([rng.uniform(-0.4, 0.4, 4000), rng.uniform(-0.4, 0.4, 4000), np.ones(4000)])
     d /= np.linalg.norm(d, axis=1, keepdims=True)
@@ -116,7 +116,7 @@ def test_a_root_leaf_of_five_to_eight_spheres_is_one_block_with_closed_form_hits
             {"objects": [{"type": "sphere", "center": c.tolist(), "radius": float(r)} for c, r in zip(centers, radii)]}
         )
         kernel = compile_scene(scene).kernel
-        assert kernel.node_index.shape[0] == 1 and kernel.node_index[0, NODE_COUNT, 0] == -(SPHERE_BLOCK + n)
+        assert kernel.node_index.shape[0] == 1 and leaf_count(kernel.node_index[0, NODE_REF, 0]) == -(SPHERE_BLOCK + n)
         o = np.tile([0.0, 0.0, -9.0], (3000, 1))
         d = np.column_stack([rng.uniform(-0.35, 0.35, 3000), rng.uniform(-0.35, 0.35, 3000), np.ones(3000)])
         d /= np.linalg.norm(d, axis=1, keepdims=True)

@@ -12,8 +12,9 @@ from hypothesis import strategies as st
 from numba import njit
 
 import raylume
-from raylume.accel.wide import NODE_COUNT, NODE_FIRST, NODE_ROWS
+from raylume.accel.wide import NODE_REF, NODE_ROWS, leaf_count, leaf_first, leaf_ref
 from raylume.compile import compile_scene
+from raylume.kernels.geometry.layout import LEAF_COUNTS, LEAF_FIRST_LIMIT
 from raylume.kernels.geometry.shape_triangle import INF, intersect_triangle, ray_shear
 from raylume.kernels.geometry.shape_triangle import normals as triangle_normals_at
 from raylume.kernels.geometry.shapes import PRIM_FACE, PRIM_KIND, TRIANGLE
@@ -402,20 +403,17 @@ def test_collapsed_bvh_keeps_every_leaf_and_box(width):
     b, ix = wide.node_bounds, wide.node_index
     assert b.shape == (len(ix), NODE_ROWS, width) and b.dtype == np.float32 and ix.dtype == np.int32
     assert np.shares_memory(b, ix)  # one record per node
-    leaves = sorted(
-        (int(ix[m, NODE_FIRST, k]), int(ix[m, NODE_COUNT, k]))
-        for m in range(len(ix))
-        for k in range(width)
-        if ix[m, NODE_COUNT, k] > 0
-    )
+    refs = ix[:, NODE_REF, :]
+    leaves = sorted(zip(leaf_first(refs[refs < 0]).tolist(), leaf_count(refs[refs < 0]).tolist(), strict=True))
     leaf = binary.node_axis < 0
     assert leaves == sorted(map(tuple, binary.node_index[leaf].tolist()))
     used = np.isfinite(b[:, 0, :]) & (b[:, 0, :] <= b[:, 3, :])
     assert (used.sum(axis=1) >= 2).all() or len(ix) == 1
     assert np.all(b[:, :3][~np.broadcast_to(used[:, None], b[:, :3].shape)] == np.inf)
-    inner = used & (ix[:, NODE_COUNT, :] == 0)
+    assert (refs[~used] == 0).all()
+    inner = used & (refs >= 0)
     m_of = np.nonzero(inner)
-    children = ix[:, NODE_FIRST, :][inner]
+    children = refs[inner]
     assert (children > m_of[0]).all() and sorted(children.tolist()) == list(range(1, len(ix)))
     for m, k, c in zip(*m_of, children, strict=True):  # a child's lanes lie within its box
         sub = used[c]
@@ -431,11 +429,7 @@ def test_wide_depth_is_the_longest_path_from_the_root(width):
     from raylume.accel.wide import collapse, single_leaf, wide_depth
 
     def depth(ix, m):
-        inner = [
-            int(ix[m, NODE_FIRST, k])
-            for k in range(ix.shape[2])
-            if ix[m, NODE_COUNT, k] == 0 and ix[m, NODE_FIRST, k] > m
-        ]
+        inner = [int(ix[m, NODE_REF, k]) for k in range(ix.shape[2]) if ix[m, NODE_REF, k] > m]
         return 1 + max((depth(ix, c) for c in inner), default=0)
 
     rng = np.random.default_rng(7)
@@ -445,6 +439,66 @@ def test_wide_depth_is_the_longest_path_from_the_root(width):
         wide = collapse(build_bvh(lo_, hi_, max_leaf_size=1), width)
         assert wide_depth(wide) == depth(wide.node_index, 0) > 1
     assert wide_depth(single_leaf(lo[:3], lo[:3] + 0.1, width)) == 1
+
+
+@given(first=st.integers(0, LEAF_FIRST_LIMIT - 1), count=st.sampled_from(LEAF_COUNTS))
+def test_a_leaf_reference_gives_back_its_first_primitive_and_count(first, count):
+    """A leaf's reference is a negative int32 (an inner child's is its node, >= 0), from which
+    its first primitive and count field come back, in Python and in numpy alike."""
+    ref = leaf_ref(first, count)
+    assert -(2**31) <= ref < 0
+    assert (leaf_first(ref), leaf_count(ref)) == (first, count)
+    as32 = np.array([ref], np.int32)
+    assert (int(leaf_first(as32)[0]), int(leaf_count(as32)[0])) == (first, count)
+
+
+def test_leaves_and_bvhs_beyond_what_a_reference_holds_are_refused(monkeypatch):
+    from raylume.accel import wide
+    from raylume.accel.bvh import build_bvh
+    from raylume.errors import SceneError
+
+    lo = np.zeros((40, 3))  # one point forty times: no split separates them
+    with pytest.raises(ValueError, match="a leaf of 40 primitives"):
+        wide.collapse(build_bvh(lo, lo + 1.0, max_leaf_size=64))
+    monkeypatch.setattr("raylume.compile.geometry.LEAF_FIRST_LIMIT", 100)
+    v, f = bumpy_sphere(200)
+    scene = raylume.scene_from_dict({"objects": [{"type": "mesh", "vertices": v.tolist(), "faces": f.tolist()}]})
+    with pytest.raises(SceneError, match="200 primitives, more than the 100 a scene holds"):
+        compile_scene(scene)
+
+
+@pytest.mark.parametrize("n", [16, 200, 5000])
+def test_a_single_leaf_of_more_primitives_than_a_leaf_holds_is_a_flat_tree(n):
+    """Modes that never trace rays take every primitive in order (single_leaf): beyond a leaf's
+    15, leaves of consecutive primitives under nodes in order, a valid BVH: each primitive in
+    one leaf, each lane's box holding its primitives' boxes or its child node's lanes, children
+    after their parent."""
+    from raylume.accel.wide import single_leaf, wide_depth
+
+    rng = np.random.default_rng(n)
+    lo = rng.uniform(-1, 1, size=(n, 3))
+    hi = lo + rng.uniform(0, 0.1, size=(n, 3))
+    tree = single_leaf(lo, hi, BVH_WIDTH)
+    b, refs = tree.node_bounds, tree.node_index[:, NODE_REF, :]
+    used = b[:, 0, :] <= b[:, 3, :]
+    assert (refs[~used] == 0).all()
+    leaves = sorted(zip(leaf_first(refs[refs < 0]).tolist(), leaf_count(refs[refs < 0]).tolist(), strict=True))
+    assert [f for f, _ in leaves] == list(range(0, n, 15)) and sum(c for _, c in leaves) == n
+    assert max(c for _, c in leaves) <= LEAF_COUNTS[-1]
+    for m, k in zip(*np.nonzero(used), strict=True):
+        if refs[m, k] < 0:
+            first, count = leaf_first(refs[m, k]), leaf_count(refs[m, k])
+            inside_lo, inside_hi = lo[first : first + count], hi[first : first + count]
+        else:
+            c = refs[m, k]
+            assert c > m
+            inside_lo, inside_hi = b[c, :3][:, used[c]].T, b[c, 3:6][:, used[c]].T
+        assert (inside_lo >= b[m, :3, k]).all() and (inside_hi <= b[m, 3:6, k]).all()
+    assert sorted(refs[used & (refs > 0)].tolist()) == list(range(1, len(b)))
+    depth, lanes = 1, BVH_WIDTH  # the levels of nodes needed to hold that many leaves
+    while lanes < len(leaves):
+        depth, lanes = depth + 1, lanes * BVH_WIDTH
+    assert wide_depth(tree) == depth
 
 
 @BRUTE_FORCE_WORKER

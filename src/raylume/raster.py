@@ -25,7 +25,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .accel.wide import NODE_COUNT, NODE_FIRST
+from .accel.wide import NODE_REF, leaf_count, leaf_first
 from .kernels.film.camera import CAM_POSITION, CAM_UP
 from .kernels.film.image_pass import Aovs
 from .kernels.frame_stack import roomy_frame_stack
@@ -119,9 +119,10 @@ def flatten_instances(S):
     ranges = {}
     ends = [*roots[1:], len(index)]
     for r, e in zip(roots, ends, strict=True):
-        count = index[r:e, NODE_COUNT, :]
-        first = index[r:e, NODE_FIRST, :][count != 0].astype(np.int64)
-        last = first + np.abs(count[count != 0])
+        refs = index[r:e, NODE_REF, :]
+        leaves = refs[(refs < 0) & (leaf_count(refs) != 0)]
+        first = leaf_first(leaves).astype(np.int64)
+        last = first + np.abs(leaf_count(leaves))
         ranges[int(r)] = (int(first.min()), int(last.max()))
     n_world = min(a for a, _ in ranges.values())
     n_bounded = max(b for _, b in ranges.values())

@@ -8,10 +8,10 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from ..kernels.geometry.layout import NODE_COUNT, NODE_FIRST
+from ..kernels.geometry.layout import NODE_REF
 from ..kernels.geometry.wide_nodes import BVH_WIDTH
 from .bvh import build_bvh
-from .wide import WideBVH, node_records, single_leaf
+from .wide import WideBVH, check_leaves, compiled_leaf_ref, node_records, outward_f32, single_leaf
 
 TLAS_MAX_LEAF = 8
 TLAS_TRAVERSAL_COST = 4.0
@@ -40,8 +40,7 @@ def _collapse_tlas(nbounds, nindex, naxis, box, width, split_min, wb, wi):
             for d in range(3):
                 wb[m, d, lane] = np.inf
                 wb[m, 3 + d, lane] = -np.inf
-            wi[m, NODE_FIRST, lane] = 0
-            wi[m, NODE_COUNT, lane] = 0
+            wi[m, NODE_REF, lane] = 0
     work_b = np.empty(cap, np.int64)
     work_w = np.empty(cap, np.int64)
     kids = np.empty(width, np.int64)  # binary node c >= 0, or -1 - i for instance i alone
@@ -90,44 +89,31 @@ def _collapse_tlas(nbounds, nindex, naxis, box, width, split_min, wb, wi):
             if c < 0:
                 for d in range(6):
                     wb[w, d, i] = box[-1 - c, d]
-                wi[w, NODE_FIRST, i] = -1 - c
-                wi[w, NODE_COUNT, i] = 1
+                wi[w, NODE_REF, i] = compiled_leaf_ref(-1 - c, 1)
                 continue
             for d in range(6):
                 wb[w, d, i] = nbounds[c, d]
             if naxis[c] < 0 and nindex[c, 1] >= split_min:
                 # a leaf of several instances: a node of its own, one lane each
-                wi[w, NODE_FIRST, i] = n_wide
-                wi[w, NODE_COUNT, i] = 0
+                wi[w, NODE_REF, i] = n_wide
                 first = nindex[c, 0]
                 for j in range(nindex[c, 1]):
                     for d in range(6):
                         wb[n_wide, d, j] = box[first + j, d]
-                    wi[n_wide, NODE_FIRST, j] = first + j
-                    wi[n_wide, NODE_COUNT, j] = 1
+                    wi[n_wide, NODE_REF, j] = compiled_leaf_ref(first + j, 1)
                 n_wide += 1
             elif naxis[c] < 0:
-                wi[w, NODE_FIRST, i] = nindex[c, 0]
-                wi[w, NODE_COUNT, i] = nindex[c, 1]
+                wi[w, NODE_REF, i] = compiled_leaf_ref(nindex[c, 0], nindex[c, 1])
             else:
-                wi[w, NODE_FIRST, i] = n_wide
-                wi[w, NODE_COUNT, i] = 0
+                wi[w, NODE_REF, i] = n_wide
                 n_wide += 1
         for i in range(nk - 1, -1, -1):
             c = kids[i]
             if c >= 0 and naxis[c] >= 0:
                 work_b[sp] = c
-                work_w[sp] = wi[w, NODE_FIRST, i]
+                work_w[sp] = wi[w, NODE_REF, i]
                 sp += 1
     return n_wide
-
-
-def outward_f32(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """float32 (N, 6) boxes holding the float64 boxes (lo, hi)."""
-    lo32, hi32 = lo.astype(np.float32), hi.astype(np.float32)
-    lo32 = np.where(lo32 > lo, np.nextafter(lo32, np.float32(-np.inf)), lo32)
-    hi32 = np.where(hi32 < hi, np.nextafter(hi32, np.float32(np.inf)), hi32)
-    return np.ascontiguousarray(np.concatenate([lo32, hi32], axis=1))
 
 
 def build_tlas(lo: np.ndarray, hi: np.ndarray, accelerate: bool = True) -> WideBVH:
@@ -137,6 +123,7 @@ def build_tlas(lo: np.ndarray, hi: np.ndarray, accelerate: bool = True) -> WideB
     if not accelerate or len(lo) <= 1:
         return single_leaf(lo, hi, BVH_WIDTH)
     bvh = build_bvh(lo, hi, max_leaf_size=TLAS_MAX_LEAF, c_trav=TLAS_TRAVERSAL_COST)
+    check_leaves(len(lo), bvh.node_index[bvh.node_axis < 0, 1])
     order = bvh.prim_order.astype(np.int64)
     box = outward_f32(np.asarray(lo, np.float64)[order], np.asarray(hi, np.float64)[order])
     wb, wi = node_records(len(bvh.node_axis), BVH_WIDTH)

@@ -12,6 +12,7 @@ import numpy as np
 from ..accel.bvh import build_bvh, triangle_bounds
 from ..accel.wide import WideBVH, collapse, mark_sphere_leaves, mark_triangle_leaves, single_leaf, wide_depth
 from ..errors import SceneError
+from ..kernels.geometry.layout import LEAF_FIRST_LIMIT
 from ..kernels.geometry.shape_triangle import TRIANGLES_PER_TEST
 from ..kernels.geometry.shapes import (
     PRIM_FACE,
@@ -68,8 +69,14 @@ def build_geometry(geometry: SceneGeometry, accelerate: bool, source: str) -> Bu
     unbounded = np.flatnonzero(~bounded)
     tri, tri_n, tri_smooth, tri_mat, tri_obj, tri_face = soup.arrays()
     tri_uv = soup.uv_array()
-    inst = build_instances(geometry.instanced, accelerate)
     n_analytic, n_tris = len(in_bvh), len(tri)
+    stored = n_analytic + n_tris + sum(len(m.triangles) for m in geometry.instanced)
+    if stored > LEAF_FIRST_LIMIT:  # what a BVH leaf's reference can point at (kernels/geometry/layout.py)
+        raise SceneError(
+            f"{source}: {stored:,} primitives, more than the {LEAF_FIRST_LIMIT:,} a scene holds; "
+            "place repeated meshes as instances"
+        )
+    inst = build_instances(geometry.instanced, accelerate)
 
     # Bounds of every BVH primitive: bounded analytic shapes first, then triangles (of the
     # float32 vertices the kernels intersect, so the boxes are exact).

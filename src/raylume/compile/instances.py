@@ -25,8 +25,7 @@ import numpy as np
 from ..accel.bvh import build_bvh
 from ..accel.tlas import build_tlas
 from ..accel.wide import (
-    NODE_COUNT,
-    NODE_FIRST,
+    NODE_REF,
     WideBVH,
     collapse,
     mark_triangle_leaves,
@@ -34,6 +33,7 @@ from ..accel.wide import (
     wide_depth,
     wide_nbytes,
 )
+from ..kernels.geometry.layout import LEAF_SHIFT
 from ..kernels.geometry.shape_triangle import TRIANGLES_PER_TEST
 from ..kernels.geometry.shapes import (
     PRIM_FACE,
@@ -76,7 +76,7 @@ class InstanceArrays(NamedTuple):
     uvs: np.ndarray | None  # float32 (T, 6), None when none needs UVs
     node_bounds: np.ndarray  # float32 (M, NODE_ROWS, W) node records: the TLAS (root 0), then every BLAS
     node_index: np.ndarray  # the same records as int32 (wide.py); BLAS leaves' first rows relative to `prims`
-    blas_leaf: np.ndarray  # bool (M, W): lanes of node_index[:, NODE_FIRST] that are BLAS leaves' first rows
+    blas_leaf: np.ndarray  # bool (M, W): lanes of node_index[:, NODE_REF] that are BLAS leaves
     inverse: np.ndarray  # float32 (N, 12): world-to-object matrices, TLAS leaf order
     index: np.ndarray  # int32 (N, 2): BLAS root node, index within its object
     meshes: np.ndarray  # int64 (K, 3): each instanced mesh's first row of `prims`, rows, BLAS root
@@ -127,8 +127,8 @@ def blas_boxes(blas: WideBVH, levels: int) -> tuple[np.ndarray, np.ndarray]:
             for lane in range(BVH_WIDTH):
                 if not b[m, 0, lane] <= b[m, 3, lane]:
                     continue  # an unused lane
-                if idx[m, NODE_COUNT, lane] == 0 and level + 1 < levels:
-                    deeper.append(int(idx[m, NODE_FIRST, lane]))
+                if idx[m, NODE_REF, lane] >= 0 and level + 1 < levels:
+                    deeper.append(int(idx[m, NODE_REF, lane]))
                 else:
                     lo.append(b[m, :3, lane])
                     hi.append(b[m, 3:6, lane])
@@ -207,8 +207,9 @@ def build_instances(meshes: list, accelerate: bool = True) -> InstanceArrays:
         uvs.append(mesh.uvs[order] if mesh.uvs is not None else None)
         records = blas.node_bounds.copy()
         index = records.view(np.int32)
-        leaf = index[:, NODE_COUNT, :] != 0
-        index[:, NODE_FIRST, :] += np.where(leaf, prim_base, node_base).astype(np.int32)
+        # leaves' first primitives moved by prim_base, inner children by node_base (layout.py)
+        refs = index[:, NODE_REF, :]
+        refs += np.where(refs < 0, -(prim_base << LEAF_SHIFT), node_base).astype(np.int32)
         blas_records.append(records)
         # the instances of this mesh: world boxes of the mesh's box
         if BOX_LEVELS and accelerate and len(lo) > SMALL_BLAS:
@@ -232,9 +233,9 @@ def build_instances(meshes: list, accelerate: bool = True) -> InstanceArrays:
     n_tlas = len(tlas.node_index)
     node_bounds = np.concatenate([tlas.node_bounds, *blas_records])
     node_index = node_bounds.view(np.int32)
-    blas_leaf = node_index[:, NODE_COUNT, :] != 0
+    blas_leaf = node_index[:, NODE_REF, :] < 0
     blas_leaf[:n_tlas] = False
-    node_index[n_tlas:, NODE_FIRST, :] += np.where(blas_leaf[n_tlas:], 0, n_tlas).astype(np.int32)
+    node_index[n_tlas:, NODE_REF, :] += np.where(blas_leaf[n_tlas:], 0, n_tlas).astype(np.int32)
     index = np.empty((len(order), 2), np.int32)
     index[:, 0] = (np.concatenate(roots) + n_tlas)[order]
     index[:, 1] = np.concatenate(ids)[order]
@@ -283,7 +284,7 @@ def place_instanced(inst: InstanceArrays, n_world: int, n_world_tris: int) -> No
     """Point the instanced rows at their final places, in place: BLAS leaves at primitive rows
     after the world's n_world, PRIM_ROW at triangle rows after the world's n_world_tris (and
     `meshes`' first rows at the primitive table's)."""
-    inst.node_index[:, NODE_FIRST, :][inst.blas_leaf] += np.int32(n_world)
+    inst.node_index[:, NODE_REF, :][inst.blas_leaf] -= np.int32(n_world << LEAF_SHIFT)
     inst.prims[:, PRIM_ROW] += np.int32(n_world_tris)
     inst.meshes[:, 0] += n_world
 

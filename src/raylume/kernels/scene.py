@@ -27,7 +27,7 @@ class KernelScene(NamedTuple):
     # (SWEEP_ROWS, 0) for the walk (geometry/sweep.py)
     sweep: np.ndarray
     # W-wide BVH nodes (accel/wide.py): float32 (N, NODE_ROWS, W) records, the child boxes SoA,
-    # then child node / first prim and 0 / prim count; node_index is the same records as int32
+    # then each lane's reference (layout.py); node_index is the same records as int32
     node_bounds: np.ndarray
     node_index: np.ndarray
     materials: np.ndarray  # float64 (M, MAT_WIDTH), shading/materials/table.py

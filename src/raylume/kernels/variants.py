@@ -4,7 +4,7 @@ and lights."""
 
 import numpy as np
 
-from .geometry.layout import NODE_COUNT, NODE_FIRST, SPHERE_BLOCK
+from .geometry.layout import NODE_REF, SPHERE_BLOCK, leaf_count, leaf_first
 from .geometry.shapes import PRIM_KIND, SPHERE
 from .scene import instances_of
 from .shading import textures
@@ -67,9 +67,10 @@ def sphere_leaf(S) -> bool:
 def sphere_leaf_range(index: np.ndarray, prims: np.ndarray) -> tuple[int, int]:
     """wavefront._sphere_leaf in numpy: (first, count) of the root leaf when the BVH root
     (node_index `index`) is one leaf of spheres alone, else (0, 0)."""
-    if not (index.shape[0] == 1 and index[0, NODE_COUNT, 1] == 0):
+    if not (index.shape[0] == 1 and index[0, NODE_REF, 1] >= 0):
         return 0, 0
-    first, count = int(index[0, NODE_FIRST, 0]), int(index[0, NODE_COUNT, 0])
+    ref = int(index[0, NODE_REF, 0])
+    first, count = leaf_first(ref), leaf_count(ref)
     if count < 0:  # a block: spheres when below -SPHERE_BLOCK
         if count >= -SPHERE_BLOCK or prims[first, PRIM_KIND] != SPHERE:
             return 0, 0

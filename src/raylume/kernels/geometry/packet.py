@@ -47,7 +47,7 @@ from numba.core.errors import TypingError
 from numba.extending import intrinsic
 
 from ..vec import inline_function, kernel_function
-from .layout import NODE_COUNT, NODE_FIRST, NODE_ROWS, SPHERE_BLOCK
+from .layout import NODE_REF, NODE_ROWS, SPHERE_BLOCK
 from .shape_triangle import (
     EXACT,
     EXACT_DIVISION,
@@ -63,11 +63,12 @@ from .wide_nodes import (
     _F32_MAX,
     _F32_TINY,
     _FAR_SCALE,
-    _LANE_SHIFT,
     _NEAR_SCALE,
     _ORIGIN_PAD,
     BVH_WIDTH,
     TRAVERSAL_STACK,
+    leaf_count,
+    leaf_first,
     lowest_bit,
     prefetch_child_rows,
     prefetch_neighbours,
@@ -794,11 +795,9 @@ def packet_closest(G, X, root, rows, axes, active, box, lane, prim, node_stack, 
                 m = (masks >> b) & 0xFF
                 u = np.uint64(c)
                 t = t_stack[np.uint64(top + c)]
-                if index[np.uint64(ref), NODE_COUNT, u] == 0:
-                    child = index[np.uint64(ref), NODE_FIRST, u]
-                else:
-                    child = -1 - ((ref << _LANE_SHIFT) + c)
-                    f0 = index[np.uint64(ref), NODE_FIRST, u]
+                child = index[np.uint64(ref), NODE_REF, u]
+                if child < 0:  # a leaf
+                    f0 = leaf_first(child)
                     if direct_rows:  # the leaf's triangles themselves, four rows
                         for r in range(4):
                             prefetch_row(tri, f0 + r)
@@ -823,11 +822,8 @@ def packet_closest(G, X, root, rows, axes, active, box, lane, prim, node_stack, 
                 continue
         else:
             packet_shear(lane, axes)
-            leaf = -1 - ref
-            node = leaf >> _LANE_SHIFT
-            c = leaf & (BVH_WIDTH - 1)
-            first = index[node, NODE_FIRST, c]
-            count = index[node, NODE_COUNT, c]
+            first = leaf_first(ref)
+            count = leaf_count(ref)
             if -SPHERE_BLOCK <= count < 0:  # a block of triangles in consecutive rows
                 row = block_row(G, first)
                 if direct_rows:

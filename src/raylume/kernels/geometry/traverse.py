@@ -14,8 +14,8 @@ Primitives are tested through one leaf loop (`intersect_range`) over the primiti
 (shapes.py); leaves are ranges of it. Unbounded primitives (planes) follow the bounded ones in
 that table and are tested before traversal.
 
-Stack entries: an inner node's index (>= 0), or -1 - (node * BVH_WIDTH + lane) for the leaf in
-that lane of that node (its range is node_index[node, NODE_FIRST:, lane]).
+Stack entries are lanes' references (layout.py): an inner node's index (>= 0), or a leaf's
+first primitive and count field in one negative int32 (leaf_first, leaf_count).
 """
 
 import numpy as np
@@ -23,12 +23,20 @@ from numba.extending import overload
 
 from ..scene import is_instances
 from ..vec import INLINE_OVERLOAD, inline_function
-from .layout import NODE_COUNT, NODE_FIRST, SPHERE_BLOCK
+from .layout import NODE_REF, SPHERE_BLOCK
 from .shape_sphere import intersect_spheres
 from .shape_triangle import NO_SHEAR, intersect_triangle_block, ray_shear
 from .shapes import NO_HIT, PRIM_ROW, intersect
 from .sweep import sweep_hit
-from .wide_nodes import _LANE_SHIFT, BVH_WIDTH, box_ray, pop_nearer, prefetch_neighbours, push_children, traceable
+from .wide_nodes import (
+    box_ray,
+    leaf_count,
+    leaf_first,
+    pop_nearer,
+    prefetch_neighbours,
+    push_children,
+    traceable,
+)
 
 # --- leaves -----------------------------------------------------------------------------------
 
@@ -149,7 +157,7 @@ def _instances_hit_impl(G, X, o, d, tmin, best_t, prim, b1, b2, node_stack, t_st
 def _root_is_a_leaf(index):
     """A root node with one leaf lane (small scenes; one node has no inner children, so an
     unused lane 1 means lane 0 alone)."""
-    return index.shape[0] == 1 and index[0, NODE_COUNT, 1] == 0
+    return index.shape[0] == 1 and index[0, NODE_REF, 1] >= 0
 
 
 @inline_function
@@ -241,7 +249,7 @@ def _bvh_hit(
         # kernel was 20-60% slower (1 thread)
         if lazy_shear:
             shear = ray_shear(d)
-        first, count = index[0, NODE_FIRST, 0], index[0, NODE_COUNT, 0]
+        first, count = leaf_first(index[0, NODE_REF, 0]), leaf_count(index[0, NODE_REF, 0])
         return intersect_leaf(G, X, first, count, o, d, shear, tmin, best_t, prim, b1, b2, stop_at_first)
     if not traceable(o, d):
         return best_t, prim, b1, b2
@@ -261,10 +269,7 @@ def _bvh_hit(
             if lazy_shear:
                 shear = ray_shear(d)
                 lazy_shear = False
-            leaf = -1 - ref
-            node = leaf >> _LANE_SHIFT
-            lane = leaf & (BVH_WIDTH - 1)
-            first, count = index[node, NODE_FIRST, lane], index[node, NODE_COUNT, lane]
+            first, count = leaf_first(ref), leaf_count(ref)
             if direct:  # rows in leaf order: a block leaf (count < 0) or one triangle
                 prefetch_neighbours(tri, first, first + abs(count))
             best_t, prim, b1, b2 = intersect_leaf(

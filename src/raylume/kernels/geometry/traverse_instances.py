@@ -20,10 +20,9 @@ kernel's compile time.
 import numpy as np
 
 from ..vec import inline_function, kernel_function
-from .layout import NODE_COUNT, NODE_FIRST
 from .shape_triangle import intersect_triangle, intersect_triangle_block, ray_shear
 from .shapes import INSTANCE_SHIFT, NO_HIT, PRIM_ROW
-from .wide_nodes import _LANE_SHIFT, BVH_WIDTH, box_ray, pop_nearer, push_children, traceable
+from .wide_nodes import box_ray, leaf_count, leaf_first, pop_nearer, push_children, traceable
 
 
 @inline_function
@@ -43,12 +42,10 @@ def _to_object(inv, i, o, d):
 
 
 @inline_function
-def _leaf_triangles(prims, tris, cols, index, leaf, o, shear, tmin, best_t):
-    """The nearest hit in a BLAS leaf: (t, primitive or NO_HIT, b1, b2)."""
-    node = leaf >> _LANE_SHIFT
-    lane = leaf & (BVH_WIDTH - 1)
-    first = index[node, NODE_FIRST, lane]
-    count = index[node, NODE_COUNT, lane]
+def _leaf_triangles(prims, tris, cols, leaf, o, shear, tmin, best_t):
+    """The nearest hit in the BLAS leaf whose reference is `leaf`: (t, primitive or NO_HIT, b1, b2)."""
+    first = leaf_first(leaf)
+    count = leaf_count(leaf)
     if count < 0:  # 2 to 4 triangles in consecutive rows, tested together
         row = np.int64(prims[first, PRIM_ROW])
         t, j, u, v = intersect_triangle_block(o, shear, tris, cols, row, -count, tmin, best_t)
@@ -83,7 +80,7 @@ def _blas_hit(prims, tris, cols, bounds, index, root, o, d, tmin, best_t, node_s
                 ref = np.int64(node_stack[top])
                 continue
         else:
-            t, j, u, v = _leaf_triangles(prims, tris, cols, index, -1 - ref, o, shear, tmin, best_t)
+            t, j, u, v = _leaf_triangles(prims, tris, cols, ref, o, shear, tmin, best_t)
             if j != NO_HIT:
                 best_t, prim, b1, b2 = t, j, u, v
                 if stop_at_first:
@@ -116,11 +113,8 @@ def instances_hit(G, X, o, d, tmin, best_t, hit, b1, b2, node_stack, t_stack, st
                 ref = np.int64(node_stack[top])
                 continue
         else:
-            leaf = -1 - ref
-            node = leaf >> _LANE_SHIFT
-            lane = leaf & (BVH_WIDTH - 1)
-            first = index[node, NODE_FIRST, lane]
-            for i in range(first, first + abs(index[node, NODE_COUNT, lane])):
+            first = leaf_first(ref)
+            for i in range(first, first + abs(leaf_count(ref))):
                 oo, dd = _to_object(inv, i, o, d)
                 root = X.index[i, 0]
                 t, j, u, v = _blas_hit(

@@ -3,8 +3,8 @@ against all BVH_WIDTH child boxes of a node at once (explicit LLVM vector code),
 and the stack of nodes to visit (sorted entry distances). Shared by the traversal of one level
 (traverse.py) and of instances (traverse_instances.py).
 
-Stack entries: an inner node's index (>= 0), or -1 - (node * BVH_WIDTH + lane) for the leaf in
-that lane of that node (its range is node_index[node, NODE_FIRST:, lane]).
+Stack entries are lanes' references (layout.py): an inner node's index (>= 0), or a leaf's
+first primitive and count field in one negative int32 (leaf_first, leaf_count).
 """
 
 import math
@@ -17,15 +17,18 @@ from numba.core.errors import TypingError
 from numba.extending import intrinsic
 
 from ..vec import inline_function, kernel_function
-from .layout import NODE_COUNT, NODE_FIRST, NODE_ROWS
+from . import layout
+from .layout import NODE_REF, NODE_ROWS
 
 INF = math.inf
 
 # Children per BVH node. 8 fills one AVX2 register (8 float32 lanes); measured against 4 with
 # benchmarks/bench_bvh.py and path mode (docs/architecture.md).
 BVH_WIDTH = 8
-_LANE_SHIFT = BVH_WIDTH.bit_length() - 1  # BVH_WIDTH is a power of two
-assert 1 << _LANE_SHIFT == BVH_WIDTH
+
+# A leaf reference's (stack entry's) first primitive and count field (layout.py)
+leaf_first = inline_function(layout.leaf_first)
+leaf_count = inline_function(layout.leaf_count)
 
 # Size of per-thread traversal stacks. Closest-hit pushes at most BVH_WIDTH - 1 entries per
 # level and writes a node's BVH_WIDTH entry distances above the top; compile/geometry.py rejects BVHs
@@ -233,8 +236,8 @@ def prefetch_neighbours(tri, first, end):
 
 @intrinsic
 def prefetch_child_rows(typingctx, index, node):
-    """prefetch_row for the cache line of node `node`'s child indices (node_index[node,
-    NODE_FIRST:]): the last of its record's lines, which the box test does not read."""
+    """prefetch_row for the cache line of node `node`'s child references (node_index[node,
+    NODE_REF]): in the last of its record's lines, which the box test may not read."""
     if not (isinstance(index, types.Array) and index.layout == "C" and index.ndim == 3):
         raise TypingError("prefetch_child_rows: the C-contiguous node records")
     sig = types.void(index, node)
@@ -244,7 +247,7 @@ def prefetch_child_rows(typingctx, index, node):
         m = context.cast(builder, args[1], sig.args[1], types.int64)
         i64 = ir.IntType(64)
         strides = cgutils.unpack_tuple(builder, arr.strides, 3)
-        offset = builder.add(builder.mul(m, strides[0]), builder.mul(ir.Constant(i64, NODE_FIRST), strides[1]))
+        offset = builder.add(builder.mul(m, strides[0]), builder.mul(ir.Constant(i64, NODE_REF), strides[1]))
         _prefetch(builder, arr.data, offset)
         return context.get_dummy_value()
 
@@ -329,12 +332,6 @@ def box_entries(bounds, node, o, d, tmax, out):
 
 
 @inline_function
-def stack_entry(index, ref, i):
-    """Stack entry of lane i of node ref: the child node, or -1 - (node * W + lane) for a leaf."""
-    return index[ref, NODE_FIRST, i] if index[ref, NODE_COUNT, i] == 0 else -1 - ((ref << _LANE_SHIFT) + i)
-
-
-@inline_function
 def push_children(bounds, index, leaf_rows, ref, rf, rows, best_t, node_stack, t_stack, top, tri, direct):
     """Push the children of node `ref` that the ray enters nearer than best_t onto the stacks
     from `top`, sorted farthest first (the nearest on top); returns how many. The node's child
@@ -356,11 +353,9 @@ def push_children(bounds, index, leaf_rows, ref, rf, rows, best_t, node_stack, t
         mask &= mask - 1
         u = np.uint64(i)
         t = t_stack[np.uint64(top + i)]
-        if index[np.uint64(ref), NODE_COUNT, u] == 0:
-            child = index[np.uint64(ref), NODE_FIRST, u]
-        else:
-            child = -1 - ((ref << _LANE_SHIFT) + i)
-            first = index[np.uint64(ref), NODE_FIRST, u]
+        child = index[np.uint64(ref), NODE_REF, u]
+        if child < 0:  # a leaf
+            first = leaf_first(child)
             if direct:
                 prefetch_row(tri, first)
                 prefetch_row(tri, first + 2)

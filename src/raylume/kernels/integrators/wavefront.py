@@ -38,7 +38,7 @@ from ..film.camera import (
     obliquity,
 )
 from ..film.film import FILM_WIDTH, add_in_pixel_order, add_one_each, next_sample, pixel_sums, store_sums
-from ..geometry.layout import NODE_COUNT, NODE_FIRST, SPHERE_BLOCK
+from ..geometry.layout import NODE_REF, SPHERE_BLOCK
 from ..geometry.packet import (
     PACKET,
     packet_blocked,
@@ -53,7 +53,7 @@ from ..geometry.shape_sphere import CENTER, RADIUS
 from ..geometry.shapes import NO_HIT, PRIM_KIND, PRIM_MATERIAL, PRIM_ROW, SPHERE, offset_epsilon, surface
 from ..geometry.traverse import _root_is_a_leaf, any_hit, closest_hit
 from ..geometry.wavefront_spheres import SR, SX, SZ, tile_blocks, tile_closest
-from ..geometry.wide_nodes import SCRATCH_PAD, prefetch_row, scratch_array
+from ..geometry.wide_nodes import SCRATCH_PAD, leaf_count, leaf_first, prefetch_row, scratch_array
 from ..shading.environment import environment_radiance
 from ..shading.lights import LIGHT_INTENSITY, LIGHT_POSITION, at_infinity, has_falloff, is_everywhere, trace_falloff
 from ..shading.materials import (
@@ -200,8 +200,8 @@ def _sphere_leaf(G):
     index = G.node_index
     if not _root_is_a_leaf(index):
         return 0, 0
-    first = index[0, NODE_FIRST, 0]
-    count = index[0, NODE_COUNT, 0]
+    first = leaf_first(index[0, NODE_REF, 0])
+    count = leaf_count(index[0, NODE_REF, 0])
     if count < 0:  # a block (accel/wide.py): spheres when below -SPHERE_BLOCK, else triangles
         if G.prims[first, PRIM_KIND] != SPHERE:
             return 0, 0
