@@ -72,7 +72,7 @@ _F32_MAX = float(np.finfo(np.float32).max)
 # area, so that a node is kept only where it saves the visits of that many leaves' share of the
 # tree. The nodes, and their memory, shrink with it (bumpy 40k 2176 -> 2038, 1M 52,164 ->
 # 49,852, 4M 209,565 -> 199,070) while the summed area, the SAH's visits, grows 0.1%; bumpy hit
-# rays the same (1M packets 42.6 / 42.6 -> 42.1 / 44.7 ms, single rays 53.9 / 55.5 -> 52.9 /
+# rays the same (1M packets 42.7 / 42.5 -> 42.1 / 44.7 ms, single rays 53.9 / 55.5 -> 52.9 /
 # 52.3, 40k 23.3 / 23.6 -> 23.6 / 23.2, alternating). 8 or 16 save 1-2% more nodes for 0.2-0.4%.
 NODE_COST = 4.0
 compiled_leaf_ref = nb.njit(leaf_ref)  # for the compiled collapses (here and tlas.py)
