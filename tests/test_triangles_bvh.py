@@ -465,6 +465,11 @@ def test_leaves_and_bvhs_beyond_what_a_reference_holds_are_refused(monkeypatch):
     scene = raylume.scene_from_dict({"objects": [{"type": "mesh", "vertices": v.tolist(), "faces": f.tolist()}]})
     with pytest.raises(SceneError, match="200 primitives, more than the 100 a scene holds"):
         compile_scene(scene)
+    grid = [{"translate": [x, 0, 0]} for x in range(101)]
+    small = {"type": "mesh", "vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0]], "faces": [[0, 1, 2]]}
+    many = raylume.scene_from_dict({"objects": [{**small, "instances": grid}]})
+    with pytest.raises(SceneError, match="101 instances, more than the 100 a scene holds"):
+        compile_scene(many)
 
 
 @pytest.mark.parametrize("n", [16, 200, 5000])

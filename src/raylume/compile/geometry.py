@@ -76,6 +76,9 @@ def build_geometry(geometry: SceneGeometry, accelerate: bool, source: str) -> Bu
             f"{source}: {stored:,} primitives, more than the {LEAF_FIRST_LIMIT:,} a scene holds; "
             "place repeated meshes as instances"
         )
+    copies = sum(len(m.matrices) for m in geometry.instanced)
+    if copies > LEAF_FIRST_LIMIT:  # the top-level BVH's leaves point at instances
+        raise SceneError(f"{source}: {copies:,} instances, more than the {LEAF_FIRST_LIMIT:,} a scene holds")
     inst = build_instances(geometry.instanced, accelerate)
 
     # Bounds of every BVH primitive: bounded analytic shapes first, then triangles (of the
