@@ -31,7 +31,7 @@ from raylume.kernels.geometry.packet import (
 from raylume.kernels.geometry.query import CHUNK
 from raylume.kernels.geometry.shape_triangle import INF, intersect_triangle, ray_shear
 from raylume.kernels.geometry.traverse import any_hit, closest_hit
-from raylume.kernels.geometry.wide_nodes import NEIGHBOURS_FROM, TRAVERSAL_STACK, box_ray
+from raylume.kernels.geometry.wide_nodes import CHILDREN_PREFETCHED_FROM, NEIGHBOURS_FROM, TRAVERSAL_STACK, box_ray
 from raylume.kernels.scene import geometry_of
 from raylume.kernels.variants import features
 from raylume.kernels.vec import FAST
@@ -686,6 +686,24 @@ def _assert_shadow_packets_block_what_any_hit_blocks(S, points, ldirs, tmax, nee
                 assert bool((blocked[p] >> k) & 1) == expected[p * PACKET + k], (p, k)
             else:
                 assert not (blocked[p] >> k) & 1
+
+
+@PACKET_WORKER
+def test_the_largest_trees_hit_alike_with_their_children_prefetched(tmp_path):
+    """From CHILDREN_PREFETCHED_FROM wide nodes on (2.8M triangles), the traversals prefetch the
+    record of every inner child they push (wide_nodes.prefetch_child, a hint): packets, single
+    rays and the brute force still agree on the camera rays."""
+    v, f = bumpy_sphere(2_800_000)
+    S = _compiled_mesh(tmp_path, v, f).kernel
+    assert S.node_bounds.shape[0] >= CHILDREN_PREFETCHED_FROM
+    o, d = _camera_rays(np.zeros(3), 1.2, 48)
+    got, taken = _packets(S, o, d, PACKET)
+    assert taken.all()
+    ref = _single(S, o, d)
+    assert 0.2 < np.isfinite(ref[:, 0]).mean() < 0.95
+    _assert_same_hits(got, ref)
+    sample = np.random.default_rng(4).choice(len(o), 48, replace=False)
+    np.testing.assert_array_equal(ref[sample, 0], _brute(v.astype(np.float32)[f].reshape(-1, 9), o[sample], d[sample]))
 
 
 @PACKET_WORKER

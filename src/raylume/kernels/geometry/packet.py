@@ -70,6 +70,7 @@ from .wide_nodes import (
     leaf_count,
     leaf_first,
     lowest_bit,
+    prefetch_child,
     prefetch_child_rows,
     prefetch_neighbours,
     prefetch_row,
@@ -796,7 +797,9 @@ def packet_closest(G, X, root, rows, axes, active, box, lane, prim, node_stack, 
                 u = np.uint64(c)
                 t = t_stack[np.uint64(top + c)]
                 child = index[np.uint64(ref), NODE_REF, u]
-                if child < 0:  # a leaf
+                if child >= 0:  # an inner node
+                    prefetch_child(bounds, child)
+                else:  # a leaf
                     f0 = leaf_first(child)
                     if direct_rows:  # the leaf's triangles themselves, four rows
                         for r in range(4):
