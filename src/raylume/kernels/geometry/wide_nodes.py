@@ -174,37 +174,37 @@ def box_hits(typingctx, bounds, node, rf, rows, tmax, out, at):
 def prefetch_row(typingctx, array, i):
     """Start loading the cache line of array[i] (its first element; a C-contiguous array), for a
     read soon: a hint, no result."""
-    if not (isinstance(array, types.Array) and array.layout == "C"):
-        raise TypingError("prefetch_row: a C-contiguous array")
-    sig = types.void(array, i)
-
-    def codegen(context, builder, sig, args):
-        arr = context.make_array(sig.args[0])(context, builder, args[0])
-        row = context.cast(builder, args[1], sig.args[1], types.int64)
-        stride = builder.extract_value(arr.strides, 0)
-        _prefetch(builder, arr.data, builder.mul(row, stride))
-        return context.get_dummy_value()
-
-    return sig, codegen
+    return _row_prefetches("prefetch_row", array, i, lambda builder, base, stride: [base])
 
 
 @intrinsic
 def prefetch_record(typingctx, array, i):
     """prefetch_row for every cache line of array[i] (a C-contiguous array of records of at most
     four lines, as the wide nodes'): its first byte, every _LINE after it, and its last byte."""
+
+    def offsets(builder, base, stride):
+        i64 = ir.IntType(64)
+        lines = [builder.add(base, ir.Constant(i64, _LINE * j)) for j in range(4)]
+        # a record not aligned to a line touches up to 5
+        return [*lines, builder.add(base, builder.sub(stride, ir.Constant(i64, 1)))]
+
+    return _row_prefetches("prefetch_record", array, i, offsets)
+
+
+def _row_prefetches(name, array, i, offsets):
+    """(signature, codegen) of an intrinsic that prefetches the bytes offsets(builder, base,
+    stride) of a C-contiguous array, base being the byte offset of array[i] and stride its
+    rows' size."""
     if not (isinstance(array, types.Array) and array.layout == "C"):
-        raise TypingError("prefetch_record: a C-contiguous array")
+        raise TypingError(f"{name}: a C-contiguous array")
     sig = types.void(array, i)
 
     def codegen(context, builder, sig, args):
         arr = context.make_array(sig.args[0])(context, builder, args[0])
         row = context.cast(builder, args[1], sig.args[1], types.int64)
-        i64 = ir.IntType(64)
         stride = builder.extract_value(arr.strides, 0)
-        base = builder.mul(row, stride)
-        for j in range(4):  # a record not aligned to a line touches up to 5
-            _prefetch(builder, arr.data, builder.add(base, ir.Constant(i64, _LINE * j)))
-        _prefetch(builder, arr.data, builder.add(base, builder.sub(stride, ir.Constant(i64, 1))))
+        for offset in offsets(builder, builder.mul(row, stride), stride):
+            _prefetch(builder, arr.data, offset)
         return context.get_dummy_value()
 
     return sig, codegen
