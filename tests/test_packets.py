@@ -696,13 +696,20 @@ def test_the_largest_trees_hit_alike_with_their_children_prefetched(tmp_path):
     v, f = bumpy_sphere(2_800_000)
     S = _compiled_mesh(tmp_path, v, f).kernel
     assert S.node_bounds.shape[0] >= CHILDREN_PREFETCHED_FROM
-    o, d = _camera_rays(np.zeros(3), 1.2, 48)
+    _assert_camera_rays_hit_alike(S, v, f, 48, 48, seed=4)
+
+
+def _assert_camera_rays_hit_alike(S, v, f, size, brute, seed):
+    """Packets and single rays give the same hits on size x size camera rays of the mesh (v, f)
+    compiled as S, a fifth to most of them hitting, and `brute` of them (drawn with `seed`) the
+    brute force's distances."""
+    o, d = _camera_rays(np.zeros(3), 1.2, size)
     got, taken = _packets(S, o, d, PACKET)
     assert taken.all()
     ref = _single(S, o, d)
     assert 0.2 < np.isfinite(ref[:, 0]).mean() < 0.95
     _assert_same_hits(got, ref)
-    sample = np.random.default_rng(4).choice(len(o), 48, replace=False)
+    sample = np.random.default_rng(seed).choice(len(o), brute, replace=False)
     np.testing.assert_array_equal(ref[sample, 0], _brute(v.astype(np.float32)[f].reshape(-1, 9), o[sample], d[sample]))
 
 
@@ -715,15 +722,7 @@ def test_large_meshes_hit_alike_with_their_neighbours_prefetched(tmp_path):
     v, f = bumpy_sphere(300_000)
     S = _compiled_mesh(tmp_path, v, f).kernel
     assert S.triangles.shape[0] >= NEIGHBOURS_FROM
-    o, d = _camera_rays(np.zeros(3), 1.2, 64)
-    got, taken = _packets(S, o, d, PACKET)
-    assert taken.all()
-    ref = _single(S, o, d)
-    hit = np.isfinite(ref[:, 0])
-    assert 0.2 < hit.mean() < 0.95
-    _assert_same_hits(got, ref)
-    sample = np.random.default_rng(3).choice(len(o), 96, replace=False)
-    np.testing.assert_array_equal(ref[sample, 0], _brute(v.astype(np.float32)[f].reshape(-1, 9), o[sample], d[sample]))
+    _assert_camera_rays_hit_alike(S, v, f, 64, 96, seed=3)
     # shadow rays from the hits of rows of 512 camera rays (neighbours close enough for packets)
     o, d = _camera_rays(np.zeros(3), 1.2, 512)
     o, d = o[200 * 512 : 203 * 512], d[200 * 512 : 203 * 512]
