@@ -237,12 +237,12 @@ def collapse(bvh: BVH, width: int = 8) -> WideBVH:
     return WideBVH(wb[:m], wi[:m], bvh.prim_order)
 
 
-def check_leaves(n: int, counts: np.ndarray) -> None:
-    """A leaf's reference holds its first primitive below LEAF_FIRST_LIMIT and its count in
-    LEAF_COUNTS (kernels/geometry/layout.py)."""
+def check_leaves(n: int, counts: np.ndarray | None = None) -> None:
+    """A leaf's reference holds its first primitive below LEAF_FIRST_LIMIT (n primitives) and its
+    count in LEAF_COUNTS (`counts`, the leaves' sizes; None: not checked) (kernels/geometry/layout.py)."""
     if n > LEAF_FIRST_LIMIT:
         raise ValueError(f"{n} primitives in one BVH: at most {LEAF_FIRST_LIMIT} (use instances)")
-    if len(counts) and counts.max() > LEAF_COUNTS[-1]:
+    if counts is not None and len(counts) and counts.max() > LEAF_COUNTS[-1]:
         raise ValueError(f"a leaf of {int(counts.max())} primitives: wide BVHs hold at most {LEAF_COUNTS[-1]}")
 
 
@@ -296,7 +296,7 @@ def flat_tree(lo: np.ndarray, hi: np.ndarray, width: int = 8) -> WideBVH:
     by level up to the root. As slow to trace as no BVH, but a valid one, made in a few numpy
     operations, for modes that never trace rays (single_leaf)."""
     n = len(lo)
-    check_leaves(n, np.zeros(0, np.int64))
+    check_leaves(n)
     per = LEAF_COUNTS[-1]
     starts = np.arange(0, n, per)
     lo64, hi64 = np.asarray(lo, np.float64), np.asarray(hi, np.float64)
