@@ -19,10 +19,12 @@ repeat finds the block's nodes and triangles in cache (a block's ~1,000 rays tou
 the L2's 2 MB), so what is left is the traversal's work without its waits for memory: how far
 from 40k's a large mesh's frame would stay with memory free.
 
-    python benchmarks/bench_hits.py [--size 1024] [--repeats 7] [MESH ...]
+    python benchmarks/bench_hits.py [--size 1024] [--repeats 7] [--plot PNG] [MESH ...]
 
 MESH: a name in ../shared/models (stanford-bunny, nefertiti) or a bumpy sphere's size (10k,
-1M, 4M); by default the bunny, Nefertiti and bumpy 10k to 4M.
+1M, 4M); by default the bunny, Nefertiti and bumpy 10k to 4M. `--plot` draws the bumpy spheres'
+hit-ray times against their triangle counts (raylume's packets and single rays, Embree, and
+issue 49's goal: Embree's time / 1.3).
 """
 
 from __future__ import annotations
@@ -115,6 +117,7 @@ def main() -> None:
     parser.add_argument("meshes", nargs="*", default=DEFAULT)
     parser.add_argument("--size", type=int, default=1024, help="image side: size x size camera rays")
     parser.add_argument("--repeats", type=int, default=7)
+    parser.add_argument("--plot", default=None, help="write the bumpy spheres' hit-ray times (PNG) here")
     args = parser.parse_args()
     from embreex import rtcore_scene as rtcs
     from embreex.mesh_construction import TriangleMesh
@@ -128,6 +131,7 @@ def main() -> None:
     single_frame = {}  # the same with single rays
     embree_frame = {}  # the same by Embree
     in_cache = {}  # the frame with its data in cache (block_orders)
+    hit_ms = {}  # per bumpy sphere: (triangles, raylume, single-ray, Embree) hit-ray ms
     image_frame = {}  # raylume.intersect on the frame's rays as an image
     blocks, twice = block_orders(args.size)
     for name in args.meshes:
@@ -170,6 +174,8 @@ def main() -> None:
         embree_frame[name] = np.median(embree_frames)
         in_cache[name] = np.median(repeats)
         pairs = np.array(theirs) / np.array(ours)
+        if name[:-1].isdigit():  # a bumpy sphere
+            hit_ms[name] = (len(f), r * 1e3, r1 * 1e3, e * 1e3)
         rows.append(
             [name, f"{len(f):,}", f"{len(o):,}", f"{r * 1e3:.1f}", f"{r1 * 1e3:.1f}", f"{e * 1e3:.1f}", f"{e / r:.2f}"]
             + [f"{pairs.min():.2f}-{pairs.max():.2f}", f"{e / r1:.2f}", f"{frame[name] * 1e3:.1f}"]
@@ -191,6 +197,33 @@ def main() -> None:
     headers += ["Embree frame / 40k"]
     headers += ["in-cache frame / 40k"]
     print("\n" + table(headers, rows))
+    if args.plot and hit_ms:
+        plot_hits(hit_ms, args.size, args.plot)
+
+
+def plot_hits(hit_ms: dict, size: int, path: str) -> None:
+    """The bumpy spheres' hit-ray times against their triangle counts, log-log."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    n, ours, single, embree = (np.array(c) for c in zip(*sorted(hit_ms.values()), strict=True))
+    fig, ax = plt.subplots(figsize=(6, 4))
+    ax.plot(n, ours, "o-", label="raylume (packets of 8 rays)")
+    ax.plot(n, single, "s-", label="raylume, one ray at a time")
+    ax.plot(n, embree, "^-", color="black", label="Embree 4 (rtcIntersect1)")
+    ax.plot(n, embree / 1.3, ":", color="grey", label="issue 49's goal: Embree's time / 1.3")
+    ax.set_xscale("log")
+    ax.set_xlabel("triangles (bumpy sphere)")
+    ax.set_ylabel(f"ms for the hit rays of a {size} x {size} frame")
+    ax.set_ylim(bottom=0)
+    ax.set_title("Camera hit rays, 1 thread (CPU time)")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    print(f"wrote {path}")
 
 
 if __name__ == "__main__":

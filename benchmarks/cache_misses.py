@@ -35,7 +35,7 @@ from common import table
 from raylume.accel.wide import NODE_ROWS
 from raylume.kernels.geometry import traverse
 from raylume.kernels.geometry.shape_triangle import ray_shear
-from raylume.kernels.geometry.wide_nodes import BVH_WIDTH, leaf_count, leaf_first
+from raylume.kernels.geometry.wide_nodes import BVH_WIDTH, leaf_count, leaf_first, traversal_stacks
 from raylume.kernels.scene import geometry_of
 
 NODE, LEAF = 0, 1
@@ -214,7 +214,7 @@ def main() -> None:
         G = geometry_of(compiled.kernel)
         O, D = np.ascontiguousarray(o[hit]), np.ascontiguousarray(d[hit])
         log = np.empty((O.shape[0] * 64, 3), np.int64)
-        node_stack, t_stack = traverse.traversal_stacks()
+        node_stack, t_stack = traversal_stacks()
         log = log[: log_reads(G, O, D, log, node_stack, t_stack)]
         rays = O.shape[0]
         nodes = np.count_nonzero(log[:, 0] == NODE) / rays
