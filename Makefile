@@ -52,7 +52,10 @@ lint: $(STAMP_DEV)
 	$(BIN)/ruff format --check src tests benchmarks tools
 
 ## bench: print the benchmark tables (see benchmarks/README.md)
+# Debian's libllvm19 serves Mitsuba's llvm_ad_rgb variant (an older libLLVM fails to compile its
+# kernels), chromium and its driver bench_view.py; where apt-get cannot install them, those skip.
 bench: $(STAMP_BENCH)
+	bash tools/apt_install.sh libllvm19 chromium chromium-driver
 	$(BIN)/python benchmarks/run_all.py
 
 ## docs: build the documentation site into site/; any warning fails (mkdocs.yml: strict)

@@ -39,8 +39,9 @@ the material showcase (examples/materials.toml), and error against time on the C
 
 Mitsuba is optional (pip install 'raylume[bench]'); without it raylume's figures are printed alone.
 Its llvm_ad_rgb variant also needs the LLVM shared library, which pip does not install: on Debian
-`apt-get install libllvm19` (Dr.Jit finds libLLVM.so by itself; elsewhere set DRJIT_LIBLLVM_PATH
-to it). Without it the probe says why and llvm_ad_rgb is left out.
+`make bench` installs libllvm19 where apt-get can (Dr.Jit finds libLLVM.so by itself; elsewhere set
+DRJIT_LIBLLVM_PATH to it; an older libLLVM, as Debian 12's default 14 or 15, fails to compile its
+kernels). Without it the probe says why and llvm_ad_rgb is left out.
 """
 
 from __future__ import annotations

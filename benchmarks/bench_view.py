@@ -244,6 +244,14 @@ def main() -> None:
     parser.add_argument("--only", choices=("trace", "path"), default=None, help="one of the two tables")
     parser.add_argument("--runs", type=int, default=3, help="path mode: runs with and without --denoise each")
     args = parser.parse_args()
+    missing = [name for name in ("chromium", "chromedriver") if shutil.which(name) is None]
+    try:
+        import selenium  # noqa: F401
+    except ImportError:
+        missing.append("selenium")
+    if missing:
+        print(f"bench_view skipped: no {', '.join(missing)} (Debian's chromium and chromium-driver; the dev extra)")
+        return
     threads = f"{args.threads or os.cpu_count()} render threads"
     if args.only != "path":
         sizes = [tuple(int(v) for v in size.split("x")) for size in args.sizes.split(",")]

@@ -1,12 +1,26 @@
-"""Run every benchmark in turn (each prints its own markdown table). Takes several minutes.
+"""Run the benchmarks in turn (each prints its own markdown table, and its wall time after it).
 
 python benchmarks/run_all.py [--quick]
+
+--quick runs every script in benchmarks/ once, with small images, meshes, spp and repeats: a
+smoke run that each script still works (about 4 minutes on 2 cores, none over a minute; the
+timings are too small to quote). Without it, the figures: the main benchmarks as the README's
+tables were made (bench_bvh.py and bench_path.py redraw their plots in docs/images,
+bench_scaling.py its own), then the others with their default arguments (a few minutes each at
+most): the full run takes half an hour or more.
+
+Two are in the quick run only: bench_compile.py (its defaults, 3 cold compiles of 8 kinds of
+work in new processes, take over ten minutes) and bench_builds.py (it compares checkouts,
+`--src OLD --src NEW`; the quick run gives it this one). Mitsuba's scripts run their timing
+commands (mitsuba_reference.py timing, mitsuba_media.py bench, mitsuba_scene.py compare), never
+`reference`, which rewrites the stored references in tests/reference.
 """
 
 from __future__ import annotations
 
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
@@ -22,8 +36,30 @@ BENCHMARKS = [
     ["bench_shadows.py"] + (["stanford-bunny", "10k", "1M", "--size", "512"] if QUICK else []),
     ["bench_scaling.py"] + (["--quick"] if QUICK else []),
     ["bench_path.py"] + (["--quick"] if QUICK else ["--plot", str(HERE.parent / "docs/images/path_rmse.png")]),
+    ["bench_bdpt.py"] + (["--size", "32x18", "--reference-spp", "64", "--rounds", "1"] if QUICK else []),
+    ["bench_first_run.py"] + (["--repeats", "1"] if QUICK else []),
+    ["bench_cluster.py"] + (["--quick"] if QUICK else []),
+    ["bench_instances.py"]
+    + (
+        ["--width", "256", "--height", "192", "--repeats", "1", "--counts", "1,10,100", "--flat-max", "10"]
+        if QUICK
+        else []
+    ),
+    ["bench_view.py"] + (["--sizes", "160x120", "--seconds", "1", "--runs", "1"] if QUICK else []),
+    ["cache_misses.py"] + (["--size", "256", "40k", "1M"] if QUICK else []),
+    ["probe_wavefront_path.py"] + (["--size", "64", "--spp", "2", "--rounds", "1"] if QUICK else []),
+    ["mitsuba_reference.py", "timing"] + (["--spp", "16", "--repeats", "1"] if QUICK else []),
+    ["mitsuba_media.py", "bench"] + (["--rounds", "1", "--size", "32", "--spp", "4"] if QUICK else []),
+    ["mitsuba_scene.py", "compare"] + (["--width", "64", "--height", "32", "--spp", "4"] if QUICK else []),
 ]
+if QUICK:  # in the quick run only (see above)
+    BENCHMARKS += [
+        ["bench_compile.py", "--repeats", "1", "intersect", "seed"],
+        ["bench_builds.py", "--src", str(HERE.parent), "--rounds", "1", "seed", "hits"],
+    ]
 
 for args in BENCHMARKS:
     print(f"\n## {args[0]}\n", flush=True)
+    started = time.perf_counter()
     subprocess.run([sys.executable, str(HERE / args[0]), *args[1:]], check=True)
+    print(f"\n({' '.join(args)}: {time.perf_counter() - started:.0f} s)", flush=True)

@@ -32,6 +32,27 @@ def test_test_and_bench_install_their_extras(tmp_path):
     assert any("'.[dev,bench]'" in line for line in dry_run("bench", tmp_path / "venv"))
 
 
+def test_bench_installs_the_debian_packages_it_uses(tmp_path):
+    """make bench asks tools/apt_install.sh for Mitsuba's libLLVM and the browser before the benchmarks run."""
+    result = subprocess.run(
+        ["make", "-n", "-C", str(REPO), "bench", f"VENV={tmp_path / 'venv'}"], capture_output=True, text=True
+    )
+    lines = result.stdout.splitlines()
+    apt = [i for i, line in enumerate(lines) if "tools/apt_install.sh" in line]
+    runs = [i for i, line in enumerate(lines) if "benchmarks/run_all.py" in line]
+    assert apt and runs and apt[0] < runs[0], result.stdout
+    assert {"libllvm19", "chromium", "chromium-driver"} <= set(lines[apt[0]].split())
+
+
+@pytest.mark.skipif(shutil.which("dpkg-query") is None, reason="not a Debian system (no dpkg-query)")
+def test_apt_install_leaves_installed_packages_alone():
+    """Packages already installed (dpkg's own here) need no apt-get: nothing printed, status 0."""
+    result = subprocess.run(
+        ["bash", str(REPO / "tools" / "apt_install.sh"), "dpkg"], capture_output=True, text=True, timeout=60
+    )
+    assert (result.returncode, result.stdout, result.stderr) == (0, "", "")
+
+
 def test_render_then_test_still_installs_dev(tmp_path):
     venv = tmp_path / "venv"
     (venv / "bin").mkdir(parents=True)
