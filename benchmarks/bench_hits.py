@@ -50,10 +50,17 @@ from raylume.scene.procedural import bumpy_sphere
 DEFAULT = ["stanford-bunny", "nefertiti", "10k", "40k", "100k", "1M", "4M"]
 
 
+def bumpy_size(name: str) -> int | None:
+    """The triangle count a bumpy sphere's name says (10k, 1M), None for a shared model's name."""
+    if name[-1] in "kM" and name[:-1].isdigit():
+        return int(name[:-1]) * (1000 if name[-1] == "k" else 1_000_000)
+    return None
+
+
 def mesh(name: str):
     """(vertices, faces) of a shared model or of a bumpy sphere named by its size (10k, 1M)."""
-    if name[-1] in "kM" and name[:-1].isdigit():
-        return bumpy_sphere(int(name[:-1]) * (1000 if name[-1] == "k" else 1_000_000))
+    if (size := bumpy_size(name)) is not None:
+        return bumpy_sphere(size)
     path = SHARED_MODELS / f"{name}.obj"
     if not path.exists():
         return None
@@ -174,7 +181,7 @@ def main() -> None:
         embree_frame[name] = np.median(embree_frames)
         in_cache[name] = np.median(repeats)
         pairs = np.array(theirs) / np.array(ours)
-        if name[:-1].isdigit():  # a bumpy sphere
+        if bumpy_size(name) is not None:
             hit_ms[name] = (len(f), r * 1e3, r1 * 1e3, e * 1e3)
         rows.append(
             [name, f"{len(f):,}", f"{len(o):,}", f"{r * 1e3:.1f}", f"{r1 * 1e3:.1f}", f"{e * 1e3:.1f}", f"{e / r:.2f}"]

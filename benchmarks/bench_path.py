@@ -48,8 +48,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import subprocess
-import sys
 import tempfile
 import time
 from collections.abc import Callable
@@ -57,7 +55,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from common import REPO, machine, median_of, run_python, table
+from common import REPO, child_probe, machine, median_of, run_python, table
 from mitsuba_reference import REFERENCE, SCENE, load_toml, mitsuba_dict
 
 import raylume
@@ -186,16 +184,8 @@ def mitsuba_version() -> str | None:
 
 def llvm_probe() -> tuple[bool, str]:
     """Whether Mitsuba's llvm_ad_rgb renders here (in a child process: an LLVM failure aborts)."""
-    code = LLVM_PROBE.format(bench=str(Path(__file__).resolve().parent))
-    try:
-        out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
-    except subprocess.TimeoutExpired:
-        return False, "the probe render did not finish in 300 s"
-    if out.returncode == 0 and out.stdout.startswith("ok"):
-        return True, ""
-    lines = [ln.strip() for ln in (out.stderr + out.stdout).splitlines() if ln.strip() and not ln.startswith(" ")]
-    first = next((ln for ln in lines if "ERROR" in ln or "Error" in ln), lines[-1] if lines else "")
-    return False, f"a 16 x 16 render exited with status {out.returncode}: {first[:160]}"
+    why = child_probe(LLVM_PROBE.format(bench=str(Path(__file__).resolve().parent)), "a 16 x 16 probe render")
+    return not why, why
 
 
 # --------------------------------------------------------------------------- part 1: speed

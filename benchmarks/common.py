@@ -49,6 +49,23 @@ def run_python(code: str, env: dict | None = None) -> tuple[float, str]:
     return time.perf_counter() - t0, out.stdout
 
 
+def child_probe(code: str, what: str, timeout: int = 300) -> str:
+    """Why `python -c code` fails in a new process ("" when the last line it prints starts with
+    "ok"): for libraries that abort the process on failure, past any except (Mitsuba's
+    llvm_ad_rgb under an LLVM that cannot compile its kernels). `what` names the work in the
+    reason."""
+    try:
+        out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=timeout)
+    except subprocess.TimeoutExpired:
+        return f"{what} did not finish in {timeout} s"
+    printed = out.stdout.strip().splitlines()
+    if out.returncode == 0 and printed and printed[-1].startswith("ok"):
+        return ""
+    lines = [ln.strip() for ln in (out.stderr + out.stdout).splitlines() if ln.strip() and not ln.startswith(" ")]
+    first = next((ln for ln in lines if "ERROR" in ln or "Error" in ln), lines[-1] if lines else "")
+    return f"{what} exited with status {out.returncode}: {first[:160]}"
+
+
 def table(headers: list[str], rows: list[list]) -> str:
     """A GitHub-flavoured markdown table."""
     cells = [[str(h) for h in headers]] + [[str(c) for c in r] for r in rows]

@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import subprocess
 import sys
 import time
 from pathlib import Path
@@ -202,16 +201,9 @@ print("ok")
 def llvm_probe() -> str:
     """Why Mitsuba's llvm_ad_rgb does not render the three scenes here ("" if it does), found in a
     child process: an LLVM that fails to compile a kernel aborts the process, past any except."""
-    code = LLVM_PROBE.format(bench=str(Path(__file__).resolve().parent))
-    try:
-        out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
-    except subprocess.TimeoutExpired:
-        return "the probe renders did not finish in 300 s"
-    if out.returncode == 0 and out.stdout.strip().endswith("ok"):
-        return ""
-    lines = [ln.strip() for ln in (out.stderr + out.stdout).splitlines() if ln.strip() and not ln.startswith(" ")]
-    first = next((ln for ln in lines if "ERROR" in ln or "Error" in ln), lines[-1] if lines else "")
-    return f"8 x 6 probe renders exited with status {out.returncode}: {first[:160]}"
+    from common import child_probe
+
+    return child_probe(LLVM_PROBE.format(bench=str(Path(__file__).resolve().parent)), "8 x 6 probe renders")
 
 
 def bench(args) -> None:
