@@ -459,15 +459,27 @@ def check(args) -> None:
     print(f"{full.sum()} pixels fully covered by the light: max |Mitsuba - emission| = {err:.2e}")
     assert full.sum() > 0 and err < 1e-4 * radiance.max()
     part = (cov > 0) & ~full
-    rest = (mean[part] - radiance[part]).sum(axis=0)
-    print(f"{part.sum()} partly covered pixels: sum(Mitsuba - emission x coverage) = {rest} (the ceiling around it)")
-    assert np.all(rest > 0)
+    # the ceiling around the light, per seed: positive in expectation, but a small budget's noise
+    # can hide it, so it is judged against its standard error over the seeds (3 of them either way)
+    rests = (images[:, part] - radiance[part]).sum(axis=1)
+    rest = rests.mean(axis=0)
+    se = rests.std(axis=0, ddof=1) / math.sqrt(len(rests)) if len(rests) > 1 else np.full(3, np.inf)
+    print(
+        f"{part.sum()} partly covered pixels: sum(Mitsuba - emission x coverage) = {rest} +- {se} "
+        "(the ceiling around it)"
+    )
+    assert not np.any(rest + 3 * se < 0), "the partly covered pixels hold less than the light's share of them"
+    inconclusive = bool(np.any(rest - 3 * se <= 0))
+    if inconclusive:
+        print(f"inconclusive at --seeds {args.seeds} --spp {args.spp}: within 3 standard errors of 0 (raise them)")
     ring = (np.abs(np.gradient(cov.astype(float))[0]) + np.abs(np.gradient(cov.astype(float))[1]) > 0) & (cov == 0)
     print(f"pixels next to the light, uncovered: mean {mean[ring].mean(axis=0)}; covered: {mean[part].mean(axis=0)}")
     left, right = mean[H // 2, : W // 8].mean(axis=0), mean[H // 2, -W // 8 :].mean(axis=0)
     print(f"left edge rgb {left}, right edge rgb {right}")
     assert left[0] > 2 * left[1] and right[1] > 2 * right[0], "the red wall must be on the left, green on the right"
     print("red wall on the left, green on the right: ok")
+    if inconclusive:
+        raise SystemExit("the ceiling's share of the partly covered pixels was inconclusive (above)")
 
 
 def preview(args) -> None:
