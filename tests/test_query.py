@@ -238,6 +238,18 @@ def test_intersect_finds_the_nearest_hit_between_tmin_and_tmax(bumpy):
     )
 
 
+def test_a_negative_tmin_is_refused(bumpy):
+    """Rays start at their origin (the box test keeps nothing behind it, as Embree asks tnear >=
+    0): a negative or NaN tmin is a ValueError for both queries, numbers and arrays alike."""
+    o, d = _camera_rays(16)
+    for tmin in (-1e-9, np.full(16, -1.0), np.where(np.arange(16) == 5, np.nan, 0.0)):
+        for query in (raylume.intersect, raylume.occluded):
+            with pytest.raises(ValueError, match="tmin must be at least 0"):
+                query(bumpy, o, d, tmin=tmin)
+    t, _, _ = raylume.intersect(bumpy, o, d, tmin=np.zeros(16))  # 0 itself is a start
+    np.testing.assert_array_equal(t, raylume.intersect(bumpy, o, d)[0])
+
+
 @njit
 def _image_chunks(origins, directions, width, shares, per_share):
     """Every chunk of an image's rays as intersect_lane loads them: (their copied origins and

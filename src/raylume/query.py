@@ -105,8 +105,8 @@ def intersect(
     tmax: float | np.ndarray = np.inf,
     instances: bool = False,
 ):
-    """Closest hit of each ray strictly between the distances tmin and tmax (numbers or arrays
-    that broadcast to the rays' leading shape): (t float64, object int32, prim int32), each of
+    """Closest hit of each ray strictly between the distances tmin (at least 0) and tmax (numbers or
+    arrays that broadcast to the rays' leading shape): (t float64, object int32, prim int32), each of
     the rays' leading shape (origins and directions of shape (..., 3)); with `instances`, a
     fourth array: the instance AOV (int32: the instance's index within its object, 0 for objects
     without instances, -1 for misses).
@@ -145,7 +145,7 @@ def occluded(
     """Whether anything lies along each ray strictly between the distances tmin and tmax (bool,
     of the rays' leading shape): shadow rays (towards a point light, tmax its distance) and
     visibility queries. Each ray stops at the first thing it finds, so this is cheaper than
-    intersect. tmin and tmax are numbers or arrays that broadcast to the rays' leading shape;
+    intersect. tmin (at least 0) and tmax are numbers or arrays that broadcast to the rays' leading shape;
     directions and errors as intersect says."""
     S, X, origins, directions, tmin, tmax, shape = _query(scene, origins, directions, tmin, tmax)
     out = np.empty(len(origins), dtype=np.bool_)

@@ -28,10 +28,14 @@ def _run_lanes(kernel, args, shares: int, lanes: int, unit: bool) -> int:
 
 
 def ray_spans(tmin, tmax, shape: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:
-    """tmin and tmax (numbers, or arrays that broadcast to the rays' leading shape) as the
+    """tmin (at least 0) and tmax (numbers, or arrays that broadcast to the rays' leading shape) as the
     kernels read them (span_of): arrays of one value where both are one number (no array the
     size of the rays), else C-contiguous 1-D arrays of one per ray, in the rays' order."""
     tmin, tmax = (np.asarray(v, dtype=np.float64) for v in (tmin, tmax))
+    # A ray starts at its origin: the box test keeps no part of a box behind it (as Embree
+    # asks tnear >= 0), so a negative tmin would find only what its leaves hold behind it.
+    if not (tmin >= 0).all():
+        raise ValueError("tmin must be at least 0: rays start at their origin (move it back to find hits behind it)")
     if tmin.size == 1 and tmax.size == 1:
         return tmin.reshape(1), tmax.reshape(1)
     try:
