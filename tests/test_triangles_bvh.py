@@ -553,7 +553,9 @@ def test_awkward_rays_against_brute_force(tmp_path):
 def test_four_triangles_at_once_equal_the_scalar_test_to_the_bit():
     """intersect_triangles (BVH leaves of 2-4 triangles, one vector test) gives the scalar
     test's nearest hit row by row: the same t, lane and barycentrics to the last bit, the
-    first row on ties; degenerate rows and rays through shared edges and vertices included.
+    first row on ties; degenerate rows, rays through shared edges and vertices, rays leaving a
+    triangle (which pass inside it at t <= 0: the divisions are skipped there when tmin >= 0)
+    and a tmin below 0 included.
     So does traversal's block test, on the column table of a small scene (blocks at the table's
     end included: their loads reach into its padding) and on the rows of a large one."""
     from raylume.kernels.geometry.shape_triangle import (
@@ -573,7 +575,7 @@ def test_four_triangles_at_once_equal_the_scalar_test_to_the_bit():
     np.testing.assert_array_equal(cols[:, : len(tris)].T, tris)
     no_cols = triangle_columns(np.zeros((COLUMNS_UP_TO + 1, 9), np.float32))  # a large scene's: none
     assert no_cols.shape[1] < len(tris)
-    checked = 0
+    checked = behind = 0
     for k in range(1500):
         first = int(rng.integers(0, 397)) if k % 3 else (16 if k % 2 else 400 - int(rng.integers(1, 5)))
         count = min(int(rng.integers(1, 5)), 400 - first)
@@ -585,20 +587,27 @@ def test_four_triangles_at_once_equal_the_scalar_test_to_the_bit():
         o = rng.uniform(-3, 3, 3)
         d = target - o
         d /= np.linalg.norm(d)
+        if k % 4 == 1:  # leaving a point of the block's first triangle, as shadow rays and bounces do
+            b = rng.dirichlet([1, 1, 1])
+            o = b @ tris[first].astype(np.float64).reshape(3, 3)
+            d = rng.normal(size=3)
+            d /= np.linalg.norm(d)
         o, d = tuple(o), tuple(d)
         shear = ray_shear(d)
         tmax = INF if k % 7 else 2.0
+        tmin = (0.0, -1.0, 1e-6)[k % 3]  # the kernels' own tmin may be < 0
         want = (INF, 0, 0.0, 0.0)
         for j in range(count):
-            t, b1, b2 = intersect_triangle(o, shear, tris, first + j, 0.0, min(tmax, want[0]))
+            t, b1, b2 = intersect_triangle(o, shear, tris, first + j, tmin, min(tmax, want[0]))
             if t < want[0]:
                 want = (t, j, b1, b2)
-        got = intersect_triangles(o, shear, tris, first, count, 0.0, tmax)
+        got = intersect_triangles(o, shear, tris, first, count, tmin, tmax)
         assert got == want, (k, first, count)
-        assert intersect_triangle_block(o, shear, tris, cols, first, count, 0.0, tmax) == want, (k, first, count)
-        assert intersect_triangle_block(o, shear, tris, no_cols, first, count, 0.0, tmax) == want, (k, first, count)
+        assert intersect_triangle_block(o, shear, tris, cols, first, count, tmin, tmax) == want, (k, first, count)
+        assert intersect_triangle_block(o, shear, tris, no_cols, first, count, tmin, tmax) == want, (k, first, count)
+        behind += tmin < 0 and want[0] < 0
         checked += want[0] < INF
-    assert checked > 200
+    assert checked > 200 and behind > 10  # hits behind the origin, found where tmin < 0
 
 
 @njit

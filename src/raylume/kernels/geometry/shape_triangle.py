@@ -206,10 +206,25 @@ def _block_codegen(context, builder, sig, args, columns, gathered=False):
     inf = ir.Constant(f64, float("inf"))
     # Most blocks a ray tests pass by all four triangles (a shadow ray's always, when it is
     # unblocked): the division for t and the barycentrics' two, a chain of ~40 cycles that the
-    # next leaf's test waits for (its tmax), only where the ray passes inside one.
+    # next leaf's test waits for (its tmax), only where the ray passes inside one. Nor where it
+    # passes inside only triangles behind its origin: a ray leaving a surface (a shadow ray, a
+    # bounce) passes inside its own triangle, at t <= 0. The sign of t is the sign of the
+    # numerator times the denominator's (a division never flips it, and a zero numerator gives
+    # a zero t), so with tmin >= 0 those lanes fail `tmin < t` whatever the division rounds to.
+    num_sz = builder.fmul(num, splat(sz), flags=EXACT)
+    v4i, bits = ir.VectorType(i64, n), ir.IntType(n)
+    sign_differs = builder.icmp_signed(
+        "<", builder.xor(builder.bitcast(num_sz, v4i), builder.bitcast(det, v4i)), ir.Constant(v4i, [0] * n)
+    )
+    behind = builder.or_(sign_differs, builder.fcmp_ordered("==", num_sz, ir.Constant(v4, [0.0] * n), flags=EXACT))
+    none = ir.Constant(bits, 0)
+    inside_ahead = builder.icmp_unsigned("!=", builder.bitcast(builder.and_(inside, builder.not_(behind)), bits), none)
+    tmin_negative = builder.not_(builder.fcmp_ordered(">=", tmin, ir.Constant(f64, 0.0), flags=EXACT))
     entry = builder.block
     with builder.if_then(
-        builder.icmp_unsigned("!=", builder.bitcast(inside, ir.IntType(n)), ir.Constant(ir.IntType(n), 0))
+        builder.and_(
+            builder.icmp_unsigned("!=", builder.bitcast(inside, bits), none), builder.or_(inside_ahead, tmin_negative)
+        )
     ):
         t, ok = watertight_distance(builder, num, det, inside, splat(sz), splat(tmin), splat(tmax))
         tt = builder.select(ok, t, ir.Constant(v4, [float("inf")] * n))
