@@ -1,10 +1,9 @@
 """Pages generated at `mkdocs build` time (mkdocs-gen-files): the scene file and command-line references
-from the code, the gallery from tools/gallery.py's table, and the performance page from the README's
-benchmark section (one copy of the tables: the README's)."""
+from the code, and the gallery from tools/gallery.py's table. The performance page is not generated: it is
+docs/performance.md, every benchmark's tables and their history (the README shows the latest of each)."""
 
 from __future__ import annotations
 
-import re
 import sys
 from pathlib import Path
 
@@ -15,19 +14,6 @@ sys.path.insert(0, str(REPO / "tools"))
 
 import docs_reference  # noqa: E402
 import gallery  # noqa: E402
-
-
-def performance_page() -> str:
-    readme = (REPO / "README.md").read_text()
-    start = readme.index("\n## Benchmarks\n")
-    end = readme.index("\n## ", start + 1)
-    body = readme[start:end].replace("\n## Benchmarks\n", "# Performance\n", 1)
-    body = re.sub(r"^###", "##", body, flags=re.M)
-    intro = (
-        "The benchmark tables and plots, as the README has them (this page is made from it when the site is "
-        "built). `make bench` runs every benchmark; each section names its script.\n"
-    )
-    return body.replace("](docs/images/", "](images/").replace("# Performance\n", "# Performance\n\n" + intro, 1)
 
 
 def gallery_page() -> str:
@@ -65,7 +51,6 @@ PAGES = {
     "reference/scene.md": docs_reference.scene_reference_markdown,
     "reference/cli.md": docs_reference.cli_reference_markdown,
     "gallery.md": gallery_page,
-    "performance.md": performance_page,
 }
 
 for name, make in PAGES.items():

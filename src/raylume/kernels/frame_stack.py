@@ -6,7 +6,7 @@ whose callee's frame lands just past a chunk's end therefore maps and unmaps a c
 call: ~11 us a call instead of 40 ns. Numba's compiler recurses deeply (each function it
 compiles inside its caller's typing), and where its hot loops fall against the chunk boundaries
 depends on every frame below them. A cold compile of raylume.intersect unmapped 9,850 chunks
-at issue 13's filing and 298,975 after, ~3 s of ~16 (README, "Cold compile").
+at issue 13's filing and 298,975 after, ~3 s of ~16 (docs/performance.md, "Cold compile").
 
 A chunk is as large as the frame that opens it needs, rounded up to a power of two. The call
 below reserves a value stack of ROOMY_SLOTS slots: its frame opens a 1 MiB chunk of its own,

@@ -42,7 +42,7 @@ _NOT_FOR_NJIT = {"nopython", *_NO_WRAPPERS}
 # the code below it and made machine code that nothing called. These libraries are linked as
 # Numba hands them over (its function passes done) and optimised and compiled once, in the
 # kernel that links them: a cold compile of raylume.intersect ~1.4 s shorter, every image and
-# hit bit-identical (README, "Cold compile"; docs/architecture.md, "_LinkedOnlyLibrary").
+# hit bit-identical (docs/performance.md, "Cold compile"; docs/architecture.md, "_LinkedOnlyLibrary").
 
 
 class _LinkedOnlyLibrary(JITCodeLibrary):
