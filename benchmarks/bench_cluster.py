@@ -10,7 +10,7 @@ the per-worker warm-up task, every tile, and assembling the image. Also measured
 the first tile (warm workers, and a fresh cluster whose workers load the kernels from the disk
 cache), tiles, the kernel seconds of a tile and the bytes a tile sends back. The last table
 estimates a 4K (3840 x 2160), 1024 spp frame of the same scene on 16 and 64 machines from
-these measurements (docs/guide/cluster.md; the figures in docs/performance.md).
+these measurements (see docs/guide/cluster.md).
 
     python benchmarks/bench_cluster.py [--short 2] [--long 20] [--repeats 3] [--quick]
 """
