@@ -61,10 +61,11 @@ def _single(S, origins, dirs, X=None):
 
 
 @njit(fastmath=FAST, error_model="numpy")
-def _packets(S, origins, dirs, size):
+def _packets(S, origins, dirs, size, shadows=None):
     """The rays in packets of `size` (the last one may be smaller): (t, prim, b1, b2) arrays
-    from packet_closest, and for each packet whether packet_setup took it (the rays of those
-    refused are left NaN)."""
+    from packet_closest (shadows: None, or True for the shadow rays' leaf test, which skips
+    the division for triangles passed behind the origin and must find the same hits), and for
+    each packet whether packet_setup took it (the rays of those refused are left NaN)."""
     n = origins.shape[0]
     out = np.full((n, 4), np.nan)
     taken = np.zeros((n + size - 1) // size, np.bool_)
@@ -80,7 +81,9 @@ def _packets(S, origins, dirs, size):
         ok, rows, axes = packet_setup(origins, dirs, start, m, 0.0, INF, extent, box, lane, prim)
         taken[p] = ok
         if ok:
-            packet_closest(G, None, root, rows, axes, (1 << m) - 1, box, lane, prim, node_stack, t_stack, mask_stack)
+            packet_closest(
+                G, None, root, rows, axes, (1 << m) - 1, box, lane, prim, node_stack, t_stack, mask_stack, shadows
+            )
             for i in range(m):
                 t, q, b1, b2 = packet_hit(lane, prim, i)
                 out[start + i, 0], out[start + i, 1], out[start + i, 2], out[start + i, 3] = t, q, b1, b2
@@ -126,8 +129,9 @@ def _assert_same_hits(got, ref):
 
 
 @PACKET_WORKER
+@pytest.mark.parametrize("shadows", [None, True])
 @pytest.mark.parametrize("kind", ["bumpy", "soup"])
-def test_camera_packets_equal_single_rays_and_brute_force(tmp_path, kind):
+def test_camera_packets_equal_single_rays_and_brute_force(tmp_path, kind, shadows):
     rng = np.random.default_rng(5)
     if kind == "soup":  # overlapping random triangles: packets split up at every level
         centers = rng.uniform(-1, 1, size=(4000, 1, 3))
@@ -137,7 +141,7 @@ def test_camera_packets_equal_single_rays_and_brute_force(tmp_path, kind):
         v, f = bumpy_sphere(20000)
     compiled = _compiled_mesh(tmp_path, v, f)
     o, d = _camera_rays(np.zeros(3), 1.2, 96)
-    got, taken = _packets(compiled.kernel, o, d, PACKET)
+    got, taken = _packets(compiled.kernel, o, d, PACKET, shadows)
     assert taken.all()  # neighbouring pixels are coherent
     ref = _single(compiled.kernel, o, d)
     assert 0.2 < np.isfinite(ref[:, 0]).mean() < 0.95
@@ -161,7 +165,8 @@ def test_partial_packets_leave_their_unused_lanes_out(tmp_path, size):
 
 
 @PACKET_WORKER
-def test_packets_through_vertices_and_edges_leave_no_pinholes(tmp_path):
+@pytest.mark.parametrize("shadows", [None, True])
+def test_packets_through_vertices_and_edges_leave_no_pinholes(tmp_path, shadows):
     """A grid of coplanar triangles under parallel rays straight down through its vertices and
     edge midpoints, eight at a time: every ray hits, at the brute force's distance."""
     n = 12
@@ -178,7 +183,7 @@ def test_packets_through_vertices_and_edges_leave_no_pinholes(tmp_path):
     targets = (np.concatenate([v, edge_mids])[:, None, :] + offsets).reshape(-1, 3)
     o = targets + [0.0, 0.0, 2.0]
     d = np.broadcast_to([0.0, 0.0, -1.0], o.shape).copy()
-    got, taken = _packets(compiled.kernel, o, d, PACKET)
+    got, taken = _packets(compiled.kernel, o, d, PACKET, shadows)
     assert taken.all()
     inside = (np.abs(targets[:, :2]) <= 1).all(axis=1)
     assert (got[inside, 0] == 2.0).all()  # every ray over the grid hits, at exactly 2

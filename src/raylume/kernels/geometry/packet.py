@@ -37,6 +37,7 @@ Packet state lives in one thread's scratch arrays (`packet_scratch`):
   entry's mask of rays.
 """
 
+import contextlib
 import math
 
 import numpy as np
@@ -55,7 +56,8 @@ from .shape_triangle import (
     intersect_triangles,
     ray_shear,
     shear_axes,
-    watertight_lanes,
+    watertight_distance,
+    watertight_edges,
 )
 from .shapes import NO_HIT
 from .traverse import _root_is_a_leaf, _unbounded_hit, block_row, intersect_leaf, rows_in_leaf_order
@@ -348,17 +350,9 @@ def packet_farthest(typingctx, lane, mask):
 # --- a leaf of triangles against the packet ----------------------------------------------------------
 
 
-@intrinsic
-def packet_triangles(typingctx, tri, row, count, first, axes, lane, prim, active):
-    """Triangles row .. row + count - 1 of tri (float32 (T, 9)) against the `active` rays of the
-    packet, one ray per float64 lane: shape_triangle.intersect_triangle's arithmetic operation
-    for operation (IEEE, no FMA contraction), with the packet's shear axes `axes` (kx, ky, kz)
-    and each lane's origin and shear constants. A hit nearer than a ray's best replaces it in
-    lane[BEST_*] and prim (first + the triangle's place in the leaf): as the single-ray test,
-    the first of equal hits is kept."""
-    _check_array("packet_triangles", tri, types.float32, 2)
-    _check_array("packet_triangles", lane, types.float64, 2)
-    _check_array("packet_triangles", prim, types.int64, 1)
+def _triangles_codegen(skip_behind):
+    """packet_triangles' code; with skip_behind, the division and the best hits' update only for
+    a triangle that an active ray passes inside ahead of its origin (packet_triangles_ahead)."""
 
     def codegen(context, builder, sig, args):
         t_data = _array_data(context, builder, sig.args[0], args[0])
@@ -400,20 +394,71 @@ def packet_triangles(typingctx, tri, row, count, first, axes, lane, prim, active
             ax, ay, az = fsub(vertex(cols[0]), ox), fsub(vertex(cols[1]), oy), fsub(vertex(cols[2]), oz)
             bx, by, bz = fsub(vertex(cols[3]), ox), fsub(vertex(cols[4]), oy), fsub(vertex(cols[5]), oz)
             cx, cy, cz = fsub(vertex(cols[6]), ox), fsub(vertex(cols[7]), oy), fsub(vertex(cols[8]), oz)
-            best = builder.load(best_slots[BEST_T])
-            t, v, w, det, ok = watertight_lanes(builder, (ax, ay, az, bx, by, bz, cx, cy, cz), sx, sy, sz, tmin, best)
-            ok = builder.and_(ok, act)
-            for dest, value in ((BEST_T, t), (BEST_V, v), (BEST_W, w), (BEST_DET, det)):
-                slot = best_slots[dest]
-                builder.store(builder.select(ok, value, builder.load(slot)), slot)
-            here = _splat(builder, builder.add(first, loop.index), _V8I64)
-            builder.store(builder.select(ok, here, builder.load(prim_slot)), prim_slot)
+            _, v, w, det, num, inside = watertight_edges(builder, (ax, ay, az, bx, by, bz, cx, cy, cz), sx, sy)
+            inside = builder.and_(inside, act)
+            if skip_behind:
+                # Only where an active ray passes inside the triangle ahead of its origin (the
+                # block test's reasoning, shape_triangle.py): a shadow ray leaving a surface
+                # passes inside its own triangle, behind it; the division is on the chain of
+                # best hits from one triangle to the next.
+                num_sz = builder.fmul(num, sz, flags=EXACT)
+                sign_differs = builder.icmp_signed(
+                    "<",
+                    builder.xor(builder.bitcast(num_sz, _V8I64), builder.bitcast(det, _V8I64)),
+                    ir.Constant(_V8I64, [0] * PACKET),
+                )
+                zero = ir.Constant(_V8D, [0.0] * PACKET)
+                behind = builder.and_(
+                    builder.or_(sign_differs, builder.fcmp_ordered("==", num_sz, zero, flags=EXACT)),
+                    builder.fcmp_ordered(">=", tmin, zero, flags=EXACT),
+                )
+                ahead = builder.bitcast(builder.and_(inside, builder.not_(behind)), ir.IntType(PACKET))
+                skip = builder.if_then(builder.icmp_unsigned("!=", ahead, ir.Constant(ir.IntType(PACKET), 0)))
+            else:
+                skip = contextlib.nullcontext()
+            with skip:
+                best = builder.load(best_slots[BEST_T])
+                t, ok = watertight_distance(builder, num, det, inside, sz, tmin, best)
+                for dest, value in ((BEST_T, t), (BEST_V, v), (BEST_W, w), (BEST_DET, det)):
+                    slot = best_slots[dest]
+                    builder.store(builder.select(ok, value, builder.load(slot)), slot)
+                here = _splat(builder, builder.add(first, loop.index), _V8I64)
+                builder.store(builder.select(ok, here, builder.load(prim_slot)), prim_slot)
         for r in rows:
             _store_row(builder, builder.load(best_slots[r]), ln, r, _V8D)
         builder.store(builder.load(prim_slot), prim_ptr, align=8)
         return context.get_dummy_value()
 
-    return types.void(tri, row, count, first, axes, lane, prim, active), codegen
+    return codegen
+
+
+@intrinsic
+def packet_triangles(typingctx, tri, row, count, first, axes, lane, prim, active):
+    """Triangles row .. row + count - 1 of tri (float32 (T, 9)) against the `active` rays of the
+    packet, one ray per float64 lane: shape_triangle.intersect_triangle's arithmetic operation
+    for operation (IEEE, no FMA contraction), with the packet's shear axes `axes` (kx, ky, kz)
+    and each lane's origin and shear constants. A hit nearer than a ray's best replaces it in
+    lane[BEST_*] and prim (first + the triangle's place in the leaf): as the single-ray test,
+    the first of equal hits is kept."""
+    _check_array("packet_triangles", tri, types.float32, 2)
+    _check_array("packet_triangles", lane, types.float64, 2)
+    _check_array("packet_triangles", prim, types.int64, 1)
+
+    return types.void(tri, row, count, first, axes, lane, prim, active), _triangles_codegen(False)
+
+
+@intrinsic
+def packet_triangles_ahead(typingctx, tri, row, count, first, axes, lane, prim, active):
+    """packet_triangles for shadow rays: the same answers, the division skipped for a triangle
+    that no active ray passes inside ahead of its origin (one a shadow ray leaves passes inside
+    behind it). A branch per triangle: ~6% less time for shadow packets (bunny, Nefertiti, bumpy
+    40k), ~4% more for camera rays (bunny, bumpy 1M), whose packets pass inside most triangles they
+    test, hence the two."""
+    _check_array("packet_triangles_ahead", tri, types.float32, 2)
+    _check_array("packet_triangles_ahead", lane, types.float64, 2)
+    _check_array("packet_triangles_ahead", prim, types.int64, 1)
+
+    return types.void(tri, row, count, first, axes, lane, prim, active), _triangles_codegen(True)
 
 
 # --- setting a packet up --------------------------------------------------------------------------
@@ -724,7 +769,7 @@ def packet_trace(G, X, root, origins, directions, start, n, extent, packets, nod
         if X is not None:  # (pruned in the basic variant, which has no unbounded shapes)
             if G.n_bounded < G.prims.shape[0]:
                 packet_unbounded(G, X, axes, lane, prim, n)
-        packet_closest(G, X, root, rows, axes, (1 << n) - 1, box, lane, prim, node_stack, t_stack, mask_stack)
+        packet_closest(G, X, root, rows, axes, (1 << n) - 1, box, lane, prim, node_stack, t_stack, mask_stack, None)
     return coherent
 
 
@@ -751,7 +796,7 @@ def packet_blocked(
     if X is not None:  # (pruned in the basic variant, which has no unbounded shapes)
         if G.n_bounded < G.prims.shape[0]:
             packet_unbounded(G, X, axes, lane, prim, n)
-    packet_closest(G, X, root, rows, axes, need, box, lane, prim, node_stack, t_stack, mask_stack)
+    packet_closest(G, X, root, rows, axes, need, box, lane, prim, node_stack, t_stack, mask_stack, True)
     blocked = 0
     for i in range(n):
         if (need >> i) & 1 and prim[i] != NO_HIT:
@@ -760,11 +805,13 @@ def packet_blocked(
 
 
 @inline_function
-def packet_closest(G, X, root, rows, axes, active, box, lane, prim, node_stack, t_stack, mask_stack):
+def packet_closest(G, X, root, rows, axes, active, box, lane, prim, node_stack, t_stack, mask_stack, shadows):
     """The nearest hit of each active ray of the packet (set up by packet_setup) through the
     BVH, into lane[BEST_*] and prim (read them with packet_hit); root: root_box(G). Stack entries are
     traverse.py's, each with the mask of the rays that entered it, and the nearest of their entry
-    distances: an entry is skipped when even that lies beyond the farthest best hit of its rays."""
+    distances: an entry is skipped when even that lies beyond the farthest best hit of its rays.
+    shadows: None for camera rays, True for shadow rays (packet_triangles_ahead; the other is
+    pruned at compile time)."""
     index = G.node_index
     bounds = G.node_bounds
     tri = G.triangles
@@ -842,8 +889,10 @@ def packet_closest(G, X, root, rows, axes, active, box, lane, prim, node_stack, 
                 few &= few - 1  # ... and its second lowest
                 if (few & (few - 1)) == 0:  # one, two or three rays
                     _triangles_ray_by_ray(tri, row, -count, first, axes, lane, prim, mask)
-                else:
+                elif shadows is None:
                     packet_triangles(tri, row, -count, first, axes, lane, prim, mask)
+                else:
+                    packet_triangles_ahead(tri, row, -count, first, axes, lane, prim, mask)
             else:
                 if direct_rows:  # one triangle
                     prefetch_neighbours(tri, first, first + count)
