@@ -62,12 +62,12 @@ def log_reads(G, O, D, log, node_stack, t_stack):
             if ref >= 0:
                 log[n, 0], log[n, 1], log[n, 2] = NODE, ref, 0
                 n += 1
-                k = traverse.push_children(
+                k, nearest = traverse.push_children(
                     bounds, index, G.prims, ref, rf, rows, best_t, node_stack, t_stack, top, tri, True
                 )
                 if k > 0:
                     top += k - 1
-                    ref = node_stack[top]
+                    ref = nearest
                     continue
             else:
                 first, count = leaf_first(ref), leaf_count(ref)

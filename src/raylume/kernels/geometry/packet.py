@@ -830,6 +830,9 @@ def packet_closest(G, X, root, rows, axes, active, box, lane, prim, node_stack, 
             prefetch_child_rows(index, ref)
             masks = packet_node(bounds, ref, box, rows, lane, mask, t_stack, top)
             k = 0
+            # the nearest child stays in registers, visited next (push_children says why)
+            nearest, nearest_mask = index[np.uint64(ref), NODE_REF, np.uint64(0)], mask
+            nearest_t = t_stack[np.uint64(top)]
             # the lowest bit of each byte of `masks` set where that child has a ray: the loop
             # visits those children alone, in lane order
             some = masks | (masks >> 4)
@@ -853,22 +856,31 @@ def packet_closest(G, X, root, rows, axes, active, box, lane, prim, node_stack, 
                             prefetch_row(tri, f0 + r)
                     else:
                         prefetch_row(P, f0)
-                # sorted insertion, the nearest on top; slots top + c' > top + k are still
-                # unread entry distances of lanes after c, so the shift stays below them
-                j = top + k
-                while j > top and t_stack[np.uint64(j - 1)] < t:
-                    t_stack[np.uint64(j)] = t_stack[np.uint64(j - 1)]
-                    node_stack[np.uint64(j)] = node_stack[np.uint64(j - 1)]
-                    mask_stack[np.uint64(j)] = mask_stack[np.uint64(j - 1)]
-                    j -= 1
-                t_stack[np.uint64(j)] = t
-                node_stack[np.uint64(j)] = child
-                mask_stack[np.uint64(j)] = m
+                # sorted insertion of all but the nearest, the next nearest on top; slots top + c'
+                # >= top + k are still unread entry distances of lanes after c, so the shift
+                # stays below them
+                if k == 0:
+                    nearest, nearest_t, nearest_mask = child, t, m
+                elif t <= nearest_t:  # the new nearest; the old one, nearer than all pushed, on top
+                    t_stack[np.uint64(top + k - 1)] = nearest_t
+                    node_stack[np.uint64(top + k - 1)] = nearest
+                    mask_stack[np.uint64(top + k - 1)] = nearest_mask
+                    nearest, nearest_t, nearest_mask = child, t, m
+                else:
+                    j = top + k - 1
+                    while j > top and t_stack[np.uint64(j - 1)] < t:
+                        t_stack[np.uint64(j)] = t_stack[np.uint64(j - 1)]
+                        node_stack[np.uint64(j)] = node_stack[np.uint64(j - 1)]
+                        mask_stack[np.uint64(j)] = mask_stack[np.uint64(j - 1)]
+                        j -= 1
+                    t_stack[np.uint64(j)] = t
+                    node_stack[np.uint64(j)] = child
+                    mask_stack[np.uint64(j)] = m
                 k += 1
             if k > 0:
                 top += k - 1
-                ref = node_stack[np.uint64(top)]
-                mask = mask_stack[np.uint64(top)]
+                ref = nearest
+                mask = nearest_mask
                 continue
         else:
             packet_shear(lane, axes)

@@ -260,10 +260,12 @@ def _bvh_hit(
     top = 0
     while True:
         if ref >= 0:
-            k = push_children(bounds, index, G.prims, ref, rf, rows, best_t, node_stack, t_stack, top, tri, direct)
+            k, nearest = push_children(
+                bounds, index, G.prims, ref, rf, rows, best_t, node_stack, t_stack, top, tri, direct
+            )
             if k > 0:  # descend into the nearest
                 top += k - 1
-                ref = node_stack[top]
+                ref = nearest
                 continue
         else:
             if lazy_shear:

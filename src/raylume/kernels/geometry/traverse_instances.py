@@ -74,10 +74,12 @@ def _blas_hit(prims, tris, cols, bounds, index, root, o, d, tmin, best_t, node_s
     top = base
     while True:
         if ref >= 0:
-            k = push_children(bounds, index, prims, ref, rf, rows, best_t, node_stack, t_stack, top, prims, False)
+            k, nearest = push_children(
+                bounds, index, prims, ref, rf, rows, best_t, node_stack, t_stack, top, prims, False
+            )
             if k > 0:
                 top += k - 1
-                ref = np.int64(node_stack[top])
+                ref = np.int64(nearest)
                 continue
         else:
             t, j, u, v = _leaf_triangles(prims, tris, cols, ref, o, shear, tmin, best_t)
@@ -107,10 +109,10 @@ def instances_hit(G, X, o, d, tmin, best_t, hit, b1, b2, node_stack, t_stack, st
     top = 0
     while True:
         if ref >= 0:
-            k = push_children(bounds, index, inv, ref, rf, rows, best_t, node_stack, t_stack, top, inv, False)
+            k, nearest = push_children(bounds, index, inv, ref, rf, rows, best_t, node_stack, t_stack, top, inv, False)
             if k > 0:
                 top += k - 1
-                ref = np.int64(node_stack[top])
+                ref = np.int64(nearest)
                 continue
         else:
             first = leaf_first(ref)

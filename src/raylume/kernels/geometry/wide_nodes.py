@@ -370,19 +370,25 @@ def box_entries(bounds, node, o, d, tmax, out):
 
 @inline_function
 def push_children(bounds, index, leaf_rows, ref, rf, rows, best_t, node_stack, t_stack, top, tri, direct):
-    """Push the children of node `ref` that the ray enters nearer than best_t onto the stacks
-    from `top`, sorted farthest first (the nearest on top); returns how many. The node's child
-    indices are prefetched beside its boxes, not loaded after the box test, so the two cache
-    misses of a node overlap (hit rays on a 1M-triangle mesh: ~12% less time); a pushed leaf's
-    first rows too, of what testing it reads first: its triangles (`tri`) where `direct`
-    (rows_in_leaf_order), else its row of `leaf_rows` (bumpy 4M single-ray hit rays 2-4% less
-    time than with the primitive table's row prefetched on every mesh). A prefetch past the
-    table's end is harmless: prefetches never fault."""
+    """The children of node `ref` that the ray enters nearer than best_t: (k, nearest), how many
+    and the nearest of them (to visit next); the other k - 1 are pushed onto the stacks from
+    `top`, sorted farthest first (the next nearest on top), the stacks' order when the nearest
+    was pushed on top and popped at once (of equal distances, the later lane first). The nearest
+    stays in a register: as a store and the load that read it back, it put a store-to-load
+    forwarding on every descent's chain (the next node's address). The node's child indices are
+    prefetched beside its boxes, not loaded after the box test, so the two cache misses of a node
+    overlap (hit rays on a 1M-triangle mesh: ~12% less time); a pushed leaf's first rows too, of
+    what testing it reads first: its triangles (`tri`) where `direct` (rows_in_leaf_order), else
+    its row of `leaf_rows` (bumpy 4M single-ray hit rays 2-4% less time than with the primitive
+    table's row prefetched on every mesh). A prefetch past the table's end is harmless:
+    prefetches never fault."""
     prefetch_child_rows(index, ref)
-    # entry distances land at t_stack[top:]; they are moved down to t_stack[top:top + k] (lane
-    # i >= k is read before slot top + k is written)
+    # entry distances land at t_stack[top:]; the pushed ones are moved down to t_stack[top:top + k
+    # - 1] (lane i >= k is read before slot top + k - 1 is written)
     mask = box_hits(bounds, ref, rf, rows, best_t, t_stack, top)
     k = 0
+    nearest = index[np.uint64(ref), NODE_REF, np.uint64(0)]
+    nearest_t = t_stack[np.uint64(top)]
     # Subscripts as unsigned (none is negative): Numba wraps every signed subscript around
     # (shift, and, add); without that, bumpy 10k hit rays took ~2% less time.
     while mask != 0:
@@ -401,15 +407,22 @@ def push_children(bounds, index, leaf_rows, ref, rf, rows, best_t, node_stack, t
                 prefetch_row(tri, first + 3)
             else:
                 prefetch_row(leaf_rows, first)
-        j = top + k
-        while j > top and t_stack[np.uint64(j - 1)] < t:
-            t_stack[np.uint64(j)] = t_stack[np.uint64(j - 1)]
-            node_stack[np.uint64(j)] = node_stack[np.uint64(j - 1)]
-            j -= 1
-        t_stack[np.uint64(j)] = t
-        node_stack[np.uint64(j)] = child
+        if k == 0:
+            nearest, nearest_t = child, t
+        elif t <= nearest_t:  # the new nearest; the old one, nearer than all pushed, on top
+            t_stack[np.uint64(top + k - 1)] = nearest_t
+            node_stack[np.uint64(top + k - 1)] = nearest
+            nearest, nearest_t = child, t
+        else:
+            j = top + k - 1
+            while j > top and t_stack[np.uint64(j - 1)] < t:
+                t_stack[np.uint64(j)] = t_stack[np.uint64(j - 1)]
+                node_stack[np.uint64(j)] = node_stack[np.uint64(j - 1)]
+                j -= 1
+            t_stack[np.uint64(j)] = t
+            node_stack[np.uint64(j)] = child
         k += 1
-    return k
+    return k, nearest
 
 
 @inline_function
