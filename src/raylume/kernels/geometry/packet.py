@@ -52,6 +52,7 @@ from .layout import NODE_REF, NODE_ROWS, SPHERE_BLOCK
 from .shape_triangle import (
     EXACT,
     EXACT_DIVISION,
+    behind_origin,
     exact_ops,
     intersect_triangles,
     ray_shear,
@@ -401,16 +402,9 @@ def _triangles_codegen(skip_behind):
                 # block test's reasoning, shape_triangle.py): a shadow ray leaving a surface
                 # passes inside its own triangle, behind it; the division is on the chain of
                 # best hits from one triangle to the next.
-                num_sz = builder.fmul(num, sz, flags=EXACT)
-                sign_differs = builder.icmp_signed(
-                    "<",
-                    builder.xor(builder.bitcast(num_sz, _V8I64), builder.bitcast(det, _V8I64)),
-                    ir.Constant(_V8I64, [0] * PACKET),
-                )
                 zero = ir.Constant(_V8D, [0.0] * PACKET)
                 behind = builder.and_(
-                    builder.or_(sign_differs, builder.fcmp_ordered("==", num_sz, zero, flags=EXACT)),
-                    builder.fcmp_ordered(">=", tmin, zero, flags=EXACT),
+                    behind_origin(builder, num, det, sz), builder.fcmp_ordered(">=", tmin, zero, flags=EXACT)
                 )
                 ahead = builder.bitcast(builder.and_(inside, builder.not_(behind)), ir.IntType(PACKET))
                 skip = builder.if_then(builder.icmp_unsigned("!=", ahead, ir.Constant(ir.IntType(PACKET), 0)))
@@ -831,8 +825,7 @@ def packet_closest(G, X, root, rows, axes, active, box, lane, prim, node_stack, 
             masks = packet_node(bounds, ref, box, rows, lane, mask, t_stack, top)
             k = 0
             # the nearest child stays in registers, visited next (push_children says why)
-            nearest, nearest_mask = index[np.uint64(ref), NODE_REF, np.uint64(0)], mask
-            nearest_t = t_stack[np.uint64(top)]
+            nearest, nearest_t, nearest_mask = np.int32(0), np.float32(0.0), mask  # set by the first child
             # the lowest bit of each byte of `masks` set where that child has a ray: the loop
             # visits those children alone, in lane order
             some = masks | (masks >> 4)

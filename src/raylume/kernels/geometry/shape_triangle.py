@@ -211,12 +211,8 @@ def _block_codegen(context, builder, sig, args, columns, gathered=False):
     # bounce) passes inside its own triangle, at t <= 0. The sign of t is the sign of the
     # numerator times the denominator's (a division never flips it, and a zero numerator gives
     # a zero t), so with tmin >= 0 those lanes fail `tmin < t` whatever the division rounds to.
-    num_sz = builder.fmul(num, splat(sz), flags=EXACT)
-    v4i, bits = ir.VectorType(i64, n), ir.IntType(n)
-    sign_differs = builder.icmp_signed(
-        "<", builder.xor(builder.bitcast(num_sz, v4i), builder.bitcast(det, v4i)), ir.Constant(v4i, [0] * n)
-    )
-    behind = builder.or_(sign_differs, builder.fcmp_ordered("==", num_sz, ir.Constant(v4, [0.0] * n), flags=EXACT))
+    behind = behind_origin(builder, num, det, splat(sz))
+    bits = ir.IntType(n)
     none = ir.Constant(bits, 0)
     inside_ahead = builder.icmp_unsigned("!=", builder.bitcast(builder.and_(inside, builder.not_(behind)), bits), none)
     tmin_negative = builder.not_(builder.fcmp_ordered(">=", tmin, ir.Constant(f64, 0.0), flags=EXACT))
@@ -284,6 +280,19 @@ def watertight_edges(builder, rel, sx, sy):
         builder.fcmp_unordered("!=", det, ir.Constant(vt, [0.0] * vt.count), flags=EXACT),
     )
     return u, v, w, det, num, inside
+
+
+def behind_origin(builder, num, det, sz):
+    """The lanes whose t (watertight_distance's num * sz / det) is at most 0, without the
+    division: the product's sign and the denominator's differ, or the product is 0 (a division
+    never flips a sign). With tmin >= 0 no such lane is a hit, whatever the division rounds to."""
+    vt = num.type
+    vi = ir.VectorType(ir.IntType(64), vt.count)
+    num_sz = builder.fmul(num, sz, flags=EXACT)
+    sign_differs = builder.icmp_signed(
+        "<", builder.xor(builder.bitcast(num_sz, vi), builder.bitcast(det, vi)), ir.Constant(vi, [0] * vt.count)
+    )
+    return builder.or_(sign_differs, builder.fcmp_ordered("==", num_sz, ir.Constant(vt, [0.0] * vt.count), flags=EXACT))
 
 
 def watertight_distance(builder, num, det, inside, sz, tmin, tmax):

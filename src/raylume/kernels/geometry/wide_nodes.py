@@ -387,8 +387,7 @@ def push_children(bounds, index, leaf_rows, ref, rf, rows, best_t, node_stack, t
     # - 1] (lane i >= k is read before slot top + k - 1 is written)
     mask = box_hits(bounds, ref, rf, rows, best_t, t_stack, top)
     k = 0
-    nearest = index[np.uint64(ref), NODE_REF, np.uint64(0)]
-    nearest_t = t_stack[np.uint64(top)]
+    nearest, nearest_t = np.int32(0), np.float32(0.0)  # set by the first child
     # Subscripts as unsigned (none is negative): Numba wraps every signed subscript around
     # (shift, and, add); without that, bumpy 10k hit rays took ~2% less time.
     while mask != 0:
