@@ -149,8 +149,13 @@ def _store_row(builder, value, data, row, vt):
 
 
 def _mask_vector(builder, mask):
-    """The low PACKET bits of the i64 `mask` as a <PACKET x i1> vector (bit i: lane i)."""
-    return builder.bitcast(builder.trunc(mask, ir.IntType(PACKET)), ir.VectorType(_i1, PACKET))
+    """The low PACKET bits of the i64 `mask` as a <PACKET x i1> vector (bit i: lane i), made by
+    a vector compare of the splatted mask with each lane's bit: a bitcast of an i8 to <8 x i1>
+    is taken apart byte by byte by LLVM's x86 backend and its result packed and unpacked around
+    every use (six instructions a child in packet_node)."""
+    vi = ir.VectorType(_i32, PACKET)
+    lanes = builder.and_(_splat(builder, builder.trunc(mask, _i32), vi), ir.Constant(vi, [1 << i for i in range(PACKET)]))
+    return builder.icmp_unsigned("!=", lanes, ir.Constant(vi, [0] * PACKET))
 
 
 def _mask_bits(builder, vec):
