@@ -154,7 +154,8 @@ def _mask_vector(builder, mask):
     is taken apart byte by byte by LLVM's x86 backend and its result packed and unpacked around
     every use (six instructions a child in packet_node)."""
     vi = ir.VectorType(_i32, PACKET)
-    lanes = builder.and_(_splat(builder, builder.trunc(mask, _i32), vi), ir.Constant(vi, [1 << i for i in range(PACKET)]))
+    bits = ir.Constant(vi, [1 << i for i in range(PACKET)])
+    lanes = builder.and_(_splat(builder, builder.trunc(mask, _i32), vi), bits)
     return builder.icmp_unsigned("!=", lanes, ir.Constant(vi, [0] * PACKET))
 
 
