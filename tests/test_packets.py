@@ -5,12 +5,15 @@ refused as packets and traced ray by ray."""
 
 from __future__ import annotations
 
+from fractions import Fraction
+
 import numpy as np
 import pytest
 import trimesh
-from hypothesis import given, settings
+from hypothesis import assume, example, given, settings
 from hypothesis import strategies as st
 from numba import njit
+from test_intersect import _textbook_slab, component, coord
 
 import raylume
 from raylume.compile import compile_scene
@@ -18,9 +21,11 @@ from raylume.kernels.film.camera import camera_frame
 from raylume.kernels.geometry.packet import (
     PACKET,
     packet_blocked,
+    packet_box,
     packet_closest,
     packet_finish,
     packet_hit,
+    packet_node,
     packet_scratch,
     packet_setup,
     packet_shear,
@@ -31,7 +36,13 @@ from raylume.kernels.geometry.packet import (
 from raylume.kernels.geometry.query import CHUNK
 from raylume.kernels.geometry.shape_triangle import INF, intersect_triangle, ray_shear
 from raylume.kernels.geometry.traverse import any_hit, closest_hit
-from raylume.kernels.geometry.wide_nodes import CHILDREN_PREFETCHED_FROM, NEIGHBOURS_FROM, TRAVERSAL_STACK, box_ray
+from raylume.kernels.geometry.wide_nodes import (
+    BVH_WIDTH,
+    CHILDREN_PREFETCHED_FROM,
+    NEIGHBOURS_FROM,
+    TRAVERSAL_STACK,
+    box_ray,
+)
 from raylume.kernels.scene import geometry_of
 from raylume.kernels.variants import features
 from raylume.kernels.vec import FAST
@@ -258,9 +269,11 @@ def _setup_lanes(origins, dirs, n, extent):
 )
 def test_packet_setup_gives_each_lane_the_single_ray_box_constants(seed, n, scale, zero_axis):
     """The SIMD setup (packet_load) writes each lane's box-test constants exactly as box_ray
-    computes them for that ray alone (directions with a zero component included), and takes the
-    packet exactly when the module's rules say (checked with the single-ray functions: box_ray's
-    octant rows and ray_shear's dominant axis, away from the limits' rounding)."""
+    computes them for that ray alone (directions with a zero component included): its 1 / d and
+    slab offsets on either side of the exact -o / d, within a relative 2 ** -20 of it and the
+    origin's outward move; and takes the packet exactly when the module's rules say (checked
+    with the single-ray functions: box_ray's octant rows and ray_shear's dominant axis, away
+    from the limits' rounding)."""
     rng = np.random.default_rng(seed)
     d0 = rng.normal(size=3)
     d = d0 + rng.normal(scale=rng.choice([1e-4, 0.05, 0.5]), size=(PACKET, 3))
@@ -272,6 +285,14 @@ def test_packet_setup_gives_each_lane_the_single_ray_box_constants(seed, n, scal
     assert np.array_equal(box.view(np.uint32), single.view(np.uint32))
     lanes = [i if i < n else 0 for i in range(PACKET)]
     dl, ol = d[lanes], o[lanes]
+    for i in range(PACKET):
+        for k in range(3):
+            exact = -Fraction(float(ol[i, k])) * Fraction(float(box[6 + k, i]))
+            near, far = Fraction(float(box[k, i])), Fraction(float(box[3 + k, i]))
+            assert near <= exact <= far
+            # the origin moves out by max(2 ** -23 |o|, 2 ** -72): so much of -o / d and more
+            slack = abs(exact) * Fraction(1, 2**20) + Fraction(2.0**-71) * abs(Fraction(float(box[6 + k, i])))
+            assert exact - near <= slack and far - exact <= slack
     cos = dl @ dl[0] / (np.linalg.norm(dl, axis=1) * np.linalg.norm(dl[0]))
     gap = np.abs(ol - ol[0]).max()
     if np.any(np.abs(cos - 0.985) < 1e-9) or abs(gap - 0.01 * extent) < 1e-9 * extent:
@@ -282,6 +303,59 @@ def test_packet_setup_gives_each_lane_the_single_ray_box_constants(seed, n, scal
     )
     assert ok == expected
     assert tuple(rows) == tuple(near_rows[:, 0])
+
+
+@njit(fastmath=FAST, error_model="numpy")
+def _packet_entry(lo_hi, o, d, tmax):
+    """A one-ray packet's (the ray copied to every lane) entry distance into a box in lane 0 of
+    a wide node whose other lanes are empty, by packet_node; +inf where it misses. Also returns
+    whether an empty lane was entered (never), and the packet box test's answer for lane 0."""
+    box, lane, prim, _ = packet_scratch()
+    origins, dirs = o.reshape((1, 3)), d.reshape((1, 3))
+    ok, rows, _ = packet_setup(origins, dirs, 0, 1, 0.0, tmax, 1.0, box, lane, prim)
+    bounds = np.empty((1, 7, BVH_WIDTH), np.float32)
+    bounds[0, :3], bounds[0, 3:6] = np.inf, -np.inf
+    bounds[0, :6, 0] = lo_hi
+    t_out = np.empty(BVH_WIDTH, np.float32)
+    masks = packet_node(bounds, 0, box, rows, lane, 1, t_out, 0)
+    x, y, z = rows
+    planes = (lo_hi[x], lo_hi[y], lo_hi[z], lo_hi[3 - x], lo_hi[5 - y], lo_hi[7 - z])
+    whole = packet_box(planes, box, lane, 1)
+    t = np.float64(t_out[0]) if masks & 1 else INF
+    return ok, t, (masks >> 8) != 0, whole
+
+
+@PACKET_WORKER
+@settings(max_examples=500, deadline=None)
+@given(
+    st.tuples(coord, coord, coord),
+    st.tuples(coord, coord, coord),
+    st.tuples(coord, coord, coord),
+    st.tuples(component, component, component).filter(lambda d: any(d)),
+    st.sampled_from([INF, 5.0]),
+)
+# the single-ray test's hard cases: an entry in the subnormal range, and a ray parallel to the z
+# slab 1.8e-38 inside its face
+@example(a=(0.0, 2.0, 1.401298464324817e-45), b=(1.0, 0.0, 1.0), o=(0.0, 1.0, 0.0), d=(1.0, 0.0, 0.625), tmax=INF)
+@example(a=(0.0, 0.0, 0.0), b=(0.0, -2.0, -1.0), o=(4.0, -1.0, -1.8289849851155408e-38), d=(-0.5, 0.0, 0.0), tmax=INF)
+def test_packet_box_test_agrees_with_the_textbook_slab_test(a, b, o, d, tmax):
+    """The packet's slab test (one multiply-add a plane, packet_load's offsets) against the
+    textbook slabs with exact division, as test_intersect checks the single-ray one: a box the
+    ray enters is never culled, its entry distance never overestimated, and short of it by no
+    more than the rounding; the root box test (packet_box) answers as packet_node does."""
+    lo, hi = np.minimum(a, b), np.maximum(a, b)
+    assume(not any(d[k] == 0.0 and o[k] in (lo[k], hi[k]) for k in range(3)))
+    lo_hi = np.concatenate([lo, hi]).astype(np.float32)
+    ok, got, empty_entered, whole = _packet_entry(lo_hi, np.array(o, float), np.array(d, float), tmax)
+    assert ok and not empty_entered
+    assert whole == (got < INF)
+    want = _textbook_slab(lo, hi, o, d, tmax)
+    slack = 2.0**-21 * (1.0 + max(map(abs, o))) / min(abs(c) for c in d if c != 0.0)
+    if want == INF:
+        assert got == INF or _textbook_slab(lo - slack, hi + slack, o, d, tmax * (1 + 1e-5)) < INF
+    else:
+        # short of it by the relative widening and the origin's and the offsets' outward moves
+        assert got <= want and want - got <= 2e-6 * want + slack
 
 
 def _clear_dominant_axis(t):
@@ -397,14 +471,15 @@ def test_packet_tests_are_vector_code(tmp_path):
 
     import llvmlite.binding as llvm
 
-    if "+avx2" not in llvm.get_host_cpu_features().flatten().split(","):
-        pytest.skip("the CPU has no AVX2: no 8-wide float32 registers to check for")
+    features = llvm.get_host_cpu_features().flatten().split(",")
+    if "+avx2" not in features or "+fma" not in features:
+        pytest.skip("the CPU has no AVX2 and FMA: no 8-wide float32 registers or multiply-adds to check for")
     v, f = bumpy_sphere(500)
     compiled = _compiled_mesh(tmp_path, v, f)
     o, d = _camera_rays(np.zeros(3), 1.2, 16)
     _packets(compiled.kernel, o, d, PACKET)
     asm = "\n".join(_packets.inspect_asm().values())
-    for op in ("vmaxps", "vminps", "vcmp[a-z]*ps", "vsubps", "vmulps"):  # the box test
+    for op in ("vmaxps", "vminps", "vcmp[a-z]*ps", "vfmadd[0-9]*ps", "vmulps"):  # the box test
         assert re.search(rf"\b{op}\s+[^\n]*%ymm", asm), f"no 8-wide {op}: the packet box test is scalar"
     tris = np.random.default_rng(0).uniform(-1, 1, size=(8, 9)).astype(np.float32)
     _triangle_block(tris, 0, 4, o[:PACKET], d[:PACKET])

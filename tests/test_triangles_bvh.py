@@ -370,21 +370,22 @@ def test_rays_through_a_shared_diagonal_hit_inside_the_renderer(tmp_path):
 
 @BRUTE_FORCE_WORKER
 def test_box_test_is_vectorised():
-    """The wide box test runs as 8-wide vector instructions (ymm vsubps/vmulps/vmaxps/vminps/
-    vcmpps with AVX2) inside the traversal that every mode inlines: fails loudly if a change
+    """The wide box test runs as 8-wide vector instructions (ymm vfmadd/vmulps/vmaxps/vminps/
+    vcmpps with AVX2 and FMA) inside the traversal that every mode inlines: fails loudly if a change
     turns it back into scalar code."""
     import re
 
     import llvmlite.binding as llvm
 
-    if "+avx2" not in llvm.get_host_cpu_features().flatten().split(","):
-        pytest.skip("the CPU has no AVX2: no 8-wide float32 registers to check for")
+    features = llvm.get_host_cpu_features().flatten().split(",")
+    if "+avx2" not in features or "+fma" not in features:
+        pytest.skip("the CPU has no AVX2 and FMA: no 8-wide float32 registers or multiply-adds to check for")
     assert BVH_WIDTH == 8
     v, f = bumpy_sphere(500)
     tris = compile_scene(raylume.scene_from_dict({"objects": [{"type": "triangle", "vertices": v[f[0]].tolist()}]}))
     _closest_all(tris.kernel, np.zeros((1, 3)), np.ones((1, 3)))
     asm = "\n".join(_closest_all.inspect_asm().values())
-    for op in ("vmaxps", "vminps", "vcmp[a-z]*ps", "vsubps", "vmulps"):
+    for op in ("vmaxps", "vminps", "vcmp[a-z]*ps", "vfmadd[0-9]*ps", "vmulps"):
         assert re.search(rf"\b{op}\s+[^\n]*%ymm", asm), f"no 8-wide {op} in the traversal: the box test is scalar"
 
 

@@ -64,10 +64,7 @@ from .shapes import NO_HIT
 from .traverse import _root_is_a_leaf, _unbounded_hit, block_row, intersect_leaf, rows_in_leaf_order
 from .wide_nodes import (
     _F32_MAX,
-    _F32_TINY,
-    _FAR_SCALE,
     _NEAR_SCALE,
-    _ORIGIN_PAD,
     BVH_WIDTH,
     TRAVERSAL_STACK,
     leaf_count,
@@ -77,7 +74,9 @@ from .wide_nodes import (
     prefetch_child_rows,
     prefetch_neighbours,
     prefetch_row,
+    ray_axis_ir,
     scratch_array,
+    slab_test,
 )
 
 PACKET = 8  # rays per packet: eight float32 lanes in one AVX2 register
@@ -187,22 +186,6 @@ def _vmax(builder, a, b):
     return builder.select(builder.fcmp_ordered(">", a, b), a, b)
 
 
-def _slabs(builder, lo, hi, near, far, inv, tmax):
-    """traverse.box_hits' widened slab test on <8 x float> vectors, operation for operation:
-    (entry distance, i1 vector of the lanes that enter). lo, hi: the box's near and far planes
-    per axis; near, far, inv: the rays' box_ray constants; tmax: their best hits so far."""
-    tn = [builder.fmul(builder.fsub(lo[k], near[k]), inv[k]) for k in range(3)]
-    tf = [builder.fmul(builder.fsub(hi[k], far[k]), inv[k]) for k in range(3)]
-    tiny = ir.Constant(_V8F, [_F32_TINY] * PACKET)
-    tnear = builder.fsub(_vmax(builder, _vmax(builder, tn[0], tn[1]), tn[2]), tiny)
-    tnear = builder.fmul(
-        _vmax(builder, tnear, ir.Constant(_V8F, [0.0] * PACKET)), ir.Constant(_V8F, [_NEAR_SCALE] * PACKET)
-    )
-    tfar = _vmin(builder, _vmin(builder, tf[0], tf[1]), _vmin(builder, tf[2], tmax))
-    tfar = builder.fadd(builder.fmul(tfar, ir.Constant(_V8F, [_FAR_SCALE] * PACKET)), tiny)
-    return tnear, builder.fcmp_ordered("<=", tnear, tfar)
-
-
 def _lane_minima(builder, vectors):
     """The minimum of each of eight <8 x float> vectors, as one vector (lane c: vectors[c]'s):
     the eight reductions share their shuffles, three levels of halving pairs of vectors, seven
@@ -290,13 +273,16 @@ def packet_node(typingctx, bounds, node, box, rows, lane, active, t_out, at):
             lane_c = ir.Constant(ir.VectorType(_i32, PACKET), [c] * PACKET)
             lo = [builder.shuffle_vector(planes[k][0], undef, lane_c) for k in range(3)]
             hi = [builder.shuffle_vector(planes[k][1], undef, lane_c) for k in range(3)]
-            tnear, hit = _slabs(builder, lo, hi, near, far, inv, tmax)
+            tnear, hit = slab_test(builder, lo, hi, near + far + inv, tmax)
             hit = builder.and_(hit, act)
             entries.append(builder.select(hit, tnear, inf))
             bits = builder.shl(_mask_bits(builder, hit), ir.Constant(_i64, 8 * c))
             result = builder.or_(result, bits)
-        # hit entries are never NaN, so the minimum does not depend on the order of the rays
-        builder.store(_lane_minima(builder, entries), builder.bitcast(out, _V8F.as_pointer()), align=4)
+        # hit entries are never NaN, so the minimum does not depend on the order of the rays;
+        # scaled once here rather than in each slab test (a product rounded to nearest is
+        # monotone, so the minimum of the scaled entries is the scaled minimum)
+        minima = builder.fmul(_lane_minima(builder, entries), ir.Constant(_V8F, [_NEAR_SCALE] * PACKET))
+        builder.store(minima, builder.bitcast(out, _V8F.as_pointer()), align=4)
         return result
 
     return types.int64(bounds, node, box, rows, lane, active, t_out, at), codegen
@@ -320,7 +306,7 @@ def packet_box(typingctx, planes, box, lane, active):
         tmax = builder.fptrunc(_load_row(builder, ln, BEST_T, _V8D), _V8F)
         lo = [_splat(builder, values[k], _V8F) for k in range(3)]
         hi = [_splat(builder, values[3 + k], _V8F) for k in range(3)]
-        _, hit = _slabs(builder, lo, hi, near, far, inv, tmax)
+        _, hit = slab_test(builder, lo, hi, near + far + inv, tmax)
         return _mask_bits(builder, builder.and_(hit, act))
 
     return types.int64(planes, box, lane, active), codegen
@@ -565,18 +551,10 @@ def packet_load(typingctx, origins, directions, start, n, kz0, tmin, tmax, limit
         for c in range(3):  # traverse.traceable
             ok = builder.and_(ok, builder.fcmp_ordered("<", vabs(O[c]), const(_F32_MAX)))
             ok = builder.and_(ok, builder.fcmp_ordered("<", vabs(D[c]), const(math.inf)))
-        for c in range(3):  # traverse._ray_axis, lane by lane
-            inv = builder.select(
-                builder.fcmp_unordered("!=", D[c], const(0.0)), builder.fdiv(const(1.0), D[c]), const(_F32_MAX)
-            )
-            mag = _vmin(builder, _vmax(builder, vabs(inv), const(_F32_TINY)), const(_F32_MAX))
-            positive = builder.fcmp_ordered(">=", inv, const(0.0))
-            inv32 = builder.fptrunc(builder.select(positive, mag, builder.fneg(mag)), _V8F)
-            pad = _vmax(builder, builder.fmul(vabs(O[c]), const(2.0**-23)), const(_ORIGIN_PAD))
-            down = builder.fptrunc(builder.fsub(O[c], pad), _V8F)
-            up = builder.fptrunc(builder.fadd(O[c], pad), _V8F)
-            _store_row(builder, builder.select(positive, up, down), bx, c, _V8F)
-            _store_row(builder, builder.select(positive, down, up), bx, 3 + c, _V8F)
+        for c in range(3):  # box_ray's constants, lane by lane: the same IR as the single ray's
+            near, far, inv32, positive = ray_axis_ir(builder, O[c], D[c])
+            _store_row(builder, near, bx, c, _V8F)
+            _store_row(builder, far, bx, 3 + c, _V8F)
             _store_row(builder, inv32, bx, 6 + c, _V8F)
             ok = builder.and_(ok, builder.icmp_unsigned("==", positive, first_lane(positive)))  # one octant
         # shape_triangle.shear_axes' dominant axis

@@ -43,15 +43,22 @@ SCRATCH_PAD = 1024
 
 _F32_MAX = float(np.finfo(np.float32).max)
 _F32_TINY = float(np.finfo(np.float32).tiny)
-# Widening of each box's slab interval: covers the float32 rounding of the subtraction, of 1/d
-# and of the product (3 roundings of 2**-24 each, relative), so a box that the exact ray enters
-# is never culled and its entry distance never overestimated (a popped entry is skipped when it
-# lies beyond the best hit); the origin is rounded outward in box_ray.
+# The box test takes each plane's distance as one multiply-add, plane * (1/d) + (-o/d), the
+# offset -o/d rounded outward once per ray (box_ray, slab_offset): against the exact
+# (plane - o) / d, the result is off by the rounding of 1/d and of the multiply-add (relative),
+# never by the offset's, which lies on the safe side. The slab interval is widened by a relative
+# 2**-20 (the exit here, the entry where it is stored), which covers those roundings on both
+# sides, so a box that the exact ray enters is never culled and its entry distance never
+# overestimated (a popped entry is skipped when it lies beyond the best hit).
 _NEAR_SCALE = 1.0 - 2.0**-20
 _FAR_SCALE = 1.0 + 2.0**-20
-# Smallest outward move of a ray's origin in the box test (box_ray): (face - origin) * 1/d is then
-# at least 2**-100 * 3.4e38 = 2.7e8 for a ray parallel to the slab that lies inside it.
-_ORIGIN_PAD = 2.0**-100
+_OFFSET_MARGIN = 2.0**-22  # the offset moved outward by so much of itself, then rounded to float32
+# 1/d is clamped at _INV_MAX, and below 2**126 / |o| so that the offset stays a finite float32;
+# the origin moves outward by at least _ORIGIN_PAD: a slab that a ray parallel to it lies in
+# then spans at least 2**-72 * 2**100 = 2**28 (2.7e8) on either side of its origin.
+_INV_MAX = 2.0**100
+_OFFSET_MAX = 2.0**126
+_ORIGIN_PAD = 2.0**-72
 _LINE = 64  # bytes in a cache line
 # prefetch_neighbours: lines on either side of a leaf's triangle rows, and the triangle count
 # from which they are prefetched
@@ -82,6 +89,133 @@ def scratch_array(n, dtype):
 
 
 # --- the wide box test ------------------------------------------------------------------------
+
+
+def slab_offset_ir(builder, origin32, inv32, outward):
+    """-origin * inv (float32 scalars or vectors) as a float32 moved outward: down for a near
+    plane (outward < 0), up for a far one. The product of two float32 is exact in float64;
+    moved by _OFFSET_MARGIN of itself and rounded to float32 once, it lies at least 2**-23 of
+    itself on its side. IEEE operations (EXACT flags), so a packet's lanes and the single-ray
+    box_ray get the same bits."""
+    f32, f64 = origin32.type, ir.DoubleType()
+    vector = isinstance(f32, ir.VectorType)
+    if vector:
+        f64 = ir.VectorType(f64, f32.count)
+    flags = ("arcp",)  # shape_triangle.EXACT: an explicit flag keeps Numba's fast-math flags off
+    p = builder.fmul(builder.fpext(origin32, f64), builder.fpext(inv32, f64), flags=flags)
+    name = f"llvm.fabs.v{f32.count}f64" if vector else "llvm.fabs.f64"
+    fabs = cgutils.get_or_insert_function(builder.module, ir.FunctionType(f64, [f64]), name)
+    margin = builder.fmul(
+        builder.call(fabs, [p]),
+        ir.Constant(f64, [_OFFSET_MARGIN] * f32.count) if vector else ir.Constant(f64, _OFFSET_MARGIN),
+        flags=flags,
+    )
+    negated = builder.fneg(p)
+    moved = builder.fsub(negated, margin, flags=flags) if outward < 0 else builder.fadd(negated, margin, flags=flags)
+    return builder.fptrunc(moved, f32)
+
+
+def ray_axis_ir(builder, o, d):
+    """One axis of box_ray's constants from the ray's float64 origin and direction component
+    (scalars, or vectors of a packet's lanes): (near offset, far offset, 1/d as float32, whether
+    1/d >= 0). In IR with explicit flags, for single rays (_ray_axis) and packets
+    (packet.packet_load) alike, so that both get the same bits. The origin is rounded to
+    float32 outward, so that the near distance can only shrink and the far one only grow: moved
+    by |o| 2**-23 >= half a float32 ulp first, then rounded to nearest; and by at least
+    _ORIGIN_PAD: for a ray parallel to a slab (1/d clamped), an origin 1.8e-38 inside a face at 0
+    once put the slab's far end at 6.2, and the box was culled for the entry at 8 that the other
+    axes gave (hypothesis found it). 1/d is clamped to [float32 tiny, _INV_MAX] in magnitude and
+    so that the offsets stay below _OFFSET_MAX: a zero component gives parallel slabs, and no
+    lane ever computes inf * 0 (an empty lane's box is +-inf)."""
+    f64 = o.type
+    vector = isinstance(f64, ir.VectorType)
+    f32 = ir.VectorType(ir.FloatType(), f64.count) if vector else ir.FloatType()
+    flags, division = ("arcp",), ("nsz",)  # shape_triangle.EXACT, EXACT_DIVISION
+
+    def const(x):
+        return ir.Constant(f64, [x] * f64.count) if vector else ir.Constant(f64, x)
+
+    fabs = cgutils.get_or_insert_function(
+        builder.module, ir.FunctionType(f64, [f64]), f"llvm.fabs.v{f64.count}f64" if vector else "llvm.fabs.f64"
+    )
+
+    def vabs(x):
+        return builder.call(fabs, [x])
+
+    def larger(a, b):
+        return builder.select(builder.fcmp_ordered(">", a, b, flags=flags), a, b)
+
+    def smaller(a, b):
+        return builder.select(builder.fcmp_ordered("<", a, b, flags=flags), a, b)
+
+    pad = larger(builder.fmul(vabs(o), const(2.0**-23), flags=flags), const(_ORIGIN_PAD))
+    down = builder.fptrunc(builder.fsub(o, pad, flags=flags), f32)
+    up = builder.fptrunc(builder.fadd(o, pad, flags=flags), f32)
+    inv = builder.select(
+        builder.fcmp_unordered("!=", d, const(0.0), flags=flags),
+        builder.fdiv(const(1.0), d, flags=division),
+        const(_INV_MAX),
+    )
+    reach = larger(vabs(builder.fpext(down, f64)), vabs(builder.fpext(up, f64)))
+    limit = builder.select(
+        builder.fcmp_ordered(">", builder.fmul(reach, const(_INV_MAX), flags=flags), const(_OFFSET_MAX), flags=flags),
+        builder.fdiv(const(_OFFSET_MAX), reach, flags=division),
+        const(_INV_MAX),
+    )
+    mag = smaller(larger(vabs(inv), const(_F32_TINY)), limit)
+    positive = builder.fcmp_ordered(">=", inv, const(0.0), flags=flags)
+    inv32 = builder.fptrunc(builder.select(positive, mag, builder.fneg(mag)), f32)
+    near = slab_offset_ir(builder, builder.select(positive, up, down), inv32, -1)
+    far = slab_offset_ir(builder, builder.select(positive, down, up), inv32, 1)
+    return near, far, inv32, positive
+
+
+@intrinsic
+def _axis_constants(typingctx, o, d):
+    """ray_axis_ir for one axis of one ray: (near offset, far offset, 1/d, 1/d >= 0)."""
+    sig = types.Tuple((types.float32, types.float32, types.float32, types.boolean))(types.float64, types.float64)
+
+    def codegen(context, builder, sig, args):
+        near, far, inv, positive = ray_axis_ir(builder, *args)
+        values = (near, far, inv, context.cast(builder, positive, types.boolean, types.boolean))
+        return context.make_tuple(builder, sig.return_type, values)
+
+    return sig, codegen
+
+
+def _fma_ir(builder, a, b, c):
+    """a * b + c on float vectors, rounded once (llvm.fma: a vfmadd where the CPU has FMA)."""
+    name = f"llvm.fma.v{a.type.count}f32"
+    fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(a.type, [a.type] * 3), name)
+    return builder.call(fn, [a, b, c])
+
+
+def slab_test(builder, near, far, rf, tmax):
+    """The widened slab test on float32 vectors, one lane per box or per ray: (entry distance,
+    unscaled: multiply by _NEAR_SCALE for a lower bound; i1 vector of the lanes entered). near,
+    far: the boxes' near and far planes per axis (box_ray's rows); rf: box_ray's nine
+    constants (near offsets, far offsets, 1/d) as vectors; tmax: the rays' best hits. Shared by
+    box_hits and the packets' packet_node, so a ray enters the same boxes either way."""
+    vt = tmax.type
+
+    def vmax(a, b):
+        return builder.select(builder.fcmp_ordered(">", a, b), a, b)
+
+    def vmin(a, b):
+        return builder.select(builder.fcmp_ordered("<", a, b), a, b)
+
+    tn = [_fma_ir(builder, near[k], rf[6 + k], rf[k]) for k in range(3)]
+    tf = [_fma_ir(builder, far[k], rf[6 + k], rf[3 + k]) for k in range(3)]
+    # Widened by the relative factor and by the smallest normal float32: a result in the
+    # subnormal range rounds by a fixed step, which no relative factor covers (hypothesis found
+    # an entry distance of 2.24e-45 computed as 2.8e-45). The entry is then clamped at 0, so an
+    # origin inside the box enters at 0 exactly.
+    tiny = ir.Constant(vt, [_F32_TINY] * vt.count)
+    tnear = builder.fsub(vmax(vmax(tn[0], tn[1]), tn[2]), tiny)
+    tnear = vmax(tnear, ir.Constant(vt, [0.0] * vt.count))
+    tfar = vmin(vmin(tf[0], tf[1]), vmin(tf[2], tmax))
+    tfar = builder.fadd(builder.fmul(tfar, ir.Constant(vt, [_FAR_SCALE] * vt.count)), tiny)
+    return tnear, builder.fcmp_ordered("<=", tnear, tfar)
 
 
 def _box_codegen(width, store):
@@ -118,22 +252,15 @@ def _box_codegen(width, store):
         def vmin(a, b):
             return builder.select(builder.fcmp_ordered("<", a, b), a, b)
 
-        tn, tf = [], []
+        near, far = [], []
         for k in range(3):
-            inv = splat(rf[6 + k])
-            far = builder.sub(ir.Constant(i64, 2 * k + 3), rows[k])
-            tn.append(builder.fmul(builder.fsub(row(rows[k]), splat(rf[k])), inv))
-            tf.append(builder.fmul(builder.fsub(row(far), splat(rf[3 + k])), inv))
-        # Widened by the relative factors and by the smallest normal float32: products in the
-        # subnormal range round by a fixed step, which no relative factor covers (hypothesis
-        # found an entry distance of 2.24e-45 computed as 2.8e-45). The entry is then clamped
-        # at 0, so an origin inside the box enters at 0 exactly.
-        tiny = ir.Constant(vt, [_F32_TINY] * width)
-        tnear = builder.fsub(vmax(vmax(tn[0], tn[1]), tn[2]), tiny)
-        tnear = builder.fmul(vmax(tnear, ir.Constant(vt, [0.0] * width)), ir.Constant(vt, [_NEAR_SCALE] * width))
-        tfar = vmin(vmin(tf[0], tf[1]), vmin(tf[2], splat(tmax)))
-        tfar = builder.fadd(builder.fmul(tfar, ir.Constant(vt, [_FAR_SCALE] * width)), tiny)
-        hit = builder.fcmp_ordered("<=", tnear, tfar)
+            far_row = builder.sub(ir.Constant(i64, 2 * k + 3), rows[k])
+            near.append(row(rows[k]))
+            far.append(row(far_row))
+        tnear, hit = slab_test(builder, near, far, [splat(rf[k]) for k in range(9)], splat(tmax))
+        # the entry scaled here, off the mask's path to the next node (packet_node scales the
+        # minima of its rays' entries instead: the same values)
+        tnear = builder.fmul(tnear, ir.Constant(vt, [_NEAR_SCALE] * width))
         mask = builder.zext(builder.bitcast(hit, ir.IntType(width)), i64)
         if store:
             out = context.make_array(sig.args[5])(context, builder, args[5])
@@ -307,32 +434,18 @@ def lowest_bit(typingctx, x):
 
 @inline_function
 def _ray_axis(o, d, k):
-    """Axis k of box_ray: (near origin, far origin, 1/d, near row)."""
-    # 1/d clamped to normal float32 magnitudes: a zero component gives parallel slabs, and no
-    # lane ever computes inf * 0 (an empty lane's box is +-inf)
-    inv = 1.0 / d if d != 0.0 else _F32_MAX
-    mag = min(max(abs(inv), _F32_TINY), _F32_MAX)
-    inv32 = np.float32(mag if inv >= 0.0 else -mag)
-    # The origin rounded to float32 outward, so that the near distance can only shrink and the
-    # far one only grow: moved by |o| 2**-23 >= half a float32 ulp first, then rounded to nearest
-    # (branch-free; nextafter was a library call per axis). And by at least _ORIGIN_PAD: for a
-    # ray parallel to a slab (1/d clamped to the float32 maximum), an origin 1.8e-38 inside a
-    # face at 0 put the slab's far end at 6.2, and the box was culled for the entry at 8 that
-    # the other axes gave (hypothesis found it).
-    pad = max(abs(o) * 2.0**-23, _ORIGIN_PAD)
-    down = np.float32(o - pad)
-    up = np.float32(o + pad)
-    if inv >= 0.0:
-        return up, down, inv32, k
-    return down, up, inv32, k + 3
+    """Axis k of box_ray: (near offset, far offset, 1/d, near row); ray_axis_ir says how."""
+    near, far, inv32, positive = _axis_constants(np.float64(o), np.float64(d))
+    return near, far, inv32, k if positive else k + 3
 
 
 # Inlined: called, each ray passed its origin and direction and got nine floats and three ints
 # back through memory (Cornell path mode ~2.5% of its CPU time, alternating builds).
 @inline_function
 def box_ray(o, d):
-    """Per-ray constants of box_hits: (near-plane origins x, y, z, far-plane origins, 1/d) as
-    float32, and the near plane's row for each axis (the far one is the other)."""
+    """Per-ray constants of box_hits: (near-plane offsets x, y, z, far-plane offsets, 1/d) as
+    float32 (an offset: -o/d rounded outward, _ray_axis), and the near plane's row for each
+    axis (the far one is the other)."""
     nx, fx, ix, rx = _ray_axis(o[0], d[0], 0)
     ny, fy, iy, ry = _ray_axis(o[1], d[1], 1)
     nz, fz, iz, rz = _ray_axis(o[2], d[2], 2)
