@@ -29,7 +29,7 @@ traced ray by ray, by the caller.
 
 Packet state lives in one thread's scratch arrays (`packet_scratch`):
 
-* ``box`` float32 (9, 8): per lane, box_ray's near origins x, y, z, far origins, 1 / d.
+* ``box`` float32 (9, 8): per lane, box_ray's near offsets x, y, z, far offsets, 1 / d.
 * ``lane`` float64 (LANE_ROWS, 8): per lane the sheared-test constants, the best hit so far and
   the ray itself (rows below).
 * ``prim`` int64 (8,): per lane the primitive of the best hit (NO_HIT when none).
@@ -227,7 +227,7 @@ def packet_node(typingctx, bounds, node, box, rows, lane, active, t_out, at):
     against the BVH_WIDTH child boxes of wide node `node`, each ray up to its best hit so far
     (lane[BEST_T]): an i64 of BVH_WIDTH bytes, byte c the mask of the `active` rays that enter
     child c; t_out[at + c] (float32) the nearest entry distance over those rays (+inf for none).
-    The slabs are widened as traverse.box_hits widens them: no ray's entered box is culled."""
+    The slab test is box_hits' (wide_nodes.slab_test): no ray's entered box is culled."""
     _check_array("packet_node", bounds, types.float32, 3)
     _check_array("packet_node", box, types.float32, 2)
     _check_array("packet_node", lane, types.float64, 2)
@@ -495,7 +495,7 @@ def packet_setup(origins, directions, start, n, tmin, tmax, extent, box, lane, p
 def packet_load(typingctx, origins, directions, start, n, kz0, tmin, tmax, limit, box, lane, prim):
     """packet_setup's work on the eight lanes at once (SIMD: the scalar loop over the lanes,
     with box_ray's three divisions a ray, cost 12 ns a ray, as much as a miss's traversal).
-    Writes each lane's box_ray constants (traverse._ray_axis operation for operation, so each
+    Writes each lane's box_ray constants (wide_nodes.ray_axis_ir, the single ray's IR, so each
     ray's boxes are the single-ray traversal's), its ray, bounds and empty best hit, and marks
     the shear pending; returns whether every lane is finite, in the first lane's octant, with
     dominant axis kz0, within 10 degrees of its direction and `limit` of its origin."""
