@@ -125,33 +125,45 @@ coord = st.floats(-10, 10, allow_nan=False, width=32)  # scene coordinates: floa
 component = st.one_of(st.sampled_from([0.0, -0.0]), st.floats(-1, 1, allow_nan=False).filter(lambda x: abs(x) > 1e-3))
 
 
-@settings(max_examples=500, deadline=None)
-@given(
-    st.tuples(coord, coord, coord),
-    st.tuples(coord, coord, coord),
-    st.tuples(coord, coord, coord),
-    st.tuples(component, component, component).filter(lambda d: any(d)),
-    st.sampled_from([INF, 5.0]),
-)
-# an entry distance in the subnormal range (2.24e-45), once computed as 2.8e-45
-@example(a=(0.0, 2.0, 1.401298464324817e-45), b=(1.0, 0.0, 1.0), o=(0.0, 1.0, 0.0), d=(1.0, 0.0, 0.625), tmax=INF)
-# parallel to the z slab, 1.8e-38 inside its face at 0: the slab once ended at t = 6.2, before
-# the entry at 8
-@example(a=(0.0, 0.0, 0.0), b=(0.0, -2.0, -1.0), o=(4.0, -1.0, -1.8289849851155408e-38), d=(-0.5, 0.0, 0.0), tmax=INF)
-def test_box_test_agrees_with_the_textbook_slab_test(a, b, o, d, tmax):
-    """Near/far planes picked by the direction's sign, against min/max of both slab distances
-    with exact division and zero components handled explicitly; zero and negative-zero
-    components included. A ray running exactly in the plane of a box face, parallel to it, is
-    culled (0 * 1/d = 0 ends the slab): measure zero, and it could only graze what the box holds."""
-    lo = np.minimum(a, b)
-    hi = np.maximum(a, b)
+def slab_cases(test):
+    """The hypothesis cases of a box test against the textbook slabs, test(a, b, o, d, tmax):
+    a box between corners a and b, a ray, its tmax; with the two cases that once failed."""
+    # parallel to the z slab, 1.8e-38 inside its face at 0: the slab once ended at t = 6.2,
+    # before the entry at 8
+    test = example(
+        a=(0.0, 0.0, 0.0), b=(0.0, -2.0, -1.0), o=(4.0, -1.0, -1.8289849851155408e-38), d=(-0.5, 0.0, 0.0), tmax=INF
+    )(test)
+    # an entry distance in the subnormal range (2.24e-45), once computed as 2.8e-45
+    test = example(
+        a=(0.0, 2.0, 1.401298464324817e-45), b=(1.0, 0.0, 1.0), o=(0.0, 1.0, 0.0), d=(1.0, 0.0, 0.625), tmax=INF
+    )(test)
+    test = given(
+        st.tuples(coord, coord, coord),
+        st.tuples(coord, coord, coord),
+        st.tuples(coord, coord, coord),
+        st.tuples(component, component, component).filter(lambda d: any(d)),
+        st.sampled_from([INF, 5.0]),
+    )(test)
+    return settings(max_examples=500, deadline=None)(test)
+
+
+def slab_box(a, b, o, d):
+    """The box (lo, hi) of a slab case's corners; a ray running exactly in the plane of one of
+    its faces, parallel to it, is left out (assume): the box tests cull it (0 * 1/d = 0 ends the
+    slab), measure zero, and it could only graze what the box holds."""
+    lo, hi = np.minimum(a, b), np.maximum(a, b)
     assume(not any(d[k] == 0.0 and o[k] in (lo[k], hi[k]) for k in range(3)))
-    got = _entry(np.concatenate([lo, hi]), o, d, tmax)
+    return lo, hi
+
+
+def assert_as_textbook_slabs(got, lo, hi, o, d, tmax):
+    """A box test's entry distance `got` (+inf: culled) against the textbook slabs: float32
+    arithmetic, rounded so that a box the ray enters is never culled and the entry distance
+    never overestimated."""
     want = _textbook_slab(lo, hi, o, d, tmax)
-    # float32 arithmetic, rounded so that a box the ray enters is never culled and the entry
-    # distance never overestimated: the origin moves outward by up to 2**-23 |o| before its
-    # rounding to float32 and the offset -o/d by 2**-22 of itself (wide_nodes.ray_axis_ir), so
-    # distances may be short, and near misses admitted, by that much
+    # the origin moves outward by up to 2**-23 |o| before its rounding to float32 and the
+    # offset -o/d by 2**-22 of itself (wide_nodes.ray_axis_ir), so distances may be short, and
+    # near misses admitted, by that much
     slack = 2.0**-21 * (1.0 + max(map(abs, o))) / min(abs(c) for c in d if c != 0.0)
     if want == INF:
         # misses agree, except within rounding (the slab interval is widened)
@@ -159,3 +171,12 @@ def test_box_test_agrees_with_the_textbook_slab_test(a, b, o, d, tmax):
     else:
         # short of it by the relative widening and the origin's and the offsets' outward moves
         assert got <= want and want - got <= 2e-6 * want + slack
+
+
+@slab_cases
+def test_box_test_agrees_with_the_textbook_slab_test(a, b, o, d, tmax):
+    """Near/far planes picked by the direction's sign, against min/max of both slab distances
+    with exact division and zero components handled explicitly; zero and negative-zero
+    components included."""
+    lo, hi = slab_box(a, b, o, d)
+    assert_as_textbook_slabs(_entry(np.concatenate([lo, hi]), o, d, tmax), lo, hi, o, d, tmax)

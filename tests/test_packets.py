@@ -10,10 +10,10 @@ from fractions import Fraction
 import numpy as np
 import pytest
 import trimesh
-from hypothesis import assume, example, given, settings
+from hypothesis import given, settings
 from hypothesis import strategies as st
 from numba import njit
-from test_intersect import _textbook_slab, component, coord
+from test_intersect import assert_as_textbook_slabs, slab_box, slab_cases
 
 import raylume
 from raylume.compile import compile_scene
@@ -326,36 +326,19 @@ def _packet_entry(lo_hi, o, d, tmax):
 
 
 @PACKET_WORKER
-@settings(max_examples=500, deadline=None)
-@given(
-    st.tuples(coord, coord, coord),
-    st.tuples(coord, coord, coord),
-    st.tuples(coord, coord, coord),
-    st.tuples(component, component, component).filter(lambda d: any(d)),
-    st.sampled_from([INF, 5.0]),
-)
-# the single-ray test's hard cases: an entry in the subnormal range, and a ray parallel to the z
-# slab 1.8e-38 inside its face
-@example(a=(0.0, 2.0, 1.401298464324817e-45), b=(1.0, 0.0, 1.0), o=(0.0, 1.0, 0.0), d=(1.0, 0.0, 0.625), tmax=INF)
-@example(a=(0.0, 0.0, 0.0), b=(0.0, -2.0, -1.0), o=(4.0, -1.0, -1.8289849851155408e-38), d=(-0.5, 0.0, 0.0), tmax=INF)
+@slab_cases
 def test_packet_box_test_agrees_with_the_textbook_slab_test(a, b, o, d, tmax):
-    """The packet's slab test (one multiply-add a plane, packet_load's offsets) against the
+    """The packet's slab test (packet_load's constants, packet_node's eight rays) against the
     textbook slabs with exact division, as test_intersect checks the single-ray one: a box the
     ray enters is never culled, its entry distance never overestimated, and short of it by no
-    more than the rounding; the root box test (packet_box) answers as packet_node does."""
-    lo, hi = np.minimum(a, b), np.maximum(a, b)
-    assume(not any(d[k] == 0.0 and o[k] in (lo[k], hi[k]) for k in range(3)))
+    more than the rounding; no empty lane is entered; the root box test (packet_box) answers as
+    packet_node does."""
+    lo, hi = slab_box(a, b, o, d)
     lo_hi = np.concatenate([lo, hi]).astype(np.float32)
     ok, got, empty_entered, whole = _packet_entry(lo_hi, np.array(o, float), np.array(d, float), tmax)
     assert ok and not empty_entered
     assert whole == (got < INF)
-    want = _textbook_slab(lo, hi, o, d, tmax)
-    slack = 2.0**-21 * (1.0 + max(map(abs, o))) / min(abs(c) for c in d if c != 0.0)
-    if want == INF:
-        assert got == INF or _textbook_slab(lo - slack, hi + slack, o, d, tmax * (1 + 1e-5)) < INF
-    else:
-        # short of it by the relative widening and the origin's and the offsets' outward moves
-        assert got <= want and want - got <= 2e-6 * want + slack
+    assert_as_textbook_slabs(got, lo, hi, o, d, tmax)
 
 
 def _clear_dominant_axis(t):

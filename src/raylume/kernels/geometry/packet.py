@@ -76,6 +76,8 @@ from .wide_nodes import (
     prefetch_row,
     ray_axis_ir,
     scratch_array,
+    select_max,
+    select_min,
     slab_test,
 )
 
@@ -178,14 +180,6 @@ def _reduce(builder, v, pick):
     return builder.extract_element(v, ir.Constant(_i32, 0))
 
 
-def _vmin(builder, a, b):
-    return builder.select(builder.fcmp_ordered("<", a, b), a, b)
-
-
-def _vmax(builder, a, b):
-    return builder.select(builder.fcmp_ordered(">", a, b), a, b)
-
-
 def _lane_minima(builder, vectors):
     """The minimum of each of eight <8 x float> vectors, as one vector (lane c: vectors[c]'s):
     the eight reductions share their shuffles, three levels of halving pairs of vectors, seven
@@ -202,7 +196,7 @@ def _lane_minima(builder, vectors):
         lo_c = ir.Constant(ir.VectorType(_i32, width), lo_mask)
         hi_c = ir.Constant(ir.VectorType(_i32, width), hi_mask)
         level = [
-            _vmin(builder, builder.shuffle_vector(a, b, lo_c), builder.shuffle_vector(a, b, hi_c))
+            select_min(builder, builder.shuffle_vector(a, b, lo_c), builder.shuffle_vector(a, b, hi_c))
             for a, b in zip(level[0::2], level[1::2], strict=True)
         ]
         half //= 2
@@ -335,7 +329,7 @@ def packet_farthest(typingctx, lane, mask):
         ln = _array_data(context, builder, sig.args[0], args[0])
         m = _mask_vector(builder, context.cast(builder, args[1], sig.args[1], types.int64))
         best = _load_row(builder, ln, BEST_T, _V8D)
-        return _reduce(builder, builder.select(m, best, ir.Constant(_V8D, [-math.inf] * PACKET)), _vmax)
+        return _reduce(builder, builder.select(m, best, ir.Constant(_V8D, [-math.inf] * PACKET)), select_max)
 
     return types.float64(lane, mask), codegen
 

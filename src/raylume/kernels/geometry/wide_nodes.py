@@ -44,7 +44,7 @@ SCRATCH_PAD = 1024
 _F32_MAX = float(np.finfo(np.float32).max)
 _F32_TINY = float(np.finfo(np.float32).tiny)
 # The box test takes each plane's distance as one multiply-add, plane * (1/d) + (-o/d), the
-# offset -o/d rounded outward once per ray (box_ray, slab_offset): against the exact
+# offset -o/d rounded outward once per ray (box_ray, ray_axis_ir): against the exact
 # (plane - o) / d, the result is off by the rounding of 1/d and of the multiply-add (relative),
 # never by the offset's, which lies on the safe side. The slab interval is widened by a relative
 # 2**-20 (the exit here, the entry where it is stored), which covers those roundings on both
@@ -91,28 +91,15 @@ def scratch_array(n, dtype):
 # --- the wide box test ------------------------------------------------------------------------
 
 
-def slab_offset_ir(builder, origin32, inv32, outward):
-    """-origin * inv (float32 scalars or vectors) as a float32 moved outward: down for a near
-    plane (outward < 0), up for a far one. The product of two float32 is exact in float64;
-    moved by _OFFSET_MARGIN of itself and rounded to float32 once, it lies at least 2**-23 of
-    itself on its side. IEEE operations (EXACT flags), so a packet's lanes and the single-ray
-    box_ray get the same bits."""
-    f32, f64 = origin32.type, ir.DoubleType()
-    vector = isinstance(f32, ir.VectorType)
-    if vector:
-        f64 = ir.VectorType(f64, f32.count)
-    flags = ("arcp",)  # shape_triangle.EXACT: an explicit flag keeps Numba's fast-math flags off
-    p = builder.fmul(builder.fpext(origin32, f64), builder.fpext(inv32, f64), flags=flags)
-    name = f"llvm.fabs.v{f32.count}f64" if vector else "llvm.fabs.f64"
-    fabs = cgutils.get_or_insert_function(builder.module, ir.FunctionType(f64, [f64]), name)
-    margin = builder.fmul(
-        builder.call(fabs, [p]),
-        ir.Constant(f64, [_OFFSET_MARGIN] * f32.count) if vector else ir.Constant(f64, _OFFSET_MARGIN),
-        flags=flags,
-    )
-    negated = builder.fneg(p)
-    moved = builder.fsub(negated, margin, flags=flags) if outward < 0 else builder.fadd(negated, margin, flags=flags)
-    return builder.fptrunc(moved, f32)
+def select_max(builder, a, b, flags=()):
+    """The larger of a and b (floats or float vectors), as a compare and a select: b where
+    either is NaN."""
+    return builder.select(builder.fcmp_ordered(">", a, b, flags=flags), a, b)
+
+
+def select_min(builder, a, b, flags=()):
+    """The smaller of a and b, as select_max: b where either is NaN."""
+    return builder.select(builder.fcmp_ordered("<", a, b, flags=flags), a, b)
 
 
 def ray_axis_ir(builder, o, d):
@@ -143,10 +130,16 @@ def ray_axis_ir(builder, o, d):
         return builder.call(fabs, [x])
 
     def larger(a, b):
-        return builder.select(builder.fcmp_ordered(">", a, b, flags=flags), a, b)
+        return select_max(builder, a, b, flags)
 
-    def smaller(a, b):
-        return builder.select(builder.fcmp_ordered("<", a, b, flags=flags), a, b)
+    def offset(origin32, inv32, outward):
+        # -origin * inv moved outward (down for a near plane, outward < 0): the product of two
+        # float32 is exact in float64; moved by _OFFSET_MARGIN of itself and rounded to float32
+        # once, it lies at least 2**-23 of itself on its side
+        p = builder.fmul(builder.fpext(origin32, f64), builder.fpext(inv32, f64), flags=flags)
+        margin = builder.fmul(vabs(p), const(_OFFSET_MARGIN), flags=flags)
+        move = builder.fsub if outward < 0 else builder.fadd
+        return builder.fptrunc(move(builder.fneg(p), margin, flags=flags), f32)
 
     pad = larger(builder.fmul(vabs(o), const(2.0**-23), flags=flags), const(_ORIGIN_PAD))
     down = builder.fptrunc(builder.fsub(o, pad, flags=flags), f32)
@@ -162,11 +155,11 @@ def ray_axis_ir(builder, o, d):
         builder.fdiv(const(_OFFSET_MAX), reach, flags=division),
         const(_INV_MAX),
     )
-    mag = smaller(larger(vabs(inv), const(_F32_TINY)), limit)
+    mag = select_min(builder, larger(vabs(inv), const(_F32_TINY)), limit, flags)
     positive = builder.fcmp_ordered(">=", inv, const(0.0), flags=flags)
     inv32 = builder.fptrunc(builder.select(positive, mag, builder.fneg(mag)), f32)
-    near = slab_offset_ir(builder, builder.select(positive, up, down), inv32, -1)
-    far = slab_offset_ir(builder, builder.select(positive, down, up), inv32, 1)
+    near = offset(builder.select(positive, up, down), inv32, -1)
+    far = offset(builder.select(positive, down, up), inv32, 1)
     return near, far, inv32, positive
 
 
@@ -176,9 +169,7 @@ def _axis_constants(typingctx, o, d):
     sig = types.Tuple((types.float32, types.float32, types.float32, types.boolean))(types.float64, types.float64)
 
     def codegen(context, builder, sig, args):
-        near, far, inv, positive = ray_axis_ir(builder, *args)
-        values = (near, far, inv, context.cast(builder, positive, types.boolean, types.boolean))
-        return context.make_tuple(builder, sig.return_type, values)
+        return context.make_tuple(builder, sig.return_type, ray_axis_ir(builder, *args))
 
     return sig, codegen
 
@@ -199,10 +190,10 @@ def slab_test(builder, near, far, rf, tmax):
     vt = tmax.type
 
     def vmax(a, b):
-        return builder.select(builder.fcmp_ordered(">", a, b), a, b)
+        return select_max(builder, a, b)
 
     def vmin(a, b):
-        return builder.select(builder.fcmp_ordered("<", a, b), a, b)
+        return select_min(builder, a, b)
 
     tn = [_fma_ir(builder, near[k], rf[6 + k], rf[k]) for k in range(3)]
     tf = [_fma_ir(builder, far[k], rf[6 + k], rf[3 + k]) for k in range(3)]
@@ -246,23 +237,17 @@ def _box_codegen(width, store):
             p = builder.gep(bounds.data, [builder.add(base, builder.mul(r, ir.Constant(i64, width)))], inbounds=True)
             return builder.load(builder.bitcast(p, vt.as_pointer()), align=4)
 
-        def vmax(a, b):
-            return builder.select(builder.fcmp_ordered(">", a, b), a, b)
-
-        def vmin(a, b):
-            return builder.select(builder.fcmp_ordered("<", a, b), a, b)
-
         near, far = [], []
         for k in range(3):
             far_row = builder.sub(ir.Constant(i64, 2 * k + 3), rows[k])
             near.append(row(rows[k]))
             far.append(row(far_row))
         tnear, hit = slab_test(builder, near, far, [splat(rf[k]) for k in range(9)], splat(tmax))
-        # the entry scaled here, off the mask's path to the next node (packet_node scales the
-        # minima of its rays' entries instead: the same values)
-        tnear = builder.fmul(tnear, ir.Constant(vt, [_NEAR_SCALE] * width))
         mask = builder.zext(builder.bitcast(hit, ir.IntType(width)), i64)
         if store:
+            # the entries scaled as they are stored (packet_node scales the minima of its rays'
+            # entries instead: the same values)
+            tnear = builder.fmul(tnear, ir.Constant(vt, [_NEAR_SCALE] * width))
             out = context.make_array(sig.args[5])(context, builder, args[5])
             at = context.cast(builder, args[6], sig.args[6], types.int64)
             p = builder.gep(out.data, [at], inbounds=True)
