@@ -19,6 +19,7 @@ import raylume
 from raylume.compile import compile_scene
 from raylume.kernels.film.camera import camera_frame
 from raylume.kernels.geometry.packet import (
+    BEST_T,
     PACKET,
     packet_blocked,
     packet_box,
@@ -41,6 +42,7 @@ from raylume.kernels.geometry.wide_nodes import (
     CHILDREN_PREFETCHED_FROM,
     NEIGHBOURS_FROM,
     TRAVERSAL_STACK,
+    box_entries,
     box_ray,
 )
 from raylume.kernels.scene import geometry_of
@@ -339,6 +341,51 @@ def test_packet_box_test_agrees_with_the_textbook_slab_test(a, b, o, d, tmax):
     assert ok and not empty_entered
     assert whole == (got < INF)
     assert_as_textbook_slabs(got, lo, hi, o, d, tmax)
+
+
+@njit(fastmath=FAST, error_model="numpy")
+def _node_test(bounds, o, d, best, active):
+    """packet_node on the rays o, d (one packet) with best hits `best`: (masks, entries)."""
+    box, lane, prim, _ = packet_scratch()
+    _, rows, _ = packet_setup(o, d, 0, PACKET, 0.0, INF, 10.0, box, lane, prim)
+    for i in range(PACKET):
+        lane[BEST_T, i] = best[i]
+    t_out = np.empty(BVH_WIDTH, np.float32)
+    masks = packet_node(bounds, 0, box, rows, lane, active, t_out, 0)
+    return masks, t_out
+
+
+@PACKET_WORKER
+@settings(max_examples=200, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), signs=st.tuples(*[st.sampled_from((-1.0, 1.0))] * 3))
+def test_packet_node_answers_as_each_ray_alone(seed, signs):
+    """packet_node's ray masks and nearest entries against box_hits (box_entries) ray by ray:
+    eight different rays of one octant, each with its own best hit, some not active, against a
+    node of random boxes (two lanes empty). Bit r of child c's byte is set exactly where ray r
+    is active and enters c alone, and c's entry is the least of those rays' entries, to the bit."""
+    rng = np.random.default_rng(seed)
+    s = np.asarray(signs)
+    lo = rng.uniform(-1, 1, size=(3, BVH_WIDTH))
+    hi = lo + rng.uniform(0.1, 1.5, size=(3, BVH_WIDTH))
+    bounds = np.empty((1, 7, BVH_WIDTH), np.float32)
+    bounds[0, :3], bounds[0, 3:6] = lo, hi
+    empty = rng.choice(BVH_WIDTH, 2, replace=False)
+    bounds[0, :3, empty], bounds[0, 3:6, empty] = np.inf, -np.inf
+    d = np.abs(rng.normal([1.0, 0.3, 0.2], 0.1, size=(PACKET, 3))) * s
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    o = rng.uniform(-0.8, 0.8, size=(PACKET, 3)) - 4.0 * d  # each ray aimed into the boxes
+    best = np.where(rng.random(PACKET) < 0.3, INF, rng.uniform(2.0, 6.0, PACKET))
+    active = int(rng.integers(0, 256))
+    masks, t_out = _node_test(bounds, o, d, best, active)
+    want_masks, want_t = 0, np.full(BVH_WIDTH, np.inf, np.float32)
+    for r in range(PACKET):
+        entries = box_entries(bounds, 0, tuple(o[r]), tuple(d[r]), best[r], np.empty(BVH_WIDTH))
+        for c in range(BVH_WIDTH):
+            if (active >> r) & 1 and entries[c] < INF:
+                want_masks |= 1 << (8 * c + r)
+                want_t[c] = min(want_t[c], np.float32(entries[c]))
+    assert masks & (2**64 - 1) == want_masks  # (packet_node returns the bytes as an int64)
+    assert t_out.tobytes() == want_t.tobytes()
 
 
 def _clear_dominant_axis(t):

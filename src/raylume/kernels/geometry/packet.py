@@ -3,11 +3,13 @@
 Single-ray traversal (traverse.py) tests one ray against a node's eight child boxes in one
 vector instruction per plane. A packet turns that around: eight rays that start close together
 and point the same way (neighbouring camera pixels) visit nearly the same nodes, so one pass
-over the tree serves all eight. Each child box is tested against the eight rays at once, each
-triangle of a leaf against the eight rays at once, and a node's boxes, its child list and a
-leaf's triangles are loaded once for eight rays rather than once each, the stack pushed and
-popped once for eight (Wald, Slusallek, Benthin and Wagner 2001, "Interactive rendering with
-coherent ray tracing"; Embree's packet kernels).
+over the tree serves all eight. A node's boxes, its child list and a leaf's triangles are
+loaded once for eight rays rather than once each, the stack pushed and popped once for eight
+(Wald, Slusallek, Benthin and Wagner 2001, "Interactive rendering with coherent ray tracing";
+Embree's packet kernels). Each triangle of a leaf is tested against the eight rays at once; a
+node's eight boxes are tested against each of the rays that reached it in turn, the single-ray
+test with the node's box rows held in registers, so a node that two rays reach costs two tests,
+not eight.
 
 A leaf that only one to three of the packet's rays reach is tested ray by ray with the
 single-ray block test (four triangles per vector) rather than eight float64 lanes at once.
@@ -149,6 +151,11 @@ def _store_row(builder, value, data, row, vt):
     builder.store(value, _row_pointer(builder, data, ir.Constant(_i64, row), vt), align=_align(vt))
 
 
+def _load_lane(builder, data, row, i):
+    """Element (row, i) of a C-contiguous (R, PACKET) array; i an i64."""
+    return builder.load(builder.gep(data, [builder.add(i, ir.Constant(_i64, row * PACKET))], inbounds=True))
+
+
 def _mask_vector(builder, mask):
     """The low PACKET bits of the i64 `mask` as a <PACKET x i1> vector (bit i: lane i), made by
     a vector compare of the splatted mask with each lane's bit: a bitcast of an i8 to <8 x i1>
@@ -178,29 +185,6 @@ def _reduce(builder, v, pick):
         )
         v = pick(builder, v, hi)
     return builder.extract_element(v, ir.Constant(_i32, 0))
-
-
-def _lane_minima(builder, vectors):
-    """The minimum of each of eight <8 x float> vectors, as one vector (lane c: vectors[c]'s):
-    the eight reductions share their shuffles, three levels of halving pairs of vectors, seven
-    minima instead of twenty-four."""
-    width = PACKET
-    level = list(vectors)
-    half = width // 2
-    while len(level) > 1:
-        # each vector holds groups of 2 * half partial minima, one group per original vector;
-        # the minimum of each group's two halves, the first vector's groups then the second's
-        starts = range(0, width, 2 * half)
-        lo_mask = [v + g + i for v in (0, width) for g in starts for i in range(half)]
-        hi_mask = [v + g + half + i for v in (0, width) for g in starts for i in range(half)]
-        lo_c = ir.Constant(ir.VectorType(_i32, width), lo_mask)
-        hi_c = ir.Constant(ir.VectorType(_i32, width), hi_mask)
-        level = [
-            select_min(builder, builder.shuffle_vector(a, b, lo_c), builder.shuffle_vector(a, b, hi_c))
-            for a, b in zip(level[0::2], level[1::2], strict=True)
-        ]
-        half //= 2
-    return level[0]
 
 
 def _array_data(context, builder, ty, value):
@@ -236,47 +220,54 @@ def packet_node(typingctx, bounds, node, box, rows, lane, active, t_out, at):
             for r, t in zip(cgutils.unpack_tuple(builder, args[3], 3), sig.args[3], strict=True)
         ]
         ln = _array_data(context, builder, sig.args[4], args[4])
-        act = _mask_vector(builder, context.cast(builder, args[5], sig.args[5], types.int64))
+        active = builder.and_(context.cast(builder, args[5], sig.args[5], types.int64), ir.Constant(_i64, 0xFF))
         out = builder.gep(
             _array_data(context, builder, sig.args[6], args[6]),
             [context.cast(builder, args[7], sig.args[7], types.int64)],
             inbounds=True,
         )
-        near = [_load_row(builder, bx, k, _V8F) for k in range(3)]
-        far = [_load_row(builder, bx, 3 + k, _V8F) for k in range(3)]
-        inv = [_load_row(builder, bx, 6 + k, _V8F) for k in range(3)]
-        tmax = builder.fptrunc(_load_row(builder, ln, BEST_T, _V8D), _V8F)
+        # Rays outer, children in the lanes: each active ray against the node's eight boxes is
+        # box_hits' test, its nine constants broadcast from the scratch, and the node's six
+        # plane rows stay in registers for all of them. A loop over the active rays, not
+        # unrolled: unrolled, LLVM hoisted every ray's multiply-adds to the top and spilled them.
         base = builder.mul(n, ir.Constant(_i64, NODE_ROWS * BVH_WIDTH))
-        # the node's rows: one vector of the eight children's planes each
-        planes = []
+        near, far = [], []
         for k in range(3):
             far_row = builder.sub(ir.Constant(_i64, 2 * k + 3), rows[k])
             lo = builder.add(base, builder.mul(rows[k], ir.Constant(_i64, BVH_WIDTH)))
             hi = builder.add(base, builder.mul(far_row, ir.Constant(_i64, BVH_WIDTH)))
-            planes.append(
-                (
-                    builder.load(builder.bitcast(builder.gep(b, [lo], inbounds=True), _V8F.as_pointer()), align=4),
-                    builder.load(builder.bitcast(builder.gep(b, [hi], inbounds=True), _V8F.as_pointer()), align=4),
-                )
-            )
+            near.append(builder.load(builder.bitcast(builder.gep(b, [lo], inbounds=True), _V8F.as_pointer()), align=4))
+            far.append(builder.load(builder.bitcast(builder.gep(b, [hi], inbounds=True), _V8F.as_pointer()), align=4))
+        vi = ir.VectorType(_i32, PACKET)
         inf = ir.Constant(_V8F, [math.inf] * PACKET)
-        undef = ir.Constant(_V8F, ir.Undefined)
-        result = ir.Constant(_i64, 0)
-        entries = []  # per child: each ray's entry distance, +inf where it misses
-        for c in range(BVH_WIDTH):
-            lane_c = ir.Constant(ir.VectorType(_i32, PACKET), [c] * PACKET)
-            lo = [builder.shuffle_vector(planes[k][0], undef, lane_c) for k in range(3)]
-            hi = [builder.shuffle_vector(planes[k][1], undef, lane_c) for k in range(3)]
-            tnear, hit = slab_test(builder, lo, hi, near + far + inv, tmax)
-            hit = builder.and_(hit, act)
-            entries.append(builder.select(hit, tnear, inf))
-            bits = builder.shl(_mask_bits(builder, hit), ir.Constant(_i64, 8 * c))
-            result = builder.or_(result, bits)
+        rays_slot = cgutils.alloca_once_value(builder, ir.Constant(vi, [0] * PACKET))  # lane c: rays entering c
+        minima_slot = cgutils.alloca_once_value(builder, inf)  # lane c: their nearest entry
+        left_slot = cgutils.alloca_once_value(builder, active)
+        cttz = cgutils.get_or_insert_function(builder.module, ir.FunctionType(_i64, [_i64, _i1]), "llvm.cttz.i64")
+        loop = builder.append_basic_block("packet_node.ray")
+        done = builder.append_basic_block("packet_node.done")
+        builder.cbranch(builder.icmp_unsigned("!=", active, ir.Constant(_i64, 0)), loop, done)
+        builder.position_at_end(loop)
+        left = builder.load(left_slot)
+        r = builder.call(cttz, [left, ir.Constant(_i1, 1)])
+        left = builder.and_(left, builder.sub(left, ir.Constant(_i64, 1)))
+        builder.store(left, left_slot)
+        rf = [_splat(builder, _load_lane(builder, bx, k, r), _V8F) for k in range(9)]
+        best = builder.fptrunc(_load_lane(builder, ln, BEST_T, r), _f32)
+        tnear, hit = slab_test(builder, near, far, rf, _splat(builder, best, _V8F))
+        bit = _splat(builder, builder.trunc(builder.shl(ir.Constant(_i64, 1), r), _i32), vi)
+        builder.store(builder.or_(builder.load(rays_slot), builder.and_(builder.sext(hit, vi), bit)), rays_slot)
+        builder.store(select_min(builder, builder.load(minima_slot), builder.select(hit, tnear, inf)), minima_slot)
+        builder.cbranch(builder.icmp_unsigned("!=", left, ir.Constant(_i64, 0)), loop, done)
+        builder.position_at_end(done)
+        minima = builder.load(minima_slot)
+        rays = builder.load(rays_slot)
         # hit entries are never NaN, so the minimum does not depend on the order of the rays;
         # scaled once here rather than in each slab test (a product rounded to nearest is
         # monotone, so the minimum of the scaled entries is the scaled minimum)
-        minima = builder.fmul(_lane_minima(builder, entries), ir.Constant(_V8F, [_NEAR_SCALE] * PACKET))
+        minima = builder.fmul(minima, ir.Constant(_V8F, [_NEAR_SCALE] * PACKET))
         builder.store(minima, builder.bitcast(out, _V8F.as_pointer()), align=4)
+        result = builder.bitcast(builder.trunc(rays, ir.VectorType(_i8, PACKET)), _i64)
         return result
 
     return types.int64(bounds, node, box, rows, lane, active, t_out, at), codegen
