@@ -57,7 +57,6 @@ from .shape_triangle import (
     behind_origin,
     exact_ops,
     intersect_triangles,
-    ray_shear,
     shear_axes,
     watertight_distance,
     watertight_edges,
@@ -585,16 +584,37 @@ def packet_shear(lane, axes):
     from their rays, once per packet: before its first leaf or plane."""
     if lane[SZ, 0] != 0.0:
         return
-    kx, ky, kz = axes
-    for i in range(PACKET):
-        d = (lane[RAY_D, i], lane[RAY_D + 1, i], lane[RAY_D + 2, i])
-        _, _, _, sx, sy, sz = ray_shear(d)
-        lane[OX, i] = lane[RAY_O + kx, i]
-        lane[OY, i] = lane[RAY_O + ky, i]
-        lane[OZ, i] = lane[RAY_O + kz, i]
-        lane[SX, i] = sx
-        lane[SY, i] = sy
-        lane[SZ, i] = sz
+    _packet_shear_lanes(lane, axes)
+
+
+@intrinsic
+def _packet_shear_lanes(typingctx, lane, axes):
+    """packet_shear's work on the eight lanes at once: ray_shear's constants with the packet's
+    axes (every lane's own: packet_load checked one octant and one dominant axis), its division
+    and products operation for operation. As a scalar loop over the lanes, with each lane's
+    axes found again, it cost ~100 instructions a lane (bumpy 1M hit rays: 7% of them)."""
+    _check_array("_packet_shear_lanes", lane, types.float64, 2)
+
+    def codegen(context, builder, sig, args):
+        ln = _array_data(context, builder, sig.args[0], args[0])
+        kx, ky, kz = (
+            context.cast(builder, a, t, types.int64)
+            for a, t in zip(cgutils.unpack_tuple(builder, args[1], 3), sig.args[1], strict=True)
+        )
+        _, _, fmul, _ = exact_ops(builder)
+
+        def row(first, k):  # row first + k (k an i64 at run time)
+            return _row_pointer(builder, ln, builder.add(ir.Constant(_i64, first), k), _V8D)
+
+        dx, dy, dz = (builder.load(row(RAY_D, k), align=8) for k in (kx, ky, kz))
+        sz = builder.fdiv(ir.Constant(_V8D, [1.0] * PACKET), dz, flags=EXACT_DIVISION)
+        for r, value in ((SX, fmul(dx, sz)), (SY, fmul(dy, sz)), (SZ, sz)):
+            _store_row(builder, value, ln, r, _V8D)
+        for r, k in ((OX, kx), (OY, ky), (OZ, kz)):
+            _store_row(builder, builder.load(row(RAY_O, k), align=8), ln, r, _V8D)
+        return context.get_dummy_value()
+
+    return types.void(lane, axes), codegen
 
 
 @intrinsic
