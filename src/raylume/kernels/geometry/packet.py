@@ -54,9 +54,11 @@ from .layout import NODE_REF, NODE_ROWS, SPHERE_BLOCK
 from .shape_triangle import (
     EXACT,
     EXACT_DIVISION,
+    TRIANGLES_PER_TEST,
     behind_origin,
+    block_columns,
+    block_test,
     exact_ops,
-    intersect_triangles,
     shear_axes,
     watertight_distance,
     watertight_edges,
@@ -431,6 +433,59 @@ def packet_triangles_ahead(typingctx, tri, row, count, first, axes, lane, prim, 
     return types.void(tri, row, count, first, axes, lane, prim, active), _triangles_codegen(True)
 
 
+@intrinsic
+def packet_triangles_each(typingctx, tri, row, count, first, axes, lane, prim, active):
+    """Triangles row .. row + count - 1 (a block leaf, count <= 4) against each `active` ray of
+    the packet in turn, four triangles per vector (shape_triangle.block_test, the single-ray
+    block test's arithmetic): for a leaf that few of the packet's rays reach, the same results
+    as packet_triangles, to the bit. The block's vertex columns are gathered once for all the
+    rays, and each ray's origin is read in the shear's axis order (packet_shear's rows): ray by
+    ray through intersect_triangles, each ray gathered the rows again and picked its origin's
+    components by the axes."""
+    _check_array("packet_triangles_each", tri, types.float32, 2)
+    _check_array("packet_triangles_each", lane, types.float64, 2)
+    _check_array("packet_triangles_each", prim, types.int64, 1)
+
+    def codegen(context, builder, sig, args):
+        table = context.make_array(sig.args[0])(context, builder, args[0])
+        row0, n, first = (context.cast(builder, args[i], sig.args[i], types.int64) for i in (1, 2, 3))
+        axes = [
+            context.cast(builder, a, t, types.int64)
+            for a, t in zip(cgutils.unpack_tuple(builder, args[4], 3), sig.args[4], strict=True)
+        ]
+        ln = _array_data(context, builder, sig.args[5], args[5])
+        pr = _array_data(context, builder, sig.args[6], args[6])
+        active = builder.and_(context.cast(builder, args[7], sig.args[7], types.int64), ir.Constant(_i64, 0xFF))
+        cols = block_columns(builder, table, row0, n, axes)
+        v4 = ir.VectorType(_f64, TRIANGLES_PER_TEST)
+        left_slot = cgutils.alloca_once_value(builder, active)
+        cttz = cgutils.get_or_insert_function(builder.module, ir.FunctionType(_i64, [_i64, _i1]), "llvm.cttz.i64")
+        loop = builder.append_basic_block("packet_triangles_each.ray")
+        done = builder.append_basic_block("packet_triangles_each.done")
+        builder.cbranch(builder.icmp_unsigned("!=", active, ir.Constant(_i64, 0)), loop, done)
+        builder.position_at_end(loop)
+        left = builder.load(left_slot)
+        r = builder.call(cttz, [left, ir.Constant(_i1, 1)])
+        builder.store(builder.and_(left, builder.sub(left, ir.Constant(_i64, 1))), left_slot)
+
+        def value(k):
+            return _load_lane(builder, ln, k, r)
+
+        origin = [_splat(builder, value(k), v4) for k in (OX, OY, OZ)]
+        sx, sy, sz = (_splat(builder, value(k), v4) for k in (SX, SY, SZ))
+        best = value(BEST_T)
+        t, j, b1, b2 = block_test(builder, cols, origin, sx, sy, sz, value(TMIN), best, n)
+        with builder.if_then(builder.fcmp_ordered("<", t, best, flags=EXACT)):  # as _set_lane_best
+            for k, x in ((BEST_T, t), (BEST_V, b1), (BEST_W, b2), (BEST_DET, ir.Constant(_f64, 1.0))):
+                builder.store(x, builder.gep(ln, [builder.add(r, ir.Constant(_i64, k * PACKET))], inbounds=True))
+            builder.store(builder.add(first, j), builder.gep(pr, [r], inbounds=True))
+        builder.cbranch(builder.icmp_unsigned("!=", builder.load(left_slot), ir.Constant(_i64, 0)), loop, done)
+        builder.position_at_end(done)
+        return context.get_dummy_value()
+
+    return types.void(tri, row, count, first, axes, lane, prim, active), codegen
+
+
 # --- setting a packet up --------------------------------------------------------------------------
 
 
@@ -695,21 +750,6 @@ def _leaf_ray_by_ray(G, X, first, count, axes, lane, prim, active):
 
 
 @inline_function
-def _triangles_ray_by_ray(tri, row, n, first, axes, lane, prim, active):
-    """Triangles row .. row + n - 1 (a block leaf) against each active ray in turn, with the
-    single-ray block test (four triangles per vector): packet_triangles' results, to the last
-    bit, for a leaf that few of the packet's rays reach."""
-    m = active
-    while m != 0:
-        i = lowest_bit(m)
-        m &= m - 1
-        o, _, shear = _lane_ray(lane, axes, i)
-        t, j, b1, b2 = intersect_triangles(o, shear, tri, row, n, lane[TMIN, i], lane[BEST_T, i])
-        if t < lane[BEST_T, i]:
-            _set_lane_best(lane, prim, i, t, first + j, b1, b2)
-
-
-@inline_function
 def packet_unbounded(G, X, axes, lane, prim, n):
     """The unbounded shapes (planes, after the BVH's primitives in the table) against lanes
     0 .. n - 1 ray by ray, before the traversal, as closest_hit tests them first; their hits
@@ -882,7 +922,7 @@ def packet_closest(G, X, root, rows, axes, active, box, lane, prim, node_stack, 
                 few = mask & (mask - 1)  # the mask less its lowest ray
                 few &= few - 1  # ... and its second lowest
                 if (few & (few - 1)) == 0:  # one, two or three rays
-                    _triangles_ray_by_ray(tri, row, -count, first, axes, lane, prim, mask)
+                    packet_triangles_each(tri, row, -count, first, axes, lane, prim, mask)
                 elif shadows is None:
                     packet_triangles(tri, row, -count, first, axes, lane, prim, mask)
                 else:

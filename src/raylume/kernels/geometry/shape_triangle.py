@@ -127,12 +127,13 @@ def _gathered_codegen(context, builder, sig, args):
 
 def _block_codegen(context, builder, sig, args, columns, gathered=False):
     n = TRIANGLES_PER_TEST
-    f32, f64, i32, i64 = ir.FloatType(), ir.DoubleType(), ir.IntType(32), ir.IntType(64)
+    f64, i32, i64 = ir.DoubleType(), ir.IntType(32), ir.IntType(64)
     v4 = ir.VectorType(f64, n)
     undef = ir.Constant(v4, ir.Undefined)
     zero_idx = ir.Constant(ir.VectorType(i32, n), [0] * n)
     tri_t, first_t, count_t, o_t, shear_t, tmin_t, tmax_t = sig.args
     tri = context.make_array(tri_t)(context, builder, args[0])
+    given = None
     if gathered:
         given = [
             context.cast(builder, r, t, types.int64)
@@ -147,7 +148,7 @@ def _block_codegen(context, builder, sig, args, columns, gathered=False):
         for x, t in zip(cgutils.unpack_tuple(builder, args[3], 3), o_t, strict=True)
     ]
     sh = cgutils.unpack_tuple(builder, args[4], 6)
-    kx, ky, kz = (context.cast(builder, sh[i], shear_t[i], types.int64) for i in range(3))
+    axes = [context.cast(builder, sh[i], shear_t[i], types.int64) for i in range(3)]
     sx, sy, sz = (context.cast(builder, sh[3 + i], shear_t[3 + i], types.float64) for i in range(3))
     tmin = context.cast(builder, args[5], tmin_t, types.float64)
     tmax = context.cast(builder, args[6], tmax_t, types.float64)
@@ -155,13 +156,25 @@ def _block_codegen(context, builder, sig, args, columns, gathered=False):
     def splat(x):
         return builder.shuffle_vector(builder.insert_element(undef, x, ir.Constant(i32, 0)), undef, zero_idx)
 
-    _, fsub, _, lt = exact_ops(builder)
+    cols = block_columns(builder, tri, first, count, axes, columns, given)
+    # o[k] for a runtime k in 0..2, without a branch (vec.stack_element)
+    origin = [splat(stack_element(builder, o, k)) for k in axes]
+    hit = block_test(builder, cols, origin, splat(sx), splat(sy), splat(sz), tmin, tmax, count)
+    return context.make_tuple(builder, sig.return_type, hit)
 
-    def pick(k):  # o[k] for a runtime k in 0..2, without a branch (vec.stack_element)
-        return stack_element(builder, o, k)
 
-    # column(c): float64 vector of coordinate c (runtime) of rows first .. first + 3
-    if columns:  # one load; lanes past count read the next rows or the table's padding (masked below)
+def block_columns(builder, tri, first, count, axes, columns=False, given=None):
+    """The vertex columns of rows first .. first + 3 of tri (an array structure: the (T, 9) row
+    table, or with `columns` the (9, T + COLUMN_PAD) column table) for block_test: nine <4 x
+    double>, a's, b's and c's coordinates in the axis order `axes` (kx, ky, kz, i64s at run
+    time). From the row table each column is four scalar loads and inserts, the lanes past
+    count repeating the last row; from the column table one load (lanes past count read the
+    next rows or the table's padding). With `given` (four row indices, the caller repeating a
+    row in the lanes past count), those rows instead of first .. first + 3."""
+    n = TRIANGLES_PER_TEST
+    f32, f64, i32, i64 = ir.FloatType(), ir.DoubleType(), ir.IntType(32), ir.IntType(64)
+    v4 = ir.VectorType(f64, n)
+    if columns:
         stride = builder.extract_value(tri.strides, 0)
         base = builder.add(builder.ptrtoint(tri.data, i64), builder.mul(first, ir.Constant(i64, 4)))
         v4f = ir.VectorType(f32, n)
@@ -170,12 +183,12 @@ def _block_codegen(context, builder, sig, args, columns, gathered=False):
             address = builder.add(base, builder.mul(c, stride))
             return builder.fpext(builder.load(builder.inttoptr(address, v4f.as_pointer()), align=4), v4)
 
-    else:  # gathered from the rows; lanes past count repeat the last row (masked below)
+    else:
         last = builder.sub(count, ir.Constant(i64, 1))
         rows = []
         for j in range(n):
             jj = ir.Constant(i64, j)
-            if gathered:  # the caller repeats a row in the lanes past count
+            if given is not None:
                 rows.append(builder.mul(given[j], ir.Constant(i64, 9)))
                 continue
             lane = builder.select(builder.icmp_signed("<", jj, count), jj, last)
@@ -188,18 +201,28 @@ def _block_codegen(context, builder, sig, args, columns, gathered=False):
                 vec = builder.insert_element(vec, builder.load(p, align=4), ir.Constant(i32, j))
             return builder.fpext(vec, v4)
 
-    ox, oy, oz = splat(pick(kx)), splat(pick(ky)), splat(pick(kz))
-    c3, c6 = ir.Constant(i64, 3), ir.Constant(i64, 6)
-    ax = fsub(column(kx), ox)
-    ay = fsub(column(ky), oy)
-    az = fsub(column(kz), oz)
-    bx = fsub(column(builder.add(kx, c3)), ox)
-    by = fsub(column(builder.add(ky, c3)), oy)
-    bz = fsub(column(builder.add(kz, c3)), oz)
-    cx = fsub(column(builder.add(kx, c6)), ox)
-    cy = fsub(column(builder.add(ky, c6)), oy)
-    cz = fsub(column(builder.add(kz, c6)), oz)
-    _, v, w, det, num, inside = watertight_edges(builder, (ax, ay, az, bx, by, bz, cx, cy, cz), splat(sx), splat(sy))
+    return [column(builder.add(k, ir.Constant(i64, vertex))) for vertex in (0, 3, 6) for k in axes]
+
+
+def block_test(builder, cols, origin, sx, sy, sz, tmin, tmax, count):
+    """The watertight test of one ray against the four triangles of a block, from their vertex
+    columns `cols` (<4 x double>: a's, b's, c's coordinates in the shear's axis order kx, ky,
+    kz; lanes past `count` masked), the origin in that order and the shear constants as splats,
+    tmin and tmax scalars: (t, lane, b1, b2) of the nearest hit in (tmin, tmax), the lowest lane
+    on ties; t = +inf, lane 0 and b1 = b2 = 0 when none. intersect_triangle's arithmetic
+    operation for operation (IEEE, no contraction)."""
+    n = TRIANGLES_PER_TEST
+    f64, i32, i64 = ir.DoubleType(), ir.IntType(32), ir.IntType(64)
+    v4 = ir.VectorType(f64, n)
+    undef = ir.Constant(v4, ir.Undefined)
+    zero_idx = ir.Constant(ir.VectorType(i32, n), [0] * n)
+
+    def splat(x):
+        return builder.shuffle_vector(builder.insert_element(undef, x, ir.Constant(i32, 0)), undef, zero_idx)
+
+    _, fsub, _, lt = exact_ops(builder)
+    rel = tuple(fsub(cols[j], origin[j % 3]) for j in range(9))
+    _, v, w, det, num, inside = watertight_edges(builder, rel, sx, sy)
     lanes = ir.Constant(ir.VectorType(i64, n), list(range(n)))
     inside = builder.and_(inside, builder.icmp_signed("<", lanes, splat_i64(builder, count, n)))
     zero, one = ir.Constant(f64, 0.0), ir.Constant(f64, 1.0)
@@ -211,7 +234,7 @@ def _block_codegen(context, builder, sig, args, columns, gathered=False):
     # bounce) passes inside its own triangle, at t <= 0. The sign of t is the sign of the
     # numerator times the denominator's (a division never flips it, and a zero numerator gives
     # a zero t), so with tmin >= 0 those lanes fail `tmin < t` whatever the division rounds to.
-    behind = behind_origin(builder, num, det, splat(sz))
+    behind = behind_origin(builder, num, det, sz)
     bits = ir.IntType(n)
     none = ir.Constant(bits, 0)
     inside_ahead = builder.icmp_unsigned("!=", builder.bitcast(builder.and_(inside, builder.not_(behind)), bits), none)
@@ -222,7 +245,7 @@ def _block_codegen(context, builder, sig, args, columns, gathered=False):
             builder.icmp_unsigned("!=", builder.bitcast(inside, bits), none), builder.or_(inside_ahead, tmin_negative)
         )
     ):
-        t, ok = watertight_distance(builder, num, det, inside, splat(sz), splat(tmin), splat(tmax))
+        t, ok = watertight_distance(builder, num, det, inside, sz, splat(tmin), splat(tmax))
         tt = builder.select(ok, t, ir.Constant(v4, [float("inf")] * n))
         hit_t, hit_j = nearest_lane(builder, tt, n)
         vj = builder.extract_element(v, hit_j)
@@ -246,7 +269,7 @@ def _block_codegen(context, builder, sig, args, columns, gathered=False):
         phi.add_incoming(value, tested)
         phi.add_incoming(missed, entry)
         values.append(phi)
-    return context.make_tuple(builder, sig.return_type, values)
+    return values
 
 
 def watertight_edges(builder, rel, sx, sy):
