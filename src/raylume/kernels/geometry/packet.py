@@ -12,7 +12,8 @@ test with the node's box rows held in registers, so a node that two rays reach c
 not eight.
 
 A leaf that only one to three of the packet's rays reach is tested ray by ray with the
-single-ray block test (four triangles per vector) rather than eight float64 lanes at once.
+single-ray block test's arithmetic (four triangles per vector, the block gathered once for those
+rays: packet_triangles_each) rather than eight float64 lanes at once.
 
 Each ray's result is the single-ray traversal's to the last bit: the triangle test is the same
 watertight test (shape_triangle.py) operation for operation, one ray per lane in float64, and
