@@ -20,6 +20,7 @@ from raylume.compile import compile_scene
 from raylume.kernels.film.camera import camera_frame
 from raylume.kernels.geometry.packet import (
     BEST_T,
+    BOX_BITS,
     PACKET,
     packet_blocked,
     packet_box,
@@ -245,7 +246,7 @@ def test_incoherent_rays_are_refused_as_packets(tmp_path):
 
 @njit(fastmath=FAST, error_model="numpy")
 def _setup_lanes(origins, dirs, n, extent):
-    """packet_setup on rays 0 .. n - 1: (taken, the box rows (9, 8), each lane's box_ray
+    """packet_setup on rays 0 .. n - 1: (taken, the box scratch, each lane's box_ray
     constants (9, 8) and its near rows (3, 8) from the single-ray function)."""
     box, lane, prim, _ = packet_scratch()
     ok, rows, axes = packet_setup(origins, dirs, 0, n, 0.0, INF, extent, box, lane, prim)
@@ -283,8 +284,13 @@ def test_packet_setup_gives_each_lane_the_single_ray_box_constants(seed, n, scal
         d[:, zero_axis] = rng.choice([0.0, -0.0])
     o = scale * (rng.normal(size=3) + rng.normal(scale=rng.choice([1e-5, 0.1]), size=(PACKET, 3)))
     extent = scale
-    ok, box, single, near_rows, rows = _setup_lanes(o, d, n, extent)
+    ok, scratch, single, near_rows, rows = _setup_lanes(o, d, n, extent)
+    box = scratch[:9]
     assert np.array_equal(box.view(np.uint32), single.view(np.uint32))
+    # and packet_node's table of the rays' bits
+    assert np.array_equal(
+        scratch[BOX_BITS:].view(np.int32), np.repeat(1 << np.arange(PACKET), PACKET).reshape(PACKET, -1)
+    )
     lanes = [i if i < n else 0 for i in range(PACKET)]
     dl, ol = d[lanes], o[lanes]
     for i in range(PACKET):

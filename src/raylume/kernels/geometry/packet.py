@@ -88,6 +88,14 @@ from .wide_nodes import (
 PACKET = 8  # rays per packet: eight float32 lanes in one AVX2 register
 assert PACKET == BVH_WIDTH  # a node's child mask and a child's ray mask are both one byte
 
+# Rows of the `box` scratch (float32, one column per ray): box_ray's nine constants (near offsets
+# x, y, z, far offsets, 1 / d), then packet_node's: the rays' best hits in float32 (BOX_BEST),
+# and each ray's bit in every lane (BOX_BITS + r: 1 << r as int32, written by packet_load), read
+# by the node test's loop as broadcasts and memory operands
+BOX_BEST = 9
+BOX_BITS = 10
+BOX_ROWS = BOX_BITS + PACKET
+
 # Rows of the `lane` scratch (float64, one column per ray)
 OX, OY, OZ = 0, 1, 2  # the origin's components along the shear axes kx, ky, kz
 SX, SY, SZ = 3, 4, 5  # the watertight test's shear constants
@@ -112,7 +120,7 @@ _SHADOW_ORIGIN_SPREAD = 0.1
 def packet_scratch():
     """One thread's packet state: (box, lane, prim, mask stack) as the module docstring says."""
     return (
-        scratch_array(9 * PACKET, np.float32).reshape((9, PACKET)),
+        scratch_array(BOX_ROWS * PACKET, np.float32).reshape((BOX_ROWS, PACKET)),
         scratch_array(LANE_ROWS * PACKET, np.float64).reshape((LANE_ROWS, PACKET)),
         scratch_array(PACKET, np.int64),
         scratch_array(TRAVERSAL_STACK, np.int32),
@@ -242,6 +250,10 @@ def packet_node(typingctx, bounds, node, box, rows, lane, active, t_out, at):
             far.append(builder.load(builder.bitcast(builder.gep(b, [hi], inbounds=True), _V8F.as_pointer()), align=4))
         vi = ir.VectorType(_i32, PACKET)
         inf = ir.Constant(_V8F, [math.inf] * PACKET)
+        # the rays' best hits in float32 once a visit, each ray's then one broadcast load (in the
+        # scratch, not a local: LLVM would forward the store into the loop as a conversion a ray)
+        _store_row(builder, builder.fptrunc(_load_row(builder, ln, BEST_T, _V8D), _V8F), bx, BOX_BEST, _V8F)
+        bits = builder.bitcast(bx, vi.as_pointer())
         rays_slot = cgutils.alloca_once_value(builder, ir.Constant(vi, [0] * PACKET))  # lane c: rays entering c
         minima_slot = cgutils.alloca_once_value(builder, inf)  # lane c: their nearest entry
         left_slot = cgutils.alloca_once_value(builder, active)
@@ -255,9 +267,9 @@ def packet_node(typingctx, bounds, node, box, rows, lane, active, t_out, at):
         left = builder.and_(left, builder.sub(left, ir.Constant(_i64, 1)))
         builder.store(left, left_slot)
         rf = [_splat(builder, _load_lane(builder, bx, k, r), _V8F) for k in range(9)]
-        best = builder.fptrunc(_load_lane(builder, ln, BEST_T, r), _f32)
+        best = _load_lane(builder, bx, BOX_BEST, r)
         tnear, hit = slab_test(builder, near, far, rf, _splat(builder, best, _V8F))
-        bit = _splat(builder, builder.trunc(builder.shl(ir.Constant(_i64, 1), r), _i32), vi)
+        bit = builder.load(builder.gep(bits, [builder.add(r, ir.Constant(_i64, BOX_BITS))], inbounds=True), align=4)
         builder.store(builder.or_(builder.load(rays_slot), builder.and_(builder.sext(hit, vi), bit)), rays_slot)
         builder.store(select_min(builder, builder.load(minima_slot), builder.select(hit, tnear, inf)), minima_slot)
         builder.cbranch(builder.icmp_unsigned("!=", left, ir.Constant(_i64, 0)), loop, done)
@@ -621,6 +633,10 @@ def packet_load(typingctx, origins, directions, start, n, kz0, tmin, tmax, limit
         for r, value in ((TMIN, t_min), (BEST_T, t_max), (BEST_V, 0.0), (BEST_W, 0.0), (BEST_DET, 1.0)):
             v = _splat(builder, value, _V8D) if isinstance(value, ir.Value) else const(value)
             _store_row(builder, v, ln, r, _V8D)
+        vi = ir.VectorType(_i32, PACKET)
+        for r in range(PACKET):  # packet_node's table of the rays' bits
+            at = _row_pointer(builder, bx, ir.Constant(_i64, BOX_BITS + r), vi)
+            builder.store(ir.Constant(vi, [1 << r] * PACKET), at, align=4)
         for c in range(3):
             _store_row(builder, O[c], ln, RAY_O + c, _V8D)
             _store_row(builder, D[c], ln, RAY_D + c, _V8D)
