@@ -32,7 +32,8 @@ traced ray by ray, by the caller.
 
 Packet state lives in one thread's scratch arrays (`packet_scratch`):
 
-* ``box`` float32 (9, 8): per lane, box_ray's near offsets x, y, z, far offsets, 1 / d.
+* ``box`` float32 (BOX_ROWS, 8): per lane, box_ray's near offsets x, y, z, far offsets, 1 / d;
+  then packet_node's rows (the best hits in float32, a table of the rays' bits).
 * ``lane`` float64 (LANE_ROWS, 8): per lane the sheared-test constants, the best hit so far and
   the ray itself (rows below).
 * ``prim`` int64 (8,): per lane the primitive of the best hit (NO_HIT when none).
