@@ -52,7 +52,7 @@ from numba.core.errors import TypingError
 from numba.extending import intrinsic
 
 from ..vec import inline_function, kernel_function
-from .layout import NODE_REF, NODE_ROWS, SPHERE_BLOCK
+from .layout import NODE_REF, SPHERE_BLOCK
 from .shape_triangle import (
     EXACT,
     EXACT_DIVISION,
@@ -75,6 +75,7 @@ from .wide_nodes import (
     leaf_count,
     leaf_first,
     lowest_bit,
+    node_planes,
     prefetch_child,
     prefetch_child_rows,
     prefetch_neighbours,
@@ -162,9 +163,31 @@ def _store_row(builder, value, data, row, vt):
     builder.store(value, _row_pointer(builder, data, ir.Constant(_i64, row), vt), align=_align(vt))
 
 
+def _lane_pointer(builder, data, row, i):
+    """Pointer to element (row, i) of a C-contiguous (R, PACKET) array; i an i64."""
+    return builder.gep(data, [builder.add(i, ir.Constant(_i64, row * PACKET))], inbounds=True)
+
+
 def _load_lane(builder, data, row, i):
-    """Element (row, i) of a C-contiguous (R, PACKET) array; i an i64."""
-    return builder.load(builder.gep(data, [builder.add(i, ir.Constant(_i64, row * PACKET))], inbounds=True))
+    return builder.load(_lane_pointer(builder, data, row, i))
+
+
+@contextlib.contextmanager
+def _each_ray(builder, mask, name):
+    """A loop over the set bits of the i64 `mask` (at most the low PACKET), lowest first, none
+    when it is 0: the code emitted in the with block is its body, and the bit's index (an i64)
+    is what the with statement binds. Not unrolled, so that LLVM schedules one ray at a time."""
+    left_slot = cgutils.alloca_once_value(builder, mask)
+    cttz = cgutils.get_or_insert_function(builder.module, ir.FunctionType(_i64, [_i64, _i1]), "llvm.cttz.i64")
+    loop = builder.append_basic_block(f"{name}.ray")
+    done = builder.append_basic_block(f"{name}.done")
+    builder.cbranch(builder.icmp_unsigned("!=", mask, ir.Constant(_i64, 0)), loop, done)
+    builder.position_at_end(loop)
+    left = builder.load(left_slot)
+    builder.store(builder.and_(left, builder.sub(left, ir.Constant(_i64, 1))), left_slot)
+    yield builder.call(cttz, [left, ir.Constant(_i1, 1)])
+    builder.cbranch(builder.icmp_unsigned("!=", builder.load(left_slot), ir.Constant(_i64, 0)), loop, done)
+    builder.position_at_end(done)
 
 
 def _mask_vector(builder, mask):
@@ -241,14 +264,7 @@ def packet_node(typingctx, bounds, node, box, rows, lane, active, t_out, at):
         # box_hits' test, its nine constants broadcast from the scratch, and the node's six
         # plane rows stay in registers for all of them. A loop over the active rays, not
         # unrolled: unrolled, LLVM hoisted every ray's multiply-adds to the top and spilled them.
-        base = builder.mul(n, ir.Constant(_i64, NODE_ROWS * BVH_WIDTH))
-        near, far = [], []
-        for k in range(3):
-            far_row = builder.sub(ir.Constant(_i64, 2 * k + 3), rows[k])
-            lo = builder.add(base, builder.mul(rows[k], ir.Constant(_i64, BVH_WIDTH)))
-            hi = builder.add(base, builder.mul(far_row, ir.Constant(_i64, BVH_WIDTH)))
-            near.append(builder.load(builder.bitcast(builder.gep(b, [lo], inbounds=True), _V8F.as_pointer()), align=4))
-            far.append(builder.load(builder.bitcast(builder.gep(b, [hi], inbounds=True), _V8F.as_pointer()), align=4))
+        near, far = node_planes(builder, b, n, rows)
         vi = ir.VectorType(_i32, PACKET)
         inf = ir.Constant(_V8F, [math.inf] * PACKET)
         # the rays' best hits in float32 once a visit, each ray's then one broadcast load (in the
@@ -257,24 +273,13 @@ def packet_node(typingctx, bounds, node, box, rows, lane, active, t_out, at):
         bits = builder.bitcast(bx, vi.as_pointer())
         rays_slot = cgutils.alloca_once_value(builder, ir.Constant(vi, [0] * PACKET))  # lane c: rays entering c
         minima_slot = cgutils.alloca_once_value(builder, inf)  # lane c: their nearest entry
-        left_slot = cgutils.alloca_once_value(builder, active)
-        cttz = cgutils.get_or_insert_function(builder.module, ir.FunctionType(_i64, [_i64, _i1]), "llvm.cttz.i64")
-        loop = builder.append_basic_block("packet_node.ray")
-        done = builder.append_basic_block("packet_node.done")
-        builder.cbranch(builder.icmp_unsigned("!=", active, ir.Constant(_i64, 0)), loop, done)
-        builder.position_at_end(loop)
-        left = builder.load(left_slot)
-        r = builder.call(cttz, [left, ir.Constant(_i1, 1)])
-        left = builder.and_(left, builder.sub(left, ir.Constant(_i64, 1)))
-        builder.store(left, left_slot)
-        rf = [_splat(builder, _load_lane(builder, bx, k, r), _V8F) for k in range(9)]
-        best = _load_lane(builder, bx, BOX_BEST, r)
-        tnear, hit = slab_test(builder, near, far, rf, _splat(builder, best, _V8F))
-        bit = builder.load(builder.gep(bits, [builder.add(r, ir.Constant(_i64, BOX_BITS))], inbounds=True), align=4)
-        builder.store(builder.or_(builder.load(rays_slot), builder.and_(builder.sext(hit, vi), bit)), rays_slot)
-        builder.store(select_min(builder, builder.load(minima_slot), builder.select(hit, tnear, inf)), minima_slot)
-        builder.cbranch(builder.icmp_unsigned("!=", left, ir.Constant(_i64, 0)), loop, done)
-        builder.position_at_end(done)
+        with _each_ray(builder, active, "packet_node") as r:
+            rf = [_splat(builder, _load_lane(builder, bx, k, r), _V8F) for k in range(9)]
+            best = _load_lane(builder, bx, BOX_BEST, r)
+            tnear, hit = slab_test(builder, near, far, rf, _splat(builder, best, _V8F))
+            bit = builder.load(builder.gep(bits, [builder.add(r, ir.Constant(_i64, BOX_BITS))], inbounds=True), align=4)
+            builder.store(builder.or_(builder.load(rays_slot), builder.and_(builder.sext(hit, vi), bit)), rays_slot)
+            builder.store(select_min(builder, builder.load(minima_slot), builder.select(hit, tnear, inf)), minima_slot)
         minima = builder.load(minima_slot)
         rays = builder.load(rays_slot)
         # hit entries are never NaN, so the minimum does not depend on the order of the rays;
@@ -472,29 +477,19 @@ def packet_triangles_each(typingctx, tri, row, count, first, axes, lane, prim, a
         active = builder.and_(context.cast(builder, args[7], sig.args[7], types.int64), ir.Constant(_i64, 0xFF))
         cols = block_columns(builder, table, row0, n, axes)
         v4 = ir.VectorType(_f64, TRIANGLES_PER_TEST)
-        left_slot = cgutils.alloca_once_value(builder, active)
-        cttz = cgutils.get_or_insert_function(builder.module, ir.FunctionType(_i64, [_i64, _i1]), "llvm.cttz.i64")
-        loop = builder.append_basic_block("packet_triangles_each.ray")
-        done = builder.append_basic_block("packet_triangles_each.done")
-        builder.cbranch(builder.icmp_unsigned("!=", active, ir.Constant(_i64, 0)), loop, done)
-        builder.position_at_end(loop)
-        left = builder.load(left_slot)
-        r = builder.call(cttz, [left, ir.Constant(_i1, 1)])
-        builder.store(builder.and_(left, builder.sub(left, ir.Constant(_i64, 1))), left_slot)
+        with _each_ray(builder, active, "packet_triangles_each") as r:
 
-        def value(k):
-            return _load_lane(builder, ln, k, r)
+            def value(k):
+                return _load_lane(builder, ln, k, r)
 
-        origin = [_splat(builder, value(k), v4) for k in (OX, OY, OZ)]
-        sx, sy, sz = (_splat(builder, value(k), v4) for k in (SX, SY, SZ))
-        best = value(BEST_T)
-        t, j, b1, b2 = block_test(builder, cols, origin, sx, sy, sz, value(TMIN), best, n)
-        with builder.if_then(builder.fcmp_ordered("<", t, best, flags=EXACT)):  # as _set_lane_best
-            for k, x in ((BEST_T, t), (BEST_V, b1), (BEST_W, b2), (BEST_DET, ir.Constant(_f64, 1.0))):
-                builder.store(x, builder.gep(ln, [builder.add(r, ir.Constant(_i64, k * PACKET))], inbounds=True))
-            builder.store(builder.add(first, j), builder.gep(pr, [r], inbounds=True))
-        builder.cbranch(builder.icmp_unsigned("!=", builder.load(left_slot), ir.Constant(_i64, 0)), loop, done)
-        builder.position_at_end(done)
+            origin = [_splat(builder, value(k), v4) for k in (OX, OY, OZ)]
+            sx, sy, sz = (_splat(builder, value(k), v4) for k in (SX, SY, SZ))
+            best = value(BEST_T)
+            t, j, b1, b2 = block_test(builder, cols, origin, sx, sy, sz, value(TMIN), best, n)
+            with builder.if_then(builder.fcmp_ordered("<", t, best, flags=EXACT)):  # as _set_lane_best
+                for k, x in ((BEST_T, t), (BEST_V, b1), (BEST_W, b2), (BEST_DET, ir.Constant(_f64, 1.0))):
+                    builder.store(x, _lane_pointer(builder, ln, k, r))
+                builder.store(builder.add(first, j), builder.gep(pr, [r], inbounds=True))
         return context.get_dummy_value()
 
     return types.void(tri, row, count, first, axes, lane, prim, active), codegen

@@ -209,6 +209,23 @@ def slab_test(builder, near, far, rf, tmax):
     return tnear, builder.fcmp_ordered("<=", tnear, tfar)
 
 
+def node_planes(builder, data, node, rows, width=BVH_WIDTH):
+    """The near and far plane rows of wide node `node` (an i64) for a ray or packet whose near
+    rows are `rows` (box_ray's, i64s): two lists of three <width x float> loads from the node
+    records at `data` (float32, C-contiguous)."""
+    i64 = ir.IntType(64)
+    vt = ir.VectorType(ir.FloatType(), width)
+    base = builder.mul(node, ir.Constant(i64, NODE_ROWS * width))
+
+    def row(r):
+        p = builder.gep(data, [builder.add(base, builder.mul(r, ir.Constant(i64, width)))], inbounds=True)
+        return builder.load(builder.bitcast(p, vt.as_pointer()), align=4)
+
+    near = [row(rows[k]) for k in range(3)]
+    far = [row(builder.sub(ir.Constant(i64, 2 * k + 3), rows[k])) for k in range(3)]
+    return near, far
+
+
 def _box_codegen(width, store):
     f32 = ir.FloatType()
     f64 = ir.DoubleType()
@@ -231,17 +248,7 @@ def _box_codegen(width, store):
         def splat(x):
             return builder.shuffle_vector(builder.insert_element(undef, x, ir.Constant(i32, 0)), undef, broadcast)
 
-        base = builder.mul(node, ir.Constant(i64, NODE_ROWS * width))
-
-        def row(r):
-            p = builder.gep(bounds.data, [builder.add(base, builder.mul(r, ir.Constant(i64, width)))], inbounds=True)
-            return builder.load(builder.bitcast(p, vt.as_pointer()), align=4)
-
-        near, far = [], []
-        for k in range(3):
-            far_row = builder.sub(ir.Constant(i64, 2 * k + 3), rows[k])
-            near.append(row(rows[k]))
-            far.append(row(far_row))
+        near, far = node_planes(builder, bounds.data, node, rows, width)
         tnear, hit = slab_test(builder, near, far, [splat(rf[k]) for k in range(9)], splat(tmax))
         mask = builder.zext(builder.bitcast(hit, ir.IntType(width)), i64)
         if store:
