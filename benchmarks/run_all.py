@@ -9,11 +9,12 @@ tables were made (bench_bvh.py and bench_path.py redraw their plots in docs/imag
 bench_scaling.py its own), then the others with their default arguments (a few minutes each at
 most): the full run takes half an hour or more.
 
-Two are in the quick run only: bench_compile.py (its defaults, 3 cold compiles of 8 kinds of
-work in new processes, take over ten minutes) and bench_builds.py (it compares checkouts,
-`--src OLD --src NEW`; the quick run gives it this one). Mitsuba's scripts run their timing
-commands (mitsuba_reference.py timing, mitsuba_media.py bench, mitsuba_scene.py compare), never
-`reference`, which rewrites the stored references in tests/reference.
+Three are in the quick run only: bench_compile.py (its defaults, 3 cold compiles of 8 kinds of
+work in new processes, take over ten minutes), bench_builds.py and ab_queries.py (they compare
+checkouts, `--src OLD --src NEW` and `--a OLD --b NEW`; the quick run gives them this one
+twice). Mitsuba's scripts run their timing commands (mitsuba_reference.py timing,
+mitsuba_media.py bench, mitsuba_scene.py compare), never `reference`, which rewrites the stored
+references in tests/reference.
 """
 
 from __future__ import annotations
@@ -56,6 +57,7 @@ if QUICK:  # in the quick run only (see above)
     BENCHMARKS += [
         ["bench_compile.py", "--repeats", "1", "intersect", "seed"],
         ["bench_builds.py", "--src", str(HERE.parent), "--rounds", "1", "seed", "hits"],
+        ["ab_queries.py", "--a", str(HERE.parent), "--b", str(HERE.parent), "--rounds", "2", "10k"],
     ]
 
 for args in BENCHMARKS:
