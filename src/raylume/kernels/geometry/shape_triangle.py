@@ -204,13 +204,15 @@ def block_columns(builder, tri, first, count, axes, columns=False, given=None):
     return [column(builder.add(k, ir.Constant(i64, vertex))) for vertex in (0, 3, 6) for k in axes]
 
 
-def block_test(builder, cols, origin, sx, sy, sz, tmin, tmax, count):
+def block_test(builder, cols, origin, sx, sy, sz, tmin, tmax, count, undivided=False):
     """The watertight test of one ray against the four triangles of a block, from their vertex
     columns `cols` (<4 x double>: a's, b's, c's coordinates in the shear's axis order kx, ky,
     kz; lanes past `count` masked), the origin in that order and the shear constants as splats,
     tmin and tmax scalars: (t, lane, b1, b2) of the nearest hit in (tmin, tmax), the lowest lane
     on ties; t = +inf, lane 0 and b1 = b2 = 0 when none. intersect_triangle's arithmetic
-    operation for operation (IEEE, no contraction)."""
+    operation for operation (IEEE, no contraction). With `undivided`, (t, lane, v, w, det): the
+    nearest lane's barycentrics before their divisions by det (0, 0 and 1 when none), which the
+    caller divides once its traversal is done (packet_finish, for packet_triangles_each)."""
     n = TRIANGLES_PER_TEST
     f64, i32, i64 = ir.DoubleType(), ir.IntType(32), ir.IntType(64)
     v4 = ir.VectorType(f64, n)
@@ -261,10 +263,14 @@ def block_test(builder, cols, origin, sx, sy, sz, tmin, tmax, count):
             q = builder.select(lt(q, one), q, one)
             return builder.select(found, q, zero)
 
-        hit_b1, hit_b2 = barycentric(vj), barycentric(wj)
+        if undivided:
+            outputs = ((hit_t, inf), (hit_j, ir.Constant(i64, 0)), (vj, zero), (wj, zero), (dj, one))
+        else:
+            hit_b1, hit_b2 = barycentric(vj), barycentric(wj)
+            outputs = ((hit_t, inf), (hit_j, ir.Constant(i64, 0)), (hit_b1, zero), (hit_b2, zero))
         tested = builder.block
     values = []
-    for value, missed in ((hit_t, inf), (hit_j, ir.Constant(i64, 0)), (hit_b1, zero), (hit_b2, zero)):
+    for value, missed in outputs:
         phi = builder.phi(value.type)
         phi.add_incoming(value, tested)
         phi.add_incoming(missed, entry)
