@@ -929,16 +929,16 @@ def packet_closest(G, X, root, rows, axes, active, box, lane, prim, node_stack, 
                 row = block_row(G, first)
                 if direct_rows:
                     prefetch_neighbours(tri, row, row - count)
-                # A leaf that one to three rays reach is tested ray by ray, four triangles per
+                # A leaf that one to six rays reach is tested ray by ray, four triangles per
                 # vector: the packet test computes all eight lanes in float64 (two ymm
                 # registers on AVX2) however few are active. On a mesh with several triangles
                 # under each pixel most leaves are reached by one ray (bumpy 1M hit rays on
-                # a Zen 3: 91 -> 77 ms, 4M 149 -> 106; the same hits). Three rather than two:
-                # 1M 44.0 -> 43.3 ms and 40k 23.1 -> 22.9 (4 of 4 alternating rounds each),
-                # 4M the same; four was slower at 40k.
-                few = mask & (mask - 1)  # the mask less its lowest ray
-                few &= few - 1  # ... and its second lowest
-                if (few & (few - 1)) == 0:  # one, two or three rays
+                # a Zen 3: 91 -> 77 ms, 4M 149 -> 106; the same hits). Up to three rays until
+                # a few-ray hit kept its barycentrics undivided; since, six (benchmarks/
+                # ab_queries.py, pinned: hit rays 40k, 1M and the bunny 2-3% faster, 4M the
+                # same; the bunny's shadow rays 2.5%, Nefertiti's and 4M's within 1%).
+                missing = ~mask & 0xFF  # the packet's lanes this leaf's entry does not have
+                if missing & (missing - 1) != 0:  # two or more of them: at most six rays
                     packet_triangles_each(tri, row, -count, first, axes, lane, prim, mask)
                 elif shadows is None:
                     packet_triangles(tri, row, -count, first, axes, lane, prim, mask)
