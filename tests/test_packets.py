@@ -77,8 +77,8 @@ def _single(S, origins, dirs, X=None):
 @njit(fastmath=FAST, error_model="numpy")
 def _packets(S, origins, dirs, size, shadows=None):
     """The rays in packets of `size` (the last one may be smaller): (t, prim, b1, b2) arrays
-    from packet_closest (shadows: None, or True for shadow rays, which skip the division for
-    triangles passed behind the origin and stop at the first hit they find), and for
+    from packet_closest (shadows: None, or True for shadow rays, which test every leaf ray by
+    ray and stop at the first hit they find), and for
     each packet whether packet_setup took it (the rays of those refused are left NaN)."""
     n = origins.shape[0]
     out = np.full((n, 4), np.nan)

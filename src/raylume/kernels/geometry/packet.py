@@ -11,9 +11,10 @@ node's eight boxes are tested against each of the rays that reached it in turn, 
 test with the node's box rows held in registers, so a node that two rays reach costs two tests,
 not eight.
 
-A leaf that only one to three of the packet's rays reach is tested ray by ray with the
-single-ray block test's arithmetic (four triangles per vector, the block gathered once for those
-rays: packet_triangles_each) rather than eight float64 lanes at once.
+A leaf that one to six of the packet's rays reach is tested ray by ray with the single-ray
+block test's arithmetic (four triangles per vector, the block gathered once for those rays:
+packet_triangles_each) rather than eight float64 lanes at once; so is every leaf of a shadow
+packet, whose rays leave it as they are blocked.
 
 Each ray's result is the single-ray traversal's to the last bit: the triangle test is the same
 watertight test (shape_triangle.py) operation for operation, one ray per lane in float64, and
@@ -57,7 +58,6 @@ from .shape_triangle import (
     EXACT,
     EXACT_DIVISION,
     TRIANGLES_PER_TEST,
-    behind_origin,
     block_columns,
     block_test,
     exact_ops,
@@ -348,9 +348,18 @@ def packet_farthest(typingctx, lane, mask):
 # --- a leaf of triangles against the packet ----------------------------------------------------------
 
 
-def _triangles_codegen(skip_behind):
-    """packet_triangles' code; with skip_behind, the division and the best hits' update only for
-    a triangle that an active ray passes inside ahead of its origin (packet_triangles_ahead)."""
+@intrinsic
+def packet_triangles(typingctx, tri, row, count, first, axes, lane, prim, active):
+    """Triangles row .. row + count - 1 of tri (float32 (T, 9)) against the `active` rays of the
+    packet, one ray per float64 lane: shape_triangle.intersect_triangle's arithmetic operation
+    for operation (IEEE, no FMA contraction), with the packet's shear axes `axes` (kx, ky, kz)
+    and each lane's origin and shear constants. A hit nearer than a ray's best replaces it in
+    lane[BEST_*] and prim (first + the triangle's place in the leaf): as the single-ray test,
+    the first of equal hits is kept. Camera packets' leaves that seven or eight rays reach; shadow
+    packets test every leaf ray by ray (packet_closest)."""
+    _check_array("packet_triangles", tri, types.float32, 2)
+    _check_array("packet_triangles", lane, types.float64, 2)
+    _check_array("packet_triangles", prim, types.int64, 1)
 
     def codegen(context, builder, sig, args):
         t_data = _array_data(context, builder, sig.args[0], args[0])
@@ -394,62 +403,19 @@ def _triangles_codegen(skip_behind):
             cx, cy, cz = fsub(vertex(cols[6]), ox), fsub(vertex(cols[7]), oy), fsub(vertex(cols[8]), oz)
             _, v, w, det, num, inside = watertight_edges(builder, (ax, ay, az, bx, by, bz, cx, cy, cz), sx, sy)
             inside = builder.and_(inside, act)
-            if skip_behind:
-                # Only where an active ray passes inside the triangle ahead of its origin (the
-                # block test's reasoning, shape_triangle.py): a shadow ray leaving a surface
-                # passes inside its own triangle, behind it; the division is on the chain of
-                # best hits from one triangle to the next.
-                zero = ir.Constant(_V8D, [0.0] * PACKET)
-                behind = builder.and_(
-                    behind_origin(builder, num, det, sz), builder.fcmp_ordered(">=", tmin, zero, flags=EXACT)
-                )
-                ahead = builder.bitcast(builder.and_(inside, builder.not_(behind)), ir.IntType(PACKET))
-                skip = builder.if_then(builder.icmp_unsigned("!=", ahead, ir.Constant(ir.IntType(PACKET), 0)))
-            else:
-                skip = contextlib.nullcontext()
-            with skip:
-                best = builder.load(best_slots[BEST_T])
-                t, ok = watertight_distance(builder, num, det, inside, sz, tmin, best)
-                for dest, value in ((BEST_T, t), (BEST_V, v), (BEST_W, w), (BEST_DET, det)):
-                    slot = best_slots[dest]
-                    builder.store(builder.select(ok, value, builder.load(slot)), slot)
-                here = _splat(builder, builder.add(first, loop.index), _V8I64)
-                builder.store(builder.select(ok, here, builder.load(prim_slot)), prim_slot)
+            best = builder.load(best_slots[BEST_T])
+            t, ok = watertight_distance(builder, num, det, inside, sz, tmin, best)
+            for dest, value in ((BEST_T, t), (BEST_V, v), (BEST_W, w), (BEST_DET, det)):
+                slot = best_slots[dest]
+                builder.store(builder.select(ok, value, builder.load(slot)), slot)
+            here = _splat(builder, builder.add(first, loop.index), _V8I64)
+            builder.store(builder.select(ok, here, builder.load(prim_slot)), prim_slot)
         for r in rows:
             _store_row(builder, builder.load(best_slots[r]), ln, r, _V8D)
         builder.store(builder.load(prim_slot), prim_ptr, align=8)
         return context.get_dummy_value()
 
-    return codegen
-
-
-@intrinsic
-def packet_triangles(typingctx, tri, row, count, first, axes, lane, prim, active):
-    """Triangles row .. row + count - 1 of tri (float32 (T, 9)) against the `active` rays of the
-    packet, one ray per float64 lane: shape_triangle.intersect_triangle's arithmetic operation
-    for operation (IEEE, no FMA contraction), with the packet's shear axes `axes` (kx, ky, kz)
-    and each lane's origin and shear constants. A hit nearer than a ray's best replaces it in
-    lane[BEST_*] and prim (first + the triangle's place in the leaf): as the single-ray test,
-    the first of equal hits is kept."""
-    _check_array("packet_triangles", tri, types.float32, 2)
-    _check_array("packet_triangles", lane, types.float64, 2)
-    _check_array("packet_triangles", prim, types.int64, 1)
-
-    return types.void(tri, row, count, first, axes, lane, prim, active), _triangles_codegen(False)
-
-
-@intrinsic
-def packet_triangles_ahead(typingctx, tri, row, count, first, axes, lane, prim, active):
-    """packet_triangles for shadow rays: the same answers, the division skipped for a triangle
-    that no active ray passes inside ahead of its origin (one a shadow ray leaves passes inside
-    behind it). A branch per triangle: ~6% less time for shadow packets (bunny, Nefertiti, bumpy
-    40k), ~4% more for camera rays (bunny, bumpy 1M), whose packets pass inside most triangles they
-    test, hence the two."""
-    _check_array("packet_triangles_ahead", tri, types.float32, 2)
-    _check_array("packet_triangles_ahead", lane, types.float64, 2)
-    _check_array("packet_triangles_ahead", prim, types.int64, 1)
-
-    return types.void(tri, row, count, first, axes, lane, prim, active), _triangles_codegen(True)
+    return types.void(tri, row, count, first, axes, lane, prim, active), codegen
 
 
 @intrinsic
@@ -850,8 +816,8 @@ def packet_closest(G, X, root, rows, axes, active, box, lane, prim, node_stack, 
     BVH, into lane[BEST_*] and prim (read them with packet_hit); root: root_box(G). Stack entries are
     traverse.py's, each with the mask of the rays that entered it, and the nearest of their entry
     distances: an entry is skipped when even that lies beyond the farthest best hit of its rays.
-    shadows: None for camera rays, True for shadow rays (pruned at compile time): those take
-    packet_triangles_ahead, and a ray leaves the packet at the first hit it finds (its lane
+    shadows: None for camera rays, True for shadow rays (pruned at compile time): those test
+    every leaf ray by ray, and a ray leaves the packet at the first hit it finds (its lane
     then holds a blocker, not necessarily the nearest): its bit is taken out of every entry
     popped after, and the traversal ends when every ray is blocked. Letting blocked rays run on
     until their best hits culled the rest had cost the bunny's, Nefertiti's and bumpy 1M's
@@ -942,13 +908,16 @@ def packet_closest(G, X, root, rows, axes, active, box, lane, prim, node_stack, 
                 # a few-ray hit kept its barycentrics undivided; since, six (benchmarks/
                 # ab_queries.py, pinned: hit rays 40k, 1M and the bunny 2-3% faster, 4M the
                 # same; the bunny's shadow rays 2.5%, Nefertiti's and 4M's within 1%).
+                # Shadow packets test every leaf ray by ray: their blocked rays leave (below),
+                # and few of them reach a hit, which the block test's division waits for
+                # (against the eight-lane test from seven rays on, with its division skipped
+                # behind the origin: the bunny's, bumpy 40k's and 4M's shadow rays 1-2% faster,
+                # Nefertiti's and 1M's within 1%).
                 missing = ~mask & 0xFF  # the packet's lanes this leaf's entry does not have
-                if missing & (missing - 1) != 0:  # two or more of them: at most six rays
+                if shadows is not None or missing & (missing - 1) != 0:  # at most six rays
                     packet_triangles_each(tri, row, -count, first, axes, lane, prim, mask)
-                elif shadows is None:
-                    packet_triangles(tri, row, -count, first, axes, lane, prim, mask)
                 else:
-                    packet_triangles_ahead(tri, row, -count, first, axes, lane, prim, mask)
+                    packet_triangles(tri, row, -count, first, axes, lane, prim, mask)
             else:
                 if direct_rows:  # one triangle
                     prefetch_neighbours(tri, first, first + count)
