@@ -116,6 +116,9 @@ _ORIGIN_SPREAD = 0.01  # origins within this fraction of the scene's extent of t
 # 600 x 600: eight pixels span ~5% of its size) but run side by side to one light: their
 # traversals overlap as a camera packet's do.
 _SHADOW_ORIGIN_SPREAD = 0.1
+# The fewest leading rays of a refused run that are still traced as a packet (one goes alone:
+# the single-ray traversal is faster for one ray).
+_MIN_TAKEN = 2
 
 
 @kernel_function(_nrt=True)
@@ -172,13 +175,18 @@ def _load_lane(builder, data, row, i):
     return builder.load(_lane_pointer(builder, data, row, i))
 
 
+def _cttz(builder):
+    """llvm.cttz.i64: the number of trailing zero bits of an i64."""
+    return cgutils.get_or_insert_function(builder.module, ir.FunctionType(_i64, [_i64, _i1]), "llvm.cttz.i64")
+
+
 @contextlib.contextmanager
 def _each_ray(builder, mask, name):
     """A loop over the set bits of the i64 `mask` (at most the low PACKET), lowest first, none
     when it is 0: the code emitted in the with block is its body, and the bit's index (an i64)
     is what the with statement binds. Not unrolled, so that LLVM schedules one ray at a time."""
     left_slot = cgutils.alloca_once_value(builder, mask)
-    cttz = cgutils.get_or_insert_function(builder.module, ir.FunctionType(_i64, [_i64, _i1]), "llvm.cttz.i64")
+    cttz = _cttz(builder)
     loop = builder.append_basic_block(f"{name}.ray")
     done = builder.append_basic_block(f"{name}.done")
     builder.cbranch(builder.icmp_unsigned("!=", mask, ir.Constant(_i64, 0)), loop, done)
@@ -496,17 +504,33 @@ def scene_extent(G):
 @inline_function
 def packet_setup(origins, directions, start, n, tmin, tmax, extent, box, lane, prim):
     """Load rays start .. start + n - 1 (n <= PACKET) into the packet's scratch, their unused
-    lanes copies of the first. Returns (coherent, rows, axes): whether they can be traced as a
-    packet (module docstring), the packet's near-plane rows and its shear axes. The lanes'
-    shear constants wait for packet_shear: a packet that reaches no leaf (most misses) never
-    needs them."""
+    lanes copies of the first. Returns (taken, rows, axes): how many of the rays, from the
+    first, are traced as the packet (module docstring: n when they all can, else the leading
+    ones that can when they are at least _MIN_TAKEN, else 0), the packet's near-plane rows and
+    its shear axes. The lanes' shear constants wait for packet_shear: a packet that reaches no
+    leaf (most misses) never needs them."""
     d0 = (float(directions[start, 0]), float(directions[start, 1]), float(directions[start, 2]))
     axes = shear_axes(d0)
-    coherent = packet_load(origins, directions, start, n, axes[2], tmin, tmax, _ORIGIN_SPREAD * extent, box, lane, prim)
+    limit = _ORIGIN_SPREAD * extent
+    # A run of rays can turn at any ray, not only at the eighth: compacted hit rays of a frame
+    # start the next row, camera rays cross into another octant. The leading rays that agree
+    # go as a smaller packet, loaded again so that the lanes after them are copies of the first
+    # (bumpy 1M hit rays: 3.4% of their packets of eight refused; benchmarks/ab_queries.py,
+    # pinned: bumpy 1M and 40k hit rays 3% faster, the bunny's shadow rays 1%; measured unpinned
+    # in an earlier session as no change). One call site, in a loop: the intrinsic's code is large.
+    count = n
+    while True:
+        taken = packet_load(origins, directions, start, count, axes[2], tmin, tmax, limit, box, lane, prim)
+        if taken == count:
+            break
+        if taken < _MIN_TAKEN:
+            taken = 0
+            break
+        count = taken
     # the first lane's near rows, as box_ray gives them: row k where its 1 / d (box row 6 + k,
     # never 0) is positive, else k + 3
     rows = (0 if box[6, 0] > 0.0 else 3, 1 if box[7, 0] > 0.0 else 4, 2 if box[8, 0] > 0.0 else 5)
-    return coherent, rows, axes
+    return taken, rows, axes
 
 
 @intrinsic
@@ -515,8 +539,9 @@ def packet_load(typingctx, origins, directions, start, n, kz0, tmin, tmax, limit
     with box_ray's three divisions a ray, cost 12 ns a ray, as much as a miss's traversal).
     Writes each lane's box_ray constants (wide_nodes.ray_axis_ir, the single ray's IR, so each
     ray's boxes are the single-ray traversal's), its ray, bounds and empty best hit, and marks
-    the shear pending; returns whether every lane is finite, in the first lane's octant, with
-    dominant axis kz0, within 10 degrees of its direction and `limit` of its origin."""
+    the shear pending; returns how many of the first n lanes, from the first, are finite, in the
+    first lane's octant, with dominant axis kz0, within 10 degrees of its direction and `limit`
+    of its origin (n when all are)."""
     for name, a in (("origins", origins), ("directions", directions)):
         if not (isinstance(a, types.Array) and a.dtype == types.float64 and a.ndim == 2):
             raise TypingError(f"packet_load: {name} must be a float64 (N, 3) array")
@@ -609,10 +634,15 @@ def packet_load(typingctx, origins, directions, start, n, kz0, tmin, tmax, limit
         builder.store(ir.Constant(_V8I64, [NO_HIT] * PACKET), builder.bitcast(pr, _V8I64.as_pointer()), align=8)
         # the shear pending (1 / d[kz] is never 0)
         builder.store(ir.Constant(_f64, 0.0), builder.gep(ln, [ir.Constant(_i64, SZ * PACKET)], inbounds=True))
-        all_lanes = builder.bitcast(ok, ir.IntType(PACKET))
-        return builder.icmp_unsigned("==", all_lanes, ir.Constant(ir.IntType(PACKET), (1 << PACKET) - 1))
+        # the leading lanes that pass: the lowest failing lane's number (8 when none fails), at
+        # most n (the lanes from n on are copies of the first: they pass where it does)
+        failing = builder.or_(
+            builder.zext(builder.not_(builder.bitcast(ok, ir.IntType(PACKET))), _i64), ir.Constant(_i64, 1 << PACKET)
+        )
+        passing = builder.call(_cttz(builder), [failing, ir.Constant(_i1, 1)])
+        return builder.select(builder.icmp_signed("<", passing, count), passing, count)
 
-    sig = types.boolean(origins, directions, start, n, kz0, tmin, tmax, limit, box, lane, prim)
+    sig = types.int64(origins, directions, start, n, kz0, tmin, tmax, limit, box, lane, prim)
     return sig, codegen
 
 
@@ -759,24 +789,26 @@ def packet_trace(G, X, root, origins, directions, start, n, extent, packets, nod
     first, ray by ray, as closest_hit tests them. extent: scene_extent(G), root: root_box(G),
     packets: packet_scratch(); spans: None (each ray from 0 to infinity) or (tmin, tmax, k):
     arrays of one value for every ray or of one per ray, ray k the packet's first (a lane
-    without a hit keeps its tmax as its t). Returns whether the rays were traced (coherent)."""
+    without a hit keeps its tmax as its t). Returns how many of the rays, from the first, were
+    traced (packet_setup's `taken`: n, fewer, or 0); the caller traces the others."""
     box, lane, prim, mask_stack = packets
     t0, t1 = 0.0, math.inf
     if spans is not None:  # (pruned in the renders)
         t0, t1 = spans[0][0], spans[1][0]
-    coherent, rows, axes = packet_setup(origins, directions, start, n, t0, t1, extent, box, lane, prim)
-    if coherent:
+    taken, rows, axes = packet_setup(origins, directions, start, n, t0, t1, extent, box, lane, prim)
+    if taken > 0:
         if spans is not None:
             tmin, tmax, k = spans
             if tmin.shape[0] > 1 or tmax.shape[0] > 1:  # one per ray: the lanes' own (else set above)
-                for i in range(n):
+                for i in range(taken):
                     lane[TMIN, i] = span_of(tmin, k + i)
                     lane[BEST_T, i] = span_of(tmax, k + i)
         if X is not None:  # (pruned in the basic variant, which has no unbounded shapes)
             if G.n_bounded < G.prims.shape[0]:
-                packet_unbounded(G, X, axes, lane, prim, n)
-        packet_closest(G, X, root, rows, axes, (1 << n) - 1, box, lane, prim, node_stack, t_stack, mask_stack, None)
-    return coherent
+                packet_unbounded(G, X, axes, lane, prim, taken)
+        active = (1 << taken) - 1
+        packet_closest(G, X, root, rows, axes, active, box, lane, prim, node_stack, t_stack, mask_stack, None)
+    return taken
 
 
 @inline_function
@@ -786,28 +818,31 @@ def packet_blocked(
     """Shadow rays start .. start + n - 1, lane i's ending at span_of(tmax, k + i) and starting
     at span_of(tmin, k + i) (tmin None: at 0), as one packet when they are coherent
     (packet_setup, origins up to _SHADOW_ORIGIN_SPREAD of the extent apart): only the lanes of
-    the mask `need` are traced. Returns (coherent, the mask of the lanes that something blocks
-    in (tmin, tmax)): any_hit's answers, found by the closest-hit traversal with each lane's
-    best hit starting at its tmax (a hit nearer than tmax is one any_hit finds)."""
+    the mask `need` are traced. Returns (taken, the mask of the lanes that something blocks in
+    (tmin, tmax)): how many of the rays, from the first, the packet took (packet_setup; the
+    caller traces the others), and any_hit's answers for those, found by the closest-hit
+    traversal with each lane's best hit starting at its tmax (a hit nearer than tmax is one
+    any_hit finds)."""
     box, lane, prim, mask_stack = packets
     spread = extent * (_SHADOW_ORIGIN_SPREAD / _ORIGIN_SPREAD)
-    coherent, rows, axes = packet_setup(origins, directions, start, n, 0.0, math.inf, spread, box, lane, prim)
-    if not coherent:
-        return False, 0
-    for i in range(n):
+    taken, rows, axes = packet_setup(origins, directions, start, n, 0.0, math.inf, spread, box, lane, prim)
+    if taken == 0:
+        return 0, 0
+    for i in range(taken):
         lane[BEST_T, i] = span_of(tmax, k + i)
     if tmin is not None:  # (pruned where the rays start at 0: the wavefront's)
-        for i in range(n):
+        for i in range(taken):
             lane[TMIN, i] = span_of(tmin, k + i)
     if X is not None:  # (pruned in the basic variant, which has no unbounded shapes)
         if G.n_bounded < G.prims.shape[0]:
-            packet_unbounded(G, X, axes, lane, prim, n)
-    packet_closest(G, X, root, rows, axes, need, box, lane, prim, node_stack, t_stack, mask_stack, True)
+            packet_unbounded(G, X, axes, lane, prim, taken)
+    active = need & ((1 << taken) - 1)
+    packet_closest(G, X, root, rows, axes, active, box, lane, prim, node_stack, t_stack, mask_stack, True)
     blocked = 0
-    for i in range(n):
-        if (need >> i) & 1 and prim[i] != NO_HIT:
+    for i in range(taken):
+        if (active >> i) & 1 and prim[i] != NO_HIT:
             blocked |= 1 << i
-    return True, blocked
+    return taken, blocked
 
 
 @inline_function

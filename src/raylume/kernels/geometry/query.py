@@ -49,32 +49,35 @@ def _intersect_chunk(G, X, origins, directions, base, spans, outputs, tiles, sta
     k = start
     while k < end:
         n = min(PACKET, end - k)
-        if not (
-            packets_here
-            and _packet_hits(G, X, origins, directions, base, spans, k, n, extent, root, hits, start, stacks, packets)
-        ):
+        taken = 0
+        if packets_here:
+            rays = (origins, directions, base, spans)
+            taken = _packet_hits(G, X, rays, k, n, extent, root, hits, start, stacks, packets)
+        if taken == 0:
             # one call site: the single-ray traversal is inlined once (a second copy cost ~1.5 s
             # of cold compile)
             _closest_hits_singly(G, X, origins, directions, base, spans, k, k + n, hits, start, stacks)
-        k += n
+            taken = n
+        k += taken  # after a packet that took fewer rays, the next starts at the first it left
     store_hits(G, X, tiles, start, end, hits, outputs)
 
 
 @inline_function
-def _packet_hits(G, X, origins, directions, base, spans, k, n, extent, root, hits, start, stacks, packets):
+def _packet_hits(G, X, rays, k, n, extent, root, hits, start, stacks, packets):
     """Rays k .. k + n - 1 (at origins[k - base] ...) traced as a packet, their hits kept at
-    k - start ... (extent: scene_extent(G), root: root_box(G)); False when they are refused,
-    and nothing kept."""
+    k - start ... (extent: scene_extent(G), root: root_box(G)). Returns how many of them, from
+    the first, the packet took (packet_trace); 0 when it refused them, and nothing kept.
+    rays: (origins, directions, base, spans), as _intersect_chunk takes them."""
+    origins, directions, base, spans = rays
     node_stack, t_stack = stacks
     _, lane, prim_lane, _ = packets
-    coherent = packet_trace(
+    taken = packet_trace(
         G, X, root, origins, directions, k - base, n, extent, packets, node_stack, t_stack, (spans[0], spans[1], k)
     )
-    if coherent:
-        for i in range(n):
-            t, prim, _, _ = packet_hit(lane, prim_lane, i)
-            _keep_hit(G, X, k + i - start, t, prim, hits)
-    return coherent
+    for i in range(taken):
+        t, prim, _, _ = packet_hit(lane, prim_lane, i)
+        _keep_hit(G, X, k + i - start, t, prim, hits)
+    return taken
 
 
 @inline_function
@@ -382,22 +385,22 @@ def _occluded_chunk(G, X, origins, directions, base, tmin, tmax, out, start, end
     k = start
     while k < end:
         n = min(PACKET, end - k)
-        coherent = False
+        taken = 0
         if packets_here:
-            coherent, blocked = packet_blocked(
+            taken, blocked = packet_blocked(
                 G, X, root, origins, directions, tmin, tmax, k, k - base, n, (1 << n) - 1, extent, packets,
                 node_stack, t_stack,
             )  # fmt: skip
-            if coherent:
-                for i in range(n):
-                    out[k + i] = (blocked >> i) & 1 != 0
-        if not coherent:
+            for i in range(taken):
+                out[k + i] = (blocked >> i) & 1 != 0
+        if taken == 0:
             for q in range(k, k + n):
                 r = q - base
                 o = (float(origins[r, 0]), float(origins[r, 1]), float(origins[r, 2]))
                 d = (float(directions[r, 0]), float(directions[r, 1]), float(directions[r, 2]))
                 out[q] = any_hit(G, X, o, d, span_of(tmin, q), span_of(tmax, q), node_stack, t_stack)
-        k += n
+            taken = n
+        k += taken
 
 
 @roomy_njit(nogil=True, fastmath=FAST, cache=True, error_model="numpy")

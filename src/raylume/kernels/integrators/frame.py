@@ -265,7 +265,7 @@ def _cast_row(G, F, X, Env, P, j, pair, film, node_stack, t_stack, packets, rays
     while q < total_samples:
         m = min(per_row, total_samples - q)
         n = 2 * m if pair else m
-        coherent = False
+        taken = 0  # the leading samples traced as a packet, the others ray by ray
         if packets_here:
             pi, ps = i, s
             for k in range(n):
@@ -277,7 +277,7 @@ def _cast_row(G, F, X, Env, P, j, pair, film, node_stack, t_stack, packets, rays
                     directions[k, c] = d[c]
                 weights[k] = w
                 pi, ps = next_sample(pi, ps, samples)
-            coherent = packet_trace(G, X, root, origins, directions, 0, n, extent, packets, node_stack, t_stack, None)
+            taken = packet_trace(G, X, root, origins, directions, 0, n, extent, packets, node_stack, t_stack, None)
         for k in range(n):
             if packets_here:
                 o = (origins[k, 0], origins[k, 1], origins[k, 2])
@@ -285,7 +285,7 @@ def _cast_row(G, F, X, Env, P, j, pair, film, node_stack, t_stack, packets, rays
                 w = weights[k]
             else:
                 o, d, w, _ = camera_sample(cam, filt, seed, i, j, s, total_spp, width, height)
-            if coherent:
+            if k < taken:
                 t, prim, b1, b2 = packet_hit(lane, prim_lane, k)
             else:
                 t, prim, b1, b2 = closest_hit(G, X, o, d, 0.0, INF, node_stack, t_stack)

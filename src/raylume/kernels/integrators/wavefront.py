@@ -242,13 +242,13 @@ def _bvh_closest_hits(G, X, R, I, m, node_stack, t_stack, scratch):
     i0 = 0
     while i0 < m:
         n = min(PACKET, m - i0)
-        coherent = False
+        taken = 0  # the leading rays traced as a packet, the others ray by ray
         if extent > 0.0:
             _load_packet(R, i0, n, OX, DX, origins, directions)
-            coherent = packet_trace(G, X, root, origins, directions, 0, n, extent, packets, node_stack, t_stack, None)
+            taken = packet_trace(G, X, root, origins, directions, 0, n, extent, packets, node_stack, t_stack, None)
         for k in range(n):
             i = i0 + k
-            if coherent:
+            if k < taken:
                 t, prim, b1, b2 = packet_hit(lane, prim_lane, k)
             else:
                 o = (R[OX + i], R[OY + i], R[OZ + i])
@@ -551,18 +551,17 @@ def _bvh_shadows(G, X, R, I, m, node_stack, t_stack, scratch):
         for k in range(n):
             if I[BLOCKED + i0 + k] == 0:
                 need |= 1 << k
-        coherent = False
+        taken = 0  # the leading rays traced as a packet, the others ray by ray
         if need != 0 and extent > 0.0:
             _load_packet(R, i0, n, QX, LX, origins, directions)
-            coherent, blocked = packet_blocked(
+            taken, blocked = packet_blocked(
                 G, X, root, origins, directions, None, R, TMAX + i0, 0, n, need, extent, packets, node_stack, t_stack
             )
-            if coherent:
-                for k in range(n):
-                    if (blocked >> k) & 1:
-                        I[BLOCKED + i0 + k] = 1
-        if not coherent:
-            for k in range(n):
+            for k in range(taken):
+                if (blocked >> k) & 1:
+                    I[BLOCKED + i0 + k] = 1
+        if taken < n:
+            for k in range(taken, n):
                 i = i0 + k
                 if I[BLOCKED + i] == 0:
                     o = (R[QX + i], R[QY + i], R[QZ + i])
