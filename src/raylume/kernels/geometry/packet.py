@@ -28,8 +28,9 @@ order are the packet's, not each ray's), the directions within 10 degrees of the
 and the origins within 1% of the scene's extent of its origin; and only in scenes whose root
 is no leaf and that have no instances. Cast mode takes packets in the kernels' basic variant
 (spheres and triangles alone: variants.features gives X None); the batch query in every scene
-without instances, testing planes ray by ray first (`packet_unbounded`). Anything else is
-traced ray by ray, by the caller.
+without instances, testing planes ray by ray first (`packet_unbounded`). Where a run of rays
+turns part way (the next row of compacted hit rays, another octant), its leading rays go as a
+smaller packet when there are two or more. Anything else is traced ray by ray, by the caller.
 
 Packet state lives in one thread's scratch arrays (`packet_scratch`):
 
