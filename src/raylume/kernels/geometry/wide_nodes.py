@@ -64,8 +64,11 @@ _LINE = 64  # bytes in a cache line
 # from which they are prefetched
 NEIGHBOUR_LINES = 4
 NEIGHBOURS_FROM = 1 << 18
-# prefetch_child: the node count from which a pushed inner child's record is prefetched
-CHILDREN_PREFETCHED_FROM = 1 << 17
+# prefetch_child: the node count from which a pushed inner child's record is prefetched (2^15:
+# bumpy 1M's 50k nodes take it since benchmarks/ab_queries.py measured it there, pinned: hit
+# rays 1.1% and shadow rays 1.8% faster; at 2^17 it had been left out as slower there, measured
+# in fresh processes alternating)
+CHILDREN_PREFETCHED_FROM = 1 << 15
 
 
 def stack_needed(depth: int) -> int:
@@ -371,9 +374,10 @@ def prefetch_child(bounds, child):
     nearest is visited next, and the others that are visited (popped after a leaf missed) come
     back from memory meanwhile. Bumpy 4M hit rays, alternating processes: packets 58.2 against
     59.6 ms (medians of 6 rounds), single rays 65.0 against 66.9 (7 rounds); 10M packets 77.7
-    against 78.4 (5), single rays 77.0 against 79.1 (2). Bumpy 1M (50k nodes) got slower with
-    it, packets 43.0 against 42.4 ms: below CHILDREN_PREFETCHED_FROM nodes the records stay in
-    the cache."""
+    against 78.4 (5), single rays 77.0 against 79.1 (2). Bumpy 1M (50k nodes): packets 43.0
+    against 42.4 ms without it in fresh processes, but paired in warm ones, pinned, 1.1% faster
+    with it (shadow rays 1.8%): below CHILDREN_PREFETCHED_FROM nodes the records stay in the
+    cache."""
     if bounds.shape[0] >= CHILDREN_PREFETCHED_FROM:
         prefetch_record(bounds, child)
 
