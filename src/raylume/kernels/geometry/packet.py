@@ -86,6 +86,7 @@ from .wide_nodes import (
     select_max,
     select_min,
     slab_test,
+    trailing_zeros,
 )
 
 PACKET = 8  # rays per packet: eight float32 lanes in one AVX2 register
@@ -176,25 +177,19 @@ def _load_lane(builder, data, row, i):
     return builder.load(_lane_pointer(builder, data, row, i))
 
 
-def _cttz(builder):
-    """llvm.cttz.i64: the number of trailing zero bits of an i64."""
-    return cgutils.get_or_insert_function(builder.module, ir.FunctionType(_i64, [_i64, _i1]), "llvm.cttz.i64")
-
-
 @contextlib.contextmanager
 def _each_ray(builder, mask, name):
     """A loop over the set bits of the i64 `mask` (at most the low PACKET), lowest first, none
     when it is 0: the code emitted in the with block is its body, and the bit's index (an i64)
     is what the with statement binds. Not unrolled, so that LLVM schedules one ray at a time."""
     left_slot = cgutils.alloca_once_value(builder, mask)
-    cttz = _cttz(builder)
     loop = builder.append_basic_block(f"{name}.ray")
     done = builder.append_basic_block(f"{name}.done")
     builder.cbranch(builder.icmp_unsigned("!=", mask, ir.Constant(_i64, 0)), loop, done)
     builder.position_at_end(loop)
     left = builder.load(left_slot)
     builder.store(builder.and_(left, builder.sub(left, ir.Constant(_i64, 1))), left_slot)
-    yield builder.call(cttz, [left, ir.Constant(_i1, 1)])
+    yield trailing_zeros(builder, left)
     builder.cbranch(builder.icmp_unsigned("!=", builder.load(left_slot), ir.Constant(_i64, 0)), loop, done)
     builder.position_at_end(done)
 
@@ -640,7 +635,7 @@ def packet_load(typingctx, origins, directions, start, n, kz0, tmin, tmax, limit
         failing = builder.or_(
             builder.zext(builder.not_(builder.bitcast(ok, ir.IntType(PACKET))), _i64), ir.Constant(_i64, 1 << PACKET)
         )
-        passing = builder.call(_cttz(builder), [failing, ir.Constant(_i1, 1)])
+        passing = trailing_zeros(builder, failing)
         return builder.select(builder.icmp_signed("<", passing, count), passing, count)
 
     sig = types.int64(origins, directions, start, n, kz0, tmin, tmax, limit, box, lane, prim)

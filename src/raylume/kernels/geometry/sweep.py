@@ -76,6 +76,7 @@ from numba.extending import intrinsic
 from ..vec import inline_function
 from .shape_triangle import exact_ops, intersect_triangle_block, ray_shear, triangles4_gathered, unit_normals
 from .shapes import NO_HIT, PRIM_KIND, PRIM_ROW, TRIANGLE, Shape, exact_triangles, intersect
+from .wide_nodes import lowest_bit
 
 SWEEP_LANES = 32  # up to four groups of eight float32 lanes
 SWEEP_GROUP = 8  # lanes a group: one AVX2 vector of float32
@@ -345,25 +346,12 @@ def sweep_candidates(typingctx, table, o, d, tmin, tmax, leaving, arriving):
     return types.int64(table, o, d, tmin, tmax, leaving, arriving), _lanes_codegen
 
 
-@intrinsic
-def _lowest_bit(typingctx, x):
-    """The index of x's lowest set bit (x != 0)."""
-
-    def codegen(context, builder, sig, args):
-        cttz = cgutils.get_or_insert_function(
-            builder.module, ir.FunctionType(ir.IntType(64), [ir.IntType(64), ir.IntType(1)]), "llvm.cttz.i64"
-        )
-        return builder.call(cttz, [args[0], ir.Constant(ir.IntType(1), 1)])
-
-    return types.int64(types.int64), codegen
-
-
 @inline_function
 def _next_row(mask, row):
     """(the lowest candidate row of mask, or `row` when none is left; mask without it; whether one was)."""
     if mask == 0:
         return row, mask, False
-    return _lowest_bit(mask), mask & (mask - 1), True
+    return lowest_bit(mask), mask & (mask - 1), True
 
 
 @inline_function
@@ -385,7 +373,7 @@ def sweep_hit(G, X, o, d, shear, lazy_shear, tmin, best_t, prim, b1, b2, stop_at
     rest = mask >> n_tris  # candidate polygons' triangles
     mask &= (np.int64(1) << n_tris) - 1
     while mask != 0:
-        r0 = _lowest_bit(mask)
+        r0 = lowest_bit(mask)
         mask &= mask - 1
         if mask == 0:  # one candidate (most rays): from the column table, one load a coordinate
             t, j, u, v = intersect_triangle_block(o, shear, G.triangles, G.triangle_columns, r0, 1, tmin, best_t)
@@ -403,7 +391,7 @@ def sweep_hit(G, X, o, d, shear, lazy_shear, tmin, best_t, prim, b1, b2, stop_at
                 return best_t, prim, b1, b2
     last = NO_HIT
     while rest != 0:
-        lane = n_tris + _lowest_bit(rest)
+        lane = n_tris + lowest_bit(rest)
         rest &= rest - 1
         k = np.int64(S[SWEEP_PRIM, lane])
         if k < 0:  # the unused lanes after the polygons' (a candidate only for a ray with a NaN)

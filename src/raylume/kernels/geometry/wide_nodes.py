@@ -414,16 +414,21 @@ def prefetch_child_rows(typingctx, index, node):
     return sig, codegen
 
 
+def trailing_zeros(builder, value):
+    """IR: the number of trailing zero bits of the i64 `value` (llvm.cttz.i64; undefined for
+    0), the index of its lowest set bit."""
+    i64 = ir.IntType(64)
+    fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(i64, [i64, ir.IntType(1)]), "llvm.cttz.i64")
+    return builder.call(fn, [value, ir.Constant(ir.IntType(1), 1)])
+
+
 @intrinsic
 def lowest_bit(typingctx, x):
     """Index of the lowest set bit of x (x != 0)."""
     sig = types.int64(x)
 
     def codegen(context, builder, sig, args):
-        i64 = ir.IntType(64)
-        v = context.cast(builder, args[0], sig.args[0], types.int64)
-        fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(i64, [i64, ir.IntType(1)]), "llvm.cttz.i64")
-        return builder.call(fn, [v, ir.Constant(ir.IntType(1), 1)])
+        return trailing_zeros(builder, context.cast(builder, args[0], sig.args[0], types.int64))
 
     return sig, codegen
 
