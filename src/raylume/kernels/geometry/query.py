@@ -27,7 +27,7 @@ from .packet import (
 from .shape_triangle import EXACT_DIVISION, exact_ops
 from .shapes import NO_HIT, PRIM_FACE, PRIM_OBJECT, instance_id, split_hit
 from .traverse import any_hit, closest_hit
-from .wide_nodes import INF, prefetch_row, scratch_array, traversal_stacks
+from .wide_nodes import INF, prefetch_cells, scratch_array, traversal_stacks
 
 
 # A call per chunk of rays, compiled without reference counting (KERNEL), as the frame kernels'
@@ -42,7 +42,10 @@ def _intersect_chunk(G, X, origins, directions, base, spans, outputs, tiles, sta
     object and face ids lie in its row of the primitive table, a cache miss of its own on a
     large mesh; the row is prefetched when the hit is found and read after the whole chunk is
     traced, when it has long arrived (bumpy 4M hit rays on a Zen 3 71.4 -> 67.5 ms, 1M 56.5 ->
-    50.0, against the eight rows requested together after each packet)."""
+    50.0, against the eight rows requested together after each packet). The prefetch asks for
+    the lines of the two ids, not of the row's first byte: a quarter of the 24-byte rows cross
+    a line, and their ids' line had waited to be read (bumpy 4M 2-3.5% faster, 1M 1%:
+    benchmarks/ab_queries.py, pinned)."""
     extent = scene_extent(G)
     root = root_box(G)
     packets_here = uses_packets(G, X)
@@ -107,7 +110,7 @@ def _keep_hit(G, X, q, t, prim, hits):
     hits[0][q] = prim
     if prim != NO_HIT:
         hits[1][q] = t
-        prefetch_row(G.prims, split_hit(X, prim)[0])
+        prefetch_cells(G.prims, split_hit(X, prim)[0], PRIM_OBJECT, PRIM_FACE)
     else:
         hits[1][q] = INF
 

@@ -300,6 +300,27 @@ def prefetch_row(typingctx, array, i):
 
 
 @intrinsic
+def prefetch_cells(typingctx, array, i, first, last):
+    """Start loading the cache lines of array[i, first] .. array[i, last] (a C-contiguous 2-d
+    array; first and last literal columns): the line of the first's first byte and of the last's
+    last byte. A row of the primitive table (24 bytes) lies across two lines in a quarter of the
+    rows, so its first byte's line may not hold the columns a caller reads."""
+    if not (isinstance(first, types.IntegerLiteral) and isinstance(last, types.IntegerLiteral)):
+        raise TypingError("prefetch_cells: the columns must be literals")
+    if not (isinstance(array, types.Array) and array.ndim == 2):
+        raise TypingError("prefetch_cells: a C-contiguous 2-d array")
+    size = array.dtype.bitwidth // 8
+    lo, hi = first.literal_value * size, (last.literal_value + 1) * size - 1
+
+    def offsets(builder, base, stride):
+        i64 = ir.IntType(64)
+        return [builder.add(base, ir.Constant(i64, lo)), builder.add(base, ir.Constant(i64, hi))]
+
+    sig, codegen = _row_prefetches("prefetch_cells", array, i, offsets)
+    return types.void(array, i, first, last), codegen
+
+
+@intrinsic
 def prefetch_record(typingctx, array, i):
     """prefetch_row for every cache line of array[i] (a C-contiguous array of records of at most
     four lines, as the wide nodes'): its first byte, every _LINE after it, and its last byte."""
