@@ -1,16 +1,19 @@
-"""Two checkouts of raylume on one query, call for call: hit rays or shadow rays on one mesh,
-timed in two warm worker processes (one a checkout) that take turns, one call each, so that both
-see the same minute of this VM's drift. Prints each checkout's median and the paired ratio B / A
-(its median, its quartiles, and how often A was faster).
+"""Two checkouts of raylume on one query, call for call: hit rays (in packets or ray by ray),
+shadow rays or a cast render of one mesh, timed in two warm worker processes (one a checkout)
+that take turns, one call each, so that both see the same minute of this VM's drift. Prints each
+checkout's median and the paired ratio B / A (its median, its quartiles, and how often A was
+faster).
 
-    python benchmarks/ab_queries.py --a DIR --b DIR [--query hits|shadows] [--rounds 40] MESH
+    python benchmarks/ab_queries.py --a DIR --b DIR [--query hits|singles|shadows|cast] [--rounds 40] MESH
 
 DIR: a checkout of raylume (its src/ is imported, its benchmarks/ run the query); MESH: as
 bench_hits.py takes it (40k, 1M, stanford-bunny, ...). The query is bench_hits.py's packets on
-the hit rays of its 1024 x 1024 frame (`_trace`) or bench_shadows.py's occlusion (`_blocked`),
-one thread, CPU time. Both checkouts must give the same answers (a checksum is compared first).
-`--a DIR --b DIR` with one DIR twice is an A / A run: how wide the ratio's quartiles are when
-nothing differs.
+the hit rays of its 1024 x 1024 frame (`_trace`), its single-ray traversal on the same rays
+(`singles`: `_trace_singly`, closest_hit ray by ray, as trace and path modes' bounces are traced),
+bench_shadows.py's occlusion (`_blocked`), or a whole cast render of bench_scaling.py's scene
+with the mesh (`cast`: 1024 x 1024, through a Session, so compiled once); one thread, CPU time.
+Both checkouts must give the same answers (a checksum is compared first). `--a DIR --b DIR` with
+one DIR twice is an A / A run: how wide the ratio's quartiles are when nothing differs.
 
 Fresh processes alternating (bench_builds.py) spread a ~5% change over the VM's 30% drift; here
 one round is two calls a few tens of milliseconds apart. An A / A run of the bunny's shadow rays,
@@ -37,7 +40,7 @@ def worker(query: str, name: str, cpu: int) -> None:
     os.sched_setaffinity(0, {cpu})
     sys.path.insert(0, str(Path.cwd() / "benchmarks"))
     import numba
-    from bench_hits import _trace, cpu_seconds, frame_rays, mesh
+    from bench_hits import _trace, _trace_singly, cpu_seconds, frame_rays, mesh
     from bench_shadows import _blocked, shadow_rays
 
     numba.set_num_threads(1)
@@ -48,12 +51,38 @@ def worker(query: str, name: str, cpu: int) -> None:
             return _blocked(compiled, o, d, tmax)
 
         checksum = int(call().sum())
+    elif query == "cast":
+        import tempfile
+
+        import trimesh
+        from bench_scaling import scene_for
+
+        from raylume.session import Session
+
+        path = Path(tempfile.mkdtemp()) / "mesh.ply"
+        trimesh.Trimesh(*mesh(name), process=False).export(path)
+        session = Session(scene_for(str(path)))
+
+        def call():
+            return session.render(mode="cast", width=1024, height=1024, threads=1, aovs=False).rgb
+
+        checksum = float(call().sum())
     else:
         compiled, fo, fd, hit = frame_rays(*mesh(name), 1024)
         o, d = np.ascontiguousarray(fo[hit]), np.ascontiguousarray(fd[hit])
 
-        def call():
-            return _trace(compiled, o, d)
+        if query == "singles":
+            from raylume.kernels.geometry.wide_nodes import traversal_stacks
+
+            stacks = traversal_stacks()
+
+            def call():
+                return _trace_singly(compiled, o, d, stacks)
+
+        else:
+
+            def call():
+                return _trace(compiled, o, d)
 
         t = call()[0]
         checksum = float(np.sum(t[np.isfinite(t)]))
@@ -80,7 +109,7 @@ def main() -> None:
     parser.add_argument("mesh", help="as bench_hits.py takes it")
     parser.add_argument("--a", type=Path, required=True, help="a raylume checkout")
     parser.add_argument("--b", type=Path, required=True, help="another (or the same, for an A / A run)")
-    parser.add_argument("--query", choices=["hits", "shadows"], default="hits")
+    parser.add_argument("--query", choices=["hits", "singles", "shadows", "cast"], default="hits")
     parser.add_argument("--rounds", type=int, default=40)
     parser.add_argument("--cpu", type=int, default=max(os.sched_getaffinity(0)), help="the core both workers run on")
     parser.add_argument("--worker", nargs=3, help=argparse.SUPPRESS)
