@@ -63,6 +63,7 @@ PRIM_OBJECT = 3
 PRIM_FACE = 4
 PRIM_LIGHT = 5
 PRIM_WIDTH = 6
+PRIM_LAST = PRIM_WIDTH - 1  # a literal for prefetch_cells: a whole row
 
 NO_HIT = -1  # the primitive index of a ray that hit nothing
 INF = math.inf

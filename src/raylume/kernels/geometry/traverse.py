@@ -26,14 +26,16 @@ from ..vec import INLINE_OVERLOAD, inline_function
 from .layout import NODE_REF, SPHERE_BLOCK
 from .shape_sphere import intersect_spheres
 from .shape_triangle import NO_SHEAR, intersect_triangle_block, ray_shear
-from .shapes import NO_HIT, PRIM_ROW, intersect
+from .shapes import NO_HIT, PRIM_LAST, PRIM_ROW, intersect, split_hit
 from .sweep import sweep_hit
 from .wide_nodes import (
     box_ray,
     leaf_count,
     leaf_first,
     pop_nearer,
+    prefetch_cells,
     prefetch_neighbours,
+    prefetch_row,
     push_children,
     traceable,
 )
@@ -60,6 +62,21 @@ def rows_in_leaf_order(G):
     """Whether every bounded primitive is a triangle: compile/geometry.py then numbers the triangle rows
     in leaf order, so a leaf's first primitive is its first triangle row."""
     return G.triangles.shape[0] == G.n_bounded
+
+
+@inline_function
+def prefetch_surface(G, X, hit):
+    """Start loading what shapes.surface reads for a hit (not NO_HIT): its row of the primitive
+    table and, where that row's triangle is its own row (rows_in_leaf_order), the triangle's
+    vertex normals and smooth flag. The traversal reads the triangles alone, so on a large mesh
+    each of these is a cache miss of its own at shading; a renderer that traces several rays
+    before it shades them asks for them as each hit is found."""
+    k = split_hit(X, hit)[0]
+    prefetch_cells(G.prims, k, 0, PRIM_LAST)
+    if rows_in_leaf_order(G):
+        prefetch_row(G.triangle_smooth, k)
+        if k < G.triangle_normals.shape[0]:  # (one row when no mesh is smooth)
+            prefetch_cells(G.triangle_normals, k, 0, 8)
 
 
 @inline_function

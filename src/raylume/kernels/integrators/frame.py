@@ -17,7 +17,7 @@ from numba.extending import intrinsic, overload
 from ..film.camera import CAM_CONE_SPREAD, camera_ray, camera_sample, obliquity
 from ..film.film import add_in_pixel_order, add_sample, next_sample, pixel_sums, store_sums
 from ..geometry.packet import PACKET, packet_hit, packet_scratch, packet_trace, root_box, scene_extent, uses_packets
-from ..geometry.shapes import NO_HIT, PRIM_WIDTH, instance_id, split_hit, surface
+from ..geometry.shapes import NO_HIT, PRIM_LAST, instance_id, split_hit, surface
 from ..geometry.traverse import closest_hit
 from ..geometry.wide_nodes import prefetch_cells, scratch_array, traversal_stacks
 from ..scene import emitters_of, environment_of, geometry_of, media_of, surfaces_of
@@ -232,9 +232,6 @@ def camera_packet_scratch():
     )
 
 
-_PRIM_LAST = PRIM_WIDTH - 1  # the primitive table's last column
-
-
 @kernel_function
 def _cast_row(G, F, X, Env, P, j, pair, film, node_stack, t_stack, packets, rays):
     """Ray-cast samples of row j: the row's camera samples in pixel order (each pixel's samples
@@ -285,10 +282,11 @@ def _cast_row(G, F, X, Env, P, j, pair, film, node_stack, t_stack, packets, rays
             # a cache miss of its own (the traversal reads the triangles, not the table),
             # requested for the whole packet before the first is shaded (bench_scaling.py's
             # scene, 1024 x 1024 cast renders, benchmarks/ab_queries.py --query cast: bumpy 4M
-            # 8.5% faster, 1M 1.3%, 40k 0.8%)
+            # 8.5% faster, 1M 1.3%, 40k 0.8%). Its vertex normals too (prefetch_surface, as
+            # trace mode asks) gained nothing more here: 4M 0.997, 1M 0.992 and 0.983.
             for k in range(taken):
                 if prim_lane[k] != NO_HIT:
-                    prefetch_cells(G.prims, split_hit(X, prim_lane[k])[0], 0, _PRIM_LAST)
+                    prefetch_cells(G.prims, split_hit(X, prim_lane[k])[0], 0, PRIM_LAST)
         for k in range(n):
             if packets_here:
                 o = (origins[k, 0], origins[k, 1], origins[k, 2])
