@@ -4,17 +4,17 @@ that take turns, one call each, so that both see the same minute of this VM's dr
 checkout's median and the paired ratio B / A (its median, its quartiles, and how often A was
 faster).
 
-    python benchmarks/ab_queries.py --a DIR --b DIR [--query hits|singles|shadows|cast|trace] [--rounds 40] MESH
+    python benchmarks/ab_queries.py --a DIR --b DIR [--query hits|singles|shadows|cast|trace|path] [--rounds 40] MESH
 
 DIR: a checkout of raylume (its src/ is imported, its benchmarks/ run the query); MESH: as
 bench_hits.py takes it (40k, 1M, stanford-bunny, ...). The query is bench_hits.py's packets on
 the hit rays of its 1024 x 1024 frame (`_trace`), its single-ray traversal on the same rays
 (`singles`: `_trace_singly`, closest_hit ray by ray, as trace and path modes' bounces are traced),
-bench_shadows.py's occlusion (`_blocked`), or a whole cast or trace render of bench_scaling.py's
-scene with the mesh (`cast`, `trace`: 1024 x 1024, through a Session, so compiled once); one
-thread, CPU time. Both checkouts must give the same answers (a checksum is compared first).
-`--a DIR --b DIR` with one DIR twice is an A / A run: how wide the ratio's quartiles are when
-nothing differs.
+bench_shadows.py's occlusion (`_blocked`), or a whole render of bench_scaling.py's scene with
+the mesh (`cast`, `trace`, `path` at 1 sample a pixel: 1024 x 1024, through a Session, so
+compiled once); one thread, CPU time. Both checkouts must give the same answers (a checksum is
+compared first). `--a DIR --b DIR` with one DIR twice is an A / A run: how wide the ratio's
+quartiles are when nothing differs.
 
 Fresh processes alternating (bench_builds.py) spread a ~5% change over the VM's 30% drift; here
 one round is two calls a few tens of milliseconds apart. An A / A run of the bunny's shadow rays,
@@ -52,7 +52,7 @@ def worker(query: str, name: str, cpu: int) -> None:
             return _blocked(compiled, o, d, tmax)
 
         checksum = int(call().sum())
-    elif query in ("cast", "trace"):
+    elif query in ("cast", "trace", "path"):
         import tempfile
 
         import trimesh
@@ -65,7 +65,8 @@ def worker(query: str, name: str, cpu: int) -> None:
         session = Session(scene_for(str(path)))
 
         def call():
-            return session.render(mode=query, width=1024, height=1024, threads=1, aovs=False).rgb
+            spp = 1 if query == "path" else None
+            return session.render(mode=query, width=1024, height=1024, spp=spp, threads=1, aovs=False).rgb
 
         checksum = float(call().sum())
     else:
@@ -110,7 +111,7 @@ def main() -> None:
     parser.add_argument("mesh", help="as bench_hits.py takes it")
     parser.add_argument("--a", type=Path, required=True, help="a raylume checkout")
     parser.add_argument("--b", type=Path, required=True, help="another (or the same, for an A / A run)")
-    parser.add_argument("--query", choices=["hits", "singles", "shadows", "cast", "trace"], default="hits")
+    parser.add_argument("--query", choices=["hits", "singles", "shadows", "cast", "trace", "path"], default="hits")
     parser.add_argument("--rounds", type=int, default=40)
     parser.add_argument("--cpu", type=int, default=max(os.sched_getaffinity(0)), help="the core both workers run on")
     parser.add_argument("--worker", nargs=3, help=argparse.SUPPRESS)

@@ -96,6 +96,9 @@ def test_a_pickled_compiled_scene_renders_the_same_image(scene):
     k = shipped.kernel
     assert np.shares_memory(k.node_bounds, k.node_index) and np.shares_memory(k.inst_node_bounds, k.inst_node_index)
     assert np.array_equal(k.node_index, session.compiled.kernel.node_index)
+    # and start on a cache line, there as here (kernels/geometry/layout.py: RECORD_ALIGNMENT)
+    for records in (session.compiled.kernel.node_bounds, k.node_bounds, k.inst_node_bounds):
+        assert records.ctypes.data % 64 == 0
     elsewhere = Session.from_compiled(scene, shipped)
     for mode in ("trace", "cast"):
         assert elsewhere.render(mode=mode, spp=3).rgb.tobytes() == session.render(mode=mode, spp=3).rgb.tobytes()

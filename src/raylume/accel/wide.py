@@ -47,6 +47,7 @@ from ..kernels.geometry.layout import (
     leaf_count,
     leaf_first,
     leaf_ref,
+    line_aligned,
 )
 from ..kernels.vec import kernel_function
 from .bvh import BVH
@@ -87,7 +88,7 @@ class WideBVH(NamedTuple):
 def node_records(m: int, width: int) -> tuple[np.ndarray, np.ndarray]:
     """Uninitialised records of m wide nodes, as (node_bounds, node_index): float32 and int32
     views of one array."""
-    bounds = np.empty((m, NODE_ROWS, width), np.float32)
+    bounds = line_aligned((m, NODE_ROWS, width), np.float32)
     return bounds, bounds.view(np.int32)
 
 

@@ -33,7 +33,7 @@ from ..accel.wide import (
     wide_depth,
     wide_nbytes,
 )
-from ..kernels.geometry.layout import LEAF_SHIFT
+from ..kernels.geometry.layout import LEAF_SHIFT, line_aligned
 from ..kernels.geometry.shape_triangle import TRIANGLES_PER_TEST
 from ..kernels.geometry.shapes import (
     PRIM_FACE,
@@ -231,7 +231,9 @@ def build_instances(meshes: list, accelerate: bool = True) -> InstanceArrays:
     tlas_depth = wide_depth(tlas) if accelerate else 1
     order = tlas.prim_order.astype(np.int64)
     n_tlas = len(tlas.node_index)
-    node_bounds = np.concatenate([tlas.node_bounds, *blas_records])
+    records = [tlas.node_bounds, *blas_records]
+    node_bounds = line_aligned((sum(len(r) for r in records), *tlas.node_bounds.shape[1:]), np.float32)
+    np.concatenate(records, out=node_bounds)
     node_index = node_bounds.view(np.int32)
     blas_leaf = node_index[:, NODE_REF, :] < 0
     blas_leaf[:n_tlas] = False

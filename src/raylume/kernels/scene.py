@@ -5,6 +5,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from .geometry.layout import on_a_line
 from .geometry.shape_triangle import TRIANGLE_TABLES, triangle_tables
 from .shading.environment import Environment
 from .vec import kernel_function
@@ -89,9 +90,12 @@ class KernelScene(NamedTuple):
 
 def _unpickle_scene(fields: tuple) -> KernelScene:
     s = KernelScene(*fields)
+    node_bounds, inst_node_bounds = on_a_line(s.node_bounds), on_a_line(s.inst_node_bounds)
     return s._replace(
-        node_index=s.node_bounds.view(np.int32),
-        inst_node_index=s.inst_node_bounds.view(np.int32),
+        node_bounds=node_bounds,
+        node_index=node_bounds.view(np.int32),
+        inst_node_bounds=inst_node_bounds,
+        inst_node_index=inst_node_bounds.view(np.int32),
         **triangle_tables(s.triangles),
     )
 
