@@ -316,7 +316,7 @@ def prefetch_cells(typingctx, array, i, first, last):
         i64 = ir.IntType(64)
         return [builder.add(base, ir.Constant(i64, lo)), builder.add(base, ir.Constant(i64, hi))]
 
-    sig, codegen = _row_prefetches("prefetch_cells", array, i, offsets)
+    _, codegen = _row_prefetches("prefetch_cells", array, i, offsets)
     return types.void(array, i, first, last), codegen
 
 
