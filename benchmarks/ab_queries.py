@@ -60,12 +60,13 @@ def worker(query: str, name: str, cpu: int) -> None:
 
         from raylume.session import Session
 
-        path = Path(tempfile.mkdtemp()) / "mesh.ply"
+        folder = tempfile.TemporaryDirectory()  # the mesh's file, removed when the worker ends
+        path = Path(folder.name) / "mesh.ply"
         trimesh.Trimesh(*mesh(name), process=False).export(path)
         session = Session(scene_for(str(path)))
+        spp = 1 if query == "path" else None
 
         def call():
-            spp = 1 if query == "path" else None
             return session.render(mode=query, width=1024, height=1024, spp=spp, threads=1, aovs=False).rgb
 
         checksum = float(call().sum())
