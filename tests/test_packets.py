@@ -27,6 +27,7 @@ from raylume.kernels.geometry.packet import (
     packet_closest,
     packet_finish,
     packet_hit,
+    packet_load,
     packet_node,
     packet_scratch,
     packet_setup,
@@ -388,7 +389,10 @@ def test_packet_box_test_agrees_with_the_textbook_slab_test(a, b, o, d, tmax):
 def _node_test(bounds, o, d, best, active):
     """packet_node on the rays o, d (one packet) with best hits `best`: (masks, entries)."""
     box, lane, prim, _ = packet_scratch()
-    _, rows, _ = packet_setup(o, d, 0, PACKET, 0.0, INF, 10.0, box, lane, prim)
+    _, rows, axes = packet_setup(o, d, 0, PACKET, 0.0, INF, 10.0, box, lane, prim)
+    # every lane its own ray, whether or not the packet rules take them all: packet_setup loads
+    # a packet it cuts short again, its lanes after the rays it takes copies of the first
+    packet_load(o, d, 0, PACKET, axes[2], 0.0, INF, INF, box, lane, prim)
     for i in range(PACKET):
         lane[BEST_T, i] = best[i]
     t_out = np.empty(BVH_WIDTH, np.float32)
