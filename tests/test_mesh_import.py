@@ -585,3 +585,60 @@ def test_the_example_spot_faces_plus_z_as_a_mesh_scene_assumes():
         original = load_mesh(shared).vertices
         np.testing.assert_array_equal(v[:, [0, 2]], -original[:, [0, 2]])
         np.testing.assert_array_equal(v[:, 1], original[:, 1])
+
+
+def _numpy_nondegenerate(v, f, sin2):
+    """place_mesh's degenerate test as numpy had it: the gathers, np.cross and einsum."""
+    e1, e2 = v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]
+    cross = np.cross(e1, e2)
+    area2 = np.einsum("ij,ij->i", cross, cross)
+    return area2 > sin2 * np.einsum("ij,ij->i", e1, e1) * np.einsum("ij,ij->i", e2, e2)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.sampled_from([np.int32, np.int64]))
+def test_compiled_degenerate_test_is_numpys_to_the_face(seed, dtype):
+    """The compiled pass (scene/mesh_faces.py) classifies every face as the numpy expression
+    did, near the threshold too: faces whose third vertex lies a hair off the first edge's
+    line, at the float64 rounding of sin^2 = 1e-20, and repeated indices."""
+    from raylume.scene.mesh import _DEGENERATE_SIN2
+    from raylume.scene.mesh_faces import nondegenerate_faces
+
+    rng = np.random.default_rng(seed)
+    n = 300
+    v = rng.normal(size=(n, 3)) * 10.0 ** rng.integers(-3, 4)
+    f = rng.integers(0, n, size=(2000, 3))
+    # nearly collinear: the third vertex on the first edge's line, moved by ~1e-10 of its length
+    a, b = v[f[:500, 0]], v[f[:500, 1]]
+    s = rng.uniform(-2, 3, size=(500, 1))
+    wobble = rng.normal(size=(500, 3)) * 10.0 ** rng.uniform(-12, -8, size=(500, 1))
+    near = a + s * (b - a) + wobble * np.linalg.norm(b - a, axis=1, keepdims=True)
+    v = np.concatenate([v, near])
+    f[:500, 2] = n + np.arange(500)
+    f = f.astype(dtype)
+    expected = _numpy_nondegenerate(v, f.astype(np.int64), _DEGENERATE_SIN2)
+    good, outside = nondegenerate_faces(v, f, _DEGENERATE_SIN2)
+    assert outside == 0
+    np.testing.assert_array_equal(good, expected)
+    assert 0 < expected[:500].sum() < 500  # the near faces straddle the threshold
+
+
+def test_a_face_index_outside_the_vertices_is_refused():
+    from raylume.scene.mesh import place_mesh
+
+    v = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0]])
+    for bad in ([0, 1, 3], [0, -1, 2]):
+        with pytest.raises(MeshError, match="Inline mesh has a face index outside the range of its 3 vertices"):
+            place_mesh(v, np.array([[0, 1, 2], bad]), None, None, np.eye(4), None, "Inline mesh")
+
+
+def test_used_bounds_are_the_used_vertices_box():
+    from raylume.scene.mesh_faces import used_bounds
+
+    rng = np.random.default_rng(5)
+    v = rng.normal(size=(50, 3))
+    f = rng.integers(0, 40, size=(30, 3))  # vertices 40.. unused, and some below 40 too
+    used = np.unique(f)
+    lo, hi = used_bounds(v, f)
+    np.testing.assert_array_equal(lo, v[used].min(axis=0))
+    np.testing.assert_array_equal(hi, v[used].max(axis=0))

@@ -123,8 +123,13 @@ def build_light_table(
         power.append(LI.BY_NAME[light.type].power(row, radius))
 
     emission = materials[:, MAT_EMISSION : MAT_EMISSION + 3]
-    glowing = (emission[prims[:, PRIM_MATERIAL]] > 0).any(axis=1) & np.isin(prims[:, PRIM_KIND], EMISSION_SAMPLED)
-    glowing = np.flatnonzero(glowing if candidates is None else glowing & candidates)
+    # the emissive materials first (a few rows), then their primitives: the emission gathered
+    # for every primitive had cost 0.2 s at 4M triangles in scenes with no emitter at all
+    emissive = np.flatnonzero((emission > 0).any(axis=1))
+    glowing = np.zeros(0, dtype=np.int64)
+    if len(emissive):
+        glowing = np.isin(prims[:, PRIM_MATERIAL], emissive) & np.isin(prims[:, PRIM_KIND], EMISSION_SAMPLED)
+        glowing = np.flatnonzero(glowing if candidates is None else glowing & candidates)
     first_prim = len(rows)
     if len(glowing):
         area = surface_areas(prims, glowing, shapes, triangles)

@@ -424,7 +424,10 @@ def _read_strip_ply(path: Path):
 
 def _concatenate(parts):
     """One mesh from several parts. A part lacking normals gets NaN ones (filled
-    with computed normals later); a part lacking UVs gets (0, 0)."""
+    with computed normals later); a part lacking UVs gets (0, 0). One part is itself (a copy
+    of a large mesh's arrays costs ~0.3 s at 4M triangles, its pages faulted in)."""
+    if len(parts) == 1:
+        return parts[0]
     offsets = np.cumsum([0] + [len(p[0]) for p in parts])
     v = np.concatenate([p[0] for p in parts])
     f = np.concatenate([p[1] + off for p, off in zip(parts, offsets)])
@@ -521,12 +524,13 @@ def place_mesh(v, f, n, uv, m: np.ndarray, smooth, what: str) -> MeshData:
     if not np.array_equal(m, np.eye(4)):
         v, f, n = _apply(m, v, f, n)
 
-    e1, e2 = v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]
-    cross = np.cross(e1, e2)
-    area2 = np.einsum("ij,ij->i", cross, cross)
-    scale2 = np.einsum("ij,ij->i", e1, e1) * np.einsum("ij,ij->i", e2, e2)
-    good = area2 > _DEGENERATE_SIN2 * scale2
-    del e1, e2, cross, area2, scale2
+    from .mesh_faces import nondegenerate_faces  # Numba, loaded when a mesh is placed
+
+    # e1, e2 = v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]; c = np.cross(e1, e2):
+    # good = (c * c).sum(1) > _DEGENERATE_SIN2 * (e1 * e1).sum(1) * (e2 * e2).sum(1)
+    good, outside = nondegenerate_faces(v, f, _DEGENERATE_SIN2)
+    if outside:
+        raise MeshError(f"{what} has a face index outside the range of its {len(v)} vertices.")
     degenerate = int(len(f) - np.count_nonzero(good))
     if degenerate == len(f):
         raise MeshError(f"{what} has only zero-area (degenerate) faces.")

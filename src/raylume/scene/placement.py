@@ -95,10 +95,9 @@ def _place_inline(obj: Mesh) -> MeshData:
 
 def bounds(mesh: MeshData) -> tuple[np.ndarray, np.ndarray]:
     """The bounding box (lo, hi) of the vertices that faces use."""
-    used = np.zeros(len(mesh.vertices), dtype=bool)
-    used[mesh.faces.ravel()] = True
-    v = mesh.vertices[used]
-    return v.min(axis=0), v.max(axis=0)
+    from .mesh_faces import used_bounds  # Numba, loaded when a mesh is placed
+
+    return used_bounds(mesh.vertices, mesh.faces)
 
 
 def fit_into_box(mesh: MeshData, center, size: float) -> MeshData:
