@@ -330,10 +330,14 @@ def _leaves_of_one_kind(wide: WideBVH, of_kind: np.ndarray, most: int) -> np.nda
     """bool (N, W): the lanes whose leaf holds 2 .. `most` primitives (count field), all of the
     kind (`of_kind`: bool per primitive-table row, in leaf order)."""
     ref = wide.node_index[:, NODE_REF, :]
+    if not of_kind.any():  # (a mesh's scene has no spheres: 0.1 s at 4M triangles)
+        return np.zeros(ref.shape, dtype=bool)
     count = np.where(ref < 0, leaf_count(ref), 0)
+    leaf = (count >= 2) & (count <= most)
+    if of_kind.all():  # every leaf is of the kind (a scene of triangles alone)
+        return leaf
     first = np.where(ref < 0, leaf_first(ref), 0)
     prefix = np.concatenate([[0], np.cumsum(of_kind, dtype=np.int64)])
-    leaf = (count >= 2) & (count <= most)
     end = np.where(leaf, first.astype(np.int64) + count, 0)
     start = np.where(leaf, first, 0)
     return leaf & (prefix[end] - prefix[start] == count)
