@@ -17,7 +17,7 @@ import numpy as np
 @nb.njit(cache=True, nogil=True)
 def _nondegenerate(v, f, sin2, good):
     """good[i]: face i's area^2 above sin2 times the product of its two edges' squared lengths
-    from vertex 0, the numpy expression of place_mesh's docstring operation for operation (no
+    from vertex 0, the numpy expression in place_mesh's comment operation for operation (no
     FMA: Numba contracts nothing without fastmath). Returns the number of faces with an index
     outside 0 .. len(v) - 1 (their `good` is False)."""
     n = v.shape[0]
