@@ -48,6 +48,13 @@ def object_matrix(obj) -> np.ndarray:
     return np.eye(4) if t is None else object_matrix_of(t)
 
 
+def _joined(arrays: list[np.ndarray]) -> np.ndarray:
+    """The arrays one after another; one array itself (np.concatenate would copy it: a
+    4M-triangle mesh's table is 144 MB, ~0.1-0.2 s with its pages faulted in, and the BVH's leaf
+    order copies it again anyway)."""
+    return arrays[0] if len(arrays) == 1 else np.concatenate(arrays)
+
+
 class _TriangleSoup:
     """Triangles gathered object by object before the BVH reorders them."""
 
@@ -80,11 +87,11 @@ class _TriangleSoup:
         if not self.parts:
             empty9 = np.zeros((0, 9), dtype=np.float32)
             return empty9, np.zeros((1, 9), np.float32), np.zeros(0, bool), *(np.zeros(0, np.int32),) * 3
-        verts = np.concatenate([p[0] for p in self.parts])
+        verts = _joined([p[0] for p in self.parts])
         counts = [len(p[0]) for p in self.parts]
         any_smooth = any(p[1] is not None for p in self.parts)
         if any_smooth:
-            normals = np.concatenate([p[1] if p[1] is not None else np.zeros_like(p[0]) for p in self.parts])
+            normals = _joined([p[1] if p[1] is not None else np.zeros_like(p[0]) for p in self.parts])
         else:
             normals = np.zeros((1, 9), dtype=np.float32)
         smooth = np.concatenate([np.full(n, p[1] is not None) for n, p in zip(counts, self.parts)])
@@ -208,9 +215,11 @@ class SceneGeometry:
         own BVH (a BLAS), and each instance costs its inverse matrix, two indices and its share
         of the top-level BVH. `instance_ids` (int (N,), default 0..N-1) are the `instance` AOV's
         values. `uvs`: keep the mesh's texture coordinates (mesh.uvs must exist)."""
-        tris = mesh.vertices.astype(np.float32)[mesh.faces].reshape(-1, 9)
-        normals = None if mesh.normals is None else mesh.normals.astype(np.float32)[mesh.faces].reshape(-1, 9)
-        uv6 = mesh.uvs.astype(np.float32)[mesh.faces].reshape(-1, 6) if uvs else None
+        # (np.take: rows copied whole, ~2x faster than indexing at 4M triangles)
+        tris = np.take(mesh.vertices.astype(np.float32), mesh.faces, axis=0).reshape(-1, 9)
+        normals = None if mesh.normals is None else np.take(mesh.normals.astype(np.float32), mesh.faces, axis=0)
+        normals = None if normals is None else normals.reshape(-1, 9)
+        uv6 = np.take(mesh.uvs.astype(np.float32), mesh.faces, axis=0).reshape(-1, 6) if uvs else None
         self.soup.degenerate += mesh.degenerate
         if instances is None:
             self.soup.add(tris, normals, material, obj, uv6)
