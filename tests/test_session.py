@@ -129,6 +129,23 @@ def test_a_film_refuses_more_samples_than_it_was_made_for(scene):
         session.add_samples(film, 1)
 
 
+def test_a_render_on_one_thread_leaves_numbas_thread_count_as_it_found_it(scene):
+    """Numba's thread count is the calling thread's: left at a render's `threads`, the next
+    Session's BVH build (which reads it) ran on that many threads."""
+    import numba
+
+    found = min(2, numba.config.NUMBA_NUM_THREADS)  # two where the machine has them
+    numba.set_num_threads(found)
+    session = Session(scene)
+    assert session.render(width=8, height=6, mode="cast", threads=1).stats["threads"] == 1
+    assert numba.get_num_threads() == found
+    session.add_samples(raylume.Film(8, 6, total_spp=1), 1, threads=1)
+    assert numba.get_num_threads() == found
+    with pytest.raises(raylume.RaylumeError, match="crop"):
+        session.render(width=8, height=6, mode="cast", threads=1, crop=(0, 99, 0, 6))
+    assert numba.get_num_threads() == found
+
+
 def test_render_settings_errors_are_scene_errors_naming_the_setting(scene):
     with pytest.raises(raylume.SceneError, match="mode"):
         raylume.render(scene, mode="path-tracing")

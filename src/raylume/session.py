@@ -11,6 +11,7 @@ or in tiles on a cluster (cluster.py).
 
 from __future__ import annotations
 
+import functools
 import os
 import time
 from collections.abc import Callable
@@ -59,6 +60,22 @@ def check_memory(width: int, height: int, aovs: bool) -> None:
             f"{' (with AOVs)' if aovs else ''}, more than the {free / 2**30:.1f} GiB of free memory; "
             "render smaller, or without AOVs"
         )
+
+
+def _threads_restored(method):
+    """A render method that gives Numba back the thread count it found: Numba's count is the
+    calling thread's, and left at a render's `threads`, the next Session's BVH build in that
+    thread ran on that many (after a render on 1 thread, a 4M-triangle build on one core of two)."""
+
+    @functools.wraps(method)
+    def wrapper(*args, **kwargs):
+        before = numba.get_num_threads()
+        try:
+            return method(*args, **kwargs)
+        finally:
+            numba.set_num_threads(before)
+
+    return wrapper
 
 
 class Session:
@@ -113,6 +130,7 @@ class Session:
         self._unreported_build = self.compiled.stats["build_seconds"]
         self._unreported_compile = self.compiled.stats.get("compile_seconds", 0.0)
 
+    @_threads_restored
     def render(
         self,
         camera: Camera | dict | None = None,
@@ -216,6 +234,7 @@ class Session:
             aov_arrays = {k: v for k, v in aov_arrays.items() if k == "noisy"}
         return Image(rgb, aov_arrays, stats, table.encoding, exposure=table.exposure)
 
+    @_threads_restored
     def add_samples(
         self,
         film: Film,
