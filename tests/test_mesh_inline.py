@@ -59,6 +59,43 @@ def test_bad_inline_meshes_are_named(keys, words):
         _mesh(**keys)
 
 
+def test_numpy_tables_give_the_model_that_their_lists_give():
+    """The Python API's numpy arrays are checked as a whole (a fast path): the validated mesh
+    is the one their rows as lists give, and rendering reads it the same way."""
+    rng = np.random.default_rng(3)
+    verts = rng.normal(size=(40, 3))
+    faces = rng.integers(0, 40, size=(60, 3))
+    normals = rng.normal(size=(40, 3))
+    uvs = rng.random(size=(40, 2)).astype(np.float32)
+    as_arrays = _mesh(vertices=verts, faces=faces.astype(np.int32), normals=normals, uvs=uvs)
+    as_lists = _mesh(vertices=verts.tolist(), faces=faces.tolist(), normals=normals.tolist(), uvs=uvs.tolist())
+    for key in ("vertices", "faces", "normals", "uvs"):
+        assert getattr(as_arrays, key) == getattr(as_lists, key), key
+    assert isinstance(as_arrays.faces[0][0], int) and isinstance(as_arrays.vertices[0][0], float)
+    assert _mesh(vertices=verts, faces=faces.astype(np.float64)).faces == as_lists.faces  # whole floats
+
+
+@pytest.mark.parametrize(
+    ("keys", "words"),
+    [
+        ({"vertices": np.array([[0.0, 0, 0], [1, np.nan, 0], [0, 1, 0]]), "faces": [[0, 1, 2]]}, "row 1 holds"),
+        (
+            {"vertices": np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0]]), "faces": np.array([[0, -1, 2]])},
+            "count from 0, got -1",
+        ),
+        ({"vertices": np.zeros((3, 2)), "faces": [[0, 1, 2]]}, r"3 columns .* shape \(3, 2\)"),
+        ({"vertices": np.eye(3), "faces": np.array([[0, 1.5, 2]])}, "whole numbers"),
+        ({"vertices": np.eye(3), "faces": np.array([[0, 1, 3]])}, "there are 3 vertices"),
+        ({"vertices": np.eye(3), "faces": np.array([["a", "b", "c"]])}, "must be numbers"),
+        ({"vertices": np.eye(3), "faces": [[0, 1, 2]], "uvs": np.zeros((3, 3))}, "2 columns"),
+    ],
+)
+def test_bad_numpy_tables_are_named(keys, words):
+    with pytest.raises(SceneError, match=words) as caught:
+        _mesh(**keys)
+    assert "objects[0]" in str(caught.value) or "objects.0" in str(caught.value)
+
+
 def test_disk_matrix_must_be_a_similarity():
     disk = {"type": "disk", "radius": 1, "transform": {"matrix": SHEAR}}
     with pytest.raises(SceneError, match="similarity"):

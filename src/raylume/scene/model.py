@@ -751,6 +751,37 @@ class MeshTransform(Transform):
 Index3 = tuple[Annotated[int, Field(ge=0)], Annotated[int, Field(ge=0)], Annotated[int, Field(ge=0)]]
 
 
+def _array_rows(value, width: int, integers: bool) -> list[tuple]:
+    """An inline mesh table given as a numpy array, checked as a whole and returned as the list of
+    row tuples that validating its rows one by one gives: at 1M triangles pydantic took 5 s over
+    the rows (4 us a vertex), this 1.1 s, most of it making the tuples. `integers`: face indices
+    (whole numbers from 0), else finite numbers. Each message says what it got (the error's
+    formatter would otherwise print the whole array)."""
+    import numpy as np
+
+    a = np.asarray(value)
+    if a.ndim != 2 or a.shape[1] != width:
+        raise ValueError(f"an array of {width} columns is needed (one row of {width} values each), got shape {a.shape}")
+    if a.dtype.kind not in "iuf":
+        raise ValueError(f"the array's values must be numbers, got {a.dtype}")
+    finite = np.isfinite(a).all(axis=1) if a.dtype.kind == "f" else np.ones(len(a), dtype=bool)
+    if not finite.all():
+        row = int(np.flatnonzero(~finite)[0])
+        raise ValueError(f"row {row} holds a value that is not a finite number, got {a[row].tolist()}")
+    if integers:
+        if a.dtype.kind == "f" and (a != np.round(a)).any():
+            raise ValueError(f"face indices must be whole numbers, got {a[a != np.round(a)][0]}")
+        if len(a) and a.min() < 0:
+            raise ValueError(f"face indices count from 0, got {a.min()}")
+        return list(map(tuple, a.astype(np.int64).tolist()))
+    return list(map(tuple, a.astype(np.float64).tolist()))
+
+
+def _is_array(value) -> bool:
+    """A numpy array (without importing numpy for other values)."""
+    return type(value).__module__ == "numpy" and hasattr(value, "shape")
+
+
 class Mesh(Strict):
     type: Literal["mesh"]
     """`"mesh"`: a triangle mesh from a file (OBJ, PLY, STL, OFF, glTF/GLB through trimesh)."""
@@ -786,6 +817,15 @@ class Mesh(Strict):
     4) matrices relative to the scene file, or a list of transform tables. The mesh and its BVH are stored once."""
     interior: MediumRef = None  # the mesh must be closed (checked when it is loaded)
     """Path mode: the medium inside, a name in `[media]` (the mesh must be closed)."""
+
+    @field_validator("vertices", "normals", "faces", "uvs", mode="wrap")
+    @classmethod
+    def _numpy_tables(cls, value, handler, info):
+        """A numpy array (the Python API's usual way to hand over a mesh) checked as a whole;
+        lists row by row, by the field's type."""
+        if value is not None and _is_array(value):
+            return _array_rows(value, 2 if info.field_name == "uvs" else 3, info.field_name == "faces")
+        return handler(value)
 
     @field_validator("instances")
     @classmethod
