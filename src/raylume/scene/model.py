@@ -754,7 +754,7 @@ Index3 = tuple[Annotated[int, Field(ge=0)], Annotated[int, Field(ge=0)], Annotat
 def _array_rows(value, width: int, integers: bool) -> list[tuple]:
     """An inline mesh table given as a numpy array, checked as a whole and returned as the list of
     row tuples that validating its rows one by one gives: at 1M triangles pydantic took 5 s over
-    the rows (4 us a vertex), this 1.1 s, most of it making the tuples. `integers`: face indices
+    the rows (4 us a vertex), this ~1.5 s, most of it making the tuples. `integers`: face indices
     (whole numbers from 0), else finite numbers. Each message says what it got (the error's
     formatter would otherwise print the whole array)."""
     import numpy as np
