@@ -14,6 +14,15 @@ import numba as nb
 import numpy as np
 
 
+def _kernel_arrays(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The kernels' inputs: C-contiguous float64 vertices, faces as int32 or int64 (one compiled
+    signature each)."""
+    f = np.ascontiguousarray(faces)
+    if f.dtype not in (np.int32, np.int64):
+        f = f.astype(np.int64)
+    return np.ascontiguousarray(vertices, dtype=np.float64), f
+
+
 @nb.njit(cache=True, nogil=True)
 def _nondegenerate(v, f, sin2, good):
     """good[i]: face i's area^2 above sin2 times the product of its two edges' squared lengths
@@ -44,10 +53,7 @@ def nondegenerate_faces(vertices: np.ndarray, faces: np.ndarray, sin2: float) ->
     """(good, bad): for float64 (V, 3) vertices and integer (F, 3) faces, bool (F,) True where a
     face's squared area exceeds sin2 times |e1|^2 |e2|^2 (e1, e2 its edges from its first
     vertex), as np.einsum of np.cross would find it; and how many faces index no vertex."""
-    v = np.ascontiguousarray(vertices, dtype=np.float64)
-    f = np.ascontiguousarray(faces)
-    if f.dtype not in (np.int32, np.int64):
-        f = f.astype(np.int64)
+    v, f = _kernel_arrays(vertices, faces)
     good = np.empty(len(f), dtype=bool)
     bad = _nondegenerate(v, f, float(sin2), good)
     return good, int(bad)
@@ -73,10 +79,7 @@ def used_bounds(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np
     """(lo, hi): the bounding box of the vertices that faces use (faces index vertices, none
     outside; at least one face). As a mask of the used vertices and their copy, 0.2 s at 4M
     triangles."""
-    v = np.ascontiguousarray(vertices, dtype=np.float64)
-    f = np.ascontiguousarray(faces)
-    if f.dtype not in (np.int32, np.int64):
-        f = f.astype(np.int64)
+    v, f = _kernel_arrays(vertices, faces)
     lo, hi = np.empty(3), np.empty(3)
     _used_bounds(v, f, lo, hi)
     return lo, hi
