@@ -35,7 +35,7 @@ import time
 import numba
 import numpy as np
 from bench_bvh import camera_rays, raylume_scene
-from common import SHARED_MODELS, machine, table
+from common import SHARED_MODELS, growth_table, machine, table
 
 import raylume
 from raylume.kernels.geometry.query import CHUNK, intersect_singly
@@ -139,6 +139,7 @@ def main() -> None:
     embree_frame = {}  # the same by Embree
     in_cache = {}  # the frame with its data in cache (block_orders)
     hit_ms = {}  # per bumpy sphere: (triangles, raylume, single-ray, Embree) hit-ray ms
+    hit_seconds, hit_rays = {}, {}  # per bumpy sphere: each engine's hit-ray seconds; the hit rays
     image_frame = {}  # raylume.intersect on the frame's rays as an image
     blocks, twice = block_orders(args.size)
     for name in args.meshes:
@@ -183,6 +184,7 @@ def main() -> None:
         pairs = np.array(theirs) / np.array(ours)
         if bumpy_size(name) is not None:
             hit_ms[name] = (len(f), r * 1e3, r1 * 1e3, e * 1e3)
+            hit_seconds[name], hit_rays[name] = {"packets": r, "single rays": r1, "Embree": e}, len(o)
         rows.append(
             [name, f"{len(f):,}", f"{len(o):,}", f"{r * 1e3:.1f}", f"{r1 * 1e3:.1f}", f"{e * 1e3:.1f}", f"{e / r:.2f}"]
             + [f"{pairs.min():.2f}-{pairs.max():.2f}", f"{e / r1:.2f}", f"{frame[name] * 1e3:.1f}"]
@@ -204,6 +206,8 @@ def main() -> None:
     headers += ["Embree frame / 40k"]
     headers += ["in-cache frame / 40k"]
     print("\n" + table(headers, rows))
+    if grown := growth_table(hit_seconds, hit_rays):
+        print("\nhit rays, growth from bumpy 40k:\n" + grown)
     if args.plot and hit_ms:
         plot_hits(hit_ms, args.size, args.plot)
 

@@ -22,8 +22,8 @@ import argparse
 
 import numba
 import numpy as np
-from bench_hits import DEFAULT, _trace, cpu_seconds, frame_rays, mesh
-from common import SHARED_MODELS, machine, table
+from bench_hits import DEFAULT, _trace, bumpy_size, cpu_seconds, frame_rays, mesh
+from common import SHARED_MODELS, growth_table, machine, table
 
 from raylume.kernels.geometry.query import CHUNK
 from raylume.kernels.geometry.traverse import any_hit
@@ -83,6 +83,7 @@ def main() -> None:
     print(f"shadow rays of a {args.size} x {args.size} frame's hits, 1 thread, CPU time, medians of {args.repeats}")
     print(f"alternating raylume and Embree; chunks of {CHUNK} rays; {machine()}\n")
     rows = []
+    seconds, rays = {}, {}  # per bumpy sphere: each engine's seconds; the shadow rays
     for name in args.meshes:
         vf = mesh(name)
         if vf is None:
@@ -103,6 +104,8 @@ def main() -> None:
             singly.append(cpu_seconds(lambda: _blocked_singly(compiled, o, d, tmax, stacks)))  # noqa: B023
         r, e, r1 = np.median(ours), np.median(theirs), np.median(singly)
         pairs = np.array(theirs) / np.array(ours)
+        if bumpy_size(name) is not None:
+            seconds[name], rays[name] = {"packets": r, "single rays": r1, "Embree": e}, len(o)
         rows.append(
             [name, f"{len(f):,}", f"{len(o):,}", f"{ours_blocked.mean():.0%}", f"{r * 1e3:.1f}", f"{r1 * 1e3:.1f}"]
             + [f"{e * 1e3:.1f}", f"{e / r:.2f}", f"{pairs.min():.2f}-{pairs.max():.2f}", f"{e / r1:.2f}"]
@@ -112,6 +115,8 @@ def main() -> None:
     headers = ["mesh", "triangles", "shadow rays", "blocked", "raylume ms", "single-ray ms", "Embree ms"]
     headers += ["Embree / raylume", "per pair", "Embree / single-ray", "answers as Embree's"]
     print("\n" + table(headers, rows))
+    if grown := growth_table(seconds, rays):
+        print("\nshadow rays, growth from bumpy 40k:\n" + grown)
 
 
 if __name__ == "__main__":

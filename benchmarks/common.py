@@ -73,3 +73,22 @@ def table(headers: list[str], rows: list[list]) -> str:
     lines = ["| " + " | ".join(c.ljust(w) for c, w in zip(row, widths)) + " |" for row in cells]
     lines.insert(1, "| " + " | ".join("-" * w for w in widths) + " |")
     return "\n".join(lines)
+
+
+def growth_table(seconds: dict[str, dict[str, float]], rays: dict[str, int], base: str = "40k") -> str:
+    """How each engine's time grows from the `base` mesh (issue 49's scaling goal): for every other
+    mesh, time / base time per engine, and the time a ray added, in ns (the ratio weighs an engine's
+    growth against its own small-mesh speed; the added time compares the growth itself). Empty
+    without the base mesh."""
+    if base not in seconds:
+        return ""
+    engines = list(seconds[base])
+    headers = ["mesh"] + [f"{e}: time / {base}" for e in engines] + [f"{e}: ns a ray more" for e in engines]
+    rows = []
+    for name, times in seconds.items():
+        if name == base:
+            continue
+        ratios = [f"{times[e] / seconds[base][e]:.2f}" for e in engines]
+        added = [f"{(times[e] / rays[name] - seconds[base][e] / rays[base]) * 1e9:+.0f}" for e in engines]
+        rows.append([name, *ratios, *added])
+    return table(headers, rows) if rows else ""
