@@ -61,8 +61,10 @@ _OFFSET_MAX = 2.0**126
 _ORIGIN_PAD = 2.0**-72
 _LINE = 64  # bytes in a cache line
 # prefetch_neighbours: lines on either side of a leaf's triangle rows, and the triangle count
-# from which they are prefetched
-NEIGHBOUR_LINES = 4
+# from which they are prefetched. 8 since a Zen 4 VM (benchmarks/ab_queries.py, pinned, against
+# 4: hit rays 1M 1.018, 4M 1.021-1.024, 10M 1.039, shadow rays 4M 1.015; 12 gained less); on
+# the Zen 3 before, 8 had gained no more than 4
+NEIGHBOUR_LINES = 8
 NEIGHBOURS_FROM = 1 << 18
 # prefetch_child: the node count from which a pushed inner child's record is prefetched (2^15:
 # bumpy 1M's 50k nodes take it since benchmarks/ab_queries.py measured it there, pinned: hit
@@ -408,9 +410,9 @@ def prefetch_neighbours(tri, first, end):
     """On a large mesh, the triangle rows beside a leaf's (first .. end - 1, rows in leaf order):
     where several triangles lie under each pixel, every hit ray of a frame reads triangles no
     ray before it read (a miss of its own: benchmarks/cache_misses.py), and they lie next to
-    the ones its neighbour in the frame read. Four lines on either side cut the leaf visits
-    that wait for memory on bumpy 4M from 1.05 to 0.35 a hit ray, 1M 0.32 -> 0.08 (simulated);
-    up to 100k triangles there is nothing to gain (0.04 a ray), so smaller meshes skip it."""
+    the ones its neighbour in the frame read. NEIGHBOUR_LINES on either side (four cut the leaf
+    visits that wait for memory on bumpy 4M from 1.05 to 0.35 a hit ray, 1M 0.32 -> 0.08,
+    simulated); up to 100k triangles there is nothing to gain (0.04 a ray), so smaller meshes skip it."""
     if tri.shape[0] >= NEIGHBOURS_FROM:
         prefetch_around(tri, first, end, NEIGHBOUR_LINES)
 
