@@ -17,7 +17,8 @@ less in proportion). Last, the frame's cost with its data in cache: the frame's 
 32 x 32 pixel blocks, each block traced twice in a row, less the same blocks traced once. The
 repeat finds the block's nodes and triangles in cache (a block's ~1,000 rays touch well under
 the L2's 2 MB), so what is left is the traversal's work without its waits for memory: how far
-from 40k's a large mesh's frame would stay with memory free.
+from 40k's a large mesh's frame would stay with memory free. After the table, each engine's hit
+rays against bumpy 40k's: time / 40k's time (issue 49's scaling goal) and the time a ray added.
 
     python benchmarks/bench_hits.py [--size 1024] [--repeats 7] [--plot PNG] [MESH ...]
 
