@@ -356,6 +356,13 @@ def test_error_no_triangles(tmp_path):
     assert_mesh_error(write(tmp_path / "comment.obj", "# nothing here\n"), "no triangles")
 
 
+def test_error_ply_without_a_vertex_property_names_it(tmp_path):
+    # trimesh's PLY reader raises KeyError('y') here; the message says what is missing
+    header = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nelement face 1\n"
+    body = "property list uchar int vertex_indices\nend_header\n0\n1\n2\n3 0 1 2\n"
+    assert_mesh_error(write(tmp_path / "xonly.ply", header + body), "no 'y'")
+
+
 def test_error_face_index_out_of_range(tmp_path):
     assert_mesh_error(write(tmp_path / "oor.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 9\n"), "index")
     assert_mesh_error(write(tmp_path / "oor_neg.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 -7\n"), "index")

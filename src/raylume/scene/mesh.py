@@ -166,6 +166,8 @@ def _why(exc: Exception) -> str:
         return f"a file it refers to does not exist ({exc})"
     if isinstance(exc, IndexError):
         return "a face refers to a vertex, normal or UV index that does not exist"
+    if isinstance(exc, KeyError):  # a reader looking up a property or element the file lacks
+        return f"it has no {exc.args[0]!r} where the format needs one" if exc.args else "a required field is missing"
     # Text readers meeting binary bytes: trimesh then needs the optional
     # charset_normalizer module, so a missing module means "not text" here too.
     if isinstance(exc, (UnicodeError, ModuleNotFoundError)):
