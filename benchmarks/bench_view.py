@@ -124,6 +124,15 @@ def orbit_fps(driver, seconds: float) -> tuple[float, float]:
     return (n1 - n0) / elapsed, (p1 - p0) / max(n1 - n0, 1) / pixels
 
 
+def warm_orbits(driver, timeout: float = 600) -> None:
+    """Drag until a drag draws frames: the moving frames' kernels (and --denoise's filter) load
+    from the cache, or with an empty cache compile, on the first moving frame, and a drag draws
+    nothing until they have (a first quick run measured 0 fps denoised after one 1 s drag)."""
+    deadline = time.perf_counter() + timeout
+    while orbit_fps(driver, 1.0)[0] == 0 and time.perf_counter() < deadline:
+        pass
+
+
 def rest_fps(driver, url: str) -> tuple[float, float]:
     """(frames drawn per second while a 64-spp film refines at rest, seconds to converge)."""
     wait_until(lambda: stats(url)["converged"])  # the previous camera's film
@@ -197,7 +206,7 @@ def path_run(denoise: bool, seconds: float, threads: int | None) -> dict:
         driver.set_script_timeout(30)
         driver.get(url)
         wait_until(lambda: drawn(driver)[0] > 0, timeout=600)  # a first, cold compile takes long
-        orbit_fps(driver, 1.0)  # warm: the moving frames' kernels and the filter load from the cache
+        warm_orbits(driver)
         n0, d0 = denoised_share(driver)
         fps, share = zip(*[orbit_fps(driver, seconds / 3) for _ in range(3)])
         n1, d1 = denoised_share(driver)
