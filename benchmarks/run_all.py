@@ -35,6 +35,7 @@ BENCHMARKS = [
     + (["--quick", "--size", "512"] if QUICK else ["--plot", str(HERE.parent / "docs/images/bvh_scaling.png")]),
     ["bench_hits.py"] + (["stanford-bunny", "10k", "1M", "--size", "512"] if QUICK else []),
     ["bench_shadows.py"] + (["stanford-bunny", "10k", "1M", "--size", "512"] if QUICK else []),
+    ["bench_growth.py"] + (["10k", "100k", "--size", "256", "--rounds", "3"] if QUICK else []),
     ["bench_load.py"] + (["100k", "--size", "256", "--repeats", "1"] if QUICK else []),
     ["bench_scaling.py"] + (["--quick"] if QUICK else []),
     ["bench_path.py"] + (["--quick"] if QUICK else ["--plot", str(HERE.parent / "docs/images/path_rmse.png")]),

@@ -1,0 +1,85 @@
+"""Issue 49's scaling goal, measured so that the VM's drift does not decide it: time(large) /
+time(small) for raylume and Embree, with both meshes timed in every round.
+
+bench_hits.py and bench_shadows.py time one mesh after the other, minutes apart, so their
+time(4M) / time(40k) carries the drift between those minutes (this VM's speed moves by a third).
+Here both meshes are loaded at once, and each round times, in turn, raylume's and Embree's queries
+on the small mesh and on the large one: the hit rays of bench_hits.py's 1024 x 1024 frame
+(raylume's packets, `intersect_rays`; Embree's `rtcIntersect1`) and the shadow rays of
+bench_shadows.py (`occluded_rays`; `rtcOccluded1`), 1 thread, CPU time. Each round gives its own
+ratios (large / small, per engine and query); the table shows their medians and quartiles, and
+the time a ray added from the small mesh to the large one.
+
+    python benchmarks/bench_growth.py [--rounds 11] [--size 1024] [SMALL LARGE]
+
+SMALL, LARGE: as bench_hits.py takes meshes; by default bumpy 40k and 4M.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+import numba
+import numpy as np
+from bench_hits import _trace, cpu_seconds, frame_rays, mesh
+from bench_shadows import _blocked, shadow_rays
+from common import machine, table
+
+
+def queries(name: str, size: int) -> dict[str, tuple]:
+    """Per query and engine, (a call that runs it once, the number of rays) on mesh `name`."""
+    from embreex import rtcore_scene as rtcs
+    from embreex.mesh_construction import TriangleMesh
+
+    v, f = mesh(name)
+    compiled, fo, fd, hit = frame_rays(v, f, size)
+    o, d = np.ascontiguousarray(fo[hit]), np.ascontiguousarray(fd[hit])
+    _, so, sd, tmax = shadow_rays(v, f, size)
+    embree = rtcs.EmbreeScene()
+    TriangleMesh(embree, v.astype(np.float32), f.astype(np.int32))
+    o32, d32 = o.astype(np.float32), d.astype(np.float32)
+    so32, sd32, tmax32 = so.astype(np.float32), sd.astype(np.float32), tmax.astype(np.float32)
+    embree.run(o32[:1], d32[:1], output=1)  # Embree builds on the first query
+    return {
+        "hit rays, raylume": (lambda: _trace(compiled, o, d), len(o)),
+        "hit rays, Embree": (lambda: embree.run(o32, d32, output=1), len(o)),
+        "shadow rays, raylume": (lambda: _blocked(compiled, so, sd, tmax), len(so)),
+        "shadow rays, Embree": (lambda: embree.run(so32, sd32, dists=tmax32, query="OCCLUDED"), len(so)),
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("meshes", nargs="*", default=["40k", "4M"], help="SMALL LARGE (default: 40k 4M)")
+    parser.add_argument("--size", type=int, default=1024, help="image side: size x size camera rays")
+    parser.add_argument("--rounds", type=int, default=11)
+    args = parser.parse_args()
+    if len(args.meshes) != 2:
+        parser.error("give two meshes, SMALL LARGE")
+    small, large = args.meshes
+    numba.set_num_threads(1)
+    print(f"time({large}) / time({small}), both meshes in every round, {args.rounds} rounds, 1 thread, CPU time")
+    print(f"{args.size} x {args.size} frame; {machine()}\n")
+    runs = {name: queries(name, args.size) for name in (small, large)}
+    seconds = {name: {q: [] for q in runs[name]} for name in runs}
+    for k in range(args.rounds):
+        for name in (small, large) if k % 2 == 0 else (large, small):
+            for q, (call, _) in runs[name].items():
+                seconds[name][q].append(cpu_seconds(call))
+    rows = []
+    for q in runs[small]:
+        a, b = np.array(seconds[small][q]), np.array(seconds[large][q])
+        ratios = b / a
+        q1, q3 = np.percentile(ratios, [25, 75])
+        added = (np.median(b) / runs[large][q][1] - np.median(a) / runs[small][q][1]) * 1e9
+        rows.append(
+            [q, f"{np.median(a) * 1e3:.1f}", f"{np.median(b) * 1e3:.1f}", f"{np.median(ratios):.2f}"]
+            + [f"{q1:.2f}-{q3:.2f}", f"{added:+.0f}"]
+        )
+    headers = ["query", f"{small} ms", f"{large} ms", f"time({large}) / time({small})", "quartiles"]
+    headers += ["ns a ray more"]
+    print(table(headers, rows))
+
+
+if __name__ == "__main__":
+    main()
