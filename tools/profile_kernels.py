@@ -1,0 +1,219 @@
+"""Where a render's kernel time goes, by source line: `perf` samples of the compiled kernels,
+named through the DWARF line tables of Numba's own object code.
+
+    python tools/profile_kernels.py SCENE [--mode path] [--width 128] [--height 128] [--spp 16]
+                                    [--seconds 8] [--top 25]
+
+Renders SCENE (a scene file or built-in name) again and again on 1 thread for --seconds while
+`perf record -e cpu-clock` samples the process, then prints the share of the samples on each
+source line the kernels' machine code came from (the innermost: the line whose code ran) and on
+each function, counting every function inlined into the sampled code (so a helper's share holds
+its callees'). Explicit-IR intrinsics (the box and triangle tests, the sweep's mask) are counted
+at the line that calls them. The function shares are lower bounds: code that Numba inlines
+itself (`inline="always"`, raylume's `inline_function`) keeps its own lines but not the chain
+of callers LLVM's inlining records, so only the line table sees it whole.
+
+The kernels are compiled with Numba's debug info (NUMBA_DEBUGINFO=1: line tables, the same
+optimisation) into a cache of their own (~/.cache/raylume-profile, or $NUMBA_CACHE_DIR/profile),
+so the first run compiles them (minutes, for path mode) and leaves the usual cache alone; later
+runs load them from it. The object code each kernel was loaded from is kept as it is read from
+the cache; a sample's address less the kernel's entry is an offset into the object's code
+section, and `addr2line -i` gives the inlined frames at it.
+
+Needs `perf` (linux-tools; the VM allows cpu-clock sampling of its own processes) and binutils'
+`addr2line`, `nm` and `readelf`. A diagnostic, not a benchmark: no peer, no test.
+"""
+
+from __future__ import annotations
+
+import argparse
+import collections
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+LANES = ("path_wave_lane", "path_lane", "trace_lane", "cast_lane", "aov_lane", "bdpt_lane")
+
+
+def _reexec_with_debug_info() -> None:
+    """Run this script again with the kernels' line tables on, in a cache of their own: once to
+    compile them into it (where they are not yet), once to profile them as loaded from it."""
+    if os.environ.get("NUMBA_DEBUGINFO") == "1":
+        return
+    base = os.environ.get("NUMBA_CACHE_DIR") or str(Path.home() / ".cache")
+    env = {**os.environ, "NUMBA_DEBUGINFO": "1", "NUMBA_CACHE_DIR": str(Path(base) / "raylume-profile")}
+    for extra in (["--compile-only"], []):
+        if code := subprocess.run([sys.executable, *sys.argv, *extra], env=env).returncode:
+            sys.exit(code)
+    sys.exit(0)
+
+
+def _keep_objects() -> dict[str, bytes]:
+    """Numba's cache loads each kernel from object code: keep it by library name, as it is read."""
+    from numba.core import codegen
+
+    objects: dict[str, bytes] = {}
+    unserialize = codegen.CPUCodeLibrary._unserialize.__func__
+
+    def keep(cls, cg, state):
+        name, kind, data = state
+        if kind == "object":
+            objects[name] = data[0]
+        return unserialize(cls, cg, state)
+
+    codegen.CPUCodeLibrary._unserialize = classmethod(keep)
+    return objects
+
+
+def _run(*command: str) -> list[str]:
+    return subprocess.run(command, capture_output=True, text=True).stdout.splitlines()
+
+
+def _code_section(obj: Path, symbol: str) -> tuple[str, int, int]:
+    """(the code section holding `symbol`, the symbol's offset in it, the section's size)."""
+    sections = {}
+    for line in _run("readelf", "-S", "-W", str(obj)):
+        m = re.match(r"\s*\[\s*(\d+)\]\s+(\S+)\s+PROGBITS\s+\S+\s+\S+\s+([0-9a-f]+)\s+\S+\s+(\S*X\S*)", line)
+        if m:
+            sections[int(m.group(1))] = (m.group(2), int(m.group(3), 16))
+    for line in subprocess.run(
+        ["nm", "-S", "--defined-only", str(obj)], capture_output=True, text=True
+    ).stdout.splitlines():
+        parts = line.split()
+        if len(parts) == 4 and parts[3] == symbol:
+            offset = int(parts[0], 16)
+            break
+    else:
+        raise SystemExit(f"profile_kernels: {symbol[:60]}... is not in the kernel's object code")
+    index = next(int(ln.split()[6]) for ln in _run("readelf", "-s", "-W", str(obj)) if ln.split()[-1:] == [symbol])
+    name, size = sections[index]
+    return name, offset, size
+
+
+def _function(name: str) -> str:
+    """A readable name for a mangled Numba function: its module path and own name
+    (`_ZN7raylume7kernels8geometry5sweep9sweep_hitB4v1...` -> geometry.sweep.sweep_hit)."""
+    if not name.startswith("_ZN"):
+        return name[:60]
+    rest, parts = name[3:], []
+    while rest[:1].isdigit():
+        digits = re.match(r"\d+", rest)
+        start = digits.end()
+        parts.append(rest[start : start + int(digits.group())])
+        rest = rest[start + int(digits.group()) :]
+    return ".".join(p for p in parts if p not in ("raylume", "kernels")) or name[:60]
+
+
+def _frames(obj: Path, section: str, offsets: list[int]) -> dict[int, list[tuple[str, str]]]:
+    """Per code offset, its inlined frames, innermost first: (function, file:line)."""
+    out = subprocess.run(
+        ["addr2line", "-j", section, "-e", str(obj), "-i", "-f", "-a", *[hex(o) for o in offsets]],
+        capture_output=True,
+        text=True,
+    ).stdout.splitlines()
+    frames: dict[int, list[tuple[str, str]]] = {}
+    current, i = None, 0
+    while i < len(out):
+        if out[i].startswith("0x"):
+            current = int(out[i], 16)
+            frames[current] = []
+            i += 1
+            continue
+        where = out[i + 1].split(" (")[0]
+        where = where.split("/src/raylume/")[-1] if "/src/raylume/" in where else where
+        frames[current].append((_function(out[i]), where))
+        i += 2
+    return frames
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("scene", help="a scene file, mesh file or built-in name")
+    parser.add_argument("--mode", default=None, help="cast | trace | path (default: the scene's)")
+    parser.add_argument("--width", type=int, default=128)
+    parser.add_argument("--height", type=int, default=128)
+    parser.add_argument("--spp", type=int, default=16)
+    parser.add_argument("--seconds", type=float, default=8.0, help="how long to sample")
+    parser.add_argument("--top", type=int, default=25, help="rows of each table")
+    parser.add_argument("--compile-only", action="store_true", help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    for tool in ("perf", "addr2line", "nm", "readelf"):
+        if shutil.which(tool) is None:
+            raise SystemExit(f"profile_kernels: needs `{tool}` on the PATH")
+    _reexec_with_debug_info()
+    objects = _keep_objects()
+
+    import numba
+
+    import raylume
+    from raylume.kernels.integrators import frame
+
+    numba.set_num_threads(1)
+    builtin = args.scene in raylume.builtin_names() and not Path(args.scene).exists()
+    session = raylume.Session(raylume.builtin_scene(args.scene) if builtin else raylume.load(args.scene))
+    settings = {"width": args.width, "height": args.height, "spp": args.spp, "threads": 1}
+    if args.mode:
+        settings["mode"] = args.mode
+    if args.compile_only:
+        print("loading, or compiling once (minutes for path mode), the kernels with line tables", flush=True)
+    session.render(**{**settings, "width": 16, "height": 16, "spp": 1})
+    if args.compile_only:
+        return
+    kernels = []  # (name, entry address, object file, code section, entry offset, section size)
+    folder = Path(tempfile.mkdtemp(prefix="raylume-profile-"))
+    for name in LANES:
+        for _, cres in getattr(frame, name).overloads.items():
+            library = cres.library
+            if library.name not in objects:
+                continue  # compiled in this process, not loaded from the cache
+            obj = folder / f"{name}.o"
+            obj.write_bytes(objects[library.name])
+            symbol = cres.fndesc.llvm_func_name
+            entry = library.get_pointer_to_function(symbol)
+            kernels.append((name, entry, obj, *_code_section(obj, symbol)))
+    if not kernels:
+        raise SystemExit("profile_kernels: no kernel was loaded from the cache (NUMBA_DEBUGINFO set by hand?)")
+
+    data = folder / "perf.data"
+    record = ["perf", "record", "-e", "cpu-clock", "-F", "4000", "-o", str(data), "-p", str(os.getpid())]
+    perf = subprocess.Popen(record, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    time.sleep(1.0)  # perf attaches
+    started, renders = time.perf_counter(), 0
+    while time.perf_counter() - started < args.seconds:
+        session.render(**settings)
+        renders += 1
+    perf.send_signal(2)
+    perf.wait()
+    ips = subprocess.run(["perf", "script", "-i", str(data), "-F", "ip"], capture_output=True, text=True).stdout.split()
+    samples = [int(ip, 16) for ip in ips]
+    print(f"{renders} renders, {len(samples)} samples; {folder} holds the object code and perf.data\n")
+
+    innermost, inclusive = collections.Counter(), collections.Counter()
+    counted = 0
+    for _, entry, obj, section, offset, size in kernels:
+        offsets = collections.Counter(ip - entry + offset for ip in samples if 0 <= ip - entry + offset < size)
+        if not offsets:
+            continue
+        counted += sum(offsets.values())
+        for at, frames in _frames(obj, section, sorted(offsets)).items():
+            n = offsets[at]
+            innermost[frames[0][1] if frames else "??"] += n
+            for function in dict.fromkeys(f for f, _ in frames):
+                inclusive[function] += n
+    total = len(samples) or 1
+    print(f"{100 * counted / total:.1f}% of the samples in the kernels ({', '.join(k[0] for k in kernels)})\n")
+    print("| source line (innermost) | share |\n| --- | --- |")
+    for where, n in innermost.most_common(args.top):
+        print(f"| {where} | {100 * n / total:.1f}% |")
+    print("\n| function (with what is inlined into it) | share |\n| --- | --- |")
+    for function, n in inclusive.most_common(args.top):
+        print(f"| {function} | {100 * n / total:.1f}% |")
+
+
+if __name__ == "__main__":
+    main()
