@@ -21,7 +21,7 @@ the cache; a sample's address less the kernel's entry is an offset into the obje
 section, and `addr2line -i` gives the inlined frames at it.
 
 Needs `perf` (linux-tools; the VM allows cpu-clock sampling of its own processes) and binutils'
-`addr2line`, `nm` and `readelf`. A diagnostic, not a benchmark: no peer, no test.
+`addr2line` and `readelf`. A diagnostic, not a benchmark: no peer, no test.
 """
 
 from __future__ import annotations
@@ -81,16 +81,11 @@ def _code_section(obj: Path, symbol: str) -> tuple[str, int, int]:
         m = re.match(r"\s*\[\s*(\d+)\]\s+(\S+)\s+PROGBITS\s+\S+\s+\S+\s+([0-9a-f]+)\s+\S+\s+(\S*X\S*)", line)
         if m:
             sections[int(m.group(1))] = (m.group(2), int(m.group(3), 16))
-    for line in subprocess.run(
-        ["nm", "-S", "--defined-only", str(obj)], capture_output=True, text=True
-    ).stdout.splitlines():
-        parts = line.split()
-        if len(parts) == 4 and parts[3] == symbol:
-            offset = int(parts[0], 16)
-            break
-    else:
+    # the symbol table's Value (for an object file, the offset in its section) and Ndx columns
+    found = [ln.split() for ln in _run("readelf", "-s", "-W", str(obj)) if ln.split()[-1:] == [symbol]]
+    if not found:
         raise SystemExit(f"profile_kernels: {symbol[:60]}... is not in the kernel's object code")
-    index = next(int(ln.split()[6]) for ln in _run("readelf", "-s", "-W", str(obj)) if ln.split()[-1:] == [symbol])
+    offset, index = int(found[0][1], 16), int(found[0][6])
     name, size = sections[index]
     return name, offset, size
 
@@ -142,7 +137,7 @@ def main() -> None:
     parser.add_argument("--top", type=int, default=25, help="rows of each table")
     parser.add_argument("--compile-only", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
-    for tool in ("perf", "addr2line", "nm", "readelf"):
+    for tool in ("perf", "addr2line", "readelf"):
         if shutil.which(tool) is None:
             raise SystemExit(f"profile_kernels: needs `{tool}` on the PATH")
     _reexec_with_debug_info()
