@@ -124,15 +124,6 @@ def orbit_fps(driver, seconds: float) -> tuple[float, float]:
     return (n1 - n0) / elapsed, (p1 - p0) / max(n1 - n0, 1) / pixels
 
 
-def warm_orbits(driver, timeout: float = 600) -> None:
-    """Drag until a drag draws frames: the moving frames' kernels (and --denoise's filter) load
-    from the cache, or with an empty cache compile, on the first moving frame, and a drag draws
-    nothing until they have (a first quick run measured 0 fps denoised after one 1 s drag)."""
-    deadline = time.perf_counter() + timeout
-    while orbit_fps(driver, 1.0)[0] == 0 and time.perf_counter() < deadline:
-        pass
-
-
 def rest_fps(driver, url: str) -> tuple[float, float]:
     """(frames drawn per second while a 64-spp film refines at rest, seconds to converge)."""
     wait_until(lambda: stats(url)["converged"])  # the previous camera's film
@@ -206,7 +197,10 @@ def path_run(denoise: bool, seconds: float, threads: int | None) -> dict:
         driver.set_script_timeout(30)
         driver.get(url)
         wait_until(lambda: drawn(driver)[0] > 0, timeout=600)  # a first, cold compile takes long
-        warm_orbits(driver)
+        # warm: drag until a drag draws frames. The moving frames' kernels (and --denoise's filter)
+        # load from the cache, or with an empty cache compile, on the first moving frame, and a
+        # drag draws nothing until they have (a quick run measured 0 fps denoised after one drag)
+        wait_until(lambda: orbit_fps(driver, 1.0)[0] > 0, timeout=600)
         n0, d0 = denoised_share(driver)
         fps, share = zip(*[orbit_fps(driver, seconds / 3) for _ in range(3)])
         n1, d1 = denoised_share(driver)
