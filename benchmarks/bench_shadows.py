@@ -34,10 +34,11 @@ from raylume.kernels.vec import kernel_function
 from raylume.query_lanes import occluded_rays
 
 
-def shadow_rays(vertices, faces, size):
+def shadow_rays(vertices, faces, size, frame=None):
     """The compiled scene and the shadow rays of its camera's hits: (origins, unit directions,
-    distances to the light)."""
-    compiled, fo, fd, hit = frame_rays(vertices, faces, size)
+    distances to the light). `frame`: frame_rays' answer for the mesh, where the caller has it
+    (the scene is not compiled again)."""
+    compiled, fo, fd, hit = frame if frame is not None else frame_rays(vertices, faces, size)
     t = _trace(compiled, fo[hit], fd[hit])[0]
     points = fo[hit] + fd[hit] * (t * (1 - 1e-6))[:, None]
     lo, hi = vertices.min(axis=0), vertices.max(axis=0)
