@@ -5,6 +5,7 @@ checkout's median and the paired ratio B / A (its median, its quartiles, and how
 faster).
 
     python benchmarks/ab_queries.py --a DIR --b DIR [--query hits|singles|shadows|cast|trace|path] [--rounds 40] MESH
+    python benchmarks/ab_queries.py --a DIR --b DIR --query scene [--spp 4] SCENE.toml
 
 DIR: a checkout of raylume (its src/ is imported, its benchmarks/ run the query); MESH: as
 bench_hits.py takes it (40k, 1M, stanford-bunny, ...). The query is bench_hits.py's packets on
@@ -12,7 +13,8 @@ the hit rays of its 1024 x 1024 frame (`_trace`), its single-ray traversal on th
 (`singles`: `_trace_singly`, closest_hit ray by ray, as trace and path modes' bounces are traced),
 bench_shadows.py's occlusion (`_blocked`), or a whole render of bench_scaling.py's scene with
 the mesh (`cast`, `trace`, `path` at 1 sample a pixel: 1024 x 1024, through a Session, so
-compiled once); one thread, CPU time. Both checkouts must give the same answers (a checksum is
+compiled once); or a scene file rendered as it says (`scene`; or in the mode given) at `--spp`
+samples a pixel; one thread, CPU time. Both checkouts must give the same answers (a checksum is
 compared first). `--a DIR --b DIR` with one DIR twice is an A / A run: how wide the ratio's
 quartiles are when nothing differs.
 
@@ -52,6 +54,18 @@ def worker(query: str, name: str, cpu: int) -> None:
             return _blocked(compiled, o, d, tmax)
 
         checksum = int(call().sum())
+    elif name.endswith((".toml", ".json")):  # a scene file, rendered as it says, `spp` samples a pixel
+        import raylume
+        from raylume.session import Session
+
+        session = Session(raylume.load_scene(str(Path(name).resolve())))
+        spp = int(os.environ.get("AB_SPP", "4"))
+        mode = None if query == "scene" else query
+
+        def call():
+            return session.render(mode=mode, spp=spp, threads=1, aovs=False).rgb
+
+        checksum = float(call().sum())
     elif query in ("cast", "trace", "path"):
         import tempfile
 
@@ -112,7 +126,10 @@ def main() -> None:
     parser.add_argument("mesh", help="as bench_hits.py takes it")
     parser.add_argument("--a", type=Path, required=True, help="a raylume checkout")
     parser.add_argument("--b", type=Path, required=True, help="another (or the same, for an A / A run)")
-    parser.add_argument("--query", choices=["hits", "singles", "shadows", "cast", "trace", "path"], default="hits")
+    parser.add_argument(
+        "--query", choices=["hits", "singles", "shadows", "cast", "trace", "path", "scene"], default="hits"
+    )
+    parser.add_argument("--spp", type=int, default=4, help="samples a pixel of a scene file's renders")
     parser.add_argument("--rounds", type=int, default=40)
     parser.add_argument("--cpu", type=int, default=max(os.sched_getaffinity(0)), help="the core both workers run on")
     parser.add_argument("--worker", nargs=3, help=argparse.SUPPRESS)
@@ -121,6 +138,9 @@ def main() -> None:
         worker(sys.argv[i + 1], sys.argv[i + 2], int(sys.argv[i + 3]))
         return
     args = parser.parse_args()
+    if args.mesh.endswith((".toml", ".json")):
+        args.mesh = str(Path(args.mesh).resolve())
+        os.environ["AB_SPP"] = str(args.spp)
     workers = [start(c.resolve(), args.query, args.mesh, args.cpu) for c in (args.a, args.b)]
     ready = [w.stdout.readline().split() for w in workers]
     if any(len(r) != 2 or r[0] != "ready" for r in ready):

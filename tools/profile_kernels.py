@@ -13,9 +13,10 @@ at the line that calls them. The function shares are lower bounds: code that Num
 itself (`inline="always"`, raylume's `inline_function`) keeps its own lines but not the chain
 of callers LLVM's inlining records, so only the line table sees it whole.
 
-The kernels are compiled with Numba's debug info (NUMBA_DEBUGINFO=1: line tables, the same
-optimisation) into a cache of their own (~/.cache/raylume-profile, or $NUMBA_CACHE_DIR/profile),
-so the first run compiles them (minutes, for path mode) and leaves the usual cache alone; later
+The kernels are compiled with line tables (NUMBA_DEBUGINFO=1, less the `noinline`, bounds
+checks and kept variables Numba's debug info adds: _line_tables_only; renders then take ~1.1x
+their usual time, not ~2x) into a cache of their own (~/.cache/raylume-profile-lines, or under $NUMBA_CACHE_DIR), so the
+first run compiles them (minutes, for path mode) and leaves the usual cache alone; later
 runs load them from it. The object code each kernel was loaded from is kept as it is read from
 the cache; a sample's address less the kernel's entry is an offset into the object's code
 section, and `addr2line -i` gives the inlined frames at it.
@@ -37,6 +38,9 @@ import tempfile
 import time
 from pathlib import Path
 
+# the line-table build's own Numba cache, under $NUMBA_CACHE_DIR or ~/.cache (Numba's cache keys
+# leave out the compile flags: kernels compiled with full debug info must not be found here)
+CACHE = "raylume-profile-lines"
 LANES = ("path_wave_lane", "path_lane", "trace_lane", "cast_lane", "aov_lane", "bdpt_lane")
 
 
@@ -46,11 +50,37 @@ def _reexec_with_debug_info() -> None:
     if os.environ.get("NUMBA_DEBUGINFO") == "1":
         return
     base = os.environ.get("NUMBA_CACHE_DIR") or str(Path.home() / ".cache")
-    env = {**os.environ, "NUMBA_DEBUGINFO": "1", "NUMBA_CACHE_DIR": str(Path(base) / "raylume-profile")}
+    env = {**os.environ, "NUMBA_DEBUGINFO": "1", "NUMBA_CACHE_DIR": str(Path(base) / CACHE)}
     for extra in (["--compile-only"], []):
         if code := subprocess.run([sys.executable, *sys.argv, *extra], env=env).returncode:
             sys.exit(code)
     sys.exit(0)
+
+
+def _line_tables_only() -> None:
+    """NUMBA_DEBUGINFO alone compiles other code than a render runs: it marks every function
+    `noinline`, turns bounds checks on and keeps every variable alive and in memory; renders took
+    1.8-2.1x the time (examples/materials.toml, 128 x 128 x 16). Here only the line tables (and
+    the inlined frames LLVM records in them) are added: the same inlining, no bounds checks, no
+    kept variables. (Numba's `dbg_directives_only`, which means that, trips an assertion in
+    llvmlite's LLVM on these kernels.)"""
+    from numba.core import cpu, lowering
+
+    finalize = cpu.CPUTargetOptions.finalize
+    pre_lower = lowering.Lower.pre_lower
+
+    def lines_only(self, flags, options):
+        finalize(self, flags, options)
+        flags.dbg_extend_lifetimes = False
+        flags.boundscheck = False
+
+    def inlinable(self):
+        pre_lower(self)
+        self.builder.function.attributes.discard("noinline")
+
+    cpu.CPUTargetOptions.finalize = lines_only
+    lowering.Lower.pre_lower = inlinable
+    lowering.Lower._disable_sroa_like_opt = property(lambda self: False)
 
 
 def _keep_objects() -> dict[str, bytes]:
@@ -141,6 +171,7 @@ def main() -> None:
         if shutil.which(tool) is None:
             raise SystemExit(f"profile_kernels: needs `{tool}` on the PATH")
     _reexec_with_debug_info()
+    _line_tables_only()
     objects = _keep_objects()
 
     import numba
@@ -151,7 +182,7 @@ def main() -> None:
     numba.set_num_threads(1)
     builtin = args.scene in raylume.builtin_names() and not Path(args.scene).exists()
     session = raylume.Session(raylume.builtin_scene(args.scene) if builtin else raylume.load(args.scene))
-    settings = {"width": args.width, "height": args.height, "spp": args.spp, "threads": 1}
+    settings = {"width": args.width, "height": args.height, "spp": args.spp, "threads": 1, "aovs": False}
     if args.mode:
         settings["mode"] = args.mode
     if args.compile_only:
@@ -188,20 +219,20 @@ def main() -> None:
     samples = [int(ip, 16) for ip in ips]
     print(f"{renders} renders, {len(samples)} samples; {folder} holds the object code and perf.data\n")
 
-    innermost, inclusive = collections.Counter(), collections.Counter()
-    counted = 0
-    for _, entry, obj, section, offset, size in kernels:
+    innermost, inclusive, by_kernel = collections.Counter(), collections.Counter(), collections.Counter()
+    for name, entry, obj, section, offset, size in kernels:
         offsets = collections.Counter(ip - entry + offset for ip in samples if 0 <= ip - entry + offset < size)
         if not offsets:
             continue
-        counted += sum(offsets.values())
+        by_kernel[name] += sum(offsets.values())
         for at, frames in _frames(obj, section, sorted(offsets)).items():
             n = offsets[at]
             innermost[frames[0][1] if frames else "??"] += n
             for function in dict.fromkeys(f for f, _ in frames):
                 inclusive[function] += n
     total = len(samples) or 1
-    print(f"{100 * counted / total:.1f}% of the samples in the kernels ({', '.join(k[0] for k in kernels)})\n")
+    shares = ", ".join(f"{name} {100 * n / total:.1f}%" for name, n in by_kernel.most_common())
+    print(f"{100 * sum(by_kernel.values()) / total:.1f}% of the samples in the kernels ({shares})\n")
     print("| source line (innermost) | share |\n| --- | --- |")
     for where, n in innermost.most_common(args.top):
         print(f"| {where} | {100 * n / total:.1f}% |")
