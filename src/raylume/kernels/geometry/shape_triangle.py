@@ -68,15 +68,18 @@ def intersect_triangle(o, shear, tri, i, tmin, tmax):
     Returns (t, b1, b2): b1, b2 are the barycentric weights of v1 and v2. Edges shared by two
     triangles are evaluated identically from both sides, so closed meshes have no pinholes."""
     kx, ky, kz, sx, sy, sz = shear
-    ax = tri[i, kx] - o[kx]
-    ay = tri[i, ky] - o[ky]
-    az = tri[i, kz] - o[kz]
-    bx = tri[i, 3 + kx] - o[kx]
-    by = tri[i, 3 + ky] - o[ky]
-    bz = tri[i, 3 + kz] - o[kz]
-    cx = tri[i, 6 + kx] - o[kx]
-    cy = tri[i, 6 + ky] - o[ky]
-    cz = tri[i, 6 + kz] - o[kz]
+    # the origin's components by _component: a tuple indexed at run time (o[kx]) compiles to a
+    # switch over the index, jumps mispredicted on random rays
+    ox, oy, oz = _component(o, kx), _component(o, ky), _component(o, kz)
+    ax = tri[i, kx] - ox
+    ay = tri[i, ky] - oy
+    az = tri[i, kz] - oz
+    bx = tri[i, 3 + kx] - ox
+    by = tri[i, 3 + ky] - oy
+    bz = tri[i, 3 + kz] - oz
+    cx = tri[i, 6 + kx] - ox
+    cy = tri[i, 6 + ky] - oy
+    cz = tri[i, 6 + kz] - oz
     ax -= sx * az
     ay -= sy * az
     bx -= sx * bz
