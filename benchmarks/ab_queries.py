@@ -141,6 +141,8 @@ def main() -> None:
         return
     args = parser.parse_args()
     if args.mesh.endswith((".toml", ".json")):
+        if args.query not in ("scene", "cast", "trace", "path"):
+            parser.error("a scene file takes --query scene (or cast, trace, path: that mode)")
         args.mesh = str(Path(args.mesh).resolve())
         os.environ["AB_SPP"] = str(args.spp)
     workers = [start(c.resolve(), args.query, args.mesh, args.cpu) for c in (args.a, args.b)]

@@ -2,7 +2,7 @@
 named through the DWARF line tables of Numba's own object code.
 
     python tools/profile_kernels.py SCENE [--mode path] [--width 128] [--height 128] [--spp 16]
-                                    [--seconds 8] [--top 25]
+                                    [--seconds 8] [--top 25] [--aovs]
 
 Renders SCENE (a scene file or built-in name) again and again on 1 thread for --seconds while
 `perf record -e cpu-clock` samples the process, then prints the share of the samples on each
@@ -15,11 +15,13 @@ of callers LLVM's inlining records, so only the line table sees it whole.
 
 The kernels are compiled with line tables (NUMBA_DEBUGINFO=1, less the `noinline`, bounds
 checks and kept variables Numba's debug info adds: _line_tables_only; renders then take ~1.1x
-their usual time, not ~2x) into a cache of their own (~/.cache/raylume-profile-lines, or under $NUMBA_CACHE_DIR), so the
-first run compiles them (minutes, for path mode) and leaves the usual cache alone; later
-runs load them from it. The object code each kernel was loaded from is kept as it is read from
-the cache; a sample's address less the kernel's entry is an offset into the object's code
-section, and `addr2line -i` gives the inlined frames at it.
+their usual time, not ~2x) into a cache of their own (raylume-profile-lines, under
+$NUMBA_CACHE_DIR or ~/.cache; an older raylume-profile beside it, the full debug build's, can
+be deleted), so the first run compiles them (minutes, for path mode) and leaves the usual cache
+alone; later runs load them from it. Renders leave out the AOV pass unless --aovs says. The
+object code each kernel was loaded from is kept as it is read from the cache; a sample's address
+less the kernel's entry is an offset into the object's code section, and `addr2line -i` gives
+the inlined frames at it.
 
 Needs `perf` (linux-tools; the VM allows cpu-clock sampling of its own processes) and binutils'
 `addr2line` and `readelf`. A diagnostic, not a benchmark: no peer, no test.
@@ -165,6 +167,7 @@ def main() -> None:
     parser.add_argument("--spp", type=int, default=16)
     parser.add_argument("--seconds", type=float, default=8.0, help="how long to sample")
     parser.add_argument("--top", type=int, default=25, help="rows of each table")
+    parser.add_argument("--aovs", action="store_true", help="render the AOV pass too (a render's default)")
     parser.add_argument("--compile-only", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
     for tool in ("perf", "addr2line", "readelf"):
@@ -182,7 +185,7 @@ def main() -> None:
     numba.set_num_threads(1)
     builtin = args.scene in raylume.builtin_names() and not Path(args.scene).exists()
     session = raylume.Session(raylume.builtin_scene(args.scene) if builtin else raylume.load(args.scene))
-    settings = {"width": args.width, "height": args.height, "spp": args.spp, "threads": 1, "aovs": False}
+    settings = {"width": args.width, "height": args.height, "spp": args.spp, "threads": 1, "aovs": args.aovs}
     if args.mode:
         settings["mode"] = args.mode
     if args.compile_only:
