@@ -8,7 +8,8 @@ on the small mesh and on the large one: the hit rays of bench_hits.py's 1024 x 1
 (raylume's packets, `intersect_rays`; Embree's `rtcIntersect1`) and the shadow rays of
 bench_shadows.py (`occluded_rays`; `rtcOccluded1`), 1 thread, CPU time. Each round gives its own
 ratios (large / small, per engine and query); the table shows their medians and quartiles, and
-the time a ray added from the small mesh to the large one.
+the time a ray added from the small mesh to the large one. Last, issue 49's goal per query:
+raylume's ratio over Embree's from the same round, its median and quartiles.
 
     python benchmarks/bench_growth.py [--rounds 11] [--size 1024] [SMALL LARGE]
 
@@ -81,6 +82,21 @@ def main() -> None:
     headers = ["query", f"{small} ms", f"{large} ms", f"time({large}) / time({small})", "quartiles"]
     headers += ["ns a ray more"]
     print(table(headers, rows))
+    # issue 49's goal, judged per round: raylume's growth over Embree's in the same round
+    print()
+    for query in ("hit rays", "shadow rays"):
+        growth = {}
+        for engine in ("raylume", "Embree"):
+            q = f"{query}, {engine}"
+            growth[engine] = np.array(seconds[large][q]) / np.array(seconds[small][q])
+        over = growth["raylume"] / growth["Embree"]
+        q1, q3 = np.percentile(over, [25, 75])
+        verdict = "holds" if np.median(over) <= 1.0 else "does not hold"
+        print(
+            f"{query}: raylume's time({large}) / time({small}) no higher than Embree's: {verdict} "
+            f"(raylume's over Embree's, per round: median {np.median(over):.3f}, quartiles {q1:.3f}-{q3:.3f}, "
+            f"at most 1 in {np.mean(over <= 1.0):.0%} of the rounds)"
+        )
 
 
 if __name__ == "__main__":
