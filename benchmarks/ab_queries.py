@@ -22,7 +22,7 @@ Fresh processes alternating (bench_builds.py) spread a ~5% change over the VM's 
 one round is two calls a few tens of milliseconds apart. An A / A run of the bunny's shadow rays,
 40 rounds: median ratio 0.995, quartiles 0.965-1.041; of the Cornell box's path renders (`--query
 scene --spp 4`, 60 rounds): 0.984, quartiles 0.938-1.024, so a scene's ratio within 2% of 1 says
-nothing.
+nothing; run a small change both ways round (--a OLD --b NEW, then --a NEW --b OLD).
 """
 
 from __future__ import annotations
