@@ -36,6 +36,11 @@ from pathlib import Path
 import numpy as np
 
 
+def is_scene_file(name: str) -> bool:
+    """The MESH argument names a scene file rather than a mesh."""
+    return name.endswith((".toml", ".json"))
+
+
 def worker(query: str, name: str, cpu: int) -> None:
     """Set the query up in this process (its checkout's benchmarks/ and src/), print "ready" and
     a checksum of its answers, then time one call for each line read, printing milliseconds."""
@@ -56,7 +61,7 @@ def worker(query: str, name: str, cpu: int) -> None:
             return _blocked(compiled, o, d, tmax)
 
         checksum = int(call().sum())
-    elif name.endswith((".toml", ".json")):  # a scene file, rendered as it says, `spp` samples a pixel
+    elif is_scene_file(name):  # a scene file, rendered as it says, `spp` samples a pixel
         import raylume
         from raylume.session import Session
 
@@ -140,7 +145,7 @@ def main() -> None:
         worker(sys.argv[i + 1], sys.argv[i + 2], int(sys.argv[i + 3]))
         return
     args = parser.parse_args()
-    if args.mesh.endswith((".toml", ".json")):
+    if is_scene_file(args.mesh):
         if args.query not in ("scene", "cast", "trace", "path"):
             parser.error("a scene file takes --query scene (or cast, trace, path: that mode)")
         args.mesh = str(Path(args.mesh).resolve())

@@ -69,10 +69,10 @@ def main() -> None:
         for name in (small, large) if k % 2 == 0 else (large, small):
             for q, (call, _) in runs[name].items():
                 seconds[name][q].append(cpu_seconds(call))
-    rows = []
+    rows, growth = [], {}
     for q in runs[small]:
         a, b = np.array(seconds[small][q]), np.array(seconds[large][q])
-        ratios = b / a
+        ratios = growth[q] = b / a
         q1, q3 = np.percentile(ratios, [25, 75])
         added = (np.median(b) / runs[large][q][1] - np.median(a) / runs[small][q][1]) * 1e9
         rows.append(
@@ -85,11 +85,7 @@ def main() -> None:
     # issue 49's goal, judged per round: raylume's growth over Embree's in the same round
     print()
     for query in ("hit rays", "shadow rays"):
-        growth = {}
-        for engine in ("raylume", "Embree"):
-            q = f"{query}, {engine}"
-            growth[engine] = np.array(seconds[large][q]) / np.array(seconds[small][q])
-        over = growth["raylume"] / growth["Embree"]
+        over = growth[f"{query}, raylume"] / growth[f"{query}, Embree"]
         q1, q3 = np.percentile(over, [25, 75])
         verdict = "holds" if np.median(over) <= 1.0 else "does not hold"
         print(
