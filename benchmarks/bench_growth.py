@@ -11,6 +11,14 @@ ratios (large / small, per engine and query); the table shows their medians and 
 the time a ray added from the small mesh to the large one. Last, issue 49's goal per query:
 raylume's ratio over Embree's from the same round, its median and quartiles.
 
+Beside them, the hit rays with their data in cache: the same rays in 32 x 32 pixel blocks, each
+block's rays traced twice in a row, less the blocks traced once (bench_hits.py's in-cache frame,
+for the hit rays alone). The second pass finds the block's nodes and triangles in cache, so
+this is each engine's work without its waits for memory, and its growth says how much of an
+engine's growth is work. The last line says what share of raylume's waits at the large mesh
+would have to be hidden to meet the goal with the work as it is (above 100%: no hiding of
+memory latency can meet it).
+
     python benchmarks/bench_growth.py [--rounds 11] [--size 1024] [SMALL LARGE]
 
 SMALL, LARGE: as bench_hits.py takes meshes; by default bumpy 40k and 4M.
@@ -22,13 +30,29 @@ import argparse
 
 import numba
 import numpy as np
-from bench_hits import _trace, cpu_seconds, frame_rays, mesh
+from bench_hits import _trace, block_orders, cpu_seconds, frame_rays, mesh
 from bench_shadows import _blocked, shadow_rays
 from common import machine, table
 
 
+def in_blocks(fo, fd, hit, size: int, block: int = 32):
+    """The frame's hit rays in block x block pixel blocks, once and with each block repeated
+    at once: ((origins, directions) once, (origins, directions) twice)."""
+    order, _ = block_orders(size, block)
+    order = order[hit[order]]
+    cut = np.flatnonzero(np.diff(order // (size * block) * size + order % size // block)) + 1
+    twice = np.concatenate([np.concatenate([b, b]) for b in np.split(order, cut)])
+    return tuple((np.ascontiguousarray(fo[i]), np.ascontiguousarray(fd[i])) for i in (order, twice))
+
+
+def in_cache(run, once, twice):
+    """Seconds of `run(*twice)` less `run(*once)`: the second pass over each block."""
+    return lambda: cpu_seconds(lambda: run(*twice)) - cpu_seconds(lambda: run(*once))
+
+
 def queries(name: str, size: int) -> dict[str, tuple]:
-    """Per query and engine, (a call that runs it once, the number of rays) on mesh `name`."""
+    """Per query and engine, (a call that times it once, in seconds, the number of rays) on
+    mesh `name`."""
     from embreex import rtcore_scene as rtcs
     from embreex.mesh_construction import TriangleMesh
 
@@ -41,12 +65,18 @@ def queries(name: str, size: int) -> dict[str, tuple]:
     o32, d32 = o.astype(np.float32), d.astype(np.float32)
     so32, sd32, tmax32 = so.astype(np.float32), sd.astype(np.float32), tmax.astype(np.float32)
     embree.run(o32[:1], d32[:1], output=1)  # Embree builds on the first query
-    return {
+    once, twice = in_blocks(fo, fd, hit, size)
+    once32, twice32 = ([a.astype(np.float32) for a in rays] for rays in (once, twice))
+    timed = {
         "hit rays, raylume": (lambda: _trace(compiled, o, d), len(o)),
         "hit rays, Embree": (lambda: embree.run(o32, d32, output=1), len(o)),
         "shadow rays, raylume": (lambda: _blocked(compiled, so, sd, tmax), len(so)),
         "shadow rays, Embree": (lambda: embree.run(so32, sd32, dists=tmax32, query="OCCLUDED"), len(so)),
     }
+    queries = {q: (lambda call=call: cpu_seconds(call), rays) for q, (call, rays) in timed.items()}
+    queries["hit rays in cache, raylume"] = (in_cache(lambda *r: _trace(compiled, *r), once, twice), len(o))
+    queries["hit rays in cache, Embree"] = (in_cache(lambda *r: embree.run(*r, output=1), once32, twice32), len(o))
+    return queries
 
 
 def main() -> None:
@@ -62,13 +92,13 @@ def main() -> None:
     print(f"time({large}) / time({small}), both meshes in every round, {args.rounds} rounds, 1 thread, CPU time")
     print(f"{args.size} x {args.size} frame; {machine()}\n")
     runs = {name: queries(name, args.size) for name in (small, large)}
-    for call, _ in (q for r in runs.values() for q in r.values()):
-        call()  # each kernel loaded (or compiled) before the rounds
+    for timer, _ in (q for r in runs.values() for q in r.values()):
+        timer()  # each kernel loaded (or compiled) before the rounds
     seconds = {name: {q: [] for q in runs[name]} for name in runs}
     for k in range(args.rounds):
         for name in (small, large) if k % 2 == 0 else (large, small):
-            for q, (call, _) in runs[name].items():
-                seconds[name][q].append(cpu_seconds(call))
+            for q, (timer, _) in runs[name].items():
+                seconds[name][q].append(timer())
     rows, growth = [], {}
     for q in runs[small]:
         a, b = np.array(seconds[small][q]), np.array(seconds[large][q])
@@ -93,6 +123,20 @@ def main() -> None:
             f"(raylume's over Embree's, per round: median {np.median(over):.3f}, quartiles {q1:.3f}-{q3:.3f}, "
             f"at most 1 in {np.mean(over <= 1.0):.0%} of the rounds)"
         )
+    # how much of each engine's growth is work: the hit rays with their data in cache. What the
+    # goal asks of raylume's large mesh, per round: its time above small x Embree's growth, as a
+    # share of its waits there (its time less its time in cache)
+    work = {engine: np.median(growth[f"hit rays in cache, {engine}"]) for engine in ("raylume", "Embree")}
+    ours = {name: np.array(seconds[name]["hit rays, raylume"]) for name in (small, large)}
+    excess = ours[large] - growth["hit rays, Embree"] * ours[small]
+    waits = {name: ours[name] - np.array(seconds[name]["hit rays in cache, raylume"]) for name in (small, large)}
+    print(
+        f"hit rays in cache: raylume's time({large}) / time({small}) {work['raylume']:.2f}, Embree's "
+        f"{work['Embree']:.2f} (with its waits {np.median(growth['hit rays, Embree']):.2f}); to meet the goal "
+        f"by hiding memory latency alone, raylume would have to hide {np.median(excess / waits[large]):.0%} of "
+        f"its waits at {large} ({np.median(excess) * 1e3:.1f} of {np.median(waits[large]) * 1e3:.1f} ms; "
+        f"at {small} the same difference is {np.median(waits[small]) * 1e3:.1f} ms, so not all of it is memory)"
+    )
 
 
 if __name__ == "__main__":

@@ -3,6 +3,7 @@ named through the DWARF line tables of Numba's own object code.
 
     python tools/profile_kernels.py SCENE [--mode path] [--width 128] [--height 128] [--spp 16]
                                     [--seconds 8] [--top 25] [--aovs]
+    python tools/profile_kernels.py --hits MESH [--width 1024] [--seconds 8] [--top 25]
 
 Renders SCENE (a scene file or built-in name) again and again on 1 thread for --seconds while
 `perf record -e cpu-clock` samples the process, then prints the share of the samples on each
@@ -25,6 +26,11 @@ the inlined frames at it.
 
 Needs `perf` (linux-tools; the VM allows cpu-clock sampling of its own processes) and binutils'
 `addr2line` and `readelf`. A diagnostic, not a benchmark: no peer, no test.
+
+`--hits MESH` profiles the batch query instead of a render: the hit rays of
+benchmarks/bench_hits.py's frame (--width x --width; MESH a bumpy sphere's size, 40k or 4M, or
+a model in ../shared/models) traced again and again by `intersect_rays` on 1 thread, the query
+issue 49 times. Profiles of two meshes side by side show where a large mesh's extra time goes.
 """
 
 from __future__ import annotations
@@ -44,6 +50,7 @@ from pathlib import Path
 # leave out the compile flags: kernels compiled with full debug info must not be found here)
 CACHE = "raylume-profile-lines"
 LANES = ("path_wave_lane", "path_lane", "trace_lane", "cast_lane", "aov_lane", "bdpt_lane")
+BENCHMARKS = Path(__file__).resolve().parent.parent / "benchmarks"
 
 
 def _reexec_with_debug_info() -> None:
@@ -122,6 +129,16 @@ def _code_section(obj: Path, symbol: str) -> tuple[str, int, int]:
     return name, offset, size
 
 
+def _instructions(obj: Path, section: str) -> dict[int, str]:
+    """Per code offset in `section`, its instruction as objdump writes it."""
+    code = {}
+    for line in _run("objdump", "-d", "--no-show-raw-insn", "-j", section, str(obj)):
+        m = re.match(r"\s*([0-9a-f]+):\s+(.*)", line)
+        if m:
+            code[int(m.group(1), 16)] = " ".join(m.group(2).split())
+    return code
+
+
 def _function(name: str) -> str:
     """A readable name for a mangled Numba function: its module path and own name
     (`_ZN7raylume7kernels8geometry5sweep9sweep_hitB4v1...` -> geometry.sweep.sweep_hit)."""
@@ -158,18 +175,54 @@ def _frames(obj: Path, section: str, offsets: list[int]) -> dict[int, list[tuple
     return frames
 
 
+def _renders(args):
+    """(a call that renders the scene once, the render kernels by name), the kernels loaded."""
+    import raylume
+    from raylume.kernels.integrators import frame
+
+    builtin = args.scene in raylume.builtin_names() and not Path(args.scene).exists()
+    session = raylume.Session(raylume.builtin_scene(args.scene) if builtin else raylume.load(args.scene))
+    settings = {"width": args.width or 128, "height": args.height, "spp": args.spp, "threads": 1, "aovs": args.aovs}
+    if args.mode:
+        settings["mode"] = args.mode
+    session.render(**{**settings, "width": 16, "height": 16, "spp": 1})
+    return (lambda: session.render(**settings)), {name: getattr(frame, name) for name in LANES}
+
+
+def _hit_rays(args):
+    """(a call that traces bench_hits.py's hit rays on --hits once, the batch query's kernel)."""
+    import numpy as np
+
+    sys.path.insert(0, str(BENCHMARKS))
+    from bench_hits import _trace, frame_rays, mesh
+
+    from raylume.kernels.geometry.query import intersect_lane
+
+    found = mesh(args.hits)
+    if found is None:
+        raise SystemExit(f"profile_kernels: no mesh {args.hits!r} (a bumpy size such as 40k, or a shared model)")
+    compiled, o, d, hit = frame_rays(*found, args.width or 1024)
+    o, d = np.ascontiguousarray(o[hit]), np.ascontiguousarray(d[hit])
+    _trace(compiled, o, d)
+    return (lambda: _trace(compiled, o, d)), {"intersect_lane": intersect_lane}
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("scene", help="a scene file, mesh file or built-in name")
+    parser.add_argument("scene", nargs="?", help="a scene file, mesh file or built-in name")
+    parser.add_argument("--hits", metavar="MESH", help="profile bench_hits.py's hit rays on MESH instead")
     parser.add_argument("--mode", default=None, help="cast | trace | path (default: the scene's)")
-    parser.add_argument("--width", type=int, default=128)
-    parser.add_argument("--height", type=int, default=128)
+    parser.add_argument("--width", type=int, default=None, help="128 for renders, 1024 for --hits")
+    parser.add_argument("--height", type=int, default=128, help="renders only")
     parser.add_argument("--spp", type=int, default=16)
     parser.add_argument("--seconds", type=float, default=8.0, help="how long to sample")
     parser.add_argument("--top", type=int, default=25, help="rows of each table")
     parser.add_argument("--aovs", action="store_true", help="render the AOV pass too (a render's default)")
+    parser.add_argument("--instructions", type=int, default=0, metavar="N", help="also list the N hottest instructions")
     parser.add_argument("--compile-only", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
+    if (args.scene is None) == (args.hits is None):
+        parser.error("give a SCENE or --hits MESH")
     for tool in ("perf", "addr2line", "readelf"):
         if shutil.which(tool) is None:
             raise SystemExit(f"profile_kernels: needs `{tool}` on the PATH")
@@ -179,24 +232,16 @@ def main() -> None:
 
     import numba
 
-    import raylume
-    from raylume.kernels.integrators import frame
-
     numba.set_num_threads(1)
-    builtin = args.scene in raylume.builtin_names() and not Path(args.scene).exists()
-    session = raylume.Session(raylume.builtin_scene(args.scene) if builtin else raylume.load(args.scene))
-    settings = {"width": args.width, "height": args.height, "spp": args.spp, "threads": 1, "aovs": args.aovs}
-    if args.mode:
-        settings["mode"] = args.mode
     if args.compile_only:
         print("loading, or compiling once (minutes for path mode), the kernels with line tables", flush=True)
-    session.render(**{**settings, "width": 16, "height": 16, "spp": 1})
+    work, lanes = _hit_rays(args) if args.hits else _renders(args)
     if args.compile_only:
         return
     kernels = []  # (name, entry address, object file, code section, entry offset, section size)
     folder = Path(tempfile.mkdtemp(prefix="raylume-profile-"))
-    for name in LANES:
-        for _, cres in getattr(frame, name).overloads.items():
+    for name, dispatcher in lanes.items():
+        for _, cres in dispatcher.overloads.items():
             library = cres.library
             if library.name not in objects:
                 continue  # compiled in this process, not loaded from the cache
@@ -214,22 +259,27 @@ def main() -> None:
     time.sleep(1.0)  # perf attaches
     started, renders = time.perf_counter(), 0
     while time.perf_counter() - started < args.seconds:
-        session.render(**settings)
+        work()
         renders += 1
     perf.send_signal(2)
     perf.wait()
     ips = subprocess.run(["perf", "script", "-i", str(data), "-F", "ip"], capture_output=True, text=True).stdout.split()
     samples = [int(ip, 16) for ip in ips]
-    print(f"{renders} renders, {len(samples)} samples; {folder} holds the object code and perf.data\n")
+    what = "frames of hit rays" if args.hits else "renders"
+    print(f"{renders} {what}, {len(samples)} samples; {folder} holds the object code and perf.data\n")
 
     innermost, inclusive, by_kernel = collections.Counter(), collections.Counter(), collections.Counter()
+    hottest = []  # (samples, kernel, instruction, innermost line)
     for name, entry, obj, section, offset, size in kernels:
         offsets = collections.Counter(ip - entry + offset for ip in samples if 0 <= ip - entry + offset < size)
         if not offsets:
             continue
         by_kernel[name] += sum(offsets.values())
+        code = _instructions(obj, section) if args.instructions else {}
         for at, frames in _frames(obj, section, sorted(offsets)).items():
             n = offsets[at]
+            if code:
+                hottest.append((n, name, f"{at:x}: {code.get(at, '?')}", frames[0][1] if frames else "??"))
             innermost[frames[0][1] if frames else "??"] += n
             for function in dict.fromkeys(f for f, _ in frames):
                 inclusive[function] += n
@@ -242,6 +292,12 @@ def main() -> None:
     print("\n| function (with what is inlined into it) | share |\n| --- | --- |")
     for function, n in inclusive.most_common(args.top):
         print(f"| {function} | {100 * n / total:.1f}% |")
+    if hottest:
+        # a sample lands on the instruction after the one that stalled (its skid): read the
+        # instruction before each listed one too (objdump -d on the object file)
+        print("\n| kernel | instruction (offset: code) | source line | share |\n| --- | --- | --- | --- |")
+        for n, name, text, where in sorted(hottest, reverse=True)[: args.instructions]:
+            print(f"| {name} | `{text}` | {where} | {100 * n / total:.1f}% |")
 
 
 if __name__ == "__main__":
