@@ -3,7 +3,7 @@ named through the DWARF line tables of Numba's own object code.
 
     python tools/profile_kernels.py SCENE [--mode path] [--width 128] [--height 128] [--spp 16]
                                     [--seconds 8] [--top 25] [--aovs]
-    python tools/profile_kernels.py --hits MESH [--width 1024] [--seconds 8] [--top 25]
+    python tools/profile_kernels.py --hits MESH [--shadows] [--width 1024] [--seconds 8] [--top 25]
 
 Renders SCENE (a scene file or built-in name) again and again on 1 thread for --seconds while
 `perf record -e cpu-clock` samples the process, then prints the share of the samples on each
@@ -30,7 +30,8 @@ Needs `perf` (linux-tools; the VM allows cpu-clock sampling of its own processes
 `--hits MESH` profiles the batch query instead of a render: the hit rays of
 benchmarks/bench_hits.py's frame (--width x --width; MESH a bumpy sphere's size, 40k or 4M, or
 a model in ../shared/models) traced again and again by `intersect_rays` on 1 thread, the query
-issue 49 times. Profiles of two meshes side by side show where a large mesh's extra time goes.
+issue 49 times; with `--shadows`, bench_shadows.py's shadow rays by `occluded_rays`. Profiles
+of two meshes side by side show where a large mesh's extra time goes.
 """
 
 from __future__ import annotations
@@ -190,18 +191,24 @@ def _renders(args):
 
 
 def _hit_rays(args):
-    """(a call that traces bench_hits.py's hit rays on --hits once, the batch query's kernel)."""
+    """(a call that traces bench_hits.py's hit rays on --hits once, or with --shadows
+    bench_shadows.py's shadow rays, the batch query's kernel)."""
     import numpy as np
 
     sys.path.insert(0, str(BENCHMARKS))
     from bench_hits import _trace, frame_rays, mesh
+    from bench_shadows import _blocked, shadow_rays
 
-    from raylume.kernels.geometry.query import intersect_lane
+    from raylume.kernels.geometry.query import intersect_lane, occluded_lane
 
     found = mesh(args.hits)
     if found is None:
         raise SystemExit(f"profile_kernels: no mesh {args.hits!r} (a bumpy size such as 40k, or a shared model)")
-    compiled, o, d, hit = frame_rays(*found, args.width or 1024)
+    frame = compiled, o, d, hit = frame_rays(*found, args.width or 1024)
+    if args.shadows:
+        _, so, sd, tmax = shadow_rays(*found, args.width or 1024, frame)
+        _blocked(compiled, so, sd, tmax)
+        return (lambda: _blocked(compiled, so, sd, tmax)), {"occluded_lane": occluded_lane}
     o, d = np.ascontiguousarray(o[hit]), np.ascontiguousarray(d[hit])
     _trace(compiled, o, d)
     return (lambda: _trace(compiled, o, d)), {"intersect_lane": intersect_lane}
@@ -211,6 +218,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("scene", nargs="?", help="a scene file, mesh file or built-in name")
     parser.add_argument("--hits", metavar="MESH", help="profile bench_hits.py's hit rays on MESH instead")
+    parser.add_argument("--shadows", action="store_true", help="with --hits: bench_shadows.py's shadow rays instead")
     parser.add_argument("--mode", default=None, help="cast | trace | path (default: the scene's)")
     parser.add_argument("--width", type=int, default=None, help="128 for renders, 1024 for --hits")
     parser.add_argument("--height", type=int, default=128, help="renders only")
@@ -265,7 +273,7 @@ def main() -> None:
     perf.wait()
     ips = subprocess.run(["perf", "script", "-i", str(data), "-F", "ip"], capture_output=True, text=True).stdout.split()
     samples = [int(ip, 16) for ip in ips]
-    what = "frames of hit rays" if args.hits else "renders"
+    what = ("frames of shadow rays" if args.shadows else "frames of hit rays") if args.hits else "renders"
     print(f"{renders} {what}, {len(samples)} samples; {folder} holds the object code and perf.data\n")
 
     innermost, inclusive, by_kernel = collections.Counter(), collections.Counter(), collections.Counter()
