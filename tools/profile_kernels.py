@@ -2,8 +2,9 @@
 named through the DWARF line tables of Numba's own object code.
 
     python tools/profile_kernels.py SCENE [--mode path] [--width 128] [--height 128] [--spp 16]
-                                    [--seconds 8] [--top 25] [--aovs]
+                                    [--seconds 8] [--top 25] [--aovs] [--instructions N]
     python tools/profile_kernels.py --hits MESH [--shadows] [--width 1024] [--seconds 8] [--top 25]
+                                    [--instructions N]
 
 Renders SCENE (a scene file or built-in name) again and again on 1 thread for --seconds while
 `perf record -e cpu-clock` samples the process, then prints the share of the samples on each
@@ -25,7 +26,8 @@ less the kernel's entry is an offset into the object's code section, and `addr2l
 the inlined frames at it.
 
 Needs `perf` (linux-tools; the VM allows cpu-clock sampling of its own processes) and binutils'
-`addr2line` and `readelf`. A diagnostic, not a benchmark: no peer, no test.
+`addr2line` and `readelf` (and `objdump` for --instructions, the N hottest instructions). A
+diagnostic, not a benchmark: no peer, no test.
 
 `--hits MESH` profiles the batch query instead of a render: the hit rays of
 benchmarks/bench_hits.py's frame (--width x --width; MESH a bumpy sphere's size, 40k or 4M, or
@@ -231,7 +233,9 @@ def main() -> None:
     args = parser.parse_args()
     if (args.scene is None) == (args.hits is None):
         parser.error("give a SCENE or --hits MESH")
-    for tool in ("perf", "addr2line", "readelf"):
+    if args.shadows and not args.hits:
+        parser.error("--shadows goes with --hits MESH")
+    for tool in ("perf", "addr2line", "readelf", *(["objdump"] if args.instructions else [])):
         if shutil.which(tool) is None:
             raise SystemExit(f"profile_kernels: needs `{tool}` on the PATH")
     _reexec_with_debug_info()

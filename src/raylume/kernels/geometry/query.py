@@ -29,13 +29,13 @@ from .shapes import NO_HIT, PRIM_FACE, PRIM_OBJECT, instance_id, split_hit
 from .traverse import any_hit, closest_hit
 from .wide_nodes import INF, prefetch_around, prefetch_cells, scratch_array, traversal_stacks
 
-# How far ahead of the packet being traced its chunk's rays are prefetched (rays): on a large mesh
-# the traversal's own misses keep the hardware's stream prefetcher from bringing the rays in on
-# time, and packet_setup's loads of them were among bumpy 4M's hottest instructions (profile_kernels.py
-# --hits 4M --instructions 40). Two lines on
-# either side of the ray RAYS_AHEAD on, each packet (benchmarks/ab_queries.py, pinned, 30 rounds,
-# both ways round): hit rays 4M 1.8% and 2.1% faster, 40k 1.4% and 1.7%; shadow rays 4M 4.5% and
-# 3.2%, 40k 1.9%.
+# How far ahead of the packet being traced its chunk's rays are prefetched (rays): two lines on
+# either side of the ray RAYS_AHEAD on, each packet. On a large mesh the traversal's own misses
+# keep the hardware's stream prefetcher from bringing the rays in on time: packet_setup's loads
+# of them were among bumpy 4M's hottest instructions (tools/profile_kernels.py --hits 4M
+# --instructions 40). benchmarks/ab_queries.py, pinned, 30 rounds, both ways round: hit rays 4M
+# 1.8% and 2.1% faster, 40k 1.4% and 1.7%; shadow rays 4M 4.5% and 3.2%, 40k 1.9% (128 rays
+# ahead: no faster).
 RAYS_AHEAD = 64
 
 
