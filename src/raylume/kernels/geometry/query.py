@@ -39,6 +39,14 @@ from .wide_nodes import INF, prefetch_around, prefetch_cells, scratch_array, tra
 RAYS_AHEAD = 64
 
 
+@inline_function
+def prefetch_rays(origins, directions, r):
+    """Start loading the lines around ray r's origin and direction (RAYS_AHEAD says why): two on
+    either side, harmless beyond the arrays' ends."""
+    prefetch_around(origins, r, r, 2)
+    prefetch_around(directions, r, r, 2)
+
+
 # A call per chunk of rays, compiled without reference counting (KERNEL), as the frame kernels'
 # row functions are: inlined into the lane's loop (then a parfor's), the traversal took and
 # dropped references to the BVH arrays for every ray (4 calls with atomic operations a ray).
@@ -62,9 +70,7 @@ def _intersect_chunk(G, X, origins, directions, base, spans, outputs, tiles, sta
     while k < end:
         n = min(PACKET, end - k)
         taken = 0
-        # the rays a few packets on (RAYS_AHEAD says why)
-        prefetch_around(origins, k - base + RAYS_AHEAD, k - base + RAYS_AHEAD, 2)
-        prefetch_around(directions, k - base + RAYS_AHEAD, k - base + RAYS_AHEAD, 2)
+        prefetch_rays(origins, directions, k - base + RAYS_AHEAD)
         if packets_here:
             rays = (origins, directions, base, spans)
             taken = _packet_hits(G, X, rays, k, n, extent, root, hits, start, stacks, packets)
@@ -401,9 +407,7 @@ def _occluded_chunk(G, X, origins, directions, base, tmin, tmax, out, start, end
     while k < end:
         n = min(PACKET, end - k)
         taken = 0
-        # the rays a few packets on (RAYS_AHEAD says why)
-        prefetch_around(origins, k - base + RAYS_AHEAD, k - base + RAYS_AHEAD, 2)
-        prefetch_around(directions, k - base + RAYS_AHEAD, k - base + RAYS_AHEAD, 2)
+        prefetch_rays(origins, directions, k - base + RAYS_AHEAD)
         if packets_here:
             taken, blocked = packet_blocked(
                 G, X, root, origins, directions, tmin, tmax, k, k - base, n, (1 << n) - 1, extent, packets,
