@@ -38,11 +38,8 @@ from common import machine, table
 def in_blocks(fo, fd, hit, size: int, block: int = 32):
     """The frame's hit rays in block x block pixel blocks, once and with each block repeated
     at once: ((origins, directions) once, (origins, directions) twice)."""
-    order, _ = block_orders(size, block)
-    order = order[hit[order]]
-    cut = np.flatnonzero(np.diff(order // (size * block) * size + order % size // block)) + 1
-    twice = np.concatenate([np.concatenate([b, b]) for b in np.split(order, cut)])
-    return tuple((np.ascontiguousarray(fo[i]), np.ascontiguousarray(fd[i])) for i in (order, twice))
+    orders = block_orders(size, block)  # the frame's rays: every block, and each block twice
+    return tuple((np.ascontiguousarray(fo[i]), np.ascontiguousarray(fd[i])) for i in (o[hit[o]] for o in orders))
 
 
 def in_cache(run, once, twice):

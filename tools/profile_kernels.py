@@ -206,9 +206,10 @@ def _hit_rays(args):
     found = mesh(args.hits)
     if found is None:
         raise SystemExit(f"profile_kernels: no mesh {args.hits!r} (a bumpy size such as 40k, or a shared model)")
-    frame = compiled, o, d, hit = frame_rays(*found, args.width or 1024)
+    size = args.width or 1024
+    frame = compiled, o, d, hit = frame_rays(*found, size)
     if args.shadows:
-        _, so, sd, tmax = shadow_rays(*found, args.width or 1024, frame)
+        _, so, sd, tmax = shadow_rays(*found, size, frame)
         _blocked(compiled, so, sd, tmax)
         return (lambda: _blocked(compiled, so, sd, tmax)), {"occluded_lane": occluded_lane}
     o, d = np.ascontiguousarray(o[hit]), np.ascontiguousarray(d[hit])
