@@ -6,10 +6,12 @@ towards a point light above and to the left of the mesh, ending at the light: ab
 are blocked (the mesh shadows itself). The rays are in pixel order, as a renderer's are. Traced by
 raylume's occlusion kernel (`occluded_rays`, one thread: runs of eight neighbours as packets,
 `packet_blocked`), by its single-ray any-hit (`any_hit` ray by ray, the same rays) and by Embree
-(embreex's `run(..., query="OCCLUDED")`: `rtcOccluded1` ray by ray, single-threaded), each timed in
-CPU time, alternating in one process, medians. The ratios are Embree's time over raylume's:
-above 1, raylume is faster. Last, how many answers agree with Embree's (it is not watertight, so
-rays through shared edges may differ).
+three ways, single-threaded, all robust: embreex's `run(..., query="OCCLUDED")` (`rtcOccluded1`
+ray by ray), `rtcOccluded1` called directly ("Embree 1", embree_direct.py) and
+Embree's packets of eight consecutive rays, `rtcOccluded8` ("Embree 8", as raylume's packets take
+them). Each is timed in CPU time, alternating in one process, medians. The ratios are Embree's
+time over raylume's: above 1, raylume is faster. Last, how many answers agree with Embree's (it is
+not watertight, so rays through shared edges may differ).
 
     python benchmarks/bench_shadows.py [--size 1024] [--repeats 7] [MESH ...]
 
@@ -24,6 +26,7 @@ import numba
 import numpy as np
 from bench_hits import DEFAULT, _trace, bumpy_size, cpu_seconds, frame_rays, mesh
 from common import SHARED_MODELS, growth_table, machine, table
+from embree_direct import EmbreeScene
 
 from raylume.kernels.geometry.query import CHUNK
 from raylume.kernels.geometry.traverse import any_hit
@@ -96,25 +99,34 @@ def main() -> None:
         TriangleMesh(embree, v.astype(np.float32), f.astype(np.int32))
         o32, d32, tmax32 = o.astype(np.float32), d.astype(np.float32), tmax.astype(np.float32)
         theirs_blocked = embree.run(o32, d32, dists=tmax32, query="OCCLUDED") != -1  # Embree builds here
+        direct = EmbreeScene(v, f)
+        assert np.array_equal(direct.occluded(o32, d32, tmax32), theirs_blocked)
+        assert np.array_equal(direct.occluded(o32, d32, tmax32, packets=True), theirs_blocked)
         ours_blocked = _blocked(compiled, o, d, tmax)
         assert np.array_equal(ours_blocked, _blocked_singly(compiled, o, d, tmax, stacks))
-        ours, singly, theirs = [], [], []
+        ours, singly, theirs, ones, eights = [], [], [], [], []
         for _ in range(args.repeats):
             ours.append(cpu_seconds(lambda: _blocked(compiled, o, d, tmax)))  # noqa: B023 (called at once)
             theirs.append(cpu_seconds(lambda: embree.run(o32, d32, dists=tmax32, query="OCCLUDED")))  # noqa: B023
+            ones.append(cpu_seconds(lambda: direct.occluded(o32, d32, tmax32)))  # noqa: B023
+            eights.append(cpu_seconds(lambda: direct.occluded(o32, d32, tmax32, packets=True)))  # noqa: B023
             singly.append(cpu_seconds(lambda: _blocked_singly(compiled, o, d, tmax, stacks)))  # noqa: B023
         r, e, r1 = np.median(ours), np.median(theirs), np.median(singly)
+        e1, e8 = np.median(ones), np.median(eights)
         pairs = np.array(theirs) / np.array(ours)
         if bumpy_size(name) is not None:
-            seconds[name], rays[name] = {"packets": r, "single rays": r1, "Embree": e}, len(o)
+            seconds[name] = {"packets": r, "single rays": r1, "Embree": e, "Embree 1": e1, "Embree 8": e8}
+            rays[name] = len(o)
         rows.append(
             [name, f"{len(f):,}", f"{len(o):,}", f"{ours_blocked.mean():.0%}", f"{r * 1e3:.1f}", f"{r1 * 1e3:.1f}"]
             + [f"{e * 1e3:.1f}", f"{e / r:.2f}", f"{pairs.min():.2f}-{pairs.max():.2f}", f"{e / r1:.2f}"]
+            + [f"{e1 * 1e3:.1f}", f"{e8 * 1e3:.1f}", f"{e1 / r:.2f}", f"{e8 / r:.2f}"]
             + [f"{np.mean(ours_blocked == theirs_blocked):.4%}"]
         )
         print(" | ".join(rows[-1]), flush=True)
     headers = ["mesh", "triangles", "shadow rays", "blocked", "raylume ms", "single-ray ms", "Embree ms"]
-    headers += ["Embree / raylume", "per pair", "Embree / single-ray", "answers as Embree's"]
+    headers += ["Embree / raylume", "per pair", "Embree / single-ray", "Embree 1 ms", "Embree 8 ms"]
+    headers += ["Embree 1 / raylume", "Embree 8 / raylume", "answers as Embree's"]
     print("\n" + table(headers, rows))
     if grown := growth_table(seconds, rays):
         print("\nshadow rays, growth from bumpy 40k:\n" + grown)
