@@ -29,6 +29,7 @@ from raylume.kernels.geometry.packet import (
     packet_hit,
     packet_load,
     packet_node,
+    packet_node_full,
     packet_scratch,
     packet_setup,
     packet_shear,
@@ -386,8 +387,9 @@ def test_packet_box_test_agrees_with_the_textbook_slab_test(a, b, o, d, tmax):
 
 
 @njit(fastmath=FAST, error_model="numpy")
-def _node_test(bounds, o, d, best, active):
-    """packet_node on the rays o, d (one packet) with best hits `best`: (masks, entries)."""
+def _node_test(bounds, o, d, best, active, full):
+    """packet_node on the rays o, d (one packet) with best hits `best`: (masks, entries); with
+    `full`, packet_node_full (every ray active)."""
     box, lane, prim, _ = packet_scratch()
     _, rows, axes = packet_setup(o, d, 0, PACKET, 0.0, INF, 10.0, box, lane, prim)
     # every lane its own ray, whether or not the packet rules take them all: packet_setup loads
@@ -396,18 +398,23 @@ def _node_test(bounds, o, d, best, active):
     for i in range(PACKET):
         lane[BEST_T, i] = best[i]
     t_out = np.empty(BVH_WIDTH, np.float32)
-    masks = packet_node(bounds, 0, box, rows, lane, active, t_out, 0)
+    if full:
+        masks = packet_node_full(bounds, 0, box, rows, lane, t_out, 0)
+    else:
+        masks = packet_node(bounds, 0, box, rows, lane, active, t_out, 0)
     return masks, t_out
 
 
 @PACKET_WORKER
 @settings(max_examples=200, deadline=None)
-@given(seed=st.integers(0, 2**32 - 1), signs=st.tuples(*[st.sampled_from((-1.0, 1.0))] * 3))
-def test_packet_node_answers_as_each_ray_alone(seed, signs):
+@given(seed=st.integers(0, 2**32 - 1), signs=st.tuples(*[st.sampled_from((-1.0, 1.0))] * 3), full=st.booleans())
+def test_packet_node_answers_as_each_ray_alone(seed, signs, full):
     """packet_node's ray masks and nearest entries against box_hits (box_entries) ray by ray:
     eight different rays of one octant, each with its own best hit, some not active, against a
     node of random boxes (two lanes empty). Bit r of child c's byte is set exactly where ray r
-    is active and enters c alone, and c's entry is the least of those rays' entries, to the bit."""
+    is active and enters c alone, and c's entry is the least of those rays' entries, to the bit.
+    With `full`, packet_node_full (the rays in the lanes, for packets whose eight rays are all
+    active) against the same reference."""
     rng = np.random.default_rng(seed)
     s = np.asarray(signs)
     lo = rng.uniform(-1, 1, size=(3, BVH_WIDTH))
@@ -420,8 +427,8 @@ def test_packet_node_answers_as_each_ray_alone(seed, signs):
     d /= np.linalg.norm(d, axis=1, keepdims=True)
     o = rng.uniform(-0.8, 0.8, size=(PACKET, 3)) - 4.0 * d  # each ray aimed into the boxes
     best = np.where(rng.random(PACKET) < 0.3, INF, rng.uniform(2.0, 6.0, PACKET))
-    active = int(rng.integers(0, 256))
-    masks, t_out = _node_test(bounds, o, d, best, active)
+    active = 0xFF if full else int(rng.integers(0, 256))
+    masks, t_out = _node_test(bounds, o, d, best, active, full)
     want_masks, want_t = 0, np.full(BVH_WIDTH, np.inf, np.float32)
     for r in range(PACKET):
         entries = box_entries(bounds, 0, tuple(o[r]), tuple(d[r]), best[r], np.empty(BVH_WIDTH))
