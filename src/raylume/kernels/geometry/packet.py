@@ -950,7 +950,10 @@ def packet_closest(G, X, root, rows, axes, active, box, lane, prim, node_stack, 
             # tree (benchmarks/ab_queries.py, pinned: shadow rays on the bunny 4.9% faster,
             # Nefertiti, bumpy 40k 3.6%, 4M 2.8%, 1M 1.1%). Camera packets gained 2-3% on the
             # scans and 40k but lost 1.4% at 4M, and keep packet_node.
-            if shadows is not None and mask == 0xFF:
+            full = False
+            if shadows is not None:  # (pruned at compile time for camera rays)
+                full = mask == 0xFF
+            if full:
                 masks = packet_node_full(bounds, ref, box, rows, lane, t_stack, top)
             else:
                 masks = packet_node(bounds, ref, box, rows, lane, mask, t_stack, top)
