@@ -237,6 +237,33 @@ def _check_array(name, a, dtype, ndim):
 # --- a node: its eight child boxes against the packet ----------------------------------------------
 
 
+def _check_node_arrays(name, bounds, box, lane, t_out):
+    _check_array(name, bounds, types.float32, 3)
+    _check_array(name, box, types.float32, 2)
+    _check_array(name, lane, types.float64, 2)
+    _check_array(name, t_out, types.float32, 1)
+
+
+def _node_operands(context, builder, sig, args, t_out_at):
+    """packet_node's and packet_node_full's operands, (bounds, node, box, rows, lane) first and
+    (t_out, at) at args[t_out_at:]: (node records, node as an i64, box scratch, the near rows as
+    i64s, lane scratch, a pointer to t_out[at])."""
+    b = _array_data(context, builder, sig.args[0], args[0])
+    n = context.cast(builder, args[1], sig.args[1], types.int64)
+    bx = _array_data(context, builder, sig.args[2], args[2])
+    rows = [
+        context.cast(builder, r, t, types.int64)
+        for r, t in zip(cgutils.unpack_tuple(builder, args[3], 3), sig.args[3], strict=True)
+    ]
+    ln = _array_data(context, builder, sig.args[4], args[4])
+    out = builder.gep(
+        _array_data(context, builder, sig.args[t_out_at], args[t_out_at]),
+        [context.cast(builder, args[t_out_at + 1], sig.args[t_out_at + 1], types.int64)],
+        inbounds=True,
+    )
+    return b, n, bx, rows, ln, out
+
+
 @intrinsic
 def packet_node(typingctx, bounds, node, box, rows, lane, active, t_out, at):
     """The packet's rays (box: box_ray's constants per lane; rows: the packet's near-plane rows)
@@ -244,26 +271,11 @@ def packet_node(typingctx, bounds, node, box, rows, lane, active, t_out, at):
     (lane[BEST_T]): an i64 of BVH_WIDTH bytes, byte c the mask of the `active` rays that enter
     child c; t_out[at + c] (float32) the nearest entry distance over those rays (+inf for none).
     The slab test is box_hits' (wide_nodes.slab_test): no ray's entered box is culled."""
-    _check_array("packet_node", bounds, types.float32, 3)
-    _check_array("packet_node", box, types.float32, 2)
-    _check_array("packet_node", lane, types.float64, 2)
-    _check_array("packet_node", t_out, types.float32, 1)
+    _check_node_arrays("packet_node", bounds, box, lane, t_out)
 
     def codegen(context, builder, sig, args):
-        b = _array_data(context, builder, sig.args[0], args[0])
-        n = context.cast(builder, args[1], sig.args[1], types.int64)
-        bx = _array_data(context, builder, sig.args[2], args[2])
-        rows = [
-            context.cast(builder, r, t, types.int64)
-            for r, t in zip(cgutils.unpack_tuple(builder, args[3], 3), sig.args[3], strict=True)
-        ]
-        ln = _array_data(context, builder, sig.args[4], args[4])
+        b, n, bx, rows, ln, out = _node_operands(context, builder, sig, args, t_out_at=6)
         active = builder.and_(context.cast(builder, args[5], sig.args[5], types.int64), ir.Constant(_i64, 0xFF))
-        out = builder.gep(
-            _array_data(context, builder, sig.args[6], args[6]),
-            [context.cast(builder, args[7], sig.args[7], types.int64)],
-            inbounds=True,
-        )
         # Rays outer, children in the lanes: each active ray against the node's eight boxes is
         # box_hits' test, its nine constants broadcast from the scratch, and the node's six
         # plane rows stay in registers for all of them. A loop over the active rays, not
@@ -327,25 +339,10 @@ def packet_node_full(typingctx, bounds, node, box, rows, lane, t_out, at):
     outer, the rays in the lanes, each child's planes broadcast against the rays' constants (the
     same multiply-adds a pair, so the same masks and entries to the bit). Eight rays cost eight
     child tests and one shuffle tree of minima instead of eight ray tests with their loop."""
-    _check_array("packet_node_full", bounds, types.float32, 3)
-    _check_array("packet_node_full", box, types.float32, 2)
-    _check_array("packet_node_full", lane, types.float64, 2)
-    _check_array("packet_node_full", t_out, types.float32, 1)
+    _check_node_arrays("packet_node_full", bounds, box, lane, t_out)
 
     def codegen(context, builder, sig, args):
-        b = _array_data(context, builder, sig.args[0], args[0])
-        n = context.cast(builder, args[1], sig.args[1], types.int64)
-        bx = _array_data(context, builder, sig.args[2], args[2])
-        rows = [
-            context.cast(builder, r, t, types.int64)
-            for r, t in zip(cgutils.unpack_tuple(builder, args[3], 3), sig.args[3], strict=True)
-        ]
-        ln = _array_data(context, builder, sig.args[4], args[4])
-        out = builder.gep(
-            _array_data(context, builder, sig.args[5], args[5]),
-            [context.cast(builder, args[6], sig.args[6], types.int64)],
-            inbounds=True,
-        )
+        b, n, bx, rows, ln, out = _node_operands(context, builder, sig, args, t_out_at=5)
         near, far = node_planes(builder, b, n, rows)
         rf = [_load_row(builder, bx, k, _V8F) for k in range(9)]
         best = builder.fptrunc(_load_row(builder, ln, BEST_T, _V8D), _V8F)
