@@ -53,9 +53,10 @@ lint: $(STAMP_DEV)
 
 ## bench: print the benchmark tables (see benchmarks/README.md)
 # Debian's libllvm19 serves Mitsuba's llvm_ad_rgb variant (an older libLLVM fails to compile its
-# kernels), chromium and its driver bench_view.py; where apt-get cannot install them, those skip.
+# kernels), chromium and its driver bench_view.py, valgrind count_instructions.py; where apt-get
+# cannot install them, those skip.
 bench: $(STAMP_BENCH)
-	bash tools/apt_install.sh libllvm19 chromium chromium-driver
+	bash tools/apt_install.sh libllvm19 chromium chromium-driver valgrind
 	$(BIN)/python benchmarks/run_all.py
 
 ## docs: build the documentation site into site/; any warning fails (mkdocs.yml: strict)

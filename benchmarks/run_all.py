@@ -50,6 +50,7 @@ BENCHMARKS = [
     ),
     ["bench_view.py"] + (["--sizes", "160x120", "--seconds", "1", "--runs", "1"] if QUICK else []),
     ["cache_misses.py"] + (["--size", "256", "40k", "1M"] if QUICK else []),
+    ["count_instructions.py"] + (["--size", "128", "10k"] if QUICK else []),
     ["probe_wavefront_path.py"] + (["--size", "64", "--spp", "2", "--rounds", "1"] if QUICK else []),
     ["mitsuba_reference.py", "timing"] + (["--spp", "16", "--repeats", "1"] if QUICK else []),
     ["mitsuba_media.py", "bench"] + (["--rounds", "1", "--size", "32", "--spp", "4"] if QUICK else []),

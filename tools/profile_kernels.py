@@ -5,6 +5,7 @@ named through the DWARF line tables of Numba's own object code.
                                     [--seconds 8] [--top 25] [--aovs] [--instructions N]
     python tools/profile_kernels.py --hits MESH [--shadows] [--width 1024] [--seconds 8] [--top 25]
                                     [--instructions N]
+    python tools/profile_kernels.py (SCENE | --hits MESH [--shadows]) --count [--calls 1] ...
 
 Renders SCENE (a scene file or built-in name) again and again on 1 thread for --seconds while
 `perf record -e cpu-clock` samples the process, then prints the share of the samples on each
@@ -25,9 +26,20 @@ object code each kernel was loaded from is kept as it is read from the cache; a 
 less the kernel's entry is an offset into the object's code section, and `addr2line -i` gives
 the inlined frames at it.
 
-Needs `perf` (linux-tools; the VM allows cpu-clock sampling of its own processes) and binutils'
-`addr2line` and `readelf` (and `objdump` for --instructions, the N hottest instructions). A
-diagnostic, not a benchmark: no peer, no test.
+`--count` counts instead of sampling: the kernels run once (`--calls` times) under valgrind's
+callgrind, which counts every instruction they execute and simulates their branches' prediction
+(a counter per branch, no history: a pessimistic model), and the counts are reported per source
+line and function, and per ray for --hits. Exact and repeatable where samples of a VM whose
+speed drifts are not, so two versions' instructions can be compared to the last one (what an
+instruction costs is another matter). Under valgrind the kernels are compiled for COUNT_CPU
+(valgrind runs no AVX-512), so on an AVX-512 machine they are not the instructions a run there
+executes; the same goes for a library such as Embree, which picks its code by the CPU it sees.
+
+Needs `perf` (linux-tools; the VM allows cpu-clock sampling of its own processes), or valgrind
+for --count, and binutils' `addr2line` and `readelf` (and `objdump` for --instructions, the N
+hottest instructions). A diagnostic, not a benchmark: no peer (benchmarks/count_instructions.py
+counts Embree's instructions beside raylume's); tests/test_profile_counts.py checks how it reads
+callgrind's output.
 
 `--hits MESH` profiles the batch query instead of a render: the hit rays of
 benchmarks/bench_hits.py's frame (--width x --width; MESH a bumpy sphere's size, 40k or 4M, or
@@ -40,6 +52,7 @@ from __future__ import annotations
 
 import argparse
 import collections
+import json
 import os
 import re
 import shutil
@@ -52,20 +65,45 @@ from pathlib import Path
 # the line-table build's own Numba cache, under $NUMBA_CACHE_DIR or ~/.cache (Numba's cache keys
 # leave out the compile flags: kernels compiled with full debug info must not be found here)
 CACHE = "raylume-profile-lines"
+# --count's kernels are compiled for a CPU without AVX-512, which valgrind cannot run (AVX2, FMA,
+# BMI: every x86-64 this project's timings came from, less AVX-512); NUMBA_CPU_NAME overrides it
+COUNT_CPU = "x86-64-v3"
+COUNT_FEATURES = "+avx,+avx2,+fma,+bmi,+bmi2,+lzcnt,+popcnt,+f16c,+movbe,+sse4.2"
 LANES = ("path_wave_lane", "path_lane", "trace_lane", "cast_lane", "aov_lane", "bdpt_lane")
 BENCHMARKS = Path(__file__).resolve().parent.parent / "benchmarks"
 
 
-def _reexec_with_debug_info() -> None:
+def _reexec_with_debug_info(count: bool) -> None:
     """Run this script again with the kernels' line tables on, in a cache of their own: once to
-    compile them into it (where they are not yet), once to profile them as loaded from it."""
+    compile them into it (where they are not yet), once to profile them as loaded from it. With
+    `count`, the second run is under callgrind (_count_instructions) and this process reports
+    what it counted: the kernels are then compiled for COUNT_CPU, which valgrind can run."""
     if os.environ.get("NUMBA_DEBUGINFO") == "1":
         return
     base = os.environ.get("NUMBA_CACHE_DIR") or str(Path.home() / ".cache")
     env = {**os.environ, "NUMBA_DEBUGINFO": "1", "NUMBA_CACHE_DIR": str(Path(base) / CACHE)}
-    for extra in (["--compile-only"], []):
-        if code := subprocess.run([sys.executable, *sys.argv, *extra], env=env).returncode:
+    if count:
+        # both: Numba's cache keys hold the CPU's name and features, and features left to Numba
+        # are the host's (valgrind hides AVX-512): the run under valgrind would compile again
+        env.setdefault("NUMBA_CPU_NAME", COUNT_CPU)
+        env.setdefault("NUMBA_CPU_FEATURES", COUNT_FEATURES)
+        folder = Path(tempfile.mkdtemp(prefix="raylume-count-"))
+        grind = [
+            "valgrind", "--tool=callgrind", "--instr-atstart=no", "--branch-sim=yes", "--dump-instr=yes",
+            "--dump-line=no", "--compress-pos=no", "--compress-strings=no",
+            f"--callgrind-out-file={folder / 'callgrind.out'}", f"--log-file={folder / 'valgrind.log'}",
+        ]  # fmt: skip
+        runs = [
+            [sys.executable, *sys.argv, "--compile-only"],
+            [*grind, sys.executable, *sys.argv, "--count-into", str(folder)],
+        ]
+    else:
+        runs = [[sys.executable, *sys.argv, *extra] for extra in (["--compile-only"], [])]
+    for command in runs:
+        if code := subprocess.run(command, env=env).returncode:
             sys.exit(code)
+    if count:
+        _report_counts(folder)
     sys.exit(0)
 
 
@@ -211,10 +249,96 @@ def _hit_rays(args):
     if args.shadows:
         _, so, sd, tmax = shadow_rays(*found, size, frame)
         _blocked(compiled, so, sd, tmax)
+        args.rays = len(so)
         return (lambda: _blocked(compiled, so, sd, tmax)), {"occluded_lane": occluded_lane}
     o, d = np.ascontiguousarray(o[hit]), np.ascontiguousarray(d[hit])
     _trace(compiled, o, d)
+    args.rays = len(o)
     return (lambda: _trace(compiled, o, d)), {"intersect_lane": intersect_lane}
+
+
+def _count_instructions(work, kernels, args) -> None:
+    """(Under callgrind, instrumentation off.) Switch the counting on for --calls calls of
+    `work` and off again, and leave what the report needs beside callgrind's output."""
+    work()
+    pid = str(os.getpid())
+    subprocess.run(["callgrind_control", "-i", "on", pid], check=True, stdout=subprocess.DEVNULL)
+    for _ in range(args.calls):
+        work()
+    subprocess.run(["callgrind_control", "-i", "off", pid], check=True, stdout=subprocess.DEVNULL)
+    rows = [[name, entry, str(obj), section, offset, size] for name, entry, obj, section, offset, size in kernels]
+    what = {"calls": args.calls, "rays": getattr(args, "rays", 0), "top": args.top, "kernels": rows}
+    what["instructions"] = args.instructions
+    (args.count_into / "kernels.json").write_text(json.dumps(what))
+
+
+def _callgrind_costs(path: Path) -> tuple[list[str], dict[int, list[int]]]:
+    """(event names, per instruction address its self costs) from a callgrind output written with
+    --dump-instr=yes --dump-line=no --compress-pos=no: every cost line starts with its address;
+    the line after `calls=` is a call's inclusive cost, which the callee's own lines hold already."""
+    events: list[str] = []
+    costs: dict[int, list[int]] = collections.defaultdict(list)
+    after_call = False
+    with open(path) as lines:
+        for line in lines:
+            if line.startswith("events:"):
+                events = line.split()[1:]
+            elif line.startswith("calls="):
+                after_call = True
+            elif line.startswith("0x"):
+                if after_call:
+                    after_call = False
+                    continue
+                fields = line.split()
+                values = [int(x) for x in fields[1:]] + [0] * (len(events) - len(fields) + 1)
+                here = costs[int(fields[0], 16)]
+                if not here:
+                    here.extend([0] * len(events))
+                for k, v in enumerate(values):
+                    here[k] += v
+    return events, costs
+
+
+def _report_counts(folder: Path) -> None:
+    """Print what callgrind counted in the kernels (folder: _count_instructions's), per source
+    line (innermost) and per function (with what is inlined into it): instructions (Ir) and
+    the branches callgrind's model mispredicts (Bcm, conditional)."""
+    what = json.loads((folder / "kernels.json").read_text())
+    events, costs = _callgrind_costs(folder / "callgrind.out")
+    ir, bcm = events.index("Ir"), events.index("Bcm")
+    per = what["rays"] * what["calls"] or what["calls"]
+    unit = "a ray" if what["rays"] else "a call"
+    lines, functions = collections.defaultdict(lambda: [0, 0]), collections.defaultdict(lambda: [0, 0])
+    total = [0, 0]
+    hottest = []  # (instructions, kernel, offset: code, innermost line, mispredicted)
+    for name, entry, obj, section, offset, size in what["kernels"]:
+        offsets = {a - entry + offset: c for a, c in costs.items() if 0 <= a - entry + offset < size}
+        code = _instructions(Path(obj), section) if what["instructions"] else {}
+        for at, frames in _frames(Path(obj), section, sorted(offsets)).items():
+            c = offsets[at]
+            if code:
+                line = frames[0][1] if frames else "??"
+                hottest.append((c[ir], name, f"{at:x}: {code.get(at, '?')}", line, c[bcm]))
+            total[0] += c[ir]
+            total[1] += c[bcm]
+            where = frames[0][1] if frames else "??"
+            lines[where][0] += c[ir]
+            lines[where][1] += c[bcm]
+            for function in dict.fromkeys(f for f, _ in frames):
+                functions[function][0] += c[ir]
+                functions[function][1] += c[bcm]
+    print(f"{what['calls']} call(s), counted under callgrind ({folder}): {total[0] / per:.0f} instructions {unit}")
+    print(f"in the kernels, {total[1] / per:.2f} conditional branches {unit} mispredicted (callgrind's model)\n")
+    for title, table in (("source line (innermost)", lines), ("function (with what is inlined into it)", functions)):
+        print(f"| {title} | instructions | {unit} | mispredicted {unit} |\n| --- | --- | --- | --- |")
+        for where, (n, m) in sorted(table.items(), key=lambda kv: -kv[1][0])[: what["top"]]:
+            print(f"| {where} | {100 * n / (total[0] or 1):.1f}% | {n / per:.1f} | {m / per:.2f} |")
+        print()
+    if hottest:
+        print(f"| kernel | instruction (offset: code) | source line | executed {unit} | mispredicted {unit} |")
+        print("| --- | --- | --- | --- | --- |")
+        for n, name, text, where, m in sorted(hottest, reverse=True)[: what["instructions"]]:
+            print(f"| {name} | `{text}` | {where} | {n / per:.2f} | {m / per:.3f} |")
 
 
 def main() -> None:
@@ -230,16 +354,20 @@ def main() -> None:
     parser.add_argument("--top", type=int, default=25, help="rows of each table")
     parser.add_argument("--aovs", action="store_true", help="render the AOV pass too (a render's default)")
     parser.add_argument("--instructions", type=int, default=0, metavar="N", help="also list the N hottest instructions")
+    parser.add_argument("--count", action="store_true", help="count instructions under callgrind instead of sampling")
+    parser.add_argument("--calls", type=int, default=1, help="with --count: how many calls are counted")
     parser.add_argument("--compile-only", action="store_true", help=argparse.SUPPRESS)
+    parser.add_argument("--count-into", type=Path, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if (args.scene is None) == (args.hits is None):
         parser.error("give a SCENE or --hits MESH")
     if args.shadows and not args.hits:
         parser.error("--shadows goes with --hits MESH")
-    for tool in ("perf", "addr2line", "readelf", *(["objdump"] if args.instructions else [])):
+    needs = ("valgrind", "callgrind_control") if args.count else ("perf",)
+    for tool in (*needs, "addr2line", "readelf", *(["objdump"] if args.instructions else [])):
         if shutil.which(tool) is None:
             raise SystemExit(f"profile_kernels: needs `{tool}` on the PATH")
-    _reexec_with_debug_info()
+    _reexec_with_debug_info(args.count)
     _line_tables_only()
     objects = _keep_objects()
 
@@ -252,7 +380,7 @@ def main() -> None:
     if args.compile_only:
         return
     kernels = []  # (name, entry address, object file, code section, entry offset, section size)
-    folder = Path(tempfile.mkdtemp(prefix="raylume-profile-"))
+    folder = args.count_into or Path(tempfile.mkdtemp(prefix="raylume-profile-"))
     for name, dispatcher in lanes.items():
         for _, cres in dispatcher.overloads.items():
             library = cres.library
@@ -265,6 +393,9 @@ def main() -> None:
             kernels.append((name, entry, obj, *_code_section(obj, symbol)))
     if not kernels:
         raise SystemExit("profile_kernels: no kernel was loaded from the cache (NUMBA_DEBUGINFO set by hand?)")
+    if args.count_into:
+        _count_instructions(work, kernels, args)
+        return
 
     data = folder / "perf.data"
     record = ["perf", "record", "-e", "cpu-clock", "-F", "4000", "-o", str(data), "-p", str(os.getpid())]
