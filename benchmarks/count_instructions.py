@@ -119,7 +119,12 @@ def main() -> None:
 
     env = {**os.environ, "NUMBA_CPU_NAME": COUNT_CPU, "NUMBA_CPU_FEATURES": COUNT_FEATURES}
     rows = []
+    from bench_hits import SHARED_MODELS, bumpy_size
+
     for name in args.meshes:
+        if bumpy_size(name) is None and not (SHARED_MODELS / f"{name}.obj").exists():
+            print(f"(skipping {name}: no {SHARED_MODELS / name}.obj)")
+            continue
         # raylume's kernels compiled into Numba's cache natively (minutes under valgrind)
         warm = [sys.executable, __file__, "--child", "raylume", "--query", args.query, "--size", str(args.size), name]
         subprocess.run(warm, env={**env, "COUNT_WARM_ONLY": "1"}, check=True)
