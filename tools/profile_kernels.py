@@ -259,16 +259,16 @@ def _hit_rays(args):
 
 def _count_instructions(work, kernels, args) -> None:
     """(Under callgrind, instrumentation off.) Switch the counting on for --calls calls of
-    `work` and off again, and leave what the report needs beside callgrind's output."""
-    work()
+    `work` and off again, and leave what the report needs beside callgrind's output. (`work`
+    has run once already, warm: _hit_rays and _renders call it.)"""
     pid = str(os.getpid())
     subprocess.run(["callgrind_control", "-i", "on", pid], check=True, stdout=subprocess.DEVNULL)
     for _ in range(args.calls):
         work()
     subprocess.run(["callgrind_control", "-i", "off", pid], check=True, stdout=subprocess.DEVNULL)
     rows = [[name, entry, str(obj), section, offset, size] for name, entry, obj, section, offset, size in kernels]
-    what = {"calls": args.calls, "rays": getattr(args, "rays", 0), "top": args.top, "kernels": rows}
-    what["instructions"] = args.instructions
+    what = {"calls": args.calls, "rays": getattr(args, "rays", 0), "top": args.top, "instructions": args.instructions}
+    what["kernels"] = rows
     (args.count_into / "kernels.json").write_text(json.dumps(what))
 
 
@@ -277,7 +277,7 @@ def _callgrind_costs(path: Path) -> tuple[list[str], dict[int, list[int]]]:
     --dump-instr=yes --dump-line=no --compress-pos=no: every cost line starts with its address;
     the line after `calls=` is a call's inclusive cost, which the callee's own lines hold already."""
     events: list[str] = []
-    costs: dict[int, list[int]] = collections.defaultdict(list)
+    costs: dict[int, list[int]] = {}
     after_call = False
     with open(path) as lines:
         for line in lines:
@@ -289,13 +289,10 @@ def _callgrind_costs(path: Path) -> tuple[list[str], dict[int, list[int]]]:
                 if after_call:
                     after_call = False
                     continue
-                fields = line.split()
-                values = [int(x) for x in fields[1:]] + [0] * (len(events) - len(fields) + 1)
-                here = costs[int(fields[0], 16)]
-                if not here:
-                    here.extend([0] * len(events))
-                for k, v in enumerate(values):
-                    here[k] += v
+                address, *values = line.split()
+                here = costs.setdefault(int(address, 16), [0] * len(events))
+                for k, v in enumerate(values):  # trailing zeros are left out
+                    here[k] += int(v)
     return events, costs
 
 
