@@ -39,7 +39,7 @@ import time
 import numba
 import numpy as np
 from bench_bvh import camera_rays, raylume_scene
-from common import SHARED_MODELS, growth_table, machine, table
+from common import SHARED_MODELS, cached_entry, growth_table, machine, table
 from embree_direct import EmbreeScene
 
 import raylume
@@ -115,12 +115,15 @@ def _single_rays(S, X, o, d, spans, outputs, stacks, hits):
         intersect_singly(G, X, o, d, spans, outputs, start, min(o.shape[0], start + CHUNK), stacks, hits)
 
 
+single_rays = cached_entry(_single_rays)
+
+
 def _trace_singly(compiled, o, d, stacks):
     n = len(o)
     out = np.empty(n), np.empty(n, np.int32), np.empty(n, np.int32), np.empty(n, np.int32)
     spans = np.zeros(1), np.full(1, np.inf)  # every ray from 0 to infinity
     hits = np.empty(CHUNK, np.int64), np.empty(CHUNK)
-    _single_rays(compiled.kernel, features(compiled.kernel), o, d, spans, out, stacks, hits)
+    single_rays(compiled.kernel, features(compiled.kernel), o, d, spans, out, stacks, hits)
     return out
 
 

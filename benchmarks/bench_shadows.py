@@ -25,7 +25,7 @@ import argparse
 import numba
 import numpy as np
 from bench_hits import DEFAULT, _trace, bumpy_size, cpu_seconds, frame_rays, mesh
-from common import SHARED_MODELS, growth_table, machine, table
+from common import SHARED_MODELS, cached_entry, growth_table, machine, table
 from embree_direct import EmbreeScene
 
 from raylume.kernels.geometry.query import CHUNK
@@ -67,9 +67,12 @@ def _any_hits(S, X, o, d, tmax, out, node_stack, t_stack):
         out[k] = any_hit(G, X, ray_o, ray_d, 0.0, tmax[k], node_stack, t_stack)
 
 
+any_hits = cached_entry(_any_hits)
+
+
 def _blocked_singly(compiled, o, d, tmax, stacks):
     out = np.empty(len(o), dtype=np.bool_)
-    _any_hits(compiled.kernel, features(compiled.kernel), o, d, tmax, out, *stacks)
+    any_hits(compiled.kernel, features(compiled.kernel), o, d, tmax, out, *stacks)
     return out
 
 

@@ -7,8 +7,10 @@ For each mesh and engine a child process builds the scene and the rays (bench_hi
 rays of a 1024 x 1024 frame, or bench_shadows.py's shadow rays), makes the query once to warm
 up, then switches callgrind's counting on (`callgrind_control -i on`), makes the query once more
 and switches it off: the counts are the whole call's, Python's few instructions around it
-included, for raylume's batch query (`intersect_rays` / `occluded_rays`, packets) and for
-Embree's packets of eight and its single rays (embree_direct.py, robust, the loops that call it
+included, for raylume's batch query (`intersect_rays` / `occluded_rays`, packets), raylume's
+single rays ("raylume 1": closest_hit or any_hit ray by ray, bench_hits.py's and
+bench_shadows.py's loops, as path mode's bounces are traced) and for Embree's packets of eight
+and its single rays (embree_direct.py, robust, the loops that call it
 compiled by Numba). Printed: instructions and mispredicted conditional branches a ray (callgrind's
 model: a counter per branch, no history), and each engine's instructions over raylume's.
 Embree's counts hold its driver's: the loop that fills its ray structures and the float32 copy
@@ -39,7 +41,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-ENGINES = ("raylume", "Embree 8", "Embree 1")
+ENGINES = ("raylume", "raylume 1", "Embree 8", "Embree 1")
 DEFAULT = ["stanford-bunny", "nefertiti", "40k"]
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tools"))
 from profile_kernels import COUNT_CPU, COUNT_FEATURES  # noqa: E402
@@ -50,9 +52,11 @@ def child(engine: str, query: str, name: str, size: int) -> None:
     callgrind_control on this process), print the rays."""
     import numba
     import numpy as np
-    from bench_hits import _trace, frame_rays, mesh
-    from bench_shadows import _blocked, shadow_rays
+    from bench_hits import _trace, _trace_singly, frame_rays, mesh
+    from bench_shadows import _blocked, _blocked_singly, shadow_rays
     from embree_direct import EmbreeScene
+
+    from raylume.kernels.geometry.wide_nodes import traversal_stacks
 
     numba.set_num_threads(1)
     vertices, faces = mesh(name)
@@ -63,6 +67,12 @@ def child(engine: str, query: str, name: str, size: int) -> None:
         o, d = np.ascontiguousarray(fo[hit]), np.ascontiguousarray(fd[hit])
     if engine == "raylume":
         call = (lambda: _blocked(compiled, o, d, tmax)) if query == "shadows" else (lambda: _trace(compiled, o, d))
+    elif engine == "raylume 1":
+        stacks = traversal_stacks()
+        if query == "shadows":
+            call = lambda: _blocked_singly(compiled, o, d, tmax, stacks)  # noqa: E731
+        else:
+            call = lambda: _trace_singly(compiled, o, d, stacks)  # noqa: E731
     else:
         scene, packets = EmbreeScene(vertices, faces), engine == "Embree 8"
         if query == "shadows":
@@ -126,8 +136,9 @@ def main() -> None:
             print(f"(skipping {name}: no {SHARED_MODELS / name}.obj)")
             continue
         # raylume's kernels compiled into Numba's cache natively (minutes under valgrind)
-        warm = [sys.executable, __file__, "--child", "raylume", "--query", args.query, "--size", str(args.size), name]
-        subprocess.run(warm, env={**env, "COUNT_WARM_ONLY": "1"}, check=True)
+        for engine in ("raylume", "raylume 1"):
+            warm = [sys.executable, __file__, "--child", engine, "--query", args.query, "--size", str(args.size), name]
+            subprocess.run(warm, env={**env, "COUNT_WARM_ONLY": "1"}, check=True)
         counted = {engine: count(engine, args.query, name, args.size, env) for engine in ENGINES}
         ours = counted["raylume"][0]
         for engine, (instructions, mispredicted) in counted.items():

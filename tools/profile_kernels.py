@@ -3,9 +3,9 @@ named through the DWARF line tables of Numba's own object code.
 
     python tools/profile_kernels.py SCENE [--mode path] [--width 128] [--height 128] [--spp 16]
                                     [--seconds 8] [--top 25] [--aovs] [--instructions N]
-    python tools/profile_kernels.py --hits MESH [--shadows] [--width 1024] [--seconds 8] [--top 25]
-                                    [--instructions N]
-    python tools/profile_kernels.py (SCENE | --hits MESH [--shadows]) --count [--calls 1] ...
+    python tools/profile_kernels.py --hits MESH [--shadows] [--singly] [--width 1024] [--seconds 8]
+                                    [--top 25] [--instructions N]
+    python tools/profile_kernels.py (SCENE | --hits MESH [--shadows] [--singly]) --count [--calls 1] ...
 
 Renders SCENE (a scene file or built-in name) again and again on 1 thread for --seconds while
 `perf record -e cpu-clock` samples the process, then prints the share of the samples on each
@@ -44,8 +44,10 @@ callgrind's output.
 `--hits MESH` profiles the batch query instead of a render: the hit rays of
 benchmarks/bench_hits.py's frame (--width x --width; MESH a bumpy sphere's size, 40k or 4M, or
 a model in ../shared/models) traced again and again by `intersect_rays` on 1 thread, the query
-issue 49 times; with `--shadows`, bench_shadows.py's shadow rays by `occluded_rays`. Profiles
-of two meshes side by side show where a large mesh's extra time goes.
+issue 49 times; with `--shadows`, bench_shadows.py's shadow rays by `occluded_rays`; with
+`--singly`, either ray by ray (`closest_hit` or `any_hit` in the benchmarks' loops, as path mode
+traces its bounces). Profiles of two meshes side by side show where a large mesh's extra time
+goes.
 """
 
 from __future__ import annotations
@@ -236,25 +238,34 @@ def _hit_rays(args):
     import numpy as np
 
     sys.path.insert(0, str(BENCHMARKS))
-    from bench_hits import _trace, frame_rays, mesh
-    from bench_shadows import _blocked, shadow_rays
+    from bench_hits import _trace, _trace_singly, frame_rays, mesh, single_rays
+    from bench_shadows import _blocked, _blocked_singly, any_hits, shadow_rays
 
     from raylume.kernels.geometry.query import intersect_lane, occluded_lane
+    from raylume.kernels.geometry.wide_nodes import traversal_stacks
 
     found = mesh(args.hits)
     if found is None:
         raise SystemExit(f"profile_kernels: no mesh {args.hits!r} (a bumpy size such as 40k, or a shared model)")
     size = args.width or 1024
     frame = compiled, o, d, hit = frame_rays(*found, size)
+    stacks = traversal_stacks()
     if args.shadows:
         _, so, sd, tmax = shadow_rays(*found, size, frame)
-        _blocked(compiled, so, sd, tmax)
         args.rays = len(so)
-        return (lambda: _blocked(compiled, so, sd, tmax)), {"occluded_lane": occluded_lane}
-    o, d = np.ascontiguousarray(o[hit]), np.ascontiguousarray(d[hit])
-    _trace(compiled, o, d)
-    args.rays = len(o)
-    return (lambda: _trace(compiled, o, d)), {"intersect_lane": intersect_lane}
+        if args.singly:
+            work, kernels = (lambda: _blocked_singly(compiled, so, sd, tmax, stacks)), {"any_hits": any_hits}
+        else:
+            work, kernels = (lambda: _blocked(compiled, so, sd, tmax)), {"occluded_lane": occluded_lane}
+    else:
+        o, d = np.ascontiguousarray(o[hit]), np.ascontiguousarray(d[hit])
+        args.rays = len(o)
+        if args.singly:
+            work, kernels = (lambda: _trace_singly(compiled, o, d, stacks)), {"single_rays": single_rays}
+        else:
+            work, kernels = (lambda: _trace(compiled, o, d)), {"intersect_lane": intersect_lane}
+    work()
+    return work, kernels
 
 
 def _count_instructions(work, kernels, args) -> None:
@@ -343,6 +354,7 @@ def main() -> None:
     parser.add_argument("scene", nargs="?", help="a scene file, mesh file or built-in name")
     parser.add_argument("--hits", metavar="MESH", help="profile bench_hits.py's hit rays on MESH instead")
     parser.add_argument("--shadows", action="store_true", help="with --hits: bench_shadows.py's shadow rays instead")
+    parser.add_argument("--singly", action="store_true", help="with --hits: ray by ray, without packets")
     parser.add_argument("--mode", default=None, help="cast | trace | path (default: the scene's)")
     parser.add_argument("--width", type=int, default=None, help="128 for renders, 1024 for --hits")
     parser.add_argument("--height", type=int, default=128, help="renders only")
@@ -358,8 +370,8 @@ def main() -> None:
     args = parser.parse_args()
     if (args.scene is None) == (args.hits is None):
         parser.error("give a SCENE or --hits MESH")
-    if args.shadows and not args.hits:
-        parser.error("--shadows goes with --hits MESH")
+    if (args.shadows or args.singly) and not args.hits:
+        parser.error("--shadows and --singly go with --hits MESH")
     needs = ("valgrind", "callgrind_control") if args.count else ("perf",)
     for tool in (*needs, "addr2line", "readelf", *(["objdump"] if args.instructions else [])):
         if shutil.which(tool) is None:
