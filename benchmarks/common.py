@@ -45,12 +45,9 @@ def cached_entry(function):
     options into Numba's disk cache, as the query kernels are: its own Python entry compiles
     afresh in every process, and tools/profile_kernels.py --count finds a kernel's code only as
     loaded from the cache (a compile under valgrind would take many minutes)."""
-    import numba
+    from raylume.kernels.vec import python_entry
 
-    from raylume.kernels.vec import _NOT_FOR_NJIT
-
-    options = {k: v for k, v in function.targetoptions.items() if k not in _NOT_FOR_NJIT}
-    return numba.njit(cache=True, **options)(function.py_func)
+    return python_entry(function, cache=True)
 
 
 def median_time(fn, repeats: int = 5) -> float:

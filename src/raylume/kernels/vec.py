@@ -135,15 +135,16 @@ class KernelFunction(CPUDispatcher):
     def __call__(self, *args, **kws):
         entry = self.__dict__.get("_python_entry")
         if entry is None:
-            entry = self._python_entry = _python_entry(self)
+            entry = self._python_entry = python_entry(self)
         return entry(*args, **kws)
 
 
-def _python_entry(function: KernelFunction):
+def python_entry(function: KernelFunction, cache: bool = False):
     """The same Python function compiled once more as a plain Numba function, wrappers included
-    (an entry that called `function` could not hand back an array without reference counting)."""
+    (an entry that called `function` could not hand back an array without reference counting);
+    with `cache`, into Numba's disk cache (benchmarks/common.cached_entry)."""
     options = {k: v for k, v in function.targetoptions.items() if k not in _NOT_FOR_NJIT}
-    return njit(**options)(function.py_func)
+    return njit(cache=cache, **options)(function.py_func)
 
 
 def kernel_function(py_func=None, /, **options):
