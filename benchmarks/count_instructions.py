@@ -65,14 +65,17 @@ def child(engine: str, query: str, name: str, size: int) -> None:
         _, o, d, tmax = shadow_rays(vertices, faces, size, frame)
     else:
         o, d = np.ascontiguousarray(fo[hit]), np.ascontiguousarray(fd[hit])
-    if engine == "raylume":
-        call = (lambda: _blocked(compiled, o, d, tmax)) if query == "shadows" else (lambda: _trace(compiled, o, d))
-    elif engine == "raylume 1":
-        stacks = traversal_stacks()
+    stacks = traversal_stacks()
+
+    def ours(singly: bool):  # raylume's query in packets, or ray by ray ("raylume 1")
         if query == "shadows":
-            call = lambda: _blocked_singly(compiled, o, d, tmax, stacks)  # noqa: E731
-        else:
-            call = lambda: _trace_singly(compiled, o, d, stacks)  # noqa: E731
+            if singly:
+                return lambda: _blocked_singly(compiled, o, d, tmax, stacks)
+            return lambda: _blocked(compiled, o, d, tmax)
+        return (lambda: _trace_singly(compiled, o, d, stacks)) if singly else (lambda: _trace(compiled, o, d))
+
+    if engine.startswith("raylume"):
+        call = ours(engine == "raylume 1")
     else:
         scene, packets = EmbreeScene(vertices, faces), engine == "Embree 8"
         if query == "shadows":
@@ -81,6 +84,7 @@ def child(engine: str, query: str, name: str, size: int) -> None:
             call = lambda: scene.intersect(o, d, packets=packets)  # noqa: E731
     call()
     if os.environ.get("COUNT_WARM_ONLY"):
+        ours(True)()  # both of raylume's kernels into the cache from one warm-up child
         return
     pid = str(os.getpid())
     subprocess.run(["callgrind_control", "-i", "on", pid], check=True, stdout=subprocess.DEVNULL)
@@ -136,9 +140,8 @@ def main() -> None:
             print(f"(skipping {name}: no {SHARED_MODELS / name}.obj)")
             continue
         # raylume's kernels compiled into Numba's cache natively (minutes under valgrind)
-        for engine in ("raylume", "raylume 1"):
-            warm = [sys.executable, __file__, "--child", engine, "--query", args.query, "--size", str(args.size), name]
-            subprocess.run(warm, env={**env, "COUNT_WARM_ONLY": "1"}, check=True)
+        warm = [sys.executable, __file__, "--child", "raylume", "--query", args.query, "--size", str(args.size), name]
+        subprocess.run(warm, env={**env, "COUNT_WARM_ONLY": "1"}, check=True)
         counted = {engine: count(engine, args.query, name, args.size, env) for engine in ENGINES}
         ours = counted["raylume"][0]
         for engine, (instructions, mispredicted) in counted.items():

@@ -270,8 +270,8 @@ def _hit_rays(args):
 
 def _count_instructions(work, kernels, args) -> None:
     """(Under callgrind, instrumentation off.) Switch the counting on for --calls calls of
-    `work` and off again, and leave what the report needs beside callgrind's output. (`work`
-    has run once already, warm: _hit_rays and _renders call it.)"""
+    `work` and off again, and leave what the report needs beside callgrind's output. (Warm
+    already: _hit_rays has called `work` once, _renders has rendered a small frame.)"""
     pid = str(os.getpid())
     subprocess.run(["callgrind_control", "-i", "on", pid], check=True, stdout=subprocess.DEVNULL)
     for _ in range(args.calls):
@@ -324,12 +324,11 @@ def _report_counts(folder: Path) -> None:
         code = _instructions(Path(obj), section) if what["instructions"] else {}
         for at, frames in _frames(Path(obj), section, sorted(offsets)).items():
             c = offsets[at]
+            where = frames[0][1] if frames else "??"
             if code:
-                line = frames[0][1] if frames else "??"
-                hottest.append((c[ir], name, f"{at:x}: {code.get(at, '?')}", line, c[bcm]))
+                hottest.append((c[ir], name, f"{at:x}: {code.get(at, '?')}", where, c[bcm]))
             total[0] += c[ir]
             total[1] += c[bcm]
-            where = frames[0][1] if frames else "??"
             lines[where][0] += c[ir]
             lines[where][1] += c[bcm]
             for function in dict.fromkeys(f for f, _ in frames):
