@@ -44,7 +44,7 @@ from pathlib import Path
 ENGINES = ("raylume", "raylume 1", "Embree 8", "Embree 1")
 DEFAULT = ["stanford-bunny", "nefertiti", "40k"]
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tools"))
-from profile_kernels import COUNT_CPU, COUNT_FEATURES  # noqa: E402
+from profile_kernels import COUNT_CPU, COUNT_FEATURES, callgrind_command, count_calls  # noqa: E402
 
 
 def child(engine: str, query: str, name: str, size: int) -> None:
@@ -86,10 +86,7 @@ def child(engine: str, query: str, name: str, size: int) -> None:
     if os.environ.get("COUNT_WARM_ONLY"):
         ours(True)()  # both of raylume's kernels into the cache from one warm-up child
         return
-    pid = str(os.getpid())
-    subprocess.run(["callgrind_control", "-i", "on", pid], check=True, stdout=subprocess.DEVNULL)
-    call()
-    subprocess.run(["callgrind_control", "-i", "off", pid], check=True, stdout=subprocess.DEVNULL)
+    count_calls(call)
     print("rays", len(o), flush=True)
 
 
@@ -104,13 +101,11 @@ def totals(path: Path) -> dict[str, int]:
 def count(engine: str, query: str, name: str, size: int, env: dict) -> tuple[float, float]:
     """(instructions a ray, mispredicted conditional branches a ray) of one engine's query."""
     with tempfile.TemporaryDirectory() as folder:
-        out = Path(folder) / "callgrind.out"
-        grind = ["valgrind", "--tool=callgrind", "--instr-atstart=no", "--branch-sim=yes"]
-        grind += [f"--callgrind-out-file={out}", f"--log-file={Path(folder) / 'valgrind.log'}"]
+        grind = callgrind_command(Path(folder))
         me = [sys.executable, __file__, "--child", engine, "--query", query, "--size", str(size), name]
         run = subprocess.run([*grind, *me], env=env, capture_output=True, text=True, check=True)
         rays = int(next(line.split()[1] for line in run.stdout.splitlines() if line.startswith("rays")))
-        counted = totals(out)
+        counted = totals(Path(folder) / "callgrind.out")
     return counted["Ir"] / rays, counted["Bcm"] / rays
 
 

@@ -90,11 +90,12 @@ def _reexec_with_debug_info(count: bool) -> None:
         env.setdefault("NUMBA_CPU_NAME", COUNT_CPU)
         env.setdefault("NUMBA_CPU_FEATURES", COUNT_FEATURES)
         folder = Path(tempfile.mkdtemp(prefix="raylume-count-"))
-        grind = [
-            "valgrind", "--tool=callgrind", "--instr-atstart=no", "--branch-sim=yes", "--dump-instr=yes",
-            "--dump-line=no", "--compress-pos=no", "--compress-strings=no",
-            f"--callgrind-out-file={folder / 'callgrind.out'}", f"--log-file={folder / 'valgrind.log'}",
-        ]  # fmt: skip
+        grind = callgrind_command(folder) + [
+            "--dump-instr=yes",
+            "--dump-line=no",
+            "--compress-pos=no",
+            "--compress-strings=no",
+        ]
         runs = [
             [sys.executable, *sys.argv, "--compile-only"],
             [*grind, sys.executable, *sys.argv, "--count-into", str(folder)],
@@ -268,15 +269,30 @@ def _hit_rays(args):
     return work, kernels
 
 
-def _count_instructions(work, kernels, args) -> None:
-    """(Under callgrind, instrumentation off.) Switch the counting on for --calls calls of
-    `work` and off again, and leave what the report needs beside callgrind's output. (Warm
-    already: _hit_rays has called `work` once, _renders has rendered a small frame.)"""
+def callgrind_command(folder: Path) -> list[str]:
+    """valgrind's command line for callgrind with its counting off until count_calls switches it
+    on, branch prediction simulated, its output (callgrind.out) and log in `folder`."""
+    return [
+        "valgrind", "--tool=callgrind", "--instr-atstart=no", "--branch-sim=yes",
+        f"--callgrind-out-file={folder / 'callgrind.out'}", f"--log-file={folder / 'valgrind.log'}",
+    ]  # fmt: skip
+
+
+def count_calls(work, calls: int = 1) -> None:
+    """(In a process under callgrind_command.) Count `calls` calls of `work`: callgrind's
+    instrumentation switched on for them and off again."""
     pid = str(os.getpid())
     subprocess.run(["callgrind_control", "-i", "on", pid], check=True, stdout=subprocess.DEVNULL)
-    for _ in range(args.calls):
+    for _ in range(calls):
         work()
     subprocess.run(["callgrind_control", "-i", "off", pid], check=True, stdout=subprocess.DEVNULL)
+
+
+def _count_instructions(work, kernels, args) -> None:
+    """(Under callgrind, instrumentation off.) Count --calls calls of `work`, and leave what the
+    report needs beside callgrind's output. (Warm already: _hit_rays has called `work` once,
+    _renders has rendered a small frame.)"""
+    count_calls(work, args.calls)
     rows = [[name, entry, str(obj), section, offset, size] for name, entry, obj, section, offset, size in kernels]
     what = {"calls": args.calls, "rays": getattr(args, "rays", 0), "top": args.top, "instructions": args.instructions}
     what["kernels"] = rows
