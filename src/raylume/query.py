@@ -104,7 +104,7 @@ def intersect(
     tmin: float | np.ndarray = 0.0,
     tmax: float | np.ndarray = np.inf,
     instances: bool = False,
-):
+) -> tuple[np.ndarray, np.ndarray, np.ndarray] | tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Closest hit of each ray strictly between the distances tmin (at least 0) and tmax (numbers or
     arrays that broadcast to the rays' leading shape): (t float64, object int32, prim int32), each of
     the rays' leading shape (origins and directions of shape (..., 3)); with `instances`, a

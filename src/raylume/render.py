@@ -59,7 +59,7 @@ def render(
     """Render `scene` (arguments override its [render] table): a Scene, a path to a scene,
     glTF or mesh file (a mesh is framed and lit), or a built-in scene's name, as the command
     line's SCENE (None: the built-in `seed`). Returns an Image with linear
-    float32 RGB, the AOVs (depth, normal, object, prim, albedo) when `aovs` is true, and the
+    float32 RGB, the AOVs (depth, normal, object, prim, albedo, instance) when `aovs` is true, and the
     stats dictionary. To render one scene several times (other cameras, sizes, modes), use a
     Session: it compiles once. `crop` = (x0, x1, y0, y1) renders only columns x0..x1-1 and
     rows y0..y1-1: the image is that window, equal to the same window of the full render.
