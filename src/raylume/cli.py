@@ -94,6 +94,8 @@ def _usage_text(exc, args: list[str]) -> str:
     """A usage error in one line: `--spp abc: Input should be a valid integer ...`, `No such
     option: --bogus`."""
     param = getattr(exc, "param", None)
+    if isinstance(exc, typer.BadParameter) and not exc.message.strip():  # a required option left out
+        return " ".join(exc.format_message().split())
     if isinstance(exc, typer.BadParameter) and param is not None and getattr(param, "opts", None):
         value = _given_value(args, param.opts)
         name = "/".join(param.opts) if value is None else f"{_given_option(args, param.opts)} {value}"
@@ -102,18 +104,22 @@ def _usage_text(exc, args: list[str]) -> str:
 
 
 def _given_option(args: list[str], opts: list[str]) -> str:
-    return next((a.split("=", 1)[0] for a in args if a in opts or a.split("=", 1)[0] in opts), opts[0])
+    """How the option was spelled (`-o` or `--output`), its last time: the value that counts."""
+    given = [a.split("=", 1)[0] for a in args if a in opts or a.split("=", 1)[0] in opts]
+    return given[-1] if given else opts[0]
 
 
 def _given_value(args: list[str], opts: list[str]) -> str | None:
-    """The text given for an option (`--spp abc` or `--spp=abc`), None where it is not an option's."""
+    """The text given for an option (`--spp abc` or `--spp=abc`), None where it is not an
+    option's; the last one where it is given twice (click keeps the last)."""
+    found = None
     for k, arg in enumerate(args):
         if arg in opts and k + 1 < len(args):
-            return args[k + 1]
+            found = args[k + 1]
         name, sep, value = arg.partition("=")
         if sep and name in opts:
-            return value
-    return None
+            found = value
+    return found
 
 
 def _warn(message: str) -> None:

@@ -40,6 +40,8 @@ def bind(host: str, port: int) -> list[socket.socket]:
     naming it."""
     try:
         return tornado.netutil.bind_sockets(port, host, reuse_port=False)
+    except socket.gaierror as exc:  # (an OSError too: caught first)
+        raise RaylumeError(f"--host {host}: not an address of this machine ({exc.strerror})") from None
     except OSError as exc:
         if exc.errno == errno.EADDRINUSE:
             raise RaylumeError(
@@ -49,8 +51,6 @@ def bind(host: str, port: int) -> list[socket.socket]:
         if exc.errno in (errno.EADDRNOTAVAIL, errno.EACCES):
             raise RaylumeError(f"cannot listen on {host}:{port} ({exc.strerror}); check --host and --port") from None
         raise
-    except socket.gaierror as exc:
-        raise RaylumeError(f"--host {host}: not an address of this machine ({exc.strerror})") from None
 
 
 class ViewServer:
