@@ -22,6 +22,7 @@ from ..kernels.geometry.shapes import ANALYTIC
 from ..kernels.shading.materials.registry import is_solid
 from ..kernels.shading.media import grid, homogeneous
 from ..kernels.shading.media.table import MED_KIND, MED_WIDTH
+from ..scene.generated import generator_hint
 from ..scene.model import GridMedium, Mesh, Scene
 from .objects import ANALYTIC_MODELS, object_matrix
 
@@ -89,7 +90,7 @@ def load_density(medium: GridMedium, base_dir: Path, source: str, where: str) ->
     try:
         array = np.load(path, allow_pickle=False)
     except FileNotFoundError:
-        raise SceneError(f"{source}: {where}: no such file: {path}") from None
+        raise SceneError(f"{source}: {where}: no such file: {path}{generator_hint(path)}") from None
     except (OSError, ValueError) as exc:
         raise SceneError(f"{source}: {where}: cannot read {path} as a .npy array ({exc})") from None
     if array.ndim != 3 or min(array.shape) < 1:
