@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 import tomllib
 from pathlib import Path
 
@@ -10,21 +11,24 @@ from pydantic import ValidationError
 
 from ..errors import SceneError
 from .model import Scene
+from .nesting import too_deep
 from .overrides import Overrides
 from .validation_errors import format_validation_error
 
 
 def parse_document(text: str, path: Path) -> dict:
     """The document of a scene file's text: TOML, or JSON for a .json path."""
-    if path.suffix.lower() == ".toml":
-        try:
-            return tomllib.loads(text)
-        except tomllib.TOMLDecodeError as exc:
-            raise SceneError(f"{path}: invalid TOML: {exc}") from None
+    kind = "TOML" if path.suffix.lower() == ".toml" else "JSON"
     try:
-        document = json.loads(text)
+        document = tomllib.loads(text) if kind == "TOML" else json.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise SceneError(f"{path}: invalid TOML: {exc}") from None
     except json.JSONDecodeError as exc:
         raise SceneError(f"{path}: invalid JSON: {exc.msg} (at line {exc.lineno}, column {exc.colno})") from None
+    except RecursionError:
+        raise SceneError(f"{path}: invalid {kind}: tables or lists nested too deeply") from None
+    except ValueError as exc:  # Python's limit on the digits of an integer it converts
+        raise SceneError(f"{path}: invalid {kind}: {_number_problem(text, exc)}") from None
     if not isinstance(document, dict):
         raise SceneError(
             f"{path}: a JSON scene must be an object with render, camera, materials, lights and objects keys"
@@ -32,10 +36,22 @@ def parse_document(text: str, path: Path) -> dict:
     return document
 
 
+def _number_problem(text: str, exc: ValueError) -> str:
+    """A number the parser refused, with its line where it can be found."""
+    long = re.search(r"\d{4000,}", text)
+    if long is None:
+        return str(exc).split(";")[0]
+    line = text.count("\n", 0, long.start()) + 1
+    return f"line {line}: a number of {len(long.group())} digits"
+
+
 def scene_from_dict(document: dict, source: str | Path = "<scene>", overrides: Overrides | None = None) -> Scene:
     """Validate a scene document. `overrides` are only used to say which --set caused an error
     (apply them to the document with overrides.apply_overrides first, as load_scene does)."""
     try:
-        return Scene.model_validate(document)
-    except ValidationError as exc:
-        raise SceneError(format_validation_error(exc, source, Scene, overrides=overrides)) from None
+        try:
+            return Scene.model_validate(document)
+        except ValidationError as exc:
+            raise SceneError(format_validation_error(exc, source, Scene, overrides=overrides)) from None
+    except RecursionError:
+        raise too_deep(document, str(source)) from None

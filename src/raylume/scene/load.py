@@ -80,7 +80,7 @@ def load_scene(
         raise SceneError(f"{path}: --define sets parameters of a Mitsuba scene (.xml), and this is not one")
     if path.suffix.lower() in FOREIGN_SUFFIXES:
         document, origins = foreign_document(path, defines)
-        document = apply_overrides(document, overrides)
+        document = apply_overrides(document, overrides, path)
         try:
             scene = scene_from_dict(document, source=source or path, overrides=overrides)
         except SceneError as exc:
@@ -97,7 +97,7 @@ def load_scene(
             f"{path}: scene files end in .toml, .json or .pbrt (or .xml: Mitsuba 3), mesh files in "
             f"{', '.join(SUPPORTED_EXTENSIONS)} (got {path.suffix or 'no extension'!r})"
         )
-    document = apply_overrides(parse_document(read_scene_text(path), path), overrides)
+    document = apply_overrides(parse_document(read_scene_text(path), path), overrides, path)
     scene = scene_from_dict(document, source=source or path, overrides=overrides)
     return scene.with_base_dir(path.resolve().parent)
 

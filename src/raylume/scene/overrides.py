@@ -12,21 +12,28 @@ value or an unknown key is reported as any other.
 from __future__ import annotations
 
 import copy
+import sys
 import tomllib
 from collections.abc import Iterable, Mapping
 from typing import Any
 
 from ..errors import SceneError
+from .nesting import too_deep
 
 Overrides = Iterable[str] | Mapping[str, Any]
 
 
 def parse_value(text: str) -> Any:
-    """A TOML value, or the text itself (stripped) when it is not one."""
+    """A TOML value, or the text itself (stripped) when it is not one. A value nested too deeply,
+    or an integer of more digits than Python converts, is a ValueError."""
     try:
         parsed = tomllib.loads(f"value = {text}")
     except tomllib.TOMLDecodeError:
         return text.strip()
+    except RecursionError:
+        raise ValueError("tables or lists nested too deeply") from None
+    except ValueError:
+        raise ValueError(f"a number of more than {sys.get_int_max_str_digits()} digits") from None
     if set(parsed) != {"value"}:  # e.g. "1\nother = 2": not one value
         return text.strip()
     return parsed["value"]
@@ -45,7 +52,11 @@ def parse_assignment(text: str) -> tuple[list[str], Any]:
     key, sep, value = text.partition("=")
     if not sep:
         raise SceneError(f"--set {text}: expected KEY=VALUE, e.g. --set camera.fov=40")
-    return split_key(key, text), parse_value(value)
+    path = split_key(key, text)
+    try:
+        return path, parse_value(value)
+    except ValueError as exc:
+        raise SceneError(f"--set {key.strip()}: {exc}") from None
 
 
 def assignments(overrides: Overrides | None) -> list[tuple[list[str], Any, str]]:
@@ -59,9 +70,13 @@ def assignments(overrides: Overrides | None) -> list[tuple[list[str], Any, str]]
     return [(*parse_assignment(text), text) for text in overrides]
 
 
-def apply_overrides(document: dict, overrides: Overrides | None) -> dict:
-    """A copy of `document` with each override applied in turn (later ones win)."""
-    document = copy.deepcopy(document)
+def apply_overrides(document: dict, overrides: Overrides | None, source: object = "the scene") -> dict:
+    """A copy of `document` with each override applied in turn (later ones win). `source`
+    names the document in the error for one nested too deeply to copy."""
+    try:
+        document = copy.deepcopy(document)
+    except RecursionError:
+        raise too_deep(document, str(source)) from None
     for path, value, text in assignments(overrides):
         _assign(document, path, copy.deepcopy(value), text)
     return document
