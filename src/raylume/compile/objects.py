@@ -17,6 +17,7 @@ from ..scene.instances import InstanceError, instance_matrices
 from ..scene.mesh import MeshData, MeshError, object_matrix_of
 from ..scene.model import (
     DEFAULT_MATERIAL,
+    F32_MAX,
     Cylinder,
     Disk,
     Gltf,
@@ -46,6 +47,32 @@ def object_matrix(obj) -> np.ndarray:
     without one): what its module's `pack` applies."""
     t = getattr(obj, "transform", None)
     return np.eye(4) if t is None else object_matrix_of(t)
+
+
+class OutOfRange(ValueError):
+    """An object whose world-space coordinates float32 cannot hold (gather_objects names it)."""
+
+
+def _check_extent(extent: float) -> None:
+    # float32 holds the triangle table and the BVH's boxes: a coordinate beyond its range would
+    # become inf there (and numpy would warn as it converted it)
+    if not extent <= F32_MAX:
+        raise OutOfRange(
+            f"its coordinates reach {extent:.3g} in world space, beyond float32's range (3.4e38), "
+            "in which the renderer stores geometry"
+        )
+
+
+def _mesh_extent(vertices: np.ndarray, instances: np.ndarray | None) -> float:
+    """The largest coordinate magnitude of a mesh in world space: its vertices, or with
+    `instances` ((N, 3, 4) matrices) the corners of its box through each matrix."""
+    if not len(vertices):
+        return 0.0
+    if instances is None:
+        return float(np.abs(vertices).max())
+    lo, hi = vertices.min(axis=0), vertices.max(axis=0)
+    corners = np.array([[(hi if (c >> a) & 1 else lo)[a] for a in range(3)] + [1.0] for c in range(8)])
+    return float(np.abs(np.asarray(instances)[:, :3, :] @ corners.T).max())
 
 
 def _joined(arrays: list[np.ndarray]) -> np.ndarray:
@@ -165,6 +192,9 @@ class _Analytic:
     def add(self, kind: Shape, row, material: int, obj: int) -> None:
         padded = np.zeros(SHAPE_WIDTH, dtype=np.float64)
         padded[: len(row)] = row
+        if is_bounded(kind):
+            lo, hi = shape_bounds(kind, padded[None])
+            _check_extent(float(max(np.abs(lo).max(), np.abs(hi).max())))
         self.rows.append(padded)
         self.kinds.append(int(kind))
         self.materials.append(material)
@@ -221,6 +251,7 @@ class SceneGeometry:
             rows = np.take(per_vertex.astype(np.float32), mesh.faces, axis=0)
             return rows.reshape(-1, 3 * per_vertex.shape[1])
 
+        _check_extent(_mesh_extent(mesh.vertices, instances))
         tris = corners(mesh.vertices)
         normals = None if mesh.normals is None else corners(mesh.normals)
         uv6 = corners(mesh.uvs) if uvs else None
@@ -265,32 +296,35 @@ def gather_objects(scene: Scene, source: str) -> Gathered:
     images: dict[str, np.ndarray] = {}  # textures decoded from glTF files
     mesh_seconds = 0.0  # reading mesh files: part of the build, reported apart
     for k, obj in enumerate(scene.objects):
-        m = material_index(obj, k)
-        kind = ANALYTIC_MODELS.get(type(obj))
-        if isinstance(obj, Gltf):  # a glTF file's meshes with their own materials (scene/gltf.py)
-            loading = time.perf_counter()
-            imported = _load_gltf_object(scene, k, obj, source)
-            mesh_seconds += time.perf_counter() - loading
-            images.update(imported.images)
-            for part in imported.parts:
-                mat = imported.materials[part.material]
-                material_where.setdefault(mat, f"objects[{k}].file")
-                m = materials.setdefault(mat, len(materials))
-                _add_gltf_part(geometry, part, m, k, mat.texture is not None)
-        elif kind is not None:
-            analytic.add(kind, ANALYTIC[kind].pack(obj, object_matrix(obj)), m, k)
-        elif isinstance(obj, Triangle):
-            uvs = np.array([[0, 0, 1, 0, 0, 1]], dtype=np.float32) if needs_uvs(obj) else None
-            soup.add(np.asarray(obj.vertices, dtype=np.float32).reshape(1, 9), None, m, k, uvs)
-        else:
-            matrices = _instance_matrices(scene, k, obj, source)  # before the (slower) mesh file
-            loading = time.perf_counter()
-            mesh = _load_mesh_object(scene, k, obj, source)
-            mesh_seconds += time.perf_counter() - loading
-            if needs_uvs(obj) and mesh.uvs is None:
-                raise SceneError(
-                    f"{source}: objects[{k}].file: the mesh has no texture coordinates (UVs), "
-                    "which its material's image texture needs"
-                )
-            geometry.add_mesh(mesh, m, k, matrices, uvs=needs_uvs(obj))
+        try:
+            m = material_index(obj, k)
+            kind = ANALYTIC_MODELS.get(type(obj))
+            if isinstance(obj, Gltf):  # a glTF file's meshes with their own materials (scene/gltf.py)
+                loading = time.perf_counter()
+                imported = _load_gltf_object(scene, k, obj, source)
+                mesh_seconds += time.perf_counter() - loading
+                images.update(imported.images)
+                for part in imported.parts:
+                    mat = imported.materials[part.material]
+                    material_where.setdefault(mat, f"objects[{k}].file")
+                    m = materials.setdefault(mat, len(materials))
+                    _add_gltf_part(geometry, part, m, k, mat.texture is not None)
+            elif kind is not None:
+                analytic.add(kind, ANALYTIC[kind].pack(obj, object_matrix(obj)), m, k)
+            elif isinstance(obj, Triangle):
+                uvs = np.array([[0, 0, 1, 0, 0, 1]], dtype=np.float32) if needs_uvs(obj) else None
+                soup.add(np.asarray(obj.vertices, dtype=np.float32).reshape(1, 9), None, m, k, uvs)
+            else:
+                matrices = _instance_matrices(scene, k, obj, source)  # before the (slower) mesh file
+                loading = time.perf_counter()
+                mesh = _load_mesh_object(scene, k, obj, source)
+                mesh_seconds += time.perf_counter() - loading
+                if needs_uvs(obj) and mesh.uvs is None:
+                    raise SceneError(
+                        f"{source}: objects[{k}].file: the mesh has no texture coordinates (UVs), "
+                        "which its material's image texture needs"
+                    )
+                geometry.add_mesh(mesh, m, k, matrices, uvs=needs_uvs(obj))
+        except OutOfRange as exc:
+            raise SceneError(f"{source}: objects[{k}]: {exc}") from None
     return Gathered(geometry, materials, material_where, images, mesh_seconds)

@@ -7,12 +7,15 @@ callable discriminators whose tags are written ``<name>`` so that error paths ca
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 from typing import Annotated, ClassVar, Literal, Union
 
 from pydantic import (
+    AfterValidator,
     BaseModel,
+    BeforeValidator,
     ConfigDict,
     Discriminator,
     Field,
@@ -23,6 +26,7 @@ from pydantic import (
     field_validator,
     model_validator,
 )
+from pydantic_core import PydanticCustomError
 
 from ..errors import SceneError
 from .validation_errors import format_validation_error
@@ -41,7 +45,41 @@ class Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False, frozen=True)
 
 
-FiniteFloat = Annotated[float, Field(allow_inf_nan=False)]
+# float32's largest finite value: the kernels keep geometry, colours and the BVH's boxes in float32
+F32_MAX = 3.4028234663852886e38
+
+
+def _shown(value) -> str:
+    """A value as the scene file spells it: true, "32" (JSON's notation, which TOML shares)."""
+    try:
+        return json.dumps(value)
+    except (TypeError, ValueError):
+        return repr(value)
+
+
+def _a_number(value):
+    """A number where one goes: pydantic's lax mode would take "32" for 32 and true for 1."""
+    if isinstance(value, (str, bytes, bool)):
+        raise PydanticCustomError("number_type", "a number is needed, got {shown}", {"shown": _shown(value)})
+    return value
+
+
+def _within_float32(value: float) -> float:
+    if abs(value) > F32_MAX:
+        raise ValueError(f"a number within float32's range (magnitude at most 3.4e38) is needed, got {value:g}")
+    return value
+
+
+def _true_or_false(value):
+    """A boolean where one goes: lax mode would take "off", "yes" or 1 (numpy's bool is one)."""
+    if type(value).__name__ not in ("bool", "bool_"):
+        raise PydanticCustomError("bool_type", "true or false is needed, got {shown}", {"shown": _shown(value)})
+    return value
+
+
+FiniteFloat = Annotated[float, BeforeValidator(_a_number), Field(allow_inf_nan=False), AfterValidator(_within_float32)]
+WholeNumber = Annotated[int, BeforeValidator(_a_number)]
+Flag = Annotated[bool, BeforeValidator(_true_or_false)]
 Vec3 = tuple[FiniteFloat, FiniteFloat, FiniteFloat]
 
 
@@ -65,8 +103,8 @@ def _colour(value, *, upper: float | None):
         for c in value:
             if isinstance(c, bool) or not isinstance(c, (int, float)):
                 raise ValueError(f"colour components must be numbers, got {c!r}")
-            if not math.isfinite(c):
-                raise ValueError("colour components must be finite numbers")
+            if not math.isfinite(c) or abs(c) > F32_MAX:
+                raise ValueError(f"colour components must be finite numbers within float32's range, got {c!r}")
         rgb = tuple(float(c) for c in value)
     if min(rgb) < 0 or (upper is not None and max(rgb) > upper):
         allowed = f"0..{upper:g}" if upper is not None else ">= 0"
@@ -82,8 +120,8 @@ def _intensity(value):
     if isinstance(value, bool):
         raise ValueError("intensity must be a number or [r, g, b]")
     if isinstance(value, (int, float)):
-        if not math.isfinite(value) or value < 0:
-            raise ValueError(f"intensity must be a finite number >= 0, got {value}")
+        if not math.isfinite(value) or value < 0 or value > F32_MAX:
+            raise ValueError(f"intensity must be a finite number >= 0 within float32's range, got {value}")
         return (float(value),) * 3
     return _colour(value, upper=None)
 
@@ -95,16 +133,16 @@ def _nonzero(v: Vec3, what: str) -> Vec3:
 
 
 class RenderSettings(Strict):
-    width: int = Field(600, ge=1, le=MAX_SIDE)
+    width: WholeNumber = Field(600, ge=1, le=MAX_SIDE)
     """Image width in pixels."""
-    height: int = Field(600, ge=1, le=MAX_SIDE)
+    height: WholeNumber = Field(600, ge=1, le=MAX_SIDE)
     """Image height in pixels."""
-    spp: int = Field(1, ge=1, le=MAX_SPP)
+    spp: WholeNumber = Field(1, ge=1, le=MAX_SPP)
     """Samples per pixel; 1 traces the pixel centre, more are stratified over the pixel and combined by `filter`."""
     # Bounces (trace) or path segments (path, as Mitsuba counts them: 1 shows only emitters
     # seen directly, 2 is direct lighting, -1 unlimited with Russian roulette). Unset: 3 in
     # trace mode, -1 in path mode (`depth` is the value in force).
-    max_depth: int | None = Field(None, ge=-1, le=MAX_DEPTH)
+    max_depth: WholeNumber | None = Field(None, ge=-1, le=MAX_DEPTH)
     """Trace mode: reflection and refraction bounces (unset: 3). Path mode: path segments as Mitsuba counts them, 1 =
     emitters seen directly, 2 = direct light, -1 = unlimited with Russian roulette from 5 segments (unset: -1)."""
     mode: Literal["cast", "trace", "path", "raster"] = "trace"
@@ -121,7 +159,7 @@ class RenderSettings(Strict):
     encoding: Literal["clamp", "srgb"] = "clamp"
     """How linear colour becomes 8-bit: `clamp` (the seed's: clamp to 0..1, times 255) or `srgb` (the sRGB transfer
     curve)."""
-    seed: int = Field(0, ge=0, le=2**32 - 1)
+    seed: WholeNumber = Field(0, ge=0, le=2**32 - 1)
     """Random seed of the samples: the image depends only on the scene, the seed and spp, not on threads or machines."""
     # Pixel reconstruction filter for spp > 1 (box: the pixel itself; gaussian: radius 1.5 px,
     # sigma 0.5; mitchell: B = C = 1/3, radius 2 px). One sample per pixel is always the centre.
@@ -135,11 +173,11 @@ class RenderSettings(Strict):
     rendered."""
     # Filter texture lookups over each pixel's footprint (ray cones; mip-maps for images), so
     # that far checkers and fine images do not alias. false: point lookups.
-    texture_filter: bool = True
+    texture_filter: Flag = True
     """Filter texture lookups over each pixel's footprint (ray cones, mip-maps) so that far checkers and fine images do
     not alias; false: point lookups."""
     # Path mode: run Intel Open Image Denoise on the image (with the albedo and normal AOVs).
-    denoise: bool = False
+    denoise: Flag = False
     """Path mode: run Intel Open Image Denoise on the image, guided by the albedo and normal AOVs (needs `pip install
     'raylume[denoise]'`)."""
     # The participating medium filling the space outside every object, a name in [media]
@@ -524,7 +562,7 @@ class QuadLight(_LightBase):
     """First edge vector: the light spans position +- u/2 +- v/2."""
     v: Vec3
     """Second edge vector."""
-    samples: int = Field(16, ge=1, le=MAX_LIGHT_SAMPLES)
+    samples: WholeNumber = Field(16, ge=1, le=MAX_LIGHT_SAMPLES)
     """Trace mode: shadow rays per shading point."""
 
     @model_validator(mode="after")
@@ -578,7 +616,7 @@ class SphereLight(_LightBase):
     """Centre of the sphere."""
     radius: FiniteFloat = Field(gt=0)
     """Radius of the sphere."""
-    samples: int = Field(16, ge=1, le=MAX_LIGHT_SAMPLES)
+    samples: WholeNumber = Field(16, ge=1, le=MAX_LIGHT_SAMPLES)
     """Trace mode: shadow rays per shading point, over its disk facing the point."""
 
 
@@ -748,7 +786,9 @@ class MeshTransform(Transform):
         return self
 
 
-Index3 = tuple[Annotated[int, Field(ge=0)], Annotated[int, Field(ge=0)], Annotated[int, Field(ge=0)]]
+Index3 = tuple[
+    Annotated[WholeNumber, Field(ge=0)], Annotated[WholeNumber, Field(ge=0)], Annotated[WholeNumber, Field(ge=0)]
+]
 
 
 def _array_rows(value, width: int, integers: bool) -> list[tuple]:
@@ -768,6 +808,9 @@ def _array_rows(value, width: int, integers: bool) -> list[tuple]:
     if not finite.all():
         row = int(np.flatnonzero(~finite)[0])
         raise ValueError(f"row {row} holds a value that is not a finite number, got {a[row].tolist()}")
+    if a.dtype.kind == "f" and len(a) and (huge := np.abs(a).max(axis=1) > F32_MAX).any():
+        row = int(np.flatnonzero(huge)[0])
+        raise ValueError(f"row {row} holds a value beyond float32's range (3.4e38), got {a[row].tolist()}")
     if integers:
         if a.dtype.kind == "f" and (a != np.round(a)).any():
             raise ValueError(f"face indices must be whole numbers, got {a[a != np.round(a)][0]}")
@@ -802,12 +845,12 @@ class Mesh(Strict):
     """A name from `[materials]` or an inline material table."""
     transform: MeshTransform = MeshTransform()
     """Scale, rotate and translate (or `fit`), applied to the mesh."""
-    smooth: bool | None = None  # None: use the file's vertex normals when it has them
+    smooth: Flag | None = None  # None: use the file's vertex normals when it has them
     """Interpolate vertex normals (unset: when the file has them)."""
     # "right": the file is right-handed (most OBJ and glTF): mirror x before the transform
     handedness: Literal["left", "right"] = "left"
     """`"right"`: the file is right-handed (most OBJ and glTF files), mirrored across x before the transform."""
-    shape_index: int = Field(0, ge=0)
+    shape_index: WholeNumber = Field(0, ge=0)
     """Which mesh of a Mitsuba `.serialized` file (it holds several), from 0: Mitsuba's `shape_index`."""
     # Copies of the mesh, each placed by a matrix after `transform` (column vectors, p' = M @ [p, 1]):
     # a .npy file of shape (N, 4, 4) or (N, 3, 4), relative to the scene file, or inline
@@ -956,7 +999,7 @@ class Cylinder(Strict):
     """Centre of the other end."""
     radius: FiniteFloat = Field(gt=0)
     """Radius of the cylinder."""
-    capped: bool = True
+    capped: Flag = True
     """true: both ends closed with disks; false: an open tube."""
     material: MaterialRef = "default"
     """A name from `[materials]` or an inline material table."""
@@ -1129,7 +1172,7 @@ class CameraKey(Strict):
     position, look_at, up and fov (the others are interpolated from the keyframes that have
     them, or taken from [camera])."""
 
-    frame: int = Field(ge=0, lt=MAX_FRAMES)
+    frame: WholeNumber = Field(ge=0, lt=MAX_FRAMES)
     """The frame this keyframe holds at, from 0."""
     position: Vec3 | None = None
     """The camera's position at this frame."""
@@ -1145,7 +1188,7 @@ class Animation(Strict):
     """`[animation]`: `frames` frames at `fps`, the camera interpolated between the keyframes
     of `[[animation.camera]]` (raylume/animation.py)."""
 
-    frames: int = Field(ge=1, le=MAX_FRAMES)
+    frames: WholeNumber = Field(ge=1, le=MAX_FRAMES)
     """Number of frames."""
     fps: FiniteFloat = Field(24.0, gt=0, le=1000)
     """Frames per second of a video."""

@@ -37,7 +37,7 @@ def format_validation_error(
     `model` (its key suggestions come from there). `table` is where that model sits in a scene
     (("camera",) names keys camera.fov, ...); `key_name` names a key another way (command-line
     flags). `overrides` (--set) are named when they caused a problem."""
-    errors = exc.errors()
+    errors = merge_union_errors(exc.errors())
     set_by = assignments(overrides)
     lines = []
     for error in errors[:MAX_SHOWN]:
@@ -52,6 +52,75 @@ def format_validation_error(
         lines.append(f"{where}{describe_error(error, model)}{cause}")
     more = f" (and {len(errors) - MAX_SHOWN} more problems)" if len(errors) > MAX_SHOWN else ""
     return f"{source}: {context}" + "; ".join(lines) + more
+
+
+# How an untagged union's members read in a message (pydantic names each member in the error's
+# location: 'float', 'tuple[...]', 'list[function-after[_matrix_alone(), Transform]]')
+_MEMBER_WORDS = {
+    "float": "a number",
+    "int": "a whole number",
+    "str": "a string",
+    "bool": "true or false",
+    "list": "a list",
+    "tuple": "a list",
+    "dict": "a table",
+}
+_WRAPPERS = ("function-after[", "function-before[", "function-wrap[", "function-plain[")
+
+
+def _is_member(part) -> bool:
+    """Whether a location step names an untagged union's member rather than a key."""
+    return isinstance(part, str) and not part.startswith("<") and (not part.isidentifier() or part in _MEMBER_WORDS)
+
+
+def _member_word(part: str) -> str:
+    """'function-after[_check(), function-before[_a_number(), float]]' -> 'a number'."""
+    while part.startswith(_WRAPPERS):
+        part = part[part.index("[") + 1 : -1].split(", ", 1)[-1]
+    return _MEMBER_WORDS.get(part.split("[", 1)[0], "a table")
+
+
+def _mismatch(error: dict) -> bool:
+    """A member refused the value's type (so another member was meant), not its value."""
+    return error["type"].endswith(("_type", "_parsing"))
+
+
+def merge_union_errors(errors: list[dict]) -> list[dict]:
+    """The errors of an untagged union (scale: a number or [x, y, z]) as a user sees them. Where
+    the value has one member's type, that member's problems, its step dropped from the key path;
+    where it has none, one error 'expected a number or a list'."""
+    merged: list = []
+    groups: dict[tuple, list[tuple[dict, int]]] = {}
+    for error in errors:
+        loc = tuple(error["loc"])
+        at = next((i for i, part in enumerate(loc) if _is_member(part)), None)
+        if at is None:
+            merged.append(error)
+            continue
+        if loc[:at] not in groups:
+            groups[loc[:at]] = []
+            merged.append(loc[:at])  # the group's place among the errors
+        groups[loc[:at]].append((error, at))
+    out = []
+    for item in merged:
+        if isinstance(item, dict):
+            out.append(item)
+            continue
+        members = groups[item]
+        meant = [e for e, at in members if len(e["loc"]) > at + 1 or not _mismatch(e)]
+        if meant:
+            out.extend({**e, "loc": tuple(p for p in e["loc"] if not _is_member(p))} for e in meant)
+        else:
+            words = list(dict.fromkeys(_member_word(e["loc"][at]) for e, at in members))
+            out.append(
+                {
+                    "type": "union_type",
+                    "loc": item,
+                    "msg": f"expected {' or '.join(words)}",
+                    "input": members[0][0].get("input"),
+                }
+            )
+    return out
 
 
 def key_path(loc: tuple) -> str:
