@@ -114,6 +114,17 @@ def test_a_missing_generated_file_names_its_script(tmp_path):
     assert not (scene_dir / "render.png").exists()
 
 
+def test_a_missing_density_grid_names_its_script(tmp_path):
+    """examples/smoke.toml's grid is what examples/smoke/make_smoke.py writes."""
+    scene_dir = tmp_path / "example"
+    (scene_dir / "smoke").mkdir(parents=True)
+    (scene_dir / "smoke.toml").write_text((REPO / "examples" / "smoke.toml").read_text())
+    (scene_dir / "smoke" / "make_smoke.py").write_text((REPO / "examples" / "smoke" / "make_smoke.py").read_text())
+    result = raylume("render", "smoke.toml", "--width", "16", "--height", "12", cwd=scene_dir)
+    assert_refused(result, "smoke.toml", "no such file", "python smoke/make_smoke.py")
+    assert not (scene_dir / "render.png").exists()
+
+
 def test_view_exits_130_on_ctrl_c_as_render_does(tmp_path):
     """`raylume view` stopped by Ctrl-C (SIGINT) exits 130, `raylume render`'s status for it."""
     proc = subprocess.Popen(
@@ -138,3 +149,50 @@ def test_warmup_is_a_command(tmp_path):
     assert result.exit_code == 0 and "Compile every kernel" in result.output
     refused = CliRunner().invoke(app, ["warmup", "--processes", "0"])
     assert refused.exit_code == 2 and "--processes 0" in refused.stderr
+
+
+def test_a_flag_given_twice_is_named_by_the_value_that_counts():
+    """click keeps an option's last value, so the message quotes that one."""
+    result = CliRunner().invoke(app, ["render", "--width", "32", "--width", "abc"])
+    assert result.exit_code == 2
+    assert result.stderr.startswith("raylume: error: --width abc: "), result.stderr
+
+
+def test_a_required_option_left_out_is_named():
+    result = CliRunner().invoke(app, ["convert", "seed"])
+    assert result.exit_code == 2
+    assert result.stderr.strip() == "raylume: error: Missing option '-o' / '--output'. (see raylume convert --help)"
+
+
+def test_view_names_a_host_that_is_no_address():
+    result = CliRunner().invoke(app, ["view", "seed", "--host", "999.1.1.1", "--port", "0", "--no-browser"])
+    assert result.exit_code == 2
+    lines = result.stderr.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("raylume: error: --host 999.1.1.1: not an address"), lines
+
+
+@pytest.mark.parametrize(
+    "name, text, words",
+    [
+        # a transform that carries a mesh past float32's range: refused before numpy converts it
+        (
+            "scaled.toml",
+            "[[objects]]\ntype = 'mesh'\nvertices = [[0, 0, 3], [1e30, 0, 3], [0, 1, 3]]\nfaces = [[0, 1, 2]]\n"
+            "transform = { scale = 1e20 }\n",
+            "scaled.toml: objects[0]: its coordinates reach 1e+50 in world space, beyond float32's range",
+        ),
+        (
+            "sphere.toml",
+            "[[objects]]\ntype = 'sphere'\ncenter = [0, 0, 3e38]\nradius = 1e38\n",
+            "sphere.toml: objects[0]: its coordinates reach 4e+38 in world space",
+        ),
+        # a mesh file as the scene, framed by a camera its size would put out of range
+        ("big.obj", "v 0 0 0\nv 1e39 0 0\nv 0 1 0\nf 1 2 3\n", "big.obj: its coordinates reach 1e+39"),
+    ],
+)
+def test_geometry_beyond_float32_is_one_line_without_warnings(tmp_path, name, text, words):
+    (tmp_path / name).write_text(text)
+    result = raylume("render", name, "-o", "out.png", "--width", "16", "--height", "12", cwd=tmp_path)
+    assert_refused(result, words)
+    assert len(result.stderr.splitlines()) == 1, result.stderr
+    assert not (tmp_path / "out.png").exists()

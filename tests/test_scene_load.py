@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -11,6 +12,7 @@ import pytest
 import raylume
 from raylume.errors import SceneError
 from raylume.scene.load import load_scene, scene_from_dict
+from raylume.scene.overrides import apply_overrides
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
@@ -221,3 +223,125 @@ def test_with_camera_takes_keys_or_a_camera():
     assert seed.with_camera(camera).camera == camera
     with pytest.raises(SceneError, match="camera"):
         seed.with_camera(up=[0, 0, 1])  # parallel to the view direction
+
+
+# A value of the wrong type is refused, not coerced as pydantic's lax mode would ("32" -> 32,
+# true -> 1, "off" -> False): the document is checked against what each key's words say it takes.
+WRONG_TYPES = [
+    ({"render": {"width": True}}, "render.width", "a number is needed, got true"),
+    ({"render": {"width": "32"}}, "render.width", 'a number is needed, got "32"'),
+    ({"render": {"texture_filter": "off"}}, "render.texture_filter", 'true or false is needed, got "off"'),
+    ({"render": {"denoise": 1}}, "render.denoise", "true or false is needed, got 1"),
+    ({"camera": {"fov": "40"}}, "camera.fov", 'a number is needed, got "40"'),
+    (
+        {"objects": [{"type": "cylinder", "p0": [0, 0, 0], "p1": [0, 1, 0], "radius": 1, "capped": "no"}]},
+        "objects[0].capped",
+        'true or false is needed, got "no"',
+    ),
+    # untagged unions read as one choice, without pydantic's names of their members
+    (
+        {
+            "objects": [
+                {
+                    "type": "mesh",
+                    "vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0]],
+                    "faces": [[0, 1, 2]],
+                    "transform": {"scale": "big"},
+                }
+            ]
+        },
+        "objects[0].transform.scale",
+        "expected a number or a list (got 'big')",
+    ),
+    (
+        {
+            "objects": [
+                {"type": "mesh", "vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0]], "faces": [[0, 1, 2]], "instances": 5}
+            ]
+        },
+        "objects[0].instances",
+        "expected a string or a list (got 5)",
+    ),
+    # numbers beyond float32's range, in which the kernels store them
+    ({"objects": [{"type": "sphere", "center": [0, 0, 1e39], "radius": 1}]}, "objects[0].center[2]", "float32"),
+    ({"lights": [{"type": "point", "position": [0, 0, 0], "intensity": 1e39}]}, "lights[0].intensity", "float32"),
+]
+
+
+@pytest.mark.parametrize("document, key, words", WRONG_TYPES, ids=[w[1] + ":" + w[2][:16] for w in WRONG_TYPES])
+def test_wrong_types_and_ranges_are_refused_in_words(document, key, words):
+    with pytest.raises(SceneError) as info:
+        scene_from_dict(document, source="scene.toml")
+    message = str(info.value)
+    assert message.startswith(f"scene.toml: {key}: "), message
+    assert words in message
+    assert "function-after" not in message and "tuple[" not in message and "list[" not in message
+
+
+def test_numbers_of_the_right_type_still_pass():
+    s = scene_from_dict(
+        {
+            "render": {"width": 32.0, "height": np.int64(24), "denoise": np.bool_(False)},
+            "camera": {"fov": 40},
+            "objects": [{"type": "sphere", "center": [0, 0, 3.4e38], "radius": np.float32(1)}],
+        }
+    )
+    assert (s.render.width, s.render.height, s.render.denoise, s.camera.fov) == (32, 24, False, 40.0)
+
+
+def test_a_union_member_the_value_has_reports_its_own_problem():
+    """instances given as a list: the list's problems, named by index, not the string member's."""
+    bad = [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]
+    singular = [[0, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]
+    mesh = {"type": "mesh", "vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0]], "faces": [[0, 1, 2]]}
+    with pytest.raises(SceneError) as info:
+        scene_from_dict({"objects": [{**mesh, "instances": [{"matrix": bad}, {"matrix": singular}]}]}, source="s.toml")
+    assert str(info.value) == "s.toml: objects[0].instances[1]: matrix is singular (it flattens the object)"
+
+
+@pytest.fixture
+def default_recursion_limit():
+    """Python's default recursion limit, which the `raylume` command runs under (a test worker's
+    may be raised, and deep documents would then parse and copy)."""
+    old = sys.getrecursionlimit()
+    sys.setrecursionlimit(1000)
+    yield
+    sys.setrecursionlimit(old)
+
+
+def test_documents_nested_too_deeply_name_the_file_and_the_key(tmp_path, default_recursion_limit):
+    """Python's recursion gives out in the parser (TOML past ~1000 levels, JSON sooner under a deep
+    stack), or in the copy and the validation: one line naming the file, and the key where the
+    document can be walked to."""
+    deep: list = []
+    inner = deep
+    for _ in range(2000):
+        inner.append([])
+        inner = inner[0]
+    with pytest.raises(
+        SceneError, match=r"^s.toml: extra\[0\]\[0\]\[0\]\.\.\.: tables or lists nested more than 64 levels"
+    ):
+        apply_overrides({"render": {"width": 8}, "extra": deep}, None, "s.toml")
+    (tmp_path / "deep.json").write_text('{"render": {"width": 8}, "extra": ' + "[" * 2000 + "]" * 2000 + "}")
+    with pytest.raises(
+        SceneError, match=r"deep.json: (extra\[0\]\[0\]\[0\]\.\.\.: tables or lists nested more|invalid JSON: tables)"
+    ):
+        load_scene(tmp_path / "deep.json")
+    (tmp_path / "deep.toml").write_text("[camera]\nfov = " + "[" * 1200 + "]" * 1200 + "\n")
+    with pytest.raises(SceneError, match=r"deep.toml: invalid TOML: tables or lists nested too deeply"):
+        load_scene(tmp_path / "deep.toml")
+    with pytest.raises(SceneError, match=r"--set camera.fov: tables or lists nested too deeply"):
+        load_scene(EXAMPLES / "seed.toml", overrides=["camera.fov=" + "[" * 1200 + "]" * 1200])
+
+
+def test_integers_of_thousands_of_digits_name_the_file_and_line(tmp_path):
+    """Python converts integers of at most 4300 digits; past that, its own advice (sys.set_int_max_str_digits)
+    is no help to a user."""
+    (tmp_path / "big.toml").write_text("[render]\nwidth = " + "9" * 5000 + "\n")
+    with pytest.raises(SceneError, match=r"^.*big.toml: invalid TOML: line 2: a number of 5000 digits$"):
+        load_scene(tmp_path / "big.toml")
+    (tmp_path / "big.json").write_text('{"render": {"width": ' + "9" * 5000 + "}}")
+    with pytest.raises(SceneError, match=r"^.*big.json: invalid JSON: line 1: a number of 5000 digits$"):
+        load_scene(tmp_path / "big.json")
+    with pytest.raises(SceneError, match=r"^--set render.width: a number of more than \d+ digits$"):
+        load_scene(EXAMPLES / "seed.toml", overrides=["render.width=" + "9" * 5000])
