@@ -459,6 +459,56 @@ def test_values_of_the_wrong_type_are_errors_not_crashes(tmp_path, key, value):
         gltf_scene(b.glb(tmp_path / "wrong.glb"))
 
 
+def textured_file(tmp_path) -> Builder:
+    b = small_file(tmp_path)
+    b.doc["images"], b.doc["textures"] = [{"uri": "gone.png"}], [{"source": 0}]
+    b.doc["meshes"][0]["primitives"][0]["material"] = b.material(
+        pbrMetallicRoughness={"baseColorTexture": {"index": 0}}
+    )
+    return b
+
+
+@pytest.mark.parametrize(
+    "key, value, where",
+    [
+        (("nodes", 0, "mesh"), "0", 'nodes[0].mesh must be an index (a whole number >= 0), got "0"'),
+        (("nodes", 0, "mesh"), 0.0, "nodes[0].mesh must be an index (a whole number >= 0), got 0.0"),
+        (("nodes", 0, "mesh"), True, "nodes[0].mesh must be an index (a whole number >= 0), got true"),
+        (("nodes", 0, "mesh"), -1, "nodes[0].mesh must be an index (a whole number >= 0), got -1"),
+        (("nodes", 0, "camera"), "0", "nodes[0].camera must be an index"),
+        (("nodes", 0, "children"), [1.0], "nodes[0].children[0] must be an index"),
+        (("scenes", 0, "nodes", 0), "0", "scenes[0].nodes[0] must be an index"),
+        (("scene",), "0", 'scene must be an index (a whole number >= 0), got "0"'),
+        (("accessors", 0, "bufferView"), "0", "POSITION).bufferView must be an index"),
+        (("bufferViews", 0, "buffer"), True, "bufferViews[0].buffer must be an index"),
+        (("meshes", 0, "primitives", 0, "indices"), "0", "meshes[0].primitives[0].indices must be an index"),
+        (("meshes", 0, "primitives", 0, "material"), "0", "meshes[0].primitives[0].material must be an index"),
+        (("materials", 0, "pbrMetallicRoughness", "baseColorTexture", "index"), "0", "baseColorTexture.index must"),
+        (("materials", 0, "pbrMetallicRoughness", "baseColorTexture"), {}, "baseColorTexture.index is missing"),
+        (("textures", 0, "source"), -1, "textures[0].source must be an index (a whole number >= 0), got -1"),
+    ],
+)
+def test_an_index_that_is_not_a_whole_number_says_so(tmp_path, key, value, where):
+    b = textured_file(tmp_path)
+    table = b.doc
+    for part in key[:-1]:
+        table = table[part]
+    table[key[-1]] = value
+    with pytest.raises(SceneError) as caught:
+        gltf_scene(b.gltf(tmp_path / "index.gltf"))
+    message = str(caught.value)
+    assert "index.gltf: " in message and where in message and "refers to" not in message, message
+
+
+def test_a_light_index_that_is_not_a_whole_number_says_so(tmp_path):
+    b = small_file(tmp_path)
+    b.light({"type": "point"})
+    b.doc["nodes"][-1]["extensions"]["KHR_lights_punctual"]["light"] = "0"
+    with pytest.raises(SceneError) as caught:
+        gltf_scene(b.glb(tmp_path / "light.glb"))
+    assert 'KHR_lights_punctual.light must be an index (a whole number >= 0), got "0"' in str(caught.value)
+
+
 def test_the_command_line_exits_2_and_writes_nothing(tmp_path):
     file, words = broken_files(tmp_path)["truncated"]
     result = run_cli("render", file, "-o", "out.png", "--mode", "cast", "--width", "8", "--height", "8", cwd=tmp_path)

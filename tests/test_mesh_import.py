@@ -9,7 +9,11 @@ import pytest
 import trimesh
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from PIL import Image as PILImage
 
+from raylume.compile import compile_scene
+from raylume.errors import SceneError
+from raylume.scene.document import scene_from_dict
 from raylume.scene.mesh import MeshData, MeshError, load_mesh, transform_matrix
 from raylume.scene.procedural import bumpy_sphere, vertex_normals
 
@@ -372,6 +376,43 @@ def test_error_face_index_out_of_range(tmp_path):
         "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n"
     )
     assert_mesh_error(write(tmp_path / "oor.ply", ply), "index")
+
+
+TRIANGLE_OBJ = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\n"
+
+
+@pytest.mark.parametrize(
+    ("faces", "words"),
+    [
+        ("f 1 2 0\n", ["line 7 (f 1 2 0)", "vertex index 0 is invalid (OBJ indices start at 1)"]),
+        ("f 1 2 7\n", ["line 7 (f 1 2 7)", "vertex index 7 is out of range (the file has 3 v lines)"]),
+        ("f 1/1 2/2 -4/3\n", ["vertex index -4 is out of range (only 3 v lines come before it)"]),
+    ],
+)
+def test_error_obj_face_index_zero_or_out_of_range_names_line_and_index(tmp_path, faces, words):
+    # trimesh reads index 0 as the first vertex (here: a zero-area face) and says only "an index
+    # that does not exist" for one past the end
+    message = assert_mesh_error(write(tmp_path / "bad.obj", TRIANGLE_OBJ + faces), "could not be parsed as OBJ")
+    assert all(w in message for w in words), message
+
+
+def test_obj_uv_index_out_of_range_is_named_when_a_texture_needs_the_uvs(tmp_path):
+    # trimesh drops every texture coordinate of the file, silently; untextured, the mesh loads
+    mesh = load_mesh(write(tmp_path / "uv.obj", TRIANGLE_OBJ + "f 1/5 2/1 3/1\n"))
+    assert mesh.uvs is None and "texture coordinate index 5 is out of range (the file has 3 vt lines)" in (
+        mesh.uv_problem or ""
+    )
+    assert load_mesh(write(tmp_path / "plain.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")).uv_problem is None
+    PILImage.fromarray(np.zeros((2, 2, 3), np.uint8)).save(tmp_path / "t.png")
+    texture = {"type": "image", "file": "t.png"}
+    scene = scene_from_dict(
+        {"objects": [{"type": "mesh", "file": "uv.obj", "material": {"texture": texture}}]}, source="s.toml"
+    ).with_base_dir(tmp_path)
+    with pytest.raises(SceneError) as caught:
+        compile_scene(scene, source="s.toml")
+    message = str(caught.value)
+    assert message.startswith("s.toml: objects[0].file: the mesh has no texture coordinates"), message
+    assert "its texture coordinates could not be used: line 7 (f 1/5 2/1 3/1): texture coordinate index 5" in message
 
 
 @pytest.mark.parametrize("bad", ["nan", "inf", "-inf"])

@@ -384,6 +384,35 @@ def test_what_raylume_cannot_replace_is_an_error_naming_file_line_and_element(tm
         load(tmp_path, xml(body))
 
 
+AREA = '<emitter type="area"><rgb name="radiance" value="1"/></emitter>'
+
+
+@pytest.mark.parametrize(
+    ("shape", "scale", "message"),
+    [
+        ("sphere", '<scale value="0"/>', r'<shape type="sphere">: its to_world is singular \(it scales by 0\)'),
+        ("sphere", '<scale x="0"/>', r"singular \(it scales by 0\), which would collapse the sphere"),
+        ("disk", '<scale value="0"/>', r'<shape type="disk">: its to_world is singular'),
+        ("cylinder", '<scale y="0"/>', r'<shape type="cylinder">: its to_world is singular'),
+        ("rectangle", '<scale value="0"/>', r'objects\[0\] \(.*scene\.xml:\d+ <shape type="rectangle">\): u and v'),
+        ("envmap", '<scale value="0"/>', r'<emitter type="envmap">: its to_world is singular'),
+    ],
+)
+def test_a_to_world_that_scales_by_0_is_an_error_without_a_numpy_warning(tmp_path, shape, scale, message):
+    (tmp_path / "sky.exr").write_bytes(b"")  # named, not read while loading
+    transform = f'<transform name="to_world">{scale}</transform>'
+    if shape == "envmap":
+        body = f'<emitter type="envmap"><string name="filename" value="sky.exr"/>{transform}</emitter>'
+    else:  # emitting, so that a rectangle's black twin is made too
+        body = f'<shape type="{shape}">{transform}{AREA}</shape>'
+    path = tmp_path / "scene.xml"
+    path.write_text(xml(body))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # numpy's RuntimeWarning on a division by 0 included
+        with pytest.raises(SceneError, match=r"scene\.xml:?\d*: .*" + message):
+            raylume.load(path)
+
+
 def test_other_sensors_and_files_without_a_sensor_are_refused(tmp_path):
     ortho = xml("").replace('type="perspective"', 'type="orthographic"')
     with pytest.raises(SceneError, match="perspective"):

@@ -13,6 +13,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from test_cli import assert_refused, raylume
 
+from raylume.compile import compile_scene
 from raylume.errors import SceneError
 from raylume.scene.checks import SceneWarning
 from raylume.scene.load import load_scene
@@ -210,6 +211,38 @@ def test_command_line_refuses_with_exit_2_and_writes_nothing(tmp_path):
     result = raylume("render", "bad.pbrt", "-o", "out.png", cwd=tmp_path, env=THIS_RAYLUME)
     assert_refused(result, "bad.pbrt:3")
     assert not (tmp_path / "out.png").exists()
+
+
+BAD_PLY = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nend_header\n1 2\n"
+
+
+def test_a_value_the_scene_model_refuses_names_the_pbrt_line(tmp_path):
+    text = CAMERA + 'AttributeBegin\nScale 0 0 0\nShape "sphere"\nAttributeEnd\n'
+    (tmp_path / "bad.pbrt").write_text(text)
+    with pytest.raises(SceneError) as caught:
+        load_scene(tmp_path / "bad.pbrt")
+    message = str(caught.value)
+    assert "objects[0].transform (" in message and 'bad.pbrt:5: Shape "sphere"): matrix is singular' in message
+    # an instanced shape is named by its Shape line inside ObjectBegin/End
+    text = CAMERA + 'Shape "sphere"\nObjectBegin "o"\nShape "sphere"\nObjectEnd\nScale 0 0 0\nObjectInstance "o"\n'
+    (tmp_path / "bad.pbrt").write_text(text)
+    with pytest.raises(
+        SceneError, match=r'objects\[1\]\.transform \(.*bad\.pbrt:5: Shape "sphere"\): matrix is singular'
+    ):
+        load_scene(tmp_path / "bad.pbrt")
+
+
+def test_a_mesh_file_that_fails_when_compiled_names_the_pbrt_line(tmp_path):
+    (tmp_path / "bad.ply").write_text(BAD_PLY)
+    (tmp_path / "bad.pbrt").write_text(CAMERA + 'Shape "sphere"\nShape "plymesh" "string filename" "bad.ply"\n')
+    scene = load_scene(tmp_path / "bad.pbrt")
+    with pytest.raises(SceneError) as caught:
+        compile_scene(scene, source="bad.pbrt")
+    message = str(caught.value)
+    assert message.startswith("bad.pbrt: objects[1].file (") and 'bad.pbrt:4: Shape "plymesh"): Mesh file' in message
+    result = raylume("render", "bad.pbrt", "-o", "out.png", cwd=tmp_path, env=THIS_RAYLUME)
+    assert_refused(result, 'bad.pbrt:4: Shape "plymesh"', "could not be parsed as PLY")
+    assert result.stderr.count("\n") == 1 and not (tmp_path / "out.png").exists()
 
 
 def test_command_line_renders_a_pbrt_file_with_flags_and_warnings(tmp_path):

@@ -320,9 +320,10 @@ def gather_objects(scene: Scene, source: str) -> Gathered:
                 mesh = _load_mesh_object(scene, k, obj, source)
                 mesh_seconds += time.perf_counter() - loading
                 if needs_uvs(obj) and mesh.uvs is None:
+                    why = f"; {mesh.uv_problem}" if mesh.uv_problem else ""  # an OBJ's bad vt index, say
                     raise SceneError(
                         f"{source}: objects[{k}].file: the mesh has no texture coordinates (UVs), "
-                        "which its material's image texture needs"
+                        f"which its material's image texture needs{why}"
                     )
                 geometry.add_mesh(mesh, m, k, matrices, uvs=needs_uvs(obj))
         except OutOfRange as exc:

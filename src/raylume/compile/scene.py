@@ -16,6 +16,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..accel.wide import wide_nbytes
+from ..errors import SceneError
 from ..kernels.frame_stack import roomy_frame_stack
 from ..kernels.geometry.shape_triangle import triangle_tables
 from ..kernels.geometry.shapes import PRIM_KIND, Shape
@@ -24,6 +25,7 @@ from ..kernels.jit_clock import JitClock
 from ..kernels.scene import KernelScene
 from ..kernels.shading.materials import MAT_TRANSPARENCY
 from ..scene.model import Scene
+from ..scene.validation_errors import name_origins
 from .geometry import build_geometry
 from .lights import build_light_table, scene_environment
 from .materials import material_table
@@ -53,8 +55,13 @@ def compile_scene(
     `status` (if given) hears "compiling the BVH builder" when it starts and "building" after."""
     start = time.perf_counter()
     on_compile = None if status is None else (lambda: status(COMPILING_BVH))
-    with JitClock(on_compile) as jit:
-        compiled = _compile_scene(scene, source, accelerate)
+    try:
+        with JitClock(on_compile) as jit:
+            compiled = _compile_scene(scene, source, accelerate)
+    except SceneError as exc:  # 'objects[3].file: ...' of a pbrt or Mitsuba file: name its line too
+        if scene.origins:
+            exc.args = (name_origins(str(exc), scene.origins), *exc.args[1:])
+        raise
     if jit.compiled and status is not None:
         status("building")
     compiled.stats["build_seconds"] = max(time.perf_counter() - start - jit.seconds, 0.0)

@@ -241,15 +241,21 @@ class _Importer:
 
     # -------------------------------------------------------------- the node hierarchy
 
-    def _roots(self) -> list[int]:
+    def _roots(self) -> list[tuple[int, str]]:
+        """(node index, the key path that names it) of the scene's root nodes."""
         f = self.file
         scenes = f.items("scenes")
         if scenes:
             index = f.doc.get("scene", 0)
-            scene = f.item("scenes", index, "scene")
-            return list(scene.get("nodes", []))
-        children = {c for node in f.items("nodes") if isinstance(node, dict) for c in node.get("children", [])}
-        return [n for n in range(len(f.items("nodes"))) if n not in children]
+            nodes = f.item("scenes", index, "scene").get("nodes", [])
+            if not isinstance(nodes, list):
+                f.fail(f"scenes[{index}].nodes is not a list")
+            return [(n, f"scenes[{index}].nodes[{k}]") for k, n in enumerate(nodes)]
+        children = set()
+        for node in f.items("nodes"):
+            if isinstance(node, dict) and isinstance(node.get("children"), list):
+                children.update(c for c in node["children"] if isinstance(c, int))  # others fail in _walk
+        return [(n, f"nodes[{n}]") for n in range(len(f.items("nodes"))) if n not in children]
 
     def _local(self, node: dict, where: str) -> np.ndarray:
         f = self.file
@@ -268,7 +274,7 @@ class _Importer:
         placements: dict[int, list[np.ndarray]] = defaultdict(list)
         cameras: list[tuple[int, GltfCamera]] = []
         lights: list[dict] = []
-        stack = [(n, HANDEDNESS, (), "scene.nodes") for n in reversed(self._roots())]
+        stack = [(n, HANDEDNESS, (), where) for n, where in reversed(self._roots())]
         while stack:
             index, parent, ancestors, where = stack.pop()
             node = f.item("nodes", index, where)
@@ -352,7 +358,7 @@ class _Importer:
     def _light(self, index, world: np.ndarray, where: str) -> dict:
         f = self.file
         table = ((f.doc.get("extensions") or {}).get("KHR_lights_punctual") or {}).get("lights", [])
-        if isinstance(index, bool) or not isinstance(index, int) or not 0 <= index < len(table):
+        if not f.index(index, where) < len(table):
             f.fail(f"{where} refers to light {index}, but the file's KHR_lights_punctual has {len(table)}")
         light = table[index]
         if not isinstance(light, dict):
@@ -399,7 +405,10 @@ class _Importer:
             mesh = self.file.item("meshes", index, "nodes[].mesh")
             parts = []
             for p, prim in enumerate(mesh.get("primitives", [])):
-                data = self._primitive(prim, f"meshes[{index}].primitives[{p}]")
+                where = f"meshes[{index}].primitives[{p}]"
+                if prim.get("material") is not None:  # checked here, where its key path is known
+                    self.file.item("materials", prim["material"], f"{where}.material")
+                data = self._primitive(prim, where)
                 if data is not None:
                     parts.append((data, prim.get("material"), f"{mesh.get('name') or f'meshes[{index}]'}/{p}"))
             self.mesh_parts[index] = parts

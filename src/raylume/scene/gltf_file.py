@@ -102,10 +102,20 @@ class GltfFile:
             self.fail(f"{key} is not a list")
         return value
 
+    def index(self, value, where: str) -> int:
+        """`value` checked to be a list index: JSON has no integer type, so "0", 0.0, true and -1
+        all parse, and each would otherwise read as some other element or a missing one."""
+        if value is None:
+            self.fail(f"{where} is missing; it must be an index (a whole number >= 0)")
+        if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+            text = json.dumps(value)
+            self.fail(f"{where} must be an index (a whole number >= 0), got {text[:60]}{'...' * (len(text) > 60)}")
+        return value
+
     def item(self, key: str, index, where: str) -> dict:
         """`doc[key][index]`, failing with `where` (the referring key path) when it is missing."""
         items = self.items(key)
-        if isinstance(index, bool) or not isinstance(index, int) or not 0 <= index < len(items):
+        if not self.index(index, where) < len(items):
             self.fail(f"{where} refers to {key}[{index}], but the file has {len(items)} {key}")
         value = items[index]
         if not isinstance(value, dict):
@@ -129,7 +139,7 @@ class GltfFile:
     # ------------------------------------------------------------------ binary data
 
     def buffer(self, index, where: str) -> bytes:
-        if isinstance(index, int) and index in self._buffers:
+        if self.index(index, where) in self._buffers:
             return self._buffers[index]
         buf = self.item("buffers", index, where)
         uri = buf.get("uri")

@@ -5,7 +5,6 @@ scene document first, so validation and `--set` overrides are the same for every
 
 from __future__ import annotations
 
-import re
 from pathlib import Path
 
 from ..errors import SceneError
@@ -17,6 +16,7 @@ from .mesh import SUPPORTED_EXTENSIONS
 from .model import Scene
 from .overrides import Overrides, apply_overrides
 from .pbrt_scene import pbrt_scene
+from .validation_errors import name_origins
 
 __all__ = [
     "DEFINE_SUFFIXES",
@@ -45,21 +45,6 @@ def foreign_document(path: Path, defines: dict[str, str] | None) -> tuple[dict, 
     raise SceneError(f"{path}: not a scene file of another renderer ({', '.join(FOREIGN_SUFFIXES)})")
 
 
-def with_origins(message: str, origins: dict[str, str]) -> str:
-    """A validation message whose key paths name the element they came from:
-    'objects[2].radius: ...' -> 'objects[2].radius (scene.xml:12 <shape type="sphere">): ...'."""
-    keys = sorted(origins, key=len, reverse=True)
-
-    def named(match: re.Match) -> str:
-        path = match.group(1)
-        for key in keys:
-            if path == key or path.startswith((f"{key}.", f"{key}[")):
-                return f"{path} ({origins[key]}):"
-        return match.group(0)
-
-    return re.sub(r"(?<=[:;] )([A-Za-z_][\w.\[\]-]*):", named, message)
-
-
 def load_scene(
     path: str | Path,
     overrides: Overrides | None = None,
@@ -84,8 +69,8 @@ def load_scene(
         try:
             scene = scene_from_dict(document, source=source or path, overrides=overrides)
         except SceneError as exc:
-            raise SceneError(with_origins(str(exc), origins)) from None
-        return scene.with_base_dir(path.resolve().parent)
+            raise SceneError(name_origins(str(exc), origins)) from None
+        return scene.with_base_dir(path.resolve().parent).with_origins(origins)
     if path.suffix.lower() in (".gltf", ".glb"):
         return gltf_scene(path, overrides, source=source)
     if path.suffix.lower() in SUPPORTED_EXTENSIONS:

@@ -32,6 +32,11 @@ What trimesh 5.x does and how this module copes
   reads the cache before anything copies the geometry, and bakes node
   transforms itself.
 * UVs come from ``geometry.visual.uv`` (a ``TextureVisuals``), one per vertex.
+* The OBJ reader takes face index 0 (invalid: OBJ counts from 1) as the first element,
+  and drops all texture coordinates when a ``vt`` index is past the end, both silently.
+  Where that shows (only zero-area faces, an IndexError, no UVs from a file with ``vt``
+  lines) the file is scanned for the line at fault (``_obj_index_problem``); an index 0
+  among valid faces is not found, as scanning every OBJ would add a quarter to its load.
 * STL has no shared vertices (every triangle has its own three), so exactly
   coincident STL vertices are merged here (memory would otherwise triple).
 * Computed (area-weighted) normals are accumulated over all vertices at the
@@ -86,6 +91,7 @@ class MeshData(NamedTuple):
     normals: np.ndarray | None  # float32 (V, 3) unit world-space vertex normals, None = flat shading
     uvs: np.ndarray | None  # float32 (V, 2) texture coordinates, None when the file has none
     degenerate: int  # number of zero-area faces dropped
+    uv_problem: str | None = None  # why the file's texture coordinates were dropped (an OBJ's bad vt index)
 
 
 def _vec3(value, name: str) -> np.ndarray:
@@ -196,7 +202,8 @@ def _read_parts(path: Path, file_type: str, shape_index: int = 0):
             json.loads(path.read_bytes())
         scene = trimesh.load_scene(str(path), file_type=file_type, process=False)
     except Exception as exc:  # trimesh raises anything from ValueError to ModuleNotFoundError
-        raise MeshError(f"Mesh file {path} could not be parsed as {file_type.upper()}: {_why(exc)}.") from exc
+        why = (_obj_index_problem(path) if file_type == "obj" and isinstance(exc, IndexError) else None) or _why(exc)
+        raise MeshError(f"Mesh file {path} could not be parsed as {file_type.upper()}: {why}.") from exc
 
     parts = []
     for node in scene.graph.nodes_geometry:
@@ -513,7 +520,79 @@ def load_mesh(
         n, uv = (None if a is None else a[keep] for a in (n, uv))
     if len(v) > np.iinfo(np.int32).max:
         raise MeshError(f"Mesh file {path} has more vertices than int32 face indices can address.")
-    return place_mesh(v, f, n, uv, m, smooth, f"Mesh file {path}")
+    try:
+        mesh = place_mesh(v, f, n, uv, m, smooth, f"Mesh file {path}")
+    except MeshError:  # only zero-area faces: an OBJ's index 0, which trimesh reads as 1, may be why
+        problem = _obj_index_problem(path) if file_type == "obj" else None
+        if problem is None:
+            raise
+        raise MeshError(f"Mesh file {path} could not be parsed as OBJ: {problem}.") from None
+    if uv is None and file_type == "obj":
+        mesh = mesh._replace(uv_problem=_obj_uv_problem(path))
+    return mesh
+
+
+# ---------------------------------------------------------------- OBJ face indices
+
+_OBJ_ELEMENTS = {b"v": "vertex", b"vt": "texture coordinate", b"vn": "normal"}
+_OBJ_CORNER = (b"v", b"vt", b"vn")  # the order of a face corner's v/vt/vn indices
+
+
+def _obj_index_problem(path: Path) -> str | None:
+    """The first face index of an OBJ file that is 0 or past the end of its list, in words, or
+    None. trimesh (5.x) reads index 0 as the first element and drops the texture coordinates of a
+    file with a vt index past the end, saying nothing; this is read only when its result shows
+    that something is wrong (a slow Python pass over the file)."""
+    totals = dict.fromkeys(_OBJ_ELEMENTS, 0)
+    lines = path.read_bytes().splitlines()
+    for line in lines:
+        words = line.split(b"#", 1)[0].split()
+        if words and words[0] in totals:
+            totals[words[0]] += 1
+    seen = dict.fromkeys(_OBJ_ELEMENTS, 0)  # a negative index counts back from the elements before it
+    for number, line in enumerate(lines, 1):
+        words = line.split(b"#", 1)[0].split()
+        if words and words[0] in seen:
+            seen[words[0]] += 1
+        if not words or words[0] != b"f":
+            continue
+        for corner in words[1:]:
+            for key, text in zip(_OBJ_CORNER, corner.split(b"/")):
+                problem = _obj_bad_index(text, totals[key], seen[key], _OBJ_ELEMENTS[key], key.decode())
+                if problem is not None:
+                    shown = line.split(b"#", 1)[0].strip().decode("utf-8", "replace")[:60]
+                    return f"line {number} ({shown}): {problem}"
+    return None
+
+
+def _obj_bad_index(text: bytes, total: int, before: int, name: str, key: str) -> str | None:
+    if not text:
+        return None  # "1//3": no texture coordinate
+    try:
+        i = int(text)
+    except ValueError:
+        return f"{name} index {text.decode('utf-8', 'replace')!r} is not a whole number"
+    if i == 0:
+        return f"{name} index 0 is invalid (OBJ indices start at 1)"
+    if i > total:
+        return f"{name} index {i} is out of range (the file has {total} {key} lines)"
+    if i < 0 and -i > before:
+        return f"{name} index {i} is out of range (only {before} {key} lines come before it)"
+    return None
+
+
+def _obj_uv_problem(path: Path) -> str | None:
+    """Why an OBJ file's texture coordinates were dropped, when it has vt lines, or None."""
+    try:
+        data = path.read_bytes()
+    except OSError:
+        return None
+    if b"vt" not in data:  # the common case, a file without texture coordinates: no slow pass
+        return None
+    problem = _obj_index_problem(path)
+    if problem is not None:
+        return f"its texture coordinates could not be used: {problem}"
+    return "its texture coordinates could not be used (the faces do not refer to them)"
 
 
 def place_mesh(v, f, n, uv, m: np.ndarray, smooth, what: str) -> MeshData:

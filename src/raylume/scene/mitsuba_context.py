@@ -70,6 +70,11 @@ def uniform_scale(node: Node, m: np.ndarray, shape: str) -> float:
     or shear would distort into something raylume's analytic shapes cannot be."""
     a = m[:3, :3]
     s = np.linalg.norm(a, axis=0)
+    if not s.min() > 0:  # a scale of 0: nothing to divide the rotation out by, and no shape left
+        raise SceneError(
+            f"{node.where}: {node.describe()}: its to_world is singular (it scales by 0), which would collapse the "
+            f"{shape}; raylume's {shape} needs a size"
+        )
     r = a / s
     if np.ptp(s) > 1e-6 * s.max() or np.abs(r.T @ r - np.eye(3)).max() > 1e-6:
         raise SceneError(

@@ -99,7 +99,10 @@ def _envmap(ctx: Context, node: Node, props) -> dict:
         raise node.error("needs a filename")
     table: dict = {"file": ctx.file(node, name, ENVIRONMENT_SUFFIXES), "intensity": props.float("scale", 1.0)}
     m = props.transform()
-    r = m[:3, :3] / np.linalg.norm(m[:3, :3], axis=0)
+    scale = np.linalg.norm(m[:3, :3], axis=0)
+    if not scale.min() > 0:  # only the to_world's turn matters, and a scale of 0 leaves no turn to find
+        raise node.error("its to_world is singular (it scales by 0), so it does not say which way the map faces")
+    r = m[:3, :3] / scale
     # raylume's equirectangular lookup at x-mirrored directions is Mitsuba's (u = atan2(x, z) / 2pi
     # + 0.5 against atan2(x, -z) / 2pi): raylume's world-from-environment is world @ R @ mirror
     w = ctx.world[:3, :3] @ r @ MIRROR[:3, :3]

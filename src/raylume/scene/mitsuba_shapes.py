@@ -189,7 +189,10 @@ class Shapes:
                 centre = "position"
             else:  # a similarity's W z is its W^-T z, up to length
                 normal, size, centre = np.asarray(obj["normal"]), 2 * obj["radius"], "center"
-            back = -normal / np.linalg.norm(normal) * BEHIND * size
+            length = np.linalg.norm(normal)
+            if not length > 0:  # a rectangle collapsed by its to_world, which the scene's check refuses
+                continue
+            back = -normal / length * BEHIND * size
             twin = {**obj, centre: [float(c + b) for c, b in zip(obj[centre], back)]}
             twin["material"] = {"type": "diffuse", "color": [0.0, 0.0, 0.0]}
             twins.append(twin)

@@ -1233,6 +1233,9 @@ class Scene(Strict):
 
     # Folder that relative paths (mesh files) are resolved against; set by the loader.
     _base_dir: Path = PrivateAttr(default_factory=Path.cwd)
+    # Where a pbrt or Mitsuba file's tables came from ({"objects[3]": 'scene.pbrt:12: Shape "plymesh"'}),
+    # set by the loader, so that errors found later (an unreadable mesh file) name the source line.
+    _origins: dict[str, str] = PrivateAttr(default_factory=dict)
 
     @model_validator(mode="after")
     def _material_names(self):
@@ -1256,6 +1259,14 @@ class Scene(Strict):
 
     def with_base_dir(self, base_dir: Path) -> Scene:
         self._base_dir = Path(base_dir)
+        return self
+
+    @property
+    def origins(self) -> dict[str, str]:
+        return self._origins
+
+    def with_origins(self, origins: dict[str, str]) -> Scene:
+        self._origins = dict(origins)
         return self
 
     def material_of(self, obj) -> Material:

@@ -93,11 +93,16 @@ class Directive:
     def where(self) -> str:
         return self.token.where
 
-    def fail(self, why: str) -> PbrtError:
-        """The error to raise for this directive: file, line, directive, why."""
+    @property
+    def label(self) -> str:
+        """File, line and directive: 'scene.pbrt:3: Shape "sphere"'."""
         named = self.args and isinstance(self.args[0], str) and "+" in SIGNATURES[self.name]
         kind = f' "{self.args[0]}"' if named else ""
-        return PbrtError(f"{self.where}: {self.name}{kind}: {why}")
+        return f"{self.where}: {self.name}{kind}"
+
+    def fail(self, why: str) -> PbrtError:
+        """The error to raise for this directive: file, line, directive, why."""
+        return PbrtError(f"{self.label}: {why}")
 
 
 def parse_file(path: Path, search_dir: Path | None = None, _stack: tuple[Path, ...] = ()) -> Iterator[Directive]:

@@ -31,6 +31,7 @@ from .pbrt_parse import Directive, parse_file
 from .pbrt_shapes import SUPPORTED, Piece, place, shape_piece
 from .pbrt_tokens import PbrtError
 from .pbrt_transform import from_pbrt_numbers, look_at, rotate, scale, translate
+from .validation_errors import name_origins
 
 DEFAULT_MATERIAL = "pbrt-default"  # pbrt-v4's default: diffuse, reflectance 0.5
 # Directives that only tune how pbrt computes; they change nothing raylume draws.
@@ -88,6 +89,8 @@ class Builder:
         self.camera_directive: Directive | None = None
         self.integrator_directive: Directive | None = None
         self.last: Directive | None = None
+        self.material_directives: dict[str, Directive] = {}  # a document material -> the directive that made it
+        self.origins: dict[str, str] = {}  # a key path ("objects[3]") -> its directive, set by finish()
 
     def warn(self, d: Directive, message: str) -> None:
         """Note a warning; the same one from many directives (10,000 curves) is issued once, with its
@@ -263,6 +266,7 @@ class Builder:
         self.anonymous += 1
         name = f"pbrt-material-{self.anonymous}"
         self.materials_doc[name] = table
+        self.material_directives[name] = d
         self.state.material = name
 
     def _MakeNamedMaterial(self, d, p):
@@ -271,6 +275,7 @@ class Builder:
         if kind is None:
             raise d.fail('needs "string type", e.g. "diffuse"')
         self.materials_doc[name] = self.materials.material(d, p, kind, self._named)
+        self.material_directives[name] = d
         self.named_materials.add(name)
 
     def _named(self, name: str) -> dict | None:
@@ -370,17 +375,31 @@ class Builder:
             )
         camera = self.options.camera_table(lambda m: self.warn(camera_where, m))
         render = self.options.render_table(lambda m: self.warn(self.integrator_directive or self.last, m))
-        objects = [self._object(s, flip @ s.ctm) for s in self.shapes]
+        placed = [(self._object(s, flip @ s.ctm), s.directive) for s in self.shapes]
         for definition in self.definitions.values():
-            objects += self._instanced(definition, flip)
+            placed += self._instanced(definition, flip)
+        objects = [obj for obj, _ in placed]
         lights = [self._flipped_light(light, flip) for group, _ in self.lights for light in group]
         document = {"render": render, "camera": camera, "materials": self._used_materials(objects)}
+        self._note_origins(placed)
         if lights:
             document["lights"] = lights
         document["objects"] = objects
         if self.environment is not None:
             document["environment"] = self._placed_environment(*self.environment, flip)
         return document
+
+    def _note_origins(self, placed: list[tuple[dict, Directive]]) -> None:
+        """Where the document's tables came from, so that a value the scene model refuses later
+        (a singular transform, an unreadable PLY file) names its file, line and directive."""
+        origins = {f"objects[{k}]": d for k, (_, d) in enumerate(placed)}
+        origins.update({f"lights[{k}]": d for k, d in enumerate(d for group, d in self.lights for _ in group)})
+        origins.update({f"materials.{name}": d for name, d in self.material_directives.items()})
+        if self.environment is not None:
+            origins["environment"] = self.environment[1]
+        if self.camera_directive is not None:
+            origins["camera"] = self.camera_directive
+        self.origins = {key: d.label for key, d in origins.items()}
 
     def _placed_environment(self, table: dict, d: Directive, flip: np.ndarray) -> dict:
         table = dict(table)
@@ -430,9 +449,9 @@ class Builder:
             self.warn(s.directive, "ReverseOrientation on an analytic shape is ignored (its surface is two-sided)")
         return obj
 
-    def _instanced(self, definition: Definition, flip: np.ndarray) -> list[dict]:
-        """An object's shapes: meshes as one raylume mesh with instances each, analytic
-        shapes placed once per instance."""
+    def _instanced(self, definition: Definition, flip: np.ndarray) -> list[tuple[dict, Directive]]:
+        """An object's shapes, each with its Shape directive: meshes as one raylume mesh with
+        instances each, analytic shapes placed once per instance."""
         out = []
         if not definition.instances:
             return out
@@ -440,9 +459,9 @@ class Builder:
             if s.piece.kind == "mesh":
                 obj, _ = place(s.piece, s.ctm, s.material, self._needs_uvs(s), s.reverse)
                 obj["instances"] = [{"matrix": (flip @ m).tolist()} for m in definition.instances]
-                out.append(obj)
+                out.append((obj, s.directive))
             else:
-                out += [self._object(s, flip @ m @ s.ctm) for m in definition.instances]
+                out += [(self._object(s, flip @ m @ s.ctm), s.directive) for m in definition.instances]
         return out
 
     @staticmethod
@@ -462,12 +481,17 @@ class Builder:
         return {name: table for name, table in self.materials_doc.items() if name in used}
 
 
+def _read(path: Path) -> tuple[dict, Builder]:
+    builder = Builder()
+    for directive in parse_file(path):
+        builder.run(directive)
+    return builder.finish(), builder
+
+
 def pbrt_document(path: str | Path) -> tuple[dict, list[str]]:
     """(the scene document of a pbrt-v4 file, its warnings). Raises PbrtError."""
-    builder = Builder()
-    for directive in parse_file(Path(path)):
-        builder.run(directive)
-    return builder.finish(), builder.messages
+    document, builder = _read(Path(path))
+    return document, builder.messages
 
 
 def pbrt_scene(path: str | Path, overrides: Overrides | None = None, source: str | None = None) -> Scene:
@@ -476,12 +500,15 @@ def pbrt_scene(path: str | Path, overrides: Overrides | None = None, source: str
     path = Path(path)
     if path.is_dir():
         raise SceneError(f"{path}: is a folder, not a pbrt file")
-    document, messages = pbrt_document(path)
+    document, builder = _read(path)
     document = apply_overrides(document, overrides)
-    scene = scene_from_dict(document, source=source or path, overrides=overrides)
-    for message in messages:
+    try:
+        scene = scene_from_dict(document, source=source or path, overrides=overrides)
+    except SceneError as exc:  # a value the model refuses, named by the directive it came from
+        raise SceneError(name_origins(str(exc), builder.origins)) from None
+    for message in builder.messages:
         warnings.warn(message, SceneWarning, stacklevel=2)
-    return scene.with_base_dir(path.resolve().parent)
+    return scene.with_base_dir(path.resolve().parent).with_origins(builder.origins)
 
 
 __all__ = ["PbrtError", "pbrt_document", "pbrt_scene"]

@@ -8,6 +8,7 @@ that the model can use it (scene/model.py imports this module)."""
 from __future__ import annotations
 
 import difflib
+import re
 import types
 import typing
 from collections.abc import Callable
@@ -52,6 +53,21 @@ def format_validation_error(
         lines.append(f"{where}{describe_error(error, model)}{cause}")
     more = f" (and {len(errors) - MAX_SHOWN} more problems)" if len(errors) > MAX_SHOWN else ""
     return f"{source}: {context}" + "; ".join(lines) + more
+
+
+def name_origins(message: str, origins: dict[str, str]) -> str:
+    """A validation message whose key paths name the element (or pbrt directive) they came from:
+    'objects[2].radius: ...' -> 'objects[2].radius (scene.xml:12 <shape type="sphere">): ...'."""
+    keys = sorted(origins, key=len, reverse=True)
+
+    def named(match: re.Match) -> str:
+        path = match.group(1)
+        for key in keys:
+            if path == key or path.startswith((f"{key}.", f"{key}[")):
+                return f"{path} ({origins[key]}):"
+        return match.group(0)
+
+    return re.sub(r"(?<=[:;] )([A-Za-z_][\w.\[\]-]*):", named, message)
 
 
 # How an untagged union's members read in a message (pydantic names each member in the error's
