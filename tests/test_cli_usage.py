@@ -119,6 +119,7 @@ def test_a_missing_density_grid_names_its_script(tmp_path):
     scene_dir = tmp_path / "example"
     (scene_dir / "smoke").mkdir(parents=True)
     (scene_dir / "smoke.toml").write_text((REPO / "examples" / "smoke.toml").read_text())
+    (scene_dir / "sky.hdr").write_bytes((REPO / "examples" / "sky.hdr").read_bytes())
     (scene_dir / "smoke" / "make_smoke.py").write_text((REPO / "examples" / "smoke" / "make_smoke.py").read_text())
     result = raylume("render", "smoke.toml", "--width", "16", "--height", "12", cwd=scene_dir)
     assert_refused(result, "smoke.toml", "no such file", "python smoke/make_smoke.py")

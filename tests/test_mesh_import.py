@@ -14,7 +14,7 @@ from PIL import Image as PILImage
 from raylume.compile import compile_scene
 from raylume.errors import SceneError
 from raylume.scene.document import scene_from_dict
-from raylume.scene.mesh import MeshData, MeshError, load_mesh, transform_matrix
+from raylume.scene.mesh import MeshData, MeshError, load_mesh, obj_uv_problem, transform_matrix
 from raylume.scene.procedural import bumpy_sphere, vertex_normals
 
 REPO = Path(__file__).resolve().parents[1]
@@ -400,9 +400,9 @@ def test_obj_uv_index_out_of_range_is_named_when_a_texture_needs_the_uvs(tmp_pat
     # trimesh drops every texture coordinate of the file, silently; untextured, the mesh loads
     mesh = load_mesh(write(tmp_path / "uv.obj", TRIANGLE_OBJ + "f 1/5 2/1 3/1\n"))
     assert mesh.uvs is None and "texture coordinate index 5 is out of range (the file has 3 vt lines)" in (
-        mesh.uv_problem or ""
+        obj_uv_problem(tmp_path / "uv.obj") or ""
     )
-    assert load_mesh(write(tmp_path / "plain.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")).uv_problem is None
+    assert obj_uv_problem(write(tmp_path / "plain.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")) is None
     PILImage.fromarray(np.zeros((2, 2, 3), np.uint8)).save(tmp_path / "t.png")
     texture = {"type": "image", "file": "t.png"}
     scene = scene_from_dict(

@@ -14,7 +14,7 @@ from ..kernels.geometry.shapes import ANALYTIC, SHAPE_WIDTH, Shape, is_bounded
 from ..kernels.geometry.shapes import bounds as shape_bounds
 from ..scene.gltf import flatten, load_gltf_object
 from ..scene.instances import InstanceError, instance_matrices
-from ..scene.mesh import MeshData, MeshError, object_matrix_of
+from ..scene.mesh import MeshData, MeshError, obj_uv_problem, object_matrix_of
 from ..scene.model import (
     DEFAULT_MATERIAL,
     F32_MAX,
@@ -30,7 +30,7 @@ from ..scene.model import (
     Sphere,
     Triangle,
 )
-from ..scene.placement import load_mesh_object
+from ..scene.placement import load_mesh_object, mesh_path
 
 # Model classes of the analytic shapes and their kinds (one line per shape).
 ANALYTIC_MODELS = {
@@ -320,7 +320,8 @@ def gather_objects(scene: Scene, source: str) -> Gathered:
                 mesh = _load_mesh_object(scene, k, obj, source)
                 mesh_seconds += time.perf_counter() - loading
                 if needs_uvs(obj) and mesh.uvs is None:
-                    why = f"; {mesh.uv_problem}" if mesh.uv_problem else ""  # an OBJ's bad vt index, say
+                    problem = obj_uv_problem(mesh_path(obj, scene.base_dir)) if obj.file is not None else None
+                    why = f"; {problem}" if problem else ""  # an OBJ's bad vt index, say
                     raise SceneError(
                         f"{source}: objects[{k}].file: the mesh has no texture coordinates (UVs), "
                         f"which its material's image texture needs{why}"

@@ -91,7 +91,6 @@ class MeshData(NamedTuple):
     normals: np.ndarray | None  # float32 (V, 3) unit world-space vertex normals, None = flat shading
     uvs: np.ndarray | None  # float32 (V, 2) texture coordinates, None when the file has none
     degenerate: int  # number of zero-area faces dropped
-    uv_problem: str | None = None  # why the file's texture coordinates were dropped (an OBJ's bad vt index)
 
 
 def _vec3(value, name: str) -> np.ndarray:
@@ -527,8 +526,6 @@ def load_mesh(
         if problem is None:
             raise
         raise MeshError(f"Mesh file {path} could not be parsed as OBJ: {problem}.") from None
-    if uv is None and file_type == "obj":
-        mesh = mesh._replace(uv_problem=_obj_uv_problem(path))
     return mesh
 
 
@@ -581,8 +578,11 @@ def _obj_bad_index(text: bytes, total: int, before: int, name: str, key: str) ->
     return None
 
 
-def _obj_uv_problem(path: Path) -> str | None:
-    """Why an OBJ file's texture coordinates were dropped, when it has vt lines, or None."""
+def obj_uv_problem(path: Path) -> str | None:
+    """Why an OBJ file loaded without texture coordinates although it has vt lines, or None:
+    asked only where a texture needs them (it reads the file again)."""
+    if path.suffix.lower() != ".obj":
+        return None
     try:
         data = path.read_bytes()
     except OSError:
