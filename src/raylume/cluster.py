@@ -149,6 +149,10 @@ def _abandon_half_started_clusters() -> None:
 
 @atexit.register
 def _close_all() -> None:
+    # At exit nothing is wanted any more; but a client whose close timed out (a loaded machine)
+    # still holds its scattered scene, and a local cluster's scheduler, in this process, would
+    # log the scene's loss as an ERROR on stderr as its workers stop, after a render that succeeded.
+    logging.getLogger("distributed.scheduler").setLevel(logging.CRITICAL)
     for client in _clients.values():
         try:
             client.close(timeout=2)
