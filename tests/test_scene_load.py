@@ -232,7 +232,7 @@ WRONG_TYPES = [
     ({"render": {"width": "32"}}, "render.width", 'a number is needed, got "32"'),
     ({"render": {"texture_filter": "off"}}, "render.texture_filter", 'true or false is needed, got "off"'),
     ({"render": {"denoise": 1}}, "render.denoise", "true or false is needed, got 1"),
-    ({"camera": {"fov": "40"}}, "camera.fov", 'a number is needed, got "40"'),
+    ({"camera": {"fov": "40"}}, "camera.fov", "Input should be a valid number (got '40')"),
     (
         {"objects": [{"type": "cylinder", "p0": [0, 0, 0], "p1": [0, 1, 0], "radius": 1, "capped": "no"}]},
         "objects[0].capped",

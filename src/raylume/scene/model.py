@@ -26,6 +26,7 @@ from pydantic import (
     field_validator,
     model_validator,
 )
+from pydantic import Strict as StrictInput  # (Strict below is this module's base model)
 from pydantic_core import PydanticCustomError
 
 from ..errors import SceneError
@@ -77,7 +78,10 @@ def _true_or_false(value):
     return value
 
 
-FiniteFloat = Annotated[float, BeforeValidator(_a_number), Field(allow_inf_nan=False), AfterValidator(_within_float32)]
+# Strict: a string or a boolean is no number (numpy's floats and ints still are); checked in
+# pydantic's core, so inline meshes validate as fast as before (a Python check a value: 3x slower)
+FiniteFloat = Annotated[float, StrictInput(), Field(allow_inf_nan=False), AfterValidator(_within_float32)]
+# (numpy's ints, which a strict int refuses, are whole numbers too)
 WholeNumber = Annotated[int, BeforeValidator(_a_number)]
 Flag = Annotated[bool, BeforeValidator(_true_or_false)]
 Vec3 = tuple[FiniteFloat, FiniteFloat, FiniteFloat]
@@ -786,9 +790,7 @@ class MeshTransform(Transform):
         return self
 
 
-Index3 = tuple[
-    Annotated[WholeNumber, Field(ge=0)], Annotated[WholeNumber, Field(ge=0)], Annotated[WholeNumber, Field(ge=0)]
-]
+Index3 = tuple[Annotated[int, Field(ge=0)], Annotated[int, Field(ge=0)], Annotated[int, Field(ge=0)]]
 
 
 def _array_rows(value, width: int, integers: bool) -> list[tuple]:
