@@ -58,15 +58,23 @@ _component = st.one_of(
 def test_unit_directions_are_numpys_to_the_bit(directions, origins, start):
     """Four rays per vector and the scalar tail alike: each direction is numpy's d / |d| to the
     last bit (NaN where numpy gives NaN), the origins are copied, and the rays counted as bad are
-    exactly those raylume.intersect refused when it checked them in numpy."""
+    exactly the zero directions and those with a component that is not finite. A direction
+    whose squares would overflow or underflow (a component past 2^500, or all below 2^-500) is
+    scaled by a power of two first, so that it still becomes a unit vector (numpy's d / |d| of
+    1e160 is 0, of 1e-170 a division by 0)."""
     n = min(len(directions), len(origins))
     directions, origins = np.ascontiguousarray(directions[:n]), np.ascontiguousarray(origins[:n])
     start = min(start, n - 1)
     got_o, got_d, bad = _unit_chunk(origins, directions, start, n)
     with np.errstate(all="ignore"):
-        norms = np.linalg.norm(directions, axis=1, keepdims=True)
-        want = directions / norms
+        m = np.nanmax(np.abs(directions), axis=1, keepdims=True) if n else np.zeros((0, 1))
+        scaled = directions * np.where(m > 2.0**500, 2.0**-600, np.where(m < 2.0**-500, 2.0**600, 1.0))
+        norms = np.linalg.norm(scaled, axis=1, keepdims=True)
+        want = scaled / norms
     refused = ~((norms[:, 0] > 0) & np.isfinite(directions).all(axis=1) & np.isfinite(origins).all(axis=1))
+    good = ~refused[start:]
+    np.testing.assert_allclose(np.linalg.norm(got_d[good], axis=1), 1.0, rtol=1e-15)  # unit vectors, every one
+    assert (np.sign(got_d[good]) * np.sign(directions[start:][good]) >= 0).all()  # (a tiny one beside a huge: 0)
     np.testing.assert_array_equal(got_d, want[start:])  # NaN equals NaN here
     assert np.array_equal(got_d.view(np.int64)[~np.isnan(got_d)], want[start:].view(np.int64)[~np.isnan(got_d)])
     np.testing.assert_array_equal(got_o, origins[start:])
@@ -115,6 +123,21 @@ def test_intersect_takes_directions_of_any_length(bumpy, threads):
         for g, w in zip(got, want[:3], strict=True):
             np.testing.assert_array_equal(g, w)
         assert np.isfinite(got[0]).sum() > n // 4 and not np.isfinite(got[0]).all()  # hits and misses
+
+
+@pytest.mark.parametrize("scale", [2.0**-1000, 2.0**-530, 2.0**515, 2.0**1000])
+def test_directions_of_any_finite_length_find_the_same_hits(bumpy, scale):
+    """Directions whose squared length overflows or underflows float64 (numpy's norm gives inf
+    or 0) hit what their unit vectors hit, to the bit (scaled by powers of two: the same
+    directions), as the vector path (whole groups of four) and the scalar tail (the last three)
+    alike."""
+    o, d = _camera_rays(64 + 3)
+    want = raylume.intersect(bumpy, o, d)
+    for query_d in (d * scale, d[::-1].copy()[::-1] * scale):
+        got = raylume.intersect(bumpy, o, query_d)
+        for g, w in zip(got, want, strict=True):
+            np.testing.assert_array_equal(g, w)
+    np.testing.assert_array_equal(raylume.occluded(bumpy, o, d * scale), np.isfinite(want[0]))
 
 
 @pytest.mark.parametrize(
@@ -242,10 +265,15 @@ def test_a_negative_tmin_is_refused(bumpy):
     """Rays start at their origin (the box test keeps nothing behind it, as Embree asks tnear >=
     0): a negative or NaN tmin is a ValueError for both queries, numbers and arrays alike."""
     o, d = _camera_rays(16)
-    for tmin in (-1e-9, np.full(16, -1.0), np.where(np.arange(16) == 5, np.nan, 0.0)):
+    for tmin in (-1e-9, np.full(16, -1.0)):
         for query in (raylume.intersect, raylume.occluded):
             with pytest.raises(ValueError, match="tmin must be at least 0"):
                 query(bumpy, o, d, tmin=tmin)
+    # NaN (numpy's reading of None, too) would make every ray miss: refused, for tmin and tmax
+    for span in ({"tmin": np.where(np.arange(16) == 5, np.nan, 0.0)}, {"tmax": np.nan}, {"tmax": None}):
+        for query in (raylume.intersect, raylume.occluded):
+            with pytest.raises(ValueError, match="must not be NaN|not None"):
+                query(bumpy, o, d, **span)
     t, _, _ = raylume.intersect(bumpy, o, d, tmin=np.zeros(16))  # 0 itself is a start
     np.testing.assert_array_equal(t, raylume.intersect(bumpy, o, d)[0])
 

@@ -31,7 +31,12 @@ def ray_spans(tmin, tmax, shape: tuple[int, ...]) -> tuple[np.ndarray, np.ndarra
     """tmin (at least 0) and tmax (numbers, or arrays that broadcast to the rays' leading shape) as the
     kernels read them (span_of): arrays of one value where both are one number (no array the
     size of the rays), else C-contiguous 1-D arrays of one per ray, in the rays' order."""
+    for name, v in (("tmin", tmin), ("tmax", tmax)):
+        if v is None:  # (numpy would read it as NaN, and every ray would miss)
+            raise ValueError(f"{name} must be a number or an array of numbers, not None")
     tmin, tmax = (np.asarray(v, dtype=np.float64) for v in (tmin, tmax))
+    if np.isnan(tmin).any() or np.isnan(tmax).any():
+        raise ValueError("tmin and tmax must not be NaN (tmax may be inf: no limit)")
     # A ray starts at its origin: the box test keeps no part of a box behind it (as Embree
     # asks tnear >= 0), so a negative tmin would find only what its leaves hold behind it.
     if not (tmin >= 0).all():

@@ -186,6 +186,11 @@ def intersect_singly(G, X, origins, directions, spans, outputs, start, end, stac
 
 _F64 = ir.DoubleType()
 _I32, _I64 = ir.IntType(32), ir.IntType(64)
+# Directions whose largest component lies outside [_SMALL, _BIG] are scaled by _UP or _DOWN (powers
+# of two: exact) before their length is taken: their squares would underflow (lose bits, or give a
+# length of 0: "not a direction") or overflow (a length of inf: a unit vector of 0, every ray a miss).
+_BIG, _SMALL = 2.0**500, 2.0**-500
+_DOWN, _UP = 2.0**-600, 2.0**600
 _V4D = ir.VectorType(_F64, 4)
 
 
@@ -244,10 +249,24 @@ def _unit_rays4(typingctx, origins, directions, k, chunk_origins, chunk_directio
         o = vectors(data[0], k3)
         store(o, data[2], r3)
         x, y, z = to_xyz(vectors(data[1], k3))
+        fabs = cgutils.get_or_insert_function(builder.module, ir.FunctionType(_V4D, [_V4D]), "llvm.fabs.v4f64")
+        # a direction whose squares would overflow or underflow is first scaled by a power of
+        # two (exact); any other is scaled by 1, so its bits are numpy's
+        fmax = cgutils.get_or_insert_function(builder.module, ir.FunctionType(_V4D, [_V4D, _V4D]), "llvm.maxnum.v4f64")
+        m = builder.call(
+            fmax, [builder.call(fmax, [builder.call(fabs, [x]), builder.call(fabs, [y])]), builder.call(fabs, [z])]
+        )
+        scale = builder.select(
+            lt(ir.Constant(_V4D, [_BIG] * 4), m),
+            ir.Constant(_V4D, [_DOWN] * 4),
+            builder.select(
+                lt(m, ir.Constant(_V4D, [_SMALL] * 4)), ir.Constant(_V4D, [_UP] * 4), ir.Constant(_V4D, [1.0] * 4)
+            ),
+        )
+        x, y, z = (fmul(c, scale) for c in (x, y, z))
         sqrt = cgutils.get_or_insert_function(builder.module, ir.FunctionType(_V4D, [_V4D]), "llvm.sqrt.v4f64")
         n = builder.call(sqrt, [fadd(fadd(fmul(x, x), fmul(y, y)), fmul(z, z))])
         store(from_xyz(*(builder.fdiv(c, n, flags=EXACT_DIVISION) for c in (x, y, z))), data[3], r3)
-        fabs = cgutils.get_or_insert_function(builder.module, ir.FunctionType(_V4D, [_V4D]), "llvm.fabs.v4f64")
         inf = ir.Constant(_V4D, [math.inf] * 4)
         ok = lt(ir.Constant(_V4D, [0.0] * 4), n)
         for c in (x, y, z, *to_xyz(o)):
@@ -266,10 +285,11 @@ def _unit_rays(origins, directions, first, count, rows, width, chunk_origins, ch
     copied into the chunk's scratch in packet order: four rays of the first row, the four below
     them, and so on, then the rows' last few (one row: in its order; store_hits undoes the
     order). Each direction is divided by its length: numpy's d / np.linalg.norm(d, axis=1) to
-    the bit (IEEE, (x^2 + y^2) + z^2, no FMA: fastmath off), four rays per vector (a scalar
+    the bit (IEEE, (x^2 + y^2) + z^2, no FMA: fastmath off), after a power-of-two scale where
+    its squares would overflow or underflow (_BIG, _SMALL), four rays per vector (a scalar
     loop took ~14 ns a ray, as much as a frame's miss, against ~5). Each row is read in turn,
     as one stream. Returns how many rays have a component that is not finite or a direction of
-    length 0 (or one whose square underflows to it); they are traced all the same, as misses,
+    length 0; they are traced all the same, as misses,
     and raylume.intersect refuses the call."""
     groups = count // TILE  # whole groups of TILE rays, then a narrower one
     rest = count - groups * TILE
@@ -282,6 +302,9 @@ def _unit_rays(origins, directions, first, count, rows, width, chunk_origins, ch
         for i in range(rest):
             k, r = k0 + groups * TILE + i, groups * rows * TILE + row * rest + i
             x, y, z = directions[k, 0], directions[k, 1], directions[k, 2]
+            m = max(abs(x), abs(y), abs(z))
+            scale = _DOWN if m > _BIG else (_UP if m < _SMALL else 1.0)  # as _unit_rays4
+            x, y, z = x * scale, y * scale, z * scale
             n = math.sqrt(x * x + y * y + z * z)
             chunk_directions[r, 0] = x / n
             chunk_directions[r, 1] = y / n
