@@ -97,6 +97,36 @@ def test_the_power_distribution_follows_each_kind_s_power():
     np.testing.assert_allclose(weights, [2 * np.pi * 2.0 * 3.0, 4 * np.pi * 2.0])
 
 
+def test_light_weights_do_not_depend_on_where_the_scene_sits():
+    """Path mode picks a light by its share of the power, and an infinite light's (ambient,
+    environment, directional) is its radiance over the scene's size: the scene's own size, not
+    its distance from the origin. A sphere of radius 1 on a quad, moved 1000 units away, keeps
+    its weights; the ambient light's is its radiance over the bounding sphere of the geometry,
+    written out here (4 pi^2 r^2 L, r half the box's diagonal)."""
+
+    def weights(offset):
+        o = np.asarray(offset, dtype=float)
+        return np.diff(
+            _table(
+                [
+                    {"type": "ambient", "intensity": 0.1},
+                    {"type": "point", "position": (o + [0, 4, 0]).tolist(), "intensity": 5.0},
+                    {"type": "directional", "direction": [0, -1, 0.2], "intensity": 0.5},
+                ],
+                [
+                    {"type": "sphere", "center": (o + [0, 1, 0]).tolist(), "radius": 1},
+                    {"type": "quad", "position": o.tolist(), "u": [4, 0, 0], "v": [0, 0, 4]},  # -2..2 in x, z
+                ],
+            ).light_cdf
+        )
+
+    here, away = weights([0, 0, 0]), weights([1000, 0, 1000])
+    np.testing.assert_allclose(away, here, rtol=1e-9)
+    r = 0.5 * np.linalg.norm([4, 2, 4])  # the box from (-2, 0, -2) to (2, 2, 2)
+    assert np.isclose(here[-1], 4 * np.pi**2 * r**2 * 0.1)  # the summed ambient row comes last
+    assert np.isclose(here[0], 4 * np.pi * 5.0)  # the point light: 4 pi I
+
+
 def test_an_unknown_kind_in_the_table_sends_no_light():
     """Trace mode's flag functions answer False and the area sampler gives no point for a row
     of a kind no module defines."""

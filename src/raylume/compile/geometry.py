@@ -57,6 +57,7 @@ class BuiltGeometry(NamedTuple):
     depth: int
     instances: InstanceArrays
     extent: float  # the largest coordinate magnitude of the geometry (for ray offsets)
+    radius: float  # the bounded geometry's bounding radius, half its box's diagonal (for light powers)
 
 
 def build_geometry(geometry: SceneGeometry, accelerate: bool, source: str) -> BuiltGeometry:
@@ -154,8 +155,23 @@ def build_geometry(geometry: SceneGeometry, accelerate: bool, source: str) -> Bu
         extent.append(np.abs(shapes[r, :3]).max())
     return BuiltGeometry(
         prims, n_world, n_bounded, shapes, np.ascontiguousarray(tri), np.ascontiguousarray(tri_n), tri_smooth,
-        np.ascontiguousarray(tri_uv), bvh, depth, inst, float(max(extent)),
+        np.ascontiguousarray(tri_uv), bvh, depth, inst, float(max(extent)), _radius(lo, hi, inst.box, max(extent)),
     )  # fmt: skip
+
+
+def _radius(lo: np.ndarray, hi: np.ndarray, instances_box: np.ndarray, extent: float) -> float:
+    """Half the diagonal of the bounded geometry's box: how far light from an infinite source
+    (ambient, environment, directional) falls on the scene, for the lights' sampling weights.
+    The largest coordinate magnitude would grow with the scene's distance from the origin: moved
+    1000 units away, a small scene's ambient light outweighed its point light 10^5 times, and
+    path mode all but never sampled the point light. Scenes of unbounded shapes alone: `extent`."""
+    box_lo, box_hi = instances_box[0].copy(), instances_box[1].copy()
+    if len(lo):
+        box_lo = np.minimum(box_lo, lo.min(axis=0))
+        box_hi = np.maximum(box_hi, hi.max(axis=0))
+    if not (box_lo <= box_hi).all():
+        return float(extent)
+    return float(0.5 * np.linalg.norm(box_hi - box_lo))
 
 
 def _fill_prims(prims: np.ndarray, slots: np.ndarray, rows: np.ndarray, analytic: _Analytic) -> None:

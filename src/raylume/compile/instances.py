@@ -81,6 +81,7 @@ class InstanceArrays(NamedTuple):
     index: np.ndarray  # int32 (N, 2): BLAS root node, index within its object
     meshes: np.ndarray  # int64 (K, 3): each instanced mesh's first row of `prims`, rows, BLAS root
     extent: float  # largest world coordinate of the instances' boxes
+    box: np.ndarray  # float64 (2, 3): the instances' world box, lo then hi (+inf, -inf where none)
     stack: int  # traversal stack entries a TLAS walk with a BLAS walk on top can need
     node_bytes: int  # the node arrays and the primitive table's kind and row columns
     stats: dict
@@ -101,6 +102,7 @@ def empty_instances() -> InstanceArrays:
         index=np.zeros((0, 2), np.int32),
         meshes=np.zeros((0, 3), np.int64),
         extent=0.0,
+        box=np.array([[np.inf] * 3, [-np.inf] * 3]),
         stack=0,
         node_bytes=0,
         stats={"instances": 0},
@@ -266,6 +268,7 @@ def build_instances(meshes: list, accelerate: bool = True) -> InstanceArrays:
         index=index,
         meshes=np.array([(f, n, r[0] + n_tlas) for (f, n), r in zip(firsts, roots)], np.int64).reshape(-1, 3),
         extent=float(max(np.abs(lo).max(), np.abs(hi).max())),
+        box=np.array([lo.min(axis=0), hi.max(axis=0)], dtype=np.float64),
         stack=stack_needed(tlas_depth) + stack_needed(blas_depth),
         node_bytes=node_bytes,
         stats={

@@ -96,7 +96,7 @@ def build_light_table(
     triangles,
     materials,
     env: Environment,
-    extent: float,
+    radius: float,
     candidates=None,
     instances=None,
 ) -> LightTable:
@@ -109,7 +109,7 @@ def build_light_table(
     rows: list[np.ndarray] = []
     kinds: list[int] = []
     power: list[float] = []
-    radius = max(extent, 1e-9)  # the scene's bounding radius, roughly: a directional light's reach
+    radius = max(radius, 1e-9)  # the scene's bounding radius: an infinite light's reach (geometry._radius)
     lights = [(i, light) for i, light in enumerate(scene.lights) if light.type != ambient.NAME]
     # area lights (the kinds rays see) first: the ray test loops over them; then the rest
     lights.sort(key=lambda item: not LI.BY_NAME[item[1].type].VISIBLE)

@@ -87,7 +87,7 @@ def _compile_scene(scene: Scene, source: str, accelerate: bool) -> CompiledScene
     world = np.ones(len(g.prims), dtype=bool)
     world[g.n_world : g.n_bounded] = False
     lights = build_light_table(
-        scene, g.prims, g.shapes, g.triangles, mat_rows, environment, g.extent, candidates=world, instances=g.instances
+        scene, g.prims, g.shapes, g.triangles, mat_rows, environment, g.radius, candidates=world, instances=g.instances
     )
     inst = g.instances
     kernel = KernelScene(
