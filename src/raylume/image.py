@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import OutputError
+from .scene.model import MAX_EXPOSURE
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".npy", ".exr", ".hdr")
 # Outputs that hold encoded (display) values; the others store linear floats as rendered.
@@ -334,6 +335,11 @@ class Image:
         encoding: str = "clamp",
         exposure: float = 0.0,
     ):
+        # A pixel past float32's range (a light of 1e38, or a tiny distance to a bright point) is
+        # the largest float32, not inf: no output image holds NaN or inf (NaN samples are dropped
+        # before they reach the film). One pass over the image; a copy only where it is needed.
+        if rgb.dtype.kind == "f" and not np.isfinite(rgb).all():
+            rgb = np.nan_to_num(rgb, nan=0.0, posinf=np.finfo(rgb.dtype).max, neginf=-np.finfo(rgb.dtype).max)
         self.rgb = rgb
         self.aovs = aovs or {}
         self.stats = stats or {}
@@ -363,6 +369,15 @@ class Image:
         """Write .png (8 or 16 bits) or .jpg/.jpeg (8 bits): exposure, then encoding; .npy
         (float32 linear), .exr (float linear; `layers` names AOVs to add as layers, see
         EXR_LAYERS) or .hdr (Radiance RGBE, linear), atomically."""
+        layers = [layers] if isinstance(layers, str) else list(layers)  # one name is a list of one
+        if exposure is not None and (
+            isinstance(exposure, bool)
+            or not isinstance(exposure, (int, float, np.integer, np.floating))
+            or not -MAX_EXPOSURE <= exposure <= MAX_EXPOSURE  # (NaN fails too)
+        ):
+            raise ValueError(
+                f"exposure must be a number of stops from -{MAX_EXPOSURE} to {MAX_EXPOSURE}, got {exposure!r}"
+            )
         missing = [name for name in layers if name not in self.aovs]
         if missing:
             raise OutputError(f"{path}: the image has no {', '.join(missing)} AOV to write as a layer")
