@@ -12,9 +12,10 @@ or in tiles on a cluster (cluster.py).
 from __future__ import annotations
 
 import functools
+import numbers
 import os
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING
 
 import numba
@@ -254,6 +255,8 @@ class Session:
         one render of total_spp. `aovs`: arrays of the film's window (as
         render_window.allocate_aovs makes them) that the pass also fills with the primary-hit
         AOVs (depth, normal, object, prim, albedo, instance). Returns {"rays", "render_seconds"}."""
+        if isinstance(spp, bool) or not isinstance(spp, numbers.Integral) or spp < 1:
+            raise ValueError(f"spp must be a whole number of samples per pixel, at least 1 (got {spp!r})")
         if film.spp + spp > film.total_spp:
             raise ValueError(
                 f"the film takes {film.total_spp} samples per pixel; {film.spp} are in and {spp} more would exceed it"
@@ -280,6 +283,8 @@ class Session:
             return self.scene.camera
         if isinstance(camera, Camera):
             return camera
+        if not isinstance(camera, Mapping):
+            raise TypeError(f"camera must be a raylume.Camera or a dict of camera keys, got {camera!r}")
         try:
             return Camera.model_validate({**self.scene.camera.model_dump(), **dict(camera)})
         except ValidationError as exc:

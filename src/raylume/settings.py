@@ -8,6 +8,7 @@ session, the cluster, animations and the viewer are handed.
 
 from __future__ import annotations
 
+import numbers
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -106,6 +107,8 @@ def check_threads(threads: int | None, flags: bool = False) -> int:
     most = numba.config.NUMBA_NUM_THREADS
     if threads is None:
         return most
+    if isinstance(threads, bool) or not isinstance(threads, numbers.Integral):
+        raise ValueError(f"threads must be a whole number between 1 and {most}, got {threads!r}")
     if not 1 <= threads <= most:
         if flags:
             raise OutputError(f"--threads {threads}: must be between 1 and {most}")
@@ -118,7 +121,13 @@ def check_crop(crop, width: int, height: int, source: str = "<scene>") -> tuple[
     for None; a window outside the image or empty is a RaylumeError."""
     if crop is None:
         return 0, width, 0, height
-    x0, x1, y0, y1 = (int(c) for c in crop)
+    try:
+        values = () if isinstance(crop, (str, bytes)) else tuple(crop)
+    except TypeError:
+        values = ()
+    if len(values) != 4 or not all(isinstance(c, numbers.Integral) and not isinstance(c, bool) for c in values):
+        raise RaylumeError(f"{source}: crop must be four whole numbers (x0, x1, y0, y1), got {crop!r}")
+    x0, x1, y0, y1 = (int(c) for c in values)
     if not (0 <= x0 < x1 <= width and 0 <= y0 < y1 <= height):
         raise RaylumeError(
             f"{source}: crop {x0}:{x1},{y0}:{y1} must be a non-empty window of the {width} x {height} image "

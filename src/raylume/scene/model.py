@@ -37,6 +37,7 @@ MAX_SIDE = 16384
 MAX_SPP = 4096
 MAX_DEPTH = 64
 MAX_LIGHT_SAMPLES = 1024
+MAX_EXPOSURE = 64  # stops either way: 2^64 is past any display's range
 PIXEL_FILTERS = ("box", "gaussian", "mitchell")
 
 
@@ -172,7 +173,7 @@ class RenderSettings(Strict):
     = C = 1/3, radius 2 px)."""
     # Exposure in stops: 8-bit outputs (PNG) are encoded from rgb * 2**exposure; float outputs
     # (.exr, .hdr, .npy) stay as rendered.
-    exposure: FiniteFloat = Field(0.0, ge=-64, le=64)
+    exposure: FiniteFloat = Field(0.0, ge=-MAX_EXPOSURE, le=MAX_EXPOSURE)
     """Exposure in stops for 8-bit outputs (PNG, JPEG), encoded from rgb x 2**exposure; float outputs stay as
     rendered."""
     # Filter texture lookups over each pixel's footprint (ray cones; mip-maps for images), so
@@ -1238,6 +1239,9 @@ class Scene(Strict):
     # Where a pbrt or Mitsuba file's tables came from ({"objects[3]": 'scene.pbrt:12: Shape "plymesh"'}),
     # set by the loader, so that errors found later (an unreadable mesh file) name the source line.
     _origins: dict[str, str] = PrivateAttr(default_factory=dict)
+    # Frozen, but its tables (materials) are dicts: not hashable. Said by the class, rather than
+    # as pydantic's hash of its fields failing with "unhashable type: 'dict'".
+    __hash__ = None  # type: ignore[assignment]
 
     @model_validator(mode="after")
     def _material_names(self):
@@ -1311,6 +1315,8 @@ class Scene(Strict):
     def with_camera(self, camera: Camera | dict | None = None, **keys) -> Scene:
         """A copy with another camera: a Camera, or camera keys changing the current one
         (`scene.with_camera(fov=40)`, `scene.with_camera({"position": [0, 1, -3]})`)."""
+        if camera is not None and not isinstance(camera, (Camera, dict)):
+            raise TypeError(f"camera must be a raylume.Camera or a dict of camera keys, got {camera!r}")
         table = camera.model_dump() if isinstance(camera, Camera) else dict(camera or {})
         return self.replace(camera={**table, **keys})
 

@@ -13,6 +13,7 @@ pixels: deterministic and free of write races. Box is the plain jittered pixel o
 """
 
 import math
+import numbers
 
 import numpy as np
 from numba import njit
@@ -157,8 +158,11 @@ class Film:
         total_spp: int = 1,
         window: tuple[int, int, int, int] | None = None,
     ):
-        if total_spp < 1:
-            raise ValueError("total_spp must be at least 1")
+        for name, value in (("width", width), ("height", height), ("total_spp", total_spp)):
+            if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1:
+                raise ValueError(f"{name} must be a whole number, at least 1 (got {value!r})")
+        if pixel_filter not in PIXEL_FILTERS:
+            raise ValueError(f"pixel_filter must be one of {', '.join(PIXEL_FILTERS)} (got {pixel_filter!r})")
         x0, x1, y0, y1 = window if window is not None else (0, width, 0, height)
         if not (0 <= x0 < x1 <= width and 0 <= y0 < y1 <= height):
             raise ValueError(f"window {window} must lie inside the {width} x {height} image and be non-empty")
