@@ -289,6 +289,14 @@ def test_numbers_of_the_right_type_still_pass():
     assert (s.render.width, s.render.height, s.render.denoise, s.camera.fov) == (32, 24, False, 40.0)
 
 
+def test_keys_that_are_no_identifiers_stay_in_the_key_path():
+    """A material's name may be any text; only pydantic's names of union members are dropped."""
+    with pytest.raises(SceneError) as info:
+        scene_from_dict({"materials": {"my-glass": {"ior": -1}, "glass 2": {"colr": 1}}}, source="s.toml")
+    assert str(info.value).startswith("s.toml: materials.my-glass.ior: Input should be greater than 0")
+    assert "materials.glass 2.colr: unknown key 'colr'" in str(info.value)
+
+
 def test_a_union_member_the_value_has_reports_its_own_problem():
     """instances given as a list: the list's problems, named by index, not the string member's."""
     bad = [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]

@@ -84,9 +84,13 @@ _MEMBER_WORDS = {
 _WRAPPERS = ("function-after[", "function-before[", "function-wrap[", "function-plain[")
 
 
+_MEMBER = re.compile(r"[a-z][a-z-]*\[.*\]")  # 'tuple[float, float]', 'function-after[_check(), float]'
+
+
 def _is_member(part) -> bool:
-    """Whether a location step names an untagged union's member rather than a key."""
-    return isinstance(part, str) and not part.startswith("<") and (not part.isidentifier() or part in _MEMBER_WORDS)
+    """Whether a location step names an untagged union's member rather than a key (a material's
+    name may be any text: 'my-glass' is a key)."""
+    return isinstance(part, str) and (part in _MEMBER_WORDS or _MEMBER.fullmatch(part) is not None)
 
 
 def _member_word(part: str) -> str:
