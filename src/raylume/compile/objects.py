@@ -68,9 +68,9 @@ def _mesh_extent(vertices: np.ndarray, instances: np.ndarray | None) -> float:
     `instances` ((N, 3, 4) matrices) the corners of its box through each matrix."""
     if not len(vertices):
         return 0.0
+    lo, hi = vertices.min(axis=0), vertices.max(axis=0)  # (no (V, 3) temporary of np.abs)
     if instances is None:
-        return float(np.abs(vertices).max())
-    lo, hi = vertices.min(axis=0), vertices.max(axis=0)
+        return float(max(-lo.min(), hi.max()))
     corners = np.array([[(hi if (c >> a) & 1 else lo)[a] for a in range(3)] + [1.0] for c in range(8)])
     return float(np.abs(np.asarray(instances)[:, :3, :] @ corners.T).max())
 
