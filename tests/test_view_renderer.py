@@ -299,3 +299,58 @@ def test_bdpt_films_are_one_band_and_equal_its_renders():
         for k in range(r._job.done_spp // 16)
     )
     np.testing.assert_array_equal(r._job.done_sum, expected)
+
+
+def test_bad_messages_get_clear_answers_and_the_view_keeps_serving():
+    """A camera body or a page message that is malformed, nested too deeply, of the wrong type
+    or too large to compute with gets an answer naming what is wrong (400, or an {"error"}
+    message), not a traceback and a dropped connection; the server serves on."""
+    import asyncio
+    import urllib.error
+
+    from tornado.httpclient import HTTPRequest
+    from tornado.websocket import websocket_connect
+
+    url = raylume.view("seed", width=24, height=18, mode="cast", threads=1, show=False)
+    try:
+        base, _, token = url.partition("/?token=")
+        deep = b'{"fov": ' + b"[" * 2000 + b"]" * 2000 + b"}"
+        request = urllib.request.Request(f"{base}/camera?token={token}", data=deep, method="POST")
+        with pytest.raises(urllib.error.HTTPError) as refused:
+            urllib.request.urlopen(request, timeout=30)
+        assert refused.value.code == 400 and b"nested too deeply" in refused.value.read()
+
+        messages = {
+            json.dumps({"type": "dolly", "delta": 1e7}): "dolly: 'delta' must be a number from -1e+06 to 1e+06",
+            '{"type": "orbit", "dx": 1' + "0" * 400 + ', "dy": 0}': "orbit: 'dx' must be a number",
+            json.dumps({"type": "pan", "dx": 0, "dy": [[[1]]]}): "pan: 'dy' must be a number",
+            json.dumps({"type": "orbit"}): "orbit: 'dx' must be a number from -1e+06 to 1e+06, got null",
+            json.dumps({"type": "orbit", "dx": 1, "dy": None}): "orbit: 'dy' must be a number",
+            json.dumps([]): "a message is a JSON object with a 'type'",
+            json.dumps({"type": "mode"}): "mode: 'mode' must be a mode's name, got null",
+            json.dumps({"type": "denoise", "on": 1}): "denoise: 'on' must be true or false, got 1",
+            '{"type": ' + "[" * 2000 + "]" * 2000 + "}": "nested too deeply",
+            json.dumps({"type": "dolly", "delta": 1e6}): "camera",  # pushed past float32's range: refused
+        }
+
+        async def talk():
+            ws = base.replace("http://", "ws://") + f"/ws?token={token}"
+            conn = await websocket_connect(HTTPRequest(ws, headers={"Origin": base}, connect_timeout=10))
+            answers = []
+            for message in messages:
+                await conn.write_message(message)
+                while isinstance(answer := await asyncio.wait_for(conn.read_message(), 30), bytes):
+                    pass  # frames
+                answers.append(json.loads(answer)["error"])
+            conn.close()
+            return answers
+
+        for (message, words), answer in zip(messages.items(), asyncio.run(talk()), strict=True):
+            assert words in answer, (message[:60], answer)
+        body = json.dumps({"fov": 40}).encode()
+        moved = json.loads(
+            urllib.request.urlopen(urllib.request.Request(f"{base}/camera?token={token}", body), timeout=30).read()
+        )
+        assert moved["camera"]["fov"] == 40
+    finally:
+        url.stop()

@@ -99,5 +99,7 @@ def dolly(position: Vec, look_at: Vec, delta: float) -> Vec:
     exp(delta * DOLLY_PER_UNIT), never below MIN_DISTANCE."""
     v = _sub(position, look_at)
     distance = _norm(v)
-    new = max(distance * math.exp(delta * DOLLY_PER_UNIT), MIN_DISTANCE)
+    # (the exponent held to +-100, e^100 ~ 1e43: a wheel turn of any size stays a finite number,
+    # and a camera pushed past the scene's range is refused as a camera value)
+    new = max(distance * math.exp(max(-100.0, min(100.0, delta * DOLLY_PER_UNIT))), MIN_DISTANCE)
     return _add(look_at, _scale(v, new / distance))

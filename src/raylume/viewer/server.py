@@ -163,6 +163,14 @@ class _Base(tornado.web.RequestHandler):
         self.set_header("Content-Type", "application/json")
         self.finish(json.dumps(value))
 
+    def log_exception(self, typ, value, tb) -> None:
+        """Tornado's own names the request's URL, which holds the token: the path alone."""
+        if isinstance(value, tornado.web.HTTPError):
+            return
+        tornado.log.app_log.error(
+            "uncaught exception %s %s", self.request.method, self.request.path, exc_info=(typ, value, tb)
+        )
+
 
 class NotFoundHandler(_Base):
     def prepare(self) -> None:
@@ -204,6 +212,9 @@ class CameraHandler(_Base):
             updates = json.loads(self.request.body or b"{}")
             if not isinstance(updates, dict):
                 raise ValueError("expected a JSON object")
+        except RecursionError:
+            self.json({"error": "POST /camera: the body is nested too deeply"}, 400)
+            return
         except ValueError as exc:
             self.json({"error": f"POST /camera: the body is not a JSON object ({exc})"}, 400)
             return
@@ -212,7 +223,31 @@ class CameraHandler(_Base):
         except RaylumeError as exc:
             self.json({"error": str(exc)}, 400)
             return
+        except (RecursionError, OverflowError, ValueError, TypeError) as exc:  # past the model's own checks
+            self.json({"error": f"POST /camera: {exc}"}, 400)
+            return
         self.json({"camera_version": version, "camera": self.server.renderer.stats()["camera"]})
+
+
+# The largest gesture a message may carry (pixels dragged, wheel units): far past any drag, and
+# small enough that the camera's arithmetic stays finite
+GESTURE_LIMIT = 1e6
+
+
+def _shown(value) -> str:
+    text = json.dumps(value)
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
+def _gesture_number(m: dict, kind: str, key: str) -> float:
+    """m[key] as a gesture's size: a finite number within GESTURE_LIMIT, else a ValueError
+    naming the message type and the key."""
+    value = m.get(key)
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not abs(value) <= GESTURE_LIMIT:
+        raise ValueError(
+            f"{kind}: {key!r} must be a number from -{GESTURE_LIMIT:g} to {GESTURE_LIMIT:g}, got {_shown(value)}"
+        )
+    return float(value)
 
 
 class FrameSocket(tornado.websocket.WebSocketHandler):
@@ -245,23 +280,32 @@ class FrameSocket(tornado.websocket.WebSocketHandler):
         {"type": "denoise", "on": true | false}."""
         renderer = self.server.renderer
         try:
-            m = json.loads(message)
+            try:
+                m = json.loads(message)
+            except RecursionError:
+                raise ValueError("the message is nested too deeply") from None
+            if not isinstance(m, dict):
+                raise ValueError("a message is a JSON object with a 'type'")
             kind = m.get("type")
             if kind in ("orbit", "pan"):
-                renderer.gesture(kind, dx=float(m["dx"]), dy=float(m["dy"]))
+                renderer.gesture(kind, dx=_gesture_number(m, kind, "dx"), dy=_gesture_number(m, kind, "dy"))
             elif kind == "dolly":
-                renderer.gesture("dolly", delta=float(m["delta"]))
+                renderer.gesture("dolly", delta=_gesture_number(m, kind, "delta"))
             elif kind == "reset":
                 renderer.reset_camera()
             elif kind == "mode":
-                renderer.set_mode(str(m["mode"]))
+                if not isinstance(m.get("mode"), str):
+                    raise ValueError(f"mode: 'mode' must be a mode's name, got {_shown(m.get('mode'))}")
+                renderer.set_mode(m["mode"])
             elif kind == "denoise":
-                if not isinstance(m["on"], bool):
-                    raise ValueError("denoise: 'on' must be true or false")
+                if not isinstance(m.get("on"), bool):
+                    raise ValueError(f"denoise: 'on' must be true or false, got {_shown(m.get('on'))}")
                 renderer.set_denoise(m["on"])
             else:
-                raise ValueError(f"unknown message type {kind!r}")
-        except (ValueError, KeyError, TypeError, AttributeError, RaylumeError) as exc:
+                raise ValueError(
+                    f"unknown message type {_shown(kind)}; expected orbit, pan, dolly, reset, mode or denoise"
+                )
+        except (ValueError, OverflowError, RaylumeError) as exc:
             self.write_message(json.dumps({"error": str(exc)}))
 
     def offer(self, frame: Frame, extra: dict) -> None:
