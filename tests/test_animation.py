@@ -210,3 +210,50 @@ def test_frame_k_still_and_refusals(tmp_path, raylume):
     assert_refused(raylume("render", "flight.toml", "-o", "k.png", "--frame", 6), "frame 6")
     assert_refused(raylume("render", "still.toml", "-o", "v.mp4"), "[animation]")
     assert not (tmp_path / "v.mp4").exists()
+
+
+def test_a_gif_holds_a_long_still_for_its_longest_delay(tmp_path):
+    """A GIF's delay is 16 bits of 1/100 s (655.35 s), and Pillow merges a run of identical frames
+    into one, adding their delays: 700 identical frames at 1 fps (and one frame at 0.001 fps)
+    had failed with Pillow's OverflowError after every frame was rendered. They are written, the
+    run shortened to 655.35 s with a warning; frames that differ keep their delay."""
+    from raylume.video import VideoWriter
+
+    red, blue = (np.zeros((8, 8, 3), np.uint8) + np.uint8(c) for c in ((200, 0, 0), (0, 0, 200)))
+    path = tmp_path / "still.gif"
+    writer = VideoWriter(path, 8, 8, fps=1.0)
+    for frame in [blue] + [red] * 700 + [blue]:
+        writer.write(frame)
+    with pytest.warns(rl.SceneWarning, match=r"frames 1\.\.700 \(the same image\) would show for 700 s"):
+        writer.close()
+    with PILImage.open(path) as gif:
+        delays = []
+        for k in range(gif.n_frames):
+            gif.seek(k)
+            delays.append(gif.info["duration"])
+    assert delays[0] == 1000 and delays[-1] == 1000 and 650000 <= delays[1] <= 655350 and len(delays) == 3
+    assert (path.stat().st_mode & 0o777) == 0o644 & ~_umask()
+
+    slow = VideoWriter(tmp_path / "slow.gif", 8, 8, fps=0.001)
+    slow.write(red)
+    with pytest.warns(rl.SceneWarning, match="frame 0 would show for 1000 s"):
+        slow.close()
+
+
+def test_a_partial_video_is_readable_as_a_finished_one(tmp_path):
+    """--partial keeps the frames written so far under OUT.partial.EXT, with a finished
+    video's permissions (mkstemp's 0600 had stayed)."""
+    from raylume.video import VideoWriter
+
+    writer = VideoWriter(tmp_path / "v.gif", 8, 8, fps=10.0)
+    writer.write(np.zeros((8, 8, 3), np.uint8))
+    kept = writer.abort(keep_as=tmp_path / "v.partial.gif")
+    assert kept.exists() and (kept.stat().st_mode & 0o777) == 0o644 & ~_umask()
+
+
+def _umask() -> int:
+    import os
+
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask

@@ -11,15 +11,25 @@ from __future__ import annotations
 import os
 import re
 import tempfile
+import warnings
 from pathlib import Path
 
 import numpy as np
 
 from .errors import OutputError
 from .image import IMAGE_SUFFIXES, check_output_path, check_writable_folder
+from .scene.checks import SceneWarning
 
 VIDEO_SUFFIXES = (".mp4", ".gif")
 GIF_COLORS = 64
+GIF_MAX_DELAY = 655350  # milliseconds: a GIF frame's delay is 16 bits of 1/100 s
+
+
+def _same_gif_frame(a, b) -> bool:
+    """Whether two quantized frames are the same image (Pillow would merge them)."""
+    return a.tobytes() == b.tobytes() and a.getpalette() == b.getpalette()
+
+
 CRF = 18  # H.264 constant rate factor: 18 is near visually lossless (0 lossless, 51 worst)
 _PATTERN = re.compile(r"%0?(\d*)d")
 
@@ -113,10 +123,42 @@ class VideoWriter:
             self._ffmpeg = None
         elif self._gif:
             first, *rest = self._gif
-            duration = max(int(round(1000.0 / self.fps)), 10)  # GIF delays are in 1/100 s
-            first.save(self.tmp, format="GIF", save_all=True, append_images=rest, duration=duration, loop=0,
-                       optimize=True)  # fmt: skip
+            try:
+                first.save(self.tmp, format="GIF", save_all=True, append_images=rest, duration=self._gif_delays(),
+                           loop=0, optimize=True)  # fmt: skip
+            except OverflowError:  # (frames Pillow merges that _gif_delays did not see as the same)
+                raise OutputError(
+                    f"{self.path}: a GIF shows one image for at most {GIF_MAX_DELAY / 1000:g} s; "
+                    "write an .mp4 for this animation"
+                ) from None
             self._gif = []
+
+    def _gif_delays(self) -> list[int]:
+        """Each frame's delay in milliseconds (GIF delays are in 1/100 s, at least 10 ms). Pillow
+        merges a run of identical frames into one, adding their delays, and a GIF holds at most
+        GIF_MAX_DELAY: a run (or one frame, at a low fps) that would show longer is shortened to
+        that, with a warning, rather than failing after every frame is rendered."""
+        delay = max(int(round(1000.0 / self.fps)), 10)
+        delays, shortened, start = [], [], 0
+        for i in range(1, len(self._gif) + 1):
+            if i < len(self._gif) and _same_gif_frame(self._gif[i - 1], self._gif[i]):
+                continue
+            run = i - start
+            each = delay if run * delay <= GIF_MAX_DELAY else max(GIF_MAX_DELAY // run // 10 * 10, 10)
+            if each < delay:
+                shortened.append((start, i - 1, run * delay / 1000))
+            delays += [each] * run
+            start = i
+        if shortened:
+            a, b, seconds = shortened[0]
+            frames = f"frame {a}" if a == b else f"frames {a}..{b} (the same image)"
+            warnings.warn(
+                f"{self.path}: {frames} would show for {seconds:g} s, and a GIF shows one image for at most "
+                f"{GIF_MAX_DELAY / 1000:g} s: shortened to that ({len(shortened)} such); .mp4 keeps the timing",
+                SceneWarning,
+                stacklevel=2,
+            )
+        return delays
 
     def close(self) -> Path:
         try:
@@ -134,6 +176,7 @@ class VideoWriter:
         try:
             if keep_as is not None and self.frames:
                 self._finish()
+                os.chmod(self.tmp, 0o644 & ~_umask())  # (mkstemp made it 0600), as close() does
                 os.replace(self.tmp, keep_as)
                 return keep_as
         except Exception:
