@@ -8,6 +8,7 @@ import select
 import signal
 import subprocess
 import sys
+import time
 import typing
 from pathlib import Path
 
@@ -143,6 +144,45 @@ def test_view_exits_130_on_ctrl_c_as_render_does(tmp_path):
         if proc.poll() is None:
             proc.kill()
             proc.wait()
+
+
+@pytest.mark.parametrize(
+    "scene, mode, words",
+    [
+        ("[[objects]]\ntype = 'sphere'\ncenter = [0, 0, 3]\nradius = 1\n", "trace", "the scene has no lights"),
+        (
+            "[[objects]]\ntype = 'sphere'\ncenter = [0, 0, 3]\nradius = 1\n[[lights]]\ntype = 'ambient'\n"
+            "[media.fog]\ntype = 'homogeneous'\nsigma_s = 0.1\n[render]\nmedium = 'fog'\n",
+            "raster",
+            "participating media render in path mode only",
+        ),
+    ],
+)
+def test_view_warns_as_render_does(tmp_path, scene, mode, words):
+    """A scene `raylume render` warns about is warned about by `raylume view` too, in the same one
+    line, once (its render thread's own warnings had come in Python's two-line format, and a
+    view's trace passes had given no warning at all)."""
+    (tmp_path / "s.toml").write_text(scene)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "raylume.cli", "view", "s.toml", "--mode", mode, "--width", "16", "--height", "12",
+         "--port", "0", "--no-browser"],
+        cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    try:
+        ready, _, _ = select.select([proc.stdout], [], [], 120)
+        assert ready, "raylume view printed no URL"
+        proc.stdout.readline()
+        time.sleep(2)  # a few passes of the render thread
+        proc.send_signal(signal.SIGINT)
+        proc.wait(timeout=30)
+        stderr = proc.stderr.read()
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    said = [line for line in stderr.splitlines() if words in line]
+    assert len(said) == 1 and said[0].startswith("raylume: warning: "), stderr
+    assert "SceneWarning" not in stderr and "Traceback" not in stderr, stderr
 
 
 def test_warmup_is_a_command(tmp_path):

@@ -683,7 +683,12 @@ class _compile_notice:
 
 class _echo_warnings:
     """Scene warnings (raylume.scene.checks) as one line each on stderr, as they happen; other
-    warnings go where they would have gone."""
+    warnings go where they would have gone. `once`: each message once (the live view's render
+    thread renders again and again)."""
+
+    def __init__(self, once: bool = False):
+        self.once = once
+        self.said: set[str] = set()
 
     def __enter__(self):
         from .scene.checks import SceneWarning
@@ -695,7 +700,9 @@ class _echo_warnings:
 
         def show(message, category, filename, lineno, file=None, line=None):
             if issubclass(category, SceneWarning):
-                _warn(str(message))
+                if not (self.once and str(message) in self.said):
+                    _warn(str(message))
+                self.said.add(str(message))
             else:
                 shown(message, category, filename, lineno, file, line)
 
@@ -766,15 +773,17 @@ def view(
     debug: Annotated[bool, typer.Option("--debug", metavar=FLAG, help="Show tracebacks of errors")] = False,
 ) -> None:
     """Serve a live, progressive view of SCENE in the browser (drag: orbit, right/shift-drag: pan, wheel: dolly)."""
+    from .scene.checks import warn_about
     from .settings import overrides_of, resolve_settings
     from .viewer.command import run_view
 
     flags = overrides_of(locals())  # --width, --height, --spp, --mode, --denoise
     try:
-        with _errors_exit_2(debug):
-            with _echo_warnings():
-                scene_model, label = _resolve_scene(scene, assignments or [], width, height, defines=defines)
-                settings = resolve_settings(scene_model, flags, threads=threads, source=label, flags=True)
+        # (the render thread's warnings too, as render prints them: one line each, and once)
+        with _errors_exit_2(debug), _echo_warnings(once=True):
+            scene_model, label = _resolve_scene(scene, assignments or [], width, height, defines=defines)
+            settings = resolve_settings(scene_model, flags, threads=threads, source=label, flags=True)
+            warn_about(scene_model, settings.render.mode)  # a view's passes do not all go through render()
             code = run_view(scene_model, label, settings, host=host, port=port, open_browser=not no_browser)
     except KeyboardInterrupt:
         raise typer.Exit(130) from None
