@@ -301,7 +301,19 @@ def test_bdpt_films_are_one_band_and_equal_its_renders():
     np.testing.assert_array_equal(r._job.done_sum, expected)
 
 
-def test_bad_messages_get_clear_answers_and_the_view_keeps_serving():
+@pytest.fixture
+def default_recursion_limit():
+    """Python's default recursion limit, which `raylume view` serves under (a test worker's may
+    be raised, and the deep messages below would then parse)."""
+    import sys
+
+    old = sys.getrecursionlimit()
+    sys.setrecursionlimit(1000)
+    yield
+    sys.setrecursionlimit(old)
+
+
+def test_bad_messages_get_clear_answers_and_the_view_keeps_serving(default_recursion_limit):
     """A camera body or a page message that is malformed, nested too deeply, of the wrong type
     or too large to compute with gets an answer naming what is wrong (400, or an {"error"}
     message), not a traceback and a dropped connection; the server serves on."""
