@@ -690,3 +690,38 @@ def test_used_bounds_are_the_used_vertices_box():
     lo, hi = used_bounds(v, f)
     np.testing.assert_array_equal(lo, v[used].min(axis=0))
     np.testing.assert_array_equal(hi, v[used].max(axis=0))
+
+
+@pytest.mark.parametrize("endian, fmt", [("little", "<"), ("big", ">")])
+def test_binary_ply_of_quads_and_triangles_reads_as_its_ascii_twin(tmp_path, endian, fmt):
+    """A pyramid of one quad and four triangles (as Blender writes binary PLY): trimesh's binary
+    reader takes faces of one size only ("unexpected length"); raylume reads it, the same
+    triangles as the ASCII file gives through trimesh, with its u, v."""
+    import struct
+
+    verts = [(0, 0, 0), (1, 0, 0), (1, 0, 1), (0, 0, 1), (0.5, 1, 0.5)]
+    uvs = [(0, 0), (1, 0), (1, 1), (0, 1), (0.5, 0.5)]
+    faces = [(0, 1, 2, 3), (0, 4, 1), (1, 4, 2), (2, 4, 3), (3, 4, 0)]
+    header = (
+        "ply\nformat {} 1.0\nelement vertex 5\nproperty float x\nproperty float y\nproperty float z\n"
+        "property float u\nproperty float v\nelement face 5\nproperty list uchar int vertex_indices\nend_header\n"
+    )
+    body = b"".join(struct.pack(f"{fmt}5f", *v, *uv) for v, uv in zip(verts, uvs)) + b"".join(
+        struct.pack(f"{fmt}B{len(f)}i", len(f), *f) for f in faces
+    )
+    binary = tmp_path / "pyramid_bin.ply"
+    binary.write_bytes(header.format(f"binary_{endian}_endian").encode() + body)
+    rows = [" ".join(map(str, (*v, *uv))) for v, uv in zip(verts, uvs)] + [
+        " ".join(map(str, (len(f), *f))) for f in faces
+    ]
+    ascii_ = write(tmp_path / "pyramid_ascii.ply", header.format("ascii") + "\n".join(rows) + "\n")
+    got, want = load_mesh(binary), load_mesh(ascii_)
+
+    def triangles(m):  # each as its corners from the least one on, keeping the winding
+        corners = [tuple(map(tuple, np.round(m.vertices[f], 6).tolist())) for f in m.faces]
+        return sorted(min(c[k:] + c[:k] for k in range(3)) for c in corners)
+
+    assert len(got.faces) == 6 and triangles(got) == triangles(want)
+    assert got.uvs is not None and want.uvs is not None
+    uv_at = lambda m: {tuple(np.round(v, 6)): tuple(np.round(uv, 6)) for v, uv in zip(m.vertices, m.uvs)}  # noqa: E731
+    assert uv_at(got) == uv_at(want) == {tuple(map(float, v)): tuple(map(float, uv)) for v, uv in zip(verts, uvs)}

@@ -201,6 +201,10 @@ def _read_parts(path: Path, file_type: str, shape_index: int = 0):
             json.loads(path.read_bytes())
         scene = trimesh.load_scene(str(path), file_type=file_type, process=False)
     except Exception as exc:  # trimesh raises anything from ValueError to ModuleNotFoundError
+        if file_type == "ply" and _ply_polygons_mixed(path):
+            # trimesh's binary PLY reader takes faces of one size only (a mesh of quads and
+            # triangles, as Blender writes, is "unexpected length"): read by the module's own
+            return [_read_own_ply(path)]
         why = (_obj_index_problem(path) if file_type == "obj" and isinstance(exc, IndexError) else None) or _why(exc)
         raise MeshError(f"Mesh file {path} could not be parsed as {file_type.upper()}: {why}.") from exc
 
@@ -390,17 +394,37 @@ def _list_of(rows, element: _PlyElement):
 
 
 def _read_strip_ply(path: Path):
-    """The part (vertices, faces, normals|None, None) of a PLY file with a `tristrips`
+    """The part (vertices, faces, normals|None, uvs|None) of a PLY file with a `tristrips`
     element, or None for any other PLY (trimesh reads those)."""
     with open(path, "rb") as fh:
         head = fh.read(1 << 16)
     if b"tristrips" not in head.split(b"end_header")[0]:
         return None  # the usual case, decided without reading the whole file
     try:
+        if "tristrips" not in {e.name for e in _ply_header(path.read_bytes())[1]}:
+            return None
+    except (ValueError, OverflowError) as exc:
+        raise MeshError(f"Mesh file {path} could not be parsed as PLY: {_why(exc)}.") from exc
+    return _read_own_ply(path)
+
+
+def _ply_polygons_mixed(path: Path) -> bool:
+    """Whether a PLY file that trimesh refused is binary with a face list (whose rows may differ
+    in length): the own reader's case. Anything else keeps trimesh's answer."""
+    try:
+        fmt, elements, _ = _ply_header(path.read_bytes())
+    except (ValueError, OverflowError, OSError):
+        return False
+    face = next((e for e in elements if e.name == "face"), None)
+    return fmt != "ascii" and face is not None and any(not isinstance(kind, str) for _, kind in face.properties)
+
+
+def _read_own_ply(path: Path):
+    """The part (vertices, faces, normals|None, uvs|None) of a PLY file read by this module:
+    faces of any size (fanned into triangles) and triangle strips."""
+    try:
         data = path.read_bytes()
         fmt, elements, offset = _ply_header(data)
-        if "tristrips" not in {e.name for e in elements}:
-            return None
         body, found = _PlyBody(data, fmt, offset), {}
         wanted = {"vertex", "face", "tristrips"} & {e.name for e in elements}
         for element in elements:
@@ -410,13 +434,15 @@ def _read_strip_ply(path: Path):
         if "vertex" not in found or not {"x", "y", "z"} <= set(found["vertex"][1].dtype.names or ()):
             raise ValueError("it has no vertex element with x, y and z")
         vertex = found["vertex"][1]
-        faces = [strips_to_triangles(_list_of(found["tristrips"][1], found["tristrips"][0]))]
+        faces = []
         if "face" in found:
-            faces.insert(0, _fan(_list_of(found["face"][1], found["face"][0])))
+            faces.append(_fan(_list_of(found["face"][1], found["face"][0])))
+        if "tristrips" in found:
+            faces.append(strips_to_triangles(_list_of(found["tristrips"][1], found["tristrips"][0])))
     except (ValueError, OverflowError) as exc:
         raise MeshError(f"Mesh file {path} could not be parsed as PLY: {_why(exc)}.") from exc
     v = np.column_stack([vertex[c] for c in "xyz"]).astype(np.float64)
-    f = np.concatenate(faces)
+    f = np.concatenate(faces) if faces else np.zeros((0, 3), np.int64)
     if len(f) == 0:
         raise MeshError(f"Mesh file {path} contains no triangles.")
     if f.min() < 0 or f.max() >= len(v):
@@ -427,7 +453,9 @@ def _read_strip_ply(path: Path):
         if {"nx", "ny", "nz"} <= names
         else None
     )
-    return v, f, n, None
+    uv_names = next((pair for pair in (("u", "v"), ("s", "t"), ("texture_u", "texture_v")) if set(pair) <= names), None)
+    uv = None if uv_names is None else np.column_stack([vertex[c] for c in uv_names]).astype(np.float64)
+    return v, f, n, uv
 
 
 def _concatenate(parts):
