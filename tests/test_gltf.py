@@ -201,6 +201,18 @@ def test_camera_by_name_aspect_and_framing_without_a_camera(tmp_path):
     assert framed.camera.position[2] < -1  # in front of the squares (the file's +z), looking at them
 
 
+def test_camera_by_its_node_s_name_where_the_camera_has_one_too(tmp_path):
+    """gltf.md: --camera NAME picks a camera by its own name or its node's."""
+    b = Builder()
+    two_squares(b)
+    b.camera(0.5, name="main", translation=[0, 0, 9])
+    b.doc["cameras"].append({"type": "perspective", "perspective": {"yfov": 0.7, "znear": 0.01}, "name": "side"})
+    b.node(camera=len(b.doc["cameras"]) - 1, name="sidenode", translation=[0, 0, 4])  # both named
+    path = b.glb(tmp_path / "cams.glb")
+    assert gltf_scene(path, camera="sidenode").camera.position == (0.0, 0.0, -4.0)
+    assert gltf_scene(path, camera="side").camera.position == (0.0, 0.0, -4.0)
+
+
 # ------------------------------------------------------------------ lights
 
 

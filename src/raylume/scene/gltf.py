@@ -85,6 +85,7 @@ class GltfCamera:
     up: tuple
     fov: float  # vertical, degrees
     aspect: float | None  # width / height, when the file gives it
+    node_name: str | None = None  # its node's name, which --camera also takes
 
 
 @dataclass
@@ -347,6 +348,7 @@ class _Importer:
         forward = forward / np.linalg.norm(forward)
         name = cam.get("name") or node.get("name") or here
         return GltfCamera(
+            node_name=None if node.get("name") is None else str(node.get("name")),
             name=str(name),
             position=tuple(position.tolist()),
             look_at=tuple((position + forward).tolist()),

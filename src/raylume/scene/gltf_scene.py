@@ -34,6 +34,9 @@ def choose_camera(imported: GltfScene, name: str | None) -> GltfCamera | None:
     for camera in imported.cameras:
         if camera.name == name:
             return camera
+    for camera in imported.cameras:  # a node's name, where its camera has a name of its own
+        if camera.node_name == name:
+            return camera
     known = ", ".join(repr(c.name) for c in imported.cameras) or "it has none"
     raise SceneError(f"{imported.path}: --camera {name!r}: no perspective camera of that name ({known})")
 
