@@ -83,6 +83,36 @@ def test_refs_name_the_bsdf_and_an_unknown_id_is_an_error(tmp_path):
         load(tmp_path, xml(bsdf + sphere(inner='<ref id="varnish"/>')))
 
 
+def test_an_alias_names_the_element_again(tmp_path):
+    """<alias id="red" as="crimson"/>: a ref to crimson is a ref to red (Mitsuba 3 renders such a
+    file's sphere red; the alias's id had been taken for a second element with that id)."""
+    bsdf = (
+        '<bsdf type="diffuse" id="red"><rgb name="reflectance" value="1, 0, 0"/></bsdf><alias id="red" as="crimson"/>'
+    )
+    scene = load(tmp_path, xml(bsdf + sphere(inner='<ref id="crimson"/>')))
+    assert scene.materials[scene.objects[0].material].color == (1.0, 0.0, 0.0)
+    with pytest.raises(SceneError, match="id 'red' is already used"):
+        load(tmp_path, xml(bsdf + '<alias id="red" as="red"/>' + sphere(inner='<ref id="red"/>')))
+
+
+@pytest.mark.parametrize(
+    "inner",
+    [
+        '<ref id="paint" name="bsdf"/>',  # as Blender's exporter writes a shape's material
+        '<bsdf type="diffuse" name="bsdf"><rgb name="reflectance" value="1, 0, 0"/></bsdf>',
+    ],
+)
+def test_a_bsdf_given_as_the_property_bsdf_is_the_shape_s_material(tmp_path, inner):
+    """A shape's BSDF by its property name, referenced or nested: its material, without a
+    warning that the property is ignored (the ref had been dropped for the default grey)."""
+    bsdf = '<bsdf type="diffuse" id="paint"><rgb name="reflectance" value="1, 0, 0"/></bsdf>'
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        scene = load(tmp_path, xml(bsdf + sphere(inner=inner)))
+    material = scene.objects[0].material
+    assert (scene.materials[material] if isinstance(material, str) else material).color == (1.0, 0.0, 0.0)
+
+
 def test_a_duplicate_id_is_an_error(tmp_path):
     bsdf = '<bsdf type="diffuse" id="a"/>'
     with pytest.raises(SceneError, match="id 'a' is already used"):

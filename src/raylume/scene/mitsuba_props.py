@@ -145,6 +145,8 @@ class Props:
                 target = self.resolve(child)
                 if "name" in child.attrs:
                     self.named[child.attrs["name"]] = target
+                    if child.attrs["name"] == "bsdf" and target.tag == "bsdf":
+                        self.plugins.append(target)  # a shape's BSDF by its property name, as exporters write it
                 else:
                     self.plugins.append(target)
             elif child.tag in VALUE_TAGS or (child.tag in PLUGIN_TAGS and "name" in child.attrs):

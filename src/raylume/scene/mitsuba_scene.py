@@ -30,17 +30,19 @@ FULL_FRAME_DIAGONAL = math.hypot(36.0, 24.0)  # mm: focal_length is a 35 mm came
 
 def _collect_ids(node: Node, ids: dict[str, Node]) -> None:
     for child in node.children:
+        if child.tag == "alias":  # its id names the element it aliases: not an id of its own
+            target, alias = child.attrs.get("id"), child.attrs.get("as")
+            if target not in ids or alias is None:
+                raise child.error("needs id (an element defined before it) and as")
+            if alias in ids:
+                raise child.error(f"id {alias!r} is already used at {ids[alias].where}")
+            ids[alias] = ids[target]
+            continue
         key = child.attrs.get("id")
         if key is not None and child.tag != "ref":
             if key in ids:
                 raise child.error(f"id {key!r} is already used at {ids[key].where}")
             ids[key] = child
-        if child.tag == "alias":
-            target, alias = child.attrs.get("id"), child.attrs.get("as")
-            if target not in ids or alias is None:
-                raise child.error("needs id (an element defined before it) and as")
-            ids[alias] = ids[target]
-            continue
         _collect_ids(child, ids)
 
 

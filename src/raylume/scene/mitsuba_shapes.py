@@ -55,6 +55,7 @@ class Shapes:
         area emitter is inside."""
         material: dict | str | None = None
         emitter = None
+        props.take("bsdf")  # a BSDF given as the property "bsdf" (nested or a ref) is among the plugins
         for plugin in props.plugins:
             if plugin.tag == "bsdf":
                 key = plugin.attrs.get("id")
