@@ -204,4 +204,6 @@ def plot(plots, path: Path) -> None:
 
 if __name__ == "__main__":
     sys.path.insert(0, str(REPO / "tests"))
-    main()
+    from common import run_main  # (a missing bench-extra module in one line)
+
+    run_main(main)

@@ -107,4 +107,6 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    from common import run_main  # (a missing bench-extra module in one line)
+
+    run_main(main)

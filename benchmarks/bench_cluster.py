@@ -133,4 +133,6 @@ def main() -> None:
 
 
 if __name__ == "__main__":  # the local cluster's worker processes import this module
-    main()
+    from common import run_main  # (a missing bench-extra module in one line)
+
+    run_main(main)

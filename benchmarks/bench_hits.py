@@ -257,4 +257,6 @@ def plot_hits(hit_ms: dict, size: int, path: str) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    from common import run_main  # (a missing bench-extra module in one line)
+
+    run_main(main)

@@ -267,4 +267,6 @@ def plot(results: dict, counts: list[int], args) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    from common import run_main  # (a missing bench-extra module in one line)
+
+    run_main(main)

@@ -55,7 +55,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from common import REPO, child_probe, machine, median_of, run_python, table
+from common import REPO, child_probe, machine, median_of, run_main, run_python, table
 from mitsuba_reference import REFERENCE, SCENE, load_toml, mitsuba_dict
 
 import raylume
@@ -543,4 +543,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_main(main)

@@ -15,6 +15,32 @@ SHARED_MODELS = REPO.parent / "shared" / "models"
 sys.path.insert(0, str(REPO / "tests"))  # the pure-Python reference lives with the tests
 
 
+# Python modules of raylume's bench extra (pyproject.toml): a script that needs a missing one says so
+BENCH_EXTRA = {"embreex": "embreex", "mitsuba": "mitsuba", "drjit": "mitsuba", "rtree": "rtree"}
+
+
+def missing_extra(exc: ModuleNotFoundError) -> str | None:
+    """The one-line answer for a bench-extra module that is not installed, else None."""
+    root = (exc.name or "").split(".")[0]
+    if root not in BENCH_EXTRA:
+        return None
+    script = Path(sys.argv[0]).name
+    extra = BENCH_EXTRA[root]
+    return f"{script}: needs {extra}, which raylume's bench extra installs: make bench (pip install -e '.[bench]')"
+
+
+def run_main(main) -> None:
+    """main() as a script's entry: a missing bench-extra module is one line and exit status 1,
+    not a traceback."""
+    try:
+        result = main()
+    except ModuleNotFoundError as exc:
+        if (line := missing_extra(exc)) is None:
+            raise
+        raise SystemExit(line) from None
+    sys.exit(result)
+
+
 def machine() -> str:
     """The CPU, its core count, its widest vectors and Python's version: a line for a benchmark's
     header. The vectors matter beside Mitsuba's llvm variant, which compiles for the widest the

@@ -73,9 +73,14 @@ def _library() -> ctypes.CDLL:
     return lib
 
 
-_LIB = _library()
-_intersect1, _occluded1 = _LIB.rtcIntersect1, _LIB.rtcOccluded1
-_intersect8, _occluded8 = _LIB.rtcIntersect8, _LIB.rtcOccluded8
+try:
+    _LIB = _library()
+    _intersect1, _occluded1 = _LIB.rtcIntersect1, _LIB.rtcOccluded1
+    _intersect8, _occluded8 = _LIB.rtcIntersect8, _LIB.rtcOccluded8
+    _MISSING = None
+except ModuleNotFoundError as exc:  # without embreex: a script's --help still answers, a run says why it cannot
+    _LIB = _intersect1 = _occluded1 = _intersect8 = _occluded8 = None
+    _MISSING = exc
 
 
 def _aligned(shape, dtype, align: int = 64) -> np.ndarray:
@@ -170,6 +175,10 @@ class EmbreeScene:
     traced on the calling thread. flags=0: Embree's faster, non-robust traversal."""
 
     def __init__(self, vertices: np.ndarray, faces: np.ndarray, flags: int = ROBUST) -> None:
+        if _LIB is None:
+            from common import missing_extra
+
+            raise SystemExit(missing_extra(_MISSING) or str(_MISSING))
         lib = _LIB
         self._device = lib.rtcNewDevice(b"threads=1")
         self._scene = lib.rtcNewScene(self._device)

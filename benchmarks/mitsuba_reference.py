@@ -559,4 +559,6 @@ def main(argv=None) -> None:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    from common import run_main  # (here: tests import this module for its scene conversion)
+
+    run_main(main)

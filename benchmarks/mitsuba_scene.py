@@ -82,7 +82,6 @@ from __future__ import annotations
 
 import argparse
 import math
-import sys
 import time
 from pathlib import Path
 
@@ -483,4 +482,6 @@ def main(argv=None) -> None:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    from common import run_main  # (here: tests import this module for its scene conversion)
+
+    run_main(main)
