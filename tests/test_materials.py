@@ -137,3 +137,28 @@ def test_a_null_boundary_is_invisible_in_trace_mode():
     image = raylume.render(scene)
     assert (image.aovs["object"] == 1).sum() > 50
     np.testing.assert_allclose(image.rgb, np.broadcast_to(np.float32([0.25, 0.5, 1.0]), image.rgb.shape), atol=1e-6)
+
+
+@pytest.mark.parametrize("integrator", ["path", "bdpt"])
+def test_rough_glass_of_index_1_is_invisible(integrator):
+    """An interface of ior 1 bends and reflects nothing, rough or not: in a white furnace (a sky
+    of radiance 1) the sphere is the sky, as smooth glass of index 1 is (it had rendered black:
+    the rough lobes' half vector of a straight-through pair is zero)."""
+    scene = raylume.Scene.model_validate(
+        {
+            "render": {"width": 16, "height": 16, "spp": 4, "mode": "path", "integrator": integrator},
+            "camera": {"position": [0, 0, -3], "fov": 40},
+            "environment": {"color": [1, 1, 1]},
+            "objects": [
+                {
+                    "type": "sphere",
+                    "center": [0, 0, 0],
+                    "radius": 1,
+                    "material": {"type": "dielectric", "ior": 1.0, "roughness": 0.5},
+                }
+            ],
+        }
+    )
+    image = raylume.render(scene, aovs=True)
+    assert (image.aovs["object"] == 0).sum() > 50  # the sphere fills much of the view
+    np.testing.assert_allclose(image.rgb, 1.0, atol=1e-6)

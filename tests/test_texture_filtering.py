@@ -188,3 +188,31 @@ def test_fine_image_texture_is_read_from_the_right_mip_level(tmp_path, shape):
     point, filtered, filtered16 = _errors(lambda spp, on: _floor_scene(objects, on, spp, extra=extra))
     assert filtered < point / 4, (point, filtered)
     assert filtered16 < point / 4
+
+
+def test_a_16_bit_grey_texture_reads_as_its_8_bit_twin(tmp_path):
+    """A 16-bit greyscale PNG (Pillow's I;16) is scaled from 0..65535: 32896 is 8-bit 128's
+    grey (Pillow's conversion to RGB clips at 255, and such a texture had rendered white)."""
+    from PIL import Image as PILImage
+
+    import raylume
+
+    PILImage.fromarray(np.full((4, 4), 32896, np.uint16)).save(tmp_path / "grey16.png")
+    PILImage.fromarray(np.full((4, 4), 128, np.uint8)).save(tmp_path / "grey8.png")
+    assert PILImage.open(tmp_path / "grey16.png").mode.startswith("I")
+
+    def shown(name):
+        quad = {
+            "type": "quad",
+            "u": [4, 0, 0],
+            "v": [0, 3, 0],
+            "material": {"texture": {"type": "image", "file": name}},
+        }
+        scene = raylume.scene_from_dict(
+            {"render": {"width": 8, "height": 6, "mode": "cast"}, "camera": {"position": [0, 0, -2]}, "objects": [quad]}
+        ).with_base_dir(tmp_path)
+        return raylume.render(scene, aovs=False).rgb
+
+    grey8 = shown("grey8.png")
+    assert 0.2 < grey8.mean() < 0.23  # sRGB 128 is linear 0.216
+    np.testing.assert_array_equal(shown("grey16.png"), grey8)

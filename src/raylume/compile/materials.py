@@ -19,6 +19,18 @@ def srgb_to_linear(x: np.ndarray) -> np.ndarray:
     return np.where(x <= 0.04045, x / 12.92, ((x + 0.055) / 1.055) ** 2.4)
 
 
+def _rgb_of(im) -> np.ndarray:
+    """An image's colours as float32 (H, W, 3) in 0..1, still sRGB-encoded. 16-bit and 32-bit
+    greyscale (Pillow's I;16 and I modes) are scaled from their own range: Pillow's conversion
+    to RGB clips them at 255, and a 16-bit grey texture had rendered white."""
+    if im.mode.startswith("I;16") or im.mode == "I":
+        grey = np.asarray(im, dtype=np.float64)
+        top = 65535.0 if im.mode.startswith("I;16") or grey.max(initial=0) <= 65535 else 4294967295.0
+        grey = np.clip(grey / top, 0.0, 1.0).astype(np.float32)
+        return np.repeat(grey[..., None], 3, axis=2)
+    return np.asarray(im.convert("RGB"), dtype=np.float32) / np.float32(255.0)
+
+
 def mip_levels(texels: np.ndarray) -> list[np.ndarray]:
     """The image (float32 (H, W, 3)) and its mip-map: each level the area average of the one
     before at half its size (rounded down, at least 1), down to 1 x 1."""
@@ -105,7 +117,7 @@ class TextureTable:
             with PILImage.open(path) as im:
                 if im.width * im.height > self.MAX_TEXELS:
                     fail(f"texture {path} is {im.width} x {im.height}, more than {self.MAX_TEXELS} texels")
-                rgb = np.asarray(im.convert("RGB"), dtype=np.float32) / np.float32(255.0)
+                rgb = _rgb_of(im)
         except SceneError:
             raise
         except (OSError, ValueError, PILImage.DecompressionBombError) as exc:

@@ -30,7 +30,9 @@ def pack(mat, row: np.ndarray) -> None:
     pack_material writes the kind and the trace approximation."""
     row[MAT_IOR] = mat.ior
     row[MAT_ABSORPTION : MAT_ABSORPTION + 3] = mat.absorption
-    row[MAT_ROUGHNESS] = mat.roughness
+    # An interface of index 1 bends nothing, rough or not: smooth, as it renders (the rough
+    # lobes' half vector of a straight-through pair is zero, and they had rendered black)
+    row[MAT_ROUGHNESS] = 0.0 if mat.ior == 1.0 else mat.roughness
 
 
 def trace_approximation(mat) -> tuple[float, float, float]:
