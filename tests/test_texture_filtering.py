@@ -216,3 +216,14 @@ def test_a_16_bit_grey_texture_reads_as_its_8_bit_twin(tmp_path):
     grey8 = shown("grey8.png")
     assert 0.2 < grey8.mean() < 0.23  # sRGB 128 is linear 0.216
     np.testing.assert_array_equal(shown("grey16.png"), grey8)
+
+
+@pytest.mark.parametrize("u", [np.inf, -np.inf, np.nan, 1e300, 1e17 + 0.3, -1e-17, 0.999999999999])
+def test_any_uv_reads_a_texel_of_the_texture(u):
+    """UVs that are not finite, or so large their wrap loses every bit (a texture scaled by
+    1e17, a mesh's vt of 1e30), read the texture, never memory beside it: an index from NaN is
+    undefined, and such UVs had given colours of 1e24 and -3e38."""
+    texels = np.zeros((2 * 2, 3), np.float32)
+    texels[:, 0] = [0.1, 0.2, 0.3, 0.4]
+    colour = mip_lookup(texels, 0, 2, 2, 1, u, 0.25, 0.0)
+    assert 0.1 <= colour[0] <= 0.4 and colour[1] == colour[2] == 0.0

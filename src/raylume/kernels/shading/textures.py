@@ -167,11 +167,13 @@ def texture_lookup(texels, offset, width, height, u, v):
     The image's top row is v = 1 and its left column u = 0 (OBJ/glTF convention); texel
     (x, y), y counted from the top, has its centre at ((x + 0.5) / width, 1 - (y + 0.5) / height)
     and there the lookup returns exactly that texel."""
-    if not (u == u and v == v):  # NaN
-        u = 0.0
-        v = 0.0
     u -= math.floor(u)
     v -= math.floor(v)
+    # NaN or inf (inf - inf), or a huge u whose wrap rounds badly: (0, 0). An index from NaN
+    # is undefined, and such UVs had read memory outside the texture.
+    if not (0.0 <= u <= 1.0 and 0.0 <= v <= 1.0):
+        u = 0.0
+        v = 0.0
     fx = u * width - 0.5
     fy = (1.0 - v) * height - 0.5
     x0f = math.floor(fx)
