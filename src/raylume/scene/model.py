@@ -436,7 +436,8 @@ class PlasticMaterial(_MaterialBase):
     type: Literal["plastic"]
     """`"plastic"`: diffuse `color` under a dielectric coating (Mitsuba's plastic)."""
     ior: FiniteFloat = Field(1.5, gt=0)
-    """Index of refraction of the coating."""
+    """Index of refraction of the coating, read within 1..3 (outside it, as its end): the fit of the diffuse Fresnel
+    reflectance it uses, Mitsuba's, holds there."""
     roughness: FiniteFloat = Field(0.0, ge=0, le=1)
     """GGX alpha of the coating; 0 is smooth."""
 
