@@ -269,9 +269,14 @@ def film_rgb_numpy(sums: np.ndarray) -> np.ndarray:
         cancelled = (w < 0.5 * count) & (count > 0.0)
         mean = sums[..., FILM_ABS_RGB : FILM_ABS_RGB + 3] / np.maximum(count, 1.0)[..., None]
         x = np.where(cancelled[..., None], mean, x)
-    # NaN kept (the image checks refuse it), -0.0 made 0.0: np.maximum(x, 0.0) does both
+    # NaN kept (the image checks refuse it), -0.0 made 0.0: np.maximum(x, 0.0) does both; past
+    # float32's range, its largest value (as Image holds it), not inf and numpy's overflow warning
     np.maximum(x, 0.0, out=x)
+    np.minimum(x, _F32_MAX, out=x)
     return x.astype(np.float32)
+
+
+_F32_MAX = float(np.finfo(np.float32).max)
 
 
 # IEEE arithmetic (no fast-math), so the image is what film_rgb_numpy gives, to the bit: numpy
@@ -294,8 +299,9 @@ def _film_rgb(sums, out):
                     x = sums[j, i, FILM_ABS_RGB + c] / max(count, 1.0)
                 else:
                     x = sums[j, i, FILM_RGB + c] * inv
-                # as np.maximum(x, 0.0): NaN kept (the image checks refuse it), -0.0 made 0.0
-                out[j, i, c] = x if x > 0.0 else (0.0 if x == x else x)
+                # as np.maximum(x, 0.0): NaN kept (the image checks refuse it), -0.0 made 0.0;
+                # as np.minimum(x, _F32_MAX)
+                out[j, i, c] = min(x, _F32_MAX) if x > 0.0 else (0.0 if x == x else x)
 
 
 # --- pixel filters (Python side: tables the kernels read) ------------------------------------
