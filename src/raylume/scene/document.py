@@ -13,7 +13,7 @@ from ..errors import SceneError
 from .model import Scene
 from .nesting import too_deep
 from .overrides import Overrides
-from .validation_errors import format_validation_error
+from .validation_errors import format_validation_error, name_origins
 
 
 def parse_document(text: str, path: Path) -> dict:
@@ -45,13 +45,22 @@ def _number_problem(text: str, exc: ValueError) -> str:
     return f"line {line}: a number of {len(long.group())} digits"
 
 
-def scene_from_dict(document: dict, source: str | Path = "<scene>", overrides: Overrides | None = None) -> Scene:
+def scene_from_dict(
+    document: dict,
+    source: str | Path = "<scene>",
+    overrides: Overrides | None = None,
+    origins: dict[str, str] | None = None,
+) -> Scene:
     """Validate a scene document. `overrides` are only used to say which --set caused an error
-    (apply them to the document with overrides.apply_overrides first, as load_scene does)."""
+    (apply them to the document with overrides.apply_overrides first, as load_scene does).
+    `origins`: where another renderer's file made each table ({"objects[3]": 'scene.pbrt:12:
+    Shape "plymesh"'}), named in the errors and kept by the scene for those found later."""
     try:
         try:
-            return Scene.model_validate(document)
+            scene = Scene.model_validate(document)
         except ValidationError as exc:
-            raise SceneError(format_validation_error(exc, source, Scene, overrides=overrides)) from None
+            message = format_validation_error(exc, source, Scene, overrides=overrides)
+            raise SceneError(name_origins(message, origins) if origins else message) from None
     except RecursionError:
         raise too_deep(document, str(source)) from None
+    return scene.with_origins(origins) if origins else scene

@@ -16,7 +16,6 @@ from .mesh import SUPPORTED_EXTENSIONS
 from .model import Scene
 from .overrides import Overrides, apply_overrides
 from .pbrt_scene import pbrt_scene
-from .validation_errors import name_origins
 
 __all__ = [
     "DEFINE_SUFFIXES",
@@ -66,11 +65,8 @@ def load_scene(
     if path.suffix.lower() in FOREIGN_SUFFIXES:
         document, origins = foreign_document(path, defines)
         document = apply_overrides(document, overrides, path)
-        try:
-            scene = scene_from_dict(document, source=source or path, overrides=overrides)
-        except SceneError as exc:
-            raise SceneError(name_origins(str(exc), origins)) from None
-        return scene.with_base_dir(path.resolve().parent).with_origins(origins)
+        scene = scene_from_dict(document, source=source or path, overrides=overrides, origins=origins)
+        return scene.with_base_dir(path.resolve().parent)
     if path.suffix.lower() in (".gltf", ".glb"):
         return gltf_scene(path, overrides, source=source)
     if path.suffix.lower() in SUPPORTED_EXTENSIONS:

@@ -31,7 +31,6 @@ from .pbrt_parse import Directive, parse_file
 from .pbrt_shapes import SUPPORTED, Piece, place, shape_piece
 from .pbrt_tokens import PbrtError
 from .pbrt_transform import from_pbrt_numbers, look_at, rotate, scale, translate
-from .validation_errors import name_origins
 
 DEFAULT_MATERIAL = "pbrt-default"  # pbrt-v4's default: diffuse, reflectance 0.5
 # Directives that only tune how pbrt computes; they change nothing raylume draws.
@@ -502,13 +501,11 @@ def pbrt_scene(path: str | Path, overrides: Overrides | None = None, source: str
         raise SceneError(f"{path}: is a folder, not a pbrt file")
     document, builder = _read(path)
     document = apply_overrides(document, overrides)
-    try:
-        scene = scene_from_dict(document, source=source or path, overrides=overrides)
-    except SceneError as exc:  # a value the model refuses, named by the directive it came from
-        raise SceneError(name_origins(str(exc), builder.origins)) from None
+    # a value the model refuses is named by the directive it came from
+    scene = scene_from_dict(document, source=source or path, overrides=overrides, origins=builder.origins)
     for message in builder.messages:
         warnings.warn(message, SceneWarning, stacklevel=2)
-    return scene.with_base_dir(path.resolve().parent).with_origins(builder.origins)
+    return scene.with_base_dir(path.resolve().parent)
 
 
 __all__ = ["PbrtError", "pbrt_document", "pbrt_scene"]
