@@ -17,7 +17,6 @@ from ..scene.instances import InstanceError, instance_matrices
 from ..scene.mesh import MeshData, MeshError, obj_uv_problem, object_matrix_of
 from ..scene.model import (
     DEFAULT_MATERIAL,
-    F32_MAX,
     Cylinder,
     Disk,
     Gltf,
@@ -29,6 +28,7 @@ from ..scene.model import (
     Scene,
     Sphere,
     Triangle,
+    beyond_float32,
 )
 from ..scene.placement import load_mesh_object, mesh_path
 
@@ -56,11 +56,8 @@ class OutOfRange(ValueError):
 def _check_extent(extent: float) -> None:
     # float32 holds the triangle table and the BVH's boxes: a coordinate beyond its range would
     # become inf there (and numpy would warn as it converted it)
-    if not extent <= F32_MAX:
-        raise OutOfRange(
-            f"its coordinates reach {extent:.3g} in world space, beyond float32's range (3.4e38), "
-            "in which the renderer stores geometry"
-        )
+    if (problem := beyond_float32(extent, " in world space")) is not None:
+        raise OutOfRange(problem)
 
 
 def _mesh_extent(vertices: np.ndarray, instances: np.ndarray | None) -> float:

@@ -24,7 +24,7 @@ import numpy as np
 from ..errors import SceneError
 from .document import scene_from_dict
 from .mesh import SUPPORTED_EXTENSIONS, MeshError
-from .model import F32_MAX, Mesh, Scene
+from .model import Mesh, Scene, beyond_float32
 from .overrides import Overrides, apply_overrides
 from .placement import bounds, load_mesh_object
 
@@ -89,12 +89,9 @@ def mesh_scene(
         lo, hi = bounds(load_mesh_object(scene.objects[0], scene.base_dir, keep=True))
     except MeshError as exc:
         raise SceneError(str(exc)) from None
-    extent = float(max(np.abs(lo).max(), np.abs(hi).max()))
-    if not extent <= F32_MAX:  # (the camera framing it would be refused, for a key the file does not have)
-        raise SceneError(
-            f"{source}: its coordinates reach {extent:.3g}, beyond float32's range (3.4e38), "
-            "in which the renderer stores geometry"
-        )
+    # (the camera framing it would be refused, for a key the file does not have)
+    if (problem := beyond_float32(float(max(np.abs(lo).max(), np.abs(hi).max())))) is not None:
+        raise SceneError(f"{source}: {problem}")
     W = width or scene.render.width
     H = height or scene.render.height
     return scene.with_camera(frame(lo, hi, scene.camera, W / H, given))

@@ -51,6 +51,17 @@ class Strict(BaseModel):
 F32_MAX = 3.4028234663852886e38
 
 
+def beyond_float32(extent: float, space: str = "") -> str | None:
+    """The words for geometry whose coordinates reach `extent` (`space`: where, e.g. " in world
+    space"), when that is past float32's range (or NaN), in which the kernels store it; else None."""
+    if extent <= F32_MAX:
+        return None
+    return (
+        f"its coordinates reach {extent:.3g}{space}, beyond float32's range (3.4e38), "
+        "in which the renderer stores geometry"
+    )
+
+
 def _shown(value) -> str:
     """A value as the scene file spells it: true, "32" (JSON's notation, which TOML shares)."""
     try:
