@@ -12,7 +12,6 @@ or in tiles on a cluster (cluster.py).
 from __future__ import annotations
 
 import functools
-import numbers
 import os
 import time
 from collections.abc import Callable, Mapping
@@ -32,7 +31,7 @@ from .scene.model import Camera, Scene
 from .scene.open import SceneLike, open_scene
 from .scene.validation_errors import format_validation_error
 from .seen_light import denoise_path_image
-from .settings import ResolvedSettings, resolve_settings, settings_of_call
+from .settings import ResolvedSettings, is_whole_number, resolve_settings, settings_of_call
 
 if TYPE_CHECKING:
     from distributed import Client
@@ -255,7 +254,7 @@ class Session:
         one render of total_spp. `aovs`: arrays of the film's window (as
         render_window.allocate_aovs makes them) that the pass also fills with the primary-hit
         AOVs (depth, normal, object, prim, albedo, instance). Returns {"rays", "render_seconds"}."""
-        if isinstance(spp, bool) or not isinstance(spp, numbers.Integral) or spp < 1:
+        if not is_whole_number(spp) or spp < 1:
             raise ValueError(f"spp must be a whole number of samples per pixel, at least 1 (got {spp!r})")
         if film.spp + spp > film.total_spp:
             raise ValueError(

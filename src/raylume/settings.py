@@ -102,12 +102,17 @@ def flag_name(loc: tuple) -> str:
     return f"--{'-'.join(str(p) for p in loc).replace('_', '-')}" if loc else ""
 
 
+def is_whole_number(value) -> bool:
+    """An int (numpy's too), not a bool: what a count, a thread number or a pixel index takes."""
+    return isinstance(value, numbers.Integral) and not isinstance(value, bool)
+
+
 def check_threads(threads: int | None, flags: bool = False) -> int:
     """The lanes to run on: `threads`, which must be 1..Numba's thread count, or all of them."""
     most = numba.config.NUMBA_NUM_THREADS
     if threads is None:
         return most
-    if isinstance(threads, bool) or not isinstance(threads, numbers.Integral):
+    if not is_whole_number(threads):
         raise ValueError(f"threads must be a whole number between 1 and {most}, got {threads!r}")
     if not 1 <= threads <= most:
         if flags:
@@ -125,7 +130,7 @@ def check_crop(crop, width: int, height: int, source: str = "<scene>") -> tuple[
         values = () if isinstance(crop, (str, bytes)) else tuple(crop)
     except TypeError:
         values = ()
-    if len(values) != 4 or not all(isinstance(c, numbers.Integral) and not isinstance(c, bool) for c in values):
+    if len(values) != 4 or not all(is_whole_number(c) for c in values):
         raise RaylumeError(f"{source}: crop must be four whole numbers (x0, x1, y0, y1), got {crop!r}")
     x0, x1, y0, y1 = (int(c) for c in values)
     if not (0 <= x0 < x1 <= width and 0 <= y0 < y1 <= height):
