@@ -23,13 +23,6 @@ from .scene.checks import SceneWarning
 VIDEO_SUFFIXES = (".mp4", ".gif")
 GIF_COLORS = 64
 GIF_MAX_DELAY = 655350  # milliseconds: a GIF frame's delay is 16 bits of 1/100 s
-
-
-def _same_gif_frame(a, b) -> bool:
-    """Whether two quantized frames are the same image (Pillow would merge them)."""
-    return a.tobytes() == b.tobytes() and a.getpalette() == b.getpalette()
-
-
 CRF = 18  # H.264 constant rate factor: 18 is near visually lossless (0 lossless, 51 worst)
 _PATTERN = re.compile(r"%0?(\d*)d")
 
@@ -68,6 +61,11 @@ def check_video_path(path: Path, width: int, height: int) -> Path:
             f"the frames are {width} x {height}"
         )
     return path
+
+
+def _same_gif_frame(a, b) -> bool:
+    """Whether two quantized frames are the same image (Pillow would merge them)."""
+    return a.tobytes() == b.tobytes() and a.getpalette() == b.getpalette()
 
 
 class VideoWriter:

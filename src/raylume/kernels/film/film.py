@@ -257,6 +257,9 @@ def splat_image(sums: np.ndarray, spp: int) -> np.ndarray:
 RGB_KERNEL_PIXELS = 1 << 20
 
 
+_F32_MAX = float(np.finfo(np.float32).max)  # a pixel past it is read as it (film_rgb_numpy, _film_rgb)
+
+
 def film_rgb_numpy(sums: np.ndarray) -> np.ndarray:
     """float32 (H, W, 3): _film_rgb's image of the running sums, in numpy (IEEE arithmetic, the
     same operations: the same image to the bit; tests/test_quality.py)."""
@@ -274,9 +277,6 @@ def film_rgb_numpy(sums: np.ndarray) -> np.ndarray:
     np.maximum(x, 0.0, out=x)
     np.minimum(x, _F32_MAX, out=x)
     return x.astype(np.float32)
-
-
-_F32_MAX = float(np.finfo(np.float32).max)
 
 
 # IEEE arithmetic (no fast-math), so the image is what film_rgb_numpy gives, to the bit: numpy
