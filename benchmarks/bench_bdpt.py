@@ -30,7 +30,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from common import REPO, machine, table
+from common import REPO, machine, run_main, table
 
 sys.path.insert(0, str(REPO / "src"))
 import raylume  # noqa: E402
@@ -204,6 +204,4 @@ def plot(plots, path: Path) -> None:
 
 if __name__ == "__main__":
     sys.path.insert(0, str(REPO / "tests"))
-    from common import run_main  # (a missing bench-extra module in one line)
-
     run_main(main)

@@ -20,7 +20,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from common import REPO, machine, median_of, table
+from common import REPO, machine, median_of, run_main, table
 
 EXAMPLES = REPO / "examples"
 WORK = {
@@ -107,6 +107,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    from common import run_main  # (a missing bench-extra module in one line)
-
     run_main(main)

@@ -24,7 +24,7 @@ import argparse
 import time
 
 import numpy as np
-from common import SHARED_MODELS, machine, median_of, table
+from common import SHARED_MODELS, machine, median_of, run_main, table
 
 import raylume
 from raylume.compile import compile_scene
@@ -419,6 +419,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    from common import run_main  # (a missing bench-extra module in one line)
-
     run_main(main)

@@ -22,7 +22,7 @@ import statistics
 import time
 
 import numpy as np
-from common import REPO, machine, table
+from common import REPO, machine, run_main, table
 
 import raylume
 from raylume import cluster as C
@@ -133,6 +133,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":  # the local cluster's worker processes import this module
-    from common import run_main  # (a missing bench-extra module in one line)
-
     run_main(main)

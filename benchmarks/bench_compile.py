@@ -20,7 +20,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from common import REPO, machine, median_of, table
+from common import REPO, machine, median_of, run_main, table
 
 EXAMPLES = REPO / "examples"
 MESH = "import trimesh; trimesh.creation.icosphere(3).export(mesh)"  # 1,280 triangles
@@ -96,6 +96,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    from common import run_main  # (a missing bench-extra module in one line)
-
     run_main(main)

@@ -25,7 +25,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from common import REPO, machine, median_of, table
+from common import REPO, machine, median_of, run_main, table
 
 
 def first_run(src: Path, render_args: list[str], python: str = sys.executable) -> tuple[float, float, float]:
@@ -69,6 +69,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    from common import run_main  # (a missing bench-extra module in one line)
-
     run_main(main)

@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from common import REPO, machine, median_of, table
+from common import REPO, machine, median_of, run_main, table
 
 import raylume
 
@@ -48,6 +48,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    from common import run_main  # (a missing bench-extra module in one line)
-
     run_main(main)

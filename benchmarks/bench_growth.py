@@ -35,7 +35,7 @@ import numba
 import numpy as np
 from bench_hits import _trace, block_orders, cpu_seconds, frame_rays, mesh
 from bench_shadows import _blocked, shadow_rays
-from common import machine, table
+from common import machine, run_main, table
 from embree_direct import ROBUST, EmbreeScene
 
 EMBREES = ("Embree (embreex)", "Embree single rays", "Embree packets")
@@ -173,6 +173,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    from common import run_main  # (a missing bench-extra module in one line)
-
     run_main(main)

@@ -39,7 +39,7 @@ import time
 import numba
 import numpy as np
 from bench_bvh import camera_rays, raylume_scene
-from common import SHARED_MODELS, cached_entry, growth_table, machine, table
+from common import SHARED_MODELS, cached_entry, growth_table, machine, run_main, table
 from embree_direct import EmbreeScene
 
 import raylume
@@ -257,6 +257,4 @@ def plot_hits(hit_ms: dict, size: int, path: str) -> None:
 
 
 if __name__ == "__main__":
-    from common import run_main  # (a missing bench-extra module in one line)
-
     run_main(main)

@@ -29,7 +29,7 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
-from common import machine, table
+from common import machine, run_main, table
 
 MESH_TRIANGLES = 100_000
 
@@ -267,6 +267,4 @@ def plot(results: dict, counts: list[int], args) -> None:
 
 
 if __name__ == "__main__":
-    from common import run_main  # (a missing bench-extra module in one line)
-
     run_main(main)

@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 from bench_hits import bumpy_size
-from common import machine, median_of, table
+from common import machine, median_of, run_main, table
 
 import raylume
 from raylume.scene.procedural import bumpy_sphere
@@ -105,6 +105,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    from common import run_main  # (a missing bench-extra module in one line)
-
     run_main(main)

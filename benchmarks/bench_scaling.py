@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 import trimesh
-from common import REPO, machine, median_of, table
+from common import REPO, machine, median_of, run_main, table
 
 import raylume
 from raylume.scene.procedural import bumpy_sphere
@@ -244,6 +244,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    from common import run_main  # (a missing bench-extra module in one line)
-
     run_main(main)

@@ -12,7 +12,7 @@ from __future__ import annotations
 import argparse
 import tempfile
 
-from common import machine, median_of, median_time, run_python, table
+from common import machine, median_of, median_time, run_main, run_python, table
 
 RENDER_CODE = """
 import time, raylume
@@ -67,6 +67,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    from common import run_main  # (a missing bench-extra module in one line)
-
     run_main(main)

@@ -25,7 +25,7 @@ import argparse
 import numba
 import numpy as np
 from bench_hits import DEFAULT, _trace, bumpy_size, cpu_seconds, frame_rays, mesh
-from common import SHARED_MODELS, cached_entry, growth_table, machine, table
+from common import SHARED_MODELS, cached_entry, growth_table, machine, run_main, table
 from embree_direct import EmbreeScene
 
 from raylume.kernels.geometry.query import CHUNK
@@ -136,6 +136,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    from common import run_main  # (a missing bench-extra module in one line)
-
     run_main(main)

@@ -12,7 +12,7 @@ from __future__ import annotations
 import argparse
 import time
 
-from common import REPO, machine, median_of, table
+from common import REPO, machine, median_of, run_main, table
 
 
 def main() -> None:
@@ -76,6 +76,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    from common import run_main  # (a missing bench-extra module in one line)
-
     run_main(main)

@@ -29,7 +29,7 @@ import time
 import urllib.request
 from pathlib import Path
 
-from common import machine, table
+from common import machine, run_main, table
 
 # The seed's camera looks at (0, 0, 1); the same view direction with look_at among the spheres
 # gives the same first image and an orbit around them.
@@ -281,6 +281,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    from common import run_main  # (a missing bench-extra module in one line)
-
     run_main(main)

@@ -30,7 +30,7 @@ import time
 import numba
 import numpy as np
 from bench_hits import frame_rays, mesh
-from common import table
+from common import run_main, table
 
 from raylume.accel.wide import NODE_ROWS
 from raylume.kernels.geometry import traverse
@@ -258,6 +258,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    from common import run_main  # (a missing bench-extra module in one line)
-
     run_main(main)
