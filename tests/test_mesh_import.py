@@ -396,6 +396,32 @@ def test_error_obj_face_index_zero_or_out_of_range_names_line_and_index(tmp_path
     assert all(w in message for w in words), message
 
 
+@pytest.mark.parametrize(
+    ("lines", "words"),
+    [
+        ("v 0 1 abc\nf 1 2 3\n", ["line 1 (v 0 1 abc)", "'abc' is not a number"]),
+        ("vn 0 0 z\nf 1 2 3\n", ["line 1 (vn 0 0 z)", "'z' is not a number"]),
+        ("vt 0 q\nf 1 2 3\n", ["line 1 (vt 0 q)", "'q' is not a number"]),
+        ("f 1 2 x\n", ["line 1 (f 1 2 x)", "vertex index 'x' is not a whole number"]),
+        # trimesh reads the file's coordinates as 2D points here, and the error came from numpy
+        ("v 0 1\nf 1 2 3\n", ["line 1 (v 0 1)", "a vertex takes 3, 4, 6 or 7 numbers, not 2"]),
+    ],
+)
+def test_error_obj_malformed_line_is_named(tmp_path, lines, words):
+    message = assert_mesh_error(write(tmp_path / "bad.obj", lines + TRIANGLE_OBJ), "could not be parsed as OBJ")
+    assert all(w in message for w in words), message
+
+
+def test_error_truncated_binary_stl_says_it_is_cut_short(tmp_path):
+    # trimesh falls back to its ASCII reader, which finds no triangles
+    trimesh.creation.icosphere(subdivisions=1).export(tmp_path / "whole.stl")
+    data = (tmp_path / "whole.stl").read_bytes()
+    assert len(data) == 84 + 50 * 80
+    (tmp_path / "cut.stl").write_bytes(data[:2000])
+    message = assert_mesh_error(tmp_path / "cut.stl", "could not be parsed as STL")
+    assert "counts 80 triangles, which take 4084 bytes, but the file has 2000" in message, message
+
+
 def test_obj_uv_index_out_of_range_is_named_when_a_texture_needs_the_uvs(tmp_path):
     # trimesh drops every texture coordinate of the file, silently; untextured, the mesh loads
     mesh = load_mesh(write(tmp_path / "uv.obj", TRIANGLE_OBJ + "f 1/5 2/1 3/1\n"))

@@ -35,7 +35,8 @@ What trimesh 5.x does and how this module copes
 * The OBJ reader takes face index 0 (invalid: OBJ counts from 1) as the first element,
   and drops all texture coordinates when a ``vt`` index is past the end, both silently.
   Where that shows (only zero-area faces, an IndexError, no UVs from a file with ``vt``
-  lines) the file is scanned for the line at fault (``_obj_index_problem``); an index 0
+  lines) the file is scanned for the line at fault (``_obj_problem``, which also names a
+  number that is not one, or a ``v`` line of two numbers that the reader takes as 2D); an index 0
   among valid faces is not found, as scanning every OBJ would add a quarter to its load.
 * STL has no shared vertices (every triangle has its own three), so exactly
   coincident STL vertices are merged here (memory would otherwise triple).
@@ -205,7 +206,7 @@ def _read_parts(path: Path, file_type: str, shape_index: int = 0):
             # trimesh's binary PLY reader takes faces of one size only (a mesh of quads and
             # triangles, as Blender writes, is "unexpected length"): read by the module's own
             return [_read_own_ply(path)]
-        why = (_obj_index_problem(path) if file_type == "obj" and isinstance(exc, IndexError) else None) or _why(exc)
+        why = (_obj_problem(path) if file_type == "obj" else None) or _why(exc)
         raise MeshError(f"Mesh file {path} could not be parsed as {file_type.upper()}: {why}.") from exc
 
     parts = []
@@ -216,6 +217,9 @@ def _read_parts(path: Path, file_type: str, shape_index: int = 0):
             continue  # point clouds, paths
         v = np.asarray(geom.vertices, dtype=np.float64)
         f = np.asarray(geom.faces, dtype=np.int64)
+        if v.ndim != 2 or v.shape[1] != 3:  # trimesh's OBJ reader takes a short `v` line so
+            why = (_obj_problem(path) if file_type == "obj" else None) or "its vertices are not 3D points"
+            raise MeshError(f"Mesh file {path} could not be parsed as {file_type.upper()}: {why}.")
         if f.min() < 0 or f.max() >= len(v):
             raise MeshError(f"Mesh file {path} has a face index outside the range of its {len(v)} vertices.")
         # Read the cache dict directly (as trimesh's own OBJ exporter does): the
@@ -229,8 +233,24 @@ def _read_parts(path: Path, file_type: str, shape_index: int = 0):
             v, f, n = _apply(transform, v, f, n)
         parts.append((v, f, n, uv))
     if not parts:
+        short = _stl_truncated(path) if file_type == "stl" else None
+        if short is not None:
+            raise MeshError(f"Mesh file {path} could not be parsed as STL: {short}.")
         raise MeshError(f"Mesh file {path} contains no triangles.")
     return parts
+
+
+def _stl_truncated(path: Path) -> str | None:
+    """Why a binary STL file is cut short, or None: trimesh reads such a file as an
+    ASCII STL without triangles."""
+    data = path.read_bytes()
+    if len(data) < 84 or data[:5].lower() == b"solid" and b"facet" in data[:1024]:
+        return None  # too short to be binary, or text
+    count = struct.unpack_from("<I", data, 80)[0]
+    needed = 84 + 50 * count
+    if len(data) >= needed:
+        return None
+    return f"its header counts {count} triangles, which take {needed} bytes, but the file has {len(data)} (cut short?)"
 
 
 # ---------------------------------------------------------------- PLY triangle strips
@@ -550,7 +570,7 @@ def load_mesh(
     try:
         mesh = place_mesh(v, f, n, uv, m, smooth, f"Mesh file {path}")
     except MeshError:  # only zero-area faces: an OBJ's index 0, which trimesh reads as 1, may be why
-        problem = _obj_index_problem(path) if file_type == "obj" else None
+        problem = _obj_problem(path) if file_type == "obj" else None
         if problem is None:
             raise
         raise MeshError(f"Mesh file {path} could not be parsed as OBJ: {problem}.") from None
@@ -561,6 +581,35 @@ def load_mesh(
 
 _OBJ_ELEMENTS = {b"v": "vertex", b"vt": "texture coordinate", b"vn": "normal"}
 _OBJ_CORNER = (b"v", b"vt", b"vn")  # the order of a face corner's v/vt/vn indices
+
+
+# How many numbers each OBJ element line takes: v x y z [w | r g b], vt u [v [w]], vn x y z.
+_OBJ_NUMBERS = {b"v": (3, 4, 6, 7), b"vt": (1, 2, 3), b"vn": (3,)}
+
+
+def _obj_problem(path: Path) -> str | None:
+    """The first line of an OBJ file at fault, in words, or None: a number that is not one,
+    a vertex of too few coordinates, or a face index that does not exist."""
+    return _obj_number_problem(path) or _obj_index_problem(path)
+
+
+def _obj_number_problem(path: Path) -> str | None:
+    for number, line in enumerate(path.read_bytes().splitlines(), 1):
+        words = line.split(b"#", 1)[0].split()
+        if not words or words[0] not in _OBJ_NUMBERS:
+            continue
+        shown = line.split(b"#", 1)[0].strip().decode("utf-8", "replace")[:60]
+        name = _OBJ_ELEMENTS[words[0]]
+        for word in words[1:]:
+            try:
+                float(word)
+            except ValueError:
+                return f"line {number} ({shown}): {word.decode('utf-8', 'replace')!r} is not a number"
+        if len(words) - 1 not in _OBJ_NUMBERS[words[0]]:
+            *most, last = (str(c) for c in _OBJ_NUMBERS[words[0]])
+            counts = f"{', '.join(most)} or {last}" if most else last
+            return f"line {number} ({shown}): a {name} takes {counts} numbers, not {len(words) - 1}"
+    return None
 
 
 def _obj_index_problem(path: Path) -> str | None:
