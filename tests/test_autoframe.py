@@ -85,6 +85,16 @@ def test_set_keys_edit_the_mesh_scene_and_the_framing_follows(model):
     assert placed.camera.position == (0, 5, -5) and placed.camera.look_at == default.camera.look_at
 
 
+@pytest.mark.parametrize(("flags", "shape"), [(["--width", "24"], (24, 24)), (["--height", "20"], (20, 20))])
+def test_one_side_given_keeps_a_mesh_file_s_square_image(model, tmp_path, flags, shape):
+    # the default image is 600 x 600; a flag's one side made it 24 x 600 before
+    result = run_cli("render", model, *flags, "--mode", "cast", "-o", "out.npy", cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert np.load(tmp_path / "out.npy").shape[:2] == shape
+    scene = raylume.load_scene(model, overrides=["render.height=30"])
+    assert (scene.render.width, scene.render.height) == (600, 30)
+
+
 def test_render_a_mesh_file_from_the_command_line_with_flags_and_set(model, tmp_path):
     result = run_cli(
         "render",

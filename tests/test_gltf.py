@@ -190,6 +190,11 @@ def test_camera_by_name_aspect_and_framing_without_a_camera(tmp_path):
     assert first.lights[0].type == "ambient"  # no lights in the file: a uniform environment
     assert gltf_scene(path, camera="close").camera.position == (0.0, 0.0, -4.0)
     assert (gltf_scene(path, width=300).render.height, gltf_scene(path, height=100).render.width) == (150, 200)
+    # a camera without aspectRatio: the viewport's, square by default, so one side given is both
+    close = [gltf_scene(path, camera="close", **side).render for side in ({"width": 48}, {"height": 40})]
+    assert [(r.width, r.height) for r in close] == [(48, 48), (40, 40)]
+    both = gltf_scene(path, camera="close", width=48, height=20).render
+    assert (both.width, both.height) == (600, 600)  # both given: the flags set them later, as for any scene
     with pytest.raises(SceneError, match="'nope'.*'wide', 'close'"):
         gltf_scene(path, camera="nope")
     with pytest.raises(SceneError, match="--camera close: chooses a camera of a glTF file"):

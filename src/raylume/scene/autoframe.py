@@ -48,11 +48,18 @@ def is_mesh_file(path: str | Path) -> bool:
     return Path(path).suffix.lower() in MESH_SUFFIXES
 
 
-def mesh_document(path: str | Path) -> dict:
+def square_sides(width: int | None, height: int | None) -> dict:
+    """The image size of a scene whose default is square (a mesh file's, a glTF camera's without
+    an aspect ratio) where a flag gives one side: the other side the same. Nothing otherwise."""
+    side = width or height
+    return {"width": side, "height": side} if side and not (width and height) else {}
+
+
+def mesh_document(path: str | Path, width: int | None = None, height: int | None = None) -> dict:
     """The scene document of a mesh file, before framing: the camera's position and look_at are
-    left out for `frame` to fill in."""
+    left out for `frame` to fill in. `width`/`height`: the flags' sides (see square_sides)."""
     return {
-        "render": {"background": BACKGROUND},
+        "render": {"background": BACKGROUND, **square_sides(width, height)},
         "materials": {"grey": GREY},
         "lights": [dict(light) for light in RIG],
         "objects": [
@@ -78,7 +85,7 @@ def mesh_scene(
     `width`/`height` (command-line flags applied later) are framed for too."""
     path = Path(path)
     source = source or str(path)
-    document = apply_overrides(mesh_document(path), overrides)
+    document = apply_overrides(mesh_document(path, width, height), overrides)
     scene = scene_from_dict(document, source=source, overrides=overrides).with_base_dir(path.resolve().parent)
     camera = document.get("camera", {})
     given = {key for key in ("position", "look_at") if isinstance(camera, dict) and key in camera}

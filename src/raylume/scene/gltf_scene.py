@@ -16,7 +16,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..errors import SceneError
-from .autoframe import frame
+from .autoframe import frame, square_sides
 from .document import scene_from_dict
 from .gltf import GltfCamera, GltfError, GltfScene, read_gltf
 from .model import Scene
@@ -49,8 +49,11 @@ def gltf_document(
     height: int | None = None,
 ) -> dict:
     """The scene document of a glTF file, before framing. With the camera's aspect ratio, a
-    width or height given (flags) sets the other side; neither: SIDE pixels wide."""
+    width or height given (flags) sets the other side; neither: SIDE pixels wide. Without one
+    (or a camera), the image is square, as by default."""
     render = dict(RENDER)
+    if camera is None or camera.aspect is None:
+        render.update(square_sides(width, height))
     document: dict = {"render": render, "lights": [dict(light) for light in imported.lights] or list(NO_LIGHTS)}
     if camera is not None:
         document["camera"] = {
