@@ -115,6 +115,8 @@ def write_atomic(path: str | Path, write) -> None:
     try:
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=folder)
     except OSError as exc:
+        if not folder.exists():  # said as check_writable_folder says it
+            raise OutputError(f"{path}: the folder {folder} does not exist") from None
         raise OutputError(f"{path}: cannot write the file ({_reason(exc)})") from None
     try:
         with os.fdopen(fd, "wb") as fh:
