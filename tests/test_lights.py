@@ -127,6 +127,29 @@ def test_light_weights_do_not_depend_on_where_the_scene_sits():
     assert np.isclose(here[0], 4 * np.pi * 5.0)  # the point light: 4 pi I
 
 
+def test_an_environment_near_float32_s_limit_keeps_a_finite_weight(tmp_path):
+    """The environment's weight is its mean radiance: summed in float32, a texel of 2e38 among 127
+    of 0.5 overflowed to inf (a numpy warning, then an infinite CDF, and path mode's pixels went
+    black where bdpt's did not). Its weight is 4 pi^2 r^2 times the mean, written out here."""
+    import warnings
+
+    import OpenEXR
+
+    sky = np.full((8, 16, 3), 0.5, np.float32)
+    sky[2, 5] = 2e38
+    OpenEXR.File({"compression": OpenEXR.ZIP_COMPRESSION}, {"RGB": sky}).write(str(tmp_path / "sky.exr"))
+    lights = [{"type": "point", "position": [0, 4, 0], "intensity": 1.0}]
+    scene = {"lights": lights, "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1}]}
+    scene["environment"] = {"file": "sky.exr"}
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        cdf = compile_scene(raylume.Scene.model_validate(scene).with_base_dir(tmp_path)).kernel.light_cdf
+    weights = np.diff(cdf)
+    mean = (127 * 0.5 + np.float64(np.float32(2e38))) / 128
+    r2 = 3.0  # half the diagonal of the unit sphere's box, squared
+    assert np.all(np.isfinite(cdf)) and np.isclose(weights[-1], 4 * np.pi**2 * r2 * mean)
+
+
 def test_an_unknown_kind_in_the_table_sends_no_light():
     """Trace mode's flag functions answer False and the area sampler gives no point for a row
     of a kind no module defines."""

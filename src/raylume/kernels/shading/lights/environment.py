@@ -4,6 +4,8 @@ Trace mode sees it only as what rays that hit nothing meet."""
 
 import math
 
+import numpy as np
+
 from ...vec import inline_function, mul
 from ..environment import environment_pdf, environment_radiance_pdf, sample_environment
 from .sampling import disk_density, disk_origin
@@ -20,7 +22,7 @@ INF = math.inf
 
 def power(image, radius: float) -> float:
     """Power of an environment of this (mean) radiance image around a scene of `radius`."""
-    return 4 * math.pi * math.pi * radius**2 * float(image.mean())
+    return 4 * math.pi * math.pi * radius**2 * float(image.mean(dtype=np.float64))  # float32 sums overflow
 
 
 @inline_function
