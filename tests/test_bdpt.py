@@ -112,6 +112,34 @@ def test_a_light_no_light_subpath_can_start_from_keeps_its_light():
     _diff_within(bdpt, path, "plane under a sky")
 
 
+def _below_the_floor(light: dict) -> raylume.Scene:
+    return raylume.scene_from_dict({
+        "render": {"width": 32, "height": 32, "spp": 16, "mode": "path", "max_depth": -1},
+        "camera": {"position": [0, 1.2, -3], "look_at": [0, 0.5, 0], "fov": 50},
+        **light,
+        "objects": [
+            {"type": "plane", "material": {"type": "diffuse", "color": [0.5, 0.5, 0.5]}},
+            {"type": "sphere", "center": [0, 0.5, 0], "radius": 0.5,
+             "material": {"type": "diffuse", "color": [0.8, 0.8, 0.8]}},
+        ],
+    })  # fmt: skip
+
+
+def test_lights_at_infinity_do_not_shine_through_an_infinite_plane():
+    """A light subpath from a light at infinity starts on the disk of the bounded geometry's
+    sphere, which an infinite floor cuts: light from below the floor started above it, lit the
+    ball and the floor's top (a directional light under the floor: max 0.3 where nothing can be
+    lit), and a uniform sky made the ball ~15% too bright. Path mode is right by construction."""
+    under = _below_the_floor({"lights": [{"type": "directional", "direction": [1, -0.2, 0], "intensity": 2}]})
+    assert raylume.render(under, mode="path", aovs=False).rgb.max() == 0.0
+    assert raylume.render(under, **BDPT, aovs=False).rgb.max() < 1e-20
+    sky = _below_the_floor({"environment": {"color": [1, 1, 1]}})
+    path = raylume.render(sky, spp=64, seed=1, aovs=False).rgb
+    bdpt = raylume.render(sky, **BDPT, seed=2, aovs=False).rgb
+    _diff_within(bdpt, path, "sky over an infinite floor")
+    _diff_within(bdpt[12:20, 12:20], path[12:20, 12:20], "the ball under the sky")
+
+
 def _every_light(folder):
     """tools/render_check.py's scene of every light, emitter and material kind."""
     import importlib.util

@@ -61,6 +61,20 @@ BEHIND_THE_LIGHT = {  # a big sphere light in fog: the fog behind it, lit, is hi
 }  # fmt: skip
 
 
+THROUGH_THE_FOG = {  # an infinite floor through a sphere of fog, the point the floor is given by
+    # inside it: light subpaths took the fog as the medium around the floor everywhere (the floor
+    # 7x too bright), as the medium "around" an open surface is found from that one point
+    "render": {"width": 32, "height": 24, "mode": "path", "max_depth": -1},
+    "camera": {"position": [0, 1.2, -3], "look_at": [0, 0.4, 0], "fov": 50},
+    "media": {"milk": {"type": "homogeneous", "sigma_s": 5.0, "sigma_a": 0.2}},
+    "lights": [{"type": "point", "position": [1, 2, -1], "intensity": 3}],
+    "objects": [
+        {"type": "plane", "point": [0, 0, 0], "material": {"type": "diffuse", "color": [0.7, 0.7, 0.7]}},
+        {"type": "sphere", "center": [0, 0.4, 0], "radius": 0.5, "material": {"type": "null"}, "interior": "milk"},
+    ],
+}  # fmt: skip
+
+
 def _grid_scene(folder) -> raylume.Scene:
     """A grid medium ([render] medium: density only inside its box) of a soft blob of noise,
     under a uniform environment (whose light subpaths start on a disk beyond the grid's box) and
@@ -88,7 +102,14 @@ def _seed_images(session: raylume.Session, integrator: str, spp: int, first_seed
 
 
 @pytest.mark.parametrize(
-    "case", ["fog with a light in it", "interiors behind null and glass", "grid medium", "fog behind a light"]
+    "case",
+    [
+        "fog with a light in it",
+        "interiors behind null and glass",
+        "grid medium",
+        "fog behind a light",
+        "floor through fog",
+    ],
 )
 def test_bdpt_agrees_with_path_mode_through_media(case, tmp_path):
     """Scattering, absorption, chromatic media, multiple scattering up to max_depth, light
@@ -102,6 +123,7 @@ def test_bdpt_agrees_with_path_mode_through_media(case, tmp_path):
         "interiors behind null and glass": lambda: raylume.scene_from_dict(INTERIORS),
         "grid medium": lambda: _grid_scene(tmp_path),
         "fog behind a light": lambda: raylume.scene_from_dict(BEHIND_THE_LIGHT),
+        "floor through fog": lambda: raylume.scene_from_dict(THROUGH_THE_FOG),
     }[case]()
     session = raylume.Session(scene)
     bdpt = _seed_images(session, "bdpt", 8, 100)

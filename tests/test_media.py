@@ -408,3 +408,32 @@ def test_which_medium_surrounds_each_object(tmp_path):
     fog, milk, clear = 0, 1, -1
     interface = compile_scene(s).kernel.medium_interface
     assert interface.tolist() == [[clear, fog], [milk, clear], [fog, fog], [milk, milk]]
+
+
+@pytest.mark.parametrize(
+    ("position", "warned"),
+    [([0, 0, 0.2], "objects[1] (medium: 'milk')"), ([0, 0, 1.5], "objects[0] (medium: none)"), ([0, 0, -3], None)],
+)
+def test_a_camera_inside_a_filled_object_is_warned_about(position, warned, tmp_path):
+    """A camera sits in the outer medium (DESIGN 7), whatever it is inside: path mode's camera rays
+    see none of a medium around it, while bdpt's light subpaths find it from the geometry. Inside
+    the milk, and inside the glass (clear) in fog, it is said; outside everything, nothing is."""
+    import warnings
+
+    s = scene(
+        render={"mode": "path", "medium": "fog"},
+        camera={"position": position, "look_at": [0, 0, 5]},
+        media={"fog": {"type": "homogeneous", "sigma_s": 0.1}, "milk": {"type": "homogeneous", "sigma_s": 5}},
+        objects=[
+            {"type": "sphere", "center": [0, 0, 0], "radius": 2, "material": {"type": "dielectric"}},
+            {"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": {"type": "null"}, "interior": "milk"},
+        ],
+    )
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        compile_scene(s)
+    said = [str(w.message) for w in caught if issubclass(w.category, raylume.SceneWarning)]
+    if warned is None:
+        assert said == []
+    else:
+        assert len(said) == 1 and warned in said[0] and "[render] medium: 'fog'" in said[0], said

@@ -22,6 +22,7 @@ from ..kernels.geometry.shapes import ANALYTIC
 from ..kernels.shading.materials.registry import is_solid
 from ..kernels.shading.media import grid, homogeneous
 from ..kernels.shading.media.table import MED_KIND, MED_WIDTH
+from ..scene.checks import warn
 from ..scene.generated import generator_hint
 from ..scene.model import GridMedium, Mesh, Scene
 from .objects import ANALYTIC_MODELS, object_matrix
@@ -66,7 +67,8 @@ def build_media(scene: Scene, geometry, material_kinds: dict, source: str) -> Me
     null_boundaries = "null" in material_kinds.values()
     present = bool(names)
     if present:
-        interface = _interfaces(scene, geometry, index, outer, source)
+        interface, solids = _interfaces(scene, geometry, index, outer, source)
+        _check_camera(scene, solids, names, outer)
     else:
         interface = np.full((max(len(scene.objects), 1), 2), outer, dtype=np.int32)
     return MediaTables(
@@ -146,7 +148,30 @@ def _interfaces(scene: Scene, geometry, index: dict, outer: int, source: str) ->
         around = min(holders, key=lambda s: s.volume).inside if holders else outer
         mine = next((s for s in solids if s.obj == k), None)
         interface[k] = (mine.inside if mine is not None else around, around)
-    return interface
+    return interface, solids
+
+
+def _check_camera(scene: Scene, solids: list[_Solid], names: list[str], outer: int) -> None:
+    """Warn where the camera is inside an object filled with another medium than the outer one:
+    the camera sits in the outer medium (DESIGN 7), so its rays see none of the medium around it
+    and path and bdpt disagree there (a light subpath's medium is found from the geometry)."""
+    camera = np.asarray(scene.camera.position, dtype=np.float64)
+    holders = [s for s in solids if s.contains(camera)]
+    if not holders:
+        return
+    innermost = min(holders, key=lambda s: s.volume)
+    if innermost.inside == outer:
+        return
+
+    def name(i: int) -> str:
+        return "none" if i == NONE else repr(names[i])
+
+    x, y, z = (f"{c:g}" for c in camera)
+    warn(
+        f"the camera at ({x}, {y}, {z}) is inside objects[{innermost.obj}] (medium: {name(innermost.inside)}), "
+        f"but a camera sits in the medium outside every object ([render] medium: {name(outer)}), and its "
+        "rays start there; move the camera out of the object"
+    )
 
 
 def _object_triangles(geometry) -> dict[int, np.ndarray]:

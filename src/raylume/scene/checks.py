@@ -47,6 +47,11 @@ def warn_about(scene: Scene, mode: str) -> None:
         warnings.warn(message, SceneWarning, stacklevel=_outside_level())
 
 
+def warn(message: str) -> None:
+    """One SceneWarning found while compiling (what needs the geometry), attributed as warn_about's."""
+    warnings.warn(message, SceneWarning, stacklevel=_outside_level())
+
+
 def _outside_level() -> int:
     """The warnings.warn stacklevel, as seen from warn_about, of the nearest frame outside the package."""
     frame, level = sys._getframe(2), 2  # level 1 is warn_about, 2 its caller

@@ -21,7 +21,7 @@ import numpy as np
 from ..film.camera import CAM_FORWARD, camera_importance
 from ..film.sampler import DIM_BSDF, dimension_key, key_uniform2, sub_key
 from ..geometry.shapes import NO_HIT, PRIM_LIGHT, offset_epsilon, split_hit, surface
-from ..geometry.traverse import closest_hit_leaving
+from ..geometry.traverse import any_hit_leaving, closest_hit_leaving
 from ..shading.frame import shading_frame, to_local, to_world
 from ..shading.lights import at_infinity, hit_area_lights, is_delta, pick_emitter, sample_emission
 from ..shading.materials import (
@@ -112,7 +112,8 @@ def random_walk(C, V, start, o, d, beta, pdf_dir, most, importance, key, dim, sp
         if Em.n_area > 0:
             tl, el, nl = hit_area_lights(Em, o, d, t)
         if med == FIRST_HIT:
-            med = _medium_ahead(G, X, Md, o, d, t, prim, b1, b2)
+            med, traced = _medium_ahead(G, X, F, Md, o, d, t, prim, b1, b2, node_stack, t_stack)
+            rays += traced
         if med >= 0:
             # the medium along the segment (path mode's free flight): a scattering before its end
             # is a medium vertex, where the phase function samples the next direction
@@ -236,17 +237,29 @@ def random_walk(C, V, start, o, d, beta, pdf_dir, most, importance, key, dim, sp
     return made, rays, False
 
 
-@inline_function
-def _medium_ahead(G, X, Md, o, d, t, prim, b1, b2):
-    """The medium a ray from a light lies in, by the first surface it meets (hit from outside:
-    the medium around that object, from inside: its inside); the scene's outer medium when it
-    meets none. Lights are not objects: they sit in whatever encloses them."""
+@kernel_function
+def _medium_ahead(G, X, F, Md, o, d, t, prim, b1, b2, node_stack, t_stack):
+    """The medium a ray from a light lies in, by the first surface it meets that has different
+    media on its two sides (hit from outside: the medium around that object, from inside: its
+    inside); the scene's outer medium when it meets none. Lights are not objects: they sit in
+    whatever encloses them. A surface with one medium on both sides is passed: an open one (a
+    plane, a quad) has no inside, and the medium "around" it, found from one of its points, need
+    not be the one around the point the ray meets (a floor through a sphere of fog). Returns
+    (the medium, the rays traced beyond the first hit)."""
     if not Md.present:
-        return -1
-    if prim == NO_HIT:
-        return Md.camera
-    ng, _, _, obj, _ = surface(G, X, prim, b1, b2, madd(o, d, t))
-    return Md.interface[obj, 1] if dot(d, ng) < 0.0 else Md.interface[obj, 0]
+        return -1, 0
+    for traced in range(MAX_CROSSINGS):
+        if prim == NO_HIT:
+            return Md.camera, traced
+        p = madd(o, d, t)
+        ng, _, _, obj, _ = surface(G, X, prim, b1, b2, p)
+        entering = dot(d, ng) < 0.0
+        if Md.interface[obj, 0] != Md.interface[obj, 1]:
+            return (Md.interface[obj, 1] if entering else Md.interface[obj, 0]), traced
+        eps = offset_epsilon(F.epsilon_floor, p)
+        o = madd(p, ng, -eps if entering else eps)
+        t, prim, b1, b2 = closest_hit_leaving(G, X, o, d, 0.0, INF, prim, node_stack, t_stack)
+    return Md.camera, MAX_CROSSINGS
 
 
 @kernel_function
@@ -303,6 +316,15 @@ def light_subpath(C, Vl, most, key, node_stack, t_stack):
         cos_l = abs(dot(n, w))
     beta = mul(le, cos_l / (p_pick * pdf_pos * pdf_dir))
     o = p
+    if (
+        infinite
+        and C.G.n_bounded < C.G.prims.shape[0]
+        and any_hit_leaving(C.G, C.X, p, mul(w, -1.0), 0.0, INF, np.int64(NO_HIT), node_stack, t_stack)
+    ):
+        # The disk lies outside the bounded geometry's sphere, not beyond an infinite plane: light
+        # from this side of one does not reach the disk's point, so the subpath carries nothing
+        # (the light vertex stays, for the strategies that sample the light anew).
+        return 1, 1
     if surface_point:
         eps = offset_epsilon(F.epsilon_floor, p)
         o = madd(p, n, eps if dot(n, w) > 0.0 else -eps)
