@@ -201,6 +201,52 @@ def test_transforms_move_and_scale_the_new_shapes():
     np.testing.assert_allclose(t[0], 4.0) and np.testing.assert_array_equal(obj, [0, -1])
 
 
+def test_spheres_planes_and_triangles_take_a_transform_too():
+    """DESIGN: every shape takes `transform`. A sphere scaled 2, turned and moved hits where a
+    sphere written with the new centre and radius does; a turned plane where the plane through
+    the turned point and normal does; a triangle where its moved corners, written out, do."""
+    origins = RNG.uniform(-4, 4, (400, 3)) + [0, 0, -10]
+    targets = RNG.uniform(-2, 2, (400, 3))
+    pairs = [
+        ({"type": "sphere", "center": [0.5, 0, 0], "radius": 0.5,
+          "transform": {"scale": 2, "rotate": [0, 90, 0], "translate": [0, 1, 0]}},
+         {"type": "sphere", "center": [0, 1, -1], "radius": 1.0}),  # (0.5, 0, 0) turned to (0, 0, -0.5)
+        ({"type": "plane", "point": [0, 0, 0], "normal": [0, 1, 0], "transform": {"rotate": [90, 0, 0],
+          "translate": [0, 0, 1]}}, {"type": "plane", "point": [0, 0, 1], "normal": [0, 0, 1]}),
+        ({"type": "triangle", "vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0]],
+          "transform": {"scale": [2, 3, 1], "translate": [-1, -1, 0.5]}},
+         {"type": "triangle", "vertices": [[-1, -1, 0.5], [1, -1, 0.5], [-1, 2, 0.5]]}),
+    ]  # fmt: skip
+    for placed, written in pairs:
+        t_placed, obj_placed, _, _ = shoot(one(placed), origins, targets)
+        t_written, obj_written, _, _ = shoot(one(written), origins, targets)
+        assert (obj_written == 0).sum() > 50, written["type"]
+        np.testing.assert_array_equal(obj_placed, obj_written)
+        np.testing.assert_allclose(t_placed, t_written, rtol=1e-12)
+    with pytest.raises(
+        raylume.SceneError, match=r"objects\[0\]\.transform: .*sphere's transform.scale must be uniform"
+    ):
+        one({"type": "sphere", "center": [0, 0, 0], "radius": 1, "transform": {"scale": [1, 2, 1]}})
+
+
+def test_a_turned_sphere_turns_its_texture():
+    """A sphere's UVs follow its transform's rotation: the point of the turned sphere where a
+    point of the unturned one went has that point's (u, v)."""
+    from raylume.kernels.geometry.shape_sphere import uv as sphere_uv
+
+    turn = {"rotate": [30, 70, -20], "translate": [1, 2, 3]}
+    rows = compile_scene(one({"type": "sphere", "center": [0, 0, 0], "radius": 1, "transform": turn})).kernel.shapes
+    plain = compile_scene(one({"type": "sphere", "center": [0, 0, 0], "radius": 1})).kernel.shapes
+    from raylume.kernels.geometry.transform import transform_point
+    from raylume.scene.mesh import transform_matrix
+
+    m = transform_matrix(turn["translate"], turn["rotate"], (1.0, 1.0, 1.0))
+    for p in RNG.normal(size=(50, 3)):
+        p = unit(p)
+        expected = sphere_uv(plain, 0, tuple(p))
+        assert sphere_uv(rows, 0, tuple(transform_point(m, p))) == pytest.approx(expected, abs=1e-9)
+
+
 # --- rasterizer against the ray caster ---------------------------------------------------------
 
 

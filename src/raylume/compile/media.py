@@ -213,11 +213,12 @@ def _surface_point(obj, triangles) -> np.ndarray | None:
         return np.asarray(found[1], dtype=np.float64)
     if triangles is not None and len(triangles):
         return triangles[0, 0]
+    m = object_matrix(obj)  # the point as placed in the world
     for key in ("position", "center", "point", "p0"):
         if hasattr(obj, key):
-            return np.asarray(getattr(obj, key), dtype=np.float64)
+            return m[:3, :3] @ np.asarray(getattr(obj, key), dtype=np.float64) + m[:3, 3]
     if hasattr(obj, "vertices") and obj.vertices:
-        return np.asarray(obj.vertices[0], dtype=np.float64)
+        return m[:3, :3] @ np.asarray(obj.vertices[0], dtype=np.float64) + m[:3, 3]
     return None
 
 

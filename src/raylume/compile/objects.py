@@ -310,7 +310,12 @@ def gather_objects(scene: Scene, source: str) -> Gathered:
                 analytic.add(kind, ANALYTIC[kind].pack(obj, object_matrix(obj)), m, k)
             elif isinstance(obj, Triangle):
                 uvs = np.array([[0, 0, 1, 0, 0, 1]], dtype=np.float32) if needs_uvs(obj) else None
-                soup.add(np.asarray(obj.vertices, dtype=np.float32).reshape(1, 9), None, m, k, uvs)
+                corners = np.asarray(obj.vertices, dtype=np.float64)
+                matrix = object_matrix(obj)
+                if not np.array_equal(matrix, np.eye(4)):
+                    corners = corners @ matrix[:3, :3].T + matrix[:3, 3]
+                    _check_extent(float(np.abs(corners).max()))
+                soup.add(corners.astype(np.float32).reshape(1, 9), None, m, k, uvs)
             else:
                 matrices = _instance_matrices(scene, k, obj, source)  # before the (slower) mesh file
                 loading = time.perf_counter()

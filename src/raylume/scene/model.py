@@ -648,82 +648,6 @@ LIGHT_TYPES = {
 Light = tagged_union(LIGHT_TYPES)
 
 
-# `interior` (every object): the name of the medium inside a closed shape, in [media]; open
-# shapes refuse it.
-MediumRef = Annotated[str | None, Field(None, min_length=1)]
-
-
-def _no_interior(obj, shape: str):
-    """interior needs an inside: refuse it on shapes that have none (DESIGN.md section 7)."""
-    if obj.interior is not None:
-        raise ValueError(
-            f"interior: a {shape} is open, it has no inside to fill; a medium needs a closed shape "
-            "(a sphere, a capped cylinder or a closed mesh)"
-        )
-    return obj
-
-
-class Sphere(Strict):
-    type: Literal["sphere"]
-    """`"sphere"`."""
-    center: Vec3
-    """Centre of the sphere."""
-    radius: FiniteFloat = Field(gt=0)
-    """Radius of the sphere."""
-    material: MaterialRef = "default"
-    """A name from `[materials]` or an inline material table (default: matte white phong)."""
-    interior: MediumRef = None
-    """Path mode: the medium inside, a name in `[media]`."""
-
-
-class Plane(Strict):
-    type: Literal["plane"]
-    """`"plane"`: an infinite plane."""
-    point: Vec3 = (0.0, 0.0, 0.0)
-    """A point on the plane."""
-    normal: Vec3 = (0.0, 1.0, 0.0)
-    """The plane's normal (two-sided)."""
-    material: MaterialRef = "default"
-    """A name from `[materials]` or an inline material table."""
-    interior: MediumRef = None
-    """Refused: a plane has no inside (the key exists for a clear error)."""
-
-    @model_validator(mode="after")
-    def _open(self):
-        return _no_interior(self, "plane")
-
-    @field_validator("normal")
-    @classmethod
-    def _n(cls, v):
-        return _nonzero(v, "normal")
-
-
-class Triangle(Strict):
-    type: Literal["triangle"]
-    """`"triangle"`: one triangle."""
-    vertices: tuple[Vec3, Vec3, Vec3]
-    """Three vertices `[[x, y, z], [x, y, z], [x, y, z]]`, not collinear."""
-    material: MaterialRef = "default"
-    """A name from `[materials]` or an inline material table."""
-    interior: MediumRef = None
-    """Refused: a triangle has no inside (the key exists for a clear error)."""
-
-    @model_validator(mode="after")
-    def _open(self):
-        return _no_interior(self, "triangle")
-
-    @field_validator("vertices")
-    @classmethod
-    def _area(cls, v):
-        a, b, c = v
-        e1 = [b[k] - a[k] for k in range(3)]
-        e2 = [c[k] - a[k] for k in range(3)]
-        n = (e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0])
-        if not any(n):
-            raise ValueError("the triangle's vertices are collinear (zero area)")
-        return v
-
-
 Row4 = tuple[FiniteFloat, FiniteFloat, FiniteFloat, FiniteFloat]
 
 
@@ -770,6 +694,93 @@ class Transform(Strict):
     @property
     def scale3(self) -> tuple[float, float, float]:
         return (self.scale,) * 3 if isinstance(self.scale, float) else self.scale
+
+
+# `interior` (every object): the name of the medium inside a closed shape, in [media]; open
+# shapes refuse it.
+MediumRef = Annotated[str | None, Field(None, min_length=1)]
+
+
+def _no_interior(obj, shape: str):
+    """interior needs an inside: refuse it on shapes that have none (DESIGN.md section 7)."""
+    if obj.interior is not None:
+        raise ValueError(
+            f"interior: a {shape} is open, it has no inside to fill; a medium needs a closed shape "
+            "(a sphere, a capped cylinder or a closed mesh)"
+        )
+    return obj
+
+
+class Sphere(Strict):
+    type: Literal["sphere"]
+    """`"sphere"`."""
+    center: Vec3
+    """Centre of the sphere."""
+    radius: FiniteFloat = Field(gt=0)
+    """Radius of the sphere."""
+    material: MaterialRef = "default"
+    """A name from `[materials]` or an inline material table (default: matte white phong)."""
+    transform: Transform = Transform()
+    """Scale (uniform only), rotate (turns its UVs) and translate, after `center` and `radius`."""
+    interior: MediumRef = None
+    """Path mode: the medium inside, a name in `[media]`."""
+
+    @field_validator("transform")
+    @classmethod
+    def _t(cls, v):
+        return _similarity(v, "sphere")
+
+
+class Plane(Strict):
+    type: Literal["plane"]
+    """`"plane"`: an infinite plane."""
+    point: Vec3 = (0.0, 0.0, 0.0)
+    """A point on the plane."""
+    normal: Vec3 = (0.0, 1.0, 0.0)
+    """The plane's normal (two-sided)."""
+    material: MaterialRef = "default"
+    """A name from `[materials]` or an inline material table."""
+    transform: Transform = Transform()
+    """Scale, rotate and translate, applied to `point` and `normal`."""
+    interior: MediumRef = None
+    """Refused: a plane has no inside (the key exists for a clear error)."""
+
+    @model_validator(mode="after")
+    def _open(self):
+        return _no_interior(self, "plane")
+
+    @field_validator("normal")
+    @classmethod
+    def _n(cls, v):
+        return _nonzero(v, "normal")
+
+
+class Triangle(Strict):
+    type: Literal["triangle"]
+    """`"triangle"`: one triangle."""
+    vertices: tuple[Vec3, Vec3, Vec3]
+    """Three vertices `[[x, y, z], [x, y, z], [x, y, z]]`, not collinear."""
+    material: MaterialRef = "default"
+    """A name from `[materials]` or an inline material table."""
+    transform: Transform = Transform()
+    """Scale, rotate and translate, applied to the vertices."""
+    interior: MediumRef = None
+    """Refused: a triangle has no inside (the key exists for a clear error)."""
+
+    @model_validator(mode="after")
+    def _open(self):
+        return _no_interior(self, "triangle")
+
+    @field_validator("vertices")
+    @classmethod
+    def _area(cls, v):
+        a, b, c = v
+        e1 = [b[k] - a[k] for k in range(3)]
+        e2 = [c[k] - a[k] for k in range(3)]
+        n = (e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0])
+        if not any(n):
+            raise ValueError("the triangle's vertices are collinear (zero area)")
+        return v
 
 
 class Fit(Strict):

@@ -6,7 +6,7 @@ import math
 import numpy as np
 
 from ..vec import cross, dot, inline_function, kernel_function, normalize, row3, sub
-from .transform import unit_vector
+from .transform import transform_point, transform_unit_normal, unit_vector
 
 INF = math.inf
 POINT = 0
@@ -17,8 +17,10 @@ RASTER_EXTENT = 1e5
 
 
 def pack(obj, m: np.ndarray) -> list[float]:
-    """The plane's row (a plane takes no transform: m is the identity)."""
-    return [*obj.point, *unit_vector(obj.normal)]
+    """The plane's row, its transform m (4x4, object to world) applied."""
+    if np.array_equal(m, np.eye(4)):  # as written, to the bit (a -0.0 kept: it orients the UVs' basis)
+        return [*obj.point, *unit_vector(obj.normal)]
+    return [*transform_point(m, obj.point), *transform_unit_normal(m, obj.normal)]
 
 
 def bounds(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

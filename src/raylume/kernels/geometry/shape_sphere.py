@@ -1,4 +1,6 @@
-"""Sphere: centre and radius. Row of the analytic shape table: centre (3), radius."""
+"""Sphere: centre and radius. Row of the analytic shape table: centre (3), radius, whether it is
+turned (1.0) or not (0.0), and when turned its object axes x, y, z in world space (9), which
+orient its UVs."""
 
 import math
 
@@ -9,18 +11,26 @@ from numba.core import cgutils
 from numba.core.errors import TypingError
 from numba.extending import intrinsic
 
-from ..vec import inline_function, kernel_function, normalize, row3, sub
+from ..vec import dot, inline_function, kernel_function, normalize, row3, sub
 from .shape_triangle import EXACT, EXACT_DIVISION, exact_ops, nearest_lane, splat_i64
+from .transform import transform_point, uniform_scale
 
 INF = math.inf
 CENTER = 0
 RADIUS = 3
+TURNED = 4
+AXES = 5  # the object's x, y, z axes in world space, unit vectors (a mirror's included)
 BOUNDED = True
 
 
 def pack(obj, m: np.ndarray) -> list[float]:
-    """The sphere's row (a sphere takes no transform: m is the identity)."""
-    return [*obj.center, obj.radius]
+    """The sphere's row, its transform m (4x4, object to world, a similarity) applied."""
+    if np.array_equal(m, np.eye(4)):  # as written, to the bit
+        return [*obj.center, obj.radius, 0.0]
+    scale = uniform_scale(m)
+    axes = m[:3, :3] / scale  # orthonormal: columns are the object's axes
+    turned = not np.array_equal(axes, np.eye(3))
+    return [*transform_point(m, obj.center), obj.radius * scale, float(turned), *axes.T.ravel()]
 
 
 def solid(row) -> tuple:
@@ -195,6 +205,8 @@ def uv(rows, i, p):
     """u = 0.5 + atan2(n.x, -n.z) / 2pi (0.5 faces -z, the default camera; the seam is at the
     back, +z), v = 0.5 + asin(n.y) / pi (0 at the south pole, 1 at the north)."""
     n = normal(rows, i, p)
+    if rows[i, TURNED] != 0.0:  # the normal in the object's own axes
+        n = (dot(n, row3(rows, i, AXES)), dot(n, row3(rows, i, AXES + 3)), dot(n, row3(rows, i, AXES + 6)))
     u = 0.5 + math.atan2(n[0], -n[2]) * (0.5 / math.pi)
     v = 0.5 + math.asin(min(1.0, max(-1.0, n[1]))) / math.pi
     return u, v
