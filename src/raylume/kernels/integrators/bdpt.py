@@ -41,7 +41,7 @@ from ..shading.lights import (
     pick_emitter,
     sample_emission,
 )
-from ..shading.lights.registry import visible_hit
+from ..shading.lights.registry import hides_own_point
 from ..shading.materials import MAT_EMISSION, beer_lambert, two_sided
 from ..vec import add, any_positive, dot, hadamard, inline_function, kernel_function, mul, row3
 from .bdpt_glint import GLINT_COUNT, glint_sample, pixel_weight, through_delta_only
@@ -129,13 +129,12 @@ def _connection_key(key, s, t):
 
 
 @kernel_function
-def _self_hidden(C, A, i, e, w, d2):
-    """Does area light e, which is not in the BVH (quad and sphere lights), hide its own point
-    at squared distance d2 along w from A[i] (the far side of a sphere light)?"""
-    if e >= C.Em.n_area or not (d2 < INF):
+def _self_hidden(C, A, i, e, n, w):
+    """Does area light e, which is not in the BVH (quad and sphere lights), hide its own point of
+    normal n seen along w from A[i] (the far side of a sphere light)?"""
+    if e >= C.Em.n_area:
         return False
-    t, _ = visible_hit(C.Em, e, row3(A, i, V_P), w, math.sqrt(d2) * (1.0 - 1e-6))
-    return t < INF
+    return hides_own_point(C.Em, e, row3(A, i, V_P), n, w)
 
 
 @kernel_function
@@ -270,7 +269,7 @@ def _connect_light(C, Vc, Vl, saved, t, key, mis, node_stack, t_stack):
         if any_positive(value):
             rays = 1
             tr = _transmitted(C, Vc, pt, w, d2, _connection_key(key, 1, t), node_stack, t_stack)
-            if any_positive(tr) and not _self_hidden(C, Vc, pt, e, w, d2):
+            if any_positive(tr) and not _self_hidden(C, Vc, pt, e, n, w):
                 value = _absorbed(C, Vc, pt, w, d2, hadamard(value, tr))
                 if mis:
                     Vl[0, V_PDF_FWD] = pdf_light_origin(C, Vl, 0, Vc, pt)

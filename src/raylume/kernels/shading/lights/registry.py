@@ -79,6 +79,10 @@ emission_pdf = kind_switch(
 light_primitive = kind_switch(
     "primitive", "Em, e", "Em.kind[e]", [k for k in KINDS if hasattr(k, "primitive")], np.int64(-1), inline_function
 )
+# bdpt: does a light outside the BVH hide its own sampled point (the far side of a sphere light)
+hides_own_point = kind_switch(
+    "hides", "Em, e, p, n, w", "Em.kind[e]", [k for k in KINDS if hasattr(k, "hides")], False, inline_function
+)
 visible_hit = kind_switch(
     "hit", "Em, e, o, d, tmax", "Em.kind[e]", [k for k in KINDS if k.VISIBLE], (np.inf, (0.0, 0.0, 1.0)),
     inline_function,

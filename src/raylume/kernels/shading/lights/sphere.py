@@ -9,7 +9,7 @@ import numpy as np
 
 from ...film.sampler import concentric_disk, uniform_sphere
 from ...geometry.shape_sphere import intersect_sphere
-from ...vec import inline_function, kernel_function, length, madd, normalize, row3, sub
+from ...vec import dot, inline_function, kernel_function, length, madd, normalize, row3, sub
 from .sampling import basis, cosine_two_sided, sphere_cone, sphere_cone_pdf, two_sided_pdf
 from .table import (
     AREA_SHADOW_SHORTEN,
@@ -94,6 +94,17 @@ def emit(G, X, Em, Env, e, u1, u2, u3, u4, key, B):
 def emit_pdf(G, X, Em, Env, e, p, n, w, hit, B):
     r = Em.data[e, LIGHT_RADIUS]
     return row3(Em.data, e, LIGHT_INTENSITY), 1.0 / (4.0 * math.pi * r * r), two_sided_pdf(n, w)
+
+
+@inline_function
+def hides(Em, e, p, n, w):
+    """Does the sphere hide its own point of outward normal n from p, which looks at it along w?
+    A convex body hides the points that face away, unless p is inside it. (A ray test with the
+    far end shortened by a fraction of the distance took points near the silhouette of a sphere
+    smaller than that fraction as seen: bdpt's light sampling was 30% too bright at r = 1e-6.)"""
+    oc = sub(p, row3(Em.data, e, LIGHT_POSITION))
+    r = Em.data[e, LIGHT_RADIUS]
+    return dot(oc, oc) > r * r and dot(n, w) > 0.0
 
 
 def bounds(row: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
