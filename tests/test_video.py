@@ -71,3 +71,26 @@ def test_ffmpeg_stopping_at_once_is_an_output_error(tmp_path, monkeypatch):
         writer.close()
     writer.abort()
     assert os.listdir(tmp_path) == ["fake-ffmpeg"]
+
+
+@pytest.mark.skipif(not os.path.exists("/dev/full"), reason="needs /dev/full, where every write fails: disk full")
+def test_a_gif_on_a_full_disk_names_the_file(tmp_path, monkeypatch):
+    """Pillow's OSError (ENOSPC, no file name) had been printed as a bare "No space left on
+    device". Pillow writes here into /dev/full, as on a full disk."""
+    from PIL import Image as PILImage
+
+    real_save = PILImage.Image.save
+
+    def save_on_full_disk(self, fp, *args, **kwargs):
+        with open("/dev/full", "wb") as full:
+            real_save(self, full, *args, **kwargs)
+
+    monkeypatch.setattr(PILImage.Image, "save", save_on_full_disk)
+    (tmp_path / "f.gif").write_bytes(OLD)
+    writer = VideoWriter(tmp_path / "f.gif", 8, 8, fps=10.0)
+    writer.write(np.zeros((8, 8, 3), np.uint8))
+    with pytest.raises(OutputError) as info:
+        writer.close()
+    assert str(info.value) == f"{tmp_path / 'f.gif'}: cannot write the file (No space left on device)"
+    assert (tmp_path / "f.gif").read_bytes() == OLD
+    assert hidden(tmp_path) == []

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import OutputError
-from .image import IMAGE_SUFFIXES, check_output_path, check_writable_folder
+from .image import IMAGE_SUFFIXES, check_output_path, check_writable_folder, write_failed
 from .scene.checks import SceneWarning
 
 VIDEO_SUFFIXES = (".mp4", ".gif")
@@ -158,8 +158,10 @@ class VideoWriter:
             self._finish()
             os.chmod(self.tmp, 0o644 & ~_umask())
             os.replace(self.tmp, self.path)
-        except BaseException:
+        except BaseException as exc:
             self.abort()
+            if isinstance(exc, OSError):  # (Pillow's, on a full disk): said as every output says it
+                raise write_failed(self.path, exc) from None
             raise
         return self.path
 
