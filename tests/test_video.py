@@ -5,17 +5,23 @@ existing file left as it was, with no temporary file behind."""
 from __future__ import annotations
 
 import os
+import signal
 import stat
+import subprocess
+import sys
+import threading
 from pathlib import Path
 
 import numpy as np
 import pytest
 from typer.testing import CliRunner
 
+import raylume
 from raylume.cli import app
 from raylume.errors import OutputError
 from raylume.video import VideoWriter
 
+SRC = Path(raylume.__file__).resolve().parents[1]
 FLIGHT = Path(__file__).resolve().parents[1] / "examples" / "flight.toml"
 SMALL = ("--width", "32", "--height", "24", "--frames", "0:2", "--quiet")
 OLD = b"a good video from before"
@@ -94,3 +100,61 @@ def test_a_gif_on_a_full_disk_names_the_file(tmp_path, monkeypatch):
     assert str(info.value) == f"{tmp_path / 'f.gif'}: cannot write the file (No space left on device)"
     assert (tmp_path / "f.gif").read_bytes() == OLD
     assert hidden(tmp_path) == []
+
+
+def _stderr_seen(stream, text: bytes) -> tuple[threading.Event, list]:
+    """Read `stream` in a thread; the event is set once `text` has appeared in it."""
+    seen, chunks = threading.Event(), []
+
+    def read():
+        while chunk := os.read(stream.fileno(), 4096):
+            chunks.append(chunk)
+            if text in b"".join(chunks):
+                seen.set()
+
+    threading.Thread(target=read, daemon=True).start()
+    return seen, chunks
+
+
+def _running_in(folder: Path) -> list[str]:
+    """Command lines of the processes still running that name `folder` (an ffmpeg left behind)."""
+    found = []
+    for cmdline in Path("/proc").glob("[0-9]*/cmdline"):
+        try:
+            text = cmdline.read_bytes().replace(b"\0", b" ").decode(errors="replace")
+        except OSError:
+            continue
+        if str(folder) in text:
+            found.append(text)
+    return found
+
+
+@pytest.mark.parametrize("suffix", [".mp4", ".gif"])
+def test_sigterm_while_frames_are_written_cleans_up_as_ctrl_c(tmp_path, suffix):
+    """SIGTERM (kill, a job scheduler) had ended Python at once: a hidden temporary video was
+    left (mode 0600), ffmpeg with it, and no word said. It now stops the animation as Ctrl-C
+    does, with exit status 128 + 15. Sent once the progress bar shows, so frames are in."""
+    env = {**os.environ, "TTY_COMPATIBLE": "1", "TTY_INTERACTIVE": "1"}  # Rich draws its bar into the pipe
+    env["PYTHONPATH"] = os.pathsep.join([str(SRC), env.get("PYTHONPATH", "")])  # this raylume, from any folder
+    command = [sys.executable, "-m", "raylume.cli", "render", str(FLIGHT), "-o", f"f{suffix}"]
+    proc = subprocess.Popen(
+        [*command, "--width", "640", "--height", "480", "--spp", "16"],
+        cwd=tmp_path,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        env=env,
+    )
+    seen, chunks = _stderr_seen(proc.stderr, b"rendering")
+    try:
+        assert seen.wait(timeout=120), b"".join(chunks).decode(errors="replace")
+        assert proc.poll() is None, "the animation ended before SIGTERM"
+        proc.send_signal(signal.SIGTERM)
+        proc.wait(timeout=30)
+    finally:
+        proc.kill()
+    proc.stderr.close()
+    err = b"".join(chunks).decode(errors="replace")
+    assert proc.returncode == 128 + signal.SIGTERM, err
+    assert "raylume: interrupted after" in err and "no video written" in err and "Traceback" not in err
+    assert list(tmp_path.iterdir()) == []
+    assert _running_in(tmp_path) == []
