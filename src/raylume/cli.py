@@ -512,7 +512,7 @@ def _render(
 
         render_animation_to(
             scene_model, label, output, frames, settings, cluster=cluster, quiet=quiet, partial=partial,
-            stats_path=stats_path, progress_bar=_progress, bit_depth=bit_depth,
+            stats_path=stats_path, progress_bar=_progress, compile_notice=_compile_notice, bit_depth=bit_depth,
         )  # fmt: skip
         return
     if frame is not None:
