@@ -189,6 +189,40 @@ def test_video_and_sequence_frames_match_the_stills(tmp_path, raylume):
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]  # no temporary files left
 
 
+def test_an_animation_shows_the_compile_notice_and_counts_compile_seconds(tmp_path, raylume, monkeypatch):
+    """The first frame compiles the mode's kernels (or loads them): an animation showed no
+    "compiling the cast-mode kernels..." notice, which a still shows, and its --stats said
+    compile_seconds 0.0. The notice here hears the frames' statuses, and each "compiling"
+    takes 0.05 s, as a (very quick) compilation would."""
+    import json
+    import time
+
+    heard = []
+
+    class Notice:
+        def __init__(self, quiet, console=None, mode="trace"):
+            self.mode = mode
+
+        def __enter__(self):
+            return self.status
+
+        def status(self, what):
+            heard.append((self.mode, what))
+            if what == "compiling":
+                time.sleep(0.05)
+
+        def __exit__(self, *exc):
+            return False
+
+    monkeypatch.setattr("raylume.cli._compile_notice", Notice)
+    (tmp_path / "flight.toml").write_text(FLIGHT)
+    args = ("--mode", "cast", "--frames", "0:2", "--stats", "an.json", "--quiet")
+    result = raylume("render", "flight.toml", "-o", "a_%04d.png", *args)
+    assert result.exit_code == 0, result.output
+    assert heard.count(("cast", "compiling")) == 2 and heard.count(("cast", "rendering")) == 2, heard
+    assert json.loads((tmp_path / "an.json").read_text())["compile_seconds"] >= 0.1
+
+
 def test_frame_k_still_and_refusals(tmp_path, raylume):
     (tmp_path / "flight.toml").write_text(FLIGHT)
     (tmp_path / "still.toml").write_text(

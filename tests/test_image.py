@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import io
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -159,6 +161,31 @@ def test_write_failure_is_an_output_error_in_words(tmp_path, monkeypatch):
     assert "a.png" in message and "No space left on device" in message
     assert ".part" not in message and "OSError" not in message
     assert list(tmp_path.iterdir()) == []  # the temporary file is gone
+
+
+NPY_PAST_A_LIMIT = """
+import resource, signal, sys
+import numpy as np
+from raylume.errors import OutputError
+from raylume.image import Image
+signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # a write past the limit then fails (EFBIG)
+resource.setrlimit(resource.RLIMIT_FSIZE, (4096, resource.getrlimit(resource.RLIMIT_FSIZE)[1]))
+try:
+    Image(np.zeros((96, 128, 3), np.float32)).save(sys.argv[1])
+except OutputError as exc:
+    print(exc)
+"""
+
+
+def test_npy_cut_short_gives_the_systems_reason(tmp_path):
+    """A full disk takes the first bytes of an .npy and refuses the rest. numpy's own short write
+    (C's fwrite) said only "36864 requested and 992 written"; the reason is now the system's,
+    as for every output. A file size limit (in a child process) cuts the write short the same
+    way, with its own reason (EFBIG)."""
+    path = tmp_path / "x.npy"
+    done = subprocess.run([sys.executable, "-c", NPY_PAST_A_LIMIT, str(path)], capture_output=True, text=True)
+    assert done.stdout.strip() == f"{path}: cannot write the file (File too large)", done.stderr
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_output_folder_must_be_writable(tmp_path, monkeypatch):

@@ -117,6 +117,7 @@ def render_animation(
     cluster=None,
     progress: Callable[[int, int], None] | None = None,
     settings: ResolvedSettings | None = None,
+    status: Callable[[str], None] | None = None,
     **arguments,
 ) -> Iterator[tuple[int, Image]]:
     """Render frames of the session's scene animation (default: all) and yield (frame, Image)
@@ -124,7 +125,9 @@ def render_animation(
     takes them (width, height, spp, mode, seed, ..., threads, crop), override the [render]
     table. With `cluster`, frames render in parallel on its workers (several frames in flight,
     each in tiles); frame K is bit-identical to the still of frame K. `progress(done, total)`
-    counts frames in-process and tasks (tiles, passes) on a cluster."""
+    counts frames in-process and tasks (tiles, passes) on a cluster. `status` hears each
+    in-process frame's "compiling" and "rendering" (Session.render): the first frame's kernels
+    compile (or load from the cache) there, and each frame's stats hold its `compile_seconds`."""
     unknown = sorted(set(arguments) - {*OVERRIDES, "threads", "crop"})
     if unknown:
         raise TypeError(f"render_animation: unexpected keyword arguments {', '.join(unknown)}")
@@ -137,7 +140,7 @@ def render_animation(
         for done, (k, camera) in enumerate(cameras):
             if progress is not None:
                 progress(done, len(cameras))
-            yield k, session.render(camera, aovs=False, settings=settings)
+            yield k, session.render(camera, aovs=False, settings=settings, status=status)
         if progress is not None:
             progress(len(cameras), len(cameras))
         return

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import signal
 import threading
 import time
 import warnings
@@ -357,31 +358,60 @@ def render(
     from .settings import overrides_of
 
     flags = overrides_of(locals())  # --width ... --denoise, by the [render] keys they set
+    with _terminate_as_interrupt():  # SIGTERM as Ctrl-C, below
+        try:
+            with _errors_exit_2(debug), _echo_warnings():
+                _render(
+                    scene,
+                    output,
+                    flags,
+                    threads=threads,
+                    aov_specs=aov or [],
+                    stats_path=stats,
+                    quiet=quiet,
+                    assignments=assignments or [],
+                    bit_depth=bit_depth,
+                    crop=crop,
+                    cluster=cluster,
+                    frames=frames,
+                    frame=frame,
+                    partial=partial,
+                    camera=camera,
+                    defines=defines,
+                )
+        except RenderInterrupted as exc:
+            _interrupted(exc, output if partial else None, bit_depth)
+        except KeyboardInterrupt:
+            typer.echo("raylume: interrupted; nothing written", err=True)
+            raise typer.Exit(130) from None
+
+
+@contextmanager
+def _terminate_as_interrupt():
+    """SIGTERM (`kill`, a job scheduler, a container stopping) stops a render as Ctrl-C does:
+    the temporary files removed, ffmpeg stopped, a message, and exit status 143 (128 + 15) for
+    the 130 of Ctrl-C. Its default action had ended Python at once, leaving them behind. Only
+    here, in the command: raylume used as a library leaves SIGTERM to its program."""
+    if threading.current_thread() is not threading.main_thread():  # (signals go to the main thread)
+        yield
+        return
+    received = []
+
+    def interrupt(signum, frame):
+        if not received:  # once: a second SIGTERM does not cut the clean-up short
+            received.append(signum)
+            raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGTERM, interrupt)
+    previous = signal.SIG_DFL if previous is None else previous  # (None: set outside Python)
     try:
-        with _errors_exit_2(debug), _echo_warnings():
-            _render(
-                scene,
-                output,
-                flags,
-                threads=threads,
-                aov_specs=aov or [],
-                stats_path=stats,
-                quiet=quiet,
-                assignments=assignments or [],
-                bit_depth=bit_depth,
-                crop=crop,
-                cluster=cluster,
-                frames=frames,
-                frame=frame,
-                partial=partial,
-                camera=camera,
-                defines=defines,
-            )
-    except RenderInterrupted as exc:
-        _interrupted(exc, output if partial else None, bit_depth)
-    except KeyboardInterrupt:
-        typer.echo("raylume: interrupted; nothing written", err=True)
-        raise typer.Exit(130) from None
+        yield
+    except typer.Exit as exc:
+        if received and exc.exit_code == 130:  # the Ctrl-C path ran: exit as SIGTERM's
+            raise typer.Exit(128 + signal.SIGTERM) from None
+        raise
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 def _interrupted(exc, output: Path | None, bit_depth: int) -> None:
@@ -482,7 +512,7 @@ def _render(
 
         render_animation_to(
             scene_model, label, output, frames, settings, cluster=cluster, quiet=quiet, partial=partial,
-            stats_path=stats_path, progress_bar=_progress, bit_depth=bit_depth,
+            stats_path=stats_path, progress_bar=_progress, compile_notice=_compile_notice, bit_depth=bit_depth,
         )  # fmt: skip
         return
     if frame is not None:

@@ -30,8 +30,11 @@ def render_animation_to(
     partial: bool = False,
     stats_path: Path | None = None,
     progress_bar=None,
+    compile_notice=None,
     bit_depth: int = 8,
 ) -> None:
+    """`progress_bar(quiet)` and `compile_notice(quiet, mode=...)`: the command's progress bar and
+    compiling notice (cli.py), as a still render shows them."""
     animation = animation_of(scene, label)
     selected = parse_frames(frames, animation.frames) if frames is not None else range(animation.frames)
     table = settings.render
@@ -39,18 +42,24 @@ def render_animation_to(
     if is_video(output):
         check_video_path(output, table.width, table.height)
     started = time.perf_counter()
-    session = Session(scene, source=label, accelerate=table.mode != "raster")
     written: list[Path] = []
     done = 0
+    compile_seconds = None  # the frames' (in-process frames report theirs; the first one compiles)
     try:
-        if is_video(output):
-            writer = VideoWriter(output, table.width, table.height, animation.fps)
-        with progress_bar(quiet) as progress:
-            for k, image in render_animation(session, selected, cluster=cluster, progress=progress, settings=settings):
+        with progress_bar(quiet) as progress, compile_notice(quiet, mode=table.mode) as status:
+            session = Session(scene, source=label, accelerate=table.mode != "raster", status=status)
+            if is_video(output):
+                writer = VideoWriter(output, table.width, table.height, animation.fps)
+            frames_rendered = render_animation(
+                session, selected, cluster=cluster, progress=progress, settings=settings, status=status
+            )
+            for k, image in frames_rendered:
                 if writer is not None:
                     writer.write(image.to_uint8())
                 else:
                     written.append(image.save(sequence_path(output, k), bit_depth=bit_depth))
+                if "compile_seconds" in image.stats:
+                    compile_seconds = (compile_seconds or 0.0) + image.stats["compile_seconds"]
                 done += 1
         if writer is not None:
             writer.close()
@@ -80,6 +89,8 @@ def render_animation_to(
             "seconds": seconds,
             **session.compiled.stats,
         }
+        if compile_seconds is not None:  # (on a cluster the workers compile: their stats say so)
+            stats["compile_seconds"] = compile_seconds
         if getattr(session, "last_cluster_stats", None):
             stats["cluster"] = session.last_cluster_stats
         text = json.dumps(stats, indent=2, default=float) + "\n"

@@ -106,6 +106,11 @@ def _reason(exc: OSError) -> str:
     return exc.strerror or str(exc) or "unknown error"
 
 
+def write_failed(path: Path, exc: OSError) -> OutputError:
+    """The error for an output that failed while being written (a full disk), naming the output."""
+    return OutputError(f"{path}: cannot write the file ({_reason(exc)})")
+
+
 def write_atomic(path: str | Path, write) -> None:
     """Write through a temporary file in the target folder, then rename it into place, so an
     existing file is only ever replaced by a complete new one. An OSError (disk full, the
@@ -117,7 +122,7 @@ def write_atomic(path: str | Path, write) -> None:
     except OSError as exc:
         if not folder.exists():  # said as check_writable_folder says it
             raise OutputError(f"{path}: the folder {folder} does not exist") from None
-        raise OutputError(f"{path}: cannot write the file ({_reason(exc)})") from None
+        raise write_failed(path, exc) from None
     try:
         with os.fdopen(fd, "wb") as fh:
             write(fh)
@@ -129,7 +134,7 @@ def write_atomic(path: str | Path, write) -> None:
         except FileNotFoundError:
             pass
         if isinstance(exc, OSError):
-            raise OutputError(f"{path}: cannot write the file ({_reason(exc)})") from None
+            raise write_failed(path, exc) from None
         raise
 
 
@@ -141,6 +146,19 @@ def _mode_for(path: Path) -> int:
         umask = os.umask(0)
         os.umask(umask)
         return 0o666 & ~umask
+
+
+class _Writes:
+    """A file seen only through its write(): np.save then writes chunks with Python's write,
+    whose error on a full disk says so (errno ENOSPC). Given the file itself, numpy writes with
+    C's fwrite, and a short write reports only "36864 requested and 992 written"."""
+
+    def __init__(self, fh):
+        self.write = fh.write
+
+
+def _save_npy(fh, array: np.ndarray) -> None:
+    np.save(_Writes(fh), array)
 
 
 def png_bytes(rgb8: np.ndarray, compress_level: int = -1) -> bytes:
@@ -309,7 +327,7 @@ def save_array(
     elif suffix == ".hdr":
         data = _hdr_bytes(rgb)
     elif suffix == ".npy":
-        write_atomic(path, lambda fh: np.save(fh, np.asarray(rgb, dtype=np.float32)))
+        write_atomic(path, lambda fh: _save_npy(fh, np.asarray(rgb, dtype=np.float32)))
         return path
     else:
         write_atomic(path, lambda fh: _write_exr(fh, rgb, layers))
@@ -320,7 +338,7 @@ def save_array(
 
 def save_npy(path: str | Path, array: np.ndarray) -> Path:
     path = check_output_path(path, allowed=(".npy",))
-    write_atomic(path, lambda fh: np.save(fh, array))
+    write_atomic(path, lambda fh: _save_npy(fh, array))
     return path
 
 

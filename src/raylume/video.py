@@ -1,5 +1,6 @@
 """Writing an animation's frames: an H.264 video (.mp4, through the ffmpeg that the
-imageio-ffmpeg wheel carries), an animated GIF (Pillow), or one image per frame (`%04d`).
+imageio-ffmpeg wheel carries: video_ffmpeg.py), an animated GIF (Pillow), or one image per frame
+(`%04d`).
 
 Videos are written to a temporary file beside the output and renamed into place when the last
 frame is in, as every raylume output is: an interrupted render never leaves a truncated video
@@ -17,13 +18,12 @@ from pathlib import Path
 import numpy as np
 
 from .errors import OutputError
-from .image import IMAGE_SUFFIXES, check_output_path, check_writable_folder
+from .image import IMAGE_SUFFIXES, check_output_path, check_writable_folder, write_failed
 from .scene.checks import SceneWarning
 
 VIDEO_SUFFIXES = (".mp4", ".gif")
 GIF_COLORS = 64
 GIF_MAX_DELAY = 655350  # milliseconds: a GIF frame's delay is 16 bits of 1/100 s
-CRF = 18  # H.264 constant rate factor: 18 is near visually lossless (0 lossless, 51 worst)
 _PATTERN = re.compile(r"%0?(\d*)d")
 
 
@@ -86,27 +86,20 @@ class VideoWriter:
         self._gif: list = []
         self._ffmpeg = None
         if self.path.suffix.lower() == ".mp4":
-            import imageio_ffmpeg
+            from .video_ffmpeg import FfmpegPipe
 
-            self._ffmpeg = imageio_ffmpeg.write_frames(
-                str(self.tmp),
-                self.size,
-                fps=self.fps,
-                codec="libx264",
-                pix_fmt_out="yuv420p",  # what every player decodes
-                quality=None,
-                macro_block_size=1,
-                ffmpeg_log_level="error",
-                output_params=["-crf", str(CRF), "-movflags", "+faststart"],
-            )
-            self._ffmpeg.send(None)  # start ffmpeg
+            try:
+                self._ffmpeg = FfmpegPipe(self.tmp, self.path, self.size, self.fps)
+            except BaseException:
+                self.tmp.unlink(missing_ok=True)
+                raise
 
     def write(self, rgb8: np.ndarray) -> None:
         if rgb8.shape != (self.size[1], self.size[0], 3) or rgb8.dtype != np.uint8:
             want = (self.size[1], self.size[0], 3)
             raise ValueError(f"a frame must be uint8 {want}, got {rgb8.dtype} {rgb8.shape}")
         if self._ffmpeg is not None:
-            self._ffmpeg.send(np.ascontiguousarray(rgb8))
+            self._ffmpeg.write(rgb8)
         else:
             from PIL import Image as PILImage
 
@@ -117,7 +110,7 @@ class VideoWriter:
 
     def _finish(self) -> None:
         if self._ffmpeg is not None:
-            self._ffmpeg.close()
+            self._ffmpeg.close()  # an OutputError when ffmpeg could not finish the video
             self._ffmpeg = None
         elif self._gif:
             first, *rest = self._gif
@@ -165,8 +158,10 @@ class VideoWriter:
             self._finish()
             os.chmod(self.tmp, 0o644 & ~_umask())
             os.replace(self.tmp, self.path)
-        except BaseException:
+        except BaseException as exc:
             self.abort()
+            if isinstance(exc, OSError):  # (Pillow's, on a full disk): said as every output says it
+                raise write_failed(self.path, exc) from None
             raise
         return self.path
 
@@ -181,10 +176,7 @@ class VideoWriter:
             pass
         finally:
             if self._ffmpeg is not None:
-                try:
-                    self._ffmpeg.close()
-                except Exception:
-                    pass
+                self._ffmpeg.kill()
                 self._ffmpeg = None
             self.tmp.unlink(missing_ok=True)
         return None
