@@ -7,6 +7,7 @@ import math
 import numpy as np
 import pytest
 
+import raylume
 from raylume.kernels.film.camera import camera_frame, camera_ray
 
 
@@ -113,3 +114,14 @@ def test_camera_rays_take_a_scenes_camera_and_size_and_refuse_what_is_not_an_ima
     for bad in (0, -3, 2.5, True):
         with pytest.raises(ValueError, match="width"):
             raylume.camera_rays(scene, bad, 4)
+
+
+def test_a_look_at_any_distance_away_frames_the_same_view():
+    """Only the direction to look_at counts. One 1e-300 away was refused as 'up parallel to the
+    viewing direction': the frame test's squares underflowed to 0."""
+    scene = {"objects": [{"type": "sphere", "center": [0.5, 0, 3], "radius": 1}]}
+    near = raylume.scene_from_dict({**scene, "camera": {"position": [0, 0, 0], "look_at": [0, 0, 1e-300]}})
+    far = raylume.scene_from_dict({**scene, "camera": {"position": [0, 0, 0], "look_at": [0, 0, 1]}})
+    a, b = (raylume.render(s, width=8, height=6, mode="cast").aovs["object"] for s in (near, far))
+    np.testing.assert_array_equal(a, b)
+    assert (a == 0).any() and (a == -1).any()

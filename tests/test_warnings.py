@@ -74,3 +74,35 @@ def test_the_command_line_prints_each_warning_once_on_stderr(tmp_path):
     assert (tmp_path / "dark.png").exists()
     cast = run_cli("render", "dark.toml", "--mode", "cast", "-o", "c.png", "-q", cwd=tmp_path)
     assert cast.returncode == 0 and "warning" not in cast.stderr, cast.stderr
+
+
+def test_triangles_far_from_the_origin_for_their_size_are_warned_about():
+    """Triangles are stored in float32, whose spacing at 1e5 is 2^-7 (0.0078): a 1.4-unit mesh
+    and a triangle there are rounded by 0.28% and 0.17% of their sizes, and at 1e7 they vanish
+    (nothing says so but this warning). The same objects near the origin, a sphere (float64)
+    and an instanced mesh (stored in its own space) far away, are not warned about."""
+    far, near = 100000.0, 10.0
+    triangle = [[-0.5, -0.5, 0], [0.5, -0.5, 0], [0, 0.5, 0]]
+
+    def said(offset):
+        moved = [offset, 0, 0]
+        scene = raylume.scene_from_dict({
+            "lights": [{"type": "ambient"}],
+            "objects": [
+                {"type": "mesh", "vertices": triangle, "faces": [[0, 1, 2]], "transform": {"translate": moved}},
+                {"type": "triangle", "vertices": [[offset + x, y, z] for x, y, z in triangle]},
+                {"type": "sphere", "center": [offset, 0, 0], "radius": 0.001},
+                {"type": "mesh", "vertices": triangle, "faces": [[0, 1, 2]], "instances": [{"translate": moved}]},
+            ],
+        })  # fmt: skip
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            raylume.render(scene, width=4, height=4, mode="cast")
+        return [str(w.message) for w in caught if issubclass(w.category, SceneWarning)]
+
+    assert said(near) == []
+    spacing = float(np.spacing(np.float32(far)))
+    messages = said(far)
+    assert [m.split(" lies")[0] for m in messages] == ["objects[0]", "objects[1]"], messages
+    assert f"rounds its corners there by up to {spacing / 2:.2g}" in messages[0], messages
+    assert "100,000 units from the origin" in messages[1], messages

@@ -12,6 +12,7 @@ import numpy as np
 from ..errors import SceneError
 from ..kernels.geometry.shapes import ANALYTIC, SHAPE_WIDTH, Shape, is_bounded
 from ..kernels.geometry.shapes import bounds as shape_bounds
+from ..scene.checks import warn
 from ..scene.gltf import flatten, load_gltf_object
 from ..scene.instances import InstanceError, instance_matrices
 from ..scene.mesh import MeshData, MeshError, obj_uv_problem, object_matrix_of
@@ -49,6 +50,27 @@ def object_matrix(obj) -> np.ndarray:
     return np.eye(4) if t is None else object_matrix_of(t)
 
 
+# float32 rounding of a mesh's corners, relative to its size, that is worth a warning: about a
+# tenth of a pixel where the object fills a 100-pixel part of the image
+ROUNDING_WARNED = 1e-3
+
+
+def warn_if_rounded(lo: np.ndarray, hi: np.ndarray, obj: int) -> None:
+    """Warn where float32, which stores triangles, rounds the corners of an object of box
+    (lo, hi) by a visible part of its size: an object far from the origin for its size (a 1-unit
+    box 1e5 units away is rounded by 0.4% of it, and at 1e7 it vanishes). Spheres and the other
+    analytic shapes are stored in float64 and keep their shape."""
+    size = float(np.linalg.norm(hi - lo))
+    farthest = float(max(np.abs(lo).max(), np.abs(hi).max()))
+    rounding = float(np.spacing(np.float32(farthest))) / 2
+    if size > 0 and rounding > ROUNDING_WARNED * size:
+        warn(
+            f"objects[{obj}] lies {farthest:,.0f} units from the origin and is {size:.3g} across: float32, which "
+            f"stores triangles, rounds its corners there by up to {rounding:.2g} ({100 * rounding / size:.2g}% of "
+            "its size), so its shape and hits are off; move the scene nearer to the origin"
+        )
+
+
 class OutOfRange(ValueError):
     """An object whose world-space coordinates float32 cannot hold (gather_objects names it)."""
 
@@ -60,12 +82,9 @@ def _check_extent(extent: float) -> None:
         raise OutOfRange(problem)
 
 
-def _mesh_extent(vertices: np.ndarray, instances: np.ndarray | None) -> float:
-    """The largest coordinate magnitude of a mesh in world space: its vertices, or with
-    `instances` ((N, 3, 4) matrices) the corners of its box through each matrix."""
-    if not len(vertices):
-        return 0.0
-    lo, hi = vertices.min(axis=0), vertices.max(axis=0)  # (no (V, 3) temporary of np.abs)
+def _mesh_extent(lo: np.ndarray, hi: np.ndarray, instances: np.ndarray | None) -> float:
+    """The largest coordinate magnitude of a mesh of box (lo, hi) in world space: of its
+    vertices, or with `instances` ((N, 3, 4) matrices) of the box's corners through each matrix."""
     if instances is None:
         return float(max(-lo.min(), hi.max()))
     corners = np.array([[(hi if (c >> a) & 1 else lo)[a] for a in range(3)] + [1.0] for c in range(8)])
@@ -248,7 +267,11 @@ class SceneGeometry:
             rows = np.take(per_vertex.astype(np.float32), mesh.faces, axis=0)
             return rows.reshape(-1, 3 * per_vertex.shape[1])
 
-        _check_extent(_mesh_extent(mesh.vertices, instances))
+        if len(mesh.vertices):
+            lo, hi = mesh.vertices.min(axis=0), mesh.vertices.max(axis=0)  # (no (V, 3) temporary of np.abs)
+            _check_extent(_mesh_extent(lo, hi, instances))
+            if instances is None:  # (an instanced mesh is stored in its own space)
+                warn_if_rounded(lo, hi, obj)
         tris = corners(mesh.vertices)
         normals = None if mesh.normals is None else corners(mesh.normals)
         uv6 = corners(mesh.uvs) if uvs else None
@@ -315,6 +338,7 @@ def gather_objects(scene: Scene, source: str) -> Gathered:
                 if not np.array_equal(matrix, np.eye(4)):
                     corners = corners @ matrix[:3, :3].T + matrix[:3, 3]
                     _check_extent(float(np.abs(corners).max()))
+                warn_if_rounded(corners.min(axis=0), corners.max(axis=0), k)
                 soup.add(corners.astype(np.float32).reshape(1, 9), None, m, k, uvs)
             else:
                 matrices = _instance_matrices(scene, k, obj, source)  # before the (slower) mesh file

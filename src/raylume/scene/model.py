@@ -253,13 +253,12 @@ class Camera(Strict):
         if not any(f):
             raise ValueError("look_at must differ from position")
         _nonzero(self.up, "up")
-        cross = (
-            self.up[1] * f[2] - self.up[2] * f[1],
-            self.up[2] * f[0] - self.up[0] * f[2],
-            self.up[0] * f[1] - self.up[1] * f[0],
-        )
+        # scaled to a largest component of 1 first: the squares of a look_at 1e-300 away underflow
+        f = [c / max(abs(c) for c in f) for c in f]
+        up = [c / max(abs(c) for c in self.up) for c in self.up]
+        cross = (up[1] * f[2] - up[2] * f[1], up[2] * f[0] - up[0] * f[2], up[0] * f[1] - up[1] * f[0])
         norm_f = math.sqrt(sum(c * c for c in f))
-        norm_u = math.sqrt(sum(c * c for c in self.up))
+        norm_u = math.sqrt(sum(c * c for c in up))
         if math.sqrt(sum(c * c for c in cross)) <= 1e-9 * norm_f * norm_u:
             raise ValueError("up must not be parallel to the viewing direction (look_at - position)")
         return self
