@@ -79,7 +79,7 @@ def _block_param(block: Block):
     if "LocalCluster" in block.text or 'cluster="local' in block.text:
         marks.append(pytest.mark.xdist_group("cluster"))  # one local cluster at a time, as tests/test_cluster.py
     if block.text.startswith(NOT_RUN):
-        marks.append(pytest.mark.skip(reason=block.text.splitlines()[0]))
+        marks.append(pytest.mark.skip(reason=block.text.splitlines()[0].removeprefix("# (").removesuffix(")")))
     return pytest.param(block, id=block.label, marks=marks)
 
 
