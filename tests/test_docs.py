@@ -158,6 +158,18 @@ def test_gallery_commands_parse():
         docs_reference.parse_command_line(["render", *picture.args, *picture.check_args])
 
 
+def test_gallery_list_gives_each_setup_and_aligns_the_commands(capsys):
+    gallery = _load_tool("gallery")
+    gallery.main(["--list"])
+    lines = capsys.readouterr().out.splitlines()
+    assert len(lines) == len(gallery.PICTURES)
+    assert len({len(line) - len(line.split(maxsplit=1)[1]) for line in lines}) == 1, "commands start in one column"
+    for picture in gallery.PICTURES:
+        line = next(line for line in lines if line.split()[0] == picture.name)
+        assert line.endswith(picture.command)
+        assert not picture.setup or f"{' '.join(picture.setup)} && raylume render" in line, line
+
+
 def _synopsis_flags(command: str) -> set[str]:
     text = "".join(b.text for b in ALL_BLOCKS if b.path.name == "README.md" and b.language in SYNOPSIS_LANGUAGES)
     lines = re.findall(rf"^raylume {command} .*(?:\n {{10,}}.*)*", text, flags=re.M)
