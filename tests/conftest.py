@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -19,6 +20,14 @@ def shared_models() -> Path:
     return SHARED_MODELS
 
 
+def _say(line: str) -> None:
+    """A line on the terminal itself, before pytest prints anything (a first run waits minutes
+    for the warm-up below): sys.__stderr__, which pytest's capture of sys.stderr leaves alone."""
+    if sys.__stderr__ is not None:
+        sys.__stderr__.write(line + "\n")
+        sys.__stderr__.flush()
+
+
 def pytest_configure(config) -> None:
     """With pytest-xdist workers (make test: -n 2), compile every kernel variant first, in as many
     processes side by side (python -m raylume.warmup --part I/N), into Numba's disk cache. The
@@ -29,6 +38,8 @@ def pytest_configure(config) -> None:
     workers = config.getoption("numprocesses", default=None)
     if not isinstance(workers, int) or workers < 2:
         return  # one process: kernels compile as the tests reach them
+    _say("compiling raylume's kernels before the tests (a few minutes on a first run; loaded from the cache after)...")
+    started = time.perf_counter()
     procs = [
         subprocess.Popen(
             [sys.executable, "-m", "raylume.warmup", "--part", f"{i}/{workers}", "--quiet"],
@@ -42,3 +53,4 @@ def pytest_configure(config) -> None:
         out, _ = proc.communicate()
         if proc.returncode != 0:  # not fatal here: the tests that need the kernel will fail and say why
             sys.stderr.write(f"kernel warm-up failed ({' '.join(proc.args[1:])}):\n{out}\n")
+    _say(f"kernels ready in {time.perf_counter() - started:.0f} s")

@@ -421,7 +421,9 @@ def test_partition_threshold_is_the_bin_test(cmin, ext, n_bins, data):
     assert numpy_bins(np.array([thr]), cmin, scale, n_bins)[0] >= plane
     assert numpy_bins(np.array([below]), cmin, scale, n_bins)[0] < plane
     rng = np.random.default_rng(data.draw(st.integers(0, 2**32 - 1)))
-    c = np.float32(cmin) + (rng.uniform(0, 1, 200) * (cmax - cmin)).astype(np.float32)
+    # centroids spread over [cmin, cmax], drawn in float64 (a span past float32's range, -3.4e38 to
+    # 3.4e38, overflowed float32 before the shift)
+    c = (cmin + rng.uniform(0, 1, 200) * (cmax - cmin)).astype(np.float32)
     c = np.concatenate([c, [thr, below, np.float32(cmin), np.float32(cmax)]]).astype(np.float32)
     c = c[(c >= np.float32(cmin)) & (c <= np.float32(cmax))]
     np.testing.assert_array_equal(c < thr, numpy_bins(c, cmin, scale, n_bins) < plane)

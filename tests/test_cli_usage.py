@@ -4,6 +4,7 @@ missing generated files, and `raylume warmup`."""
 
 from __future__ import annotations
 
+import re
 import select
 import signal
 import subprocess
@@ -237,3 +238,12 @@ def test_geometry_beyond_float32_is_one_line_without_warnings(tmp_path, name, te
     assert_refused(result, words)
     assert len(result.stderr.splitlines()) == 1, result.stderr
     assert not (tmp_path / "out.png").exists()
+
+
+def test_help_shows_a_required_argument_by_its_name():
+    """`raylume convert [OPTIONS] IN`, not Typer's `{IN}`; the command list keeps convert's summary whole."""
+    usage = CliRunner().invoke(app, ["convert", "--help"], env={"COLUMNS": "100"}).output
+    assert re.search(r"convert \[OPTIONS\] IN *\n", usage) and "{IN}" not in usage, usage
+    assert ".pbrt" in usage
+    listing = CliRunner().invoke(app, ["--help"], env={"COLUMNS": "100"}).output
+    assert "convert  Write IN as a raylume scene file that renders the same image as IN." in listing, listing

@@ -75,6 +75,9 @@ def test_convert_writes_toml_that_renders_bit_for_bit_the_same(tmp_path):
     out.parent.mkdir()
     result = cli("convert", source, "-o", out, "--define", "spp=3", cwd=tmp_path)
     assert result.returncode == 0, result.stderr
+    assert result.stderr == f"{out}: written from {source}\n"  # one line, as render's
+    quiet = cli("convert", "seed", "-o", tmp_path / "seed.toml", "--quiet", cwd=tmp_path)
+    assert quiet.returncode == 0 and quiet.stderr == "", quiet.stderr
     original, converted = raylume.load(source, defines={"spp": "3"}), raylume.load(out)
     assert scene_document(converted, tmp_path) == scene_document(original, tmp_path)
     assert converted.render.spp == 3

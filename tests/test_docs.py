@@ -79,7 +79,7 @@ def _block_param(block: Block):
     if "LocalCluster" in block.text or 'cluster="local' in block.text:
         marks.append(pytest.mark.xdist_group("cluster"))  # one local cluster at a time, as tests/test_cluster.py
     if block.text.startswith(NOT_RUN):
-        marks.append(pytest.mark.skip(reason=block.text.splitlines()[0]))
+        marks.append(pytest.mark.skip(reason=block.text.splitlines()[0].removeprefix("# (").removesuffix(")")))
     return pytest.param(block, id=block.label, marks=marks)
 
 
@@ -156,6 +156,18 @@ def test_gallery_commands_parse():
     gallery = _load_tool("gallery")
     for picture in gallery.PICTURES:
         docs_reference.parse_command_line(["render", *picture.args, *picture.check_args])
+
+
+def test_gallery_list_gives_each_setup_and_aligns_the_commands(capsys):
+    gallery = _load_tool("gallery")
+    gallery.main(["--list"])
+    lines = capsys.readouterr().out.splitlines()
+    assert len(lines) == len(gallery.PICTURES)
+    assert len({len(line) - len(line.split(maxsplit=1)[1]) for line in lines}) == 1, "commands start in one column"
+    for picture in gallery.PICTURES:
+        line = next(line for line in lines if line.split()[0] == picture.name)
+        assert line.endswith(picture.command)
+        assert not picture.setup or f"{' '.join(picture.setup)} && raylume render" in line, line
 
 
 def _synopsis_flags(command: str) -> set[str]:

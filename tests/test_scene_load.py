@@ -168,6 +168,15 @@ def test_suggestions_come_from_the_keys_valid_at_that_path():
     assert "did you mean 'intensity'" in _message({"lights": [{"type": "ambient", "intensty": 0.1}]})
 
 
+def test_a_misspelt_required_key_is_one_mistake_said_once():
+    """'radus' for a sphere's radius: the unknown key and its suggestion, not also 'radius is
+    required'; a required key missing beside an unrelated unknown key is still named."""
+    typo = _message({"objects": [{"type": "sphere", "center": [0, 0, 3], "radus": 1}]})
+    assert typo == "scene.toml: objects[0].radus: unknown key 'radus' (did you mean 'radius'?)", typo
+    both = _message({"objects": [{"type": "sphere", "center": [0, 0, 3], "zzz": 1}]})
+    assert "objects[0].radius: this key is required" in both and "unknown key 'zzz'" in both, both
+
+
 @pytest.mark.parametrize(
     "document, value",
     [

@@ -409,15 +409,19 @@ def mean_difference(picture: Picture, small_png: Path) -> float:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("names", nargs="*", help="pictures to render (default: all)")
-    parser.add_argument("--list", action="store_true", help="print each picture's command and exit")
+    parser.add_argument(
+        "--list", action="store_true", help="print each picture's command (after its setup, if any) and exit"
+    )
     parser.add_argument(
         "--measure", action="store_true", help="render each at the test's small size and print its difference"
     )
     args = parser.parse_args(argv)
     chosen = [by_name(n) for n in args.names] if args.names else list(PICTURES)
+    width = max(len(picture.name) for picture in chosen)
     for picture in chosen:
-        if args.list:
-            print(f"{picture.name:<10} {picture.command}")
+        if args.list:  # one line each, to copy as it is: the setup (a generator of the scene's files) first
+            setup = f"{shlex.join(picture.setup)} && " if picture.setup else ""
+            print(f"{picture.name:<{width}}  {setup}{picture.command}")
             continue
         if args.measure:
             run_setup(picture)

@@ -57,6 +57,10 @@ class _Command(_CleanHelp, TyperCommand):
         for param in self.params:
             if isinstance(param, TyperArgument) and param.metavar:
                 param.display_type_rich = lambda ctx: None  # the metavar says it all; no `<str>` beside it
+                if param.required and param.nargs == 1:
+                    # the usage line as click writes it, `raylume convert [OPTIONS] IN`: Typer 0.2x
+                    # braces a required argument (`{IN}`), which reads as literal text
+                    param.get_usage_pieces = lambda ctx, name=param.metavar: [name]
 
 
 app = typer.Typer(
@@ -826,7 +830,8 @@ def convert(
         str,
         typer.Argument(
             metavar="IN",
-            help="Any scene raylume reads: a Mitsuba .xml, a .toml/.json, a glTF or mesh file, a built-in name",
+            help="Any scene raylume reads: a .toml/.json scene file, a pbrt-v4 .pbrt or Mitsuba 3 .xml scene, "
+            "a glTF or mesh file, a built-in name",
         ),
     ],
     output: Annotated[
@@ -837,10 +842,12 @@ def convert(
         typer.Option("--set", metavar="KEY=VALUE", help="Set a scene key, as for render (repeatable)"),
     ] = None,
     defines: DefinesOption = None,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", metavar=FLAG, help="No line saying what was written")] = False,
     debug: Annotated[bool, typer.Option("--debug", metavar=FLAG, help="Show tracebacks of errors")] = False,
 ) -> None:
-    """Write IN as a raylume scene file (meshes and images stay where they are, referenced by path) that
-    renders the same image as IN."""
+    """Write IN as a raylume scene file that renders the same image as IN.
+
+    Meshes and images stay where they are, referenced by path."""
     from .save import save_scene
     from .scene.export import SUFFIXES
 
@@ -850,6 +857,8 @@ def convert(
         scene_model, label = _resolve_scene(scene, assignments or [], defines=defines)
         _check_distinct(output, label, [])
         save_scene(scene_model, output)
+    if not quiet:
+        typer.echo(f"{output}: written from {label}", err=True)
 
 
 @app.command(cls=_Command)

@@ -26,7 +26,7 @@ def camera_rays(
     view: Scene | Camera, width: int | None = None, height: int | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
     """The rays through the centres of the pixels of a width x height image, as a render at one
-    sample a pixel traces them (DESIGN.md's camera; equal to the render's to the last bit or
+    sample a pixel traces them (raylume's camera; equal to the render's to the last bit or
     two: its kernels may fuse multiplies and adds): (origins, directions), float64 arrays of
     shape (height, width, 3), the ray of pixel (i, j) (column i from the left, row j from the
     top) at [j, i], directions unit vectors. `view`: a Camera, or a Scene for its camera, whose

@@ -182,29 +182,42 @@ def warm_kernels(part: int = 0, parts: int = 1, report: Callable[[str], None] | 
 
 def warm_in_processes(processes: int, report: Callable[[str], None] | None = None) -> bool:
     """`raylume warmup`: every job, in `processes` processes side by side (Numba compiles under
-    one lock per process, so processes are what uses several cores); each part's lines go to
-    `report` as it finishes. Returns whether every part succeeded."""
+    one lock per process, so processes are what uses several cores). `report` gets a line at the
+    start, each job's line as its process finishes it, each part's total and the whole time.
+    Returns whether every part succeeded."""
     import subprocess
     import sys
+    import threading
 
     parts = max(1, min(processes, len(JOBS)))
     started = time.perf_counter()
+    if report is not None:
+        side_by_side = f"in {parts} processes side by side" if parts > 1 else "in one process"
+        report(f"compiling every kernel {side_by_side} (a few minutes on a first run; loaded from the cache after)...")
     procs = [
         subprocess.Popen(
-            [sys.executable, "-m", "raylume.warmup", "--part", f"{i}/{parts}"],
+            [sys.executable, "-u", "-m", "raylume.warmup", "--part", f"{i}/{parts}"],
             stdout=subprocess.PIPE,
             stderr=subprocess.STDOUT,
             text=True,
         )
         for i in range(parts)
     ]
+    lock = threading.Lock()
+
+    def relay(proc: subprocess.Popen) -> None:  # each line as it comes, whole lines only
+        for line in proc.stdout:
+            if report is not None:
+                with lock:
+                    report(line.rstrip("\n"))
+
+    readers = [threading.Thread(target=relay, args=(proc,), daemon=True) for proc in procs]
+    for reader in readers:
+        reader.start()
     ok = True
-    for proc in procs:
-        out, _ = proc.communicate()
-        ok = ok and proc.returncode == 0
-        if report is not None:
-            for line in out.splitlines():
-                report(line)
+    for proc, reader in zip(procs, readers):
+        reader.join()
+        ok = proc.wait() == 0 and ok
     if report is not None:
         report(f"every kernel compiled (or loaded from the cache) in {time.perf_counter() - started:.1f} s")
     return ok
@@ -220,7 +233,7 @@ def main(argv: list[str] | None = None) -> None:
         parser.error(f"--part {args.part}: expected I/N with 0 <= I < N")
     seconds = warm_kernels(part, parts, report=None if args.quiet else print)
     if not args.quiet:
-        print(f"warm-up part {part}/{parts}: {seconds:.1f} s")
+        print(f"part {part}/{parts} done in {seconds:.1f} s" if parts > 1 else f"done in {seconds:.1f} s")
 
 
 if __name__ == "__main__":

@@ -453,8 +453,8 @@ class PlasticMaterial(_MaterialBase):
 
 
 class NullMaterial(Strict):
-    """A boundary that does not bend or reflect light (DESIGN.md section 7): no other key. It
-    is white where a mode shows the boundary alone (cast, raster)."""
+    """A boundary that does not bend or reflect light (an index-matched surface, as the boundary
+    of a medium): no other key. It is white where a mode shows the boundary alone (cast, raster)."""
 
     type: Literal["null"]
     """`"null"`: an index-matched boundary that neither bends nor reflects light; no other key."""

@@ -38,7 +38,7 @@ def format_validation_error(
     `model` (its key suggestions come from there). `table` is where that model sits in a scene
     (("camera",) names keys camera.fov, ...); `key_name` names a key another way (command-line
     flags). `overrides` (--set) are named when they caused a problem."""
-    errors = merge_union_errors(exc.errors())
+    errors = _typos_for_missing_keys(merge_union_errors(exc.errors()), model)
     set_by = assignments(overrides)
     lines = []
     for error in errors[:MAX_SHOWN]:
@@ -53,6 +53,20 @@ def format_validation_error(
         lines.append(f"{where}{describe_error(error, model)}{cause}")
     more = f" (and {len(errors) - MAX_SHOWN} more problems)" if len(errors) > MAX_SHOWN else ""
     return f"{source}: {context}" + "; ".join(lines) + more
+
+
+def _typos_for_missing_keys(errors: list[dict], model: type[BaseModel]) -> list[dict]:
+    """The errors less each 'this key is required' that a misspelt key beside it explains:
+    `radus = 1` in a sphere is one mistake, said once as the unknown key and its suggestion
+    ('radus': did you mean 'radius'?), not also as a missing radius."""
+    typos = set()
+    for error in errors:
+        if error["type"] == "extra_forbidden":
+            loc = tuple(error["loc"])
+            close = suggest(str(loc[-1]), loc, model)
+            if close is not None:
+                typos.add((*loc[:-1], close))
+    return [e for e in errors if not (e["type"] == "missing" and tuple(e["loc"]) in typos)]
 
 
 def name_origins(message: str, origins: dict[str, str]) -> str:
