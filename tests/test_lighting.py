@@ -123,3 +123,25 @@ def test_highlight_power_is_pow_within_its_rounding(specular):
         assert np.all(np.abs(got - exact) <= bound * exact)
     else:
         np.testing.assert_array_equal(got, [math.pow(c, specular) for c in cos])
+
+
+@pytest.mark.parametrize("mode", ["trace", "raster"])
+@pytest.mark.parametrize("offset", [1e4, 1e7])
+def test_lighting_does_not_depend_on_where_the_scene_sits(mode, offset):
+    """A sphere (float64: its hits exact anywhere) lit by a point light, and the same scene moved
+    `offset` along x: the same image within float rounding. The lights' directions had been taken
+    from the point offset off the surface, by 1e-7 of its largest coordinate (a unit at 1e7):
+    the images differed by 0.157 at 1e7 (1.5e-4 at 1e4) of the 0.8 they can reach."""
+
+    def scene(x):
+        return raylume.scene_from_dict({
+            "render": {"width": 24, "height": 24},
+            "camera": {"position": [x, 0, -1], "look_at": [x, 0, 4], "fov": 40},
+            "lights": [{"type": "point", "position": [x + 2, 3, 0], "intensity": 1.0}],
+            "objects": [{"type": "sphere", "center": [x, 0, 4], "radius": 1,
+                         "material": {"color": [0.8, 0.8, 0.8], "specular": 50}}],
+        })  # fmt: skip
+
+    here, there = (raylume.render(scene(x), mode=mode).rgb for x in (0.0, offset))
+    assert here.max() > 0.5
+    np.testing.assert_allclose(there, here, atol=1e-6)

@@ -32,9 +32,11 @@ INF = math.inf
 
 
 @inline_function
-def direct_lighting(G, F, L, X, p, n, view, m, shadows, node_stack, t_stack, key, event):
-    """Ambient + diffuse + specular intensity (RGB) at p from every light, and the shadow rays
-    traced. n faces the viewer; p is already offset off the surface. Area lights take their
+def direct_lighting(G, F, L, X, p, o, n, view, m, shadows, node_stack, t_stack, key, event):
+    """Ambient + diffuse + specular intensity (RGB) at surface point p from every light, and the
+    shadow rays traced. n faces the viewer; the shadow rays start at o, p offset off the surface
+    (the directions to the lights are p's: the offset grows with the distance from the origin, a
+    unit at 1e7, and lighting taken from it changed with where the scene sits). Area lights take their
     `samples` stratified points from the camera sample's `key` at its `event`-th shaded surface
     (sampler.py); key 0 gives a fixed pattern."""
     specular = F.materials[m, MAT_SPECULAR]
@@ -74,7 +76,7 @@ def direct_lighting(G, F, L, X, p, n, view, m, shadows, node_stack, t_stack, key
             if scale <= 0.0:
                 continue  # nothing to add: skip the shadow ray
             if shadows:
-                tr, used = shadow_transmittance(G, F, X, p, l, tmax, node_stack, t_stack)
+                tr, used = shadow_transmittance(G, F, X, o, l, tmax, node_stack, t_stack)
                 rays += used
             else:
                 tr = (1.0, 1.0, 1.0)
@@ -131,4 +133,4 @@ def _transparent_shadow(G, F, X, o, d, tmax, node_stack, t_stack):
 def unshadowed_lighting(G, F, L, X, p, n, view, m, node_stack, t_stack):
     """direct_lighting without shadow rays and with the fixed area-light pattern (the
     rasterizer's lighting)."""
-    return direct_lighting(G, F, L, X, p, n, view, m, False, node_stack, t_stack, np.uint64(0), 0)
+    return direct_lighting(G, F, L, X, p, p, n, view, m, False, node_stack, t_stack, np.uint64(0), 0)

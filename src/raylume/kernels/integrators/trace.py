@@ -91,7 +91,9 @@ def trace_ray(G, F, L, X, Env, o, d, spread, max_depth, background, rays, node_s
         eps = offset_epsilon(F.epsilon_floor, p)
         outside = madd(p, ng, eps)
         view = mul(d, -1.0)
-        light, shadow_rays = direct_lighting(G, F, L, X, outside, ns, view, m, True, node_stack, t_stack, key, shaded)
+        light, shadow_rays = direct_lighting(
+            G, F, L, X, p, outside, ns, view, m, True, node_stack, t_stack, key, shaded
+        )
         shaded += 1
         count += shadow_rays
         cone += spread * t

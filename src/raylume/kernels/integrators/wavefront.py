@@ -117,7 +117,8 @@ NX, NY, NZ = _rows(28, 3)  # shading normal, facing the incoming ray
 IR, IG, IB = _rows(31, 3)  # light gathered so far
 LX, LY, LZ, TMAX, SCALE, COS_RV = _rows(34, 6)  # towards the light being gathered
 S_R, S_G, S_B, S_W = _rows(40, 4)  # indexed by sample: its final colour and filter weight
-WAVE_ROWS = 44
+PX, PY, PZ = _rows(44, 3)  # the hit point itself (the lights' directions are taken from there)
+WAVE_ROWS = 47
 # Rows of the int64 scratch I (WAVE_INT_ROWS rows): the primitive hit, material and sample of
 # a slot; whether its shadow ray is blocked; whether its highlight needs a power; whether it
 # leaves a sphere, then whether its reflection goes on.
@@ -394,6 +395,7 @@ def _surfaces(G, F, X, R, I, m):
         cone = R[CONE + i] + R[SPREAD + i] * t
         R[CONE + i] = cone
         R[QX + i], R[QY + i], R[QZ + i] = q
+        R[PX + i], R[PY + i], R[PZ + i] = p
         R[NX + i], R[NY + i], R[NZ + i] = ns
         if mat[mm, MAT_TEXTURE] >= 0:
             R[AR + i], R[AG + i], R[AB + i] = albedo(G, F, X, mm, prim, b1, b2, p, d, ng, cone)
@@ -419,6 +421,9 @@ def _sphere_surfaces(R, I, m, epsilon_floor):
         if out:
             ux, uy, uz = ux * -1.0, uy * -1.0, uz * -1.0
         eps = 1e-7 * max(max(max(abs(px), abs(py)), abs(pz)), epsilon_floor)
+        R[PX + i] = px
+        R[PY + i] = py
+        R[PZ + i] = pz
         R[QX + i] = px + ux * eps
         R[QY + i] = py + uy * eps
         R[QZ + i] = pz + uz * eps
@@ -470,14 +475,14 @@ def _find_surfaces(G, F, X, B, R, I, m, leaf_count, textured):
 @vector_loop(fastmath=FAST)
 def _light_directions(R, I, m, directional, x, y, z):
     """Towards a delta light at (x, y, z), or along (x, y, z) when `directional`, from points
-    QX..QZ: the unit direction and distance (sample_delta), the diffuse factor and cos(R, V) of
+    PX..PZ, the hit points: the unit direction and distance (sample_delta), the diffuse factor and cos(R, V) of
     seed_response.phong_response (with its fast-math rounding: these are trace_ray's operations), and
     whether the highlight is worth its power."""
     for i in range(m):
         if directional:
             tx, ty, tz = x, y, z
         else:
-            tx, ty, tz = x - R[QX + i], y - R[QY + i], z - R[QZ + i]
+            tx, ty, tz = x - R[PX + i], y - R[PY + i], z - R[PZ + i]
         distance = length((tx, ty, tz))
         ux, uy, uz = normalize((tx, ty, tz))  # the same square root, which LLVM computes once
         nx, ny, nz = R[NX + i], R[NY + i], R[NZ + i]

@@ -61,7 +61,7 @@ from numba import njit, prange
 
 from ..film.camera import CAM_CONE_SPREAD, CAM_FORWARD, CAM_POSITION, CAM_RIGHT, CAM_UP, obliquity
 from ..film.image_pass import Aovs
-from ..geometry.shapes import PRIM_MATERIAL, offset_epsilon, surface
+from ..geometry.shapes import PRIM_MATERIAL, surface
 from ..geometry.wide_nodes import traversal_stacks
 from ..integrators.direct import unshadowed_lighting
 from ..scene import environment_of, geometry_of, lights_of, surfaces_of
@@ -466,14 +466,13 @@ def _shade_row(G, F, L, X, Env, V, D, j, rgb, A, want_aovs, node_stack, t_stack)
         cone = cam[CAM_CONE_SPREAD] * obliquity(cam, d)  # the ray cone of frame.py's primary rays
         col = albedo(G, F, X, m, prim, b1, b2, p, d, ng, cone * dist)
         # as trace_ray: normals turned towards the incoming ray, a shading normal bent past
-        # the horizon replaced by the geometric one, lit from just outside the surface
+        # the horizon replaced by the geometric one, the lights' directions from the point
         if dot(ng, d) >= 0.0:
             ng = mul(ng, -1.0)
             ns = mul(ns, -1.0)
         if dot(ns, d) >= 0.0:
             ns = ng
-        outside = madd(p, ng, offset_epsilon(F.epsilon_floor, p))
-        light, _ = unshadowed_lighting(G, F, L, X, outside, ns, mul(d, -1.0), m, node_stack, t_stack)
+        light, _ = unshadowed_lighting(G, F, L, X, p, ns, mul(d, -1.0), m, node_stack, t_stack)
         # as trace_ray: a glowing surface adds its emission
         shaded = add(hadamard(col, light), row3(F.materials, m, MAT_EMISSION))
         for c in range(3):
