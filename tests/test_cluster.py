@@ -5,6 +5,7 @@ processes serves the module; one test starts `dask scheduler` / `dask worker` pr
 
 from __future__ import annotations
 
+import gc
 import json
 import os
 import random
@@ -251,6 +252,78 @@ def test_a_malformed_or_unreachable_address_exits_2_within_10_seconds(tmp_path, 
     assert result.exit_code == 2, result.output
     assert f"tcp://127.0.0.1:{port}" in result.output and "dask scheduler" in result.output
     assert "Traceback" not in result.output
+    assert not (tmp_path / "render.png").exists()
+
+
+def _listener(reply: bytes | None):
+    """A TCP listener on a free loopback port that is no Dask scheduler: each connection accepted
+    and either left silent (reply None, as a server waiting for its client to speak) or sent
+    `reply` (an HTTP server's answer) and kept open. Returns (port, stop)."""
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen(8)
+    server.settimeout(0.1)
+    accepted, stopped = [], threading.Event()
+
+    def serve():
+        while not stopped.is_set():
+            try:
+                connection = server.accept()[0]
+            except OSError:
+                continue
+            if reply is not None:
+                connection.sendall(reply)
+            accepted.append(connection)
+
+    thread = threading.Thread(target=serve, daemon=True)
+    thread.start()
+
+    def stop():
+        stopped.set()
+        thread.join(timeout=5)
+        for connection in accepted:
+            connection.close()
+        server.close()
+
+    return server.getsockname()[1], stop
+
+
+@pytest.mark.parametrize(
+    "reply, words",
+    [(None, "something else is listening there"), (b"HTTP/1.1 400 Bad Request\r\n\r\n" * 4, "not Dask's protocol")],
+    ids=["silent", "http"],
+)
+def test_a_listener_that_is_no_scheduler_exits_2_within_10_seconds(tmp_path, monkeypatch, reply, words):
+    """Something else listening at the address: one that accepts and never answers hung the
+    Client's handshake forever; one that answers other bytes failed with NumPy's "Unable to allocate
+    3.07 EiB" and a half-started Client whose __del__ printed a traceback at exit. The command runs
+    on a thread here, so that a hang fails the test instead of hanging it."""
+    monkeypatch.chdir(tmp_path)
+    unraisable = []
+    monkeypatch.setattr(sys, "unraisablehook", unraisable.append)
+    port, stop = _listener(reply)
+    address = f"tcp://127.0.0.1:{port}"
+    done = {}
+    try:
+        started = time.monotonic()
+        command = threading.Thread(
+            target=lambda: done.update(
+                result=CliRunner().invoke(app, ["render", "--cluster", address, "--width", "8"])
+            ),
+            daemon=True,
+        )
+        command.start()
+        command.join(timeout=15)
+        seconds = time.monotonic() - started
+    finally:
+        stop()
+    assert "result" in done, f"raylume render --cluster {address} still waits after 15 s"
+    result = done["result"]
+    assert seconds < 10 and result.exit_code == 2, (seconds, result.output)
+    assert f"--cluster {address}" in result.output and words in result.output, result.output
+    assert "Traceback" not in result.output and "allocate" not in result.output
+    gc.collect()  # a half-started Client's __del__ would run here
+    assert not unraisable, [u.exc_value for u in unraisable]
     assert not (tmp_path / "render.png").exists()
 
 

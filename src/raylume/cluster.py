@@ -113,9 +113,10 @@ def connect(cluster) -> object:
         _local_clusters.append(local)
         client = Client(local, set_as_default=False)
     else:
+        _probe(value)  # a scheduler answers there, or a ClusterError now, within CONNECT_TIMEOUT + 1 s
         try:
             client = Client(value, timeout=CONNECT_TIMEOUT, set_as_default=False)
-        except Exception as exc:  # OSError, TimeoutError, a handshake with something else
+        except Exception as exc:  # it stopped answering since the probe
             raise ClusterError(
                 f"--cluster {value}: no Dask scheduler answered there within {CONNECT_TIMEOUT:g} s ({exc}); "
                 f"start one with `dask scheduler` and workers with `dask worker {value}`, or use --cluster local"
@@ -129,6 +130,92 @@ def connect(cluster) -> object:
             ) from None
     _clients[key] = client
     return client
+
+
+HANDSHAKE_GRACE = 1.0  # seconds past CONNECT_TIMEOUT that a connected listener has to answer
+
+
+def _probe(address: str) -> None:
+    """Connect to `address`, say hello as Dask does and ask who answers, all within
+    CONNECT_TIMEOUT + HANDSHAKE_GRACE seconds; a ClusterError unless a Dask scheduler answers.
+
+    distributed's Client bounds its connection attempts but not the handshake after them: a
+    listener that accepts and stays silent (any other server waiting for its client to speak)
+    would hang it forever, and one that answers other bytes fails it with a misleading error
+    (their first 8 bytes read as a length: "Unable to allocate 3 EiB") and a Client left half
+    started. This probe runs on a loop and thread of its own, so that it can be abandoned."""
+    import asyncio
+    import threading
+
+    from distributed.comm import connect as dask_connect
+
+    outcome: dict = {}
+
+    async def hello():
+        comm = await dask_connect(address, timeout=CONNECT_TIMEOUT)  # retried until CONNECT_TIMEOUT
+        try:
+            await comm.write({"op": "identity", "reply": True})
+            return await comm.read()
+        finally:
+            comm.abort()
+
+    def run():
+        try:
+            outcome["answer"] = asyncio.run(asyncio.wait_for(hello(), CONNECT_TIMEOUT + HANDSHAKE_GRACE))
+        except BaseException as exc:  # noqa: BLE001 - classified below, on the caller's thread
+            outcome["error"] = exc
+
+    thread = threading.Thread(target=run, name="raylume-probe", daemon=True)
+    thread.start()
+    thread.join(CONNECT_TIMEOUT + HANDSHAKE_GRACE + 1.0)  # the loop ends itself by then
+    waited = f"{CONNECT_TIMEOUT + HANDSHAKE_GRACE:g} s"
+    start_one = f"start one with `dask scheduler` and workers with `dask worker {address}`, or use --cluster local"
+    error = outcome.get("error")
+    answer = outcome.get("answer")
+    if error is None and answer is None:  # the thread did not even end: treat as silent
+        error = TimeoutError()
+    if isinstance(error, (TimeoutError, asyncio.TimeoutError)):
+        # connect() itself gives up on connecting after CONNECT_TIMEOUT with an OSError: a
+        # timeout here is a connection accepted and a handshake never answered
+        raise ClusterError(
+            f"--cluster {address}: no Dask scheduler answered there within {waited}: something else is "
+            "listening there (it accepted the connection but never answered as Dask does); "
+            f"check the address and port, or {start_one}"
+        )
+    if type(error) is OSError and str(error).startswith("Timed out trying to connect"):
+        cause = _root_cause(error)
+        reason = f": {_reason(cause)}" if cause is not error else ""
+        raise ClusterError(
+            f"--cluster {address}: no Dask scheduler answered there within {CONNECT_TIMEOUT:g} s "
+            f"(nothing accepted the connection{reason}); {start_one}"
+        )
+    if error is not None:
+        raise ClusterError(
+            f"--cluster {address}: something else than a Dask scheduler is listening there: it answered with "
+            f"what is not Dask's protocol ({type(error).__name__}); check the address and port, or {start_one}"
+        )
+    kind = answer.get("type") if isinstance(answer, dict) else None
+    if kind != "Scheduler":
+        what = f"a Dask {kind}" if isinstance(kind, str) else "something other than a Dask scheduler"
+        raise ClusterError(
+            f"--cluster {address}: {what} answered there, not a scheduler; give the scheduler's address "
+            "(as `dask scheduler` prints it)"
+        )
+
+
+def _root_cause(error: BaseException) -> BaseException:
+    """The exception at the end of `error`'s chain of causes: distributed wraps the socket's error
+    (a refused connection, a reset) in its own, whose text names internal objects."""
+    while error.__cause__ is not None:
+        error = error.__cause__
+    return error
+
+
+def _reason(error: BaseException) -> str:
+    """An OSError's reason (its strerror: 'Connection refused'), else the exception's text."""
+    if isinstance(error, OSError) and error.strerror:
+        return error.strerror
+    return str(error) or type(error).__name__
 
 
 def _abandon_half_started_clusters() -> None:
