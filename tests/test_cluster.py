@@ -5,10 +5,12 @@ processes serves the module; one test starts `dask scheduler` / `dask worker` pr
 
 from __future__ import annotations
 
+import contextlib
 import gc
 import json
 import os
 import random
+import re
 import signal
 import socket
 import subprocess
@@ -327,8 +329,13 @@ def test_a_listener_that_is_no_scheduler_exits_2_within_10_seconds(tmp_path, mon
     assert not (tmp_path / "render.png").exists()
 
 
-def _start(*args):
-    return subprocess.Popen([sys.executable, "-m", "dask", *args], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+def _start(*args, env=None):
+    return subprocess.Popen(
+        [sys.executable, "-m", "dask", *map(str, args)],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        env=None if env is None else {**os.environ, **env},
+    )
 
 
 def _stop(process):
@@ -340,24 +347,37 @@ def _stop(process):
         process.wait(timeout=10)
 
 
-def test_a_cluster_of_dask_scheduler_and_dask_worker_processes(tmp_path):
-    """As a user starts a real cluster: `dask scheduler`, `dask worker ADDRESS`, then
-    `raylume render --cluster ADDRESS`; the image equals the in-process render bit for bit."""
+@contextlib.contextmanager
+def _dask_processes(tmp_path, workers=2, worker_env=None):
+    """`dask scheduler` and `dask worker` processes on the loopback address, as a user starts
+    them: yields (the scheduler's address, its process) once `workers` workers have joined."""
     address_file = tmp_path / "scheduler.json"
     scheduler = _start(
         "scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard", "--scheduler-file", address_file
     )
-    workers = None
+    worker = None
     try:
         deadline = time.monotonic() + 60
         while not address_file.exists() and time.monotonic() < deadline:
             time.sleep(0.1)
         address = json.loads(address_file.read_text())["address"]
-        workers = _start(
-            "worker", address, "--nworkers", "2", "--nthreads", "1", "--no-dashboard", "--host", "127.0.0.1"
-        )
+        worker = _start(
+            "worker", address, "--nworkers", workers, "--nthreads", "1", "--no-dashboard", "--host", "127.0.0.1",
+            env=worker_env,
+        )  # fmt: skip
         with distributed.Client(address, timeout=30, set_as_default=False) as probe:
-            probe.wait_for_workers(2, timeout=60)  # started, not only launched
+            probe.wait_for_workers(workers, timeout=60)  # started, not only launched
+        yield address, scheduler
+    finally:
+        if worker is not None:
+            _stop(worker)
+        _stop(scheduler)
+
+
+def test_a_cluster_of_dask_scheduler_and_dask_worker_processes(tmp_path):
+    """As a user starts a real cluster: `dask scheduler`, `dask worker ADDRESS`, then
+    `raylume render --cluster ADDRESS`; the image equals the in-process render bit for bit."""
+    with _dask_processes(tmp_path) as (address, _):
         scene = tmp_path / "scene.json"
         scene.write_text(json.dumps({**SCENE, "render": {"width": 32, "height": 24, "spp": 2}}))
         result = raylume("render", scene, "-o", "c.npy", "--cluster", address, "--stats", "s.json", cwd=tmp_path)
@@ -366,10 +386,24 @@ def test_a_cluster_of_dask_scheduler_and_dask_worker_processes(tmp_path):
         assert np.array_equal(np.load(tmp_path / "c.npy"), reference.rgb)
         stats = json.loads((tmp_path / "s.json").read_text())
         assert stats["cluster"]["workers"] == 2 and stats["cluster"]["per_worker"]
-    finally:
-        if workers is not None:
-            _stop(workers)
-        _stop(scheduler)
+
+
+def test_a_worker_without_raylume_is_refused_in_one_line(tmp_path):
+    """A worker where raylume cannot be imported (here a package of that name whose import fails,
+    first on its PYTHONPATH): the version check's run of raylume's code fails there, which was a
+    page of distributed's traceback and exit 1; it is one line naming the worker, and exit 2."""
+    fake = tmp_path / "fake" / "raylume"
+    fake.mkdir(parents=True)
+    (fake / "__init__.py").write_text("raise ImportError('No module named raylume')\n")
+    with _dask_processes(tmp_path, workers=1, worker_env={"PYTHONPATH": str(fake.parent)}) as (address, _):
+        result = raylume("render", "--cluster", address, "--width", "8", "--height", "8", cwd=tmp_path)
+    assert result.returncode == 2, result.stderr
+    [line] = result.stderr.splitlines()
+    assert re.fullmatch(
+        r"raylume: error: worker tcp://127\.0\.0\.1:\d+ is refused: raylume cannot be imported .*", line
+    )
+    assert "install the client's raylume" in line
+    assert not (tmp_path / "render.png").exists()
 
 
 def test_exit_after_a_close_that_timed_out_logs_no_lost_data(tmp_path):

@@ -288,11 +288,26 @@ def _refusal(worker: str, differences: list[str]) -> str:
     )
 
 
+def _failed_check(worker: str, error: BaseException) -> str:
+    """A worker on which the version check itself failed: most often, raylume (or the Numba or
+    NumPy it needs) cannot be imported there. distributed hands the worker's exception back as
+    Exception("ImportError('No module named raylume')"): its text is what there is to go on."""
+    text = str(error) or type(error).__name__
+    if isinstance(error, ImportError) or "ImportError" in text or "ModuleNotFoundError" in text:
+        return (
+            f"worker {worker} is refused: raylume cannot be imported there ({text}); install the client's "
+            "raylume, numba, llvmlite and numpy on every worker (the same versions, for bit-identical images)"
+        )
+    return f"worker {worker} is refused: the version check failed there ({text})"
+
+
 def check_versions(client, expected: dict | None = None) -> None:
     """Refuse (ClusterError) a cluster any of whose workers runs other versions of BIT_KEYS."""
     expected = expected or versions()
-    found = client.run(versions)
+    found = client.run(versions, on_error="return")  # a worker's failure is its entry, not a raise
     for worker, theirs in sorted(found.items()):
+        if isinstance(theirs, BaseException):
+            raise ClusterError(_failed_check(worker, theirs))
         differences = _mismatch(expected, theirs)
         if differences:
             raise ClusterError(_refusal(worker, differences))
