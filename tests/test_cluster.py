@@ -8,6 +8,7 @@ from __future__ import annotations
 import contextlib
 import gc
 import json
+import logging
 import os
 import random
 import re
@@ -404,6 +405,33 @@ def test_a_worker_without_raylume_is_refused_in_one_line(tmp_path):
     )
     assert "install the client's raylume" in line
     assert not (tmp_path / "render.png").exists()
+
+
+def test_a_scheduler_killed_mid_render_is_one_error_naming_it(tmp_path, session, monkeypatch):
+    """The scheduler killed (SIGKILL) once the first tile is in: an error naming --cluster ADDRESS
+    and the scheduler's loss, not distributed's "Timed out trying to connect", and no log line of
+    the client's failed reconnection on stderr."""
+    monkeypatch.setattr(C, "TILE_SECONDS", 1e-9)  # many small tasks: most are left when it dies
+    logged = []
+    handler = logging.Handler(logging.WARNING)
+    handler.emit = logged.append
+    logging.getLogger("distributed.client").addHandler(handler)
+    try:
+        with _dask_processes(tmp_path, workers=1) as (address, scheduler):
+
+            def progress(done, total):
+                if done >= 1 and scheduler.poll() is None:
+                    scheduler.kill()
+
+            with pytest.raises(C.ClusterError) as caught:
+                session.render(cluster=address, mode="cast", spp=4, progress=progress)
+            time.sleep(0.5)  # time for a reconnection's log line
+    finally:
+        logging.getLogger("distributed.client").removeHandler(handler)
+    message = str(caught.value)
+    assert f"--cluster {address}: the scheduler was lost during the render" in message, message
+    assert not [r.getMessage() for r in logged if r.levelno >= logging.ERROR]
+    assert address not in C._clients  # closed and forgotten: a later render connects afresh
 
 
 def test_exit_after_a_close_that_timed_out_logs_no_lost_data(tmp_path):

@@ -20,6 +20,7 @@ them again elsewhere, from the same inputs, to the same bits.
 from __future__ import annotations
 
 import atexit
+import contextlib
 import functools
 import logging
 import math
@@ -216,6 +217,46 @@ def _reason(error: BaseException) -> str:
     if isinstance(error, OSError) and error.strerror:
         return error.strerror
     return str(error) or type(error).__name__
+
+
+class _ReconnectLog(logging.Filter):
+    """Drops distributed.client's report that it failed to reconnect to its scheduler, while a
+    render runs (installed by FrameRenderer): the render raises an error that says so itself,
+    and the log line, from the client's own thread, could come before or after that error."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        return not str(record.msg).startswith("Failed to reconnect to scheduler")
+
+
+_reconnect_log = _ReconnectLog()
+
+
+@contextlib.contextmanager
+def _no_reconnect_log():
+    log = logging.getLogger("distributed.client")
+    log.addFilter(_reconnect_log)
+    try:
+        yield
+    finally:
+        log.removeFilter(_reconnect_log)
+
+
+def _abandon(client) -> None:
+    """Close a client whose scheduler is gone, and forget it. Its reconnection loop, stopped by
+    the close, logs "Failed to reconnect to scheduler" as an ERROR (with a traceback when cut
+    short): the error raised says it already, so the client's log is muted while it closes."""
+    for key, cached in list(_clients.items()):
+        if cached is client:
+            del _clients[key]
+    log = logging.getLogger("distributed.client")
+    level = log.level
+    log.setLevel(logging.CRITICAL + 1)
+    try:
+        client.close(timeout=2)
+    except BaseException:  # noqa: BLE001 - whatever the close meets, the client is dropped
+        pass
+    finally:
+        log.setLevel(level)
 
 
 def _abandon_half_started_clusters() -> None:
@@ -469,6 +510,15 @@ class FrameRenderer:
         frames: int = 1,
     ):
         self.client = connect(cluster)
+        # how the user named the cluster, for errors: the address given, or the scheduler's
+        self.label = cluster if isinstance(cluster, str) else getattr(self.client.scheduler, "address", "")
+        try:
+            with _no_reconnect_log():
+                self._start(compiled, settings, aovs, progress, min_tiles, ahead, shuffle, frames)
+        except OSError as exc:  # the scheduler gone: CommClosedError, a connection timed out
+            raise self._scheduler_lost(exc) from None
+
+    def _start(self, compiled, settings, aovs, progress, min_tiles, ahead, shuffle, frames) -> None:
         self.frames_expected = frames  # for the progress bar's total before all are submitted
         self.settings = settings.render  # what the workers get: the [render] table
         self.window = settings.window
@@ -504,28 +554,31 @@ class FrameRenderer:
     def frames(self, cameras: Iterable[tuple[object, Camera]]) -> Iterator[tuple[object, WindowResult]]:
         cameras = iter(cameras)
         try:
-            waiting = None
-            exhausted = False
-            while True:
-                while not exhausted and len(self.in_flight) < self.ahead:
-                    item = next(cameras, None)
-                    if item is None:
-                        exhausted = True
-                        break
-                    if self.sample_seconds is None:
-                        self.sample_seconds = self._warm_up(item[1])
-                    self.in_flight.append(self._submit(*item))
-                    self._report()
-                if not self.in_flight:
-                    return
-                self._poll()
-                while self.in_flight and not self.in_flight[0].finals:
-                    frame = self.in_flight.pop(0)
-                    waiting = (frame.key, self._combine(frame))
-                    yield waiting
-                    waiting = None
+            with _no_reconnect_log():
+                yield from self._frames(cameras)
+        except OSError as exc:  # the scheduler gone: CommClosedError, a connection timed out
+            raise self._scheduler_lost(exc) from None
         finally:
             self.cancel()
+
+    def _frames(self, cameras: Iterator[tuple[object, Camera]]) -> Iterator[tuple[object, WindowResult]]:
+        exhausted = False
+        while True:
+            while not exhausted and len(self.in_flight) < self.ahead:
+                item = next(cameras, None)
+                if item is None:
+                    exhausted = True
+                    break
+                if self.sample_seconds is None:
+                    self.sample_seconds = self._warm_up(item[1])
+                self.in_flight.append(self._submit(*item))
+                self._report()
+            if not self.in_flight:
+                return
+            self._poll()
+            while self.in_flight and not self.in_flight[0].finals:
+                frame = self.in_flight.pop(0)
+                yield frame.key, self._combine(frame)
 
     def _warm_up(self, camera: Camera) -> float:
         """Warm every worker's kernels (a task pinned to it, before its tiles); wait for the
@@ -545,6 +598,7 @@ class FrameRenderer:
                     future.result()  # raises the worker's error (a refused version, ...)
             if time.monotonic() - checked > 10 * POLL_SECONDS:  # asks the scheduler: not every poll
                 checked = time.monotonic()
+                self._require_scheduler()
                 if self._warm_ups_stranded():
                     self._warm_up_again(camera)
             time.sleep(POLL_SECONDS / 5)
@@ -614,6 +668,8 @@ class FrameRenderer:
     def _poll(self) -> None:
         """Wait a moment, then collect the finished tasks (a failed one raises its error)."""
         time.sleep(POLL_SECONDS)
+        if self.client.status in ("closing", "closed"):  # the scheduler gone, reconnection given up
+            raise self._scheduler_lost()
         # "lost" (its worker died) is not an end: Dask computes it again elsewhere
         for future in [f for f in self.warm_futures if f.status == "finished"]:
             self.warm_futures.remove(future)
@@ -656,6 +712,7 @@ class FrameRenderer:
 
     def _resend_scene(self) -> None:
         """Scatter the scene again and resubmit every tile not done, each from its first pass."""
+        self._require_scheduler()  # tasks are cancelled too when the client loses its scheduler
         self.scene_resends += 1
         if self.scene_resends > SCENE_RESENDS:
             raise ClusterError(
@@ -672,6 +729,29 @@ class FrameRenderer:
                 final = self._submit_tile(frame.camera, tile, 0)
                 finals[final.key] = (final, tile)
             frame.finals = finals
+
+    def _scheduler_lost(self, error: BaseException | None = None) -> ClusterError:
+        """The error for a scheduler that went away mid-render (killed, its machine gone, the
+        network cut): the client is closed and forgotten, its reconnection attempts silenced."""
+        if error is not None:
+            reason = _reason(_root_cause(error))
+        else:
+            reason = f"it did not answer again within {CONNECT_TIMEOUT:g} s"
+        _abandon(self.client)
+        return ClusterError(
+            f"--cluster {self.label}: the scheduler was lost during the render ({reason}); check that it "
+            "still runs (if not, start it and its workers again), then render again"
+        )
+
+    def _require_scheduler(self) -> None:
+        """Return once the client is connected; raise _scheduler_lost if it cannot be. A client
+        that lost its scheduler tries to reconnect for CONNECT_TIMEOUT ("connecting"), cancelling
+        every task; a scheduler restarted within that time is used again (the scene resent)."""
+        deadline = time.monotonic() + CONNECT_TIMEOUT + 2.0
+        while self.client.status == "connecting" and time.monotonic() < deadline:
+            time.sleep(POLL_SECONDS)
+        if self.client.status != "running":
+            raise self._scheduler_lost()
 
     def _wait_for_a_worker(self, what: str) -> None:
         try:
