@@ -214,6 +214,42 @@ def test_ctrl_c_cancels_the_outstanding_tiles(client, session, monkeypatch):
     assert not any(client.processing().values())  # nothing left running on the workers
 
 
+def test_ctrl_c_in_a_terminal_with_local_workers_prints_one_line(tmp_path):
+    """Ctrl-C in a terminal signals the whole foreground process group, the local cluster's
+    worker processes too: each died printing a KeyboardInterrupt traceback (about 67 lines for
+    two) after raylume's own line. They ignore it now; raylume cancels their work and stops them."""
+    from test_reliability import _sigint_as_in_a_terminal, _watch
+
+    env = {**os.environ, "TTY_COMPATIBLE": "1", "TTY_INTERACTIVE": "1"}  # Rich draws its bar into the pipe
+    command = ["render", "--cluster", "local:2", "--mode", "path", "--spp", "4096", "--width", "128", "--height", "128"]
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "raylume.cli", *command, "-o", "x.png"],
+        cwd=tmp_path,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        env=env,
+        preexec_fn=_sigint_as_in_a_terminal,
+        start_new_session=True,  # a process group of its own, as a terminal's foreground job
+    )
+    try:
+        seen, chunks = _watch(proc.stderr, b"rendering")  # the progress bar: the workers are up
+        assert seen.wait(timeout=120), b"".join(chunks).decode(errors="replace")
+        time.sleep(0.5)
+        os.killpg(proc.pid, signal.SIGINT)
+        proc.wait(timeout=60)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+    time.sleep(0.5)  # the reader thread's last chunk, and any worker's late output
+    err = b"".join(chunks).decode(errors="replace")
+    assert proc.returncode == 130, err
+    assert err.rstrip().endswith("raylume: interrupted; nothing written"), err
+    for noise in ("Traceback", "KeyboardInterrupt", "ERROR", "Process Dask Worker"):
+        assert noise not in err, err
+    assert not (tmp_path / "x.png").exists()
+
+
 def test_workers_with_another_numba_are_refused(client, session, monkeypatch):
     real = C.versions()
     monkeypatch.setattr(C, "versions", lambda: {**real, "numba": "0.1.0"})

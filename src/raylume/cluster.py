@@ -60,6 +60,18 @@ class ClusterError(RaylumeError):
 
 # --- connecting -----------------------------------------------------------------------------
 
+# Ctrl-C in a terminal signals the whole foreground process group: local worker processes that
+# received it died printing a KeyboardInterrupt traceback each (about 67 lines for two) after
+# raylume's one line. This process cancels their tasks and stops them; they leave SIGINT to it:
+# blocked from their start (_without_sigint) and ignored once set up (this preload, given as its
+# text). Their ERROR logs are muted too: one interrupted as it warmed up could outlive the
+# scheduler (in this process) by a heartbeat and log its failure; what goes wrong on a worker
+# reaches the user as raylume's error.
+LOCAL_WORKER_SETUP = (
+    "import logging, signal; signal.signal(signal.SIGINT, signal.SIG_IGN); "
+    "logging.getLogger('distributed').setLevel(logging.CRITICAL)  # raylume: the client stops this worker"
+)
+
 _clients: dict[str, object] = {}  # address or "local:N" -> Client, reused by later renders
 _local_clusters: list = []
 
@@ -101,12 +113,15 @@ def connect(cluster) -> object:
         from distributed import LocalCluster
 
         try:
-            local = LocalCluster(
-                n_workers=int(value),
-                threads_per_worker=1,  # one tile at a time per process: the kernels use one core each
-                processes=True,
-                dashboard_address=":0",  # a free port: 8787 may be taken by another cluster
-                silence_logs=logging.ERROR,
+            local = _without_sigint(
+                lambda: LocalCluster(
+                    n_workers=int(value),
+                    threads_per_worker=1,  # one tile at a time per process: the kernels use one core each
+                    processes=True,
+                    dashboard_address=":0",  # a free port: 8787 may be taken by another cluster
+                    silence_logs=logging.ERROR,
+                    preload=[LOCAL_WORKER_SETUP],
+                )
             )
         except BaseException:  # Ctrl-C while the workers start: leave quietly, exit 130
             _abandon_half_started_clusters()
@@ -131,6 +146,43 @@ def connect(cluster) -> object:
             ) from None
     _clients[key] = client
     return client
+
+
+def _without_sigint(start: Callable[[], object]) -> object:
+    """start() on a thread of its own that blocks SIGINT, waited for here, where Ctrl-C still
+    raises KeyboardInterrupt. What it starts inherits the mask: the local cluster's event loop
+    thread, and through it the worker processes its nannies spawn, now and when they restart one
+    (a blocked signal stays blocked across fork and exec), so a Ctrl-C while they start up, before
+    LOCAL_WORKER_SETUP runs in them, does not kill them mid-import either. multiprocessing's
+    resource tracker, launched with the first process, unblocks SIGINT in the thread launching it:
+    it is launched from here first."""
+    import signal
+    import threading
+
+    if not hasattr(signal, "pthread_sigmask"):  # Windows: no signal masks, no process groups
+        return start()
+    from multiprocessing import resource_tracker
+
+    resource_tracker.ensure_running()
+    outcome: dict = {}
+
+    def run():
+        try:
+            outcome["value"] = start()
+        except BaseException as exc:  # noqa: BLE001 - raised again on the caller's thread
+            outcome["error"] = exc
+
+    thread = threading.Thread(target=run, name="raylume-local-cluster", daemon=True)
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        thread.start()  # a new thread inherits its creator's signal mask
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+    while thread.is_alive():
+        thread.join(0.1)  # short waits: a KeyboardInterrupt is raised between them
+    if "error" in outcome:
+        raise outcome["error"]
+    return outcome["value"]
 
 
 HANDSHAKE_GRACE = 1.0  # seconds past CONNECT_TIMEOUT that a connected listener has to answer
