@@ -487,3 +487,21 @@ def test_exit_after_a_close_that_timed_out_logs_no_lost_data(tmp_path):
     result = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=120, cwd=tmp_path)
     assert result.returncode == 0 and "closed" in result.stdout, result.stderr
     assert "ERROR" not in result.stderr and "lose scattered data" not in result.stderr, result.stderr
+
+
+def test_exit_with_scattered_data_logs_no_lost_data(tmp_path):
+    """A program (or raylume's command) that ends with its client still holding scattered data
+    and no explicit close: distributed's exit handler, registered as distributed was imported,
+    ran before raylume's and closed the local cluster first, and its scheduler logged the
+    data's loss as an ERROR after a render that succeeded."""
+    script = tmp_path / "exit.py"
+    script.write_text(
+        "from raylume import cluster\n"
+        "if __name__ == '__main__':\n"
+        "    client = cluster.connect('local:1')\n"
+        "    [scene] = client.scatter([list(range(1000))], broadcast=True)\n"
+        "    print('scattered', flush=True)\n"
+    )
+    result = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=120, cwd=tmp_path)
+    assert result.returncode == 0 and "scattered" in result.stdout, result.stderr
+    assert "ERROR" not in result.stderr and "lose scattered data" not in result.stderr, result.stderr

@@ -102,6 +102,11 @@ def connect(cluster) -> object:
     has no worker, is a ClusterError."""
     from distributed import Client
 
+    # distributed registered its own exit handlers as it was imported (just now, the first
+    # time), and they run before those registered earlier: _close_all, registered again, runs
+    # first, muting the scheduler's "lose scattered data" ERROR as the local workers stop.
+    atexit.unregister(_close_all)
+    atexit.register(_close_all)
     if isinstance(cluster, Client):
         return cluster
     kind, value = parse_address(cluster)
