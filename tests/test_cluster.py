@@ -102,6 +102,17 @@ def test_cluster_render_is_bit_identical_to_the_in_process_render(client, sessio
     assert stats["workers"] == 2
     assert stats["tiles"] >= (1 if mode == "raster" else 8)
     assert sum(w["tasks"] for w in stats["per_worker"].values()) == stats["tasks"]
+    # render_seconds is the kernels' time, as in-process (DESIGN): summed over the tiles, not the
+    # cluster's wall time with its warm-up and scheduling; the rate is the kernels' too
+    assert image.stats["render_seconds"] == stats["kernel_seconds"] > 0
+    assert stats["kernel_seconds"] == pytest.approx(sum(w["render_seconds"] for w in stats["per_worker"].values()))
+    assert stats["wall_seconds"] > 0 and "wall_seconds" not in image.stats
+    if mode != "raster":
+        assert image.stats["mrays_per_second"] == pytest.approx(image.stats["rays"] / stats["kernel_seconds"] / 1e6)
+    # the workers' compile (or load) time: the longest of them, reported where they report it
+    compiles = [w["compile_seconds"] for w in stats["per_worker"].values() if "compile_seconds" in w]
+    assert compiles and stats["compile_seconds"] == max(compiles) > 0
+    assert image.stats["compile_seconds"] >= stats["compile_seconds"]
 
 
 def test_bdpt_cluster_render_is_bit_identical_to_the_in_process_render(client, session):
