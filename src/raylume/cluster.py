@@ -334,10 +334,17 @@ def _abandon_half_started_clusters() -> None:
 
 @atexit.register
 def _close_all() -> None:
-    # At exit nothing is wanted any more; but a client whose close timed out (a loaded machine)
-    # still holds its scattered scene, and a local cluster's scheduler, in this process, would
-    # log the scene's loss as an ERROR on stderr as its workers stop, after a render that succeeded.
+    # At exit nothing is wanted any more, and raylume has said what it had to; but a client whose
+    # close timed out (a loaded machine) still holds its scattered scene, and a local cluster's
+    # scheduler, in this process, would log the scene's loss as an ERROR on stderr as its workers
+    # stop, after a render that succeeded. After Ctrl-C, the client's last cancellations race its
+    # close: the scheduler logged "Closed comm ... while trying to write" (CRITICAL), an
+    # AssertionError handling them, and asyncio its "Task exception was never retrieved".
     logging.getLogger("distributed.scheduler").setLevel(logging.CRITICAL)
+    if _clients or _local_clusters:
+        muted = [name for name in logging.root.manager.loggerDict if name.startswith("distributed.")]
+        for name in ("distributed", "asyncio", *muted):
+            logging.getLogger(name).setLevel(logging.CRITICAL + 1)
     for client in _clients.values():
         try:
             client.close(timeout=2)
