@@ -5,9 +5,13 @@ processes serves the module; one test starts `dask scheduler` / `dask worker` pr
 
 from __future__ import annotations
 
+import contextlib
+import gc
 import json
+import logging
 import os
 import random
+import re
 import signal
 import socket
 import subprocess
@@ -98,6 +102,17 @@ def test_cluster_render_is_bit_identical_to_the_in_process_render(client, sessio
     assert stats["workers"] == 2
     assert stats["tiles"] >= (1 if mode == "raster" else 8)
     assert sum(w["tasks"] for w in stats["per_worker"].values()) == stats["tasks"]
+    # render_seconds is the kernels' time, as in-process (DESIGN): summed over the tiles, not the
+    # cluster's wall time with its warm-up and scheduling; the rate is the kernels' too
+    assert image.stats["render_seconds"] == stats["kernel_seconds"] > 0
+    assert stats["kernel_seconds"] == pytest.approx(sum(w["render_seconds"] for w in stats["per_worker"].values()))
+    assert stats["wall_seconds"] > 0 and "wall_seconds" not in image.stats
+    if mode != "raster":
+        assert image.stats["mrays_per_second"] == pytest.approx(image.stats["rays"] / stats["kernel_seconds"] / 1e6)
+    # the workers' compile (or load) time: the longest of them, reported where they report it
+    compiles = [w["compile_seconds"] for w in stats["per_worker"].values() if "compile_seconds" in w]
+    assert compiles and stats["compile_seconds"] == max(compiles) > 0
+    assert image.stats["compile_seconds"] >= stats["compile_seconds"]
 
 
 def test_bdpt_cluster_render_is_bit_identical_to_the_in_process_render(client, session):
@@ -210,6 +225,42 @@ def test_ctrl_c_cancels_the_outstanding_tiles(client, session, monkeypatch):
     assert not any(client.processing().values())  # nothing left running on the workers
 
 
+def test_ctrl_c_in_a_terminal_with_local_workers_prints_one_line(tmp_path):
+    """Ctrl-C in a terminal signals the whole foreground process group, the local cluster's
+    worker processes too: each died printing a KeyboardInterrupt traceback (about 67 lines for
+    two) after raylume's own line. They ignore it now; raylume cancels their work and stops them."""
+    from test_reliability import _sigint_as_in_a_terminal, _watch
+
+    env = {**os.environ, "TTY_COMPATIBLE": "1", "TTY_INTERACTIVE": "1"}  # Rich draws its bar into the pipe
+    command = ["render", "--cluster", "local:2", "--mode", "path", "--spp", "4096", "--width", "128", "--height", "128"]
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "raylume.cli", *command, "-o", "x.png"],
+        cwd=tmp_path,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        env=env,
+        preexec_fn=_sigint_as_in_a_terminal,
+        start_new_session=True,  # a process group of its own, as a terminal's foreground job
+    )
+    try:
+        seen, chunks = _watch(proc.stderr, b"rendering")  # the progress bar: the workers are up
+        assert seen.wait(timeout=120), b"".join(chunks).decode(errors="replace")
+        time.sleep(0.5)
+        os.killpg(proc.pid, signal.SIGINT)
+        proc.wait(timeout=60)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+    time.sleep(0.5)  # the reader thread's last chunk, and any worker's late output
+    err = b"".join(chunks).decode(errors="replace")
+    assert proc.returncode == 130, err
+    assert err.rstrip().endswith("raylume: interrupted; nothing written"), err
+    for noise in ("Traceback", "KeyboardInterrupt", "ERROR", "Process Dask Worker"):
+        assert noise not in err, err
+    assert not (tmp_path / "x.png").exists()
+
+
 def test_workers_with_another_numba_are_refused(client, session, monkeypatch):
     real = C.versions()
     monkeypatch.setattr(C, "versions", lambda: {**real, "numba": "0.1.0"})
@@ -254,8 +305,85 @@ def test_a_malformed_or_unreachable_address_exits_2_within_10_seconds(tmp_path, 
     assert not (tmp_path / "render.png").exists()
 
 
-def _start(*args):
-    return subprocess.Popen([sys.executable, "-m", "dask", *args], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+def _listener(reply: bytes | None):
+    """A TCP listener on a free loopback port that is no Dask scheduler: each connection accepted
+    and either left silent (reply None, as a server waiting for its client to speak) or sent
+    `reply` (an HTTP server's answer) and kept open. Returns (port, stop)."""
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen(8)
+    server.settimeout(0.1)
+    accepted, stopped = [], threading.Event()
+
+    def serve():
+        while not stopped.is_set():
+            try:
+                connection = server.accept()[0]
+            except OSError:
+                continue
+            if reply is not None:
+                connection.sendall(reply)
+            accepted.append(connection)
+
+    thread = threading.Thread(target=serve, daemon=True)
+    thread.start()
+
+    def stop():
+        stopped.set()
+        thread.join(timeout=5)
+        for connection in accepted:
+            connection.close()
+        server.close()
+
+    return server.getsockname()[1], stop
+
+
+@pytest.mark.parametrize(
+    "reply, words",
+    [(None, "something else is listening there"), (b"HTTP/1.1 400 Bad Request\r\n\r\n" * 4, "not Dask's protocol")],
+    ids=["silent", "http"],
+)
+def test_a_listener_that_is_no_scheduler_exits_2_within_10_seconds(tmp_path, monkeypatch, reply, words):
+    """Something else listening at the address: one that accepts and never answers hung the
+    Client's handshake forever; one that answers other bytes failed with NumPy's "Unable to allocate
+    3.07 EiB" and a half-started Client whose __del__ printed a traceback at exit. The command runs
+    on a thread here, so that a hang fails the test instead of hanging it."""
+    monkeypatch.chdir(tmp_path)
+    unraisable = []
+    monkeypatch.setattr(sys, "unraisablehook", unraisable.append)
+    port, stop = _listener(reply)
+    address = f"tcp://127.0.0.1:{port}"
+    done = {}
+    try:
+        started = time.monotonic()
+        command = threading.Thread(
+            target=lambda: done.update(
+                result=CliRunner().invoke(app, ["render", "--cluster", address, "--width", "8"])
+            ),
+            daemon=True,
+        )
+        command.start()
+        command.join(timeout=15)
+        seconds = time.monotonic() - started
+    finally:
+        stop()
+    assert "result" in done, f"raylume render --cluster {address} still waits after 15 s"
+    result = done["result"]
+    assert seconds < 10 and result.exit_code == 2, (seconds, result.output)
+    assert f"--cluster {address}" in result.output and words in result.output, result.output
+    assert "Traceback" not in result.output and "allocate" not in result.output
+    gc.collect()  # a half-started Client's __del__ would run here
+    assert not unraisable, [u.exc_value for u in unraisable]
+    assert not (tmp_path / "render.png").exists()
+
+
+def _start(*args, env=None):
+    return subprocess.Popen(
+        [sys.executable, "-m", "dask", *map(str, args)],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        env=None if env is None else {**os.environ, **env},
+    )
 
 
 def _stop(process):
@@ -267,24 +395,37 @@ def _stop(process):
         process.wait(timeout=10)
 
 
-def test_a_cluster_of_dask_scheduler_and_dask_worker_processes(tmp_path):
-    """As a user starts a real cluster: `dask scheduler`, `dask worker ADDRESS`, then
-    `raylume render --cluster ADDRESS`; the image equals the in-process render bit for bit."""
+@contextlib.contextmanager
+def _dask_processes(tmp_path, workers=2, worker_env=None):
+    """`dask scheduler` and `dask worker` processes on the loopback address, as a user starts
+    them: yields (the scheduler's address, its process) once `workers` workers have joined."""
     address_file = tmp_path / "scheduler.json"
     scheduler = _start(
         "scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard", "--scheduler-file", address_file
     )
-    workers = None
+    worker = None
     try:
         deadline = time.monotonic() + 60
         while not address_file.exists() and time.monotonic() < deadline:
             time.sleep(0.1)
         address = json.loads(address_file.read_text())["address"]
-        workers = _start(
-            "worker", address, "--nworkers", "2", "--nthreads", "1", "--no-dashboard", "--host", "127.0.0.1"
-        )
+        worker = _start(
+            "worker", address, "--nworkers", workers, "--nthreads", "1", "--no-dashboard", "--host", "127.0.0.1",
+            env=worker_env,
+        )  # fmt: skip
         with distributed.Client(address, timeout=30, set_as_default=False) as probe:
-            probe.wait_for_workers(2, timeout=60)  # started, not only launched
+            probe.wait_for_workers(workers, timeout=60)  # started, not only launched
+        yield address, scheduler
+    finally:
+        if worker is not None:
+            _stop(worker)
+        _stop(scheduler)
+
+
+def test_a_cluster_of_dask_scheduler_and_dask_worker_processes(tmp_path):
+    """As a user starts a real cluster: `dask scheduler`, `dask worker ADDRESS`, then
+    `raylume render --cluster ADDRESS`; the image equals the in-process render bit for bit."""
+    with _dask_processes(tmp_path) as (address, _):
         scene = tmp_path / "scene.json"
         scene.write_text(json.dumps({**SCENE, "render": {"width": 32, "height": 24, "spp": 2}}))
         result = raylume("render", scene, "-o", "c.npy", "--cluster", address, "--stats", "s.json", cwd=tmp_path)
@@ -293,10 +434,51 @@ def test_a_cluster_of_dask_scheduler_and_dask_worker_processes(tmp_path):
         assert np.array_equal(np.load(tmp_path / "c.npy"), reference.rgb)
         stats = json.loads((tmp_path / "s.json").read_text())
         assert stats["cluster"]["workers"] == 2 and stats["cluster"]["per_worker"]
+
+
+def test_a_worker_without_raylume_is_refused_in_one_line(tmp_path):
+    """A worker where raylume cannot be imported (here a package of that name whose import fails,
+    first on its PYTHONPATH): the version check's run of raylume's code fails there, which was a
+    page of distributed's traceback and exit 1; it is one line naming the worker, and exit 2."""
+    fake = tmp_path / "fake" / "raylume"
+    fake.mkdir(parents=True)
+    (fake / "__init__.py").write_text("raise ImportError('No module named raylume')\n")
+    with _dask_processes(tmp_path, workers=1, worker_env={"PYTHONPATH": str(fake.parent)}) as (address, _):
+        result = raylume("render", "--cluster", address, "--width", "8", "--height", "8", cwd=tmp_path)
+    assert result.returncode == 2, result.stderr
+    [line] = result.stderr.splitlines()
+    assert re.fullmatch(
+        r"raylume: error: worker tcp://127\.0\.0\.1:\d+ is refused: raylume cannot be imported .*", line
+    )
+    assert "install the client's raylume" in line
+    assert not (tmp_path / "render.png").exists()
+
+
+def test_a_scheduler_killed_mid_render_is_one_error_naming_it(tmp_path, session, monkeypatch):
+    """The scheduler killed (SIGKILL) once the first tile is in: an error naming --cluster ADDRESS
+    and the scheduler's loss, not distributed's "Timed out trying to connect", and no log line of
+    the client's failed reconnection on stderr."""
+    monkeypatch.setattr(C, "TILE_SECONDS", 1e-9)  # many small tasks: most are left when it dies
+    logged = []
+    handler = logging.Handler(logging.WARNING)
+    handler.emit = logged.append
+    logging.getLogger("distributed.client").addHandler(handler)
+    try:
+        with _dask_processes(tmp_path, workers=1) as (address, scheduler):
+
+            def progress(done, total):
+                if done >= 1 and scheduler.poll() is None:
+                    scheduler.kill()
+
+            with pytest.raises(C.ClusterError) as caught:
+                session.render(cluster=address, mode="cast", spp=4, progress=progress)
+            time.sleep(0.5)  # time for a reconnection's log line
     finally:
-        if workers is not None:
-            _stop(workers)
-        _stop(scheduler)
+        logging.getLogger("distributed.client").removeHandler(handler)
+    message = str(caught.value)
+    assert f"--cluster {address}: the scheduler was lost during the render" in message, message
+    assert not [r.getMessage() for r in logged if r.levelno >= logging.ERROR]
+    assert address not in C._clients  # closed and forgotten: a later render connects afresh
 
 
 def test_exit_after_a_close_that_timed_out_logs_no_lost_data(tmp_path):
@@ -315,4 +497,22 @@ def test_exit_after_a_close_that_timed_out_logs_no_lost_data(tmp_path):
     )
     result = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=120, cwd=tmp_path)
     assert result.returncode == 0 and "closed" in result.stdout, result.stderr
+    assert "ERROR" not in result.stderr and "lose scattered data" not in result.stderr, result.stderr
+
+
+def test_exit_with_scattered_data_logs_no_lost_data(tmp_path):
+    """A program (or raylume's command) that ends with its client still holding scattered data
+    and no explicit close: distributed's exit handler, registered as distributed was imported,
+    ran before raylume's and closed the local cluster first, and its scheduler logged the
+    data's loss as an ERROR after a render that succeeded."""
+    script = tmp_path / "exit.py"
+    script.write_text(
+        "from raylume import cluster\n"
+        "if __name__ == '__main__':\n"
+        "    client = cluster.connect('local:1')\n"
+        "    [scene] = client.scatter([list(range(1000))], broadcast=True)\n"
+        "    print('scattered', flush=True)\n"
+    )
+    result = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=120, cwd=tmp_path)
+    assert result.returncode == 0 and "scattered" in result.stdout, result.stderr
     assert "ERROR" not in result.stderr and "lose scattered data" not in result.stderr, result.stderr

@@ -552,7 +552,10 @@ def _render(
         line = summary(output, image.stats)
         if "cluster" in image.stats:
             c = image.stats["cluster"]
-            line += f"; on {c['workers']} workers ({c['tiles']} tiles, first in {c['first_tile_seconds'] or 0:.2f} s)"
+            line += (
+                f"; on {c['workers']} workers ({c['tiles']} tiles, first in {c['first_tile_seconds'] or 0:.2f} s, "
+                f"{c['wall_seconds']:.2f} s wall)"
+            )
         typer.echo(line, err=True)
 
 

@@ -189,7 +189,9 @@ class Session:
                 cluster, self.compiled, cam_model, settings, aovs=aovs or denoising, progress=progress, status=clock
             )
             extra["cluster"] = part.cluster
+            worker_compile_seconds = part.cluster["compile_seconds"]  # the longest of the workers'
         else:
+            worker_compile_seconds = 0.0
             part = render_window(
                 self.compiled, cam_model, table, window, aovs=aovs or denoising, lanes=lanes, progress=progress,
                 status=clock,
@@ -226,7 +228,7 @@ class Session:
             "rays": int(rays),
             "primary_rays": int(primary),
             "render_seconds": kernel_seconds,
-            "compile_seconds": clock.seconds + build_compile_seconds,
+            "compile_seconds": clock.seconds + build_compile_seconds + worker_compile_seconds,
             "mrays_per_second": float(rays / kernel_seconds / 1e6) if kernel_seconds > 0 else 0.0,
             **extra,
         }
