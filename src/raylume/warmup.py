@@ -233,7 +233,8 @@ def main(argv: list[str] | None = None) -> None:
         parser.error(f"--part {args.part}: expected I/N with 0 <= I < N")
     seconds = warm_kernels(part, parts, report=None if args.quiet else print)
     if not args.quiet:
-        print(f"part {part}/{parts} done in {seconds:.1f} s" if parts > 1 else f"done in {seconds:.1f} s")
+        # counted from 1 here ("part 1 of 2"), as a person counts; --part takes I/N from 0
+        print(f"part {part + 1} of {parts} done in {seconds:.1f} s" if parts > 1 else f"done in {seconds:.1f} s")
 
 
 if __name__ == "__main__":

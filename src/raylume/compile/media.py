@@ -155,20 +155,29 @@ def _check_camera(scene: Scene, solids: list[_Solid], names: list[str], outer: i
     """Warn where the camera is inside an object filled with another medium than the outer one:
     the camera sits in the outer medium (DESIGN 7), so its rays see none of the medium around it
     and path and bdpt disagree there (a light subpath's medium is found from the geometry)."""
-    camera = np.asarray(scene.camera.position, dtype=np.float64)
-    holders = [s for s in solids if s.contains(camera)]
-    if not holders:
+    cameras = [("", scene.camera.position)]
+    if scene.animation is not None and scene.animation.camera:  # and every frame's of an animation
+        from ..animation import camera_at
+
+        frames = range(scene.animation.frames)
+        cameras += [(f" (frame {k} of the animation)", camera_at(scene, k).position) for k in frames]
+
+    def innermost(position) -> _Solid | None:
+        holders = [s for s in solids if s.contains(np.asarray(position, dtype=np.float64))]
+        return min(holders, key=lambda s: s.volume) if holders else None
+
+    inside = ((when, position, innermost(position)) for when, position in cameras)
+    found = next(((w, p, s) for w, p, s in inside if s is not None and s.inside != outer), None)
+    if found is None:
         return
-    innermost = min(holders, key=lambda s: s.volume)
-    if innermost.inside == outer:
-        return
+    when, position, solid = found
 
     def name(i: int) -> str:
         return "none" if i == NONE else repr(names[i])
 
-    x, y, z = (f"{c:g}" for c in camera)
+    x, y, z = (f"{c:g}" for c in position)
     warn(
-        f"the camera at ({x}, {y}, {z}) is inside objects[{innermost.obj}] (medium: {name(innermost.inside)}), "
+        f"the camera at ({x}, {y}, {z}){when} is inside objects[{solid.obj}] (medium: {name(solid.inside)}), "
         f"but a camera sits in the medium outside every object ([render] medium: {name(outer)}), and its "
         "rays start there; move the camera out of the object"
     )

@@ -55,20 +55,38 @@ def object_matrix(obj) -> np.ndarray:
 ROUNDING_WARNED = 1e-3
 
 
-def warn_if_rounded(lo: np.ndarray, hi: np.ndarray, obj: int) -> None:
-    """Warn where float32, which stores triangles, rounds the corners of an object of box
-    (lo, hi) by a visible part of its size: an object far from the origin for its size (a 1-unit
-    box 1e5 units away is rounded by 0.4% of it, and at 1e7 it vanishes). Spheres and the other
-    analytic shapes are stored in float64 and keep their shape."""
+def rounded_too_far(lo: np.ndarray, hi: np.ndarray) -> tuple[float, float, float] | None:
+    """(its distance from the origin, its size, the rounding) of an object of box (lo, hi) whose
+    corners float32, which stores triangles, rounds by a visible part of its size, else None: an
+    object far from the origin for its size (a 1-unit box 1e5 units away is rounded by 0.4% of
+    it, and at 1e7 it vanishes). Spheres and the other analytic shapes are stored in float64 and
+    keep their shape."""
     size = float(np.linalg.norm(hi - lo))
     farthest = float(max(np.abs(lo).max(), np.abs(hi).max()))
     rounding = float(np.spacing(np.float32(farthest))) / 2
-    if size > 0 and rounding > ROUNDING_WARNED * size:
-        warn(
-            f"objects[{obj}] lies {farthest:,.0f} units from the origin and is {size:.3g} across: float32, which "
-            f"stores triangles, rounds its corners there by up to {rounding:.2g} ({100 * rounding / size:.2g}% of "
-            "its size), so its shape and hits are off; move the scene nearer to the origin"
-        )
+    return (farthest, size, rounding) if size > 0 and rounding > ROUNDING_WARNED * size else None
+
+
+def warn_about_rounding(rounded: dict[int, tuple[float, float, float]]) -> None:
+    """One warning for every object rounded_too_far found (a scene of loose triangles may have
+    hundreds), naming the worst: the one rounded by the largest part of its size."""
+    if not rounded:
+        return
+    worst = max(rounded, key=lambda k: rounded[k][2] / rounded[k][1])
+    farthest, size, rounding = rounded[worst]
+    names = [f"objects[{k}]" for k in sorted(rounded)]
+    if len(names) <= 2:
+        which = " and ".join(names)
+    else:
+        which = f"{names[0]}, {names[1]} and {len(names) - 2} more"
+    one = len(names) == 1
+    whose = "its corners" if one else f"the corners of objects[{worst}]"
+    warn(
+        f"{which} {'lies' if one else 'lie'} far from the origin for {'its size' if one else 'their sizes'}: "
+        f"float32, which stores triangles, rounds {whose}, {farthest:.3g} units out, by up to {rounding:.2g} "
+        f"({100 * rounding / size:.2g}% of its {size:.3g} across), so shapes and hits are off; move the scene "
+        "nearer to the origin (or scale it up)"
+    )
 
 
 class OutOfRange(ValueError):
@@ -239,6 +257,7 @@ class SceneGeometry:
     def __init__(self):
         self.analytic = _Analytic()
         self.soup = _TriangleSoup()
+        self.rounded: dict[int, tuple[float, float, float]] = {}  # objects float32 rounds visibly
         self.instanced: list[_InstancedMesh] = []
 
     def add_mesh(
@@ -270,8 +289,8 @@ class SceneGeometry:
         if len(mesh.vertices):
             lo, hi = mesh.vertices.min(axis=0), mesh.vertices.max(axis=0)  # (no (V, 3) temporary of np.abs)
             _check_extent(_mesh_extent(lo, hi, instances))
-            if instances is None:  # (an instanced mesh is stored in its own space)
-                warn_if_rounded(lo, hi, obj)
+            if instances is None and (found := rounded_too_far(lo, hi)) is not None:
+                self.rounded[obj] = found  # (an instanced mesh is stored in its own space)
         tris = corners(mesh.vertices)
         normals = None if mesh.normals is None else corners(mesh.normals)
         uv6 = corners(mesh.uvs) if uvs else None
@@ -338,7 +357,8 @@ def gather_objects(scene: Scene, source: str) -> Gathered:
                 if not np.array_equal(matrix, np.eye(4)):
                     corners = corners @ matrix[:3, :3].T + matrix[:3, 3]
                     _check_extent(float(np.abs(corners).max()))
-                warn_if_rounded(corners.min(axis=0), corners.max(axis=0), k)
+                if (found := rounded_too_far(corners.min(axis=0), corners.max(axis=0))) is not None:
+                    geometry.rounded[k] = found
                 soup.add(corners.astype(np.float32).reshape(1, 9), None, m, k, uvs)
             else:
                 matrices = _instance_matrices(scene, k, obj, source)  # before the (slower) mesh file
@@ -355,4 +375,5 @@ def gather_objects(scene: Scene, source: str) -> Gathered:
                 geometry.add_mesh(mesh, m, k, matrices, uvs=needs_uvs(obj))
         except OutOfRange as exc:
             raise SceneError(f"{source}: objects[{k}]: {exc}") from None
+    warn_about_rounding(geometry.rounded)
     return Gathered(geometry, materials, material_where, images, mesh_seconds)
