@@ -157,7 +157,7 @@ def _check_camera(scene: Scene, solids: list[_Solid], names: list[str], outer: i
     and path and bdpt disagree there (a light subpath's medium is found from the geometry)."""
     cameras = [("", scene.camera.position)]
     if scene.animation is not None and scene.animation.camera:  # and every frame's of an animation
-        from ..animation import camera_at
+        from ..scene.camera_path import camera_at
 
         frames = range(scene.animation.frames)
         cameras += [(f" (frame {k} of the animation)", camera_at(scene, k).position) for k in frames]
