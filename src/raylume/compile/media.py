@@ -159,8 +159,11 @@ def _check_camera(scene: Scene, solids: list[_Solid], names: list[str], outer: i
     if scene.animation is not None and scene.animation.camera:  # and every frame's of an animation
         from ..scene.camera_path import camera_at
 
-        frames = range(scene.animation.frames)
-        cameras += [(f" (frame {k} of the animation)", camera_at(scene, k).position) for k in frames]
+        for k in range(scene.animation.frames):
+            try:
+                cameras.append((f" (frame {k} of the animation)", camera_at(scene, k).position))
+            except SceneError:  # an invalid frame: said when the frames are rendered, not here
+                break
 
     def innermost(position) -> _Solid | None:
         holders = [s for s in solids if s.contains(np.asarray(position, dtype=np.float64))]
