@@ -9,11 +9,11 @@ import signal
 import stat
 import subprocess
 import sys
-import threading
 from pathlib import Path
 
 import numpy as np
 import pytest
+from test_reliability import _watch
 from typer.testing import CliRunner
 
 import raylume
@@ -102,20 +102,6 @@ def test_a_gif_on_a_full_disk_names_the_file(tmp_path, monkeypatch):
     assert hidden(tmp_path) == []
 
 
-def _stderr_seen(stream, text: bytes) -> tuple[threading.Event, list]:
-    """Read `stream` in a thread; the event is set once `text` has appeared in it."""
-    seen, chunks = threading.Event(), []
-
-    def read():
-        while chunk := os.read(stream.fileno(), 4096):
-            chunks.append(chunk)
-            if text in b"".join(chunks):
-                seen.set()
-
-    threading.Thread(target=read, daemon=True).start()
-    return seen, chunks
-
-
 def _running_in(folder: Path) -> list[str]:
     """Command lines of the processes still running that name `folder` (an ffmpeg left behind)."""
     found = []
@@ -144,7 +130,7 @@ def test_sigterm_while_frames_are_written_cleans_up_as_ctrl_c(tmp_path, suffix):
         stderr=subprocess.PIPE,
         env=env,
     )
-    seen, chunks = _stderr_seen(proc.stderr, b"rendering")
+    seen, chunks = _watch(proc.stderr, b"rendering")
     try:
         assert seen.wait(timeout=120), b"".join(chunks).decode(errors="replace")
         assert proc.poll() is None, "the animation ended before SIGTERM"
