@@ -19,6 +19,7 @@ import numpy as np
 
 from ..errors import SceneError
 from ..kernels.geometry.shapes import ANALYTIC
+from ..kernels.geometry.transform import transform_point
 from ..kernels.shading.materials.registry import is_solid
 from ..kernels.shading.media import grid, homogeneous
 from ..kernels.shading.media.table import MED_KIND, MED_WIDTH
@@ -144,11 +145,17 @@ def _interfaces(scene: Scene, geometry, index: dict, outer: int, source: str) ->
     interface = np.full((max(len(scene.objects), 1), 2), outer, dtype=np.int32)
     for k, obj in enumerate(scene.objects):
         point = _surface_point(obj, triangles.get(k))
-        holders = [s for s in solids if s.obj != k and point is not None and s.contains(point)]
-        around = min(holders, key=lambda s: s.volume).inside if holders else outer
+        holder = None if point is None else _innermost(solids, point, other_than=k)
+        around = holder.inside if holder is not None else outer
         mine = next((s for s in solids if s.obj == k), None)
         interface[k] = (mine.inside if mine is not None else around, around)
     return interface, solids
+
+
+def _innermost(solids: list[_Solid], point: np.ndarray, other_than: int = -1) -> _Solid | None:
+    """The smallest of the solids (but object `other_than`) that holds `point`, or None."""
+    holders = [s for s in solids if s.obj != other_than and s.contains(point)]
+    return min(holders, key=lambda s: s.volume) if holders else None
 
 
 def _check_camera(scene: Scene, solids: list[_Solid], names: list[str], outer: int) -> None:
@@ -165,11 +172,7 @@ def _check_camera(scene: Scene, solids: list[_Solid], names: list[str], outer: i
             except SceneError:  # an invalid frame: said when the frames are rendered, not here
                 break
 
-    def innermost(position) -> _Solid | None:
-        holders = [s for s in solids if s.contains(np.asarray(position, dtype=np.float64))]
-        return min(holders, key=lambda s: s.volume) if holders else None
-
-    inside = ((when, position, innermost(position)) for when, position in cameras)
+    inside = ((when, position, _innermost(solids, np.asarray(position, np.float64))) for when, position in cameras)
     found = next(((w, p, s) for w, p, s in inside if s is not None and s.inside != outer), None)
     if found is None:
         return
@@ -228,9 +231,9 @@ def _surface_point(obj, triangles) -> np.ndarray | None:
     m = object_matrix(obj)  # the point as placed in the world
     for key in ("position", "center", "point", "p0"):
         if hasattr(obj, key):
-            return m[:3, :3] @ np.asarray(getattr(obj, key), dtype=np.float64) + m[:3, 3]
+            return transform_point(m, getattr(obj, key))
     if hasattr(obj, "vertices") and obj.vertices:
-        return m[:3, :3] @ np.asarray(obj.vertices[0], dtype=np.float64) + m[:3, 3]
+        return transform_point(m, obj.vertices[0])
     return None
 
 

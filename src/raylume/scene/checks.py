@@ -44,17 +44,18 @@ def warn_about(scene: Scene, mode: str) -> None:
     """Issue scene_warnings as SceneWarnings, attributed to the first caller outside raylume
     (the user's render call, whether through raylume.render or a Session)."""
     for message in scene_warnings(scene, mode):
-        warnings.warn(message, SceneWarning, stacklevel=_outside_level())
+        warn(message)
 
 
 def warn(message: str) -> None:
-    """One SceneWarning found while compiling (what needs the geometry), attributed as warn_about's."""
+    """One SceneWarning (also those found while compiling, which need the geometry), attributed
+    to the first caller outside raylume."""
     warnings.warn(message, SceneWarning, stacklevel=_outside_level())
 
 
 def _outside_level() -> int:
-    """The warnings.warn stacklevel, as seen from warn_about, of the nearest frame outside the package."""
-    frame, level = sys._getframe(2), 2  # level 1 is warn_about, 2 its caller
+    """The warnings.warn stacklevel, as seen from warn, of the nearest frame outside the package."""
+    frame, level = sys._getframe(2), 2  # level 1 is warn, 2 its caller
     while frame is not None and frame.f_code.co_filename.startswith(_PACKAGE):
         frame, level = frame.f_back, level + 1
     return level

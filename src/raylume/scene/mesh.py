@@ -589,12 +589,14 @@ _OBJ_NUMBERS = {b"v": (3, 4, 6, 7), b"vt": (1, 2, 3), b"vn": (3,)}
 
 def _obj_problem(path: Path) -> str | None:
     """The first line of an OBJ file at fault, in words, or None: a number that is not one,
-    a vertex of too few coordinates, or a face index that does not exist."""
-    return _obj_number_problem(path) or _obj_index_problem(path)
+    a vertex of too few coordinates, or a face index that does not exist (a slow Python pass
+    over the file, read only when trimesh's result shows that something is wrong)."""
+    lines = path.read_bytes().splitlines()
+    return _obj_number_problem(lines) or _obj_index_problem(lines)
 
 
-def _obj_number_problem(path: Path) -> str | None:
-    for number, line in enumerate(path.read_bytes().splitlines(), 1):
+def _obj_number_problem(lines: list[bytes]) -> str | None:
+    for number, line in enumerate(lines, 1):
         words = line.split(b"#", 1)[0].split()
         if not words or words[0] not in _OBJ_NUMBERS:
             continue
@@ -612,13 +614,11 @@ def _obj_number_problem(path: Path) -> str | None:
     return None
 
 
-def _obj_index_problem(path: Path) -> str | None:
-    """The first face index of an OBJ file that is 0 or past the end of its list, in words, or
-    None. trimesh (5.x) reads index 0 as the first element and drops the texture coordinates of a
-    file with a vt index past the end, saying nothing; this is read only when its result shows
-    that something is wrong (a slow Python pass over the file)."""
+def _obj_index_problem(lines: list[bytes]) -> str | None:
+    """The first face index of an OBJ file's `lines` that is 0 or past the end of its list, in
+    words, or None. trimesh (5.x) reads index 0 as the first element and drops the texture
+    coordinates of a file with a vt index past the end, saying nothing."""
     totals = dict.fromkeys(_OBJ_ELEMENTS, 0)
-    lines = path.read_bytes().splitlines()
     for line in lines:
         words = line.split(b"#", 1)[0].split()
         if words and words[0] in totals:
@@ -666,7 +666,7 @@ def obj_uv_problem(path: Path) -> str | None:
         return None
     if b"vt" not in data:  # the common case, a file without texture coordinates: no slow pass
         return None
-    problem = _obj_index_problem(path)
+    problem = _obj_index_problem(data.splitlines())
     if problem is not None:
         return f"its texture coordinates could not be used: {problem}"
     return "its texture coordinates could not be used (the faces do not refer to them)"
