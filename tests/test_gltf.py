@@ -318,6 +318,25 @@ def test_base_colour_factor_and_texture_reach_the_albedo(tmp_path):
     np.testing.assert_allclose(albedo[20, 32], [0, cyan, 1.0], rtol=1e-5)
 
 
+def test_normal_texture_turns_the_normal_up_the_image_and_scale_is_its_strength(tmp_path):
+    # glTF's normal textures: +x right (increasing u), +y up the image, linear texels, the
+    # normal 2 t - 1 with x and y times `scale`. A quad facing +z with u along +x and v down
+    # the image along -y: a texel tilted up the image tilts the normal towards +y; raylume's
+    # world has z negated, so the face's normal there is -z.
+    texel = np.array([128, 191, 238], dtype=np.uint8)
+    PILImage.fromarray(np.tile(texel, (4, 4, 1))).save(tmp_path / "normal.png")
+    b = Builder()
+    b.doc["images"] = [{"uri": "normal.png"}]
+    b.doc["textures"] = [{"source": 0}]
+    bumpy = b.material(normalTexture={"index": 0, "scale": 0.5}, pbrMetallicRoughness={"metallicFactor": 0})
+    b.node(mesh=b.quad(-1, 1, -1, 1, material=bumpy))
+    b.camera(2 * math.atan(0.5), aspect=1.0, translation=[0, 0, 5])
+    normal = raylume.render(load_scene(b.gltf(tmp_path / "bumpy.gltf")), width=9, height=9, mode="cast")
+    n_t = (2 * texel.astype(np.float64) / 255 - 1) * [0.5, 0.5, 1]
+    n_t /= np.linalg.norm(n_t)
+    np.testing.assert_allclose(normal.aovs["normal"][4, 4], [n_t[0], n_t[1], -n_t[2]], atol=1e-6)
+
+
 # ------------------------------------------------------------------ the file against its TOML twin
 
 TWIN = """

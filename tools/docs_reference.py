@@ -72,6 +72,13 @@ def scene_tables() -> list[Table]:
             model.ImageTexture,
             "A material's `texture`: an image.",
         ),
+        Table(
+            "normal_map = { ... }",
+            "normal-map",
+            "materials.NAME.normal_map",
+            model.NormalMap,
+            "A material's `normal_map`: a tangent-space normal map.",
+        ),
         *_kinds(model.LIGHT_TYPES, "[[lights]]", "lights.N", "lights", "A light"),
         *_kinds(model.OBJECT_TYPES, "[[objects]]", "objects.N", "objects", "An object"),
         Table(
@@ -372,6 +379,7 @@ _SYNTHETIC: dict[str | tuple[str, str], str] = {
     "direction": "[1, 4, 4]",
     "instances": '"trees.npy"',
     "texture": '{ type = "checker", scale = 0.5 }',
+    "normal_map": '{ file = "textures/bricks_normal.png" }',
     "material": '"glass"',
     "eta": "[0.143, 0.374, 1.442]",
     "k": "[3.983, 2.385, 1.603]",

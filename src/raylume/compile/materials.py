@@ -1,6 +1,6 @@
 """Compile stage: materials and textures. Each material's row of the material table is packed by
 its kind's module (kernels/shading/materials/); image textures are decoded to linear float32
-RGB, mip-mapped, and joined into one texel atlas."""
+RGB (normal maps kept as stored), mip-mapped, and joined into one texel atlas."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import numpy as np
 from ..errors import SceneError
 from ..kernels.shading import materials as M
 from ..kernels.shading import textures as X
-from ..scene.model import ImageTexture, Material
+from ..scene.model import ImageTexture, Material, NormalMap
 
 
 def srgb_to_linear(x: np.ndarray) -> np.ndarray:
@@ -64,13 +64,15 @@ class TextureTable:
         self.rows: list[np.ndarray] = []
         self.parts: list[np.ndarray] = []
         self.size = 0
-        self.loaded: dict[Path, tuple] = {}
+        self.loaded: dict[tuple[Path, bool], tuple] = {}
 
     def add(self, texture, where: str) -> int:
-        """The row of a model texture (checker or image)."""
+        """The row of a model texture (checker or image) or normal map."""
         row = np.zeros(X.TEX_WIDTH, dtype=np.float64)
-        if isinstance(texture, ImageTexture):
-            offset, tex_w, tex_h, levels, mean = self._image(texture.file, f"{where}.texture.file")
+        if isinstance(texture, (ImageTexture, NormalMap)):
+            normals = isinstance(texture, NormalMap)
+            key = "normal_map" if normals else "texture"
+            offset, tex_w, tex_h, levels, mean = self._image(texture.file, f"{where}.{key}.file", decode=not normals)
             row[X.TEX_KIND] = X.IMAGE
             row[X.TEX_COLOR_A : X.TEX_COLOR_A + 3] = mean
             row[X.TEX_OFFSET] = offset
@@ -87,14 +89,15 @@ class TextureTable:
         self.rows.append(row)
         return len(self.rows) - 1
 
-    def _image(self, file: str, where: str) -> tuple[int, int, int, int, np.ndarray]:
-        """(offset, width, height, mip levels, mean linear colour) of the image, loading it once."""
+    def _image(self, file: str, where: str, decode: bool = True) -> tuple[int, int, int, int, np.ndarray]:
+        """(offset, width, height, mip levels, mean colour) of the image, loading it once for each
+        way it is read: sRGB-decoded (colours) or as stored (normal maps)."""
         path = Path(file)
         if not path.is_absolute():
             path = self.base_dir / path
-        key = path.resolve()
+        key = (path.resolve(), decode)
         if key not in self.loaded:
-            texels = self.images[file] if file in self.images else self._load(path, where)
+            texels = self.images[file] if file in self.images else self._load(path, where, decode)
             h, w = texels.shape[:2]
             levels = mip_levels(texels)
             self.loaded[key] = (self.size, w, h, len(levels), texels.reshape(-1, 3).mean(axis=0, dtype=np.float64))
@@ -103,7 +106,7 @@ class TextureTable:
                 self.size += level.shape[0] * level.shape[1]
         return self.loaded[key]
 
-    def _load(self, path: Path, where: str) -> np.ndarray:
+    def _load(self, path: Path, where: str, decode: bool = True) -> np.ndarray:
         from PIL import Image as PILImage
 
         def fail(why: str):
@@ -122,7 +125,7 @@ class TextureTable:
             raise
         except (OSError, ValueError, PILImage.DecompressionBombError) as exc:
             fail(f"cannot read texture {path} as an image (PNG or JPEG): {exc}")
-        return srgb_to_linear(rgb).astype(np.float32)
+        return (srgb_to_linear(rgb) if decode else rgb).astype(np.float32)
 
     def table(self) -> np.ndarray:
         if not self.rows:
@@ -138,7 +141,7 @@ class TextureTable:
 def material_row(mat: Material, textures: TextureTable | None = None, where: str = "material") -> np.ndarray:
     """The material's row of the materials table: the columns of its kind, packed by the kind's
     module (its trace-mode approximation in the phong columns), then those every kind has;
-    its texture is added to `textures`."""
+    its texture and normal map are added to `textures`."""
     row = np.zeros(M.MAT_WIDTH, dtype=np.float64)
     M.pack_material(mat, row)
     row[M.MAT_COLOR : M.MAT_COLOR + 3] = mat.color
@@ -148,6 +151,11 @@ def material_row(mat: Material, textures: TextureTable | None = None, where: str
         if textures is None:
             raise ValueError("a textured material needs a TextureTable")
         row[M.MAT_TEXTURE] = textures.add(mat.texture, where)
+    if mat.normal_map is not None:
+        if textures is None:
+            raise ValueError("a normal-mapped material needs a TextureTable")
+        row[M.MAT_NORMAL_MAP] = 1 + textures.add(mat.normal_map, where)
+        row[M.MAT_NORMAL_STRENGTH] = mat.normal_map.strength
     return row
 
 

@@ -178,6 +178,11 @@ def _load_gltf_object(scene: Scene, k: int, obj: Gltf, source):
         raise SceneError(f"{source}: objects[{k}].file: {exc}") from None
 
 
+def _reads_uvs(material) -> bool:
+    """Whether a material reads its surface's UVs: an image texture or a normal map."""
+    return isinstance(material.texture, ImageTexture) or material.normal_map is not None
+
+
 def _add_gltf_part(geometry: SceneGeometry, part, m: int, k: int, needs_uvs: bool) -> None:
     """A glTF mesh primitive (UVs where its material's texture needs them; a mesh without UVs
     then reads texel (0, 0)): placed once, its world-space triangles; used by several nodes or
@@ -328,7 +333,7 @@ def gather_objects(scene: Scene, source: str) -> Gathered:
         return materials.setdefault(mat, len(materials))
 
     def needs_uvs(obj) -> bool:
-        return isinstance(scene.material_of(obj).texture, ImageTexture)
+        return _reads_uvs(scene.material_of(obj))
 
     geometry = SceneGeometry()
     analytic, soup = geometry.analytic, geometry.soup
@@ -347,7 +352,7 @@ def gather_objects(scene: Scene, source: str) -> Gathered:
                     mat = imported.materials[part.material]
                     material_where.setdefault(mat, f"objects[{k}].file")
                     m = materials.setdefault(mat, len(materials))
-                    _add_gltf_part(geometry, part, m, k, mat.texture is not None)
+                    _add_gltf_part(geometry, part, m, k, _reads_uvs(mat))
             elif kind is not None:
                 analytic.add(kind, ANALYTIC[kind].pack(obj, object_matrix(obj)), m, k)
             elif isinstance(obj, Triangle):
@@ -368,9 +373,10 @@ def gather_objects(scene: Scene, source: str) -> Gathered:
                 if needs_uvs(obj) and mesh.uvs is None:
                     problem = obj_uv_problem(mesh_path(obj, scene.base_dir)) if obj.file is not None else None
                     why = f"; {problem}" if problem else ""  # an OBJ's bad vt index, say
+                    key = "file" if obj.file is not None else "uvs"  # an inline mesh's UVs are its `uvs`
                     raise SceneError(
-                        f"{source}: objects[{k}].file: the mesh has no texture coordinates (UVs), "
-                        f"which its material's image texture needs{why}"
+                        f"{source}: objects[{k}].{key}: the mesh has no texture coordinates (UVs), "
+                        f"which its material's image texture or normal map needs{why}"
                     )
                 geometry.add_mesh(mesh, m, k, matrices, uvs=needs_uvs(obj))
         except OutOfRange as exc:

@@ -37,10 +37,11 @@ def scene_document(scene: Scene, folder: str | Path) -> dict:
         return Path(os.path.relpath((scene.base_dir / path).resolve(), folder)).as_posix()
 
     def textures(material) -> None:
-        if isinstance(material, dict) and isinstance(material.get("texture"), dict):
-            texture = material["texture"]
-            if "file" in texture:
-                texture["file"] = moved(texture["file"])
+        for key in ("texture", "normal_map"):
+            if isinstance(material, dict) and isinstance(material.get(key), dict):
+                texture = material[key]
+                if "file" in texture:
+                    texture["file"] = moved(texture["file"])
 
     for material in document.get("materials", {}).values():
         textures(material)

@@ -25,8 +25,9 @@ Approximated: metallic between 0 and 1 is rounded to the nearer type (raylume ha
 baseColorTexture is multiplied by baseColorFactor and replaces the colour (sampled with
 TEXCOORD_0, repeating); metallicRoughnessTexture and emissiveTexture scale their factors by the
 texture's mean (raylume's materials have no per-texel metallic, roughness or emission);
-alpha (alphaMode, the base colour's alpha), normal, occlusion textures and samplers'
-wrap modes are ignored; every surface is two-sided.
+normalTexture is the normal map (its scale the strength; tangents from the UVs, not the
+TANGENT attribute); alpha (alphaMode, the base colour's alpha), occlusion textures and
+samplers' wrap modes are ignored; every surface is two-sided.
 
 Lights (KHR_lights_punctual, colour times intensity): a point or spot light's intensity in
 candela becomes raylume's radiant intensity (W/sr) one to one, a directional light's
@@ -497,6 +498,21 @@ class _Importer:
             return None
         return f.image(source, f"textures[{info.get('index')}].source").astype(np.float64) / 255.0
 
+    def _normal_map(self, info, here: str, table: dict) -> None:
+        """normalTexture as the material's normal map: its texels as stored (glTF's normal maps
+        are linear), its `scale` as the strength of x and y."""
+        where = f"{here}.normalTexture"
+        image = self._texture(info, where)
+        if image is None:
+            return
+        strength = self.file.number(info.get("scale"), f"{where}.scale", 1)
+        if strength < 0:  # the spec allows it (an inverted map); raylume's strength is >= 0
+            self.warn(f"{where}.scale is {strength:g}; raylume reads normal maps at strength 0 or more, so 0")
+            strength = 0.0
+        key = f"{self.file.path.resolve()}#{where}"
+        self.images[key] = image.astype(np.float32)
+        table["normal_map"] = {"file": key, "strength": strength}
+
     def _convert(self, index: int | None) -> Material:
         """glTF material `index` (None: the spec's default material) as a raylume Material."""
         f = self.file
@@ -517,6 +533,7 @@ class _Importer:
         if image is not None:  # green: roughness, blue: metallic; per-texel values are averaged
             roughness *= float(image[..., 1].mean())
             metallic *= float(image[..., 2].mean())
+        self._normal_map(mat.get("normalTexture"), here, table)
         ext = mat.get("extensions") or {}
         emission = f.numbers(mat.get("emissiveFactor"), 3, f"{here}.emissiveFactor", (0, 0, 0))
         strength = (ext.get("KHR_materials_emissive_strength") or {}).get("emissiveStrength")

@@ -314,6 +314,24 @@ class ImageTexture(Strict):
         return tuple(v)
 
 
+class NormalMap(Strict):
+    """A tangent-space normal map (PNG or JPEG, relative to the scene file), read as stored, not
+    sRGB-decoded: a texel's (r, g, b) is the normal (2r - 1, 2g - 1, 2b - 1) in the frame of the
+    surface's UV directions, x along increasing u, y along increasing v (up the image: OpenGL's
+    and glTF's convention) and z the shading normal. Looked up by the UVs times `scale`,
+    bilinear and repeating, as an image texture is."""
+
+    file: str
+    """The image file, relative to the scene file."""
+    scale: tuple[FiniteFloat, FiniteFloat] = (1.0, 1.0)
+    """Multiplies the UVs: a number or `[u, v]` (2 = the map twice across)."""
+    strength: FiniteFloat = Field(1.0, ge=0)
+    """Multiplies the normal's x and y before it is normalised (glTF's `normalTexture.scale`): 0
+    leaves the surface flat, above 1 steepens it."""
+
+    _scale = field_validator("scale", mode="before")(ImageTexture._scale.__func__)
+
+
 TEXTURE_TYPES = ("checker", "image")
 Texture = Annotated[
     Union[Annotated[Checker, Tag("<checker>")], Annotated[ImageTexture, Tag("<image>")]],
@@ -336,6 +354,8 @@ class _MaterialBase(Strict):
     """Emitted radiance `[r, g, b]`: makes the surface a light in path mode (its own colour added in trace mode)."""
     texture: Texture | None = None
     """A texture replacing `color`: `{ type = "checker", ... }` or `{ type = "image", file = ... }`."""
+    normal_map: NormalMap | None = None
+    """A tangent-space normal map turning the shading normal: `{ file = "bricks_normal.png" }`."""
 
     @field_validator("color", mode="before")
     @classmethod
@@ -461,6 +481,7 @@ class NullMaterial(Strict):
     color: ClassVar[tuple[float, float, float]] = (1.0, 1.0, 1.0)
     emission: ClassVar[tuple[float, float, float]] = (0.0, 0.0, 0.0)
     texture: ClassVar[None] = None
+    normal_map: ClassVar[None] = None
 
 
 # Material types: the scene's `type` -> its model class (kernels/shading/materials/ has a module

@@ -46,6 +46,7 @@ from ..geometry.traverse import closest_hit_leaving
 from ..shading.frame import shading_frame, to_local, to_world
 from ..shading.lights import LIGHT_INTENSITY, at_infinity, hit_area_lights, is_delta, pick_emitter
 from ..shading.materials import MAT_EMISSION, albedo, beer_lambert, bsdf_sample, two_sided
+from ..shading.normal_map import mapped_normal
 from ..vec import any_positive, dot, hadamard, kernel_function, last_at_most, madd, mul, row3, sub
 from .bdpt_vertex import F_EMISSIVE, F_INFINITE, V_DELTA, V_FLAGS, V_P
 from .bdpt_walk import emitter_sample
@@ -90,6 +91,7 @@ def glint_walk(C, o, d, spread, most, key, target, le_target, node_stack, t_stac
             break
         p = madd(o, d, t)
         ng, ns, m, _, _ = surface(G, X, prim, b1, b2, p)
+        ns = mapped_normal(G, F, X, m, prim, b1, b2, p, ns)
         entering = dot(ng, d) < 0.0
         if not entering:
             beta = beer_lambert(mat, m, beta, t)

@@ -38,6 +38,7 @@ from ..shading.media import MED_G, free_flight, hg_sample, medium_beyond, medium
 from ..shading.media import homogeneous as homogeneous_medium
 from ..shading.media.table import MED_KIND
 from ..shading.media.tracking import ABSORBED, SCATTERED
+from ..shading.normal_map import mapped_normal
 from ..vec import dot, hadamard, inline_function, kernel_function, madd, mul, row3
 from .bdpt_vertex import (
     CAMERA,
@@ -161,6 +162,7 @@ def random_walk(C, V, start, o, d, beta, pdf_dir, most, importance, key, dim, sp
             break
         p = madd(o, d, t)
         ng, ns, m, obj, face = surface(G, X, prim, b1, b2, p)
+        ns = mapped_normal(G, F, X, m, prim, b1, b2, p, ns)
         entering = dot(ng, d) < 0.0
         if Md.pass_through and index_matched(mat, m):
             # a null boundary: the ray goes on unchanged into the medium beyond, no vertex (path

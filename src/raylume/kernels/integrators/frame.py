@@ -23,6 +23,7 @@ from ..geometry.wide_nodes import prefetch_cells, scratch_array, traversal_stack
 from ..scene import emitters_of, environment_of, geometry_of, media_of, surfaces_of
 from ..shading.environment import environment_radiance
 from ..shading.materials import albedo, aov_albedo
+from ..shading.normal_map import mapped_normal
 from ..vec import FAST, INLINE_OVERLOAD, dot, inline_function, kernel_function, madd, mul
 from .bdpt import MAX_SEGMENTS, bdpt_sample
 from .bdpt_glint import glint_guide
@@ -404,6 +405,7 @@ def _primary_aovs_row(G, F, X, P, j, A, node_stack, t_stack):
         else:
             p = madd(o, d, t)
             ng, ns, m, obj, face = surface(G, X, prim, b1, b2, p)
+            ns = mapped_normal(G, F, X, m, prim, b1, b2, p, ns)
             if dot(ns, d) > 0.0:
                 ns = mul(ns, -1.0)
             a = aov_albedo(F.materials, m, albedo(G, F, X, m, prim, b1, b2, p, d, ng, cone * t))

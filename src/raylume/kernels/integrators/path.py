@@ -50,6 +50,7 @@ from ..shading.materials import (
 )
 from ..shading.media import MED_G, free_flight, hg_eval, hg_sample, medium_beyond, medium_leaving
 from ..shading.media.tracking import ABSORBED, SCATTERED
+from ..shading.normal_map import mapped_normal
 from ..vec import dot, hadamard, inline_function, madd, mul, row3
 from .shadow import scale_free_shadows, shadow_ray, shadow_segment, shadow_transmittance
 
@@ -302,6 +303,7 @@ def path_segment(
         return DONE, _ended(st, L, rays), nothing
     p = madd(o, d, t)
     ng, ns, m, obj, face = surface(G, X, prim, b1, b2, p)
+    ns = mapped_normal(G, F, X, m, prim, b1, b2, p, ns)
     entering = dot(ng, d) < 0.0
     eps = offset_epsilon(F.epsilon_floor, p)
     if index_matched(mat, m):

@@ -13,6 +13,7 @@ from ..geometry.shapes import offset_epsilon, surface
 from ..geometry.traverse import closest_hit
 from ..shading.environment import environment_radiance
 from ..shading.materials import MAT_EMISSION, MAT_IOR, MAT_REFLECTIVE, MAT_TRANSPARENCY, albedo, beer_lambert
+from ..shading.normal_map import mapped_normal
 from ..shading.optics import fresnel_dielectric, reflect, refract
 from ..vec import add, dot, hadamard, inline_function, kernel_function, madd, mul, row3
 from .direct import direct_lighting
@@ -78,6 +79,7 @@ def trace_ray(G, F, L, X, Env, o, d, spread, max_depth, background, rays, node_s
             continue
         p = madd(o, d, t)
         ng, ns, m, obj, face = surface(G, X, prim, b1, b2, p)
+        ns = mapped_normal(G, F, X, m, prim, b1, b2, p, ns)
         mat = F.materials
         entering = dot(ng, d) < 0.0
         if not entering:

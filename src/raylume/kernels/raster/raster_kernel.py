@@ -66,7 +66,8 @@ from ..geometry.wide_nodes import traversal_stacks
 from ..integrators.direct import unshadowed_lighting
 from ..scene import environment_of, geometry_of, lights_of, surfaces_of
 from ..shading.environment import environment_radiance
-from ..shading.materials import MAT_EMISSION, MAT_TEXTURE, albedo, aov_albedo
+from ..shading.materials import MAT_EMISSION, MAT_NORMAL_MAP, MAT_TEXTURE, albedo, aov_albedo
+from ..shading.normal_map import mapped_normal
 from ..shading.textures import IMAGE, TEX_KIND
 from ..variants import path_features
 from ..vec import add, dot, hadamard, kernel_function, madd, mul, normalize, row3
@@ -452,14 +453,17 @@ def _shade_row(G, F, L, X, Env, V, D, j, rgb, A, want_aovs, node_stack, t_stack)
         b2 = 0.0
         if t < n_main:
             prim = triangle_prim[t]
-            # vertex normals and image textures need the point's weights
-            x = int(F.materials[G.prims[prim, PRIM_MATERIAL], MAT_TEXTURE])
-            if G.triangle_smooth[t] or (x >= 0 and F.textures[x, TEX_KIND] == IMAGE):
+            # vertex normals, image textures and normal maps need the point's weights
+            mt = G.prims[prim, PRIM_MATERIAL]
+            x = int(F.materials[mt, MAT_TEXTURE])
+            mapped = F.materials[mt, MAT_NORMAL_MAP] > 0.0
+            if G.triangle_smooth[t] or mapped or (x >= 0 and F.textures[x, TEX_KIND] == IMAGE):
                 b1, b2 = barycentrics(view, tri, extra, n_main, t, x_px, y)
         else:
             prim = extra_prim[t - n_main]
             b1 = extra_part[t - n_main]  # which part of the shape (a cylinder's side or cap)
         ng, ns, m, obj, face_id = surface(G, X, prim, b1, b2, p)
+        ns = mapped_normal(G, F, X, m, prim, b1, b2, p, ns)
         face = ns
         if dot(face, d) > 0.0:
             face = mul(face, -1.0)

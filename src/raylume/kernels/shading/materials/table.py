@@ -23,7 +23,10 @@ MAT_ETA = 13  # 3 columns: a conductor's complex index of refraction, real part 
 MAT_K = 16  # 3 columns: its imaginary part
 MAT_HAS_ETA = 19  # 1 when a conductor has eta and k (Fresnel), 0 for a perfect mirror times color
 MAT_EMISSION = 20  # 3 columns: emitted radiance (path mode: the surface is a light)
-MAT_WIDTH = 23
+# 1 + the normal map's row in the texture table, 0 for none (so that a row of zeros has none)
+MAT_NORMAL_MAP = 23
+MAT_NORMAL_STRENGTH = 24  # multiplies the map's x and y (glTF's normalTexture.scale)
+MAT_WIDTH = 25
 
 
 @inline_function
