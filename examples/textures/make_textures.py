@@ -6,6 +6,9 @@
   is not redistributed here).
 * ``planks.jpg`` 256 x 256: wooden floor planks (JPEG, to show that JPEG loads too).
 * ``globe.png``  256 x 128: a latitude/longitude grid with coloured bands, for sphere UVs.
+* ``tiles_normal.png``   256 x 256: a normal map of 4 x 4 bevelled tiles in mortar, slightly
+  uneven (tangent space: x along u, y up the image; examples/normal_maps.toml).
+* ``dimples_normal.png`` 256 x 256: a normal map of hammered metal, round dimples.
 """
 
 from __future__ import annotations
@@ -78,11 +81,52 @@ def globe() -> np.ndarray:
     return img.clip(0, 255).round().astype(np.uint8)
 
 
+def normal_map(height: np.ndarray, strength: float) -> np.ndarray:
+    """The tangent-space normal map of a tileable height field (rows down the image): the
+    normal (-dh/du, -dh/dv, 1) normalised, v up the image, stored as 255 (n + 1) / 2."""
+    dh_du = (np.roll(height, -1, axis=1) - np.roll(height, 1, axis=1)) / 2
+    dh_dv = (np.roll(height, 1, axis=0) - np.roll(height, -1, axis=0)) / 2  # up the image: the row above
+    n = np.stack([-dh_du * strength, -dh_dv * strength, np.ones_like(height)], axis=-1)
+    n /= np.linalg.norm(n, axis=-1, keepdims=True)
+    return ((n + 1) / 2 * 255).round().astype(np.uint8)
+
+
+def tiles_height(rng) -> np.ndarray:
+    size, tiles = 256, 4
+    cell = size // tiles
+    y = np.arange(size)[:, None] % cell
+    x = np.arange(size)[None, :] % cell
+    edge = np.minimum(np.minimum(x, cell - 1 - x), np.minimum(y, cell - 1 - y)).astype(np.float64)
+    bevel = np.clip((edge - 2) / 6, 0, 1)  # mortar 2 texels wide, a 6-texel bevel up to the tile
+    bevel = bevel * bevel * (3 - 2 * bevel)
+    tilt = rng.normal(0, 0.6, size=(tiles, tiles, 2))  # each tile laid a little unevenly
+    ty = np.arange(size)[:, None] // cell
+    tx = np.arange(size)[None, :] // cell
+    lean = (tilt[ty, tx, 0] * (x / cell - 0.5) + tilt[ty, tx, 1] * (y / cell - 0.5)) * bevel
+    return 6 * bevel + lean + 1.5 * smooth_noise((size, size), (16, 16), rng) * bevel
+
+
+def dimples_height(rng) -> np.ndarray:
+    size = 256
+    h = np.zeros((size, size))
+    y = np.arange(size)[:, None]
+    x = np.arange(size)[None, :]
+    for cy, cx, r in zip(rng.uniform(0, size, 90), rng.uniform(0, size, 90), rng.uniform(10, 24, 90)):
+        dy = (y - cy + size / 2) % size - size / 2  # tileable
+        dx = (x - cx + size / 2) % size - size / 2
+        d2 = (dx * dx + dy * dy) / (r * r)
+        h = np.minimum(h, np.where(d2 < 1, -(1 - d2) * r * 0.35, 0))
+    return h
+
+
 def main() -> None:
     rng = np.random.default_rng(7)
     Image.fromarray(spots(rng)).save(HERE / "spots.png", optimize=True)
     Image.fromarray(planks(rng)).save(HERE / "planks.jpg", quality=88)
     Image.fromarray(globe()).save(HERE / "globe.png", optimize=True)
+    rng = np.random.default_rng(11)  # the normal maps' own, so that the images above stay as they were
+    Image.fromarray(normal_map(tiles_height(rng), 1.0)).save(HERE / "tiles_normal.png", optimize=True)
+    Image.fromarray(normal_map(dimples_height(rng), 1.0)).save(HERE / "dimples_normal.png", optimize=True)
 
 
 if __name__ == "__main__":
