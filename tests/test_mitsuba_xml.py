@@ -38,6 +38,9 @@ def xml(body: str, *, fov=45, mirror="", width=16, height=16, extra="") -> str:
     return f'<scene version="3.0.0">{extra}{sensor}{body}\n</scene>\n'
 
 
+OBJ_TRIANGLE = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"
+
+
 def load(tmp_path: Path, text: str, name="scene.xml", **kwargs):
     path = tmp_path / name
     path.write_text(text)
@@ -124,6 +127,29 @@ def test_include_splices_the_other_files_elements_in(tmp_path):
     (tmp_path / "parts" / "ball.xml").write_text(f'<scene version="3.0.0">{sphere(centre="1, 2, 3")}</scene>')
     scene = load(tmp_path, xml('<include filename="parts/ball.xml"/>'))
     assert scene.objects[0].center == (-1.0, 2.0, 3.0)
+
+
+def test_files_named_in_an_included_file_are_found_from_the_scene_files_folder(tmp_path):
+    """Mitsuba resolves the file names of an included file (meshes, images, further includes) by
+    its file resolver, which holds the folder of the scene file it loads, not the included
+    file's (xml.cpp): mitsuba-data's docs/scenes/include/matpreview.xml names
+    "meshes/matpreview.serialized", which lies in docs/scenes/meshes."""
+    (tmp_path / "include").mkdir()
+    (tmp_path / "meshes").mkdir()
+    (tmp_path / "meshes" / "box.obj").write_text(OBJ_TRIANGLE)
+    (tmp_path / "include" / "parts.xml").write_text(
+        '<scene version="3.0.0"><shape type="obj"><string name="filename" value="meshes/box.obj"/></shape>'
+        '<include filename="include/more.xml"/></scene>'
+    )
+    (tmp_path / "include" / "more.xml").write_text(f'<scene version="3.0.0">{sphere()}</scene>')
+    scene = load(tmp_path, xml('<include filename="include/parts.xml"/>'))
+    assert [o.type for o in scene.objects] == ["mesh", "sphere"]
+    assert (tmp_path / scene.objects[0].file).resolve() == (tmp_path / "meshes" / "box.obj").resolve()
+    (tmp_path / "include" / "more.xml").write_text(
+        '<scene version="3.0.0"><shape type="obj"><string name="filename" value="nowhere.obj"/></shape></scene>'
+    )
+    with pytest.raises(SceneError, match=r"more\.xml:1: .*no file 'nowhere\.obj' \(relative to .*include or to the "):
+        load(tmp_path, xml('<include filename="include/parts.xml"/>'))
 
 
 def test_a_file_that_includes_itself_is_refused(tmp_path):
