@@ -381,6 +381,24 @@ def test_a_damaged_serialized_file_is_a_scene_error_when_rendered(tmp_path):
 # ---------------------------------------------------------------- unsupported elements are named
 
 
+@pytest.mark.parametrize("shape", ['<shape type="ply"><string name="filename" value="t.ply"/>', '<shape type="disk">'])
+def test_a_checkerboard_is_not_said_to_lie_otherwise_on_a_shape(tmp_path, shape):
+    """raylume's checker is a 3D pattern in world space: it needs no texture coordinates, so a
+    PLY mesh's v axis or a disk's own (u, v) changes nothing of it; only the checker's warning is
+    given."""
+    (tmp_path / "t.ply").write_text(
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+        "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"
+    )
+    body = f'{shape}<bsdf type="diffuse"><texture type="checkerboard" name="reflectance"/></bsdf></shape>'
+    (tmp_path / "scene.xml").write_text(xml(body))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        raylume.load(tmp_path / "scene.xml")
+    messages = [str(w.message) for w in caught if issubclass(w.category, SceneWarning)]
+    assert len(messages) == 1 and "checker is a 3D pattern in world space" in messages[0], messages
+
+
 @pytest.mark.parametrize(
     ("body", "message"),
     [

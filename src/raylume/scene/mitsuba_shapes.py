@@ -102,7 +102,7 @@ class Shapes:
             # Mitsuba looks texture row v from the image's top, raylume row 1 - v; its OBJ reader flips v
             # by default (flip_tex_coords), which makes the two agree; a PLY or serialized file's v is not
             flipped = kind == "obj" and props.boolean("flip_tex_coords", True)
-            if not flipped and self.textured(material):
+            if not flipped and self.image_textured(material):
                 ctx.warn(node, "its texture's v axis runs the other way in raylume: the image appears upside down")
             objects = [obj]
         elif kind == "rectangle":
@@ -161,7 +161,7 @@ class Shapes:
             )
         if isinstance(material, dict) and any(material.get("emission", ())):
             objects += self.one_sided(node, kind, objects, np.linalg.det((ctx.world @ m)[:3, :3]))
-        if kind in ("cube", "disk", "cylinder") and self.textured(material):
+        if kind in ("cube", "disk", "cylinder") and self.image_textured(material):
             ctx.warn(
                 node, f"raylume's {kind} has texture coordinates of its own, not Mitsuba's: the image lies otherwise"
             )
@@ -200,10 +200,6 @@ class Shapes:
             twin["material"] = {"type": "diffuse", "color": [0.0, 0.0, 0.0]}
             twins.append(twin)
         return twins
-
-    def textured(self, material: dict | str) -> bool:
-        table = self.materials.get(material, {}) if isinstance(material, str) else material
-        return "texture" in table
 
     def image_textured(self, material: dict | str) -> bool:
         """Whether the material looks up an image by (u, v) (raylume's checker is in world space)."""
