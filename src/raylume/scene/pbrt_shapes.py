@@ -69,6 +69,22 @@ def shape_piece(d: Directive, p: Params) -> Piece:
     return _mesh_piece(d, p, 4 if kind == "bilinearmesh" else 3)
 
 
+def no_surface(piece: Piece) -> str | None:
+    """Why an analytic piece has no surface at all (pbrt draws nothing of it), or None."""
+    t = piece.table
+    if piece.kind == "mesh":
+        return None
+    if t["phimax"] <= 0:
+        return f"phimax {t['phimax']:g}"
+    if piece.kind == "sphere":
+        r = t["radius"]
+        if min(max(t["zmin"], -r), r) == min(max(t["zmax"], -r), r):
+            return f"zmin {t['zmin']:g} and zmax {t['zmax']:g} cut the whole sphere of radius {r:g} away"
+    if piece.kind == "disk" and t["innerradius"] >= t["radius"]:
+        return f"innerradius {t['innerradius']:g} is not less than radius {t['radius']:g}"
+    return None
+
+
 def _positive(d: Directive, name: str, value: float) -> None:
     if not value > 0:
         raise d.fail(f'"float {name}" must be > 0, got {value:g}')
