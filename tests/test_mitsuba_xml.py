@@ -38,6 +38,9 @@ def xml(body: str, *, fov=45, mirror="", width=16, height=16, extra="") -> str:
     return f'<scene version="3.0.0">{extra}{sensor}{body}\n</scene>\n'
 
 
+OBJ_TRIANGLE = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"
+
+
 def load(tmp_path: Path, text: str, name="scene.xml", **kwargs):
     path = tmp_path / name
     path.write_text(text)
@@ -124,6 +127,29 @@ def test_include_splices_the_other_files_elements_in(tmp_path):
     (tmp_path / "parts" / "ball.xml").write_text(f'<scene version="3.0.0">{sphere(centre="1, 2, 3")}</scene>')
     scene = load(tmp_path, xml('<include filename="parts/ball.xml"/>'))
     assert scene.objects[0].center == (-1.0, 2.0, 3.0)
+
+
+def test_files_named_in_an_included_file_are_found_from_the_scene_files_folder(tmp_path):
+    """Mitsuba resolves the file names of an included file (meshes, images, further includes) by
+    its file resolver, which holds the folder of the scene file it loads, not the included
+    file's (xml.cpp): mitsuba-data's docs/scenes/include/matpreview.xml names
+    "meshes/matpreview.serialized", which lies in docs/scenes/meshes."""
+    (tmp_path / "include").mkdir()
+    (tmp_path / "meshes").mkdir()
+    (tmp_path / "meshes" / "box.obj").write_text(OBJ_TRIANGLE)
+    (tmp_path / "include" / "parts.xml").write_text(
+        '<scene version="3.0.0"><shape type="obj"><string name="filename" value="meshes/box.obj"/></shape>'
+        '<include filename="include/more.xml"/></scene>'
+    )
+    (tmp_path / "include" / "more.xml").write_text(f'<scene version="3.0.0">{sphere()}</scene>')
+    scene = load(tmp_path, xml('<include filename="include/parts.xml"/>'))
+    assert [o.type for o in scene.objects] == ["mesh", "sphere"]
+    assert (tmp_path / scene.objects[0].file).resolve() == (tmp_path / "meshes" / "box.obj").resolve()
+    (tmp_path / "include" / "more.xml").write_text(
+        '<scene version="3.0.0"><shape type="obj"><string name="filename" value="nowhere.obj"/></shape></scene>'
+    )
+    with pytest.raises(SceneError, match=r"more\.xml:1: .*no file 'nowhere\.obj' \(relative to .*include or to the "):
+        load(tmp_path, xml('<include filename="include/parts.xml"/>'))
 
 
 def test_a_file_that_includes_itself_is_refused(tmp_path):
@@ -355,6 +381,24 @@ def test_a_damaged_serialized_file_is_a_scene_error_when_rendered(tmp_path):
 # ---------------------------------------------------------------- unsupported elements are named
 
 
+@pytest.mark.parametrize("shape", ['<shape type="ply"><string name="filename" value="t.ply"/>', '<shape type="disk">'])
+def test_a_checkerboard_is_not_said_to_lie_otherwise_on_a_shape(tmp_path, shape):
+    """raylume's checker is a 3D pattern in world space: it needs no texture coordinates, so a
+    PLY mesh's v axis or a disk's own (u, v) changes nothing of it; only the checker's warning is
+    given."""
+    (tmp_path / "t.ply").write_text(
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+        "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"
+    )
+    body = f'{shape}<bsdf type="diffuse"><texture type="checkerboard" name="reflectance"/></bsdf></shape>'
+    (tmp_path / "scene.xml").write_text(xml(body))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        raylume.load(tmp_path / "scene.xml")
+    messages = [str(w.message) for w in caught if issubclass(w.category, SceneWarning)]
+    assert len(messages) == 1 and "checker is a 3D pattern in world space" in messages[0], messages
+
+
 @pytest.mark.parametrize(
     ("body", "message"),
     [
@@ -371,11 +415,9 @@ def test_a_damaged_serialized_file_is_a_scene_error_when_rendered(tmp_path):
         ),
         ('<integrator type="aov"/>', "no such integrator: its path tracer replaces it"),
         (
-            sphere(
-                inner='<bsdf type="diffuse"><texture type="bitmap" name="reflectance">'
-                '<string name="filename" value="t.png"/></texture></bsdf>'
-            ),
-            "texture coordinates of its own, not Mitsuba's",
+            '<shape type="disk"><bsdf type="diffuse"><texture type="bitmap" name="reflectance">'
+            '<string name="filename" value="t.png"/></texture></bsdf></shape>',
+            "disk has texture coordinates of its own, not Mitsuba's",
         ),
         (
             '<bsdf type="diffuse" id="c"><texture type="checkerboard" name="reflectance"/></bsdf>',
@@ -653,3 +695,87 @@ def test_homogeneous_media_with_volpath(tmp_path):
     with pytest.warns(SceneWarning, match="path integrator ignores media"):
         scene = raylume.load(path)
     assert not scene.media and scene.objects[0].interior is None and scene.render.medium is None
+
+
+# ---------------------------------------------------------------- a textured sphere's (u, v)
+
+
+def textured_ball(to_world: str) -> str:
+    return xml(
+        '<shape type="sphere"><float name="radius" value="0.5"/>'
+        f'<transform name="to_world">{to_world}</transform>'
+        '<bsdf type="diffuse"><texture type="bitmap" name="reflectance"><string name="filename" value="uv.png"/>'
+        "</texture></bsdf></shape>",
+        extra='<emitter type="constant"/>',
+        fov=15,
+        width=24,
+        height=24,
+    )
+
+
+def uv_image(folder: Path) -> None:
+    from raylume.image import save_array
+
+    gradient = np.stack([*np.meshgrid(np.linspace(0, 1, 16), np.linspace(0, 1, 8)), np.full((8, 16), 0.5)], -1)
+    save_array(folder / "uv.png", gradient.astype(np.float32))
+
+
+def rotation(axis, degrees) -> np.ndarray:
+    """A right-handed rotation (Mitsuba's Transform4f::rotate), by Rodrigues' formula."""
+    a = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
+    k = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+    t = math.radians(degrees)
+    return np.eye(3) + math.sin(t) * k + (1 - math.cos(t)) * k @ k
+
+
+@pytest.mark.parametrize("sx", [1.5, -1.5])
+def test_a_turned_textured_sphere_has_mitsubas_uv(tmp_path, sx):
+    """Mitsuba 3's sphere (sphere.cpp): to_world is split into scale, rotation Q and translation
+    (transform_decompose: Q negated where it mirrors, so that it is a rotation); a point's local
+    = Q^T (p - centre) / r, u = atan2(local.y, local.x) / 2pi in [0, 1), v = acos(local.z) / pi,
+    and a bitmap's v runs from the image's top. raylume's v runs up: at each point, raylume's
+    (u, v) is Mitsuba's (u, 1 - v), the point mirrored into raylume's world (x -> -x)."""
+    from raylume.compile import compile_scene
+    from raylume.kernels.geometry.shape_sphere import uv as sphere_uv
+
+    uv_image(tmp_path)
+    to_world = f'<scale x="{sx}" y="1.5" z="1.5"/><rotate x="1" y="2" z="3" angle="40"/><translate x="0.3" y="-0.2"/>'
+    scene = load(tmp_path, textured_ball(to_world))  # no warning
+    rows = compile_scene(scene).kernel.shapes
+    q = rotation((1, 2, 3), 40) @ np.diag([np.sign(sx), 1, 1])
+    q = -q if np.linalg.det(q) < 0 else q
+    centre, radius = np.array([0.3, -0.2, 0.0]), 0.75
+    for local in np.random.default_rng(3).normal(size=(100, 3)):
+        local /= np.linalg.norm(local)
+        u = (math.atan2(local[1], local[0]) % (2 * math.pi)) / (2 * math.pi)
+        v = math.acos(local[2]) / math.pi
+        p = centre + radius * q @ local
+        got_u, got_v = sphere_uv(rows, 0, (-p[0], p[1], p[2]))
+        assert (got_u - u + 0.5) % 1.0 - 0.5 == pytest.approx(0.0, abs=1e-9)
+        assert got_v == pytest.approx(1.0 - v, abs=1e-9)
+
+
+def test_a_turned_textured_sphere_renders_as_the_sphere_written_with_its_transform(tmp_path):
+    """The Mitsuba sphere's picture is that of raylume's sphere given the mirrored to_world and
+    Mitsuba's z-up frame (raylume's object x, y, z = Mitsuba's -y, z, x) as its transform matrix."""
+    uv_image(tmp_path)
+    scene = load(tmp_path, textured_ball('<rotate x="1" y="2" z="3" angle="40"/><translate x="0.3" y="-0.2"/>'))
+    matrix = np.eye(4)
+    matrix[:3, :3] = np.diag([-1.0, 1, 1]) @ rotation((1, 2, 3), 40) @ [[0, 0, 1], [-1, 0, 0], [0, 1, 0]]
+    matrix[:3, 3] = (-0.3, -0.2, 0.0)
+    written = scene.replace(
+        objects=[
+            {
+                "type": "sphere",
+                "center": [0, 0, 0],
+                "radius": 0.5,
+                "material": scene.objects[0].material,
+                "transform": {"matrix": matrix.tolist()},
+            }
+        ]
+    )
+    a = raylume.render(scene, mode="cast", spp=1)
+    b = raylume.render(written, mode="cast", spp=1).rgb
+    assert (a.aovs["object"] == 0).sum() > 100  # the sphere fills much of the picture
+    a = a.rgb
+    np.testing.assert_allclose(a, b, atol=1e-5)

@@ -259,3 +259,78 @@ def test_spectrum_files_are_band_means(tmp_path):
     green = (50 * 2 + 0.5 * 1.5 + 49.5 * 1) / 100
     assert material["eta"] == pytest.approx([1.0, green, 2.0]) and material["k"] == pytest.approx([3, 3, 3])
     assert messages == []
+
+
+SPHERE_PLACEMENT = "Translate 0.3 -0.2 4\nRotate 40 1 2 3\nScale -1.5 1.5 1.5\n"  # a mirror in the CTM too
+
+
+def textured_sphere_file(path: Path, mirror: bool, radius: float = 0.5) -> None:
+    """A sphere under SPHERE_PLACEMENT, an image texture on it, seen from -z."""
+    from raylume.image import save_array
+
+    gradient = np.stack([*np.meshgrid(np.linspace(0, 1, 16), np.linspace(0, 1, 8)), np.full((8, 16), 0.5)], -1)
+    save_array(path.parent / "uv.png", gradient.astype(np.float32))
+    path.write_text(
+        camera_statements((0, 0, -1), (0.3, -0.2, 4), 25, 24, 24, mirror)
+        + f"""WorldBegin
+LightSource "infinite" "rgb L" [1 1 1]
+Texture "uv" "spectrum" "imagemap" "string filename" "uv.png"
+Material "diffuse" "texture reflectance" "uv"
+{SPHERE_PLACEMENT}Shape "sphere" "float radius" {radius}
+"""
+    )
+
+
+@pytest.mark.parametrize("mirror", [False, True])
+def test_a_turned_textured_sphere_has_pbrts_uv(tmp_path, mirror):
+    """pbrt-v4's sphere (shapes.h): phi = atan2(y, x) in [0, 2pi) and theta = acos(z / r) in object
+    space, u = phi / phimax, v = (theta - thetaZMin) / (thetaZMax - thetaZMin), thetaZMin = pi for
+    a whole sphere. Each point of the sphere, placed by the CTM (and a mirrored camera's flip),
+    has that (u, v) in raylume: the sphere stays analytic, turned, not tessellated."""
+    from raylume.compile import compile_scene
+    from raylume.kernels.geometry.shape_sphere import uv as sphere_uv
+    from raylume.scene.pbrt_transform import scale, translate
+
+    textured_sphere_file(tmp_path / "ball.pbrt", mirror)
+    scene = raylume.load(tmp_path / "ball.pbrt")
+    assert [o.type for o in scene.objects] == ["sphere"]
+    rows = compile_scene(scene).kernel.shapes
+    ctm = translate(0.3, -0.2, 4) @ rotate(40, (1, 2, 3)) @ scale(-1.5, 1.5, 1.5)
+    camera = pbrt_camera_from_world((0, 0, -1), (0.3, -0.2, 4), (0, 1, 0))
+    # a mirrored camera: raylume mirrors the world in the camera's yz plane instead (pbrt.md)
+    flip = np.linalg.inv(camera) @ np.diag([-1.0, 1, 1, 1]) @ camera if mirror else np.eye(4)
+    for p in np.random.default_rng(7).normal(size=(100, 3)):
+        p = 0.5 * p / np.linalg.norm(p)
+        u = (math.atan2(p[1], p[0]) % (2 * math.pi)) / (2 * math.pi)
+        v = (math.acos(p[2] / 0.5) - math.pi) / (0.0 - math.pi)
+        got_u, got_v = sphere_uv(rows, 0, tuple((flip @ ctm @ [*p, 1.0])[:3]))
+        assert (got_u - u + 0.5) % 1.0 - 0.5 == pytest.approx(0.0, abs=1e-9)
+        assert got_v == pytest.approx(v, abs=1e-9)
+
+
+def test_a_turned_textured_sphere_renders_as_the_sphere_written_with_its_transform(tmp_path):
+    """The pbrt sphere's picture is that of raylume's sphere given the CTM and pbrt's z-up frame
+    (raylume's object x, y, z = pbrt's -y, z, x) as its transform matrix."""
+    from raylume.scene.pbrt_transform import scale, translate
+
+    textured_sphere_file(tmp_path / "ball.pbrt", mirror=False)
+    imported = raylume.load(tmp_path / "ball.pbrt")
+    frame = np.eye(4)
+    frame[:3, :3] = [[0, 0, 1], [-1, 0, 0], [0, 1, 0]]
+    matrix = translate(0.3, -0.2, 4) @ rotate(40, (1, 2, 3)) @ scale(-1.5, 1.5, 1.5) @ frame
+    written = imported.replace(
+        objects=[
+            {
+                "type": "sphere",
+                "center": [0, 0, 0],
+                "radius": 0.5,
+                "material": imported.objects[0].material,
+                "transform": {"matrix": matrix.tolist()},
+            }
+        ]
+    )
+    a = raylume.render(imported, mode="cast", spp=1)
+    b = raylume.render(written, mode="cast", spp=1).rgb
+    assert (a.aovs["object"] == 0).sum() > 100  # the sphere fills much of the picture
+    a = a.rgb
+    np.testing.assert_allclose(a, b, atol=1e-5)

@@ -139,6 +139,29 @@ def test_unsupported_input_is_named_in_a_warning(tmp_path, text, words):
     assert any(all(word in m for word in words) for m in messages), messages
 
 
+@pytest.mark.parametrize(
+    ("shape", "why"),
+    [
+        ('"sphere" "float zmin" 0.5 "float zmax" 0.5', "zmin 0.5 and zmax 0.5 cut the whole sphere"),
+        ('"sphere" "float zmin" 2 "float zmax" 3', "zmin 2 and zmax 3 cut the whole sphere"),
+        ('"sphere" "float phimax" 0', "phimax 0"),
+        ('"cylinder" "float phimax" -10', "phimax -10"),
+        ('"disk" "float radius" 1 "float innerradius" 1', "innerradius 1 is not less than radius 1"),
+    ],
+)
+def test_a_shape_without_surface_is_left_out_with_a_warning(tmp_path, shape, why):
+    """pbrt's sphere between thetaZMin = thetaZMax, a sweep of phimax <= 0 and a disk whose hole
+    is as wide as it have no area: pbrt draws nothing of them. raylume leaves them out and says
+    so (it refused them with an error about an inline mesh's missing faces)."""
+    messages = warned(tmp_path, f'Shape {shape}\nShape "sphere" "float radius" 0.5\n')
+    assert any("w.pbrt:3" in m and why in m and "has no surface; it is left out" in m for m in messages), messages
+    path = tmp_path / "w.pbrt"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        scene = load_scene(path)
+    assert [(o.type, o.radius) for o in scene.objects] == [("sphere", 0.5)]
+
+
 def test_bdpt_is_read_as_raylume_s_bdpt_integrator(tmp_path):
     path = tmp_path / "b.pbrt"
     path.write_text(CAMERA + 'Integrator "bdpt" "integer maxdepth" 2\n')

@@ -30,6 +30,25 @@ def decompose(m: np.ndarray) -> dict:
     return {"translate": _floats(m[:3, 3]), "rotate": _floats(euler_xyz(r)), "scale": _floats(scale)}
 
 
+# raylume's sphere has its poles on its object y axis and u = 0.5 at -z (compile: shape_sphere.uv);
+# pbrt's and Mitsuba's on z, u = phi / 2pi with phi = atan2(y, x). The columns are raylume's object
+# axes x, y, z in their object space: x' = -y, y' = z, z' = x, with which raylume's (u, v) at a point
+# is pbrt's (u, v) and Mitsuba's (u, 1 - v) (Mitsuba's v runs from the image's top, raylume's up).
+Z_POLE_SPHERE = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+
+
+def turned(frame: np.ndarray, translate) -> dict:
+    """A sphere's transform table placing its object axes on `frame` (3 x 3, orthonormal up to
+    rounding, a mirror allowed) at `translate`: the nearest orthonormal frame, as rotate and a
+    scale of exactly 1 (or [-1, 1, 1] for a mirror), which the scene model's sphere accepts."""
+    u, _, vt = np.linalg.svd(np.asarray(frame, dtype=np.float64))
+    r = u @ vt
+    scale: float | list[float] = 1.0
+    if np.linalg.det(r) < 0:  # a mirror: carried by the x scale, the rest is a rotation
+        r[:, 0], scale = -r[:, 0], [-1.0, 1.0, 1.0]
+    return {"translate": _floats(translate), "rotate": _floats(euler_xyz(r)), "scale": scale}
+
+
 def euler_xyz(r: np.ndarray) -> tuple[float, float, float]:
     """Degrees (x, y, z) with Rz @ Ry @ Rx == r, for a rotation matrix r."""
     sy = -r[2, 0]

@@ -19,7 +19,7 @@ import numpy as np
 from ..errors import SceneError
 from .checks import SceneWarning
 from .mitsuba_props import Props
-from .mitsuba_xml import Node, find_file
+from .mitsuba_xml import Node, find_file, searched
 
 MIRROR = np.diag([-1.0, 1.0, 1.0, 1.0])
 
@@ -48,9 +48,9 @@ class Context:
 
     def file(self, node: Node, name: str, suffixes: tuple[str, ...] | None = None) -> str:
         """A file the element names, as the scene document names it: relative to the scene's folder."""
-        path = find_file(name, node.file.parent, self.search_paths)
+        path = find_file(name, node.file.parent, self.search_paths, self.folder)
         if path is None:
-            raise node.error(f"no file {name!r} (relative to {node.file.parent})")
+            raise node.error(f"no file {name!r} ({searched(node.file.parent, self.folder)})")
         if suffixes is not None and path.suffix.lower() not in suffixes:
             raise node.error(f"{name!r}: raylume reads {', '.join(suffixes)} files here")
         return Path(os.path.relpath(path, self.folder)).as_posix()

@@ -5,7 +5,7 @@
 | obj, ply, serialized | mesh (file by path; serialized: shape_index), transform from to_world (a matrix if it shears) |
 | rectangle | quad |
 | cube | six quads |
-| sphere | sphere |
+| sphere | sphere (with an image texture: turned by its transform to Mitsuba's (u, v)) |
 | disk | disk |
 | cylinder | cylinder, capped = false (Mitsuba's is an open tube) |
 | shapegroup + instance | a mesh's instances (analytic shapes: one object per instance) |
@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .affine import decompose, is_identity
+from .affine import Z_POLE_SPHERE, decompose, is_identity, turned
 from .mitsuba_bsdf import GREY, bsdf_table
 from .mitsuba_context import Context, uniform_scale
 from .mitsuba_emitters import area_radiance
@@ -102,7 +102,7 @@ class Shapes:
             # Mitsuba looks texture row v from the image's top, raylume row 1 - v; its OBJ reader flips v
             # by default (flip_tex_coords), which makes the two agree; a PLY or serialized file's v is not
             flipped = kind == "obj" and props.boolean("flip_tex_coords", True)
-            if not flipped and self.textured(material):
+            if not flipped and self.image_textured(material):
                 ctx.warn(node, "its texture's v axis runs the other way in raylume: the image appears upside down")
             objects = [obj]
         elif kind == "rectangle":
@@ -114,9 +114,11 @@ class Shapes:
             centre = props.point("center", np.zeros(3))
             radius = props.float("radius", 1.0)
             scale = uniform_scale(node, m, "sphere")
-            objects = [
-                {"type": "sphere", "center": ctx.point(m, centre), "radius": radius * scale, "material": material}
-            ]
+            sphere = {"type": "sphere", "center": ctx.point(m, centre), "radius": radius * scale, "material": material}
+            if self.image_textured(material):
+                sphere["transform"] = self.sphere_turn(m, scale, sphere["center"])
+                sphere["center"] = [0.0, 0.0, 0.0]
+            objects = [sphere]
         elif kind == "disk":
             scale = uniform_scale(node, m, "disk")
             objects = [
@@ -159,7 +161,7 @@ class Shapes:
             )
         if isinstance(material, dict) and any(material.get("emission", ())):
             objects += self.one_sided(node, kind, objects, np.linalg.det((ctx.world @ m)[:3, :3]))
-        if kind in ("cube", "sphere", "disk", "cylinder") and self.textured(material):
+        if kind in ("cube", "disk", "cylinder") and self.image_textured(material):
             ctx.warn(
                 node, f"raylume's {kind} has texture coordinates of its own, not Mitsuba's: the image lies otherwise"
             )
@@ -199,9 +201,19 @@ class Shapes:
             twins.append(twin)
         return twins
 
-    def textured(self, material: dict | str) -> bool:
+    def image_textured(self, material: dict | str) -> bool:
+        """Whether the material looks up an image by (u, v) (raylume's checker is in world space)."""
         table = self.materials.get(material, {}) if isinstance(material, str) else material
-        return "texture" in table
+        return (table.get("texture") or {}).get("type") == "image"
+
+    def sphere_turn(self, m: np.ndarray, scale: float, centre: list[float]) -> dict:
+        """The transform that turns raylume's sphere so that its (u, v) is Mitsuba's: Mitsuba finds
+        a point's (u, v) in the frame of its to_world's rotation (the rotation of -to_world where
+        that mirrors), and reads the image from its top, where raylume's v runs up."""
+        frame = m[:3, :3] / scale
+        if np.linalg.det(frame) < 0:
+            frame = -frame
+        return turned(self.ctx.world[:3, :3] @ frame @ Z_POLE_SPHERE, centre)
 
     def quad(self, m: np.ndarray, centre, u, v, material, outward: bool = True) -> dict:
         u, v = self.ctx.vector(m, u), self.ctx.vector(m, v)

@@ -100,9 +100,10 @@ def substitute(text: str, parameters: dict[str, str], node: Node) -> str:
 
 
 class _Reader:
-    def __init__(self, defines: dict[str, str]):
+    def __init__(self, defines: dict[str, str], folder: Path):
         self.parameters = dict(defines)
         self.search_paths: list[Path] = []
+        self.folder = folder  # the scene file's
 
     def expand(self, node: Node, depth: int) -> list[Node]:
         """The node (or, for <include>, the included file's elements) after substitution."""
@@ -133,9 +134,9 @@ class _Reader:
             raise node.error("needs a filename attribute")
         if depth >= MAX_INCLUDE_DEPTH:
             raise node.error(f"includes nest deeper than {MAX_INCLUDE_DEPTH} files (does a file include itself?)")
-        path = find_file(name, node.file.parent, self.search_paths)
+        path = find_file(name, node.file.parent, self.search_paths, self.folder)
         if path is None:
-            raise node.error(f"no file {name!r} to include (relative to {node.file.parent})")
+            raise node.error(f"no file {name!r} to include ({searched(node.file.parent, self.folder)})")
         if path.suffix.lower() != ".xml":
             raise node.error(f"{name!r}: only Mitsuba XML files can be included")
         root = _parse_file(path)
@@ -147,15 +148,24 @@ class _Reader:
         return expanded
 
 
-def find_file(name: str, folder: Path, search_paths: list[Path]) -> Path | None:
-    """A file named in the scene: relative to the file that names it, then to each <path>."""
+def find_file(name: str, folder: Path, search_paths: list[Path], scene_folder: Path) -> Path | None:
+    """A file named in the scene: relative to the file that names it, then to each <path>, then
+    to the scene file's folder (Mitsuba resolves names in an included file, and its includes, by
+    its file resolver: the <path>s, then the folder of the scene file it loads)."""
     candidate = Path(name)
     if candidate.is_absolute():
         return candidate if candidate.exists() else None
-    for base in (folder, *search_paths):
+    for base in (folder, *search_paths, scene_folder):
         if (base / candidate).exists():
             return (base / candidate).resolve()
     return None
+
+
+def searched(folder: Path, scene_folder: Path) -> str:
+    """Where find_file looked, for an error message (the <path>s left out)."""
+    if folder.resolve() == scene_folder.resolve():
+        return f"relative to {folder}"
+    return f"relative to {folder} or to the scene's folder {scene_folder}"
 
 
 def read_document(path: str | Path, defines: dict[str, str] | None = None) -> Document:
@@ -169,6 +179,6 @@ def read_document(path: str | Path, defines: dict[str, str] | None = None) -> Do
         raise root.error('needs a version attribute (e.g. version="3.0.0")')
     if version.split(".")[0] not in ("2", "3"):  # Mitsuba 3 reads 2.x files as they are
         raise root.error(f"version {version}: raylume reads Mitsuba 3 scenes (version 2.x or 3.x)")
-    reader = _Reader(defines or {})
+    reader = _Reader(defines or {}, path.resolve().parent)
     reader.expand(root, 0)
     return Document(root, reader.parameters, reader.search_paths)

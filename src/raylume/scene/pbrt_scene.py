@@ -28,7 +28,7 @@ from .pbrt_materials import Materials
 from .pbrt_options import Options
 from .pbrt_params import Params
 from .pbrt_parse import Directive, parse_file
-from .pbrt_shapes import SUPPORTED, Piece, place, shape_piece
+from .pbrt_shapes import SUPPORTED, Piece, no_surface, place, shape_piece
 from .pbrt_tokens import PbrtError
 from .pbrt_transform import from_pbrt_numbers, look_at, rotate, scale, translate
 
@@ -319,9 +319,12 @@ class Builder:
             if p.has(key):
                 p.by_name[key].used = True
                 self.warn(d, f'"{key}" is not supported; ignored')
-        placed = Placed(
-            shape_piece(d, p), self.state.ctm.copy(), self.state.material, self.state.emission, self.state.reverse, d
-        )
+        piece = shape_piece(d, p)
+        empty = no_surface(piece)
+        if empty is not None:
+            self.warn(d, f"{empty}: the shape has no surface; it is left out (pbrt draws nothing of it)")
+            return
+        placed = Placed(piece, self.state.ctm.copy(), self.state.material, self.state.emission, self.state.reverse, d)
         if self.current is not None:
             if placed.emission is not None:
                 self.warn(d, "area lights on instanced shapes are not supported (nor by pbrt-v4); drawn unlit")

@@ -2,8 +2,9 @@
 
 A `Shape` directive becomes a Piece in its own object space; `place` turns a piece and its
 object-to-world matrix into a scene-model object. Spheres, disks and cylinders stay analytic
-where raylume's shapes can hold them (the matrix a similarity, the whole shape, pbrt's UVs not
-needed); otherwise they are tessellated along pbrt's own (u, v) parametrisation, so that image
+where raylume's shapes can hold them (the matrix a similarity, the whole shape; a disk or
+cylinder only where pbrt's UVs are not needed, a textured sphere turned so that its UVs are
+pbrt's); otherwise they are tessellated along pbrt's own (u, v) parametrisation, so that image
 textures land where pbrt puts them. Triangle and bilinear meshes are inline meshes; PLY files
 stay where they are, referenced by path.
 """
@@ -15,6 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .affine import Z_POLE_SPHERE, turned
 from .pbrt_params import Params
 from .pbrt_parse import Directive, resolve
 from .pbrt_transform import apply_point, apply_vector, rows, similarity_scale
@@ -65,6 +67,22 @@ def shape_piece(d: Directive, p: Params) -> Piece:
             raise d.fail(f"no such PLY file {str(path)!r}")
         return Piece("mesh", {"file": name})
     return _mesh_piece(d, p, 4 if kind == "bilinearmesh" else 3)
+
+
+def no_surface(piece: Piece) -> str | None:
+    """Why an analytic piece has no surface at all (pbrt draws nothing of it), or None."""
+    t = piece.table
+    if piece.kind == "mesh":
+        return None
+    if t["phimax"] <= 0:
+        return f"phimax {t['phimax']:g}"
+    if piece.kind == "sphere":
+        r = t["radius"]
+        if min(max(t["zmin"], -r), r) == min(max(t["zmax"], -r), r):
+            return f"zmin {t['zmin']:g} and zmax {t['zmax']:g} cut the whole sphere of radius {r:g} away"
+    if piece.kind == "disk" and t["innerradius"] >= t["radius"]:
+        return f"innerradius {t['innerradius']:g} is not less than radius {t['radius']:g}"
+    return None
 
 
 def _positive(d: Directive, name: str, value: float) -> None:
@@ -166,8 +184,8 @@ def _with_default_uvs(obj: dict, kind: str) -> dict:
 def _analytic(piece: Piece, m: np.ndarray, needs_uvs: bool) -> tuple[dict | None, str | None]:
     """The raylume shape of an analytic piece, or (None, why it must be tessellated)."""
     t = piece.table
-    if needs_uvs:
-        return None, None  # raylume's shapes have their own UVs; pbrt's need the tessellation
+    if needs_uvs and piece.kind != "sphere":
+        return None, None  # raylume's disks and cylinders have their own UVs; pbrt's need the tessellation
     if t["phimax"] < 360.0:
         return None, f"a partial {piece.kind} (phimax {t['phimax']:g})"
     if piece.kind == "sphere":
@@ -177,7 +195,12 @@ def _analytic(piece: Piece, m: np.ndarray, needs_uvs: bool) -> tuple[dict | None
         s = similarity_scale(m)
         if s is None:
             return None, "a sphere under a non-uniform scale or shear (an ellipsoid)"
-        return {"type": "sphere", "center": _list(apply_point(m, (0, 0, 0))), "radius": r * s}, None
+        centre = _list(apply_point(m, (0, 0, 0)))
+        if not needs_uvs:
+            return {"type": "sphere", "center": centre, "radius": r * s}, None
+        # raylume's sphere turned so that its (u, v) is pbrt's: the object frame as m places it
+        frame = m[:3, :3] / s @ Z_POLE_SPHERE
+        return {"type": "sphere", "center": [0.0, 0.0, 0.0], "radius": r * s, "transform": turned(frame, centre)}, None
     if piece.kind == "disk":
         if t["innerradius"] > 0:
             return None, "a disk with a hole (innerradius)"
