@@ -1,8 +1,10 @@
-"""Normal maps against the frame their conventions define (pbrt-v4's NormalMap, Mitsuba 3's
-normalmap, glTF's normalTexture): a texel (r, g, b) is the normal 2 (r, g, b) / 255 - 1 in the
-frame of increasing u (x), increasing v (y, up the image) and the shading normal (z). Each
-expected value below is that frame, written out for the surface's documented UVs, and the
-lighting's cosine law; small renders, one pixel read where the surface is uniform."""
+"""Normal and bump maps against the frame their conventions define (pbrt-v4's NormalMap and
+BumpMap, Mitsuba 3's normalmap and bumpmap, glTF's normalTexture): a normal map's texel
+(r, g, b) is the normal 2 (r, g, b) / 255 - 1 in the frame of increasing u (x), increasing v
+(y, up the image) and the shading normal (z); a bump map's texel a height along the normal,
+whose displaced surface's normal is the shading normal. Each expected value below is that
+frame or surface, written out for the surface's documented UVs, and the lighting's cosine law;
+small renders, one pixel read where the surface is uniform."""
 
 from __future__ import annotations
 
@@ -161,7 +163,8 @@ def test_a_normal_map_without_uvs_is_an_error_naming_the_object(tmp_path):
     path, _ = map_file(tmp_path, TILTED_U)
     scene = floor_scene({"normal_map": {"file": path}}, UVS, (1, 1, 0))
     del scene["objects"][0]["uvs"]
-    with pytest.raises(SceneError, match=r"objects\[0\]\.uvs: the mesh has no texture coordinates .* normal map needs"):
+    no_uvs = r"objects\[0\]\.uvs: the mesh has no texture coordinates .* normal map or bump map needs"
+    with pytest.raises(SceneError, match=no_uvs):
         raylume.render(raylume.scene_from_dict(scene))
 
 
@@ -170,3 +173,52 @@ def test_a_missing_normal_map_names_its_key(tmp_path):
     missing = r"materials\.floor\.normal_map\.file: texture file .*nowhere\.png does not exist"
     with pytest.raises(SceneError, match=missing):
         raylume.render(raylume.scene_from_dict(scene))
+
+
+# ------------------------------------------------------------------ bump maps
+
+
+def ramp_file(tmp_path, along_v: bool) -> tuple[str, float]:
+    """A 32 x 32 height map rising by 8 levels a texel, along the image's columns (u) or up its
+    rows (v); the height's change per unit of u or v, as stored (8 / 255 a texel of 1 / 32)."""
+    ramp = np.arange(32, dtype=np.uint8) * 8
+    grey = np.tile(ramp[::-1, None], (1, 32)) if along_v else np.tile(ramp[None, :], (32, 1))
+    path = tmp_path / ("ramp_v.png" if along_v else "ramp_u.png")
+    PILImage.fromarray(grey, mode="L").save(path)
+    return str(path), 8 / 255 * 32
+
+
+@pytest.mark.parametrize(
+    ("along_v", "uvs", "rising"),
+    [
+        # the floor spans 2 units for each unit of u and v: u along +x, v along -z (mirrored: u along -x)
+        (False, UVS, (2, 0, 0)),
+        (False, MIRRORED_UVS, (-2, 0, 0)),
+        (True, UVS, (0, 0, -2)),
+    ],
+    ids=["rising-along-u", "rising-along-mirrored-u", "rising-along-v"],
+)
+@pytest.mark.parametrize("mode", ["trace", "path"])
+def test_a_bump_maps_slope_tilts_the_normal_away_from_the_rise(tmp_path, along_v, uvs, rising, mode):
+    path, slope = ramp_file(tmp_path, along_v)
+    height = 0.5
+    # the displaced floor rises by height x slope for each unit of u (or v), over |rising| units
+    # of floor: its normal is (-rise, run, 0) rotated into the rising direction
+    run = np.array(rising, dtype=np.float64)
+    rise = height * slope
+    expected = np.array([0.0, 1.0, 0.0]) * np.linalg.norm(run) - run / np.linalg.norm(run) * rise
+    expected /= np.linalg.norm(expected)
+    light = np.array([1.0, 1.0, 0.3])
+    light_unit = light / np.linalg.norm(light)
+    bumped = floor_scene({"bump_map": {"file": path, "height": height}}, uvs, light, mode)
+    rgb_flat, _ = centre(raylume.render(raylume.scene_from_dict(floor_scene({}, uvs, light, mode))))
+    rgb, normal = centre(raylume.render(raylume.scene_from_dict(bumped)))
+    np.testing.assert_allclose(normal, expected, atol=1e-5)
+    np.testing.assert_allclose(rgb / rgb_flat, expected @ light_unit / light_unit[1], rtol=1e-4)
+
+
+def test_a_material_takes_a_normal_map_or_a_bump_map_not_both(tmp_path):
+    path, _ = map_file(tmp_path, TILTED_U)
+    maps = {"normal_map": {"file": path}, "bump_map": {"file": path}}
+    with pytest.raises(SceneError, match="a normal_map or a bump_map, not both"):
+        raylume.render(raylume.scene_from_dict(floor_scene(maps, UVS, (1, 1, 0))))

@@ -79,6 +79,13 @@ def scene_tables() -> list[Table]:
             model.NormalMap,
             "A material's `normal_map`: a tangent-space normal map.",
         ),
+        Table(
+            "bump_map = { ... }",
+            "bump-map",
+            "materials.NAME.bump_map",
+            model.BumpMap,
+            "A material's `bump_map`: a height map.",
+        ),
         *_kinds(model.LIGHT_TYPES, "[[lights]]", "lights.N", "lights", "A light"),
         *_kinds(model.OBJECT_TYPES, "[[objects]]", "objects.N", "objects", "An object"),
         Table(
@@ -380,6 +387,7 @@ _SYNTHETIC: dict[str | tuple[str, str], str] = {
     "instances": '"trees.npy"',
     "texture": '{ type = "checker", scale = 0.5 }',
     "normal_map": '{ file = "textures/bricks_normal.png" }',
+    "bump_map": '{ file = "textures/bumps.png", height = 0.01 }',
     "material": '"glass"',
     "eta": "[0.143, 0.374, 1.442]",
     "k": "[3.983, 2.385, 1.603]",

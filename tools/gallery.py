@@ -144,7 +144,7 @@ PICTURES: tuple[Picture, ...] = (
     ),
     Picture(
         name="normal_maps",
-        title="Normal maps: a tiled floor and a hammered sphere, flat surfaces with turned normals",
+        title="Normal and bump maps: a tiled floor and a hammered sphere, flat surfaces with turned normals",
         args=("examples/normal_maps.toml", "--spp", "16", "-o", "docs/images/normal_maps.png"),
         encoding="srgb",
         factor=8,

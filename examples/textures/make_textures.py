@@ -8,7 +8,7 @@
 * ``globe.png``  256 x 128: a latitude/longitude grid with coloured bands, for sphere UVs.
 * ``tiles_normal.png``   256 x 256: a normal map of 4 x 4 bevelled tiles in mortar, slightly
   uneven (tangent space: x along u, y up the image; examples/normal_maps.toml).
-* ``dimples_normal.png`` 256 x 256: a normal map of hammered metal, round dimples.
+* ``dimples_height.png`` 256 x 256: a height (bump) map of hammered metal, round dimples.
 """
 
 from __future__ import annotations
@@ -126,7 +126,9 @@ def main() -> None:
     Image.fromarray(globe()).save(HERE / "globe.png", optimize=True)
     rng = np.random.default_rng(11)  # the normal maps' own, so that the images above stay as they were
     Image.fromarray(normal_map(tiles_height(rng), 1.0)).save(HERE / "tiles_normal.png", optimize=True)
-    Image.fromarray(normal_map(dimples_height(rng), 1.0)).save(HERE / "dimples_normal.png", optimize=True)
+    dimples = dimples_height(rng)
+    grey = (dimples - dimples.min()) / (dimples.max() - dimples.min()) * 255
+    Image.fromarray(grey.round().astype(np.uint8), mode="L").save(HERE / "dimples_height.png", optimize=True)
 
 
 if __name__ == "__main__":

@@ -1,6 +1,6 @@
 """Compile stage: materials and textures. Each material's row of the material table is packed by
 its kind's module (kernels/shading/materials/); image textures are decoded to linear float32
-RGB (normal maps kept as stored), mip-mapped, and joined into one texel atlas."""
+RGB (normal and bump maps kept as stored), mip-mapped, and joined into one texel atlas."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import numpy as np
 from ..errors import SceneError
 from ..kernels.shading import materials as M
 from ..kernels.shading import textures as X
-from ..scene.model import ImageTexture, Material, NormalMap
+from ..scene.model import BumpMap, ImageTexture, Material, NormalMap
 
 
 def srgb_to_linear(x: np.ndarray) -> np.ndarray:
@@ -67,12 +67,12 @@ class TextureTable:
         self.loaded: dict[tuple[Path, bool], tuple] = {}
 
     def add(self, texture, where: str) -> int:
-        """The row of a model texture (checker or image) or normal map."""
+        """The row of a model texture (checker or image), normal map or bump map."""
         row = np.zeros(X.TEX_WIDTH, dtype=np.float64)
-        if isinstance(texture, (ImageTexture, NormalMap)):
-            normals = isinstance(texture, NormalMap)
-            key = "normal_map" if normals else "texture"
-            offset, tex_w, tex_h, levels, mean = self._image(texture.file, f"{where}.{key}.file", decode=not normals)
+        if isinstance(texture, (ImageTexture, NormalMap, BumpMap)):
+            raw = not isinstance(texture, ImageTexture)  # maps of normals and heights: as stored
+            key = {NormalMap: "normal_map", BumpMap: "bump_map"}.get(type(texture), "texture")
+            offset, tex_w, tex_h, levels, mean = self._image(texture.file, f"{where}.{key}.file", decode=not raw)
             row[X.TEX_KIND] = X.IMAGE
             row[X.TEX_COLOR_A : X.TEX_COLOR_A + 3] = mean
             row[X.TEX_OFFSET] = offset
@@ -141,7 +141,7 @@ class TextureTable:
 def material_row(mat: Material, textures: TextureTable | None = None, where: str = "material") -> np.ndarray:
     """The material's row of the materials table: the columns of its kind, packed by the kind's
     module (its trace-mode approximation in the phong columns), then those every kind has;
-    its texture and normal map are added to `textures`."""
+    its texture and normal or bump map are added to `textures`."""
     row = np.zeros(M.MAT_WIDTH, dtype=np.float64)
     M.pack_material(mat, row)
     row[M.MAT_COLOR : M.MAT_COLOR + 3] = mat.color
@@ -156,6 +156,11 @@ def material_row(mat: Material, textures: TextureTable | None = None, where: str
             raise ValueError("a normal-mapped material needs a TextureTable")
         row[M.MAT_NORMAL_MAP] = 1 + textures.add(mat.normal_map, where)
         row[M.MAT_NORMAL_STRENGTH] = mat.normal_map.strength
+    if mat.bump_map is not None:
+        if textures is None:
+            raise ValueError("a bump-mapped material needs a TextureTable")
+        row[M.MAT_BUMP_MAP] = 1 + textures.add(mat.bump_map, where)
+        row[M.MAT_BUMP_HEIGHT] = mat.bump_map.height
     return row
 
 

@@ -332,6 +332,22 @@ class NormalMap(Strict):
     _scale = field_validator("scale", mode="before")(ImageTexture._scale.__func__)
 
 
+class BumpMap(Strict):
+    """A height map (PNG or JPEG, relative to the scene file; grey, or the mean of r, g and b),
+    read as stored, not sRGB-decoded: the surface seen as displaced along its normal by `height`
+    times the texel's value (0..1), its shading normal that of the displaced surface (pbrt-v4's
+    and Mitsuba 3's bump mapping). Looked up by the UVs times `scale`, bilinear and repeating."""
+
+    file: str
+    """The image file, relative to the scene file."""
+    scale: tuple[FiniteFloat, FiniteFloat] = (1.0, 1.0)
+    """Multiplies the UVs: a number or `[u, v]` (2 = the map twice across)."""
+    height: FiniteFloat = Field(0.01, ge=0)
+    """The displacement of a white texel, in scene units (black: none)."""
+
+    _scale = field_validator("scale", mode="before")(ImageTexture._scale.__func__)
+
+
 TEXTURE_TYPES = ("checker", "image")
 Texture = Annotated[
     Union[Annotated[Checker, Tag("<checker>")], Annotated[ImageTexture, Tag("<image>")]],
@@ -356,6 +372,8 @@ class _MaterialBase(Strict):
     """A texture replacing `color`: `{ type = "checker", ... }` or `{ type = "image", file = ... }`."""
     normal_map: NormalMap | None = None
     """A tangent-space normal map turning the shading normal: `{ file = "bricks_normal.png" }`."""
+    bump_map: BumpMap | None = None
+    """A height map turning the shading normal: `{ file = "bumps.png", height = 0.01 }` (not with `normal_map`)."""
 
     @field_validator("color", mode="before")
     @classmethod
@@ -366,6 +384,12 @@ class _MaterialBase(Strict):
     @classmethod
     def _emitted(cls, v):
         return _colour(v, upper=None)
+
+    @model_validator(mode="after")
+    def _one_map(self):
+        if self.normal_map is not None and self.bump_map is not None:
+            raise ValueError("a material takes a normal_map or a bump_map, not both")
+        return self
 
     @model_validator(mode="before")
     @classmethod
@@ -482,6 +506,7 @@ class NullMaterial(Strict):
     emission: ClassVar[tuple[float, float, float]] = (0.0, 0.0, 0.0)
     texture: ClassVar[None] = None
     normal_map: ClassVar[None] = None
+    bump_map: ClassVar[None] = None
 
 
 # Material types: the scene's `type` -> its model class (kernels/shading/materials/ has a module

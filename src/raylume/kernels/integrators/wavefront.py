@@ -59,7 +59,6 @@ from ..shading.lights import LIGHT_INTENSITY, LIGHT_POSITION, at_infinity, has_f
 from ..shading.materials import (
     MAT_COLOR,
     MAT_EMISSION,
-    MAT_NORMAL_MAP,
     MAT_REFLECTIVE,
     MAT_SPECULAR,
     MAT_TEXTURE,
@@ -67,7 +66,7 @@ from ..shading.materials import (
     beer_lambert,
 )
 from ..shading.materials.seed_response import highlight
-from ..shading.normal_map import mapped_normal
+from ..shading.normal_map import has_map, mapped_normal
 from ..variants import sphere_leaf_range
 from ..vec import (
     FAST,
@@ -446,7 +445,7 @@ def _sphere_surface_extras(G, F, X, B, R, I, m):
         mm = I[MATERIAL + i]
         leaving = I[FLAG + i] != 0
         textured = mat[mm, MAT_TEXTURE] >= 0
-        mapped = mat[mm, MAT_NORMAL_MAP] > 0.0
+        mapped = has_map(mat, mm)
         if not (leaving or textured or mapped):
             continue
         if leaving:
@@ -727,10 +726,10 @@ def wavefront_row(G, F, L, X, B, Env, P, j, film, scratch, node_stack, t_stack):
     x0, y0, x1, y1 = window
     spread = cam[CAM_CONE_SPREAD]
     leaf_first, leaf_count = _sphere_leaf(G)
-    textured = False  # any material with a texture or a normal map; any that emits
+    textured = False  # any material with a texture or a normal or bump map; any that emits
     emissive = False
     for mm in range(F.materials.shape[0]):
-        textured = textured or F.materials[mm, MAT_TEXTURE] >= 0 or F.materials[mm, MAT_NORMAL_MAP] > 0.0
+        textured = textured or F.materials[mm, MAT_TEXTURE] >= 0 or has_map(F.materials, mm)
         emissive = emissive or max(row3(F.materials, mm, MAT_EMISSION)) != 0.0
     pinhole_centres = total_spp == 1 and not cam[CAM_LENS_RADIUS] > 0.0
     total_samples = (x1 - x0) * count

@@ -66,8 +66,8 @@ from ..geometry.wide_nodes import traversal_stacks
 from ..integrators.direct import unshadowed_lighting
 from ..scene import environment_of, geometry_of, lights_of, surfaces_of
 from ..shading.environment import environment_radiance
-from ..shading.materials import MAT_EMISSION, MAT_NORMAL_MAP, MAT_TEXTURE, albedo, aov_albedo
-from ..shading.normal_map import mapped_normal
+from ..shading.materials import MAT_EMISSION, MAT_TEXTURE, albedo, aov_albedo
+from ..shading.normal_map import has_map, mapped_normal
 from ..shading.textures import IMAGE, TEX_KIND
 from ..variants import path_features
 from ..vec import add, dot, hadamard, kernel_function, madd, mul, normalize, row3
@@ -456,7 +456,7 @@ def _shade_row(G, F, L, X, Env, V, D, j, rgb, A, want_aovs, node_stack, t_stack)
             # vertex normals, image textures and normal maps need the point's weights
             mt = G.prims[prim, PRIM_MATERIAL]
             x = int(F.materials[mt, MAT_TEXTURE])
-            mapped = F.materials[mt, MAT_NORMAL_MAP] > 0.0
+            mapped = has_map(F.materials, mt)
             if G.triangle_smooth[t] or mapped or (x >= 0 and F.textures[x, TEX_KIND] == IMAGE):
                 b1, b2 = barycentrics(view, tri, extra, n_main, t, x_px, y)
         else:

@@ -23,6 +23,8 @@ from .registry import (
 )
 from .table import (
     MAT_ABSORPTION,
+    MAT_BUMP_HEIGHT,
+    MAT_BUMP_MAP,
     MAT_COLOR,
     MAT_EMISSION,
     MAT_ETA,
@@ -46,6 +48,8 @@ __all__ = [
     "BY_NAME",
     "KINDS",
     "MAT_ABSORPTION",
+    "MAT_BUMP_HEIGHT",
+    "MAT_BUMP_MAP",
     "MAT_COLOR",
     "MAT_EMISSION",
     "MAT_ETA",

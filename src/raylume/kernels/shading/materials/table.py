@@ -26,7 +26,9 @@ MAT_EMISSION = 20  # 3 columns: emitted radiance (path mode: the surface is a li
 # 1 + the normal map's row in the texture table, 0 for none (so that a row of zeros has none)
 MAT_NORMAL_MAP = 23
 MAT_NORMAL_STRENGTH = 24  # multiplies the map's x and y (glTF's normalTexture.scale)
-MAT_WIDTH = 25
+MAT_BUMP_MAP = 25  # 1 + the bump (height) map's row in the texture table, 0 for none
+MAT_BUMP_HEIGHT = 26  # the displacement of a white texel, in scene units
+MAT_WIDTH = 27
 
 
 @inline_function
