@@ -9,6 +9,7 @@ small renders, one pixel read where the surface is uniform."""
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -17,6 +18,7 @@ from PIL import Image as PILImage
 import raylume
 from raylume.errors import SceneError
 
+REPO = Path(__file__).resolve().parents[1]
 TILT = math.radians(30)
 
 
@@ -222,3 +224,14 @@ def test_a_material_takes_a_normal_map_or_a_bump_map_not_both(tmp_path):
     maps = {"normal_map": {"file": path}, "bump_map": {"file": path}}
     with pytest.raises(SceneError, match="a normal_map or a bump_map, not both"):
         raylume.render(raylume.scene_from_dict(floor_scene(maps, UVS, (1, 1, 0))))
+
+
+def test_a_scene_saved_elsewhere_still_finds_its_maps(tmp_path):
+    scene = raylume.load(REPO / "examples" / "normal_maps.toml")
+    (tmp_path / "elsewhere").mkdir()
+    saved = raylume.save_scene(scene, tmp_path / "elsewhere" / "copy.toml")
+    text = saved.read_text()
+    for name in ("tiles_normal.png", "dimples_height.png"):
+        assert f"examples/textures/{name}" in text  # relative to the new folder, back to the files
+    size = {"width": 32, "height": 18, "spp": 1}
+    np.testing.assert_array_equal(raylume.render(raylume.load(saved), **size).rgb, raylume.render(scene, **size).rgb)
