@@ -157,7 +157,7 @@ def test_a_spheres_map_follows_its_documented_uvs(tmp_path):
         rgb, normal = centre(mapped)
         np.testing.assert_allclose(normal_flat, n, atol=1e-6)
         np.testing.assert_allclose(normal, expected, atol=1e-5)
-        # trace mode's sphere-only wavefront shades from the turned normal too
+        # trace mode shades the sphere from the turned normal
         np.testing.assert_allclose(rgb / rgb_flat, expected @ light_unit / (n @ light_unit), rtol=1e-4)
 
 

@@ -66,7 +66,6 @@ from ..shading.materials import (
     beer_lambert,
 )
 from ..shading.materials.seed_response import highlight
-from ..shading.normal_map import has_map, mapped_normal
 from ..variants import sphere_leaf_range
 from ..vec import (
     FAST,
@@ -386,7 +385,6 @@ def _surfaces(G, F, X, R, I, m):
         b1 = R[B1 + i]
         b2 = R[B2 + i]
         ng, ns, mm, obj, face = surface(G, X, prim, b1, b2, p)
-        ns = mapped_normal(G, F, X, mm, prim, b1, b2, p, ns)
         if not dot(ng, d) < 0.0:  # leaving: the segment lay inside this surface's medium
             R[WR + i], R[WG + i], R[WB + i] = beer_lambert(mat, mm, (R[WR + i], R[WG + i], R[WB + i]), t)
             ng = mul(ng, -1.0)
@@ -439,33 +437,24 @@ def _sphere_surfaces(R, I, m, epsilon_floor):
 @inline_function
 def _sphere_surface_extras(G, F, X, B, R, I, m):
     """What _sphere_surfaces leaves to rays one by one: absorption along the segment inside a
-    sphere (a ray leaving it), textures and normal maps."""
+    sphere (a ray leaving it), and textures."""
     mat = F.materials
     for i in range(m):
         mm = I[MATERIAL + i]
         leaving = I[FLAG + i] != 0
         textured = mat[mm, MAT_TEXTURE] >= 0
-        mapped = has_map(mat, mm)
-        if not (leaving or textured or mapped):
+        if not (leaving or textured):
             continue
         if leaving:
             R[WR + i], R[WG + i], R[WB + i] = beer_lambert(mat, mm, (R[WR + i], R[WG + i], R[WB + i]), R[T + i])
         if B is not None:  # (B None: no textures; see wavefront_row)
-            d = (R[DX + i], R[DY + i], R[DZ + i])
-            p = _hit_point(R, i)
-            ng = (R[NX + i], R[NY + i], R[NZ + i])  # facing the ray, as trace_ray's after its flip
-            prim = I[PRIM + i]
-            uv = (R[B1 + i], R[B2 + i])
             if textured:
+                d = (R[DX + i], R[DY + i], R[DZ + i])
+                p = _hit_point(R, i)
+                ng = (R[NX + i], R[NY + i], R[NZ + i])  # facing the ray, as trace_ray's after its flip
+                prim = I[PRIM + i]
+                uv = (R[B1 + i], R[B2 + i])
                 R[AR + i], R[AG + i], R[AB + i] = albedo(G, F, X, mm, prim, uv[0], uv[1], p, d, ng, R[CONE + i])
-            if mapped:  # as _surfaces: the map turns the outward normal, then faces the ray
-                outward = mul(ng, -1.0) if leaving else ng
-                ns = mapped_normal(G, F, X, mm, prim, uv[0], uv[1], p, outward)
-                if leaving:
-                    ns = mul(ns, -1.0)
-                if dot(ns, d) >= 0.0:
-                    ns = ng
-                R[NX + i], R[NY + i], R[NZ + i] = ns
 
 
 @inline_function
@@ -726,10 +715,10 @@ def wavefront_row(G, F, L, X, B, Env, P, j, film, scratch, node_stack, t_stack):
     x0, y0, x1, y1 = window
     spread = cam[CAM_CONE_SPREAD]
     leaf_first, leaf_count = _sphere_leaf(G)
-    textured = False  # any material with a texture or a normal or bump map; any that emits
+    textured = False  # any material with a texture; any that emits
     emissive = False
     for mm in range(F.materials.shape[0]):
-        textured = textured or F.materials[mm, MAT_TEXTURE] >= 0 or has_map(F.materials, mm)
+        textured = textured or F.materials[mm, MAT_TEXTURE] >= 0
         emissive = emissive or max(row3(F.materials, mm, MAT_EMISSION)) != 0.0
     pinhole_centres = total_spp == 1 and not cam[CAM_LENS_RADIUS] > 0.0
     total_samples = (x1 - x0) * count

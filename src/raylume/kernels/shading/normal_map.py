@@ -40,7 +40,8 @@ STEP_OFFSETS = 64.0
 def mapped_normal(G, F, X, m, prim, b1, b2, p, ns):
     """The shading normal ns (unit, outward) at a hit on primitive `prim` of material m, turned
     by the material's normal or bump map; ns itself where it has neither. Basic scenes (X None)
-    have no image textures, so no maps: their kernels compile none of it."""
+    have no image textures, so no maps: their kernels (trace mode's wavefront among them)
+    compile none of it."""
     if X is None:
         return ns
     x = np.int64(F.materials[m, MAT_NORMAL_MAP]) - 1
