@@ -3,7 +3,7 @@
 tests/reference/mitsuba_xml_scenes.py writes each scene (one per BSDF family, an environment
 map (also seen through a mirrored sensor), instances, a serialized mesh, a sensor mirrored as
 Blender exports it, point, spot and directional lights, an image texture on a rectangle, a
-homogeneous medium); the
+homogeneous medium, a normal map on an OBJ board); the
 references in
 tests/reference/mitsuba_xml/ were rendered by Mitsuba 3 scalar_rgb from those very files by
 tools/mitsuba_xml_references.py (16 seeds x 1024 spp; CI never needs Mitsuba). raylume renders
@@ -20,6 +20,15 @@ blocks over); the envmap's intensity x 1.01 fails narrowly (blue image-mean z 4.
 the environment turned the wrong way (-40 degrees for +40) is 25 % off in some blocks. A
 normal-less mesh shaded with raylume's area-weighted vertex normals instead of Mitsuba's
 angle-weighted ones failed (block z -7.5), which is why the serialized scene asks for face normals.
+
+The normal map (seeds 0..15 unless named): as is, image-mean z 1.6 / 2.5 / 3.9 (R, G, B; limits
+4.9), worst block 5.9 (limit 6.4); seeds 100..115 z 0.9 / 1.8 / 3.1, worst block 2.1; the map read
+with y the other way fails (image-mean z -16 to -20, 9 blocks over); a flat map fails (z -5.5).
+Its blue-leaning positive z is Mitsuba 3.9's normalmap shadowing term (measured with its BSDF's
+eval: G = 2 / (1 + sqrt(1 + a^2 tan^2 theta_o)), a^2 = min(1, tan^2 theta_d / 8), theta_o the
+light's angle from the shading normal, theta_d the map's tilt), which raylume does not have: it
+darkens the blue sky's grazing light most. The scene keeps it small (the board faces the light
+within ~30 degrees, the map leans at most 20 degrees: G > 0.998 for that light).
 
 The environment map's scene does not show the sky directly, only by reflection and lighting:
 Mitsuba's envmap spreads its rows from pole to pole (row j of H at v = j / (H - 1); measured with

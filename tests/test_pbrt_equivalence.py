@@ -497,3 +497,52 @@ material = "pbrt-default"
         + FLOOR_TOML.format(material="pbrt-default")
     )
     render_both(tmp_path, pbrt, toml)
+
+
+def write_normal_map(path) -> None:
+    """A map that leans its normals up the image (y) and along u (x), differently in each half."""
+    pixels = np.zeros((4, 8, 3), dtype=np.uint8)
+    pixels[:, :4] = (128, 200, 220)
+    pixels[:, 4:] = (200, 100, 220)
+    PILImage.fromarray(pixels).save(path)
+
+
+def test_normal_maps(tmp_path):
+    """A material's "string normalmap" is its normal_map (pbrt-v4 reads it as stored, at (u, v)
+    with v = 1 the image's top, as raylume does): the same bits as the TOML's normal_map."""
+    write_normal_map(tmp_path / "bumps.png")
+    pbrt = (
+        HEADER
+        + """
+LightSource "point" "rgb I" [8 8 8] "point3 from" [1 4 -2]
+AttributeBegin
+  Material "diffuse" "rgb reflectance" [0.7 0.6 0.5] "string normalmap" "bumps.png"
+  Shape "bilinearmesh" "point3 P" [-2 0.5 1  0 0.5 1  -2 2.5 1  0 2.5 1] "point2 uv" [0 0  1 0  0 1  1 1]
+AttributeEnd
+"""
+        + FLOOR_PBRT
+    )
+    toml = (
+        TOML_HEADER
+        + """
+[[lights]]
+type = "point"
+position = [1, 4, -2]
+intensity = 8
+
+[[objects]]
+type = "mesh"
+vertices = [[-2, 0.5, 1], [0, 0.5, 1], [-2, 2.5, 1], [0, 2.5, 1]]
+faces = [[0, 1, 3], [0, 3, 2]]
+uvs = [[0, 0], [1, 0], [0, 1], [1, 1]]
+material = { type = "diffuse", color = [0.7, 0.6, 0.5], normal_map = { file = "bumps.png" } }
+"""
+        + FLOOR_TOML.format(material="pbrt-default")
+    )
+    flat = render_both(
+        tmp_path,
+        pbrt.replace(' "string normalmap" "bumps.png"', ""),
+        toml.replace(', normal_map = { file = "bumps.png" }', ""),
+    )
+    mapped = render_both(tmp_path, pbrt, toml)
+    assert np.abs(mapped.rgb - flat.rgb).max() > 0.05, "the map changes nothing: the test would prove nothing"

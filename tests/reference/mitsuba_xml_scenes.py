@@ -262,6 +262,55 @@ def textures(folder: Path) -> str:
     return _scene(board)
 
 
+def normal_map_pixels(size: int = 32) -> np.ndarray:
+    """A tangent-space normal map (8-bit, stored as is): x along u, y up the image (increasing
+    v), z out. Every texel leans up the image (y 0.2) and waves along u and v, at most 20 degrees
+    from flat, so that a map read with y the other way lights the board differently."""
+    y, x = np.mgrid[0:size, 0:size]
+    u, v = (x + 0.5) / size, 1.0 - (y + 0.5) / size
+    n = np.stack(
+        [0.2 * np.sin(2 * np.pi * u), 0.2 + 0.1 * np.cos(2 * np.pi * 2 * v), np.ones_like(u)],
+        axis=-1,
+    )
+    n /= np.linalg.norm(n, axis=-1, keepdims=True)
+    return np.round((n + 1.0) / 2.0 * 255.0).astype(np.uint8)
+
+
+def write_board_obj(path: Path) -> None:
+    """A square in z = 0 facing +z, [-1, 1]^2, with UVs (v up +y) and normals."""
+    path.write_text(
+        "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\n"
+        "vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nvn 0 0 1\n"
+        "f 1/1/1 2/2/1 3/3/1\nf 1/1/1 3/3/1 4/4/1\n"
+    )
+
+
+def normalmap(folder: Path) -> str:
+    """A normal map (a raw bitmap) on an OBJ board tipped back towards the light, its up the image
+    towards the light. The board faces the light within about 30 degrees and the map leans at
+    most 20 degrees: Mitsuba 3.9's normalmap multiplies the light's contribution by a shadowing
+    term (see tests/test_mitsuba_vs_reference.py) that is then above 0.9986, where the map read
+    with y the other way changes the board's light by about a quarter."""
+    from PIL import Image
+
+    Image.fromarray(normal_map_pixels()).save(folder / "bumps.png")
+    write_board_obj(folder / "board.obj")
+    body = """
+  <shape type="obj">
+    <string name="filename" value="board.obj"/>
+    <transform name="to_world">
+      <scale x="1.2" y="0.9"/><rotate x="1" angle="-50"/><rotate y="1" angle="15"/><translate x="0.3" y="0.8" z="-0.5"/>
+    </transform>
+    <bsdf type="normalmap">
+      <texture name="normalmap" type="bitmap">
+        <string name="filename" value="bumps.png"/><boolean name="raw" value="true"/>
+      </texture>
+      <bsdf type="diffuse"><rgb name="reflectance" value="0.75, 0.75, 0.7"/></bsdf>
+    </bsdf>
+  </shape>"""
+    return _scene(body)
+
+
 def medium(folder: Path) -> str:
     """A ball of scattering medium behind a null boundary, rendered by volpath."""
     body = """
@@ -290,6 +339,7 @@ SCENES = {
     "lights": lights,
     "textures": textures,
     "medium": medium,
+    "normalmap": normalmap,
 }
 
 
@@ -307,4 +357,6 @@ def write_scene(name: str, folder: Path) -> tuple[Path, str]:
         digest.update(envmap_pixels().tobytes())  # the EXR's pixels (its bytes may vary with the library)
     if name == "textures":
         digest.update(texture_pixels().tobytes())
+    if name == "normalmap":
+        digest.update(normal_map_pixels().tobytes())
     return path, digest.hexdigest()

@@ -10,6 +10,7 @@
 | twosided | its BSDF (raylume's surfaces are two-sided) |
 | principled | dielectric, conductor or plastic by its dominant lobe, with a warning |
 | null | null |
+| normalmap | its BSDF, with the bitmap as the material's `normal_map` |
 
 Rough plugins map `alpha` to `roughness` (both GGX alpha); a Beckmann distribution becomes GGX
 of the same alpha, with a warning. Anything else warns and becomes a grey diffuse material.
@@ -18,6 +19,8 @@ of the same alpha, with a warning. Anything else warns and becomes a grey diffus
 from __future__ import annotations
 
 import math
+
+import numpy as np
 
 from .mitsuba_context import Context
 from .mitsuba_named import CONDUCTORS, IORS
@@ -73,11 +76,7 @@ def texture_table(ctx: Context, node: Node) -> dict | None:
             return None
         if props.boolean("raw", False):
             ctx.warn(node, "raw = true: raylume decodes 8-bit texels from sRGB all the same")
-        m = props.transform("to_world")
-        scale = [float(m[0, 0]), float(m[1, 1])]
-        if abs(m[0, 1]) + abs(m[1, 0]) + abs(m[0, 2]) + abs(m[1, 2]) > 0 or min(scale) <= 0:
-            ctx.warn(node, "its to_world is more than a scale of the UVs; raylume's image texture takes only that")
-            scale = [abs(scale[0]) or 1.0, abs(scale[1]) or 1.0]
+        scale = _uv_scale(ctx, node, props, "image texture")
         for ignored in ("filter_type", "wrap_mode", "format"):
             props.take(ignored)  # raylume filters bilinearly (with mip-maps) and repeats
         ctx.done(node, props)
@@ -87,7 +86,7 @@ def texture_table(ctx: Context, node: Node) -> dict | None:
         for name, default in (("color0", 0.4), ("color1", 0.2)):
             value = props.take(name)
             colours.append(list(colour_of(value, name)) if value is not None else [default] * 3)
-        m = props.transform("to_world")
+        m = _to_uv(props)
         ctx.done(node, props)
         side = 0.5 / max(abs(float(m[0, 0])), 1e-9)
         ctx.warn(
@@ -98,6 +97,51 @@ def texture_table(ctx: Context, node: Node) -> dict | None:
         return {"type": "checker", "colors": colours, "scale": side}
     ctx.warn(node, "raylume has no such texture; a grey 0.5 replaces it")
     return None
+
+
+def _to_uv(props: Props) -> np.ndarray:
+    """A texture's `to_uv` (Mitsuba 3's name; `to_world`, which Mitsuba 3 refuses on a texture,
+    is read as it was before raylume read `to_uv`)."""
+    return props.transform("to_uv") if props.has("to_uv") else props.transform("to_world")
+
+
+def _uv_scale(ctx: Context, node: Node, props: Props, what: str) -> list[float]:
+    """The scale of the UVs a bitmap's to_uv gives (raylume's images take a scale alone)."""
+    m = _to_uv(props)
+    scale = [float(m[0, 0]), float(m[1, 1])]
+    if abs(m[0, 1]) + abs(m[1, 0]) + abs(m[:2, 2:]).sum() > 0 or min(scale) <= 0:  # a turn, shear or offset
+        ctx.warn(node, f"its to_uv is more than a scale of the UVs; raylume's {what} takes only that")
+        scale = [abs(scale[0]) or 1.0, abs(scale[1]) or 1.0]
+    return scale
+
+
+def normal_map_table(ctx: Context, node: Node, props: Props) -> dict | None:
+    """The `normal_map` of a <bsdf type="normalmap">: its bitmap, read as stored (Mitsuba's
+    `raw = true`), its to_uv's scale; None (with a warning) where raylume cannot read it."""
+    texture = props.plugin("normalmap")
+    if texture is None:
+        raise node.error('needs a <texture name="normalmap" type="bitmap">')
+    if texture.tag != "texture" or texture.attrs.get("type") != "bitmap":
+        ctx.warn(texture, "raylume's normal maps are images (a bitmap): the BSDF inside is drawn without one")
+        return None
+    tprops = ctx.props(texture)
+    name = tprops.string("filename")
+    if name is None:
+        raise texture.error("needs a filename")
+    if not name.lower().endswith(IMAGE_SUFFIXES):
+        ctx.warn(texture, f"{name}: raylume's normal maps are PNG or JPEG; the BSDF inside is drawn without one")
+        return None
+    if not tprops.boolean("raw", False):
+        ctx.warn(
+            texture,
+            "raw = false: Mitsuba decodes this normal map's texels from sRGB before reading them as normals; "
+            "raylume reads them as stored (as raw = true does)",
+        )
+    scale = _uv_scale(ctx, texture, tprops, "normal map")
+    for ignored in ("filter_type", "wrap_mode", "format"):
+        tprops.take(ignored)  # raylume reads normal maps bilinearly and repeats them
+    ctx.done(texture, tprops)
+    return {"file": ctx.file(texture, name, IMAGE_SUFFIXES), "scale": scale}
 
 
 def _roughness(ctx: Context, node: Node, props: Props) -> float:
@@ -221,7 +265,23 @@ def bsdf_table(ctx: Context, node: Node) -> dict:
         if len(nested) > 1:
             ctx.warn(node, "two different BSDFs for the two sides: raylume uses the first on both")
         return bsdf_table(ctx, nested[0])
-    if kind in ("bumpmap", "normalmap", "mask", "blendbsdf"):
+    if kind == "normalmap":
+        nested = [p for p in props.plugins if p.tag == "bsdf"]
+        if not nested:
+            raise node.error("needs a nested <bsdf>")
+        normal_map = normal_map_table(ctx, node, props)
+        table = bsdf_table(ctx, nested[0])
+        ctx.done(node, props)
+        if normal_map is None:
+            return table
+        if table.get("type") == "null":
+            ctx.warn(node, "a null BSDF has no surface for a normal map to turn; it is ignored")
+            return table
+        if "normal_map" in table:
+            ctx.warn(node, "a normal map inside another: raylume keeps the inner one")
+            return table
+        return {**table, "normal_map": normal_map}
+    if kind in ("bumpmap", "mask", "blendbsdf"):
         nested = [p for p in props.plugins if p.tag == "bsdf"]
         if not nested:
             raise node.error("needs a nested <bsdf>")

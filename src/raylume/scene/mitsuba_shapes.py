@@ -5,7 +5,7 @@
 | obj, ply, serialized | mesh (file by path; serialized: shape_index), transform from to_world (a matrix if it shears) |
 | rectangle | quad |
 | cube | six quads |
-| sphere | sphere (with an image texture: turned by its transform to Mitsuba's (u, v)) |
+| sphere | sphere (with an image texture or normal map: turned by its transform to Mitsuba's (u, v)) |
 | disk | disk |
 | cylinder | cylinder, capped = false (Mitsuba's is an open tube) |
 | shapegroup + instance | a mesh's instances (analytic shapes: one object per instance) |
@@ -102,12 +102,23 @@ class Shapes:
             # Mitsuba looks texture row v from the image's top, raylume row 1 - v; its OBJ reader flips v
             # by default (flip_tex_coords), which makes the two agree; a PLY or serialized file's v is not
             flipped = kind == "obj" and props.boolean("flip_tex_coords", True)
-            if not flipped and self.image_textured(material):
-                ctx.warn(node, "its texture's v axis runs the other way in raylume: the image appears upside down")
+            if not flipped and self.reads_uvs(material):
+                ctx.warn(
+                    node,
+                    f"its {self.uv_images(material)}'s v axis runs the other way in raylume: "
+                    "the image appears upside down",
+                )
             objects = [obj]
         elif kind == "rectangle":
             # uv (0, 0) at local (-1, -1) in Mitsuba, its row v from the image's top: raylume's v runs down -y
             objects = [self.quad(m, (0, 0, 0), (2, 0, 0), (0, -2, 0), material, outward=False)]
+            if self.normal_mapped(material):
+                # Mitsuba's normal map frame takes y = n x dp/du: on a rectangle that is +v, down the image
+                ctx.warn(
+                    node,
+                    "Mitsuba turns a normal map's y on a rectangle towards increasing v, down the image; raylume's "
+                    "runs up the image, so the map's slopes along v are drawn mirrored (lit from the other side)",
+                )
         elif kind == "cube":
             objects = [self.quad(m, c, u, v, material) for c, u, v in CUBE_FACES]
         elif kind == "sphere":
@@ -115,7 +126,7 @@ class Shapes:
             radius = props.float("radius", 1.0)
             scale = uniform_scale(node, m, "sphere")
             sphere = {"type": "sphere", "center": ctx.point(m, centre), "radius": radius * scale, "material": material}
-            if self.image_textured(material):
+            if self.reads_uvs(material):
                 sphere["transform"] = self.sphere_turn(m, scale, sphere["center"])
                 sphere["center"] = [0.0, 0.0, 0.0]
             objects = [sphere]
@@ -161,9 +172,11 @@ class Shapes:
             )
         if isinstance(material, dict) and any(material.get("emission", ())):
             objects += self.one_sided(node, kind, objects, np.linalg.det((ctx.world @ m)[:3, :3]))
-        if kind in ("cube", "disk", "cylinder") and self.image_textured(material):
+        if kind in ("cube", "disk", "cylinder") and self.reads_uvs(material):
             ctx.warn(
-                node, f"raylume's {kind} has texture coordinates of its own, not Mitsuba's: the image lies otherwise"
+                node,
+                f"raylume's {kind} has texture coordinates of its own, not Mitsuba's: the "
+                f"{self.uv_images(material)} lies otherwise",
             )
         ctx.done(node, props)
         return objects
@@ -201,10 +214,28 @@ class Shapes:
             twins.append(twin)
         return twins
 
+    def table(self, material: dict | str) -> dict:
+        return self.materials.get(material, {}) if isinstance(material, str) else material
+
     def image_textured(self, material: dict | str) -> bool:
         """Whether the material looks up an image by (u, v) (raylume's checker is in world space)."""
-        table = self.materials.get(material, {}) if isinstance(material, str) else material
-        return (table.get("texture") or {}).get("type") == "image"
+        return (self.table(material).get("texture") or {}).get("type") == "image"
+
+    def normal_mapped(self, material: dict | str) -> bool:
+        return "normal_map" in self.table(material)
+
+    def reads_uvs(self, material: dict | str) -> bool:
+        """Whether the material reads the surface's (u, v): an image texture or a normal map."""
+        return self.image_textured(material) or self.normal_mapped(material)
+
+    def uv_images(self, material: dict | str) -> str:
+        """What reads the (u, v), for warnings: "texture", "normal map" or both."""
+        kinds = [
+            w
+            for w, has in (("texture", self.image_textured(material)), ("normal map", self.normal_mapped(material)))
+            if has
+        ]
+        return " and ".join(kinds)
 
     def sphere_turn(self, m: np.ndarray, scale: float, centre: list[float]) -> dict:
         """The transform that turns raylume's sphere so that its (u, v) is Mitsuba's: Mitsuba finds

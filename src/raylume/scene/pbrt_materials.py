@@ -8,6 +8,10 @@ plastic has no coat thickness or albedo); interface -> null. Roughness: pbrt-v4'
 (alpha = sqrt(roughness), on by default) and raylume's GGX alpha (capped at 1); anisotropic
 roughness becomes the mean of the two alphas. Anything else is replaced with a warning.
 
+Every material's `"string normalmap"` (all but mix and interface) becomes its `normal_map`: pbrt-v4
+reads the image as stored (ColorEncoding::Linear), bilinear and repeating, its texel at (u, 1 - v)
+from the image's top (raylume's v = 1 is the top row too), x along dp/du and y = n x x.
+
 Textures: `imagemap` -> image (uv mapping, uscale and vscale), `checkerboard` -> raylume's
 world-space checker (3D, or a 2D one approximated by it).
 """
@@ -128,8 +132,31 @@ class Materials:
 
     # -- materials --------------------------------------------------------------------------
     def material(self, d: Directive, p: Params, kind: str, named: Callable[[str], dict | None]) -> dict:
-        """The raylume material table of a material of type `kind` with parameters p.
-        `named` looks up a named material (for mix)."""
+        """The raylume material table of a material of type `kind` with parameters p, with its
+        normal map. `named` looks up a named material (for mix)."""
+        normal_map = None if kind == "mix" else self._normal_map(d, p)  # mix: its materials' own
+        table = self._material(d, p, kind, named)
+        if normal_map is None:
+            return table
+        if table.get("type") == "null":
+            self.warn(d, "an interface material has no surface for a normal map to turn; it is ignored")
+            return table
+        return {**table, "normal_map": normal_map}
+
+    def _normal_map(self, d: Directive, p: Params) -> dict | None:
+        """The normal_map table of `"string normalmap"` (pbrt-v4 reads the image as stored, as
+        raylume's normal maps are read), or None."""
+        if not p.has("normalmap"):
+            return None
+        filename = p.string("normalmap")
+        if not filename:
+            return None  # pbrt-v4: an empty name is no normal map
+        path = resolve(filename, d.search_dir)
+        if not path.is_file():
+            raise d.fail(f"no such normal map file {str(path)!r}")
+        return {"file": filename}
+
+    def _material(self, d: Directive, p: Params, kind: str, named: Callable[[str], dict | None]) -> dict:
         if kind == "diffuse":
             return self.coloured(d, p, "reflectance", GREY, {"type": "diffuse"})
         if kind == "coateddiffuse":
