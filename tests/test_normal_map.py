@@ -235,3 +235,22 @@ def test_a_scene_saved_elsewhere_still_finds_its_maps(tmp_path):
         assert f"examples/textures/{name}" in text  # relative to the new folder, back to the files
     size = {"width": 32, "height": 18, "spp": 1}
     np.testing.assert_array_equal(raylume.render(raylume.load(saved), **size).rgb, raylume.render(scene, **size).rgb)
+
+
+def test_a_bump_maps_srgb_encoding_decodes_the_heights_first(tmp_path):
+    # the ramp's texels 120 and 128 around u = 0.5 (32 texels: texel centres at (x + 0.5) / 32),
+    # decoded from sRGB: the slope between the centre and one texel on is that of the decoded ramp
+    path, _ = ramp_file(tmp_path, along_v=False)
+
+    def decoded(level):
+        c = level / 255
+        return c / 12.92 if c <= 0.04045 else ((c + 0.055) / 1.055) ** 2.4
+
+    slope = (decoded(136) - decoded(120)) / 2 * 32  # per unit of u, bilinear between texel centres
+    height = 4.0
+    material = {"bump_map": {"file": path, "height": height, "encoding": "srgb"}}
+    scene = floor_scene(material, UVS, (1, 1, 0.3))
+    scene["render"].update(width=9, height=9)  # the centre pixel's ray hits the floor at u = 0.5 (the ramp curves)
+    normal = raylume.render(raylume.scene_from_dict(scene)).aovs["normal"][4, 4]
+    expected = np.array([-height * slope, 2.0, 0.0])  # the floor spans 2 units of x for one of u
+    np.testing.assert_allclose(normal, expected / np.linalg.norm(expected), atol=1e-5)

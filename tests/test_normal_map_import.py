@@ -73,6 +73,36 @@ def test_pbrt_normalmap_missing_or_on_an_interface(tmp_path):
     assert any("interface material has no surface for a normal map" in w for w in warned), warned
 
 
+def test_pbrt_displacement_textures_raylume_cannot_bump_map_by(tmp_path):
+    write_normal_map(tmp_path / "bumps.png")
+    textures = (
+        'Texture "h" "float" "imagemap" "string filename" "bumps.png" "float scale" 0.1\n'
+        'Texture "n" "float" "fbm"\n'
+        'Texture "c" "spectrum" "imagemap" "string filename" "bumps.png"\n'
+    )
+    cases = {
+        'Material "diffuse" "texture displacement" "h"': None,
+        'Material "diffuse" "texture displacement" "n"': "displacement texture 'n' is not an imagemap",
+        'Material "diffuse" "texture displacement" "h" "string normalmap" "bumps.png"': "the normalmap is ignored",
+    }
+    for k, (material, message) in enumerate(cases.items()):
+        (tmp_path / f"{k}.pbrt").write_text(PBRT_HEAD + textures + material + '\nShape "sphere"\n')
+        document, warned = pbrt_document(tmp_path / f"{k}.pbrt")
+        table = next(iter(document["materials"].values()))
+        if message is None:
+            assert warned == [] and table["bump_map"] == {
+                "file": "bumps.png",
+                "scale": [1.0, 1.0],
+                "height": 0.1,
+                "encoding": "srgb",
+            }
+        else:
+            assert any(message in w for w in warned), warned
+    (tmp_path / "spectrum.pbrt").write_text(PBRT_HEAD + textures + 'Material "diffuse" "texture displacement" "c"\n')
+    with pytest.raises(PbrtError, match="'c' is a spectrum texture; displacement needs a float texture"):
+        pbrt_document(tmp_path / "spectrum.pbrt")
+
+
 MITSUBA = """<scene version="3.0.0">
   <integrator type="path"><integer name="max_depth" value="2"/></integrator>
   <sensor type="perspective"><float name="fov" value="30"/>
@@ -187,3 +217,77 @@ material = { type = "diffuse", color = [0.6, 0.5, 0.4], normal_map = { file = "m
         aovs=False,
     ).rgb
     assert np.abs(a - flat).max() > 0.02, "the map changes nothing: the test would prove nothing"
+
+
+def mitsuba_bump_board(raw=True, scale="0.05") -> str:
+    raw_tag = '<boolean name="raw" value="true"/>' if raw else ""
+    return MITSUBA.format(
+        shape=f"""<shape type="obj"><string name="filename" value="board.obj"/>
+    <bsdf type="bumpmap">
+      <texture type="bitmap" name="heights">
+        <string name="filename" value="maps/bumps.png"/>{raw_tag}
+        <transform name="to_uv"><scale x="2" y="2"/></transform>
+      </texture>
+      <float name="scale" value="{scale}"/>
+      <bsdf type="diffuse"><rgb name="reflectance" value="0.6, 0.5, 0.4"/></bsdf>
+    </bsdf>
+  </shape>"""
+    )
+
+
+@pytest.mark.parametrize("raw", [True, False])
+def test_mitsuba_bumpmap_gives_the_inner_bsdf_a_bump_map(tmp_path, raw):
+    # Mitsuba's bumpmap scales its texture's gradient by `scale`: the height of a texel of 1;
+    # its bitmap is sRGB-decoded unless raw
+    scene, warned = write_mitsuba(tmp_path, mitsuba_bump_board(raw=raw))
+    assert warned == []
+    material = scene.objects[0].material
+    assert material.type == "diffuse" and material.normal_map is None
+    assert material.bump_map.file == "maps/bumps.png" and material.bump_map.scale == (2.0, 2.0)
+    assert material.bump_map.height == 0.05
+    assert material.bump_map.encoding == ("linear" if raw else "srgb")
+
+
+def test_mitsuba_bumpmap_renders_as_the_toml_bump_map(tmp_path):
+    scene, _ = write_mitsuba(tmp_path, mitsuba_bump_board())
+    (tmp_path / "scene.toml").write_text(
+        """
+[render]
+mode = "path"
+width = 12
+height = 12
+spp = 2
+max_depth = 2
+filter = "gaussian"
+
+[camera]
+position = [0, 0, 5]
+look_at = [0, 0, 0]
+up = [0, 1, 0]
+fov = 30
+
+[[lights]]
+type = "directional"
+direction = [-0.3, 1, 1]
+intensity = 1
+"""
+    )
+    toml = raylume.load_scene(tmp_path / "scene.toml").replace(
+        objects=[
+            {
+                "type": "mesh",
+                "file": "board.obj",
+                "transform": {"scale": [-1, 1, 1]},
+                "material": {
+                    "type": "diffuse",
+                    "color": [0.6, 0.5, 0.4],
+                    "bump_map": {"file": "maps/bumps.png", "scale": 2, "height": 0.05},
+                },
+            }
+        ]
+    )
+    a = raylume.render(scene, seed=3, aovs=False).rgb
+    b = raylume.render(toml, seed=3, aovs=False).rgb
+    np.testing.assert_allclose(a, b, rtol=1e-6, atol=1e-7)
+    flat = toml.replace(objects=[{**toml.objects[0].model_dump(), "material": {"type": "diffuse"}}])
+    assert np.abs(a - raylume.render(flat, seed=3, aovs=False).rgb).max() > 0.02, "the map changes nothing"

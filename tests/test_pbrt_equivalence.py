@@ -546,3 +546,48 @@ material = { type = "diffuse", color = [0.7, 0.6, 0.5], normal_map = { file = "b
     )
     mapped = render_both(tmp_path, pbrt, toml)
     assert np.abs(mapped.rgb - flat.rgb).max() > 0.05, "the map changes nothing: the test would prove nothing"
+
+
+def test_bump_maps(tmp_path):
+    """A material's "texture displacement" naming a float imagemap is its bump_map (pbrt-v4's
+    BumpMap: the texture's value, times its `scale`, displaces the surface; a PNG's texels
+    sRGB-decoded by default): the same bits as the TOML's bump_map."""
+    heights = (np.add.outer(np.arange(8), np.arange(8)) * 16 % 256).astype(np.uint8)
+    PILImage.fromarray(heights, mode="L").save(tmp_path / "heights.png")
+    pbrt = (
+        HEADER
+        + """
+LightSource "point" "rgb I" [8 8 8] "point3 from" [1 4 -2]
+Texture "bumps" "float" "imagemap" "string filename" "heights.png" "float scale" 1.5 "float uscale" 2
+AttributeBegin
+  Material "diffuse" "rgb reflectance" [0.7 0.6 0.5] "texture displacement" "bumps"
+  Shape "bilinearmesh" "point3 P" [-2 0.5 1  0 0.5 1  -2 2.5 1  0 2.5 1] "point2 uv" [0 0  1 0  0 1  1 1]
+AttributeEnd
+"""
+        + FLOOR_PBRT
+    )
+    bump = 'bump_map = { file = "heights.png", scale = [2, 1], height = 1.5, encoding = "srgb" }'
+    toml = (
+        TOML_HEADER
+        + """
+[[lights]]
+type = "point"
+position = [1, 4, -2]
+intensity = 8
+
+[[objects]]
+type = "mesh"
+vertices = [[-2, 0.5, 1], [0, 0.5, 1], [-2, 2.5, 1], [0, 2.5, 1]]
+faces = [[0, 1, 3], [0, 3, 2]]
+uvs = [[0, 0], [1, 0], [0, 1], [1, 1]]
+"""
+        + f'material = {{ type = "diffuse", color = [0.7, 0.6, 0.5], {bump} }}\n'
+        + FLOOR_TOML.format(material="pbrt-default")
+    )
+    flat = render_both(
+        tmp_path,
+        pbrt.replace(' "texture displacement" "bumps"', ""),
+        toml.replace(f", {bump}", ""),
+    )
+    mapped = render_both(tmp_path, pbrt, toml)
+    assert np.abs(mapped.rgb - flat.rgb).max() > 0.05, "the map changes nothing: the test would prove nothing"

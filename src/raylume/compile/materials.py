@@ -70,7 +70,8 @@ class TextureTable:
         """The row of a model texture (checker or image), normal map or bump map."""
         row = np.zeros(X.TEX_WIDTH, dtype=np.float64)
         if isinstance(texture, (ImageTexture, NormalMap, BumpMap)):
-            raw = not isinstance(texture, ImageTexture)  # maps of normals and heights: as stored
+            # maps of normals and heights: as stored, unless a bump map says its heights are sRGB-encoded
+            raw = isinstance(texture, NormalMap) or (isinstance(texture, BumpMap) and texture.encoding == "linear")
             key = {NormalMap: "normal_map", BumpMap: "bump_map"}.get(type(texture), "texture")
             offset, tex_w, tex_h, levels, mean = self._image(texture.file, f"{where}.{key}.file", decode=not raw)
             row[X.TEX_KIND] = X.IMAGE

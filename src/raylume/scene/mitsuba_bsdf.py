@@ -11,6 +11,7 @@
 | principled | dielectric, conductor or plastic by its dominant lobe, with a warning |
 | null | null |
 | normalmap | its BSDF, with the bitmap as the material's `normal_map` |
+| bumpmap | its BSDF, with the bitmap as the material's `bump_map` (`scale` its height) |
 
 Rough plugins map `alpha` to `roughness` (both GGX alpha); a Beckmann distribution becomes GGX
 of the same alpha, with a warning. Anything else warns and becomes a grey diffuse material.
@@ -121,27 +122,59 @@ def normal_map_table(ctx: Context, node: Node, props: Props) -> dict | None:
     texture = props.plugin("normalmap")
     if texture is None:
         raise node.error('needs a <texture name="normalmap" type="bitmap">')
+    bitmap = _map_bitmap(ctx, texture, "normal map")
+    if bitmap is None:
+        return None
+    table, raw = bitmap
+    if not raw:
+        ctx.warn(
+            texture,
+            "raw = false: Mitsuba decodes this normal map's texels from sRGB before reading them as normals; "
+            "raylume reads them as stored (as raw = true does)",
+        )
+    return table
+
+
+def bump_map_table(ctx: Context, node: Node, props: Props) -> dict | None:
+    """The `bump_map` of a <bsdf type="bumpmap">: its texture (a bitmap, sRGB-decoded unless
+    `raw`), its to_uv's scale, the plugin's `scale` as the height (Mitsuba multiplies the texture's
+    gradient by it); None (with a warning) where raylume cannot read it."""
+    textures = [p for p in props.plugins if p.tag == "texture"]
+    if not textures:
+        ctx.warn(node, "a bumpmap without a nested <texture> (its heights): the BSDF inside is drawn without one")
+        return None
+    if "name" in textures[0].attrs:  # Mitsuba takes the texture by any name
+        props.take(textures[0].attrs["name"])
+    bitmap = _map_bitmap(ctx, textures[0], "bump map")
+    height = props.float("scale", 1.0)
+    if bitmap is None:
+        return None
+    if height < 0:
+        ctx.warn(node, f"scale {height:g}: raylume's bump maps raise the surface (height >= 0); drawn without it")
+        return None
+    table, raw = bitmap
+    return {**table, "height": height, "encoding": "linear" if raw else "srgb"}
+
+
+def _map_bitmap(ctx: Context, texture: Node, what: str) -> tuple[dict, bool] | None:
+    """A normal or bump map's bitmap: ({file, scale}, raw), or None (with a warning) where it is
+    not a PNG or JPEG bitmap."""
     if texture.tag != "texture" or texture.attrs.get("type") != "bitmap":
-        ctx.warn(texture, "raylume's normal maps are images (a bitmap): the BSDF inside is drawn without one")
+        ctx.warn(texture, f"raylume's {what}s are images (a bitmap): the BSDF inside is drawn without one")
         return None
     tprops = ctx.props(texture)
     name = tprops.string("filename")
     if name is None:
         raise texture.error("needs a filename")
     if not name.lower().endswith(IMAGE_SUFFIXES):
-        ctx.warn(texture, f"{name}: raylume's normal maps are PNG or JPEG; the BSDF inside is drawn without one")
+        ctx.warn(texture, f"{name}: raylume's {what}s are PNG or JPEG; the BSDF inside is drawn without one")
         return None
-    if not tprops.boolean("raw", False):
-        ctx.warn(
-            texture,
-            "raw = false: Mitsuba decodes this normal map's texels from sRGB before reading them as normals; "
-            "raylume reads them as stored (as raw = true does)",
-        )
-    scale = _uv_scale(ctx, texture, tprops, "normal map")
+    raw = tprops.boolean("raw", False)
+    scale = _uv_scale(ctx, texture, tprops, what)
     for ignored in ("filter_type", "wrap_mode", "format"):
-        tprops.take(ignored)  # raylume reads normal maps bilinearly and repeats them
+        tprops.take(ignored)  # raylume reads its maps bilinearly and repeats them
     ctx.done(texture, tprops)
-    return {"file": ctx.file(texture, name, IMAGE_SUFFIXES), "scale": scale}
+    return {"file": ctx.file(texture, name, IMAGE_SUFFIXES), "scale": scale}, raw
 
 
 def _roughness(ctx: Context, node: Node, props: Props) -> float:
@@ -265,23 +298,24 @@ def bsdf_table(ctx: Context, node: Node) -> dict:
         if len(nested) > 1:
             ctx.warn(node, "two different BSDFs for the two sides: raylume uses the first on both")
         return bsdf_table(ctx, nested[0])
-    if kind == "normalmap":
+    if kind in ("normalmap", "bumpmap"):
         nested = [p for p in props.plugins if p.tag == "bsdf"]
         if not nested:
             raise node.error("needs a nested <bsdf>")
-        normal_map = normal_map_table(ctx, node, props)
+        key, what = ("normal_map", "normal map") if kind == "normalmap" else ("bump_map", "bump map")
+        found = normal_map_table(ctx, node, props) if kind == "normalmap" else bump_map_table(ctx, node, props)
         table = bsdf_table(ctx, nested[0])
         ctx.done(node, props)
-        if normal_map is None:
+        if found is None:
             return table
         if table.get("type") == "null":
-            ctx.warn(node, "a null BSDF has no surface for a normal map to turn; it is ignored")
+            ctx.warn(node, f"a null BSDF has no surface for a {what} to turn; it is ignored")
             return table
-        if "normal_map" in table:
-            ctx.warn(node, "a normal map inside another: raylume keeps the inner one")
+        if "normal_map" in table or "bump_map" in table:
+            ctx.warn(node, f"a {what} around another map: raylume keeps the inner one")
             return table
-        return {**table, "normal_map": normal_map}
-    if kind in ("bumpmap", "mask", "blendbsdf"):
+        return {**table, key: found}
+    if kind in ("mask", "blendbsdf"):
         nested = [p for p in props.plugins if p.tag == "bsdf"]
         if not nested:
             raise node.error("needs a nested <bsdf>")

@@ -224,18 +224,21 @@ class Shapes:
     def normal_mapped(self, material: dict | str) -> bool:
         return "normal_map" in self.table(material)
 
+    def bump_mapped(self, material: dict | str) -> bool:
+        return "bump_map" in self.table(material)
+
     def reads_uvs(self, material: dict | str) -> bool:
-        """Whether the material reads the surface's (u, v): an image texture or a normal map."""
-        return self.image_textured(material) or self.normal_mapped(material)
+        """Whether the material reads the surface's (u, v): an image texture, a normal or bump map."""
+        return self.image_textured(material) or self.normal_mapped(material) or self.bump_mapped(material)
 
     def uv_images(self, material: dict | str) -> str:
-        """What reads the (u, v), for warnings: "texture", "normal map" or both."""
-        kinds = [
-            w
-            for w, has in (("texture", self.image_textured(material)), ("normal map", self.normal_mapped(material)))
-            if has
-        ]
-        return " and ".join(kinds)
+        """What reads the (u, v), for warnings: "texture", "normal map", "bump map", or two of them."""
+        found = (
+            ("texture", self.image_textured(material)),
+            ("normal map", self.normal_mapped(material)),
+            ("bump map", self.bump_mapped(material)),
+        )
+        return " and ".join(what for what, has in found if has)
 
     def sphere_turn(self, m: np.ndarray, scale: float, centre: list[float]) -> dict:
         """The transform that turns raylume's sphere so that its (u, v) is Mitsuba's: Mitsuba finds

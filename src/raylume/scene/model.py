@@ -334,7 +334,7 @@ class NormalMap(Strict):
 
 class BumpMap(Strict):
     """A height map (PNG or JPEG, relative to the scene file; grey, or the mean of r, g and b),
-    read as stored, not sRGB-decoded: the surface seen as displaced along its normal by `height`
+    read as stored (see `encoding`): the surface seen as displaced along its normal by `height`
     times the texel's value (0..1), its shading normal that of the displaced surface (pbrt-v4's
     and Mitsuba 3's bump mapping). Looked up by the UVs times `scale`, bilinear and repeating."""
 
@@ -344,6 +344,9 @@ class BumpMap(Strict):
     """Multiplies the UVs: a number or `[u, v]` (2 = the map twice across)."""
     height: FiniteFloat = Field(0.01, ge=0)
     """The displacement of a white texel, in scene units (black: none)."""
+    encoding: Literal["linear", "srgb"] = "linear"
+    """How the texels encode heights: `"linear"` as stored, `"srgb"` decoded from sRGB first (as pbrt-v4 reads 8-bit
+    images by default, and Mitsuba 3 bitmaps without `raw`)."""
 
     _scale = field_validator("scale", mode="before")(ImageTexture._scale.__func__)
 

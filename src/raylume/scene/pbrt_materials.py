@@ -46,6 +46,7 @@ class Materials:
         self.warn = warn
         self.textures: dict[str, dict | None] = {}  # spectrum textures; None: not convertible
         self.float_textures: set[str] = set()
+        self.float_images: dict[str, dict] = {}  # float imagemap textures, as bump maps (displacement)
 
     # -- textures ---------------------------------------------------------------------------
     def define_texture(self, d: Directive, p: Params, ctm: np.ndarray) -> None:
@@ -54,6 +55,9 @@ class Materials:
         if kind == "float":
             self.float_textures.add(name)
             self.textures.pop(name, None)
+            self.float_images.pop(name, None)
+            if cls == "imagemap":  # a bump map, where a material's displacement names it
+                self.float_images[name] = self._float_image(d, p)
             for q in d.params:
                 q.used = True  # a float texture is only reported where a material uses it
             return
@@ -92,6 +96,32 @@ class Materials:
         p.string("filter")  # raylume filters textures its own way (mip-maps over the pixel's footprint)
         p.float("maxanisotropy")
         return {"type": "image", "file": filename, "scale": [p.float("uscale", 1.0), p.float("vscale", 1.0)]}
+
+    def _float_image(self, d: Directive, p: Params) -> dict:
+        """A float imagemap as a bump_map table: pbrt-v4 reads a PNG as sRGB unless its encoding
+        says otherwise, other files as linear; its `scale` multiplies the heights."""
+        filename = p.string("filename")
+        if filename is None:
+            raise d.fail('needs "string filename"')
+        if not resolve(filename, d.search_dir).is_file():
+            raise d.fail(f"no such image file {str(resolve(filename, d.search_dir))!r}")
+        default = "sRGB" if filename.lower().endswith(".png") else "linear"
+        encoding = p.string("encoding", default)
+        if encoding.lower() not in ("srgb", "linear"):
+            self.warn(d, f"encoding {encoding!r} is not supported; the texels are decoded as sRGB")
+            encoding = "sRGB"
+        if p.string("mapping", "uv") != "uv" or p.float("udelta", 0.0) or p.float("vdelta", 0.0):
+            self.warn(d, "only the uv mapping with uscale and vscale is supported; the surface's (u, v) is used")
+        if p.bool("invert", False):
+            self.warn(d, "invert is not supported; the heights are used as they are")
+        if p.string("wrap", "repeat") != "repeat":
+            self.warn(d, "only wrap repeat is supported; the image repeats")
+        return {
+            "file": filename,
+            "scale": [p.float("uscale", 1.0), p.float("vscale", 1.0)],
+            "height": p.float("scale", 1.0),
+            "encoding": encoding.lower(),
+        }
 
     def _checker(self, d: Directive, p: Params, ctm: np.ndarray) -> dict:
         colours = []
@@ -135,13 +165,41 @@ class Materials:
         """The raylume material table of a material of type `kind` with parameters p, with its
         normal map. `named` looks up a named material (for mix)."""
         normal_map = None if kind == "mix" else self._normal_map(d, p)  # mix: its materials' own
+        bump_map = None if kind == "mix" else self._bump_map(d, p)
         table = self._material(d, p, kind, named)
-        if normal_map is None:
+        if bump_map is not None and normal_map is not None:
+            self.warn(d, "a displacement and a normalmap: pbrt-v4 bump-maps by the former; the normalmap is ignored")
+            normal_map = None
+        key, found = ("bump_map", bump_map) if bump_map is not None else ("normal_map", normal_map)
+        if found is None:
             return table
         if table.get("type") == "null":
-            self.warn(d, "an interface material has no surface for a normal map to turn; it is ignored")
+            self.warn(d, f"an interface material has no surface for a {key.replace('_', ' ')} to turn; it is ignored")
             return table
-        return {**table, "normal_map": normal_map}
+        return {**table, key: found}
+
+    def _bump_map(self, d: Directive, p: Params) -> dict | None:
+        """The bump_map table of `"texture displacement"`: a float imagemap's heights (pbrt-v4's
+        BumpMap displaces the surface by the texture's value); None for none, or a constant."""
+        kind = p.type_of("displacement")
+        if kind is None:
+            return None
+        if kind != "texture":
+            p.float("displacement")  # a constant displacement moves the surface, and turns no normal
+            return None
+        name = p.texture("displacement")
+        if name in self.float_images:
+            table = dict(self.float_images[name])
+            if table["height"] < 0:
+                self.warn(d, f"displacement texture {name!r} has a negative scale; raylume's heights rise: ignored")
+                return None
+            return table
+        if name in self.float_textures:
+            self.warn(d, f"displacement texture {name!r} is not an imagemap; raylume bump-maps by images only: ignored")
+            return None
+        if name in self.textures:
+            raise d.fail(f"texture {name!r} is a spectrum texture; displacement needs a float texture")
+        raise d.fail(f"no texture named {name!r} (define it with Texture before using it)")
 
     def _normal_map(self, d: Directive, p: Params) -> dict | None:
         """The normal_map table of `"string normalmap"` (pbrt-v4 reads the image as stored, as

@@ -440,10 +440,10 @@ class Builder:
         return {**table, "emission": radiance}
 
     def _needs_uvs(self, s: Placed) -> bool:
-        """Whether the shape's material reads pbrt's (u, v): an image texture or a normal map."""
+        """Whether the shape's material reads pbrt's (u, v): an image texture, a normal or bump map."""
         table = self.materials_doc[s.material]
         texture = table.get("texture")
-        return (texture is not None and texture.get("type") == "image") or "normal_map" in table
+        return (texture is not None and texture.get("type") == "image") or "normal_map" in table or "bump_map" in table
 
     def _object(self, s: Placed, m: np.ndarray) -> dict:
         obj, note = place(s.piece, m, self._material_ref(s), self._needs_uvs(s), s.reverse)
