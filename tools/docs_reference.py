@@ -86,6 +86,13 @@ def scene_tables() -> list[Table]:
             model.BumpMap,
             "A material's `bump_map`: a height map.",
         ),
+        Table(
+            "alpha_map = { ... }",
+            "alpha-map",
+            "materials.NAME.alpha_map",
+            model.AlphaMap,
+            "A material's `alpha_map`: a cut-out mask.",
+        ),
         *_kinds(model.LIGHT_TYPES, "[[lights]]", "lights.N", "lights", "A light"),
         *_kinds(model.OBJECT_TYPES, "[[objects]]", "objects.N", "objects", "An object"),
         Table(
@@ -388,6 +395,7 @@ _SYNTHETIC: dict[str | tuple[str, str], str] = {
     "texture": '{ type = "checker", scale = 0.5 }',
     "normal_map": '{ file = "textures/bricks_normal.png" }',
     "bump_map": '{ file = "textures/bumps.png", height = 0.01 }',
+    "alpha_map": '{ file = "textures/leaf.png" }',
     "material": '"glass"',
     "eta": "[0.143, 0.374, 1.442]",
     "k": "[3.983, 2.385, 1.603]",

@@ -1,6 +1,6 @@
 """Compile stage: materials and textures. Each material's row of the material table is packed by
 its kind's module (kernels/shading/materials/); image textures are decoded to linear float32
-RGB (normal and bump maps kept as stored), mip-mapped, and joined into one texel atlas."""
+RGB (normal, bump and alpha maps kept as stored), mip-mapped, and joined into one texel atlas."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import numpy as np
 from ..errors import SceneError
 from ..kernels.shading import materials as M
 from ..kernels.shading import textures as X
-from ..scene.model import BumpMap, ImageTexture, Material, NormalMap
+from ..scene.model import AlphaMap, BumpMap, ImageTexture, Material, NormalMap
 
 
 def srgb_to_linear(x: np.ndarray) -> np.ndarray:
@@ -29,6 +29,17 @@ def _rgb_of(im) -> np.ndarray:
         grey = np.clip(grey / top, 0.0, 1.0).astype(np.float32)
         return np.repeat(grey[..., None], 3, axis=2)
     return np.asarray(im.convert("RGB"), dtype=np.float32) / np.float32(255.0)
+
+
+def _coverage_of(im) -> np.ndarray:
+    """A mask's coverage as float32 (H, W, 3) in 0..1, the same in each channel: its alpha
+    channel (a palette's transparency included), or its grey (the mean of r, g and b) where it
+    has no alpha."""
+    if "A" in im.getbands() or (im.mode == "P" and "transparency" in im.info):
+        a = np.asarray(im.convert("RGBA"), dtype=np.float32)[..., 3] / np.float32(255.0)
+    else:
+        a = _rgb_of(im).mean(axis=2, dtype=np.float32)
+    return np.repeat(a[..., None], 3, axis=2)
 
 
 def mip_levels(texels: np.ndarray) -> list[np.ndarray]:
@@ -64,16 +75,22 @@ class TextureTable:
         self.rows: list[np.ndarray] = []
         self.parts: list[np.ndarray] = []
         self.size = 0
-        self.loaded: dict[tuple[Path, bool], tuple] = {}
+        self.loaded: dict[tuple[Path, str], tuple] = {}
 
     def add(self, texture, where: str) -> int:
-        """The row of a model texture (checker or image), normal map or bump map."""
+        """The row of a model texture (checker or image), normal, bump or alpha map."""
         row = np.zeros(X.TEX_WIDTH, dtype=np.float64)
-        if isinstance(texture, (ImageTexture, NormalMap, BumpMap)):
-            # maps of normals and heights: as stored, unless a bump map says its heights are sRGB-encoded
-            raw = isinstance(texture, NormalMap) or (isinstance(texture, BumpMap) and texture.encoding == "linear")
-            key = {NormalMap: "normal_map", BumpMap: "bump_map"}.get(type(texture), "texture")
-            offset, tex_w, tex_h, levels, mean = self._image(texture.file, f"{where}.{key}.file", decode=not raw)
+        if isinstance(texture, (ImageTexture, NormalMap, BumpMap, AlphaMap)):
+            # colours sRGB-decoded; maps of normals and heights as stored, unless a bump map says
+            # its heights are sRGB-encoded; masks their alpha channel (or grey) as stored
+            if isinstance(texture, AlphaMap):
+                reading = "coverage"
+            elif isinstance(texture, NormalMap) or (isinstance(texture, BumpMap) and texture.encoding == "linear"):
+                reading = "raw"
+            else:
+                reading = "srgb"
+            key = {NormalMap: "normal_map", BumpMap: "bump_map", AlphaMap: "alpha_map"}.get(type(texture), "texture")
+            offset, tex_w, tex_h, levels, mean = self._image(texture.file, f"{where}.{key}.file", reading)
             row[X.TEX_KIND] = X.IMAGE
             row[X.TEX_COLOR_A : X.TEX_COLOR_A + 3] = mean
             row[X.TEX_OFFSET] = offset
@@ -90,15 +107,16 @@ class TextureTable:
         self.rows.append(row)
         return len(self.rows) - 1
 
-    def _image(self, file: str, where: str, decode: bool = True) -> tuple[int, int, int, int, np.ndarray]:
+    def _image(self, file: str, where: str, reading: str = "srgb") -> tuple[int, int, int, int, np.ndarray]:
         """(offset, width, height, mip levels, mean colour) of the image, loading it once for each
-        way it is read: sRGB-decoded (colours) or as stored (normal maps)."""
+        way it is read: "srgb" (colours, decoded), "raw" (normal and height maps, as stored) or
+        "coverage" (masks: the alpha channel, or the grey, as stored, in all three channels)."""
         path = Path(file)
         if not path.is_absolute():
             path = self.base_dir / path
-        key = (path.resolve(), decode)
+        key = (path.resolve(), reading)
         if key not in self.loaded:
-            texels = self.images[file] if file in self.images else self._load(path, where, decode)
+            texels = self.images[file] if file in self.images else self._load(path, where, reading)
             h, w = texels.shape[:2]
             levels = mip_levels(texels)
             self.loaded[key] = (self.size, w, h, len(levels), texels.reshape(-1, 3).mean(axis=0, dtype=np.float64))
@@ -107,7 +125,7 @@ class TextureTable:
                 self.size += level.shape[0] * level.shape[1]
         return self.loaded[key]
 
-    def _load(self, path: Path, where: str, decode: bool = True) -> np.ndarray:
+    def _load(self, path: Path, where: str, reading: str = "srgb") -> np.ndarray:
         from PIL import Image as PILImage
 
         def fail(why: str):
@@ -121,12 +139,12 @@ class TextureTable:
             with PILImage.open(path) as im:
                 if im.width * im.height > self.MAX_TEXELS:
                     fail(f"texture {path} is {im.width} x {im.height}, more than {self.MAX_TEXELS} texels")
-                rgb = _rgb_of(im)
+                rgb = _coverage_of(im) if reading == "coverage" else _rgb_of(im)
         except SceneError:
             raise
         except (OSError, ValueError, PILImage.DecompressionBombError) as exc:
             fail(f"cannot read texture {path} as an image (PNG or JPEG): {exc}")
-        return (srgb_to_linear(rgb) if decode else rgb).astype(np.float32)
+        return (srgb_to_linear(rgb) if reading == "srgb" else rgb).astype(np.float32)
 
     def table(self) -> np.ndarray:
         if not self.rows:
@@ -142,7 +160,7 @@ class TextureTable:
 def material_row(mat: Material, textures: TextureTable | None = None, where: str = "material") -> np.ndarray:
     """The material's row of the materials table: the columns of its kind, packed by the kind's
     module (its trace-mode approximation in the phong columns), then those every kind has;
-    its texture and normal or bump map are added to `textures`."""
+    its texture and maps are added to `textures`."""
     row = np.zeros(M.MAT_WIDTH, dtype=np.float64)
     M.pack_material(mat, row)
     row[M.MAT_COLOR : M.MAT_COLOR + 3] = mat.color
@@ -162,6 +180,11 @@ def material_row(mat: Material, textures: TextureTable | None = None, where: str
             raise ValueError("a bump-mapped material needs a TextureTable")
         row[M.MAT_BUMP_MAP] = 1 + textures.add(mat.bump_map, where)
         row[M.MAT_BUMP_HEIGHT] = mat.bump_map.height
+    if mat.alpha_map is not None:
+        if textures is None:
+            raise ValueError("an alpha-mapped material needs a TextureTable")
+        row[M.MAT_ALPHA_MAP] = 1 + textures.add(mat.alpha_map, where)
+        row[M.MAT_ALPHA_CUTOFF] = mat.alpha_map.cutoff
     return row
 
 

@@ -179,8 +179,8 @@ def _load_gltf_object(scene: Scene, k: int, obj: Gltf, source):
 
 
 def _reads_uvs(material) -> bool:
-    """Whether a material reads its surface's UVs: an image texture, a normal or a bump map."""
-    maps = material.normal_map is not None or material.bump_map is not None
+    """Whether a material reads its surface's UVs: an image texture, a normal, bump or alpha map."""
+    maps = material.normal_map is not None or material.bump_map is not None or material.alpha_map is not None
     return isinstance(material.texture, ImageTexture) or maps
 
 
@@ -377,7 +377,7 @@ def gather_objects(scene: Scene, source: str) -> Gathered:
                     key = "file" if obj.file is not None else "uvs"  # an inline mesh's UVs are its `uvs`
                     raise SceneError(
                         f"{source}: objects[{k}].{key}: the mesh has no texture coordinates (UVs), "
-                        f"which its material's image texture, normal map or bump map needs{why}"
+                        f"which its material's image texture or map (normal, bump, alpha) needs{why}"
                     )
                 geometry.add_mesh(mesh, m, k, matrices, uvs=needs_uvs(obj))
         except OutOfRange as exc:

@@ -23,7 +23,7 @@ from ..kernels.geometry.shapes import PRIM_KIND, Shape
 from ..kernels.geometry.sweep import sweep_table
 from ..kernels.jit_clock import JitClock
 from ..kernels.scene import KernelScene
-from ..kernels.shading.materials import MAT_TRANSPARENCY
+from ..kernels.shading.materials import MAT_ALPHA_MAP, MAT_TRANSPARENCY
 from ..scene.model import Scene
 from ..scene.validation_errors import name_origins
 from .geometry import build_geometry
@@ -120,7 +120,9 @@ def _compile_scene(scene: Scene, source: str, accelerate: bool) -> CompiledScene
         env_row_z=environment.row_z,
         env_rotation=environment.rotation,
         env_present=environment.present,
-        has_transparency=bool((mat_rows[:, MAT_TRANSPARENCY] > 0).any()),
+        # shadow rays walk from surface to surface where some let light through: transparent
+        # materials (trace mode) and the holes of alpha maps
+        has_transparency=bool((mat_rows[:, MAT_TRANSPARENCY] > 0).any() or (mat_rows[:, MAT_ALPHA_MAP] > 0).any()),
         basic_shapes=bool(np.isin(g.prims[:, PRIM_KIND], (Shape.SPHERE, Shape.TRIANGLE)).all()),
         inst_node_bounds=inst.node_bounds,
         inst_node_index=inst.node_index,
@@ -132,7 +134,7 @@ def _compile_scene(scene: Scene, source: str, accelerate: bool) -> CompiledScene
         medium_interface=media.interface,
         camera_medium=media.camera,
         media_present=media.present,
-        pass_through=media.pass_through,
+        pass_through=media.pass_through or bool((mat_rows[:, MAT_ALPHA_MAP] > 0).any()),
         epsilon_floor=1e-30,
     )
     stats = {

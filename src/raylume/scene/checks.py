@@ -32,6 +32,10 @@ def scene_warnings(scene: Scene, mode: str) -> list[str]:
             f"the scene has no lights, so {mode} mode renders every object black; add [[lights]] "
             '(e.g. type = "ambient") or use --mode cast to see the objects\' colours'
         )
+    if mode == "raster" and any(getattr(scene.material_of(obj), "alpha_map", None) for obj in scene.objects):
+        found.append(
+            "raster mode draws alpha-mapped surfaces whole (their holes are cut in cast, trace and path modes only)"
+        )
     if mode != "path" and (scene.media or scene.render.medium is not None):
         found.append(
             f"participating media render in path mode only: {mode} mode shows the media's boundaries "

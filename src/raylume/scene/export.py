@@ -37,7 +37,7 @@ def scene_document(scene: Scene, folder: str | Path) -> dict:
         return Path(os.path.relpath((scene.base_dir / path).resolve(), folder)).as_posix()
 
     def textures(material) -> None:
-        for key in ("texture", "normal_map", "bump_map"):
+        for key in ("texture", "normal_map", "bump_map", "alpha_map"):
             if isinstance(material, dict) and isinstance(material.get(key), dict):
                 texture = material[key]
                 if "file" in texture:

@@ -351,6 +351,22 @@ class BumpMap(Strict):
     _scale = field_validator("scale", mode="before")(ImageTexture._scale.__func__)
 
 
+class AlphaMap(Strict):
+    """A cut-out mask (PNG or JPEG, relative to the scene file): its alpha channel, or its grey
+    (the mean of r, g and b) where it has none, read as stored. Where the value, looked up by the
+    UVs times `scale` (bilinear, repeating), is below `cutoff`, the surface has a hole: rays pass
+    through as if it were not there (glTF's alphaMode MASK; leaves, fences, lace)."""
+
+    file: str
+    """The image file, relative to the scene file."""
+    scale: tuple[FiniteFloat, FiniteFloat] = (1.0, 1.0)
+    """Multiplies the UVs: a number or `[u, v]` (2 = the mask twice across)."""
+    cutoff: FiniteFloat = Field(0.5, gt=0, le=1)
+    """Below this value (0..1) the surface is cut away (glTF's `alphaCutoff`)."""
+
+    _scale = field_validator("scale", mode="before")(ImageTexture._scale.__func__)
+
+
 TEXTURE_TYPES = ("checker", "image")
 Texture = Annotated[
     Union[Annotated[Checker, Tag("<checker>")], Annotated[ImageTexture, Tag("<image>")]],
@@ -377,6 +393,8 @@ class _MaterialBase(Strict):
     """A tangent-space normal map turning the shading normal: `{ file = "bricks_normal.png" }`."""
     bump_map: BumpMap | None = None
     """A height map turning the shading normal: `{ file = "bumps.png", height = 0.01 }` (not with `normal_map`)."""
+    alpha_map: AlphaMap | None = None
+    """A cut-out mask, holes where its alpha is below `cutoff`: `{ file = "leaf.png" }` (not on an emitter)."""
 
     @field_validator("color", mode="before")
     @classmethod
@@ -392,6 +410,8 @@ class _MaterialBase(Strict):
     def _one_map(self):
         if self.normal_map is not None and self.bump_map is not None:
             raise ValueError("a material takes a normal_map or a bump_map, not both")
+        if self.alpha_map is not None and any(self.emission):
+            raise ValueError("an emitting material cannot take an alpha_map (its holes would be sampled as light)")
         return self
 
     @model_validator(mode="before")
@@ -510,6 +530,7 @@ class NullMaterial(Strict):
     texture: ClassVar[None] = None
     normal_map: ClassVar[None] = None
     bump_map: ClassVar[None] = None
+    alpha_map: ClassVar[None] = None
 
 
 # Material types: the scene's `type` -> its model class (kernels/shading/materials/ has a module

@@ -22,6 +22,7 @@ from ..film.camera import CAM_FORWARD, camera_importance
 from ..film.sampler import DIM_BSDF, dimension_key, key_uniform2, sub_key
 from ..geometry.shapes import NO_HIT, PRIM_LIGHT, offset_epsilon, split_hit, surface
 from ..geometry.traverse import any_hit_leaving, closest_hit_leaving
+from ..shading.alpha_map import in_hole
 from ..shading.frame import shading_frame, to_local, to_world
 from ..shading.lights import at_infinity, hit_area_lights, is_delta, pick_emitter, sample_emission
 from ..shading.materials import (
@@ -164,10 +165,12 @@ def random_walk(C, V, start, o, d, beta, pdf_dir, most, importance, key, dim, sp
         ng, ns, m, obj, face = surface(G, X, prim, b1, b2, p)
         ns = mapped_normal(G, F, X, m, prim, b1, b2, p, ns)
         entering = dot(ng, d) < 0.0
-        if Md.pass_through and index_matched(mat, m):
+        hole = Md.pass_through and in_hole(G, F, X, m, prim, b1, b2, p)
+        if hole or (Md.pass_through and index_matched(mat, m)):
             # a null boundary: the ray goes on unchanged into the medium beyond, no vertex (path
-            # mode's rule); the next vertex's density still converts from the vertex before
-            if Md.present:
+            # mode's rule); the next vertex's density still converts from the vertex before. A
+            # hole in an alpha map the same, in the medium it was in
+            if Md.present and not hole:
                 med = medium_beyond(Md, obj, d, ng)
             eps = offset_epsilon(F.epsilon_floor, p)
             o = madd(p, ng, -eps if entering else eps)

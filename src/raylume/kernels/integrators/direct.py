@@ -14,6 +14,7 @@ import numpy as np
 from ..film.sampler import light_sample
 from ..geometry.shapes import offset_epsilon, surface
 from ..geometry.traverse import any_hit, closest_hit
+from ..shading.alpha_map import in_hole
 from ..shading.lights import (
     LIGHT_INTENSITY,
     LIGHT_SAMPLES,
@@ -114,13 +115,14 @@ def _transparent_shadow(G, F, X, o, d, tmax, node_stack, t_stack):
             return tr, rays
         p = madd(origin, d, t)
         ng, ns, m, obj, face = surface(G, X, prim, b1, b2, p)
-        transparency = F.materials[m, MAT_TRANSPARENCY]
-        if transparency <= 0.0:
-            return (0.0, 0.0, 0.0), rays
-        tr = mul(tr, transparency)
         leaving = dot(ng, d) > 0.0
-        if leaving:  # the segment just travelled lay inside this medium
-            tr = beer_lambert(F.materials, m, tr, t)
+        if not in_hole(G, F, X, m, prim, b1, b2, p):  # a hole in an alpha map lets all through
+            transparency = F.materials[m, MAT_TRANSPARENCY]
+            if transparency <= 0.0:
+                return (0.0, 0.0, 0.0), rays
+            tr = mul(tr, transparency)
+            if leaving:  # the segment just travelled lay inside this medium
+                tr = beer_lambert(F.materials, m, tr, t)
         if max(tr[0], tr[1], tr[2]) < 1e-4:
             return (0.0, 0.0, 0.0), rays
         eps = offset_epsilon(F.epsilon_floor, p)

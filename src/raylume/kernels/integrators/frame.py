@@ -21,6 +21,7 @@ from ..geometry.shapes import NO_HIT, PRIM_LAST, instance_id, split_hit, surface
 from ..geometry.traverse import closest_hit
 from ..geometry.wide_nodes import prefetch_cells, scratch_array, traversal_stacks
 from ..scene import emitters_of, environment_of, geometry_of, media_of, surfaces_of
+from ..shading.alpha_map import past_holes
 from ..shading.environment import environment_radiance
 from ..shading.materials import albedo, aov_albedo
 from ..shading.normal_map import mapped_normal
@@ -299,6 +300,7 @@ def _cast_row(G, F, X, Env, P, j, pair, film, node_stack, t_stack, packets, rays
                 t, prim, b1, b2 = packet_hit(lane, prim_lane, k)
             else:
                 t, prim, b1, b2 = closest_hit(G, X, o, d, 0.0, INF, node_stack, t_stack)
+            t, prim, b1, b2 = past_holes(G, F, X, o, d, t, prim, b1, b2, node_stack, t_stack)
             col = _cast_shade(G, F, X, Env, o, d, t, prim, b1, b2, spread * obliquity(cam, d), bg)
             if pair:  # one sample a pixel: pixel i + k % m of row j + k // m
                 row, c = j + k // m - y0, i + k % m - x0
@@ -394,6 +396,7 @@ def _primary_aovs_row(G, F, X, P, j, A, node_stack, t_stack):
         cone = spread * obliquity(cam, d)
         c0 = i - x0
         t, prim, b1, b2 = closest_hit(G, X, o, d, 0.0, INF, node_stack, t_stack)
+        t, prim, b1, b2 = past_holes(G, F, X, o, d, t, prim, b1, b2, node_stack, t_stack)
         if prim == NO_HIT:
             depth[r, c0] = INF
             obj_id[r, c0] = -1

@@ -21,6 +21,7 @@ import numpy as np
 from ..film.sampler import DIM_BSDF, DIM_LIGHT, dimension_key, key_uniform2, sub_key
 from ..geometry.shapes import NO_HIT, PRIM_LIGHT, offset_epsilon, split_hit, surface
 from ..geometry.traverse import any_hit_between, closest_hit_leaving
+from ..shading.alpha_map import in_hole
 from ..shading.environment import environment_cell, prefetch_environment
 from ..shading.frame import facing_normals, to_local, to_world
 from ..shading.lights import (
@@ -306,10 +307,12 @@ def path_segment(
     ns = mapped_normal(G, F, X, m, prim, b1, b2, p, ns)
     entering = dot(ng, d) < 0.0
     eps = offset_epsilon(F.epsilon_floor, p)
-    if index_matched(mat, m):
+    hole = in_hole(G, F, X, m, prim, b1, b2, p)
+    if hole or index_matched(mat, m):
         # an index-matched boundary: the ray goes on unchanged into the medium beyond, and
-        # the segment does not count as one (Mitsuba's volpath)
-        if Md.present:
+        # the segment does not count as one (Mitsuba's volpath); a hole in an alpha map the
+        # same, in the medium it was in
+        if Md.present and not hole:
             med = medium_beyond(Md, obj, d, ng)
         st = (madd(p, ng, -eps if entering else eps), d, beta, L, rays, depth - 1, prev_pdf, prev_delta,
               cone + spread * t, med, mis_o, mis_t + t, crossings + 1, prim)  # fmt: skip

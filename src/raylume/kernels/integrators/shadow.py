@@ -9,6 +9,7 @@ from ..film.sampler import sub_key
 from ..geometry.shapes import NO_HIT, offset_epsilon, surface
 from ..geometry.sweep import SWEEP_OTHER
 from ..geometry.traverse import closest_hit
+from ..shading.alpha_map import in_hole
 from ..shading.lights import SHADOW_SHORTEN
 from ..shading.materials import index_matched
 from ..shading.media import medium_beyond, transmittance
@@ -79,9 +80,10 @@ def shadow_transmittance(G, F, X, Md, o, d, tmax, med, key, node_stack, t_stack)
             return tr
         p = madd(o, d, t)
         ng, _, m, obj, _ = surface(G, X, prim, b1, b2, p)
-        if not index_matched(F.materials, m):
+        hole = in_hole(G, F, X, m, prim, b1, b2, p)
+        if not (hole or index_matched(F.materials, m)):
             return ZERO3
-        if Md.present:
+        if Md.present and not hole:
             med = medium_beyond(Md, obj, d, ng)
         eps = offset_epsilon(F.epsilon_floor, p)
         o = madd(p, ng, eps if dot(d, ng) > 0.0 else -eps)

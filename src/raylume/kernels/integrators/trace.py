@@ -11,6 +11,7 @@ import math
 
 from ..geometry.shapes import offset_epsilon, surface
 from ..geometry.traverse import closest_hit
+from ..shading.alpha_map import MAX_HOLES, in_hole
 from ..shading.environment import environment_radiance
 from ..shading.materials import MAT_EMISSION, MAT_IOR, MAT_REFLECTIVE, MAT_TRANSPARENCY, albedo, beer_lambert
 from ..shading.normal_map import mapped_normal
@@ -58,6 +59,7 @@ def trace_ray(G, F, L, X, Env, o, d, spread, max_depth, background, rays, node_s
     depth = max_depth
     cone = 0.0  # the cone's radius at o
     pending = True
+    crossings = 0  # holes passed (alpha maps), all rays of the sample together: at most MAX_HOLES
     while True:
         if not pending:
             if top == 0:
@@ -79,9 +81,16 @@ def trace_ray(G, F, L, X, Env, o, d, spread, max_depth, background, rays, node_s
             continue
         p = madd(o, d, t)
         ng, ns, m, obj, face = surface(G, X, prim, b1, b2, p)
-        ns = mapped_normal(G, F, X, m, prim, b1, b2, p, ns)
         mat = F.materials
         entering = dot(ng, d) < 0.0
+        if crossings < MAX_HOLES and in_hole(G, F, X, m, prim, b1, b2, p):
+            # a hole in an alpha map: the ray goes on from the far side, as if nothing were there
+            crossings += 1
+            cone += spread * t
+            eps = offset_epsilon(F.epsilon_floor, p)
+            o, pending = madd(p, ng, -eps if entering else eps), True
+            continue
+        ns = mapped_normal(G, F, X, m, prim, b1, b2, p, ns)
         if not entering:
             # The segment just travelled lay inside this surface's medium.
             w = beer_lambert(mat, m, w, t)

@@ -23,6 +23,8 @@ from .registry import (
 )
 from .table import (
     MAT_ABSORPTION,
+    MAT_ALPHA_CUTOFF,
+    MAT_ALPHA_MAP,
     MAT_BUMP_HEIGHT,
     MAT_BUMP_MAP,
     MAT_COLOR,
@@ -48,6 +50,8 @@ __all__ = [
     "BY_NAME",
     "KINDS",
     "MAT_ABSORPTION",
+    "MAT_ALPHA_CUTOFF",
+    "MAT_ALPHA_MAP",
     "MAT_BUMP_HEIGHT",
     "MAT_BUMP_MAP",
     "MAT_COLOR",

@@ -28,7 +28,9 @@ MAT_NORMAL_MAP = 23
 MAT_NORMAL_STRENGTH = 24  # multiplies the map's x and y (glTF's normalTexture.scale)
 MAT_BUMP_MAP = 25  # 1 + the bump (height) map's row in the texture table, 0 for none
 MAT_BUMP_HEIGHT = 26  # the displacement of a white texel, in scene units
-MAT_WIDTH = 27
+MAT_ALPHA_MAP = 27  # 1 + the cut-out mask's row in the texture table, 0 for none
+MAT_ALPHA_CUTOFF = 28  # below this coverage the surface has a hole
+MAT_WIDTH = 29
 
 
 @inline_function
