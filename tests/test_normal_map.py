@@ -165,7 +165,7 @@ def test_a_normal_map_without_uvs_is_an_error_naming_the_object(tmp_path):
     path, _ = map_file(tmp_path, TILTED_U)
     scene = floor_scene({"normal_map": {"file": path}}, UVS, (1, 1, 0))
     del scene["objects"][0]["uvs"]
-    no_uvs = r"objects\[0\]\.uvs: the mesh has no texture coordinates .* normal map or bump map needs"
+    no_uvs = r"objects\[0\]\.uvs: the mesh has no texture coordinates .* map \(normal, bump, alpha\) needs"
     with pytest.raises(SceneError, match=no_uvs):
         raylume.render(raylume.scene_from_dict(scene))
 
