@@ -307,7 +307,7 @@ def path_segment(
     ns = mapped_normal(G, F, X, m, prim, b1, b2, p, ns)
     entering = dot(ng, d) < 0.0
     eps = offset_epsilon(F.epsilon_floor, p)
-    hole = in_hole(G, F, X, m, prim, b1, b2, p)
+    hole = Md.pass_through and in_hole(G, F, X, m, prim, b1, b2, p)  # (alpha maps make pass_through)
     if hole or index_matched(mat, m):
         # an index-matched boundary: the ray goes on unchanged into the medium beyond, and
         # the segment does not count as one (Mitsuba's volpath); a hole in an alpha map the
