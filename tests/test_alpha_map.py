@@ -103,6 +103,17 @@ def test_the_cutoff_decides_which_coverage_is_a_hole(tmp_path):
         assert (image.aovs["object"][SOLID] == 0) == solid, cutoff
 
 
+def test_an_srgb_encoded_mask_is_decoded_before_the_cutoff(tmp_path):
+    # stored 120 / 255 = 0.4706 is 0.1878 decoded from sRGB: solid under a cutoff of 0.3 read as
+    # stored, a hole decoded (pbrt-v4's and Mitsuba 3's reading of an 8-bit mask)
+    path = tmp_path / "grey.png"
+    PILImage.fromarray(np.full((4, 4), 120, dtype=np.uint8), mode="L").save(path)
+    for encoding, solid in (("linear", True), ("srgb", False)):
+        mask = {"file": str(path), "cutoff": 0.3, "encoding": encoding}
+        image = raylume.render(raylume.scene_from_dict(scene(mask, "cast")))
+        assert (image.aovs["object"][SOLID] == 0) == solid, encoding
+
+
 def test_an_emitting_material_cannot_take_an_alpha_map(tmp_path):
     document = scene({"file": half_mask(tmp_path)}, "path")
     document["materials"]["front"]["emission"] = [1, 1, 1]

@@ -337,6 +337,134 @@ def test_normal_texture_turns_the_normal_up_the_image_and_scale_is_its_strength(
     np.testing.assert_allclose(normal.aovs["normal"][4, 4], [n_t[0], n_t[1], -n_t[2]], atol=1e-6)
 
 
+# ------------------------------------------------------------------ alpha: MASK, BLEND, OPAQUE
+
+
+def half_alpha(path, colour=(255, 40, 40)):
+    """An 8 x 8 RGBA image, opaque `colour` everywhere, its alpha 0 on the left half (u < 0.5),
+    128 on the right."""
+    pixels = np.zeros((8, 8, 4), dtype=np.uint8)
+    pixels[..., :3] = colour
+    pixels[:, 4:, 3] = 128
+    PILImage.fromarray(pixels, mode="RGBA").save(path)
+
+
+def masked_materials(b: Builder, textured: dict) -> dict:
+    """Materials of every alpha case, by name."""
+    cases = {
+        "mask": {"alphaMode": "MASK", "alphaCutoff": 0.25, "pbr": {**textured, "baseColorFactor": [1, 1, 1, 0.8]}},
+        "mask_default": {"alphaMode": "MASK", "pbr": textured},
+        "blend": {"alphaMode": "BLEND", "pbr": textured},
+        "opaque": {"alphaCutoff": 0.9, "pbr": textured},
+        "faint": {"alphaMode": "MASK", "pbr": {"baseColorFactor": [1, 1, 1, 0.3]}},
+        "firm": {"alphaMode": "MASK", "pbr": {"baseColorFactor": [1, 1, 1, 0.7]}},
+        "lamp": {"alphaMode": "MASK", "emissiveFactor": [1, 1, 1], "pbr": textured},
+    }
+    out = {}
+    for name, case in cases.items():
+        extra = {k: v for k, v in case.items() if k != "pbr"}
+        out[name] = b.material(name=name, pbrMetallicRoughness={"metallicFactor": 0, **case["pbr"]}, **extra)
+    return out
+
+
+def test_alpha_mask_is_the_alpha_map_blend_a_mask_at_a_half_and_opaque_nothing(tmp_path):
+    half_alpha(tmp_path / "leaf.png")
+    b = Builder()
+    b.doc["images"] = [{"uri": "leaf.png"}]
+    b.doc["textures"] = [{"source": 0}]
+    materials = masked_materials(b, {"baseColorTexture": {"index": 0}})
+    for k, index in enumerate(materials.values()):
+        b.node(mesh=b.quad(k, k + 1, 0, 1, material=index))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        imported = read_gltf(b.gltf(tmp_path / "alpha.gltf"))
+    warned = [str(w.message) for w in caught if issubclass(w.category, SceneWarning)]
+    by_name = {}
+    for part in imported.parts:
+        by_name[next(n for n, i in materials.items() if part.name == f"meshes[{i}]/0")] = imported.materials[
+            part.material
+        ]
+    coverage = lambda m: imported.images[m.alpha_map.file][..., 0]  # noqa: E731
+    # MASK: the texture's alpha times the factor's, cut below alphaCutoff
+    mask = by_name["mask"]
+    assert mask.alpha_map.cutoff == 0.25 and mask.alpha_map.encoding == "linear"
+    np.testing.assert_allclose(coverage(mask)[:, :4], 0.0)
+    np.testing.assert_allclose(coverage(mask)[:, 4:], 128 / 255 * 0.8, rtol=1e-6)
+    assert imported.images[mask.alpha_map.file].shape == (8, 8, 3)
+    assert mask.texture is not None  # the colour stays the texture's
+    assert by_name["mask_default"].alpha_map.cutoff == 0.5
+    # BLEND: a mask at 0.5, with a warning naming the material
+    assert by_name["blend"].alpha_map.cutoff == 0.5
+    assert any("materials[2] (blend) is alphaMode BLEND" in w and "cut as a mask at alpha 0.5" in w for w in warned)
+    assert by_name["opaque"].alpha_map is None  # OPAQUE (the default): alphaCutoff ignored
+    # no texture: a factor alpha below the cutoff is a hole everywhere, one above it nothing
+    faint = by_name["faint"]
+    assert faint.alpha_map.cutoff == 0.5 and coverage(faint).shape == (1, 1) and coverage(faint)[0, 0] < 0.5
+    assert by_name["firm"].alpha_map is None
+    # an emitter keeps its emission, not its mask
+    lamp = by_name["lamp"]
+    assert lamp.alpha_map is None and max(lamp.emission) > 0
+    assert any("materials[6] emits light and is alphaMode MASK" in w for w in warned), warned
+    assert len(warned) == 2, warned
+
+
+@pytest.mark.parametrize(
+    ("table", "message"),
+    [
+        ({"alphaMode": "CLIP"}, r"materials\[0\]\.alphaMode is 'CLIP', not OPAQUE, MASK or BLEND\."),
+        ({"alphaMode": "MASK", "alphaCutoff": -0.5}, r"materials\[0\]\.alphaCutoff is -0\.5, not >= 0"),
+    ],
+)
+def test_an_unknown_alpha_mode_or_a_negative_cutoff_is_an_error(tmp_path, table, message):
+    b = Builder()
+    b.node(mesh=b.quad(0, 1, 0, 1, material=b.material(**table)))
+    with pytest.raises(SceneError, match=message):
+        gltf_scene(b.glb(tmp_path / "bad_alpha.glb"))
+
+
+def test_a_masked_gltf_quad_renders_as_the_toml_quad_with_its_alpha_map(tmp_path):
+    """A quad whose texture's alpha is 0 on its left half, in front of a wall: rendered from the
+    file, and as the same scene written with the alpha_map (raylume's z is the file's -z)."""
+    half_alpha(tmp_path / "leaf.png")
+    b = Builder()
+    b.doc["images"] = [{"uri": "leaf.png"}]
+    b.doc["textures"] = [{"source": 0}]
+    leaf = b.material(alphaMode="MASK", pbrMetallicRoughness={"baseColorTexture": {"index": 0}, "metallicFactor": 0})
+    wall = b.material(pbrMetallicRoughness={"baseColorFactor": [0.1, 0.2, 0.8, 1], "metallicFactor": 0})
+    b.node(mesh=b.quad(-1, 1, -1, 1, material=leaf))
+    b.node(mesh=b.quad(-3, 3, -3, 3, z=-1, material=wall))
+    b.camera(2 * math.atan(0.5), aspect=2.0, translation=[0, 0, 5])
+    scene = load_scene(b.glb(tmp_path / "leaf.glb")).replace(render={"mode": "trace", "spp": 1})
+
+    def toml_scene(alpha_map: dict | None):
+        quad = {"type": "diffuse", "texture": {"type": "image", "file": "leaf.png"}}
+        if alpha_map is not None:
+            quad["alpha_map"] = alpha_map
+        return scene.replace(
+            objects=[
+                {
+                    "type": "mesh",
+                    "vertices": [[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]],
+                    "faces": [[0, 2, 1], [0, 3, 2]],
+                    "uvs": [[0, 0], [1, 0], [1, 1], [0, 1]],
+                    "material": quad,
+                },
+                {
+                    "type": "mesh",
+                    "vertices": [[-3, -3, 1], [3, -3, 1], [3, 3, 1], [-3, 3, 1]],
+                    "faces": [[0, 2, 1], [0, 3, 2]],
+                    "material": {"type": "diffuse", "color": [0.1, 0.2, 0.8]},
+                },
+            ]
+        ).with_base_dir(tmp_path)
+
+    a = raylume.render(scene, width=24, height=12, seed=2, aovs=False).rgb
+    b_ = raylume.render(toml_scene({"file": "leaf.png"}), width=24, height=12, seed=2, aovs=False).rgb
+    whole = raylume.render(toml_scene(None), width=24, height=12, seed=2, aovs=False).rgb
+    np.testing.assert_allclose(a, b_, rtol=1e-5, atol=1e-6)
+    assert np.abs(a - whole).max() > 0.05, "the mask changes nothing: the test would prove nothing"
+
+
 # ------------------------------------------------------------------ the file against its TOML twin
 
 TWIN = """

@@ -591,3 +591,56 @@ uvs = [[0, 0], [1, 0], [0, 1], [1, 1]]
     )
     mapped = render_both(tmp_path, pbrt, toml)
     assert np.abs(mapped.rgb - flat.rgb).max() > 0.05, "the map changes nothing: the test would prove nothing"
+
+
+def test_alpha_maps(tmp_path):
+    """A shape's "texture alpha" naming a float imagemap gives its material an alpha_map (pbrt-v4
+    cuts where alpha is 0 and keeps a fraction alpha elsewhere; raylume cuts below 0.5, a PNG's
+    texels sRGB-decoded as pbrt-v4 reads them): the same bits as the TOML's alpha_map, a wall
+    seen and lit through the holes."""
+    mask = np.zeros((8, 8), dtype=np.uint8)
+    mask[:, 4:] = 255
+    mask[:2] = 255
+    PILImage.fromarray(mask, mode="L").save(tmp_path / "mask.png")
+    pbrt = (
+        HEADER
+        + """
+LightSource "point" "rgb I" [8 8 8] "point3 from" [1 4 -2]
+Texture "leaf" "float" "imagemap" "string filename" "mask.png"
+AttributeBegin
+  Material "diffuse" "rgb reflectance" [0.7 0.6 0.5]
+  Shape "bilinearmesh" "point3 P" [-2 0.5 1  0 0.5 1  -2 2.5 1  0 2.5 1] "point2 uv" [0 0  1 0  0 1  1 1]
+    "texture alpha" "leaf"
+AttributeEnd
+Shape "bilinearmesh" "point3 P" [-4 0 3  4 0 3  -4 4 3  4 4 3]
+"""
+        + FLOOR_PBRT
+    )
+    alpha = 'alpha_map = { file = "mask.png", cutoff = 0.5, encoding = "srgb" }'
+    toml = (
+        TOML_HEADER
+        + """
+[[lights]]
+type = "point"
+position = [1, 4, -2]
+intensity = 8
+
+[[objects]]
+type = "mesh"
+vertices = [[-2, 0.5, 1], [0, 0.5, 1], [-2, 2.5, 1], [0, 2.5, 1]]
+faces = [[0, 1, 3], [0, 3, 2]]
+uvs = [[0, 0], [1, 0], [0, 1], [1, 1]]
+"""
+        + f'material = {{ type = "diffuse", color = [0.7, 0.6, 0.5], {alpha} }}\n'
+        + """
+[[objects]]
+type = "mesh"
+vertices = [[-4, 0, 3], [4, 0, 3], [-4, 4, 3], [4, 4, 3]]
+faces = [[0, 1, 3], [0, 3, 2]]
+material = "pbrt-default"
+"""
+        + FLOOR_TOML.format(material="pbrt-default")
+    )
+    whole = render_both(tmp_path, pbrt.replace('\n    "texture alpha" "leaf"', ""), toml.replace(f", {alpha}", ""))
+    cut = render_both(tmp_path, pbrt, toml)
+    assert np.abs(cut.rgb - whole.rgb).max() > 0.05, "the mask changes nothing: the test would prove nothing"

@@ -82,9 +82,9 @@ class TextureTable:
         row = np.zeros(X.TEX_WIDTH, dtype=np.float64)
         if isinstance(texture, (ImageTexture, NormalMap, BumpMap, AlphaMap)):
             # colours sRGB-decoded; maps of normals and heights as stored, unless a bump map says
-            # its heights are sRGB-encoded; masks their alpha channel (or grey) as stored
+            # its heights are sRGB-encoded; masks their alpha channel (or grey) as stored, unless sRGB-encoded
             if isinstance(texture, AlphaMap):
-                reading = "coverage"
+                reading = "coverage" if texture.encoding == "linear" else "coverage-srgb"
             elif isinstance(texture, NormalMap) or (isinstance(texture, BumpMap) and texture.encoding == "linear"):
                 reading = "raw"
             else:
@@ -110,7 +110,8 @@ class TextureTable:
     def _image(self, file: str, where: str, reading: str = "srgb") -> tuple[int, int, int, int, np.ndarray]:
         """(offset, width, height, mip levels, mean colour) of the image, loading it once for each
         way it is read: "srgb" (colours, decoded), "raw" (normal and height maps, as stored) or
-        "coverage" (masks: the alpha channel, or the grey, as stored, in all three channels)."""
+        "coverage" (masks: the alpha channel, or the grey, as stored, in all three channels;
+        "coverage-srgb" the same decoded from sRGB)."""
         path = Path(file)
         if not path.is_absolute():
             path = self.base_dir / path
@@ -139,12 +140,12 @@ class TextureTable:
             with PILImage.open(path) as im:
                 if im.width * im.height > self.MAX_TEXELS:
                     fail(f"texture {path} is {im.width} x {im.height}, more than {self.MAX_TEXELS} texels")
-                rgb = _coverage_of(im) if reading == "coverage" else _rgb_of(im)
+                rgb = _coverage_of(im) if reading.startswith("coverage") else _rgb_of(im)
         except SceneError:
             raise
         except (OSError, ValueError, PILImage.DecompressionBombError) as exc:
             fail(f"cannot read texture {path} as an image (PNG or JPEG): {exc}")
-        return (srgb_to_linear(rgb) if reading == "srgb" else rgb).astype(np.float32)
+        return (srgb_to_linear(rgb) if reading in ("srgb", "coverage-srgb") else rgb).astype(np.float32)
 
     def table(self) -> np.ndarray:
         if not self.rows:

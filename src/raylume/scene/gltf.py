@@ -26,8 +26,11 @@ baseColorTexture is multiplied by baseColorFactor and replaces the colour (sampl
 TEXCOORD_0, repeating); metallicRoughnessTexture and emissiveTexture scale their factors by the
 texture's mean (raylume's materials have no per-texel metallic, roughness or emission);
 normalTexture is the normal map (its scale the strength; tangents from the UVs, not the
-TANGENT attribute); alpha (alphaMode, the base colour's alpha), occlusion textures and
-samplers' wrap modes are ignored; every surface is two-sided.
+TANGENT attribute); alphaMode MASK is the alpha map (baseColorTexture's alpha times
+baseColorFactor's, kept in `images` as its own coverage image, cut below alphaCutoff), BLEND a
+mask at 0.5 with a warning (raylume has no partial transparency), and an emissive material
+keeps its emission without the mask (a warning); occlusion textures and samplers' wrap modes
+are ignored; every surface is two-sided.
 
 Lights (KHR_lights_punctual, colour times intensity): a point or spot light's intensity in
 candela becomes raylume's radiant intensity (W/sr) one to one, a directional light's
@@ -484,8 +487,8 @@ class _Importer:
             self.material_rows[index] = len(self.materials) - 1
         return self.material_rows[index]
 
-    def _texture(self, info, where: str) -> np.ndarray | None:
-        """The image of a textureInfo as floats 0..1 (H, W, 3), or None."""
+    def _texture(self, info, where: str, alpha: bool = False) -> np.ndarray | None:
+        """The image of a textureInfo as floats 0..1 (H, W, 3), with `alpha` (H, W, 4), or None."""
         if not isinstance(info, dict):
             return None
         f = self.file
@@ -496,7 +499,7 @@ class _Importer:
         if source is None:
             self.warn(f"{where}: textures[{info.get('index')}] has no source image (an extension's format?); ignored")
             return None
-        return f.image(source, f"textures[{info.get('index')}].source").astype(np.float64) / 255.0
+        return f.image(source, f"textures[{info.get('index')}].source", alpha).astype(np.float64) / 255.0
 
     def _normal_map(self, info, here: str, table: dict) -> None:
         """normalTexture as the material's normal map: its texels as stored (glTF's normal maps
@@ -513,20 +516,54 @@ class _Importer:
         self.images[key] = image.astype(np.float32)
         table["normal_map"] = {"file": key, "strength": strength}
 
+    def _alpha_map(self, mat: dict, here: str, alpha: float, image: np.ndarray | None, emissive: bool, table: dict):
+        """alphaMode MASK (or BLEND, approximated by a mask) as the material's alpha map: the
+        coverage baseColorTexture's alpha times baseColorFactor's (a 1 x 1 image of the factor's
+        without a texture), cut below alphaCutoff (BLEND: 0.5). Nothing where nothing is cut."""
+        f = self.file
+        mode = mat.get("alphaMode", "OPAQUE")
+        if mode == "OPAQUE":
+            return  # alphaCutoff is ignored, as the spec has it
+        if mode not in ("MASK", "BLEND"):
+            f.fail(f"{here}.alphaMode is {mode!r}, not OPAQUE, MASK or BLEND")
+        if mode == "MASK":
+            cutoff = f.number(mat.get("alphaCutoff"), f"{here}.alphaCutoff", 0.5)
+            if cutoff < 0:
+                f.fail(f"{here}.alphaCutoff is {cutoff:g}, not >= 0")
+        else:
+            cutoff = 0.5
+            self.warn(
+                f"{here} ({mat.get('name') or 'unnamed'}) is alphaMode BLEND; raylume has no partial transparency, "
+                "so it is cut as a mask at alpha 0.5 (solid above, a hole below)"
+            )
+        coverage = np.clip(alpha, 0.0, 1.0) * (image[..., 3] if image is not None else np.ones((1, 1)))
+        if cutoff == 0 or coverage.min() >= cutoff:
+            return  # no texel below the cutoff, and no bilinear lookup between them: no hole
+        if emissive:
+            self.warn(f"{here} emits light and is alphaMode {mode}; raylume's emitters take no mask: drawn whole")
+            return
+        if cutoff > 1:  # every coverage is below it: one hole
+            coverage, cutoff = np.zeros((1, 1)), 1.0
+        key = f"{f.path.resolve()}#{here}.alpha"
+        self.images[key] = np.repeat(coverage[..., None], 3, axis=2).astype(np.float32)
+        table["alpha_map"] = {"file": key, "cutoff": cutoff}
+
     def _convert(self, index: int | None) -> Material:
         """glTF material `index` (None: the spec's default material) as a raylume Material."""
         f = self.file
         mat = {} if index is None else f.item("materials", index, "a primitive's material")
         here = f"materials[{index}]"
         pbr = mat.get("pbrMetallicRoughness") or {}
-        base = np.clip(f.numbers(pbr.get("baseColorFactor"), 4, f"{here}.baseColorFactor", (1, 1, 1, 1))[:3], 0, 1)
+        factor = f.numbers(pbr.get("baseColorFactor"), 4, f"{here}.baseColorFactor", (1, 1, 1, 1))
+        base = np.clip(factor[:3], 0, 1)
+        masked = mat.get("alphaMode", "OPAQUE") != "OPAQUE"
         metallic = float(np.clip(f.number(pbr.get("metallicFactor"), f"{here}.metallicFactor", 1), 0, 1))
         roughness = float(np.clip(f.number(pbr.get("roughnessFactor"), f"{here}.roughnessFactor", 1), 0, 1))
         table: dict = {}
-        image = self._texture(pbr.get("baseColorTexture"), f"{here}.pbrMetallicRoughness.baseColorTexture")
-        if image is not None:
+        colours = self._texture(pbr.get("baseColorTexture"), f"{here}.pbrMetallicRoughness.baseColorTexture", masked)
+        if colours is not None:
             key = f"{f.path.resolve()}#{here}.baseColorTexture"
-            self.images[key] = (_srgb_to_linear(image) * base).astype(np.float32)
+            self.images[key] = (_srgb_to_linear(colours[..., :3]) * base).astype(np.float32)
             table["texture"] = {"type": "image", "file": key}
         where = f"{here}.pbrMetallicRoughness.metallicRoughnessTexture"
         image = self._texture(pbr.get("metallicRoughnessTexture"), where)
@@ -546,7 +583,9 @@ class _Importer:
         )
         ior = f.number((ext.get("KHR_materials_ior") or {}).get("ior"), f"{here}.ior", 1.5)
         ior = ior if ior >= 1 else 1.5  # 0 (a KHR_materials_ior special case) and < 1: the default
-        table.update(color=base.tolist(), emission=np.maximum(emission, 0).tolist(), roughness=roughness**2)
+        emission = np.maximum(emission, 0)
+        self._alpha_map(mat, here, float(factor[3]), colours if masked else None, bool(emission.any()), table)
+        table.update(color=base.tolist(), emission=emission.tolist(), roughness=roughness**2)
         if transmission >= 0.5:
             table.update(type="dielectric", ior=ior)
         elif metallic >= 0.5:

@@ -248,8 +248,9 @@ class GltfFile:
         values[indices] = replace
         return values
 
-    def image(self, index, where: str) -> np.ndarray:
-        """images[index] decoded to uint8 RGB (H, W, 3), through Pillow."""
+    def image(self, index, where: str, alpha: bool = False) -> np.ndarray:
+        """images[index] decoded to uint8 RGB (H, W, 3), or RGBA (H, W, 4) with `alpha` (opaque
+        where the image has no alpha channel, as glTF reads it), through Pillow."""
         from PIL import Image as PILImage
 
         img = self.item("images", index, where)
@@ -266,7 +267,7 @@ class GltfFile:
             with PILImage.open(io.BytesIO(data)) as im:
                 if im.width * im.height > MAX_TEXELS:
                     self.fail(f"texture {name} is {im.width} x {im.height}, more than {MAX_TEXELS} texels")
-                return np.asarray(im.convert("RGB"), dtype=np.uint8)
+                return np.asarray(im.convert("RGBA" if alpha else "RGB"), dtype=np.uint8)
         except GltfError:
             raise
         except (OSError, ValueError, PILImage.DecompressionBombError) as exc:

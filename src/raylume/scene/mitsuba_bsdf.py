@@ -12,6 +12,10 @@
 | null | null |
 | normalmap | its BSDF, with the bitmap as the material's `normal_map` |
 | bumpmap | its BSDF, with the bitmap as the material's `bump_map` (`scale` its height) |
+| mask | its BSDF, with a bitmap `opacity` as its `alpha_map` (cut at 0.5); a constant: null below 0.5 |
+
+A mask's bitmap is read as Mitsuba's eval_1 reads it, as far as raylume's alpha map can: its
+grey (alpha dropped), sRGB-decoded unless raw; an alpha channel is warned about.
 
 Rough plugins map `alpha` to `roughness` (both GGX alpha); a Beckmann distribution becomes GGX
 of the same alpha, with a warning. Anything else warns and becomes a grey diffuse material.
@@ -154,6 +158,54 @@ def bump_map_table(ctx: Context, node: Node, props: Props) -> dict | None:
         return None
     table, raw = bitmap
     return {**table, "height": height, "encoding": "linear" if raw else "srgb"}
+
+
+def mask_table(ctx: Context, node: Node, props: Props) -> dict | bool | None:
+    """The `alpha_map` of a <bsdf type="mask">: its bitmap opacity, sRGB-decoded unless `raw`, cut
+    below 0.5 (Mitsuba keeps a fraction `opacity` of the hits, which 0.5 approximates for masks
+    of 0 and 1). A constant opacity (Mitsuba's default 0.5) cuts nothing (None) from 0.5 up and
+    everything (False: the mask is then Mitsuba's null BSDF) below; None too (with a warning)
+    where raylume cannot read the texture."""
+    opacity = props.take("opacity")
+    if opacity is not None and opacity.tag == "texture":
+        bitmap = _map_bitmap(ctx, opacity, "opacity mask")
+        if bitmap is None:
+            return None
+        table, raw = bitmap
+        if _has_alpha(ctx.folder / table["file"]):
+            ctx.warn(
+                opacity,
+                "Mitsuba drops this bitmap's alpha channel and reads its grey (the luminance of r, g and b); "
+                "raylume's alpha map reads the alpha channel",
+            )
+        return {**table, "cutoff": 0.5, **({} if raw else {"encoding": "srgb"})}
+    if opacity is None:
+        value = 0.5
+    else:
+        r, g, b = colour_of(opacity, "opacity")
+        value = 0.2126 * r + 0.7152 * g + 0.0722 * b  # Mitsuba reads a colour's luminance as a float
+    value = min(max(value, 0.0), 1.0)
+    if value >= 1.0:
+        return None
+    if value <= 0.0:
+        return False  # exactly Mitsuba's null BSDF
+    ctx.warn(
+        node,
+        f"opacity {value:g}: Mitsuba keeps that fraction of the rays that hit the surface; raylume cuts masks at "
+        f"0.5, so it is {'invisible (null)' if value < 0.5 else 'drawn solid'}",
+    )
+    return False if value < 0.5 else None
+
+
+def _has_alpha(path) -> bool:
+    """Whether the image has an alpha channel (or a palette's transparency)."""
+    from PIL import Image as PILImage
+
+    try:
+        with PILImage.open(path) as im:
+            return "A" in im.getbands() or (im.mode == "P" and "transparency" in im.info)
+    except (OSError, ValueError):
+        return False  # the compiler names an unreadable image
 
 
 def _map_bitmap(ctx: Context, texture: Node, what: str) -> tuple[dict, bool] | None:
@@ -315,7 +367,22 @@ def bsdf_table(ctx: Context, node: Node) -> dict:
             ctx.warn(node, f"a {what} around another map: raylume keeps the inner one")
             return table
         return {**table, key: found}
-    if kind in ("mask", "blendbsdf"):
+    if kind == "mask":
+        nested = [p for p in props.plugins if p.tag == "bsdf"]
+        if not nested:
+            raise node.error("needs a nested <bsdf>")
+        alpha = mask_table(ctx, node, props)
+        table = bsdf_table(ctx, nested[0])
+        ctx.done(node, props)
+        if alpha is False:
+            return {"type": "null"}
+        if alpha is None or table.get("type") == "null":
+            return table
+        if "alpha_map" in table:
+            ctx.warn(node, "a mask around another mask: raylume keeps the inner one")
+            return table
+        return {**table, "alpha_map": alpha}
+    if kind == "blendbsdf":
         nested = [p for p in props.plugins if p.tag == "bsdf"]
         if not nested:
             raise node.error("needs a nested <bsdf>")

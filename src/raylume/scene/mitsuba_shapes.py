@@ -74,6 +74,13 @@ class Shapes:
             table = dict(self.materials[material]) if isinstance(material, str) else dict(material)
             if table.get("type") == "null":
                 table = {"type": "diffuse", "color": [0.0, 0.0, 0.0]}  # raylume's null surface cannot emit
+            if "alpha_map" in table:
+                del table["alpha_map"]
+                self.ctx.warn(
+                    node,
+                    "an area emitter on a masked BSDF: raylume's emitters take no alpha map (its holes would be "
+                    "sampled as light), so the shape is drawn and lit whole",
+                )
             table["emission"] = area_radiance(self.ctx, emitter)
             material = table
         return material
@@ -227,16 +234,22 @@ class Shapes:
     def bump_mapped(self, material: dict | str) -> bool:
         return "bump_map" in self.table(material)
 
+    def alpha_mapped(self, material: dict | str) -> bool:
+        return "alpha_map" in self.table(material)
+
     def reads_uvs(self, material: dict | str) -> bool:
-        """Whether the material reads the surface's (u, v): an image texture, a normal or bump map."""
-        return self.image_textured(material) or self.normal_mapped(material) or self.bump_mapped(material)
+        """Whether the material reads the surface's (u, v): an image texture, a normal, bump or alpha map."""
+        maps = self.normal_mapped(material) or self.bump_mapped(material) or self.alpha_mapped(material)
+        return self.image_textured(material) or maps
 
     def uv_images(self, material: dict | str) -> str:
-        """What reads the (u, v), for warnings: "texture", "normal map", "bump map", or two of them."""
+        """What reads the (u, v), for warnings: "texture", "normal map", "bump map", "alpha map", or
+        some of them."""
         found = (
             ("texture", self.image_textured(material)),
             ("normal map", self.normal_mapped(material)),
             ("bump map", self.bump_mapped(material)),
+            ("alpha map", self.alpha_mapped(material)),
         )
         return " and ".join(what for what, has in found if has)
 

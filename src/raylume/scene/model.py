@@ -353,7 +353,7 @@ class BumpMap(Strict):
 
 class AlphaMap(Strict):
     """A cut-out mask (PNG or JPEG, relative to the scene file): its alpha channel, or its grey
-    (the mean of r, g and b) where it has none, read as stored. Where the value, looked up by the
+    (the mean of r, g and b) where it has none, read as stored (see `encoding`). Where the value, looked up by the
     UVs times `scale` (bilinear, repeating), is below `cutoff`, the surface has a hole: rays pass
     through as if it were not there (glTF's alphaMode MASK; leaves, fences, lace)."""
 
@@ -363,6 +363,9 @@ class AlphaMap(Strict):
     """Multiplies the UVs: a number or `[u, v]` (2 = the mask twice across)."""
     cutoff: FiniteFloat = Field(0.5, gt=0, le=1)
     """Below this value (0..1) the surface is cut away (glTF's `alphaCutoff`)."""
+    encoding: Literal["linear", "srgb"] = "linear"
+    """How the texels encode coverage: `"linear"` as stored, `"srgb"` decoded from sRGB first, before the bilinear
+    lookup (as pbrt-v4 reads an 8-bit PNG's alpha texture by default, and Mitsuba 3 a bitmap without `raw`)."""
 
     _scale = field_validator("scale", mode="before")(ImageTexture._scale.__func__)
 

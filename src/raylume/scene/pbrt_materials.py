@@ -13,7 +13,10 @@ reads the image as stored (ColorEncoding::Linear), bilinear and repeating, its t
 from the image's top (raylume's v = 1 is the top row too), x along dp/du and y = n x x.
 
 Textures: `imagemap` -> image (uv mapping, uscale and vscale), `checkerboard` -> raylume's
-world-space checker (3D, or a 2D one approximated by it).
+world-space checker (3D, or a 2D one approximated by it). A float imagemap is a bump map where a
+material's displacement names it, an alpha map where a shape's alpha does (`Materials.alpha`:
+pbrt-v4's Bilerp<Float> reads one channel, an RGBA image's alpha unless it is all 1, else the
+mean of r, g and b; raylume's alpha maps read alpha or grey alike, and the rest is warned about).
 """
 
 from __future__ import annotations
@@ -39,6 +42,29 @@ def _clip(rgb) -> list[float]:
     return [min(max(float(c), 0.0), 1.0) for c in rgb]
 
 
+def _reading_differs(path) -> str | None:
+    """Where pbrt-v4's float image texture reads a mask otherwise than raylume's alpha map: it
+    drops a grey PNG's alpha channel and a palette's transparency, and reads the mean of r, g and
+    b where an RGBA image's alpha is 1 everywhere; raylume reads the alpha in all three."""
+    from PIL import Image as PILImage
+
+    try:
+        with PILImage.open(path) as im:
+            if im.mode in ("LA", "La", "PA") or (im.mode == "P" and "transparency" in im.info):
+                return (
+                    "pbrt-v4 reads this image's grey (or colour), dropping its alpha; raylume's alpha map reads "
+                    "the alpha channel"
+                )
+            if im.mode in ("RGBA", "RGBa") and im.getextrema()[3] == (255, 255):
+                return (
+                    "its alpha is 1 everywhere, so pbrt-v4 reads the mean of r, g and b; raylume's alpha map "
+                    "reads the alpha channel (nothing is cut)"
+                )
+    except (OSError, ValueError):
+        return None  # the compiler names an unreadable image
+    return None
+
+
 class Materials:
     """Textures defined so far and the conversion of Material / MakeNamedMaterial directives."""
 
@@ -47,6 +73,7 @@ class Materials:
         self.textures: dict[str, dict | None] = {}  # spectrum textures; None: not convertible
         self.float_textures: set[str] = set()
         self.float_images: dict[str, dict] = {}  # float imagemap textures, as bump maps (displacement)
+        self.alpha_readings: dict[str, str | None] = {}  # how pbrt reads a float image as alpha, where not as raylume
 
     # -- textures ---------------------------------------------------------------------------
     def define_texture(self, d: Directive, p: Params, ctm: np.ndarray) -> None:
@@ -56,6 +83,7 @@ class Materials:
             self.float_textures.add(name)
             self.textures.pop(name, None)
             self.float_images.pop(name, None)
+            self.alpha_readings.pop(name, None)
             if cls == "imagemap":  # a bump map, where a material's displacement names it
                 self.float_images[name] = self._float_image(d, p)
             for q in d.params:
@@ -113,7 +141,7 @@ class Materials:
         if p.string("mapping", "uv") != "uv" or p.float("udelta", 0.0) or p.float("vdelta", 0.0):
             self.warn(d, "only the uv mapping with uscale and vscale is supported; the surface's (u, v) is used")
         if p.bool("invert", False):
-            self.warn(d, "invert is not supported; the heights are used as they are")
+            self.warn(d, "invert is not supported; the texels are used as they are")
         if p.string("wrap", "repeat") != "repeat":
             self.warn(d, "only wrap repeat is supported; the image repeats")
         return {
@@ -199,6 +227,55 @@ class Materials:
             return None
         if name in self.textures:
             raise d.fail(f"texture {name!r} is a spectrum texture; displacement needs a float texture")
+        raise d.fail(f"no texture named {name!r} (define it with Texture before using it)")
+
+    def alpha(self, d: Directive, p: Params) -> dict | None | bool:
+        """A shape's `alpha` (pbrt-v4 cuts where it is 0, and keeps a fraction `alpha` of the hits
+        elsewhere, by a hash of the ray): an alpha_map table for a float imagemap (its texels
+        decoded as pbrt-v4 decodes them, cut below 0.5, the texture's scale folded into the
+        cutoff), None where nothing is cut, False where the whole shape is (left out)."""
+        kind = p.type_of("alpha")
+        if kind is None:
+            return None
+        if kind != "texture":
+            a = p.float("alpha")
+            if a >= 1:
+                return None
+            if a <= 0:
+                self.warn(d, f'"float alpha" {a:g}: pbrt-v4 cuts the whole shape away; it is left out')
+                return False
+            fate = "left out" if a < 0.5 else "drawn solid"
+            self.warn(
+                d,
+                f'"float alpha" {a:g}: pbrt-v4 keeps that fraction of the rays that hit the shape; raylume cuts masks '
+                f"at 0.5, so the shape is {fate}",
+            )
+            return False if a < 0.5 else None
+        name = p.texture("alpha")
+        if name in self.float_images:
+            image = self.float_images[name]
+            scale = image["height"]  # the texture's "float scale": pbrt's alpha is scale times the texel
+            if scale < 0.5:
+                self.warn(
+                    d,
+                    f"alpha texture {name!r} has scale {scale:g}, so its alpha stays below 0.5, where raylume cuts "
+                    "masks: the shape is left out",
+                )
+                return False
+            table = {"file": image["file"], "scale": image["scale"], "cutoff": 0.5 / scale}
+            if image["encoding"] == "srgb":
+                table["encoding"] = "srgb"
+            if name not in self.alpha_readings:
+                self.alpha_readings[name] = _reading_differs(resolve(image["file"], d.search_dir))
+            reading = self.alpha_readings[name]
+            if reading:
+                self.warn(d, f"alpha texture {name!r}: {reading}")
+            return table
+        if name in self.float_textures:
+            self.warn(d, f"alpha texture {name!r} is not an imagemap; raylume cuts masks by images only: ignored")
+            return None
+        if name in self.textures:
+            raise d.fail(f"texture {name!r} is a spectrum texture; alpha needs a float texture")
         raise d.fail(f"no texture named {name!r} (define it with Texture before using it)")
 
     def _normal_map(self, d: Directive, p: Params) -> dict | None:

@@ -57,6 +57,7 @@ class Placed:
     emission: tuple[list[float], bool] | None
     reverse: bool
     directive: Directive
+    alpha: dict | None = None  # the shape's alpha_map table (pbrt's alpha is a shape's, raylume's a material's)
 
 
 @dataclass
@@ -89,6 +90,7 @@ class Builder:
         self.integrator_directive: Directive | None = None
         self.last: Directive | None = None
         self.material_directives: dict[str, Directive] = {}  # a document material -> the directive that made it
+        self.alpha_materials: dict[tuple, str] = {}  # (material, its alpha_map) -> the variant's name
         self.origins: dict[str, str] = {}  # a key path ("objects[3]") -> its directive, set by finish()
 
     def warn(self, d: Directive, message: str) -> None:
@@ -315,7 +317,12 @@ class Builder:
             for q in d.params:
                 q.used = True
             return
-        for key in ("alpha", "displacement", "edgelength", "emissionfilename"):
+        alpha = self.materials.alpha(d, p)
+        if alpha is False:
+            for q in d.params:
+                q.used = True
+            return
+        for key in ("displacement", "edgelength", "emissionfilename"):
             if p.has(key):
                 p.by_name[key].used = True
                 self.warn(d, f'"{key}" is not supported; ignored')
@@ -324,7 +331,9 @@ class Builder:
         if empty is not None:
             self.warn(d, f"{empty}: the shape has no surface; it is left out (pbrt draws nothing of it)")
             return
-        placed = Placed(piece, self.state.ctm.copy(), self.state.material, self.state.emission, self.state.reverse, d)
+        placed = Placed(
+            piece, self.state.ctm.copy(), self.state.material, self.state.emission, self.state.reverse, d, alpha
+        )
         if self.current is not None:
             if placed.emission is not None:
                 self.warn(d, "area lights on instanced shapes are not supported (nor by pbrt-v4); drawn unlit")
@@ -366,6 +375,8 @@ class Builder:
             if name not in self.named_materials:
                 known = ", ".join(sorted(self.named_materials)) or "none are defined"
                 raise d.fail(f"no material named {name!r} in the file ({known})")
+        for s in self.shapes + [s for definition in self.definitions.values() for s in definition.shapes]:
+            self._alpha_material(s)
         flip = self.options.flip()
         camera_where = self.camera_directive or self.last
         checkers = any((t.get("texture") or {}).get("type") == "checker" for t in self.materials_doc.values())
@@ -439,11 +450,35 @@ class Builder:
             table = {"type": "diffuse", "color": [0.0, 0.0, 0.0]}
         return {**table, "emission": radiance}
 
+    def _alpha_material(self, s: Placed) -> None:
+        """Give a shape with an alpha texture a variant of its material with that alpha_map (one
+        per material and mask), as raylume's alpha is a material's."""
+        if s.alpha is None:
+            return
+        table = self.materials_doc[s.material]
+        if table.get("type") == "null":
+            return  # an interface has no surface to cut
+        if s.emission is not None:
+            self.warn(
+                s.directive,
+                "an area light with an alpha texture: raylume's emitters take no alpha map (its holes would be "
+                "sampled as light), so it is drawn and lit whole",
+            )
+            return
+        key = (s.material, tuple(sorted((k, str(v)) for k, v in s.alpha.items())))
+        if key not in self.alpha_materials:
+            name = f"{s.material}+alpha-{len(self.alpha_materials) + 1}"
+            self.alpha_materials[key] = name
+            self.materials_doc[name] = {**table, "alpha_map": s.alpha}
+            self.material_directives[name] = self.material_directives.get(s.material, s.directive)
+        s.material = self.alpha_materials[key]
+
     def _needs_uvs(self, s: Placed) -> bool:
-        """Whether the shape's material reads pbrt's (u, v): an image texture, a normal or bump map."""
+        """Whether the shape's material reads pbrt's (u, v): an image texture, a normal, bump or alpha map."""
         table = self.materials_doc[s.material]
         texture = table.get("texture")
-        return (texture is not None and texture.get("type") == "image") or "normal_map" in table or "bump_map" in table
+        image = texture is not None and texture.get("type") == "image"
+        return image or "normal_map" in table or "bump_map" in table or "alpha_map" in table
 
     def _object(self, s: Placed, m: np.ndarray) -> dict:
         obj, note = place(s.piece, m, self._material_ref(s), self._needs_uvs(s), s.reverse)
