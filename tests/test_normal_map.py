@@ -227,11 +227,11 @@ def test_a_material_takes_a_normal_map_or_a_bump_map_not_both(tmp_path):
 
 
 def test_a_scene_saved_elsewhere_still_finds_its_maps(tmp_path):
-    scene = raylume.load(REPO / "examples" / "normal_maps.toml")
+    scene = raylume.load(REPO / "examples" / "surface_maps.toml")
     (tmp_path / "elsewhere").mkdir()
     saved = raylume.save_scene(scene, tmp_path / "elsewhere" / "copy.toml")
     text = saved.read_text()
-    for name in ("tiles_normal.png", "dimples_height.png"):
+    for name in ("tiles_normal.png", "dimples_height.png", "lattice_alpha.png"):
         assert f"examples/textures/{name}" in text  # relative to the new folder, back to the files
     size = {"width": 32, "height": 18, "spp": 1}
     np.testing.assert_array_equal(raylume.render(raylume.load(saved), **size).rgb, raylume.render(scene, **size).rgb)

@@ -7,8 +7,10 @@
 * ``planks.jpg`` 256 x 256: wooden floor planks (JPEG, to show that JPEG loads too).
 * ``globe.png``  256 x 128: a latitude/longitude grid with coloured bands, for sphere UVs.
 * ``tiles_normal.png``   256 x 256: a normal map of 4 x 4 bevelled tiles in mortar, slightly
-  uneven (tangent space: x along u, y up the image; examples/normal_maps.toml).
+  uneven (tangent space: x along u, y up the image; examples/surface_maps.toml).
 * ``dimples_height.png`` 256 x 256: a height (bump) map of hammered metal, round dimples.
+* ``lattice_alpha.png``  64 x 64: a cut-out mask, one round hole in a solid cell (grey: black
+  is the hole), tiled into a lattice screen (examples/surface_maps.toml).
 """
 
 from __future__ import annotations
@@ -119,6 +121,13 @@ def dimples_height(rng) -> np.ndarray:
     return h
 
 
+def lattice() -> np.ndarray:
+    size = 64
+    y, x = np.mgrid[0:size, 0:size] + 0.5
+    r = np.hypot(x - size / 2, y - size / 2) / size
+    return np.where(r < 0.36, 0, 255).astype(np.uint8)
+
+
 def main() -> None:
     rng = np.random.default_rng(7)
     Image.fromarray(spots(rng)).save(HERE / "spots.png", optimize=True)
@@ -129,6 +138,7 @@ def main() -> None:
     dimples = dimples_height(rng)
     grey = (dimples - dimples.min()) / (dimples.max() - dimples.min()) * 255
     Image.fromarray(grey.round().astype(np.uint8), mode="L").save(HERE / "dimples_height.png", optimize=True)
+    Image.fromarray(lattice(), mode="L").save(HERE / "lattice_alpha.png", optimize=True)
 
 
 if __name__ == "__main__":
