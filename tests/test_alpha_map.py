@@ -6,6 +6,8 @@ read where the surfaces are uniform."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 from PIL import Image as PILImage
@@ -124,3 +126,56 @@ def test_an_emitting_material_cannot_take_an_alpha_map(tmp_path):
 def test_raster_mode_says_it_draws_masked_surfaces_whole(tmp_path):
     with pytest.warns(SceneWarning, match="raster mode draws alpha-mapped surfaces whole"):
         raylume.render(raylume.scene_from_dict(scene({"file": half_mask(tmp_path)}, "raster")))
+
+
+def ink_ball(mask: dict | None) -> dict:
+    """A glass ball of index 1 (no bending) filled with ink (absorbing only), in front of a
+    glowing wall of radiance 1: the centre pixels see exp(-2 x 1) of the wall through it."""
+    ball = {"type": "dielectric", "ior": 1.0}
+    if mask is not None:
+        ball["alpha_map"] = mask
+    return {
+        "render": {"width": 8, "height": 8, "spp": 64, "max_depth": 8, "mode": "path"},
+        "camera": {"position": [0, 0, -4], "look_at": [0, 0, 0], "fov": 12},
+        "media": {"ink": {"type": "homogeneous", "sigma_a": 1.0, "sigma_s": 0.0}},
+        "materials": {"ball": ball, "wall": {"type": "diffuse", "color": [1, 1, 1], "emission": [1, 1, 1]}},
+        "objects": [
+            {"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "ball", "interior": "ink"},
+            {"type": "quad", "position": [0, 0, 5], "u": [20, 0, 0], "v": [0, 20, 0], "material": "wall"},
+        ],
+    }
+
+
+@pytest.mark.parametrize("cut", ["back", "front"])
+@pytest.mark.parametrize("integrator", ["path", "bdpt"])
+def test_a_closed_object_with_holes_keeps_its_inside_filled(tmp_path, cut, integrator):
+    # the sphere's u runs around it from its back (+z, u = 0 and 1) to its front (-z, u = 0.5):
+    # a mask whose outer columns are holes cuts the back half away, its middle ones the front.
+    # A ray entering or leaving through a hole still crosses the ink inside: the image is the
+    # unmasked ball's, within the standard error of the difference of the two block means
+    columns = np.full((1, 8), 255, dtype=np.uint8)
+    if cut == "back":
+        columns[0, [0, 1, 6, 7]] = 0
+    else:
+        columns[0, 2:6] = 0
+    PILImage.fromarray(columns, mode="L").save(tmp_path / "mask.png")
+    render = {"integrator": integrator, "seed": 3}
+    masked = raylume.render(raylume.scene_from_dict(ink_ball({"file": str(tmp_path / "mask.png")})), **render)
+    whole = raylume.render(raylume.scene_from_dict(ink_ball(None)), **render)
+    a = masked.rgb[2:6, 2:6, 0].astype(np.float64).ravel()
+    b = whole.rgb[2:6, 2:6, 0].astype(np.float64).ravel()
+    se = math.sqrt(a.var(ddof=1) / a.size + b.var(ddof=1) / b.size)
+    assert 0.1 < b.mean() < 0.2  # about exp(-2): the unmasked ball absorbs as it should
+    assert abs(a.mean() - b.mean()) <= 5 * se + 1e-3, (a.mean(), b.mean(), se)
+
+
+def test_shadow_rays_pass_as_many_holes_as_camera_rays(tmp_path):
+    # 40 masked quads stacked in front of the wall: the wall seen through all their holes is lit
+    # as beside them (trace mode's shadow rays once gave up after 32 surfaces)
+    document = scene({"file": half_mask(tmp_path)}, "trace")
+    quad = document["objects"][0]
+    document["objects"] = [
+        {**quad, "vertices": [[x, y, -0.02 * k] for x, y, _ in quad["vertices"]]} for k in range(40)
+    ] + document["objects"][1:]
+    image = raylume.render(raylume.scene_from_dict(document)).rgb
+    np.testing.assert_allclose(image[HOLE], image[WALL], rtol=1e-6)

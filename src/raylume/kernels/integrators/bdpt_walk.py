@@ -165,12 +165,11 @@ def random_walk(C, V, start, o, d, beta, pdf_dir, most, importance, key, dim, sp
         ng, ns, m, obj, face = surface(G, X, prim, b1, b2, p)
         ns = mapped_normal(G, F, X, m, prim, b1, b2, p, ns)
         entering = dot(ng, d) < 0.0
-        hole = Md.pass_through and in_hole(G, F, X, m, prim, b1, b2, p)
-        if hole or (Md.pass_through and index_matched(mat, m)):
+        if Md.pass_through and (index_matched(mat, m) or in_hole(G, F, X, m, prim, b1, b2, p)):
             # a null boundary: the ray goes on unchanged into the medium beyond, no vertex (path
             # mode's rule); the next vertex's density still converts from the vertex before. A
-            # hole in an alpha map the same, in the medium it was in
-            if Md.present and not hole:
+            # hole in an alpha map the same (a null patch of the object's boundary)
+            if Md.present:
                 med = medium_beyond(Md, obj, d, ng)
             eps = offset_epsilon(F.epsilon_floor, p)
             o = madd(p, ng, -eps if entering else eps)

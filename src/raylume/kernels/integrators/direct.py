@@ -14,7 +14,7 @@ import numpy as np
 from ..film.sampler import light_sample
 from ..geometry.shapes import offset_epsilon, surface
 from ..geometry.traverse import any_hit, closest_hit
-from ..shading.alpha_map import in_hole
+from ..shading.alpha_map import MAX_HOLES, in_hole
 from ..shading.lights import (
     LIGHT_INTENSITY,
     LIGHT_SAMPLES,
@@ -108,7 +108,7 @@ def _transparent_shadow(G, F, X, o, d, tmax, node_stack, t_stack):
     origin = o
     remaining = tmax
     rays = 0
-    for _ in range(32):
+    for _ in range(MAX_HOLES):  # as many surfaces as a camera ray passes holes
         t, prim, b1, b2 = closest_hit(G, X, origin, d, 0.0, remaining, node_stack, t_stack)
         rays += 1
         if t == INF or t >= remaining:
@@ -121,8 +121,8 @@ def _transparent_shadow(G, F, X, o, d, tmax, node_stack, t_stack):
             if transparency <= 0.0:
                 return (0.0, 0.0, 0.0), rays
             tr = mul(tr, transparency)
-            if leaving:  # the segment just travelled lay inside this medium
-                tr = beer_lambert(F.materials, m, tr, t)
+        if leaving:  # the segment just travelled lay inside this medium (a hole's too)
+            tr = beer_lambert(F.materials, m, tr, t)
         if max(tr[0], tr[1], tr[2]) < 1e-4:
             return (0.0, 0.0, 0.0), rays
         eps = offset_epsilon(F.epsilon_floor, p)

@@ -307,12 +307,12 @@ def path_segment(
     ns = mapped_normal(G, F, X, m, prim, b1, b2, p, ns)
     entering = dot(ng, d) < 0.0
     eps = offset_epsilon(F.epsilon_floor, p)
-    hole = Md.pass_through and in_hole(G, F, X, m, prim, b1, b2, p)  # (alpha maps make pass_through)
-    if hole or index_matched(mat, m):
+    # (alpha maps make pass_through: in scenes without, no hole is looked for)
+    if index_matched(mat, m) or (Md.pass_through and in_hole(G, F, X, m, prim, b1, b2, p)):
         # an index-matched boundary: the ray goes on unchanged into the medium beyond, and
         # the segment does not count as one (Mitsuba's volpath); a hole in an alpha map the
-        # same, in the medium it was in
-        if Md.present and not hole:
+        # same (the object's inside stays filled: a hole is a null patch of its boundary)
+        if Md.present:
             med = medium_beyond(Md, obj, d, ng)
         st = (madd(p, ng, -eps if entering else eps), d, beta, L, rays, depth - 1, prev_pdf, prev_delta,
               cone + spread * t, med, mis_o, mis_t + t, crossings + 1, prim)  # fmt: skip

@@ -18,7 +18,7 @@ from ..vec import dot, hadamard, inline_function, length, madd, mul, sub
 ZERO3 = (0.0, 0.0, 0.0)
 # Boundaries one shadow ray passes at most (a guard: a ray grazing a mesh could otherwise
 # cross and re-cross it by rounding without end)
-MAX_CROSSINGS = 256
+MAX_CROSSINGS = 1024  # as path mode's (a camera ray's): a ray that passes them sees what a shadow ray does
 INF = math.inf
 
 
@@ -80,10 +80,9 @@ def shadow_transmittance(G, F, X, Md, o, d, tmax, med, key, node_stack, t_stack)
             return tr
         p = madd(o, d, t)
         ng, _, m, obj, _ = surface(G, X, prim, b1, b2, p)
-        hole = in_hole(G, F, X, m, prim, b1, b2, p)
-        if not (hole or index_matched(F.materials, m)):
+        if not (index_matched(F.materials, m) or in_hole(G, F, X, m, prim, b1, b2, p)):
             return ZERO3
-        if Md.present and not hole:
+        if Md.present:
             med = medium_beyond(Md, obj, d, ng)
         eps = offset_epsilon(F.epsilon_floor, p)
         o = madd(p, ng, eps if dot(d, ng) > 0.0 else -eps)

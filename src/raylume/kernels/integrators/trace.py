@@ -83,6 +83,9 @@ def trace_ray(G, F, L, X, Env, o, d, spread, max_depth, background, rays, node_s
         ng, ns, m, obj, face = surface(G, X, prim, b1, b2, p)
         mat = F.materials
         entering = dot(ng, d) < 0.0
+        if not entering:
+            # The segment just travelled lay inside this surface's medium.
+            w = beer_lambert(mat, m, w, t)
         if crossings < MAX_HOLES and in_hole(G, F, X, m, prim, b1, b2, p):
             # a hole in an alpha map: the ray goes on from the far side, as if nothing were there
             crossings += 1
@@ -92,8 +95,6 @@ def trace_ray(G, F, L, X, Env, o, d, spread, max_depth, background, rays, node_s
             continue
         ns = mapped_normal(G, F, X, m, prim, b1, b2, p, ns)
         if not entering:
-            # The segment just travelled lay inside this surface's medium.
-            w = beer_lambert(mat, m, w, t)
             ng = mul(ng, -1.0)
             ns = mul(ns, -1.0)
         # ng, ns now face the incoming ray; a shading normal bent past the horizon is clamped.

@@ -2,8 +2,10 @@
 as stored: compile/materials.py keeps it in all three channels) at the hit's UVs is below the
 material's cutoff, the surface has a hole, and every ray passes it as if nothing were there:
 path mode and bdpt step through it as through a null boundary (their shadow rays too: the
-scene's pass_through), trace mode's rays go on and its shadow rays walk through it (the
-scene's has_transparency), cast mode and the AOVs show what lies behind. The lookup is bilinear
+scene's pass_through), into the medium beyond, so a closed object keeps its inside filled;
+trace mode's rays go on and its shadow rays walk through it (the scene's has_transparency),
+with the absorption of the segment inside; cast mode and the AOVs show what lies behind.
+Shadow rays pass as many holes as camera rays do (MAX_HOLES, shadow.MAX_CROSSINGS). The lookup is bilinear
 at full size (glTF's alphaMode MASK against alphaCutoff; pbrt-v4 and Mitsuba 3 read fractional
 alpha stochastically, which a cutoff of 0.5 approximates for masks that are mostly 0 or 1).
 """
@@ -52,9 +54,10 @@ def _coverage(G, F, X, x, k, b1, b2, p):
 @inline_function
 def past_holes(G, F, X, o, d, t, prim, b1, b2, node_stack, t_stack):
     """The first hit (t, prim, b1, b2) along the unit ray (o, d) that is not in a hole, from its
-    closest hit (t, prim, b1, b2): itself where its material has no alpha map (a load or two),
-    else found by tracing on from each hole's far side (t from o, to within the offsets)."""
-    if X is None or prim == NO_HIT:
+    closest hit (t, prim, b1, b2): itself where its material has no alpha map (a load or two;
+    none where no material lets light through: has_transparency, which alpha maps set), else
+    found by tracing on from each hole's far side (t from o, to within the offsets)."""
+    if X is None or prim == NO_HIT or not F.has_transparency:
         return t, prim, b1, b2
     k, _ = split_hit(X, prim)
     if not (F.materials[G.prims[k, PRIM_MATERIAL], MAT_ALPHA_MAP] > 0.0):
