@@ -155,6 +155,17 @@ def test_pbrt_alpha_on_an_area_light_or_naming_no_float_texture(tmp_path):
         pbrt_document(tmp_path / "d.pbrt")
 
 
+def test_pbrt_a_mirrored_float_image_is_refused_where_a_map_uses_it_naming_its_texture(tmp_path):
+    # pbrt mirrors an image by a negative uscale; raylume's maps do not: the error names the
+    # Texture directive's file and line (not a material made of it), and only where a map uses it
+    texture = 'Texture "m" "float" "imagemap" "string filename" "mask.png" "float uscale" -1\n'
+    document, _ = pbrt_file(tmp_path, texture + 'Shape "disk"\n')  # defined, never used: no error
+    assert len(document["objects"]) == 1
+    for use in ('Shape "disk" "texture alpha" "m"\n', 'Material "diffuse" "texture displacement" "m"\n'):
+        with pytest.raises(PbrtError, match=r"scene\.pbrt:7: Texture \"m\": uscale -1 and vscale 1: .*scales > 0"):
+            pbrt_file(tmp_path, texture + use)
+
+
 def mitsuba_mask(
     opacity: str, inner='<bsdf type="diffuse"><rgb name="reflectance" value="0.6, 0.5, 0.4"/></bsdf>', emitter=""
 ) -> str:

@@ -73,6 +73,7 @@ class Materials:
         self.textures: dict[str, dict | None] = {}  # spectrum textures; None: not convertible
         self.float_textures: set[str] = set()
         self.float_images: dict[str, dict] = {}  # float imagemap textures, as bump maps (displacement)
+        self.float_image_faults: dict[str, Exception] = {}  # what a map made of one would be refused for
         self.alpha_readings: dict[str, str | None] = {}  # how pbrt reads a float image as alpha, where not as raylume
 
     # -- textures ---------------------------------------------------------------------------
@@ -83,6 +84,7 @@ class Materials:
             self.float_textures.add(name)
             self.textures.pop(name, None)
             self.float_images.pop(name, None)
+            self.float_image_faults.pop(name, None)
             self.alpha_readings.pop(name, None)
             if cls == "imagemap":  # a bump map, where a material's displacement names it
                 self.float_images[name] = self._float_image(d, p)
@@ -133,6 +135,11 @@ class Materials:
             raise d.fail('needs "string filename"')
         if not resolve(filename, d.search_dir).is_file():
             raise d.fail(f"no such image file {str(resolve(filename, d.search_dir))!r}")
+        uscale, vscale = p.float("uscale", 1.0), p.float("vscale", 1.0)
+        if not (uscale > 0 and vscale > 0):  # an error where a map uses it, named by this directive
+            self.float_image_faults[d.args[0]] = d.fail(
+                f"uscale {uscale:g} and vscale {vscale:g}: raylume's maps take scales > 0 (no mirroring)"
+            )
         default = "sRGB" if filename.lower().endswith(".png") else "linear"
         encoding = p.string("encoding", default)
         if encoding.lower() not in ("srgb", "linear"):
@@ -146,7 +153,7 @@ class Materials:
             self.warn(d, "only wrap repeat is supported; the image repeats")
         return {
             "file": filename,
-            "scale": [p.float("uscale", 1.0), p.float("vscale", 1.0)],
+            "scale": [uscale, vscale],
             "height": p.float("scale", 1.0),
             "encoding": encoding.lower(),
         }
@@ -216,6 +223,8 @@ class Materials:
             p.float("displacement")  # a constant displacement moves the surface, and turns no normal
             return None
         name = p.texture("displacement")
+        if name in self.float_image_faults:
+            raise self.float_image_faults[name]
         if name in self.float_images:
             table = dict(self.float_images[name])
             if table["height"] < 0:
@@ -252,6 +261,8 @@ class Materials:
             )
             return False if a < 0.5 else None
         name = p.texture("alpha")
+        if name in self.float_image_faults:
+            raise self.float_image_faults[name]
         if name in self.float_images:
             image = self.float_images[name]
             scale = image["height"]  # the texture's "float scale": pbrt's alpha is scale times the texel
