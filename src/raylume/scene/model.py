@@ -353,9 +353,10 @@ class BumpMap(Strict):
 
 class AlphaMap(Strict):
     """A cut-out mask (PNG or JPEG, relative to the scene file): its alpha channel, or its grey
-    (the mean of r, g and b) where it has none, read as stored (see `encoding`). Where the value, looked up by the
-    UVs times `scale` (bilinear, repeating), is below `cutoff`, the surface has a hole: rays pass
-    through as if it were not there (glTF's alphaMode MASK; leaves, fences, lace)."""
+    (the mean of r, g and b) where it has none, read as stored (see `encoding`). Where the
+    value, looked up by the UVs times `scale` (bilinear, repeating), is below `cutoff`, the
+    surface has a hole: rays pass through as if it were not there (glTF's alphaMode MASK;
+    leaves, fences, lace)."""
 
     file: str
     """The image file, relative to the scene file."""

@@ -5,9 +5,10 @@ path mode and bdpt step through it as through a null boundary (their shadow rays
 scene's pass_through), into the medium beyond, so a closed object keeps its inside filled;
 trace mode's rays go on and its shadow rays walk through it (the scene's has_transparency),
 with the absorption of the segment inside; cast mode and the AOVs show what lies behind.
-Shadow rays pass as many holes as camera rays do (MAX_HOLES, shadow.MAX_CROSSINGS). The lookup is bilinear
-at full size (glTF's alphaMode MASK against alphaCutoff; pbrt-v4 and Mitsuba 3 read fractional
-alpha stochastically, which a cutoff of 0.5 approximates for masks that are mostly 0 or 1).
+Shadow rays pass as many holes as camera rays do (MAX_HOLES, shadow.MAX_CROSSINGS). The lookup
+is bilinear at full size (glTF's alphaMode MASK against alphaCutoff; pbrt-v4 and Mitsuba 3 read
+fractional alpha stochastically, which a cutoff of 0.5 approximates for masks that are mostly 0
+or 1). The geometry queries (raylume.intersect, occluded) see masked surfaces whole.
 """
 
 import math
