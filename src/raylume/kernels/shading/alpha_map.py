@@ -19,7 +19,7 @@ from ..geometry.shapes import NO_HIT, PRIM_MATERIAL, offset_epsilon, split_hit, 
 from ..geometry.traverse import closest_hit
 from ..vec import dot, inline_function, kernel_function, madd, sub
 from .materials import MAT_ALPHA_CUTOFF, MAT_ALPHA_MAP
-from .textures import TEX_HEIGHT_PX, TEX_OFFSET, TEX_SCALE_U, TEX_SCALE_V, TEX_WIDTH_PX, texture_lookup
+from .textures import full_size_lookup
 
 # holes one ray passes at most (a guard against endless rounding): the hit beyond counts as solid
 MAX_HOLES = 1024
@@ -40,16 +40,7 @@ def in_hole(G, F, X, m, prim, b1, b2, p):
 @kernel_function
 def _coverage(G, F, X, x, k, b1, b2, p):
     u, v = uv(G, X, k, b1, b2, p)
-    tex = F.textures
-    c = texture_lookup(
-        F.texels,
-        int(tex[x, TEX_OFFSET]),
-        int(tex[x, TEX_WIDTH_PX]),
-        int(tex[x, TEX_HEIGHT_PX]),
-        u * tex[x, TEX_SCALE_U],
-        v * tex[x, TEX_SCALE_V],
-    )
-    return c[0]
+    return full_size_lookup(F, x, u, v)[0]
 
 
 @inline_function

@@ -29,7 +29,7 @@ import numpy as np
 from ..geometry.shapes import offset_epsilon, uv, uv_differentials
 from ..vec import cross, dot, inline_function, kernel_function, madd, mul, normalize, sub
 from .materials import MAT_BUMP_HEIGHT, MAT_BUMP_MAP, MAT_NORMAL_MAP, MAT_NORMAL_STRENGTH
-from .textures import TEX_HEIGHT_PX, TEX_OFFSET, TEX_SCALE_U, TEX_SCALE_V, TEX_WIDTH_PX, texture_lookup
+from .textures import TEX_HEIGHT_PX, TEX_SCALE_U, TEX_SCALE_V, TEX_WIDTH_PX, full_size_lookup
 
 # tangent steps for the UVs' finite differences, in offsets (1e-7 of the hit's magnitude):
 # short against any shape's curvature, long against float64's rounding of the UVs
@@ -77,20 +77,6 @@ def _uv_directions(G, F, X, k, b1, b2, p, n):
     return u, v, dpdu, dpdv, True
 
 
-@inline_function
-def _lookup(F, x, u, v):
-    """Map x's texel (as stored, bilinear, repeating) at the surface's (u, v)."""
-    tex = F.textures
-    return texture_lookup(
-        F.texels,
-        int(tex[x, TEX_OFFSET]),
-        int(tex[x, TEX_WIDTH_PX]),
-        int(tex[x, TEX_HEIGHT_PX]),
-        u * tex[x, TEX_SCALE_U],
-        v * tex[x, TEX_SCALE_V],
-    )
-
-
 @kernel_function
 def _normal_mapped(G, F, X, x, strength, k, b1, b2, p, n):
     u, v, dpdu, dpdv, found = _uv_directions(G, F, X, k, b1, b2, p, n)
@@ -102,7 +88,7 @@ def _normal_mapped(G, F, X, x, strength, k, b1, b2, p, n):
     b = cross(n, t)
     if dot(b, dpdv) < 0.0:
         b = mul(b, -1.0)
-    c = _lookup(F, x, u, v)
+    c = full_size_lookup(F, x, u, v)
     nx = (2.0 * c[0] - 1.0) * strength
     ny = (2.0 * c[1] - 1.0) * strength
     nz = 2.0 * c[2] - 1.0
@@ -127,9 +113,9 @@ def _bump_mapped(G, F, X, x, height, k, b1, b2, p, n):
     # one texel of the map's full-size level, in the surface's (unscaled) u and v
     du = 1.0 / (tex[x, TEX_WIDTH_PX] * tex[x, TEX_SCALE_U])
     dv = 1.0 / (tex[x, TEX_HEIGHT_PX] * tex[x, TEX_SCALE_V])
-    c = _lookup(F, x, u, v)
-    cu = _lookup(F, x, u + du, v)
-    cv = _lookup(F, x, u, v + dv)
+    c = full_size_lookup(F, x, u, v)
+    cu = full_size_lookup(F, x, u + du, v)
+    cv = full_size_lookup(F, x, u, v + dv)
     h = (c[0] + c[1] + c[2]) / 3.0
     dh_du = ((cu[0] + cu[1] + cu[2]) / 3.0 - h) / du
     dh_dv = ((cv[0] + cv[1] + cv[2]) / 3.0 - h) / dv

@@ -139,6 +139,21 @@ def texture_at(G, F, X, x, prim, b1, b2, p, d, n, radius):
     return mip_lookup(F.texels, int(tex[x, TEX_OFFSET]), width, height, int(tex[x, TEX_LEVELS]), u * su, v * sv, level)
 
 
+@inline_function
+def full_size_lookup(F, x, u, v):
+    """Image texture x's texel at the surface's (u, v) times its scale: bilinear on its
+    full-size level, repeating (the normal, bump and alpha maps' lookup, as pbrt-v4 reads them)."""
+    tex = F.textures
+    return texture_lookup(
+        F.texels,
+        int(tex[x, TEX_OFFSET]),
+        int(tex[x, TEX_WIDTH_PX]),
+        int(tex[x, TEX_HEIGHT_PX]),
+        u * tex[x, TEX_SCALE_U],
+        v * tex[x, TEX_SCALE_V],
+    )
+
+
 @kernel_function
 def mip_lookup(texels, offset, width, height, levels, u, v, level):
     """Trilinear lookup: bilinear in the two mip levels around `level`, blended."""
