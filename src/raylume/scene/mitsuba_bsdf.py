@@ -339,21 +339,25 @@ def _principled(ctx: Context, node: Node, props: Props) -> dict:
     return table
 
 
+def _nested_bsdfs(node: Node, props: Props) -> list[Node]:
+    """The BSDFs a wrapping BSDF (twosided, normalmap, bumpmap, mask, blendbsdf) holds: one at least."""
+    nested = [p for p in props.plugins if p.tag == "bsdf"]
+    if not nested:
+        raise node.error("needs a nested <bsdf>")
+    return nested
+
+
 def bsdf_table(ctx: Context, node: Node) -> dict:
     """The raylume material table of a <bsdf> element."""
     kind = node.attrs.get("type")
     props = ctx.props(node)
     if kind == "twosided":
-        nested = [p for p in props.plugins if p.tag == "bsdf"]
-        if not nested:
-            raise node.error("needs a nested <bsdf>")
+        nested = _nested_bsdfs(node, props)
         if len(nested) > 1:
             ctx.warn(node, "two different BSDFs for the two sides: raylume uses the first on both")
         return bsdf_table(ctx, nested[0])
     if kind in ("normalmap", "bumpmap"):
-        nested = [p for p in props.plugins if p.tag == "bsdf"]
-        if not nested:
-            raise node.error("needs a nested <bsdf>")
+        nested = _nested_bsdfs(node, props)
         key, what = ("normal_map", "normal map") if kind == "normalmap" else ("bump_map", "bump map")
         found = normal_map_table(ctx, node, props) if kind == "normalmap" else bump_map_table(ctx, node, props)
         table = bsdf_table(ctx, nested[0])
@@ -368,9 +372,7 @@ def bsdf_table(ctx: Context, node: Node) -> dict:
             return table
         return {**table, key: found}
     if kind == "mask":
-        nested = [p for p in props.plugins if p.tag == "bsdf"]
-        if not nested:
-            raise node.error("needs a nested <bsdf>")
+        nested = _nested_bsdfs(node, props)
         alpha = mask_table(ctx, node, props)
         table = bsdf_table(ctx, nested[0])
         ctx.done(node, props)
@@ -383,9 +385,7 @@ def bsdf_table(ctx: Context, node: Node) -> dict:
             return table
         return {**table, "alpha_map": alpha}
     if kind == "blendbsdf":
-        nested = [p for p in props.plugins if p.tag == "bsdf"]
-        if not nested:
-            raise node.error("needs a nested <bsdf>")
+        nested = _nested_bsdfs(node, props)
         ctx.warn(node, f"raylume has no {kind}: the (first) BSDF inside it replaces it")
         return bsdf_table(ctx, nested[0])
     if kind == "diffuse":

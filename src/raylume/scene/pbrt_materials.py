@@ -104,12 +104,18 @@ class Materials:
             for q in d.params:
                 q.used = True
 
-    def _image(self, d: Directive, p: Params) -> dict:
+    @staticmethod
+    def _image_file(d: Directive, p: Params) -> str:
+        """An imagemap's `"string filename"`, which must name a file."""
         filename = p.string("filename")
         if filename is None:
             raise d.fail('needs "string filename"')
         if not resolve(filename, d.search_dir).is_file():
             raise d.fail(f"no such image file {str(resolve(filename, d.search_dir))!r}")
+        return filename
+
+    def _image(self, d: Directive, p: Params) -> dict:
+        filename = self._image_file(d, p)
         mapping = p.string("mapping", "uv")
         if mapping != "uv":
             self.warn(d, f"mapping {mapping!r} is not supported; the surface's (u, v) is used")
@@ -130,11 +136,7 @@ class Materials:
     def _float_image(self, d: Directive, p: Params) -> dict:
         """A float imagemap as a bump_map table: pbrt-v4 reads a PNG as sRGB unless its encoding
         says otherwise, other files as linear; its `scale` multiplies the heights."""
-        filename = p.string("filename")
-        if filename is None:
-            raise d.fail('needs "string filename"')
-        if not resolve(filename, d.search_dir).is_file():
-            raise d.fail(f"no such image file {str(resolve(filename, d.search_dir))!r}")
+        filename = self._image_file(d, p)
         uscale, vscale = p.float("uscale", 1.0), p.float("vscale", 1.0)
         if not (uscale > 0 and vscale > 0):  # an error where a map uses it, named by this directive
             self.float_image_faults[d.args[0]] = d.fail(
@@ -222,20 +224,28 @@ class Materials:
         if kind != "texture":
             p.float("displacement")  # a constant displacement moves the surface, and turns no normal
             return None
-        name = p.texture("displacement")
+        name, image = self._float_image_named(d, p, "displacement", "bump-maps")
+        if image is None:
+            return None
+        if image["height"] < 0:
+            self.warn(d, f"displacement texture {name!r} has a negative scale; raylume's heights rise: ignored")
+            return None
+        return dict(image)
+
+    def _float_image_named(self, d: Directive, p: Params, key: str, verb: str) -> tuple[str, dict | None]:
+        """The float imagemap a `"texture KEY"` parameter names, as _float_image made it: None
+        (with a warning) for another float texture; an error for a spectrum texture, no texture,
+        or an image raylume's maps refuse (float_image_faults)."""
+        name = p.texture(key)
         if name in self.float_image_faults:
             raise self.float_image_faults[name]
         if name in self.float_images:
-            table = dict(self.float_images[name])
-            if table["height"] < 0:
-                self.warn(d, f"displacement texture {name!r} has a negative scale; raylume's heights rise: ignored")
-                return None
-            return table
+            return name, self.float_images[name]
         if name in self.float_textures:
-            self.warn(d, f"displacement texture {name!r} is not an imagemap; raylume bump-maps by images only: ignored")
-            return None
+            self.warn(d, f"{key} texture {name!r} is not an imagemap; raylume {verb} by images only: ignored")
+            return name, None
         if name in self.textures:
-            raise d.fail(f"texture {name!r} is a spectrum texture; displacement needs a float texture")
+            raise d.fail(f"texture {name!r} is a spectrum texture; {key} needs a float texture")
         raise d.fail(f"no texture named {name!r} (define it with Texture before using it)")
 
     def alpha(self, d: Directive, p: Params) -> dict | None | bool:
@@ -260,34 +270,26 @@ class Materials:
                 f"at 0.5, so the shape is {fate}",
             )
             return False if a < 0.5 else None
-        name = p.texture("alpha")
-        if name in self.float_image_faults:
-            raise self.float_image_faults[name]
-        if name in self.float_images:
-            image = self.float_images[name]
-            scale = image["height"]  # the texture's "float scale": pbrt's alpha is scale times the texel
-            if scale < 0.5:
-                self.warn(
-                    d,
-                    f"alpha texture {name!r} has scale {scale:g}, so its alpha stays below 0.5, where raylume cuts "
-                    "masks: the shape is left out",
-                )
-                return False
-            table = {"file": image["file"], "scale": image["scale"], "cutoff": 0.5 / scale}
-            if image["encoding"] == "srgb":
-                table["encoding"] = "srgb"
-            if name not in self.alpha_readings:
-                self.alpha_readings[name] = _reading_differs(resolve(image["file"], d.search_dir))
-            reading = self.alpha_readings[name]
-            if reading:
-                self.warn(d, f"alpha texture {name!r}: {reading}")
-            return table
-        if name in self.float_textures:
-            self.warn(d, f"alpha texture {name!r} is not an imagemap; raylume cuts masks by images only: ignored")
+        name, image = self._float_image_named(d, p, "alpha", "cuts masks")
+        if image is None:
             return None
-        if name in self.textures:
-            raise d.fail(f"texture {name!r} is a spectrum texture; alpha needs a float texture")
-        raise d.fail(f"no texture named {name!r} (define it with Texture before using it)")
+        scale = image["height"]  # the texture's "float scale": pbrt's alpha is scale times the texel
+        if scale < 0.5:
+            self.warn(
+                d,
+                f"alpha texture {name!r} has scale {scale:g}, so its alpha stays below 0.5, where raylume cuts "
+                "masks: the shape is left out",
+            )
+            return False
+        table = {"file": image["file"], "scale": image["scale"], "cutoff": 0.5 / scale}
+        if image["encoding"] == "srgb":
+            table["encoding"] = "srgb"
+        if name not in self.alpha_readings:
+            self.alpha_readings[name] = _reading_differs(resolve(image["file"], d.search_dir))
+        reading = self.alpha_readings[name]
+        if reading:
+            self.warn(d, f"alpha texture {name!r}: {reading}")
+        return table
 
     def _normal_map(self, d: Directive, p: Params) -> dict | None:
         """The normal_map table of `"string normalmap"` (pbrt-v4 reads the image as stored, as
