@@ -78,6 +78,7 @@ def _compile_scene(scene: Scene, source: str, accelerate: bool) -> CompiledScene
     mat_rows, textures = material_table(
         gathered.materials, gathered.material_where, scene.base_dir, source, gathered.images
     )
+    masked = bool((mat_rows[:, MAT_ALPHA_MAP] > 0).any())  # alpha maps: rays pass their holes
     environment = scene_environment(scene, source)
     media = build_media(
         scene, gathered.geometry, {k: scene.material_of(obj).type for k, obj in enumerate(scene.objects)}, source
@@ -122,7 +123,7 @@ def _compile_scene(scene: Scene, source: str, accelerate: bool) -> CompiledScene
         env_present=environment.present,
         # shadow rays walk from surface to surface where some let light through: transparent
         # materials (trace mode) and the holes of alpha maps
-        has_transparency=bool((mat_rows[:, MAT_TRANSPARENCY] > 0).any() or (mat_rows[:, MAT_ALPHA_MAP] > 0).any()),
+        has_transparency=bool((mat_rows[:, MAT_TRANSPARENCY] > 0).any()) or masked,
         basic_shapes=bool(np.isin(g.prims[:, PRIM_KIND], (Shape.SPHERE, Shape.TRIANGLE)).all()),
         inst_node_bounds=inst.node_bounds,
         inst_node_index=inst.node_index,
@@ -134,7 +135,7 @@ def _compile_scene(scene: Scene, source: str, accelerate: bool) -> CompiledScene
         medium_interface=media.interface,
         camera_medium=media.camera,
         media_present=media.present,
-        pass_through=media.pass_through or bool((mat_rows[:, MAT_ALPHA_MAP] > 0).any()),
+        pass_through=media.pass_through or masked,
         epsilon_floor=1e-30,
     )
     stats = {

@@ -314,61 +314,54 @@ class ImageTexture(Strict):
         return tuple(v)
 
 
-class NormalMap(Strict):
+class _SurfaceMap(Strict):
+    """What the normal, bump and alpha maps share: an image looked up by the surface's UVs."""
+
+    file: str
+    """The image file, relative to the scene file."""
+    scale: tuple[FiniteFloat, FiniteFloat] = (1.0, 1.0)
+    """Multiplies the UVs: a number or `[u, v]` (2 = the map twice across)."""
+
+    _scale = field_validator("scale", mode="before")(ImageTexture._scale.__func__)
+
+
+class NormalMap(_SurfaceMap):
     """A tangent-space normal map (PNG or JPEG, relative to the scene file), read as stored, not
     sRGB-decoded: a texel's (r, g, b) is the normal (2r - 1, 2g - 1, 2b - 1) in the frame of the
     surface's UV directions, x along increasing u, y along increasing v (up the image: OpenGL's
     and glTF's convention) and z the shading normal. Looked up by the UVs times `scale`,
     bilinear and repeating, as an image texture is."""
 
-    file: str
-    """The image file, relative to the scene file."""
-    scale: tuple[FiniteFloat, FiniteFloat] = (1.0, 1.0)
-    """Multiplies the UVs: a number or `[u, v]` (2 = the map twice across)."""
     strength: FiniteFloat = Field(1.0, ge=0)
     """Multiplies the normal's x and y before it is normalised (glTF's `normalTexture.scale`): 0
     leaves the surface flat, above 1 steepens it."""
 
-    _scale = field_validator("scale", mode="before")(ImageTexture._scale.__func__)
 
-
-class BumpMap(Strict):
+class BumpMap(_SurfaceMap):
     """A height map (PNG or JPEG, relative to the scene file; grey, or the mean of r, g and b),
     read as stored (see `encoding`): the surface seen as displaced along its normal by `height`
     times the texel's value (0..1), its shading normal that of the displaced surface (pbrt-v4's
     and Mitsuba 3's bump mapping). Looked up by the UVs times `scale`, bilinear and repeating."""
 
-    file: str
-    """The image file, relative to the scene file."""
-    scale: tuple[FiniteFloat, FiniteFloat] = (1.0, 1.0)
-    """Multiplies the UVs: a number or `[u, v]` (2 = the map twice across)."""
     height: FiniteFloat = Field(0.01, ge=0)
     """The displacement of a white texel, in scene units (black: none)."""
     encoding: Literal["linear", "srgb"] = "linear"
     """How the texels encode heights: `"linear"` as stored, `"srgb"` decoded from sRGB first (as pbrt-v4 reads 8-bit
     images by default, and Mitsuba 3 bitmaps without `raw`)."""
 
-    _scale = field_validator("scale", mode="before")(ImageTexture._scale.__func__)
 
-
-class AlphaMap(Strict):
+class AlphaMap(_SurfaceMap):
     """A cut-out mask (PNG or JPEG, relative to the scene file): its alpha channel, or its grey
     (the mean of r, g and b) where it has none, read as stored (see `encoding`). Where the
     value, looked up by the UVs times `scale` (bilinear, repeating), is below `cutoff`, the
     surface has a hole: rays pass through as if it were not there (glTF's alphaMode MASK;
     leaves, fences, lace)."""
 
-    file: str
-    """The image file, relative to the scene file."""
-    scale: tuple[FiniteFloat, FiniteFloat] = (1.0, 1.0)
-    """Multiplies the UVs: a number or `[u, v]` (2 = the mask twice across)."""
     cutoff: FiniteFloat = Field(0.5, gt=0, le=1)
     """Below this value (0..1) the surface is cut away (glTF's `alphaCutoff`)."""
     encoding: Literal["linear", "srgb"] = "linear"
     """How the texels encode coverage: `"linear"` as stored, `"srgb"` decoded from sRGB first, before the bilinear
     lookup (as pbrt-v4 reads an 8-bit PNG's alpha texture by default, and Mitsuba 3 a bitmap without `raw`)."""
-
-    _scale = field_validator("scale", mode="before")(ImageTexture._scale.__func__)
 
 
 TEXTURE_TYPES = ("checker", "image")
