@@ -18,6 +18,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from reference.mitsuba_xml_scenes import box_mesh, serialized_bytes
+from test_pbrt_analytic import assert_renders_as_the_sphere_written_with
 
 import raylume
 from raylume.errors import SceneError
@@ -763,19 +764,4 @@ def test_a_turned_textured_sphere_renders_as_the_sphere_written_with_its_transfo
     matrix = np.eye(4)
     matrix[:3, :3] = np.diag([-1.0, 1, 1]) @ rotation((1, 2, 3), 40) @ [[0, 0, 1], [-1, 0, 0], [0, 1, 0]]
     matrix[:3, 3] = (-0.3, -0.2, 0.0)
-    written = scene.replace(
-        objects=[
-            {
-                "type": "sphere",
-                "center": [0, 0, 0],
-                "radius": 0.5,
-                "material": scene.objects[0].material,
-                "transform": {"matrix": matrix.tolist()},
-            }
-        ]
-    )
-    a = raylume.render(scene, mode="cast", spp=1)
-    b = raylume.render(written, mode="cast", spp=1).rgb
-    assert (a.aovs["object"] == 0).sum() > 100  # the sphere fills much of the picture
-    a = a.rgb
-    np.testing.assert_allclose(a, b, atol=1e-5)
+    assert_renders_as_the_sphere_written_with(scene, matrix)

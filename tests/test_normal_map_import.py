@@ -10,6 +10,7 @@ import warnings
 
 import numpy as np
 import pytest
+from PIL import Image as PILImage
 from test_pbrt_equivalence import write_normal_map
 
 import raylume
@@ -137,6 +138,9 @@ def mitsuba_board(texture_extra="", raw=True, kind="obj", wrap=("", "")) -> str:
 def write_mitsuba(tmp_path, text: str):
     (tmp_path / "maps").mkdir(exist_ok=True)
     write_normal_map(tmp_path / "maps" / "bumps.png")
+    # a height map with slopes everywhere, rising along u and v (16 levels a texel, wrapping)
+    heights = (np.add.outer(np.arange(8), np.arange(8)) * 16 % 256).astype(np.uint8)
+    PILImage.fromarray(heights, mode="L").save(tmp_path / "maps" / "heights.png")
     (tmp_path / "board.obj").write_text(BOARD_OBJ)
     (tmp_path / "scene.xml").write_text(text)
     with warnings.catch_warnings(record=True) as caught:
@@ -170,14 +174,9 @@ def test_mitsuba_normalmap_warnings(tmp_path, text, message):
     assert any(message in w for w in warned), warned
 
 
-def test_mitsuba_normalmap_renders_as_the_toml_normal_map(tmp_path):
-    """The OBJ board (Mitsuba flips its v on loading, which puts the image's top at v = 1 as
-    raylume has it) renders as the same board written in TOML with the normal_map, in raylume's
-    world (Mitsuba's mirrored, x -> -x: the camera looks down -z from z = 5 with +x on the left)."""
-    scene, warned = write_mitsuba(tmp_path, mitsuba_board())
-    assert warned == []
-    (tmp_path / "scene.toml").write_text(
-        """
+# The Mitsuba board scene's twin in raylume's world (Mitsuba's mirrored, x -> -x: the camera looks
+# down -z from z = 5 with +x on the left), its objects given by each test
+BOARD_TOML = """
 [render]
 mode = "path"
 width = 12
@@ -196,27 +195,33 @@ fov = 30
 type = "directional"
 direction = [-0.3, 1, 1]
 intensity = 1
-
-[[objects]]
-type = "mesh"
-file = "board.obj"
-transform = { scale = [-1, 1, 1] }
-material = { type = "diffuse", color = [0.6, 0.5, 0.4], normal_map = { file = "maps/bumps.png" } }
 """
-    )
-    toml = raylume.load_scene(tmp_path / "scene.toml")
+BOARD_COLOUR = {"type": "diffuse", "color": [0.6, 0.5, 0.4]}
+
+
+def assert_renders_as_the_toml_board(tmp_path, scene, maps: dict, others=()) -> None:
+    """The imported `scene` renders as the OBJ board written in TOML, its material the board's
+    colour with `maps` (normal_map, bump_map, alpha_map), beside `others` (objects in raylume's
+    world): the same image to 1e-6; and the maps change it, so the comparison proves something."""
+    (tmp_path / "scene.toml").write_text(BOARD_TOML)
+    base = raylume.load_scene(tmp_path / "scene.toml")
+
+    def rendered(material) -> np.ndarray:
+        board = {"type": "mesh", "file": "board.obj", "transform": {"scale": [-1, 1, 1]}, "material": material}
+        return raylume.render(base.replace(objects=[board, *others]), seed=3, aovs=False).rgb
+
     a = raylume.render(scene, seed=3, aovs=False).rgb
-    b = raylume.render(toml, seed=3, aovs=False).rgb
     assert a.max() > 0.05
-    np.testing.assert_allclose(a, b, rtol=1e-6, atol=1e-7)
-    flat = raylume.render(
-        toml.replace(
-            objects=[{**toml.objects[0].model_dump(), "material": {"type": "diffuse", "color": [0.6, 0.5, 0.4]}}]
-        ),
-        seed=3,
-        aovs=False,
-    ).rgb
-    assert np.abs(a - flat).max() > 0.02, "the map changes nothing: the test would prove nothing"
+    np.testing.assert_allclose(a, rendered({**BOARD_COLOUR, **maps}), rtol=1e-6, atol=1e-7)
+    assert np.abs(a - rendered(BOARD_COLOUR)).max() > 0.02, "the map changes nothing: the test would prove nothing"
+
+
+def test_mitsuba_normalmap_renders_as_the_toml_normal_map(tmp_path):
+    """The OBJ board (Mitsuba flips its v on loading, which puts the image's top at v = 1 as
+    raylume has it) renders as the same board written in TOML with the normal_map."""
+    scene, warned = write_mitsuba(tmp_path, mitsuba_board())
+    assert warned == []
+    assert_renders_as_the_toml_board(tmp_path, scene, {"normal_map": {"file": "maps/bumps.png"}})
 
 
 def mitsuba_bump_board(raw=True, scale="0.05") -> str:
@@ -225,7 +230,7 @@ def mitsuba_bump_board(raw=True, scale="0.05") -> str:
         shape=f"""<shape type="obj"><string name="filename" value="board.obj"/>
     <bsdf type="bumpmap">
       <texture type="bitmap" name="heights">
-        <string name="filename" value="maps/bumps.png"/>{raw_tag}
+        <string name="filename" value="maps/heights.png"/>{raw_tag}
         <transform name="to_uv"><scale x="2" y="2"/></transform>
       </texture>
       <float name="scale" value="{scale}"/>
@@ -243,51 +248,12 @@ def test_mitsuba_bumpmap_gives_the_inner_bsdf_a_bump_map(tmp_path, raw):
     assert warned == []
     material = scene.objects[0].material
     assert material.type == "diffuse" and material.normal_map is None
-    assert material.bump_map.file == "maps/bumps.png" and material.bump_map.scale == (2.0, 2.0)
+    assert material.bump_map.file == "maps/heights.png" and material.bump_map.scale == (2.0, 2.0)
     assert material.bump_map.height == 0.05
     assert material.bump_map.encoding == ("linear" if raw else "srgb")
 
 
 def test_mitsuba_bumpmap_renders_as_the_toml_bump_map(tmp_path):
-    scene, _ = write_mitsuba(tmp_path, mitsuba_bump_board())
-    (tmp_path / "scene.toml").write_text(
-        """
-[render]
-mode = "path"
-width = 12
-height = 12
-spp = 2
-max_depth = 2
-filter = "gaussian"
-
-[camera]
-position = [0, 0, 5]
-look_at = [0, 0, 0]
-up = [0, 1, 0]
-fov = 30
-
-[[lights]]
-type = "directional"
-direction = [-0.3, 1, 1]
-intensity = 1
-"""
-    )
-    toml = raylume.load_scene(tmp_path / "scene.toml").replace(
-        objects=[
-            {
-                "type": "mesh",
-                "file": "board.obj",
-                "transform": {"scale": [-1, 1, 1]},
-                "material": {
-                    "type": "diffuse",
-                    "color": [0.6, 0.5, 0.4],
-                    "bump_map": {"file": "maps/bumps.png", "scale": 2, "height": 0.05},
-                },
-            }
-        ]
-    )
-    a = raylume.render(scene, seed=3, aovs=False).rgb
-    b = raylume.render(toml, seed=3, aovs=False).rgb
-    np.testing.assert_allclose(a, b, rtol=1e-6, atol=1e-7)
-    flat = toml.replace(objects=[{**toml.objects[0].model_dump(), "material": {"type": "diffuse"}}])
-    assert np.abs(a - raylume.render(flat, seed=3, aovs=False).rgb).max() > 0.02, "the map changes nothing"
+    scene, _ = write_mitsuba(tmp_path, mitsuba_bump_board(scale="0.2"))
+    bump = {"bump_map": {"file": "maps/heights.png", "scale": 2, "height": 0.2}}
+    assert_renders_as_the_toml_board(tmp_path, scene, bump)

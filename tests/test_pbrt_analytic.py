@@ -318,6 +318,13 @@ def test_a_turned_textured_sphere_renders_as_the_sphere_written_with_its_transfo
     frame = np.eye(4)
     frame[:3, :3] = [[0, 0, 1], [-1, 0, 0], [0, 1, 0]]
     matrix = translate(0.3, -0.2, 4) @ rotate(40, (1, 2, 3)) @ scale(-1.5, 1.5, 1.5) @ frame
+    assert_renders_as_the_sphere_written_with(imported, matrix)
+
+
+def assert_renders_as_the_sphere_written_with(imported, matrix: np.ndarray) -> None:
+    """`imported`, one textured sphere of radius 0.5, renders (cast mode) as raylume's sphere of
+    the same material and radius placed by `matrix` (4 x 4), written out, where it fills much of
+    the picture."""
     written = imported.replace(
         objects=[
             {
@@ -332,5 +339,4 @@ def test_a_turned_textured_sphere_renders_as_the_sphere_written_with_its_transfo
     a = raylume.render(imported, mode="cast", spp=1)
     b = raylume.render(written, mode="cast", spp=1).rgb
     assert (a.aovs["object"] == 0).sum() > 100  # the sphere fills much of the picture
-    a = a.rgb
-    np.testing.assert_allclose(a, b, atol=1e-5)
+    np.testing.assert_allclose(a.rgb, b, atol=1e-5)

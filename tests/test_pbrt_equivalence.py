@@ -507,19 +507,22 @@ def write_normal_map(path) -> None:
     PILImage.fromarray(pixels).save(path)
 
 
-def test_normal_maps(tmp_path):
-    """A material's "string normalmap" is its normal_map (pbrt-v4 reads it as stored, at (u, v)
-    with v = 1 the image's top, as raylume does): the same bits as the TOML's normal_map."""
-    write_normal_map(tmp_path / "bumps.png")
+def board_scenes(texture: str = "", material: str = "", shape: str = "", toml_map: str = "", wall=False):
+    """(pbrt, toml): a diffuse board with pbrt's UVs under a point light, over the floor, and a
+    wall behind it where `wall`; in pbrt, `texture` (a Texture line) before it, `material` and
+    `shape` appended to its Material's and Shape's parameters; in TOML, `toml_map` (a map key)
+    in its material."""
     pbrt = (
         HEADER
-        + """
-LightSource "point" "rgb I" [8 8 8] "point3 from" [1 4 -2]
+        + 'LightSource "point" "rgb I" [8 8 8] "point3 from" [1 4 -2]\n'
+        + texture
+        + f"""
 AttributeBegin
-  Material "diffuse" "rgb reflectance" [0.7 0.6 0.5] "string normalmap" "bumps.png"
-  Shape "bilinearmesh" "point3 P" [-2 0.5 1  0 0.5 1  -2 2.5 1  0 2.5 1] "point2 uv" [0 0  1 0  0 1  1 1]
+  Material "diffuse" "rgb reflectance" [0.7 0.6 0.5]{material}
+  Shape "bilinearmesh" "point3 P" [-2 0.5 1  0 0.5 1  -2 2.5 1  0 2.5 1] "point2 uv" [0 0  1 0  0 1  1 1]{shape}
 AttributeEnd
 """
+        + ('Shape "bilinearmesh" "point3 P" [-4 0 3  4 0 3  -4 4 3  4 4 3]\n' if wall else "")
         + FLOOR_PBRT
     )
     toml = (
@@ -535,16 +538,33 @@ type = "mesh"
 vertices = [[-2, 0.5, 1], [0, 0.5, 1], [-2, 2.5, 1], [0, 2.5, 1]]
 faces = [[0, 1, 3], [0, 3, 2]]
 uvs = [[0, 0], [1, 0], [0, 1], [1, 1]]
-material = { type = "diffuse", color = [0.7, 0.6, 0.5], normal_map = { file = "bumps.png" } }
 """
+        + f'material = {{ type = "diffuse", color = [0.7, 0.6, 0.5]{", " + toml_map if toml_map else ""} }}\n'
+        + (
+            """
+[[objects]]
+type = "mesh"
+vertices = [[-4, 0, 3], [4, 0, 3], [-4, 4, 3], [4, 4, 3]]
+faces = [[0, 1, 3], [0, 3, 2]]
+material = "pbrt-default"
+"""
+            if wall
+            else ""
+        )
         + FLOOR_TOML.format(material="pbrt-default")
     )
-    flat = render_both(
+    return pbrt, toml
+
+
+def test_normal_maps(tmp_path):
+    """A material's "string normalmap" is its normal_map (pbrt-v4 reads it as stored, at (u, v)
+    with v = 1 the image's top, as raylume does): the same bits as the TOML's normal_map."""
+    write_normal_map(tmp_path / "bumps.png")
+    flat = render_both(tmp_path, *board_scenes())
+    mapped = render_both(
         tmp_path,
-        pbrt.replace(' "string normalmap" "bumps.png"', ""),
-        toml.replace(', normal_map = { file = "bumps.png" }', ""),
+        *board_scenes(material=' "string normalmap" "bumps.png"', toml_map='normal_map = { file = "bumps.png" }'),
     )
-    mapped = render_both(tmp_path, pbrt, toml)
     assert np.abs(mapped.rgb - flat.rgb).max() > 0.05, "the map changes nothing: the test would prove nothing"
 
 
@@ -554,42 +574,16 @@ def test_bump_maps(tmp_path):
     sRGB-decoded by default): the same bits as the TOML's bump_map."""
     heights = (np.add.outer(np.arange(8), np.arange(8)) * 16 % 256).astype(np.uint8)
     PILImage.fromarray(heights, mode="L").save(tmp_path / "heights.png")
-    pbrt = (
-        HEADER
-        + """
-LightSource "point" "rgb I" [8 8 8] "point3 from" [1 4 -2]
-Texture "bumps" "float" "imagemap" "string filename" "heights.png" "float scale" 1.5 "float uscale" 2
-AttributeBegin
-  Material "diffuse" "rgb reflectance" [0.7 0.6 0.5] "texture displacement" "bumps"
-  Shape "bilinearmesh" "point3 P" [-2 0.5 1  0 0.5 1  -2 2.5 1  0 2.5 1] "point2 uv" [0 0  1 0  0 1  1 1]
-AttributeEnd
-"""
-        + FLOOR_PBRT
-    )
-    bump = 'bump_map = { file = "heights.png", scale = [2, 1], height = 1.5, encoding = "srgb" }'
-    toml = (
-        TOML_HEADER
-        + """
-[[lights]]
-type = "point"
-position = [1, 4, -2]
-intensity = 8
-
-[[objects]]
-type = "mesh"
-vertices = [[-2, 0.5, 1], [0, 0.5, 1], [-2, 2.5, 1], [0, 2.5, 1]]
-faces = [[0, 1, 3], [0, 3, 2]]
-uvs = [[0, 0], [1, 0], [0, 1], [1, 1]]
-"""
-        + f'material = {{ type = "diffuse", color = [0.7, 0.6, 0.5], {bump} }}\n'
-        + FLOOR_TOML.format(material="pbrt-default")
-    )
-    flat = render_both(
+    texture = 'Texture "bumps" "float" "imagemap" "string filename" "heights.png" "float scale" 1.5 "float uscale" 2\n'
+    flat = render_both(tmp_path, *board_scenes(texture))
+    mapped = render_both(
         tmp_path,
-        pbrt.replace(' "texture displacement" "bumps"', ""),
-        toml.replace(f", {bump}", ""),
+        *board_scenes(
+            texture,
+            material=' "texture displacement" "bumps"',
+            toml_map='bump_map = { file = "heights.png", scale = [2, 1], height = 1.5, encoding = "srgb" }',
+        ),
     )
-    mapped = render_both(tmp_path, pbrt, toml)
     assert np.abs(mapped.rgb - flat.rgb).max() > 0.05, "the map changes nothing: the test would prove nothing"
 
 
@@ -602,45 +596,15 @@ def test_alpha_maps(tmp_path):
     mask[:, 4:] = 255
     mask[:2] = 255
     PILImage.fromarray(mask, mode="L").save(tmp_path / "mask.png")
-    pbrt = (
-        HEADER
-        + """
-LightSource "point" "rgb I" [8 8 8] "point3 from" [1 4 -2]
-Texture "leaf" "float" "imagemap" "string filename" "mask.png"
-AttributeBegin
-  Material "diffuse" "rgb reflectance" [0.7 0.6 0.5]
-  Shape "bilinearmesh" "point3 P" [-2 0.5 1  0 0.5 1  -2 2.5 1  0 2.5 1] "point2 uv" [0 0  1 0  0 1  1 1]
-    "texture alpha" "leaf"
-AttributeEnd
-Shape "bilinearmesh" "point3 P" [-4 0 3  4 0 3  -4 4 3  4 4 3]
-"""
-        + FLOOR_PBRT
+    texture = 'Texture "leaf" "float" "imagemap" "string filename" "mask.png"\n'
+    whole = render_both(tmp_path, *board_scenes(texture, wall=True))
+    cut = render_both(
+        tmp_path,
+        *board_scenes(
+            texture,
+            shape='\n    "texture alpha" "leaf"',
+            toml_map='alpha_map = { file = "mask.png", cutoff = 0.5, encoding = "srgb" }',
+            wall=True,
+        ),
     )
-    alpha = 'alpha_map = { file = "mask.png", cutoff = 0.5, encoding = "srgb" }'
-    toml = (
-        TOML_HEADER
-        + """
-[[lights]]
-type = "point"
-position = [1, 4, -2]
-intensity = 8
-
-[[objects]]
-type = "mesh"
-vertices = [[-2, 0.5, 1], [0, 0.5, 1], [-2, 2.5, 1], [0, 2.5, 1]]
-faces = [[0, 1, 3], [0, 3, 2]]
-uvs = [[0, 0], [1, 0], [0, 1], [1, 1]]
-"""
-        + f'material = {{ type = "diffuse", color = [0.7, 0.6, 0.5], {alpha} }}\n'
-        + """
-[[objects]]
-type = "mesh"
-vertices = [[-4, 0, 3], [4, 0, 3], [-4, 4, 3], [4, 4, 3]]
-faces = [[0, 1, 3], [0, 3, 2]]
-material = "pbrt-default"
-"""
-        + FLOOR_TOML.format(material="pbrt-default")
-    )
-    whole = render_both(tmp_path, pbrt.replace('\n    "texture alpha" "leaf"', ""), toml.replace(f", {alpha}", ""))
-    cut = render_both(tmp_path, pbrt, toml)
     assert np.abs(cut.rgb - whole.rgb).max() > 0.05, "the mask changes nothing: the test would prove nothing"
