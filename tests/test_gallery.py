@@ -53,7 +53,7 @@ def test_pictures_are_small_and_every_docs_picture_is_in_the_gallery():
     rendered = {p.path.name for p in gallery.PICTURES}
     # benchmarks' output (the head lamps are bench_bdpt.py's equal-time renders, not a command's)
     plots = {"bvh_scaling.png", "hits_scaling.png", "instances.png", "path_rmse.png", "scaling.png", "view.png"}
-    plots |= {"bdpt_rmse.png"}
+    plots |= {"bdpt_rmse.png", "adaptive_spp.png"}
     plots |= {"headlamp_bdpt.png", "headlamp_path.png", "headlamp_compare.png"}
     for image in (REPO / "docs" / "images").iterdir():
         assert image.stat().st_size <= 450_000, f"{image.name}: keep the pictures small"

@@ -431,6 +431,8 @@ _SYNTHETIC: dict[str | tuple[str, str], str] = {
     "sigma_a": "[0.05, 0.05, 0.05]",
     "sigma_s": "[0.5, 0.5, 0.5]",
     "g": "0.3",
+    "noise_threshold": "0.02",
+    "time_limit": "60",
 }
 
 

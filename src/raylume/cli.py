@@ -177,14 +177,14 @@ def _parse_aovs(specs: list[str], output: Path) -> tuple[dict[str, Path], list[s
     """--aov NAME=PATH (an .npy file) or --aov NAME (a layer of the .exr output) -> the .npy
     paths by name, and the names to write as EXR layers."""
     from .image import check_output_path
-    from .render import AOV_NAMES
+    from .render import AOV_NAMES, RENDER_AOVS
 
     files: dict[str, Path] = {}
     layers: list[str] = []
     for spec in specs:
         name, sep, path = spec.partition("=")
-        if name not in (*AOV_NAMES, "noisy"):
-            raise OutputError(f"--aov {spec}: unknown AOV {name!r}; available: {', '.join(AOV_NAMES)}, noisy")
+        if name not in (*AOV_NAMES, *RENDER_AOVS):
+            raise OutputError(f"--aov {spec}: unknown AOV {name!r}; available: {', '.join((*AOV_NAMES, *RENDER_AOVS))}")
         if sep and not path:
             raise OutputError(f"--aov {spec}: expected NAME=PATH, e.g. --aov {name}={name}.npy")
         if sep:
@@ -287,7 +287,8 @@ def render(
             "--aov",
             metavar="NAME[=PATH]",
             help="Write an AOV: NAME=PATH.npy, or NAME alone for a layer of the .exr output; "
-            "NAME in depth, normal, object, prim, albedo, instance, noisy (the image before --denoise) (repeatable)",
+            "NAME in depth, normal, object, prim, albedo, instance, noisy (the image before --denoise), spp (the "
+            "samples each pixel took, with --noise-threshold or --time-limit) (repeatable)",
         ),
     ] = None,
     assignments: Annotated[
@@ -324,6 +325,23 @@ def render(
             "--denoise",
             metavar=FLAG,
             help="Path mode: denoise with Intel Open Image Denoise (guided by the albedo and normal AOVs)",
+        ),
+    ] = None,
+    noise_threshold: Annotated[
+        float | None,
+        typer.Option(
+            "--noise-threshold",
+            metavar="E",
+            help="Adaptive sampling: stop sampling a 16 x 16 tile once its noise is below E (e.g. 0.01); --spp "
+            "is then the most a pixel takes",
+        ),
+    ] = None,
+    time_limit: Annotated[
+        float | None,
+        typer.Option(
+            "--time-limit",
+            metavar="SECONDS",
+            help="Stop sampling after SECONDS of rendering; --spp is the most a pixel takes",
         ),
     ] = None,
     crop: Annotated[
@@ -454,8 +472,9 @@ def _render(
 ) -> None:
     """`raylume render`: `flags` are the [render] values given as flags (settings.OVERRIDES)."""
     from .image import check_bit_depth, check_output_path, save_npy, write_atomic
+    from .render import RENDER_AOVS
     from .render import render as render_scene
-    from .settings import resolve_settings
+    from .settings import is_adaptive, resolve_settings
     from .video import check_sequence_path, is_sequence, is_video
 
     # Every output is checked before the scene is even read: a render is never lost to a bad path.
@@ -493,6 +512,15 @@ def _render(
     denoised = table.denoise and table.mode == "path"
     if "noisy" in (*aov_paths, *layers) and not denoised:
         raise OutputError("--aov noisy is the image before denoising: it needs --denoise and path mode (--mode path)")
+    if cluster is not None and is_adaptive(table):
+        raise OutputError(
+            f"--cluster {cluster}: noise_threshold and time_limit render on this machine, not on a cluster "
+            "(leave out --cluster, or --noise-threshold and --time-limit)"
+        )
+    if "spp" in (*aov_paths, *layers) and not is_adaptive(table):
+        raise OutputError(
+            "--aov spp is the samples each pixel took in an adaptive render: it needs --noise-threshold or --time-limit"
+        )
     if denoised:
         from .denoise import require_denoiser
 
@@ -534,7 +562,7 @@ def _render(
     with _progress(quiet) as progress, _compile_notice(quiet, mode=settings.render.mode) as status:
         image = render_scene(
             scene_model,
-            aovs=bool(set(aov_paths) - {"noisy"} or set(layers) - {"noisy"}),
+            aovs=bool(set(aov_paths) - set(RENDER_AOVS) or set(layers) - set(RENDER_AOVS)),
             progress=progress,
             source=label,
             status=status,
@@ -600,7 +628,15 @@ def summary(output: Path, s: dict) -> str:
     if s["mode"] == "raster":
         return f"{size}, rasterized in {s['render_seconds']:.3f} s (no rays traced), {build}"
     rays = f"{s['rays'] / 1e6:.2f} Mrays" if s["rays"] >= 1e6 else f"{s['rays']:,} rays"
-    return f"{size}, {rays} in {s['render_seconds']:.3f} s ({s['mrays_per_second']:.1f} Mrays/s), {build}"
+    line = f"{size}, {rays} in {s['render_seconds']:.3f} s ({s['mrays_per_second']:.1f} Mrays/s), {build}"
+    if "adaptive" in s:
+        a = s["adaptive"]
+        why = {"noise": "every tile below the noise threshold", "spp": "spp reached", "time": "time limit"}
+        line += (
+            f"; adaptive: {a['mean_spp']:.1f} spp a pixel on average ({a['min_spp']}-{a['max_spp']}), "
+            f"stopped by {why[a['stopped_by']]}"
+        )
+    return line
 
 
 def _json_safe(stats: dict) -> dict:

@@ -29,6 +29,7 @@ EXR_LAYERS = {
     "normal": ("X", "Y", "Z"),
     "albedo": ("R", "G", "B"),
     "noisy": ("R", "G", "B"),
+    "spp": ("Y",),
     "object": ("id",),
     "prim": ("id",),
     "instance": ("id",),

@@ -7,17 +7,17 @@ from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
     from .image import Image
-    from .render_window import AOV_NAMES, RenderInterrupted, allocate_aovs
+    from .render_window import AOV_NAMES, RENDER_AOVS, RenderInterrupted, allocate_aovs
     from .scene.open import SceneLike
     from .session import check_memory, estimate_bytes
     from .settings import ResolvedSettings
 
-__all__ = ["AOV_NAMES", "RenderInterrupted", "allocate_aovs", "check_memory", "estimate_bytes", "render"]
+__all__ = ["AOV_NAMES", "RENDER_AOVS", "RenderInterrupted", "allocate_aovs", "check_memory", "estimate_bytes", "render"]
 
 # raylume/__init__.py imports this module at once (its `render` function must shadow the module
 # of the same name), so it stays light: what it needs is imported on use, and the names it
 # re-exports are loaded on first access.
-_FROM_RENDER_WINDOW = {"AOV_NAMES", "RenderInterrupted", "allocate_aovs"}
+_FROM_RENDER_WINDOW = {"AOV_NAMES", "RENDER_AOVS", "RenderInterrupted", "allocate_aovs"}
 _FROM_SESSION = {"check_memory", "estimate_bytes"}
 
 
@@ -46,6 +46,8 @@ def render(
     filter: str | None = None,
     exposure: float | None = None,
     denoise: bool | None = None,
+    noise_threshold: float | None = None,
+    time_limit: float | None = None,
     threads: int | None = None,
     aovs: bool = True,
     progress: Callable[[int, int], None] | None = None,
@@ -67,8 +69,10 @@ def render(
     it (see Session.render), and with "compiling the BVH builder" and "building" around the
     first build on a machine (see Session). `cluster`: a Dask scheduler's address, `local`, `local:N` or a
     `distributed.Client`: render in tiles on its workers, bit-identical (raylume.cluster).
+    `noise_threshold`, `time_limit`: adaptive sampling, tiles that stop taking samples once
+    their noise is below the threshold or the time is spent (see Session.render).
     `settings`: settings already resolved (raylume.settings.resolve_settings), in place of
-    width ... denoise, threads and crop. `defines`: a Mitsuba scene's $parameters (as --define)."""
+    width ... time_limit, threads and crop. `defines`: a Mitsuba scene's $parameters (as --define)."""
     arguments = dict(locals())  # the call's arguments, before any other name is bound
     from .scene.open import open_scene
     from .session import Session

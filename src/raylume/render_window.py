@@ -48,7 +48,9 @@ from .kernels.variants import features, path_features, trace_features
 from .lanes import lane_pool
 from .scene.model import Camera, RenderSettings
 
-AOV_NAMES = ("depth", "normal", "object", "prim", "albedo", "instance")
+AOV_NAMES = ("depth", "normal", "object", "prim", "albedo", "instance")  # of the primary hit
+# AOVs of the render itself: the image before --denoise, the samples an adaptive render took
+RENDER_AOVS = ("noisy", "spp")
 POLL_SECONDS = 0.05  # how often the waiting thread updates progress and notices Ctrl-C
 
 
@@ -89,6 +91,7 @@ class WindowResult:
     cluster: dict = field(default_factory=dict)  # statistics of a cluster render
     strategies: dict = field(default_factory=dict)  # bdpt: samples per strategy "s,t"
     splats: np.ndarray | None = None  # bdpt, while passes remain: the film's splat sums
+    adaptive: dict = field(default_factory=dict)  # statistics of an adaptive render (adaptive.py)
 
 
 def render_window(
@@ -105,17 +108,21 @@ def render_window(
     count: int | None = None,
     sums: np.ndarray | None = None,
     splats: np.ndarray | None = None,
+    cone_spp: int | None = None,
 ) -> WindowResult:
     """Render samples first..first+count-1 (default: all of settings.spp) of the pixels in
     `window` = (x0, x1, y0, y1) of the settings' image, continuing from the film `sums` of
     the samples before `first`. Needs no scene model, only the compiled scene and resolved
-    settings: this is what a cluster's worker runs for one tile and one pass."""
+    settings: this is what a cluster's worker runs for one tile and one pass. `cone_spp`: the
+    samples a pixel takes in all (default settings.spp), which narrow the texture filter's ray
+    cone (an adaptive render's rounds are renders of a few samples each)."""
     W, H = settings.width, settings.height
     x0, x1, y0, y1 = window
     status = status or (lambda what, seconds=0.0: None)
     S = compiled.for_camera(camera.position)
     cam = camera_of(camera, W, H)
-    set_cone_spread(cam, H, 1 if settings.mode == "raster" else settings.spp, settings.texture_filter)
+    spp = cone_spp or settings.spp
+    set_cone_spread(cam, H, 1 if settings.mode == "raster" else spp, settings.texture_filter)
     if settings.mode == "raster":
         from .raster import rasterize
 

@@ -6,7 +6,8 @@ animations render through a Session; `raylume.render` is the one-shot form.
 
 A render's settings are resolved once (settings.py), from the keyword arguments or from a
 ResolvedSettings given as `settings=`; the pixels are rendered by render_window.py, in-process,
-or in tiles on a cluster (cluster.py).
+in rounds of tiles that stop when their noise is low (adaptive.py), or in tiles on a cluster
+(cluster.py).
 """
 
 from __future__ import annotations
@@ -20,18 +21,19 @@ from typing import TYPE_CHECKING
 import numba
 from pydantic import ValidationError
 
+from .adaptive import render_adaptive
 from .compile import CompiledScene, compile_scene
 from .errors import RaylumeError, SceneError
 from .image import Image
 from .kernels.film.camera import camera_of, set_cone_spread
 from .kernels.film.film import Film
-from .render_window import add_samples_to_film, render_window
+from .render_window import RENDER_AOVS, add_samples_to_film, render_window
 from .scene.checks import warn_about
 from .scene.model import Camera, Scene
 from .scene.open import SceneLike, open_scene
 from .scene.validation_errors import format_validation_error
 from .seen_light import denoise_path_image
-from .settings import ResolvedSettings, is_whole_number, resolve_settings, settings_of_call
+from .settings import ResolvedSettings, is_adaptive, is_whole_number, resolve_settings, settings_of_call
 
 if TYPE_CHECKING:
     from distributed import Client
@@ -145,6 +147,8 @@ class Session:
         filter: str | None = None,
         exposure: float | None = None,
         denoise: bool | None = None,
+        noise_threshold: float | None = None,
+        time_limit: float | None = None,
         threads: int | None = None,
         aovs: bool = True,
         progress: Callable[[int, int], None] | None = None,
@@ -165,8 +169,13 @@ class Session:
         cluster of N worker processes) or a `distributed.Client`: the image is rendered in
         tiles on its workers, bit-identical to the in-process render (raylume.cluster).
 
+        `noise_threshold`, `time_limit`: adaptive sampling (raylume.adaptive): tiles stop taking
+        samples once their noise is below the threshold, or all once the time is spent; `spp` is
+        then the most a pixel takes, the AOVs add `spp` (the samples each pixel took) and the
+        stats `adaptive`.
+
         `settings`: settings already resolved (raylume.settings.resolve_settings), in place of
-        width ... denoise, threads and crop."""
+        width ... time_limit, threads and crop."""
         settings = settings_of_call(self.scene, locals(), settings, self.source)
         table = settings.render
         warn_about(self.scene, table.mode)
@@ -182,6 +191,12 @@ class Session:
         clock = _CompileClock(status)
         extra: dict = {}  # mode-specific statistics
         denoising = table.denoise and table.mode == "path"
+        adaptive = is_adaptive(table)
+        if cluster is not None and adaptive:
+            raise RaylumeError(
+                f"{self.source}: noise_threshold and time_limit render on this machine, not on a cluster "
+                "(leave out --cluster, or the two keys)"
+            )
         if cluster is not None:
             from .cluster import render_on_cluster  # loads Dask only when asked
 
@@ -190,6 +205,13 @@ class Session:
             )
             extra["cluster"] = part.cluster
             worker_compile_seconds = part.cluster["compile_seconds"]  # the longest of the workers'
+        elif adaptive:
+            worker_compile_seconds = 0.0
+            part = render_adaptive(
+                self.compiled, cam_model, table, window, aovs=aovs or denoising, lanes=lanes, progress=progress,
+                status=clock,
+            )  # fmt: skip
+            extra["adaptive"] = part.adaptive
         else:
             worker_compile_seconds = 0.0
             part = render_window(
@@ -198,6 +220,8 @@ class Session:
             )  # fmt: skip
         rgb, aov_arrays, kernel_seconds, rays = part.rgb, part.aovs, part.seconds, part.rays
         primary = 0 if table.mode == "raster" else (x1 - x0) * (y1 - y0) * table.spp
+        if adaptive:
+            primary = part.adaptive["samples"]
         if table.mode != "raster":
             extra["rejected_samples"] = part.rejected
         if table.mode == "path":
@@ -206,15 +230,18 @@ class Session:
             extra["bdpt_strategies"] = dict(sorted(part.strategies.items()))
         if denoising:
             noisy = rgb
+            # an adaptive image's samples are its rounds': the light seen directly and the edges
+            # are rendered at its mean spp, so that they cost what they cost beside a plain render
+            split_table = (
+                table.model_copy(update={"spp": max(2, round(part.adaptive["mean_spp"]))}) if adaptive else table
+            )
             rgb, split = denoise_path_image(
-                self.compiled, cam_model, table, window, lanes, noisy, aov_arrays["albedo"], aov_arrays["normal"]
+                self.compiled, cam_model, split_table, window, lanes, noisy, aov_arrays["albedo"], aov_arrays["normal"]
             )
             rays += split.rays
             extra["denoise_seconds"] = split.seconds
             extra["denoise_edge_pixels"] = split.edge_pixels
             extra["denoise_edge_spp"] = split.edge_spp
-            if not aovs:
-                aov_arrays = {}
             aov_arrays["noisy"] = noisy
         stats = {
             "width": table.width,
@@ -233,7 +260,7 @@ class Session:
             **extra,
         }
         if not aovs:
-            aov_arrays = {k: v for k, v in aov_arrays.items() if k == "noisy"}
+            aov_arrays = {k: v for k, v in aov_arrays.items() if k in RENDER_AOVS}
         return Image(rgb, aov_arrays, stats, table.encoding, exposure=table.exposure)
 
     @_threads_restored

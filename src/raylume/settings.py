@@ -22,7 +22,10 @@ from .scene.validation_errors import format_validation_error
 
 # The [render] keys that a render call overrides by name: keyword arguments of raylume.render,
 # Session.render and raylume.view, and the command line's flags (--width, ..., --denoise).
-OVERRIDES = ("width", "height", "spp", "mode", "integrator", "max_depth", "seed", "filter", "exposure", "denoise")
+OVERRIDES = (
+    "width", "height", "spp", "mode", "integrator", "max_depth", "seed", "filter", "exposure", "denoise",
+    "noise_threshold", "time_limit",
+)  # fmt: skip
 COMMAND_LINE = "command line"  # how errors name the source of flags
 
 
@@ -90,6 +93,11 @@ def settings_of_call(
     if also:
         raise TypeError(f"settings= already holds the render's settings; leave out {', '.join(also)}")
     return settings
+
+
+def is_adaptive(table: RenderSettings) -> bool:
+    """Whether a render of these settings samples adaptively (raylume/adaptive.py)."""
+    return table.noise_threshold is not None or table.time_limit is not None
 
 
 def overrides_of(arguments: Mapping[str, Any]) -> dict[str, Any]:

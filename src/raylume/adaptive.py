@@ -1,0 +1,274 @@
+"""Adaptive sampling: the image in tiles, each rendered in rounds of samples until its noise is
+below `noise_threshold`, its pixels have `spp` samples, or `time_limit` seconds have passed.
+
+A round renders the tiles still open with a few samples per pixel (`round_sizes`: the first
+four ceil(spp / 256) each, at least 2, then a quarter more each round) and a seed of its own
+(`round_seed`): each round is a whole stratified render of those pixels, as a render of that
+many samples would be, so a pixel that stops after any number of rounds holds an unbiased
+mean. (The rounds cannot be the passes of one render: its sampler stratifies over the total,
+row by row of strata, and the first samples alone would cover the top of the pixel.)
+
+Rounds are independent estimates of a pixel, so their spread measures its noise: with k
+rounds of n_i samples and means m_i, sum n_i (m_i - m)^2 / (k - 1) estimates one sample's
+variance and, divided by the pixel's N samples, the variance of its mean. A pixel's error is
+Cycles' measure with that standard error for the difference of half images: the errors of r,
+g and b summed, over 1e-4 + the square root of the pixel's summed mean (noise in the dark
+counts more). A tile stops when the mean error of its pixels falls below
+the threshold, judged from its `FIRST_CHECK`-th round on (the spread of fewer is itself too
+noisy); Dammertz et al., "A hierarchical automatic stopping condition for Monte Carlo global
+illumination" (WSCG 2010), stop in blocks as well, for the same reason.
+
+The decisions depend only on the rounds' images, which depend on neither threads nor tiles:
+the image depends on the scene, seed, spp and threshold. A `time_limit` is checked between
+windows (after the first round, a tile row each) against the render time spent, so with one
+the image depends on the machine's speed too; it stays unbiased, as every tile holds whole
+rounds."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+
+import numpy as np
+
+from .compile import CompiledScene
+from .image import Image
+from .render_window import RenderInterrupted, WindowResult, allocate_aovs, render_window
+from .scene.checks import warn
+from .scene.model import Camera, RenderSettings
+from .settings import is_adaptive
+
+TILE = 16  # side of a tile in pixels: what stops as one
+FIRST_SHARE = 256  # the first rounds take ceil(spp / 256) samples a pixel each (at least 2)
+FIRST_CHECK = 4  # rounds a tile takes before its noise is judged
+GROWTH = 4  # a later round adds a quarter of the samples taken so far
+ERROR_FLOOR = 1e-4  # Cycles' epsilon under the square root of the pixel's brightness
+
+_GOLDEN = 0x9E3779B97F4A7C15
+_MASK64 = (1 << 64) - 1
+
+
+def round_seed(seed: int, round_index: int) -> int:
+    """The seed of round `round_index` (the first keeps the render's own: an adaptive render's
+    first round is the plain render of round_spp samples)."""
+    if round_index == 0:
+        return seed
+    x = (seed * _GOLDEN + round_index) & _MASK64  # splitmix64's finaliser
+    x = ((x ^ (x >> 30)) * 0xBF58476D1CE4E5B9) & _MASK64
+    x = ((x ^ (x >> 27)) * 0x94D049BB133111EB) & _MASK64
+    return (x ^ (x >> 31)) & 0xFFFFFFFF
+
+
+def round_sizes(spp: int) -> list[int]:
+    """Samples per pixel of each round, adding up to spp: FIRST_CHECK rounds of
+    ceil(spp / FIRST_SHARE) samples, at least 2, then each round a quarter of the samples taken
+    so far (so a tile takes at most a quarter more than it needed), the last what is left. No
+    round takes one sample while spp > 1: one sample is the pixel's centre, not a random point,
+    and rounds of it would neither average the pixel nor vary."""
+    if spp == 1:
+        return [1]
+    first = max(2, -(-spp // FIRST_SHARE))
+    sizes: list[int] = []
+    taken = 0
+    while taken < spp:
+        size = first if len(sizes) < FIRST_CHECK else max(first, -(-taken // GROWTH))
+        size = min(size, spp - taken)
+        if spp - taken - size == 1:
+            size += 1  # no round of one left over
+        sizes.append(size)
+        taken += size
+    return sizes
+
+
+class _Accumulator:
+    """A window's running sums: sum n_i m_i and sum n_i m_i^2 per pixel and channel (float64),
+    the samples N and the rounds k per pixel."""
+
+    def __init__(self, h: int, w: int):
+        self.sum = np.zeros((h, w, 3))
+        self.sum_sq = np.zeros((h, w, 3))
+        self.samples = np.zeros((h, w), dtype=np.int64)
+        self.rounds = np.zeros((h, w), dtype=np.int64)
+
+    def add(self, rows: slice, cols: slice, mean: np.ndarray, n: int) -> None:
+        m = mean.astype(np.float64)
+        self.sum[rows, cols] += n * m
+        self.sum_sq[rows, cols] += n * m * m
+        self.samples[rows, cols] += n
+        self.rounds[rows, cols] += 1
+
+    def mean(self) -> np.ndarray:
+        n = np.maximum(self.samples, 1)[..., None]
+        return (self.sum / n).astype(np.float32)
+
+    def variance_of_mean(self) -> np.ndarray:
+        """(h, w, 3): the variance of each pixel's mean, sum n_i (m_i - m)^2 / (k - 1) / N
+        (module docstring); inf where a pixel has fewer than two rounds."""
+        n = np.maximum(self.samples, 1)[..., None].astype(np.float64)
+        k = self.rounds[..., None]
+        spread = np.maximum(self.sum_sq - self.sum * self.sum / n, 0.0)  # sum n_i (m_i - m)^2
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(k > 1, spread / np.maximum(k - 1, 1) / n, np.inf)
+
+    def pixel_error(self) -> np.ndarray:
+        """Each pixel's error: its standard errors of r, g and b summed, over 1e-4 + the square
+        root of its summed mean (Cycles' measure)."""
+        noise = np.sqrt(self.variance_of_mean()).sum(axis=2)
+        n = np.maximum(self.samples, 1).astype(np.float64)
+        brightness = np.maximum(self.sum.sum(axis=2) / n, 0.0)
+        return noise / (ERROR_FLOOR + np.sqrt(brightness))
+
+
+def tile_areas(h: int, w: int) -> np.ndarray:
+    """The pixels in each tile of an h x w window (edge tiles hold fewer)."""
+    heights = np.minimum(TILE, h - TILE * np.arange(-(-h // TILE)))
+    widths = np.minimum(TILE, w - TILE * np.arange(-(-w // TILE)))
+    return heights[:, None] * widths[None, :]
+
+
+def tile_errors(pixel_error: np.ndarray) -> np.ndarray:
+    """The mean pixel error of each TILE x TILE tile (edge tiles over the pixels they have)."""
+    h, w = pixel_error.shape
+    th, tw = -(-h // TILE), -(-w // TILE)
+    padded = np.zeros((th * TILE, tw * TILE))
+    padded[:h, :w] = pixel_error
+    return padded.reshape(th, TILE, tw, TILE).sum(axis=(1, 3)) / tile_areas(h, w)
+
+
+def open_windows(
+    open_tiles: np.ndarray, window: tuple[int, int, int, int], join_rows: bool = True
+) -> list[tuple[int, int, int, int]]:
+    """The windows (x0, x1, y0, y1) that cover the open tiles: each tile row's runs of open
+    tiles, runs repeated in consecutive tile rows joined into one taller window when
+    `join_rows` (every tile open: one window, the whole)."""
+    x0, x1, y0, y1 = window
+    rows = []
+    for row in open_tiles:
+        edges = np.flatnonzero(np.diff(np.concatenate(([0], row.astype(np.int8), [0]))))
+        rows.append(tuple(zip(edges[::2].tolist(), edges[1::2].tolist(), strict=True)))
+    windows = []
+    start = 0
+    for ty in range(1, len(rows) + 1):
+        if join_rows and ty < len(rows) and rows[ty] == rows[start]:
+            continue
+        for a, b in rows[start]:
+            windows.append((x0 + a * TILE, min(x0 + b * TILE, x1), y0 + start * TILE, min(y0 + ty * TILE, y1)))
+        start = ty
+    return windows
+
+
+def render_adaptive(
+    compiled: CompiledScene,
+    camera: Camera,
+    settings: RenderSettings,
+    window: tuple[int, int, int, int],
+    *,
+    aovs: bool,
+    lanes: int,
+    progress: Callable[[int, int], None] | None = None,
+    status: Callable | None = None,
+) -> WindowResult:
+    """Render `window` = (x0, x1, y0, y1) adaptively (module docstring). The result's `aovs`
+    hold `spp`, the samples each pixel took (float32; with the others when `aovs`), and its
+    `adaptive` the statistics."""
+    x0, x1, y0, y1 = window
+    h, w = y1 - y0, x1 - x0
+    sizes = round_sizes(settings.spp)
+    threshold, time_limit = settings.noise_threshold, settings.time_limit
+    if threshold is not None and len(sizes) <= FIRST_CHECK:
+        warn(
+            f"noise_threshold judges a tile after {FIRST_CHECK} rounds of samples; with spp {settings.spp} every "
+            "pixel takes them all (spp is the most a pixel takes: give it 64 or more)"
+        )
+    if time_limit is not None and len(sizes) == 1:
+        warn(
+            f"time_limit with spp {settings.spp}: one round renders the whole image (spp is the most samples a "
+            "pixel takes: give it 1024 or more)"
+        )
+    acc = _Accumulator(h, w)
+    th, tw = -(-h // TILE), -(-w // TILE)
+    open_tiles = np.ones((th, tw), dtype=bool)
+    aov_arrays = allocate_aovs(h, w) if aovs else {}
+    seconds = 0.0
+    rays = rejected = 0
+    planned = h * w * settings.spp
+    done = 0
+    stopped_by = "spp"
+    rounds_done = 0
+
+    def report(extra: int = 0) -> None:
+        if progress is not None:
+            progress(min(done + extra, planned), planned)
+
+    try:
+        for r, n in enumerate(sizes):
+            if not open_tiles.any():
+                break
+            if r > 0 and time_limit is not None and seconds >= time_limit:
+                stopped_by = "time"
+                break
+            table = settings.model_copy(update={"spp": n, "seed": round_seed(settings.seed, r)})
+            # a time limit is checked between windows: after the first round (one window, the
+            # whole), a tile row each, so that it stops within one's time
+            for win in open_windows(open_tiles, window, join_rows=time_limit is None or r == 0):
+                if r > 0 and time_limit is not None and seconds >= time_limit:
+                    stopped_by = "time"
+                    break  # the tiles left keep the rounds they have
+                area = (win[1] - win[0]) * (win[3] - win[2])
+
+                def window_progress(rows: int, total: int, area=area, n=n) -> None:
+                    report(area * n * rows // max(total, 1))
+
+                part = render_window(
+                    compiled, camera, table, win, aovs=aovs and r == 0, lanes=lanes, progress=window_progress,
+                    status=status, cone_spp=settings.spp,
+                )  # fmt: skip
+                rows, cols = slice(win[2] - y0, win[3] - y0), slice(win[0] - x0, win[1] - x0)
+                acc.add(rows, cols, part.rgb, n)
+                for name, array in part.aovs.items():
+                    aov_arrays[name][rows, cols] = array
+                seconds += part.seconds
+                rays += part.rays
+                rejected += part.rejected
+                done += area * n
+                report()
+            if stopped_by == "time":
+                break
+            rounds_done = r + 1
+            if threshold is not None and rounds_done >= FIRST_CHECK:
+                started = time.perf_counter()
+                closing = open_tiles & (tile_errors(acc.pixel_error()) < threshold)
+                open_tiles &= ~closing
+                done += int(tile_areas(h, w)[closing].sum()) * (settings.spp - sum(sizes[: r + 1]))
+                seconds += time.perf_counter() - started
+                report()
+    except KeyboardInterrupt as exc:
+        least = int(acc.samples.min())
+        if least == 0:
+            raise  # in the first round, one window: its rows done, as a plain render's
+        partial = Image(acc.mean(), {}, {}, settings.encoding, exposure=settings.exposure)
+        raise RenderInterrupted(partial, h, f"{rounds_done} rounds, {least} or more samples in every pixel") from exc
+    if stopped_by != "time" and threshold is not None and not open_tiles.any():
+        stopped_by = "noise"
+    aov_arrays["spp"] = acc.samples.astype(np.float32)  # asked for or not: it costs nothing
+    samples = int(acc.samples.sum())
+    stats = {
+        "noise_threshold": threshold,
+        "time_limit": time_limit,
+        "tile": TILE,
+        "round_spp": sizes[0],
+        "rounds": rounds_done,
+        "samples": samples,
+        "mean_spp": samples / (h * w),
+        "min_spp": int(acc.samples.min()),
+        "max_spp": int(acc.samples.max()),
+        "tiles": th * tw,
+        "tiles_converged": int((~open_tiles).sum()),
+        "stopped_by": stopped_by,
+    }
+    result = WindowResult(window, acc.mean(), aov_arrays, seconds, rays, rejected)
+    result.adaptive = stats
+    return result
+
+
+__all__ = ["FIRST_CHECK", "TILE", "is_adaptive", "render_adaptive", "round_seed", "round_sizes", "tile_errors"]

@@ -1,0 +1,202 @@
+"""Adaptive sampling (raylume/adaptive.py) against what it promises.
+
+* Its noise estimate is the variance of a mean from rounds of unequal size: checked on
+  synthetic rounds of known variance, within the chi-square spread of the estimate.
+* Its image is the sample-weighted mean of plain renders, one a round, each with the round's
+  seed and samples: checked against those renders made one by one.
+* A tile that stops is as quiet as the threshold says: its error against a reference of
+  8192 samples, measured as the threshold measures it (Cycles' measure), stays below the
+  threshold. The estimate is a standard error, and a Gaussian error's mean magnitude is
+  sqrt(2 / pi) = 0.80 of its standard error, so the measured error of a stopped tile is
+  expected near 0.8 x the threshold; the reference's own noise (about a quarter of a
+  stopped tile's at these sample counts) raises it by a few percent.
+* Tiles of constant colour stop after the first check; the image is the same on any number
+  of threads; a time limit stops with whole rounds; bad requests are refused on the command
+  line with one line and exit status 2."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from test_cli import assert_refused
+from test_cli import raylume as run_cli
+
+import raylume
+from raylume.adaptive import FIRST_CHECK, TILE, _Accumulator, round_seed, round_sizes, tile_errors
+from raylume.render_window import RenderInterrupted
+
+REPO = Path(__file__).resolve().parents[1]
+CORNELL = REPO / "examples" / "cornell.toml"
+SEED = REPO / "src" / "raylume" / "scenes" / "seed.toml"
+Z = 5.0  # standard errors allowed
+
+
+def cycles_error(image: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """Each pixel's error against the reference, as the threshold measures it."""
+    ref = reference.astype(np.float64)
+    return np.abs(image.astype(np.float64) - ref).sum(axis=2) / (1e-4 + np.sqrt(np.maximum(ref.sum(axis=2), 0.0)))
+
+
+@pytest.fixture(scope="module")
+def cornell():
+    return raylume.load_scene(CORNELL)
+
+
+def test_round_sizes_add_up_and_grow_by_a_quarter():
+    assert round_sizes(1) == [1]
+    for spp in (2, 3, 4, 9, 16, 100, 1024, 4095, 4096):
+        sizes = round_sizes(spp)
+        assert sum(sizes) == spp and min(sizes) >= 2, (spp, sizes)  # one sample is the pixel's centre
+        first = max(2, math.ceil(spp / 256))
+        for r, size in enumerate(sizes):
+            rule = first if r < FIRST_CHECK else max(first, math.ceil(sum(sizes[:r]) / 4))
+            if r < len(sizes) - 1:
+                assert size == rule, (spp, sizes)
+            else:  # the last is what is left, or the rule's and one more that would have been left
+                assert size <= rule + 1, (spp, sizes)
+    assert len(round_sizes(4096)) < 30  # a few dozen windows' calls at most, not thousands
+
+
+def test_the_variance_of_a_mean_from_unequal_rounds():
+    """Rounds of 1, 1, 1, 1, 1, 2, 2, 3 and 4 samples of known variance: the estimate's mean
+    over many pixels is sigma^2 / N, within its chi-square spread (k - 1 degrees of freedom)."""
+    rng = np.random.default_rng(5)
+    sizes = round_sizes(300)[:9]
+    assert len(set(sizes)) > 2
+    sigma, level = 0.3, 0.6
+    acc = _Accumulator(60, 80)
+    means = [level + rng.normal(0.0, sigma / math.sqrt(n), (60, 80, 3)) for n in sizes]
+    for n, m in zip(sizes, means, strict=True):
+        acc.add(slice(None), slice(None), m, n)
+    N, k = sum(sizes), len(sizes)
+    estimate = acc.variance_of_mean()
+    expected = sigma**2 / N
+    spread = expected * math.sqrt(2 / (k - 1) / estimate.size)
+    assert abs(estimate.mean() - expected) < Z * spread, (estimate.mean(), expected, spread)
+    # the control: the rounds' means weighed alike (their variance over k) miss it by far
+    alike = np.var(means, axis=0, ddof=1) / k
+    assert abs(alike.mean() - expected) > 3 * Z * spread
+
+
+def test_an_adaptive_image_is_the_mean_of_its_rounds(cornell):
+    """With nothing to stop it early (a time limit never reached), the image is the
+    sample-weighted mean of one plain render a round, with the round's seed and samples."""
+    W, spp, seed = 24, 12, 3
+    image = raylume.render(cornell, width=W, height=W, spp=spp, seed=seed, time_limit=1e6, threads=2)
+    assert image.stats["adaptive"]["stopped_by"] == "spp"
+    total = np.zeros((W, W, 3))
+    for r, n in enumerate(round_sizes(spp)):
+        part = raylume.render(cornell, width=W, height=W, spp=n, seed=round_seed(seed, r), threads=2, aovs=False)
+        total += n * part.rgb.astype(np.float64)
+    np.testing.assert_allclose(image.rgb, total / spp, rtol=2e-6, atol=1e-7)
+    assert (image.aovs["spp"] == spp).all()
+    assert image.stats["primary_rays"] == W * W * spp
+
+
+def test_stopped_tiles_are_as_quiet_as_the_threshold(cornell):
+    W, threshold = 48, 0.05
+    reference = (
+        sum(
+            raylume.render(cornell, width=W, height=W, spp=4096, seed=s, threads=2, aovs=False).rgb.astype(np.float64)
+            for s in (101, 102)
+        )
+        / 2
+    )
+    image = raylume.render(cornell, width=W, height=W, spp=2048, noise_threshold=threshold, threads=2)
+    stats = image.stats["adaptive"]
+    tile_spp = tile_errors(image.aovs["spp"].astype(np.float64))
+    stopped = tile_spp < 2048
+    assert stopped.all() and stats["stopped_by"] == "noise", stats
+    assert tile_spp.max() > 2 * tile_spp.min(), tile_spp  # the box's tiles differ in noise
+    assert stats["mean_spp"] < 0.5 * 2048
+    measured = tile_errors(cycles_error(image.rgb, reference))
+    assert measured.mean() < threshold, measured
+    assert measured.max() < 1.2 * threshold, measured  # 0.8 x, with the estimate's and the tile's noise
+    # the control: every pixel at the least any tile took is noisier than the threshold somewhere
+    least = raylume.render(cornell, width=W, height=W, spp=int(tile_spp.min()), threads=2, aovs=False)
+    assert tile_errors(cycles_error(least.rgb, reference)).max() > threshold
+
+
+def test_tiles_of_constant_colour_stop_at_the_first_check():
+    """The seed scene in trace mode, 64 samples a pixel: tiles of background alone have no
+    noise and stop after FIRST_CHECK rounds of two samples; tiles with a sphere's edge go on."""
+    image = raylume.render("seed", width=64, height=64, spp=64, noise_threshold=0.002, threads=2)
+    spp = image.aovs["spp"]
+    tiles_spp = spp.reshape(64 // TILE, TILE, 64 // TILE, TILE)
+    # pixels whose centre or a centre within 2 pixels sees an object (samples spread over a pixel)
+    seen = np.pad(image.aovs["object"] >= 0, 2)
+    near = np.zeros((64, 64), dtype=bool)
+    for dy in range(5):
+        for dx in range(5):
+            near |= seen[dy : dy + 64, dx : dx + 64]
+    hits = near.reshape(64 // TILE, TILE, 64 // TILE, TILE).any(axis=(1, 3))
+    assert (tiles_spp.min(axis=(1, 3)) == tiles_spp.max(axis=(1, 3))).all()  # a tile stops whole
+    empty = ~hits
+    assert empty.any() and hits.any()
+    assert (tiles_spp.max(axis=(1, 3))[empty] == 2 * FIRST_CHECK).all()
+    assert tiles_spp.max() > 2 * FIRST_CHECK  # edges are antialiased by more samples
+    bg = np.asarray(raylume.load_scene(SEED).render.background, dtype=np.float32)
+    for ty, tx in zip(*np.nonzero(empty), strict=True):
+        tile = image.rgb[ty * TILE : (ty + 1) * TILE, tx * TILE : (tx + 1) * TILE]
+        assert np.all(tile == bg)
+
+
+def test_the_same_image_on_any_number_of_threads(cornell):
+    one = raylume.render(cornell, width=32, height=32, spp=256, noise_threshold=0.08, threads=1)
+    two = raylume.render(cornell, width=32, height=32, spp=256, noise_threshold=0.08, threads=2)
+    assert np.array_equal(one.rgb, two.rgb)
+    assert np.array_equal(one.aovs["spp"], two.aovs["spp"])
+    assert one.stats["adaptive"]["min_spp"] < 256
+
+
+def test_a_time_limit_stops_with_whole_rounds(cornell):
+    image = raylume.render(cornell, width=32, height=32, spp=4096, time_limit=0.2, threads=2)
+    stats = image.stats["adaptive"]
+    assert stats["stopped_by"] == "time"
+    totals = set(np.cumsum(round_sizes(4096)).tolist())
+    assert set(np.unique(image.aovs["spp"]).astype(int).tolist()) <= totals  # every pixel whole rounds
+    assert stats["min_spp"] >= round_sizes(4096)[0] and stats["max_spp"] < 4096
+    assert np.isfinite(image.rgb).all() and image.rgb.mean() > 0
+
+
+def test_ctrl_c_keeps_the_rounds_done(cornell):
+    """Interrupted after its first rounds, the render returns every pixel with the samples it
+    has (a whole image, noisier), not rows."""
+
+    def stop_late(done: int, total: int) -> None:
+        if done > 0.1 * total:
+            raise KeyboardInterrupt
+
+    with pytest.raises(RenderInterrupted) as caught:
+        raylume.render(cornell, width=32, height=32, spp=256, time_limit=1e6, threads=2, progress=stop_late)
+    partial = caught.value.image
+    assert partial.rgb.shape == (32, 32, 3) and (partial.rgb.sum(axis=2) > 0).mean() > 0.9
+    assert "samples in every pixel" in caught.value.done
+
+
+def test_the_command_line(tmp_path):
+    out = tmp_path / "a.png"
+    stats = tmp_path / "s.json"
+    result = run_cli(
+        "render", CORNELL, "--width", 32, "--height", 32, "--spp", 128, "--noise-threshold", 0.1,
+        "-o", out, "--stats", stats, "--aov", f"spp={tmp_path / 'spp.npy'}", cwd=tmp_path,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    assert "adaptive:" in result.stderr and "spp a pixel on average" in result.stderr
+    written = json.loads(stats.read_text())["adaptive"]
+    spp = np.load(tmp_path / "spp.npy")
+    assert written["min_spp"] == spp.min() and written["max_spp"] == spp.max()
+    assert_refused(run_cli("render", "--mode", "raster", "--noise-threshold", 0.1, cwd=tmp_path), "raster")
+    assert_refused(
+        run_cli("render", CORNELL, "--integrator", "bdpt", "--time-limit", 5, cwd=tmp_path), "time_limit", "bdpt"
+    )
+    assert_refused(run_cli("render", "--aov", "spp=x.npy", cwd=tmp_path), "--aov spp", "--noise-threshold")
+    assert_refused(  # before any cluster is started or reached
+        run_cli("render", "--cluster", "local", "--noise-threshold", 0.1, cwd=tmp_path), "--cluster local", "not on a"
+    )
+    assert_refused(run_cli("render", "--noise-threshold", 0, cwd=tmp_path), "--noise-threshold")
+    assert not (tmp_path / "render.png").exists()
