@@ -200,3 +200,15 @@ def test_the_command_line(tmp_path):
     )
     assert_refused(run_cli("render", "--noise-threshold", 0, cwd=tmp_path), "--noise-threshold")
     assert not (tmp_path / "render.png").exists()
+
+
+def test_a_crop_is_that_window_of_the_whole_adaptive_render(cornell):
+    """Tiles lie on the whole image's grid: a crop renders the tiles it touches whole, so each
+    stops as in the whole image (a crop of a plain render is that window of it, bit for bit)."""
+    settings = dict(width=40, height=36, spp=128, noise_threshold=0.06, threads=2)
+    whole = raylume.render(cornell, **settings)
+    crop = raylume.render(cornell, **settings, crop=(5, 30, 3, 21))
+    assert np.array_equal(crop.rgb, whole.rgb[3:21, 5:30])
+    assert np.array_equal(crop.aovs["spp"], whole.aovs["spp"][3:21, 5:30])
+    assert crop.stats["adaptive"]["max_spp"] == crop.aovs["spp"].max()
+    assert len(np.unique(whole.aovs["spp"])) > 1  # tiles stopped apart

@@ -170,7 +170,40 @@ def render_adaptive(
 ) -> WindowResult:
     """Render `window` = (x0, x1, y0, y1) adaptively (module docstring). The result's `aovs`
     hold `spp`, the samples each pixel took (float32; with the others when `aovs`), and its
-    `adaptive` the statistics."""
+    `adaptive` the statistics.
+
+    The tiles lie on the whole image's grid, so a crop renders the tiles its window touches
+    whole and keeps its window: each tile stops as it does in the whole image, and the crop is
+    that window of the whole adaptive render (as a crop of a plain render is)."""
+    x0, x1, y0, y1 = window
+    grid = (x0 - x0 % TILE, min(-(-x1 // TILE) * TILE, settings.width))
+    grid += (y0 - y0 % TILE, min(-(-y1 // TILE) * TILE, settings.height))
+    part = _render_tiles(compiled, camera, settings, grid, aovs=aovs, lanes=lanes, progress=progress, status=status)
+    if grid == window:
+        return part
+    rows, cols = slice(y0 - grid[2], y1 - grid[2]), slice(x0 - grid[0], x1 - grid[0])
+    crop_aovs = {name: np.ascontiguousarray(array[rows, cols]) for name, array in part.aovs.items()}
+    spp = crop_aovs["spp"]
+    stats = {**part.adaptive, "samples": int(spp.sum()), "mean_spp": float(spp.mean())}
+    stats.update(min_spp=int(spp.min()), max_spp=int(spp.max()))
+    result = WindowResult(window, np.ascontiguousarray(part.rgb[rows, cols]), crop_aovs, part.seconds, part.rays)
+    result.rejected = part.rejected
+    result.adaptive = stats
+    return result
+
+
+def _render_tiles(
+    compiled: CompiledScene,
+    camera: Camera,
+    settings: RenderSettings,
+    window: tuple[int, int, int, int],
+    *,
+    aovs: bool,
+    lanes: int,
+    progress: Callable[[int, int], None] | None,
+    status: Callable | None,
+) -> WindowResult:
+    """render_adaptive on a window whose corner lies on the tile grid."""
     x0, x1, y0, y1 = window
     h, w = y1 - y0, x1 - x0
     sizes = round_sizes(settings.spp)
