@@ -279,7 +279,7 @@ def _render_tiles(
         least = int(acc.samples.min())
         if least == 0:
             raise  # in the first round, one window: its rows done, as a plain render's
-        partial = Image(acc.mean(), {}, {}, settings.encoding, exposure=settings.exposure)
+        partial = Image(acc.mean(), {}, {}, settings.encoding, exposure=settings.exposure, tonemap=settings.tonemap)
         raise RenderInterrupted(partial, h, f"{rounds_done} rounds, {least} or more samples in every pixel") from exc
     if stopped_by != "time" and threshold is not None and not open_tiles.any():
         stopped_by = "noise"

@@ -82,5 +82,5 @@ def render_animation(
             rgb = denoise(rgb, result.aovs["albedo"], result.aovs["normal"])
         stats = {"width": table.width, "height": table.height, "spp": table.spp, "mode": table.mode, "frame": k,
                  "rays": result.rays, "render_seconds": result.seconds}  # fmt: skip
-        yield k, Image(rgb, {}, stats, table.encoding, exposure=table.exposure)
+        yield k, Image(rgb, {}, stats, table.encoding, exposure=table.exposure, tonemap=table.tonemap)
     session.last_cluster_stats = renderer.stats()

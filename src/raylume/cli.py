@@ -319,6 +319,14 @@ def render(
         str | None,
         typer.Option("--filter", metavar="FILTER", help="Pixel filter for spp > 1: box | gaussian | mitchell"),
     ] = None,
+    tonemap: Annotated[
+        str | None,
+        typer.Option(
+            "--tonemap",
+            metavar="NAME",
+            help="Tone mapping for .png/.jpg output, after --exposure: none (clip at 1) | reinhard | aces",
+        ),
+    ] = None,
     denoise: Annotated[
         bool | None,
         typer.Option(
@@ -605,11 +613,12 @@ def _warn_ignored(output: Path, settings, flags: dict) -> None:
     from .image import ENCODED_SUFFIXES
 
     pixel_filter = flags.get("filter")
-    if flags.get("exposure") is not None and output.suffix.lower() not in ENCODED_SUFFIXES:
-        _warn(
-            f"--exposure applies to {', '.join(ENCODED_SUFFIXES)} outputs only; {output} stores the "
-            "linear values as rendered"
-        )
+    for flag in ("exposure", "tonemap"):
+        if flags.get(flag) is not None and output.suffix.lower() not in ENCODED_SUFFIXES:
+            _warn(
+                f"--{flag} applies to {', '.join(ENCODED_SUFFIXES)} outputs only; {output} stores the "
+                "linear values as rendered"
+            )
     if pixel_filter is not None and settings.mode == "raster":
         _warn("--filter has no effect in raster mode: it takes one sample at each pixel centre")
     elif pixel_filter is not None and settings.spp == 1:

@@ -952,5 +952,7 @@ def _interrupted(partial, settings: ResolvedSettings) -> RenderInterrupted:
     else:
         result, done, total = partial
         rgb = result.rgb
-    image = Image(rgb, {}, {}, settings.render.encoding, exposure=settings.render.exposure)
+    image = Image(
+        rgb, {}, {}, settings.render.encoding, exposure=settings.render.exposure, tonemap=settings.render.tonemap
+    )
     return RenderInterrupted(image, 0, done=f"{done} of {total} tiles")

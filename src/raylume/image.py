@@ -1,5 +1,5 @@
 """The rendered Image, 8- and 16-bit encodings (the seed's clamp, or sRGB, after an optional
-exposure) and atomic file writers: PNG (8 or 16 bits), JPEG, NPY, OpenEXR (with AOV layers) and
+exposure and tone mapping) and atomic file writers: PNG (8 or 16 bits), JPEG, NPY, OpenEXR (with AOV layers) and
 Radiance HDR."""
 
 from __future__ import annotations
@@ -36,13 +36,47 @@ EXR_LAYERS = {
 }
 
 
-def encode_levels(rgb: np.ndarray, encoding: str = "clamp", exposure: float = 0.0) -> np.ndarray:
-    """Linear float RGB -> encoded values in 0..1 (float64), before quantisation. 'clamp' is
-    the seed's: clamp to 0..1, no transfer curve; 'srgb' applies the sRGB curve. `exposure`
-    (in stops) scales the linear values by 2**exposure first."""
+TONEMAPS = ("none", "reinhard", "aces")
+# Stephen Hill's fit of the ACES reference rendering and sRGB output transforms (BakingLab's
+# ACES.hlsl, MIT): linear sRGB into the RRT's saturated space, the fitted curve per channel, and
+# back out of the ODT's; each row sums to 1 (to 5 decimals), so greys stay grey.
+_ACES_IN = np.array([[0.59719, 0.35458, 0.04823], [0.07600, 0.90834, 0.01566], [0.02840, 0.13383, 0.83777]])
+_ACES_OUT = np.array([[1.60475, -0.53108, -0.07367], [-0.10208, 1.10813, -0.00605], [-0.00327, -0.07276, 1.07602]])
+_LUMINANCE = np.array([0.2126, 0.7152, 0.0722])  # of linear sRGB (Rec. 709)
+
+
+def aces_curve(v: np.ndarray) -> np.ndarray:
+    """Hill's fitted RRT + ODT curve of one channel."""
+    return (v * (v + 0.0245786) - 0.000090537) / (v * (0.983729 * v + 0.4329510) + 0.238081)
+
+
+def tone_map(rgb: np.ndarray, tonemap: str) -> np.ndarray:
+    """Linear RGB of any brightness -> linear RGB in 0..1 (float64). 'none' clips at 1 (the
+    seed's); 'reinhard' scales each pixel by 1 / (1 + L), L its luminance (Reinhard et al. 2002,
+    their simple operator on luminance: hues kept, 1 reached only at infinity, a channel above
+    its luminance clipped); 'aces' is Hill's fit of ACES (the filmic look of game engines: a toe,
+    a soft shoulder, bright colours desaturating towards white)."""
+    x = np.maximum(np.asarray(rgb, dtype=np.float64), 0.0)
+    if tonemap == "reinhard":
+        x = x / (1.0 + x @ _LUMINANCE)[..., None]
+    elif tonemap == "aces":
+        x = aces_curve(x @ _ACES_IN.T) @ _ACES_OUT.T
+    elif tonemap != "none":
+        raise ValueError(f"unknown tonemap {tonemap!r}; use one of {', '.join(TONEMAPS)}")
+    return x.clip(0.0, 1.0)
+
+
+def encode_levels(rgb: np.ndarray, encoding: str = "clamp", exposure: float = 0.0, tonemap: str = "none") -> np.ndarray:
+    """Linear float RGB -> encoded values in 0..1 (float64), before quantisation. `exposure`
+    (in stops) scales the linear values by 2**exposure first, then `tonemap` brings them into
+    0..1 (tone_map; 'none' clamps); 'clamp' is the seed's encoding, no transfer curve, 'srgb'
+    applies the sRGB curve."""
     if exposure:
         rgb = np.asarray(rgb, dtype=np.float32) * np.float32(2.0**exposure)
-    x = np.nan_to_num(rgb, nan=0.0, posinf=1.0, neginf=0.0).clip(0.0, 1.0)
+    if tonemap == "none":
+        x = np.nan_to_num(rgb, nan=0.0, posinf=1.0, neginf=0.0).clip(0.0, 1.0)
+    else:
+        x = tone_map(np.nan_to_num(rgb, nan=0.0, posinf=np.finfo(np.float32).max, neginf=0.0), tonemap)
     if encoding == "srgb":
         x = np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1.0 / 2.4) - 0.055)
     elif encoding != "clamp":
@@ -50,14 +84,14 @@ def encode_levels(rgb: np.ndarray, encoding: str = "clamp", exposure: float = 0.
     return x
 
 
-def encode_8bit(rgb: np.ndarray, encoding: str = "clamp", exposure: float = 0.0) -> np.ndarray:
+def encode_8bit(rgb: np.ndarray, encoding: str = "clamp", exposure: float = 0.0, tonemap: str = "none") -> np.ndarray:
     """Linear float RGB -> uint8: the encoded value times 255, rounded."""
-    return np.round(encode_levels(rgb, encoding, exposure) * 255.0).astype(np.uint8)
+    return np.round(encode_levels(rgb, encoding, exposure, tonemap) * 255.0).astype(np.uint8)
 
 
-def encode_16bit(rgb: np.ndarray, encoding: str = "clamp", exposure: float = 0.0) -> np.ndarray:
+def encode_16bit(rgb: np.ndarray, encoding: str = "clamp", exposure: float = 0.0, tonemap: str = "none") -> np.ndarray:
     """Linear float RGB -> uint16 by the same curve as encode_8bit, times 65535."""
-    return np.round(encode_levels(rgb, encoding, exposure) * 65535.0).astype(np.uint16)
+    return np.round(encode_levels(rgb, encoding, exposure, tonemap) * 65535.0).astype(np.uint16)
 
 
 def check_output_path(path: str | Path, allowed=IMAGE_SUFFIXES) -> Path:
@@ -310,9 +344,10 @@ def save_array(
     exposure: float = 0.0,
     bit_depth: int = 8,
     layers: dict[str, np.ndarray] | None = None,
+    tonemap: str = "none",
 ) -> Path:
     """Write rgb by the path's extension: .png (8 or 16 bits) and .jpg/.jpeg (8 bits, quality
-    95), exposure and encoding applied; .npy, .exr and .hdr (linear floats as rendered).
+    95), exposure, tonemap and encoding applied; .npy, .exr and .hdr (linear floats as rendered).
     `layers` (AOV name -> array) go into an .exr beside R, G, B."""
     path = check_output_path(path)
     check_bit_depth(path, bit_depth)
@@ -320,11 +355,11 @@ def save_array(
     if layers and suffix != ".exr":
         raise OutputError(f"{path}: AOV layers need an .exr output")
     if suffix == ".png" and bit_depth == 16:
-        data = _png16_bytes(encode_16bit(rgb, encoding, exposure))
+        data = _png16_bytes(encode_16bit(rgb, encoding, exposure, tonemap))
     elif suffix == ".png":
-        data = png_bytes(encode_8bit(rgb, encoding, exposure))
+        data = png_bytes(encode_8bit(rgb, encoding, exposure, tonemap))
     elif suffix in (".jpg", ".jpeg"):
-        data = jpeg_bytes(encode_8bit(rgb, encoding, exposure))
+        data = jpeg_bytes(encode_8bit(rgb, encoding, exposure, tonemap))
     elif suffix == ".hdr":
         data = _hdr_bytes(rgb)
     elif suffix == ".npy":
@@ -355,6 +390,7 @@ class Image:
         stats: dict | None = None,
         encoding: str = "clamp",
         exposure: float = 0.0,
+        tonemap: str = "none",
     ):
         # A pixel past float32's range (a light of 1e38, or a tiny distance to a bright point) is
         # the largest float32, not inf: no output image holds NaN or inf (NaN samples are dropped
@@ -366,6 +402,7 @@ class Image:
         self.stats = stats or {}
         self.encoding = encoding
         self.exposure = exposure  # stops, applied to 8-bit encodings only
+        self.tonemap = tonemap  # likewise
 
     @property
     def width(self) -> int:
@@ -376,7 +413,8 @@ class Image:
         return self.rgb.shape[0]
 
     def to_uint8(self, encoding: str | None = None, exposure: float | None = None) -> np.ndarray:
-        return encode_8bit(self.rgb, encoding or self.encoding, self.exposure if exposure is None else exposure)
+        exposure = self.exposure if exposure is None else exposure
+        return encode_8bit(self.rgb, encoding or self.encoding, exposure, self.tonemap)
 
     def save(
         self,
@@ -387,7 +425,7 @@ class Image:
         bit_depth: int = 8,
         layers: list[str] | tuple[str, ...] = (),
     ) -> Path:
-        """Write .png (8 or 16 bits) or .jpg/.jpeg (8 bits): exposure, then encoding; .npy
+        """Write .png (8 or 16 bits) or .jpg/.jpeg (8 bits): exposure, the image's tonemap, then encoding; .npy
         (float32 linear), .exr (float linear; `layers` names AOVs to add as layers, see
         EXR_LAYERS) or .hdr (Radiance RGBE, linear), atomically."""
         layers = [layers] if isinstance(layers, str) else list(layers)  # one name is a list of one
@@ -409,6 +447,7 @@ class Image:
             self.exposure if exposure is None else exposure,
             bit_depth=bit_depth,
             layers={name: self.aovs[name] for name in layers},
+            tonemap=self.tonemap,
         )
 
     def _repr_png_(self) -> bytes:

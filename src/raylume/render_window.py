@@ -275,7 +275,7 @@ def add_samples_to_film(S, cam, film: Film, spp: int, settings, aov: dict, progr
     except KeyboardInterrupt:
         control[STOP] = 1
         wait(futures)
-        partial = Image(film.rgb(), aov, {}, settings.encoding, exposure=settings.exposure)
+        partial = Image(film.rgb(), aov, {}, settings.encoding, exposure=settings.exposure, tonemap=settings.tonemap)
         done = int(rows_done.sum()) - (rows if aov else 0)
         raise RenderInterrupted(partial, max(min(done, rows), 0)) from None
     kernel_seconds = time.perf_counter() - t0

@@ -261,7 +261,7 @@ class Session:
         }
         if not aovs:
             aov_arrays = {k: v for k, v in aov_arrays.items() if k in RENDER_AOVS}
-        return Image(rgb, aov_arrays, stats, table.encoding, exposure=table.exposure)
+        return Image(rgb, aov_arrays, stats, table.encoding, exposure=table.exposure, tonemap=table.tonemap)
 
     @_threads_restored
     def add_samples(

@@ -23,8 +23,8 @@ from .scene.validation_errors import format_validation_error
 # The [render] keys that a render call overrides by name: keyword arguments of raylume.render,
 # Session.render and raylume.view, and the command line's flags (--width, ..., --denoise).
 OVERRIDES = (
-    "width", "height", "spp", "mode", "integrator", "max_depth", "seed", "filter", "exposure", "denoise",
-    "noise_threshold", "time_limit",
+    "width", "height", "spp", "mode", "integrator", "max_depth", "seed", "filter", "exposure", "tonemap",
+    "denoise", "noise_threshold", "time_limit",
 )  # fmt: skip
 COMMAND_LINE = "command line"  # how errors name the source of flags
 

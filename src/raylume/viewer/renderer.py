@@ -494,7 +494,7 @@ class Renderer:
             job.denoised_at = time.monotonic()
             if job.epoch != self._epoch:
                 return seconds  # the camera moved meanwhile: drop it
-        rgb8 = encode_8bit(image, s.encoding, s.exposure)  # as Image.save encodes a PNG
+        rgb8 = encode_8bit(image, s.encoding, s.exposure, s.tonemap)  # as Image.save encodes a PNG
         lossless = not moving
         frame = Frame(
             number=0,
