@@ -157,6 +157,11 @@ def test_view_exits_130_on_ctrl_c_as_render_does(tmp_path):
             "raster",
             "participating media render in path mode only",
         ),
+        (
+            "[[objects]]\ntype = 'sphere'\ncenter = [0, 0, 3]\nradius = 1\n[render]\nnoise_threshold = 0.05\n",
+            "cast",
+            "the live view gives every pixel its spp",
+        ),
     ],
 )
 def test_view_warns_as_render_does(tmp_path, scene, mode, words):

@@ -856,7 +856,7 @@ def view(
 ) -> None:
     """Serve a live, progressive view of SCENE in the browser (drag: orbit, right/shift-drag: pan, wheel: dolly)."""
     from .scene.checks import warn_about
-    from .settings import overrides_of, resolve_settings
+    from .settings import is_adaptive, overrides_of, resolve_settings
     from .viewer.command import run_view
 
     flags = overrides_of(locals())  # --width, --height, --spp, --mode, --denoise
@@ -866,6 +866,11 @@ def view(
             scene_model, label = _resolve_scene(scene, assignments or [], width, height, defines=defines)
             settings = resolve_settings(scene_model, flags, threads=threads, source=label, flags=True)
             warn_about(scene_model, settings.render.mode)  # a view's passes do not all go through render()
+            if is_adaptive(settings.render):
+                _warn(
+                    f"{label} sets noise_threshold or time_limit, which raylume render uses: the live view "
+                    "gives every pixel its spp"
+                )
             code = run_view(scene_model, label, settings, host=host, port=port, open_browser=not no_browser)
     except KeyboardInterrupt:
         raise typer.Exit(130) from None
