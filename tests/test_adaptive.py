@@ -10,9 +10,10 @@
   sqrt(2 / pi) = 0.80 of its standard error, so the measured error of a stopped tile is
   expected near 0.8 x the threshold; the reference's own noise (about a quarter of a
   stopped tile's at these sample counts) raises it by a few percent.
-* Tiles of constant colour stop after the first check; the image is the same on any number
-  of threads; a time limit stops with whole rounds; bad requests are refused on the command
-  line with one line and exit status 2."""
+* Tiles of constant colour stop after the first check; no tile stops before min_spp (Cycles'
+  rule unless set); the image is the same on any number of threads; a time limit stops with
+  whole rounds; where adaptive sampling cannot apply (raster mode, bdpt, a cluster) it is
+  ignored with a warning; bad values are refused with one line and exit status 2."""
 
 from __future__ import annotations
 
@@ -124,7 +125,7 @@ def test_stopped_tiles_are_as_quiet_as_the_threshold(cornell):
 def test_tiles_of_constant_colour_stop_at_the_first_check():
     """The seed scene in trace mode, 64 samples a pixel: tiles of background alone have no
     noise and stop after FIRST_CHECK rounds of two samples; tiles with a sphere's edge go on."""
-    image = raylume.render("seed", width=64, height=64, spp=64, noise_threshold=0.002, threads=2)
+    image = raylume.render("seed", width=64, height=64, spp=64, noise_threshold=0.002, min_spp=8, threads=2)
     spp = image.aovs["spp"]
     tiles_spp = spp.reshape(64 // TILE, TILE, 64 // TILE, TILE)
     # pixels whose centre or a centre within 2 pixels sees an object (samples spread over a pixel)
@@ -190,15 +191,20 @@ def test_the_command_line(tmp_path):
     written = json.loads(stats.read_text())["adaptive"]
     spp = np.load(tmp_path / "spp.npy")
     assert written["min_spp"] == spp.min() and written["max_spp"] == spp.max()
-    assert_refused(run_cli("render", "--mode", "raster", "--noise-threshold", 0.1, cwd=tmp_path), "raster")
-    assert_refused(
-        run_cli("render", CORNELL, "--integrator", "bdpt", "--time-limit", 5, cwd=tmp_path), "time_limit", "bdpt"
-    )
+    for flags, why in (
+        (("--mode", "raster"), "raster mode takes no samples"),
+        ((CORNELL, "--integrator", "bdpt", "--spp", 2, "--width", 8, "--height", 8), "bdpt's light paths"),
+    ):
+        ignored = run_cli("render", *flags, "--noise-threshold", 0.1, "-o", "x.png", cwd=tmp_path)
+        assert ignored.returncode == 0 and "noise_threshold and time_limit are ignored: " + why in ignored.stderr
     assert_refused(run_cli("render", "--aov", "spp=x.npy", cwd=tmp_path), "--aov spp", "--noise-threshold")
     assert_refused(  # before any cluster is started or reached
-        run_cli("render", "--cluster", "local", "--noise-threshold", 0.1, cwd=tmp_path), "--cluster local", "not on a"
+        run_cli("render", "--cluster", "local", "--noise-threshold", 0.1, "--aov", "spp=x.npy", cwd=tmp_path),
+        "--aov spp",
+        "a cluster renders in tiles",
     )
     assert_refused(run_cli("render", "--noise-threshold", 0, cwd=tmp_path), "--noise-threshold")
+    assert_refused(run_cli("render", "--min-spp", 0, cwd=tmp_path), "--min-spp")
     assert not (tmp_path / "render.png").exists()
 
 
@@ -212,3 +218,34 @@ def test_a_crop_is_that_window_of_the_whole_adaptive_render(cornell):
     assert np.array_equal(crop.aovs["spp"], whole.aovs["spp"][3:21, 5:30])
     assert crop.stats["adaptive"]["max_spp"] == crop.aovs["spp"].max()
     assert len(np.unique(whole.aovs["spp"])) > 1  # tiles stopped apart
+
+
+def test_no_tile_stops_before_min_spp(cornell):
+    """Cycles' rule, ceil(16 / threshold^0.3), unless min_spp is given: every pixel of a scene
+    whose tiles would stop sooner takes at least that many samples."""
+    from raylume.adaptive import least_spp
+    from raylume.scene.model import RenderSettings
+
+    assert least_spp(RenderSettings(spp=1024, noise_threshold=0.1)) == 32
+    assert least_spp(RenderSettings(spp=1024, noise_threshold=0.01)) == 64
+    assert least_spp(RenderSettings(spp=16, noise_threshold=0.01)) == 16  # never above spp
+    sizes = np.cumsum(round_sizes(1024))
+    for min_spp, expected in ((None, 40), (100, 100)):
+        # cast mode: the tiles without an edge have no noise and stop as soon as they may
+        image = raylume.render(
+            cornell, width=32, height=32, spp=1024, mode="cast", noise_threshold=0.05, min_spp=min_spp
+        )
+        least = sizes[np.searchsorted(sizes, expected)]  # the first round boundary at or past it
+        assert image.aovs["spp"].min() == least, (min_spp, image.aovs["spp"].min(), least)
+
+
+def test_an_animation_samples_each_frame_adaptively(tmp_path):
+    stats = tmp_path / "s.json"
+    result = run_cli(
+        "render", REPO / "examples" / "flight.toml", "--frames", "0:2", "--width", 32, "--height", 24,
+        "--spp", 64, "--noise-threshold", 0.05, "-o", tmp_path / "f_%04d.png", "--stats", stats, cwd=tmp_path,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    adaptive = json.loads(stats.read_text())["adaptive"]
+    assert len(adaptive["frames_mean_spp"]) == 2 and adaptive["mean_spp"] < 64
+    assert "adaptive:" in result.stderr

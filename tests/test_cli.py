@@ -397,7 +397,33 @@ def test_quiet_shows_no_compile_notice():
     from raylume.cli import _compile_notice
 
     with _compile_notice(True) as status:
-        assert status is None
+        status("compiling the path-mode kernels")  # (still called: it checks for a swallowed Ctrl-C)
+        assert status.__self__.timer is None and status.__self__.spinner is None
+
+
+def test_a_ctrl_c_that_a_library_swallowed_still_stops_the_render(tmp_path, monkeypatch):
+    """trimesh's optional imports catch BaseException: a Ctrl-C while they ran (reading a mesh
+    file the first time) was lost, and the render went on to write its image with exit 0."""
+    import signal
+
+    from typer.testing import CliRunner
+
+    import raylume.cli as cli
+
+    resolve = cli._resolve_scene
+
+    def swallowing(*args, **kwargs):
+        try:
+            signal.raise_signal(signal.SIGINT)  # Ctrl-C while a library imports ...
+        except BaseException:  # ... which catches everything, as trimesh's imports do
+            pass
+        return resolve(*args, **kwargs)
+
+    monkeypatch.setattr(cli, "_resolve_scene", swallowing)
+    monkeypatch.chdir(tmp_path)
+    result = CliRunner().invoke(cli.app, ["render", "--width", "8", "--height", "8"])
+    assert result.exit_code == 130, result.output
+    assert "interrupted; nothing written" in result.output and not (tmp_path / "render.png").exists()
 
 
 # ---------------------------------------------------------------- --set, new formats, EXR layers

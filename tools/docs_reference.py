@@ -432,6 +432,7 @@ _SYNTHETIC: dict[str | tuple[str, str], str] = {
     "sigma_s": "[0.5, 0.5, 0.5]",
     "g": "0.3",
     "noise_threshold": "0.02",
+    "min_spp": "64",
     "time_limit": "60",
 }
 

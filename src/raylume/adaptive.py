@@ -13,10 +13,15 @@ rounds of n_i samples and means m_i, sum n_i (m_i - m)^2 / (k - 1) estimates one
 variance and, divided by the pixel's N samples, the variance of its mean. A pixel's error is
 Cycles' measure with that standard error for the difference of half images: the errors of r,
 g and b summed, over 1e-4 + the square root of the pixel's summed mean (noise in the dark
-counts more). A tile stops when the mean error of its pixels falls below
-the threshold, judged from its `FIRST_CHECK`-th round on (the spread of fewer is itself too
-noisy); Dammertz et al., "A hierarchical automatic stopping condition for Monte Carlo global
-illumination" (WSCG 2010), stop in blocks as well, for the same reason.
+counts more). A tile stops when the mean error of its pixels falls below the threshold,
+judged from its `FIRST_CHECK`-th round on (the spread of fewer is itself too noisy) and once
+it has `least_spp` samples (Cycles' minimum: a tile whose first samples found no rare bright
+path shows no spread for it). Dammertz et al., "A hierarchical automatic stopping condition
+for Monte Carlo global illumination" (WSCG 2010), stop in blocks as well, for the same reason.
+
+Stopping on an estimate of the noise is biased where a tile's first samples miss rare bright
+paths (caustics seen by path tracing: a tile that found none stops dark); `min_spp` raises the
+samples every tile takes first.
 
 The decisions depend only on the rounds' images, which depend on neither threads nor tiles:
 the image depends on the scene, seed, spp and threshold. A `time_limit` is checked between
@@ -26,6 +31,7 @@ rounds."""
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
 
@@ -57,6 +63,18 @@ def round_seed(seed: int, round_index: int) -> int:
     x = ((x ^ (x >> 30)) * 0xBF58476D1CE4E5B9) & _MASK64
     x = ((x ^ (x >> 27)) * 0x94D049BB133111EB) & _MASK64
     return (x ^ (x >> 31)) & 0xFFFFFFFF
+
+
+def least_spp(settings: RenderSettings) -> int:
+    """The samples every pixel takes before its tile may stop: `min_spp`, or else Cycles' rule
+    of thumb, ceil(16 / threshold^0.3) and at least 4 (32 at 0.1, 40 at 0.05, 64 at 0.01): a
+    tile that has seen no rare bright path in its first samples has no spread to show for it,
+    and would stop dark."""
+    if settings.min_spp is not None:
+        return min(settings.min_spp, settings.spp)
+    if settings.noise_threshold is None:
+        return settings.spp
+    return min(max(4, math.ceil(16.0 / settings.noise_threshold**0.3)), settings.spp)
 
 
 def round_sizes(spp: int) -> list[int]:
@@ -208,10 +226,13 @@ def _render_tiles(
     h, w = y1 - y0, x1 - x0
     sizes = round_sizes(settings.spp)
     threshold, time_limit = settings.noise_threshold, settings.time_limit
-    if threshold is not None and len(sizes) <= FIRST_CHECK:
+    taken = np.cumsum(sizes)  # samples a pixel has after each round
+    least = least_spp(settings)
+    judged = {r for r in range(FIRST_CHECK - 1, len(sizes)) if taken[r] >= least}  # rounds after which tiles stop
+    if threshold is not None and not judged - {len(sizes) - 1}:
         warn(
-            f"noise_threshold judges a tile after {FIRST_CHECK} rounds of samples; with spp {settings.spp} every "
-            "pixel takes them all (spp is the most a pixel takes: give it 64 or more)"
+            f"noise_threshold lets a tile stop after {FIRST_CHECK} rounds and {least} samples; with spp "
+            f"{settings.spp} every pixel takes them all (spp is the most a pixel takes: give it more)"
         )
     if time_limit is not None and len(sizes) == 1:
         warn(
@@ -268,7 +289,7 @@ def _render_tiles(
             if stopped_by == "time":
                 break
             rounds_done = r + 1
-            if threshold is not None and rounds_done >= FIRST_CHECK:
+            if threshold is not None and r in judged:
                 started = time.perf_counter()
                 closing = open_tiles & (tile_errors(acc.pixel_error()) < threshold)
                 open_tiles &= ~closing

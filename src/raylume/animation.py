@@ -68,8 +68,13 @@ def render_animation(
         return
     from .cluster import FrameRenderer
     from .image import Image
+    from .scene.checks import warn
+    from .settings import adaptive_ignored
 
     table = settings.render
+    ignored = adaptive_ignored(table, on_cluster=True)
+    if ignored:
+        warn(f"noise_threshold and time_limit are ignored: {ignored}; every pixel takes spp samples")
     denoising = table.denoise and table.mode == "path"
     renderer = FrameRenderer(
         cluster, session.compiled, settings, aovs=denoising, progress=progress, frames=len(cameras)

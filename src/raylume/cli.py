@@ -344,6 +344,15 @@ def render(
             "is then the most a pixel takes",
         ),
     ] = None,
+    min_spp: Annotated[
+        int | None,
+        typer.Option(
+            "--min-spp",
+            metavar="N",
+            help="Adaptive sampling: samples every pixel takes before its tile may stop (default: 40 at "
+            "--noise-threshold 0.05, 64 at 0.01)",
+        ),
+    ] = None,
     time_limit: Annotated[
         float | None,
         typer.Option(
@@ -388,7 +397,7 @@ def render(
     from .settings import overrides_of
 
     flags = overrides_of(locals())  # --width ... --denoise, by the [render] keys they set
-    with _terminate_as_interrupt():  # SIGTERM as Ctrl-C, below
+    with _terminate_as_interrupt(), _interrupts_remembered():  # SIGTERM as Ctrl-C, below
         try:
             with _errors_exit_2(debug), _echo_warnings():
                 _render(
@@ -444,6 +453,39 @@ def _terminate_as_interrupt():
         signal.signal(signal.SIGTERM, previous)
 
 
+# Set by Ctrl-C during `raylume render`, even where a library swallowed its KeyboardInterrupt.
+_INTERRUPTED = threading.Event()
+
+
+@contextmanager
+def _interrupts_remembered():
+    """Ctrl-C raises KeyboardInterrupt, as by default, and is remembered: trimesh's optional
+    imports catch BaseException, so a Ctrl-C while they ran (reading a mesh file, the first
+    time) was lost and the render went on to the end. The render checks at each stage (the
+    status callbacks of _compile_notice, and after the scene is read)."""
+    if threading.current_thread() is not threading.main_thread():  # (signals go to the main thread)
+        yield
+        return
+    _INTERRUPTED.clear()
+
+    def interrupt(signum, frame):
+        _INTERRUPTED.set()
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGINT, interrupt)
+    previous = signal.default_int_handler if previous is None else previous
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+def _check_interrupted() -> None:
+    """Raise the Ctrl-C that a library swallowed (_interrupts_remembered)."""
+    if _INTERRUPTED.is_set():
+        raise KeyboardInterrupt
+
+
 def _interrupted(exc, output: Path | None, bit_depth: int) -> None:
     """Ctrl-C: exit 130, after saving the rows done as OUT.partial.EXT when --partial asks."""
     if output is None:
@@ -482,7 +524,7 @@ def _render(
     from .image import check_bit_depth, check_output_path, save_npy, write_atomic
     from .render import RENDER_AOVS
     from .render import render as render_scene
-    from .settings import is_adaptive, resolve_settings
+    from .settings import adaptive_ignored, resolve_settings, samples_adaptively
     from .video import check_sequence_path, is_sequence, is_video
 
     # Every output is checked before the scene is even read: a render is never lost to a bad path.
@@ -513,6 +555,7 @@ def _render(
         parse_address(cluster)  # a malformed address fails before anything is read
     started = time.perf_counter()
     scene_model, label = _resolve_scene(scene, assignments, flags.get("width"), flags.get("height"), camera, defines)
+    _check_interrupted()
     _check_distinct(output, scene or "", [*aov_paths.values(), *([stats_path] if stats_path else [])])
     settings = resolve_settings(scene_model, flags, threads=threads, crop=_parse_crop(crop), source=label, flags=True)
     parse_seconds = time.perf_counter() - started
@@ -520,15 +563,9 @@ def _render(
     denoised = table.denoise and table.mode == "path"
     if "noisy" in (*aov_paths, *layers) and not denoised:
         raise OutputError("--aov noisy is the image before denoising: it needs --denoise and path mode (--mode path)")
-    if cluster is not None and is_adaptive(table):
-        raise OutputError(
-            f"--cluster {cluster}: noise_threshold and time_limit render on this machine, not on a cluster "
-            "(leave out --cluster, or --noise-threshold and --time-limit)"
-        )
-    if "spp" in (*aov_paths, *layers) and not is_adaptive(table):
-        raise OutputError(
-            "--aov spp is the samples each pixel took in an adaptive render: it needs --noise-threshold or --time-limit"
-        )
+    if "spp" in (*aov_paths, *layers) and not samples_adaptively(table, on_cluster=cluster is not None):
+        why = adaptive_ignored(table, on_cluster=cluster is not None) or "it needs --noise-threshold or --time-limit"
+        raise OutputError(f"--aov spp is the samples each pixel took in an adaptive render: {why}")
     if denoised:
         from .denoise import require_denoiser
 
@@ -726,9 +763,12 @@ class _compile_notice:
         self.message = ""
 
     def __enter__(self):
-        return None if self.quiet else self.status
+        return self.status
 
     def status(self, what: str) -> None:
+        _check_interrupted()  # each stage of a render passes here, quiet or not
+        if self.quiet:
+            return
         with self.lock:
             self._stop()
             if what.startswith("compiling"):

@@ -45,6 +45,7 @@ def render_animation_to(
     written: list[Path] = []
     done = 0
     compile_seconds = None  # the frames' (in-process frames report theirs; the first one compiles)
+    frame_spp: list[float] = []  # adaptive sampling: each frame's mean samples a pixel
     try:
         with progress_bar(quiet) as progress, compile_notice(quiet, mode=table.mode) as status:
             session = Session(scene, source=label, accelerate=table.mode != "raster", status=status)
@@ -60,6 +61,8 @@ def render_animation_to(
                     written.append(image.save(sequence_path(output, k), bit_depth=bit_depth))
                 if "compile_seconds" in image.stats:
                     compile_seconds = (compile_seconds or 0.0) + image.stats["compile_seconds"]
+                if "adaptive" in image.stats:
+                    frame_spp.append(image.stats["adaptive"]["mean_spp"])
                 done += 1
         if writer is not None:
             writer.close()
@@ -93,12 +96,15 @@ def render_animation_to(
             stats["compile_seconds"] = compile_seconds
         if getattr(session, "last_cluster_stats", None):
             stats["cluster"] = session.last_cluster_stats
+        if frame_spp:
+            stats["adaptive"] = {"mean_spp": sum(frame_spp) / len(frame_spp), "frames_mean_spp": frame_spp}
         text = json.dumps(stats, indent=2, default=float) + "\n"
         write_atomic(stats_path, lambda fh: fh.write(text.encode()))
     if not quiet:
         where = output if writer is not None else f"{output} ({len(written)} files)"
         typer.echo(
             f"{where}: {done} frames {table.width}x{table.height} {table.mode} in {seconds:.2f} s "
-            f"({done / seconds:.2f} frames/s)",
+            f"({done / seconds:.2f} frames/s)"
+            + (f"; adaptive: {sum(frame_spp) / len(frame_spp):.1f} spp a pixel on average" if frame_spp else ""),
             err=True,
         )

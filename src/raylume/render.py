@@ -47,6 +47,7 @@ def render(
     exposure: float | None = None,
     denoise: bool | None = None,
     noise_threshold: float | None = None,
+    min_spp: int | None = None,
     time_limit: float | None = None,
     threads: int | None = None,
     aovs: bool = True,
@@ -69,8 +70,8 @@ def render(
     it (see Session.render), and with "compiling the BVH builder" and "building" around the
     first build on a machine (see Session). `cluster`: a Dask scheduler's address, `local`, `local:N` or a
     `distributed.Client`: render in tiles on its workers, bit-identical (raylume.cluster).
-    `noise_threshold`, `time_limit`: adaptive sampling, tiles that stop taking samples once
-    their noise is below the threshold or the time is spent (see Session.render).
+    `noise_threshold`, `min_spp`, `time_limit`: adaptive sampling, tiles that stop taking
+    samples once their noise is below the threshold or the time is spent (see Session.render).
     `settings`: settings already resolved (raylume.settings.resolve_settings), in place of
     width ... time_limit, threads and crop. `defines`: a Mitsuba scene's $parameters (as --define)."""
     arguments = dict(locals())  # the call's arguments, before any other name is bound

@@ -28,12 +28,19 @@ from .image import Image
 from .kernels.film.camera import camera_of, set_cone_spread
 from .kernels.film.film import Film
 from .render_window import RENDER_AOVS, add_samples_to_film, render_window
-from .scene.checks import warn_about
+from .scene.checks import warn, warn_about
 from .scene.model import Camera, Scene
 from .scene.open import SceneLike, open_scene
 from .scene.validation_errors import format_validation_error
 from .seen_light import denoise_path_image
-from .settings import ResolvedSettings, is_adaptive, is_whole_number, resolve_settings, settings_of_call
+from .settings import (
+    ResolvedSettings,
+    adaptive_ignored,
+    is_whole_number,
+    resolve_settings,
+    samples_adaptively,
+    settings_of_call,
+)
 
 if TYPE_CHECKING:
     from distributed import Client
@@ -148,6 +155,7 @@ class Session:
         exposure: float | None = None,
         denoise: bool | None = None,
         noise_threshold: float | None = None,
+        min_spp: int | None = None,
         time_limit: float | None = None,
         threads: int | None = None,
         aovs: bool = True,
@@ -170,9 +178,10 @@ class Session:
         tiles on its workers, bit-identical to the in-process render (raylume.cluster).
 
         `noise_threshold`, `time_limit`: adaptive sampling (raylume.adaptive): tiles stop taking
-        samples once their noise is below the threshold, or all once the time is spent; `spp` is
-        then the most a pixel takes, the AOVs add `spp` (the samples each pixel took) and the
-        stats `adaptive`.
+        samples once their noise is below the threshold (after `min_spp` samples), or all once the
+        time is spent; `spp` is then the most a pixel takes, the AOVs add `spp` (the samples each
+        pixel took) and the stats `adaptive`. Raster mode, bdpt and a cluster sample every pixel
+        alike, with a SceneWarning.
 
         `settings`: settings already resolved (raylume.settings.resolve_settings), in place of
         width ... time_limit, threads and crop."""
@@ -191,12 +200,10 @@ class Session:
         clock = _CompileClock(status)
         extra: dict = {}  # mode-specific statistics
         denoising = table.denoise and table.mode == "path"
-        adaptive = is_adaptive(table)
-        if cluster is not None and adaptive:
-            raise RaylumeError(
-                f"{self.source}: noise_threshold and time_limit render on this machine, not on a cluster "
-                "(leave out --cluster, or the two keys)"
-            )
+        ignored = adaptive_ignored(table, on_cluster=cluster is not None)
+        if ignored:
+            warn(f"noise_threshold and time_limit are ignored: {ignored}; every pixel takes spp samples")
+        adaptive = samples_adaptively(table, on_cluster=cluster is not None)
         if cluster is not None:
             from .cluster import render_on_cluster  # loads Dask only when asked
 

@@ -24,7 +24,7 @@ from .scene.validation_errors import format_validation_error
 # Session.render and raylume.view, and the command line's flags (--width, ..., --denoise).
 OVERRIDES = (
     "width", "height", "spp", "mode", "integrator", "max_depth", "seed", "filter", "exposure", "tonemap",
-    "denoise", "noise_threshold", "time_limit",
+    "denoise", "noise_threshold", "min_spp", "time_limit",
 )  # fmt: skip
 COMMAND_LINE = "command line"  # how errors name the source of flags
 
@@ -96,8 +96,27 @@ def settings_of_call(
 
 
 def is_adaptive(table: RenderSettings) -> bool:
-    """Whether a render of these settings samples adaptively (raylume/adaptive.py)."""
+    """Whether these settings ask for adaptive sampling (raylume/adaptive.py)."""
     return table.noise_threshold is not None or table.time_limit is not None
+
+
+def adaptive_ignored(table: RenderSettings, on_cluster: bool = False) -> str | None:
+    """Why a render of these settings samples every pixel alike though they ask for adaptive
+    sampling (None: they do not ask, or it samples adaptively)."""
+    if not is_adaptive(table):
+        return None
+    if table.mode == "raster":
+        return "raster mode takes no samples"
+    if table.mode == "path" and table.integrator == "bdpt":
+        return "bdpt's light paths reach every pixel, so its tiles cannot stop apart (use integrator = 'path')"
+    if on_cluster:
+        return "a cluster renders in tiles of the whole spp (leave out --cluster)"
+    return None
+
+
+def samples_adaptively(table: RenderSettings, on_cluster: bool = False) -> bool:
+    """Whether a render of these settings samples adaptively."""
+    return is_adaptive(table) and adaptive_ignored(table, on_cluster) is None
 
 
 def overrides_of(arguments: Mapping[str, Any]) -> dict[str, Any]:
