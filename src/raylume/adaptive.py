@@ -24,7 +24,7 @@ paths (caustics seen by path tracing: a tile that found none stops dark); `min_s
 samples every tile takes first.
 
 The decisions depend only on the rounds' images, which depend on neither threads nor tiles:
-the image depends on the scene, seed, spp and threshold. A `time_limit` is checked between
+the image depends on the scene, seed, spp, min_spp and threshold. A `time_limit` is checked between
 windows (after the first round, a tile row each) against the render time spent, so with one
 the image depends on the machine's speed too; it stays unbiased, as every tile holds whole
 rounds."""
@@ -56,7 +56,7 @@ _MASK64 = (1 << 64) - 1
 
 def round_seed(seed: int, round_index: int) -> int:
     """The seed of round `round_index` (the first keeps the render's own: an adaptive render's
-    first round is the plain render of round_spp samples)."""
+    first round is the plain render of its samples)."""
     if round_index == 0:
         return seed
     x = (seed * _GOLDEN + round_index) & _MASK64  # splitmix64's finaliser
