@@ -5,6 +5,11 @@
 * `aces` (Hill's fit of the ACES RRT + sRGB ODT): greys stay grey, brighter stays brighter, black
   stays black, and a saturated colour goes smoothly towards white as it brightens (the shoulder
   compresses its strong channel before the weak ones).
+* `neutral` (Khronos PBR Neutral, its specification's algorithm): a colour whose channels lie
+  in 0.08..0.8 comes out as itself less 0.04, exactly (base colours as authored); black stays
+  black; brighter colours are compressed below 1, keeping their order.
+* `agx` (Blender's AgX, Filament's fit): greys stay grey, order is kept, middle grey lands near
+  0.2 (0.5 on a 2.2 display), saturated colours go towards white as they brighten.
 * Every operator gives values in 0..1 and no NaN for any input, inf and NaN included; `none`
   is the seed's clip; the order is exposure, tone map, encoding, in the PNG as in the live view.
 """
@@ -90,3 +95,26 @@ def test_the_command_line(tmp_path):
     warned = run_cli("render", "--tonemap", "aces", "--width", 16, "--height", 16, "-o", "a.exr", cwd=tmp_path)
     assert warned.returncode == 0 and "--tonemap applies to .png" in warned.stderr
     assert_refused(run_cli("render", "--tonemap", "filmic", cwd=tmp_path), "--tonemap", "reinhard", "aces")
+
+
+def test_pbr_neutral_keeps_authored_colours_and_compresses_highlights():
+    rng = np.random.default_rng(7)
+    authored = rng.uniform(0.08, 0.79, (400, 3))
+    np.testing.assert_allclose(tone_map(authored, "neutral"), authored - 0.04, rtol=0, atol=1e-12)
+    assert tone_map(np.zeros((1, 3)), "neutral").max() == 0.0
+    bright = np.repeat(np.geomspace(0.9, 1e4, 50)[:, None], 3, axis=1) * [1.0, 0.6, 0.3]
+    out = tone_map(bright, "neutral")
+    assert np.all(out < 1.0) and np.all(np.diff(out[:, 0]) > 0)
+    assert np.all(out[:, 0] >= out[:, 1]) and np.all(out[:, 1] >= out[:, 2])  # the channels' order kept
+
+
+def test_agx_keeps_greys_grey_and_order_and_whitens_bright_colours():
+    greys = np.repeat(np.geomspace(1e-3, 1e3, 200)[:, None], 3, axis=1)
+    out = tone_map(greys, "agx")
+    assert np.ptp(out, axis=1).max() < 1e-3 and np.all(np.diff(out[:, 0]) >= 0)
+    assert tone_map(np.zeros((1, 3)), "agx").max() == 0.0
+    middle = tone_map(np.full((1, 3), 0.18), "agx")[0, 0]
+    assert 0.45 < middle ** (1 / 2.2) < 0.55  # middle grey at half the display's range
+    red = np.array([1.0, 0.1, 0.1])
+    shown = tone_map(red * np.geomspace(0.5, 500, 12)[:, None], "agx")
+    assert np.all(np.diff(shown[:, 1] / shown[:, 0]) >= 0) and shown[-1, 1] / shown[-1, 0] > 0.9

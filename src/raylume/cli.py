@@ -324,7 +324,8 @@ def render(
         typer.Option(
             "--tonemap",
             metavar="NAME",
-            help="Tone mapping for .png/.jpg output, after --exposure: none (clip at 1) | reinhard | aces",
+            help="Tone mapping for .png/.jpg output, after --exposure: none (clip at 1) | reinhard | aces | agx | "
+            "neutral",
         ),
     ] = None,
     denoise: Annotated[

@@ -188,10 +188,12 @@ class RenderSettings(Strict):
     """Exposure in stops for 8-bit outputs (PNG, JPEG), encoded from rgb x 2**exposure; float outputs stay as
     rendered."""
     # Tone mapping for 8-bit outputs, after exposure and before encoding (image.tone_map).
-    tonemap: Literal["none", "reinhard", "aces"] = "none"
+    tonemap: Literal["none", "reinhard", "aces", "agx", "neutral"] = "none"
     """How 8-bit outputs (PNG, JPEG, the live view) bring linear colour into 0..1, after `exposure` and before
     `encoding`: `none` clips at 1 (the seed's), `reinhard` divides by 1 + luminance (hues kept), `aces` is Hill's fit
-    of ACES (a film-like toe and shoulder; bright colours go to white). Float outputs stay as rendered."""
+    of ACES (a film-like toe and shoulder; bright colours go to white), `agx` Blender's default view, `neutral`
+    Khronos PBR Neutral (colours up to 0.76 as authored, only highlights compressed). Float outputs stay as
+    rendered."""
     # Filter texture lookups over each pixel's footprint (ray cones; mip-maps for images), so
     # that far checkers and fine images do not alias. false: point lookups.
     texture_filter: Flag = True
