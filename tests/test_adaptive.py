@@ -192,7 +192,7 @@ def test_the_command_line(tmp_path):
     spp = np.load(tmp_path / "spp.npy")
     assert written["min_spp"] == spp.min() and written["max_spp"] == spp.max()
     for flags, why in (
-        (("--mode", "raster"), "raster mode takes no samples"),
+        (("--mode", "raster"), "raster mode draws every pixel once"),
         ((CORNELL, "--integrator", "bdpt", "--spp", 2, "--width", 8, "--height", 8), "bdpt's light paths"),
     ):
         ignored = run_cli("render", *flags, "--noise-threshold", 0.1, "-o", "x.png", cwd=tmp_path)
@@ -201,7 +201,7 @@ def test_the_command_line(tmp_path):
     assert_refused(  # before any cluster is started or reached
         run_cli("render", "--cluster", "local", "--noise-threshold", 0.1, "--aov", "spp=x.npy", cwd=tmp_path),
         "--aov spp",
-        "a cluster renders in tiles",
+        "a cluster renders tiles of the whole spp",
     )
     assert_refused(run_cli("render", "--noise-threshold", 0, cwd=tmp_path), "--noise-threshold")
     assert_refused(run_cli("render", "--min-spp", 0, cwd=tmp_path), "--min-spp")
@@ -264,3 +264,16 @@ def test_a_sliver_at_the_image_edge_joins_its_neighbour(cornell):
     assert (spp[:, 16:] == spp[:, 32:33]).all() and (spp[16:] == spp[15:16]).all()  # one tile each
     crop = raylume.render(cornell, **settings, crop=(20, 33, 0, 17))
     assert np.array_equal(crop.rgb, whole.rgb[:, 20:33])
+
+
+def test_warnings_come_once_and_progress_only_moves_on(tmp_path, cornell):
+    result = run_cli(
+        "render", REPO / "examples" / "flight.toml", "--frames", "0:3", "--width", 16, "--height", 12, "--mode",
+        "raster", "--noise-threshold", 0.05, "-o", tmp_path / "f_%04d.png", cwd=tmp_path,
+    )  # fmt: skip
+    assert result.returncode == 0 and result.stderr.count("are ignored: raster mode") == 1, result.stderr
+    alone = run_cli("render", "--width", 8, "--height", 8, "--min-spp", 8, "-o", "m.png", cwd=tmp_path)
+    assert "--min-spp has no effect without a noise threshold" in alone.stderr
+    seen = []
+    raylume.render(cornell, width=32, height=32, spp=4096, time_limit=0.3, progress=lambda d, t: seen.append(d))
+    assert seen == sorted(seen) and len(seen) > 2

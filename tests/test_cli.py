@@ -426,6 +426,55 @@ def test_a_ctrl_c_that_a_library_swallowed_still_stops_the_render(tmp_path, monk
     assert "interrupted; nothing written" in result.output and not (tmp_path / "render.png").exists()
 
 
+@pytest.mark.parametrize("broken", [TypeError, ValueError])
+def test_what_a_swallowed_ctrl_c_breaks_is_the_ctrl_c(tmp_path, monkeypatch, broken):
+    """The library that swallowed the Ctrl-C may then fail itself (trimesh's import, its optional
+    module replaced by a wrapper of the KeyboardInterrupt, failed a line later with a TypeError:
+    a traceback and exit 1); and a Ctrl-C that lands in a ctypes callback (Numba loading kernels)
+    was printed as 8 lines of "Exception ignored"."""
+    import signal
+    import types
+
+    from typer.testing import CliRunner
+
+    import raylume.cli as cli
+
+    def swallowing_then_failing(*args, **kwargs):
+        try:
+            signal.raise_signal(signal.SIGINT)
+        except BaseException:
+            pass
+        sys.unraisablehook(
+            types.SimpleNamespace(
+                exc_type=KeyboardInterrupt, exc_value=KeyboardInterrupt(), exc_traceback=None, object=None,
+                err_msg="Exception ignored on calling ctypes callback function",
+            )
+        )  # fmt: skip
+        raise broken("unsupported operand type(s) for |: 'ExceptionWrapper' and 'NoneType'")
+
+    monkeypatch.setattr(cli, "_resolve_scene", swallowing_then_failing)
+    monkeypatch.chdir(tmp_path)
+    result = CliRunner().invoke(cli.app, ["render", "--width", "8", "--height", "8"])
+    assert result.exit_code == 130, result.output
+    assert result.output.strip() == "raylume: interrupted; nothing written"
+
+
+def test_a_ctrl_c_after_the_image_is_written_says_so(tmp_path, monkeypatch):
+    from typer.testing import CliRunner
+
+    import raylume.cli as cli
+    import raylume.image
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(raylume.image, "save_npy", interrupted)  # Ctrl-C while the AOVs are written
+    monkeypatch.chdir(tmp_path)
+    result = CliRunner().invoke(cli.app, ["render", "--width", "8", "--height", "8", "--aov", "depth=d.npy"])
+    assert result.exit_code == 130 and (tmp_path / "render.png").exists()
+    assert result.output.strip() == "raylume: interrupted after writing render.png; nothing more"
+
+
 # ---------------------------------------------------------------- --set, new formats, EXR layers
 
 

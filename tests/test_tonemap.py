@@ -16,6 +16,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -87,6 +89,30 @@ def test_none_is_the_clip_and_the_png_applies_exposure_then_tone_map_then_encodi
     srgb = np.where(mapped <= 0.0031308, 12.92 * mapped, 1.055 * mapped ** (1 / 2.4) - 0.055)
     with PILImage.open(tmp_path / "a.png") as png:
         np.testing.assert_array_equal(np.asarray(png), np.round(srgb * 255).astype(np.uint8))
+
+
+def test_a_huge_value_is_white_and_the_api_takes_the_keyword():
+    import raylume
+
+    assert np.array_equal(tone_map(np.full((1, 3), 1e200), "aces"), np.ones((1, 3)))  # (v * v had overflowed)
+    image = raylume.render("seed", width=8, height=8, tonemap="agx")
+    assert image.tonemap == "agx"
+    assert np.array_equal(image.to_uint8(), Image(image.rgb, tonemap="agx").to_uint8())
+    assert not np.array_equal(image.to_uint8(), image.to_uint8(tonemap="none"))
+
+
+def test_videos_are_tone_mapped_without_a_warning_and_overflow_is_quiet(tmp_path):
+    flight = Path(__file__).resolve().parents[1] / "examples" / "flight.toml"
+    gif = run_cli(
+        "render", flight, "--frames", "0:1", "--width", 16, "--height", 12, "--tonemap", "aces", "-o", "a.gif",
+        cwd=tmp_path,
+    )  # fmt: skip
+    assert gif.returncode == 0 and "warning" not in gif.stderr, gif.stderr
+    bright = run_cli(
+        "render", "--width", 8, "--height", 8, "--set", "render.background=[1e38, 1e38, 1e38]", "--exposure", 2,
+        "-o", "b.png", cwd=tmp_path,
+    )  # fmt: skip
+    assert bright.returncode == 0 and "RuntimeWarning" not in bright.stderr, bright.stderr
 
 
 def test_the_command_line(tmp_path):

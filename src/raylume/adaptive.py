@@ -259,16 +259,19 @@ def _render_tiles(
     rounds_done = 0
 
     window_started = time.perf_counter()
+    shown = 0  # progress only moves on
 
     def report(extra: int = 0) -> None:
         """Progress in pixel samples; with a time limit, the time spent if it is further on."""
+        nonlocal shown
         if progress is None:
             return
         reached = done + extra
         if time_limit is not None:
             spent = seconds + time.perf_counter() - window_started
             reached = max(reached, int(planned * spent / time_limit))
-        progress(min(reached, planned), planned)
+        shown = max(shown, min(reached, planned))
+        progress(shown, planned)
 
     try:
         for r, n in enumerate(sizes):

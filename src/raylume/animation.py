@@ -74,7 +74,7 @@ def render_animation(
     table = settings.render
     ignored = adaptive_ignored(table, on_cluster=True)
     if ignored:
-        warn(f"noise_threshold and time_limit are ignored: {ignored}; every pixel takes spp samples")
+        warn(f"noise_threshold and time_limit are ignored: {ignored}")
     denoising = table.denoise and table.mode == "path"
     renderer = FrameRenderer(
         cluster, session.compiled, settings, aovs=denoising, progress=progress, frames=len(cameras)

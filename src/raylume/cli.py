@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import os
 import signal
+import sys
 import threading
 import time
 import warnings
@@ -148,10 +150,12 @@ def _errors_exit_2(debug: bool):
     except RaylumeError as exc:
         if debug:
             raise
+        _check_interrupted()  # (an error of a library that swallowed a Ctrl-C is the Ctrl-C)
         _fail(str(exc))
     except (ValueError, OSError) as exc:
         if debug:
             raise
+        _check_interrupted()
         _fail(_error_text(exc))
 
 
@@ -400,7 +404,7 @@ def render(
     flags = overrides_of(locals())  # --width ... --denoise, by the [render] keys they set
     with _terminate_as_interrupt(), _interrupts_remembered():  # SIGTERM as Ctrl-C, below
         try:
-            with _errors_exit_2(debug), _echo_warnings():
+            with _errors_exit_2(debug), _echo_warnings(once=True):  # (an animation's frames: once each)
                 _render(
                     scene,
                     output,
@@ -422,8 +426,20 @@ def render(
         except RenderInterrupted as exc:
             _interrupted(exc, output if partial else None, bit_depth)
         except KeyboardInterrupt:
-            typer.echo("raylume: interrupted; nothing written", err=True)
-            raise typer.Exit(130) from None
+            _interrupted_before_the_end()
+        except Exception:
+            if not _INTERRUPTED.is_set():
+                raise
+            _interrupted_before_the_end()  # what a library broke by swallowing the Ctrl-C (trimesh)
+
+
+def _interrupted_before_the_end() -> None:
+    """Ctrl-C outside the render's rows: exit 130, saying which outputs were written before it."""
+    if _WRITTEN:
+        typer.echo(f"raylume: interrupted after writing {', '.join(map(str, _WRITTEN))}; nothing more", err=True)
+    else:
+        typer.echo("raylume: interrupted; nothing written", err=True)
+    raise typer.Exit(130) from None
 
 
 @contextmanager
@@ -456,6 +472,7 @@ def _terminate_as_interrupt():
 
 # Set by Ctrl-C during `raylume render`, even where a library swallowed its KeyboardInterrupt.
 _INTERRUPTED = threading.Event()
+_WRITTEN: list[Path] = []  # the outputs `raylume render` has written, for its Ctrl-C message
 
 
 @contextmanager
@@ -468,17 +485,26 @@ def _interrupts_remembered():
         yield
         return
     _INTERRUPTED.clear()
+    _WRITTEN.clear()
 
     def interrupt(signum, frame):
         _INTERRUPTED.set()
         raise KeyboardInterrupt
 
+    def unraisable(info):
+        # a Ctrl-C that lands in a ctypes callback or a finaliser (Numba's object cache, llvmlite's
+        # strings while kernels load) is printed as "Exception ignored ...": 8 lines of noise
+        if not _INTERRUPTED.is_set():
+            previous_hook(info)
+
     previous = signal.signal(signal.SIGINT, interrupt)
     previous = signal.default_int_handler if previous is None else previous
+    previous_hook, sys.unraisablehook = sys.unraisablehook, unraisable
     try:
         yield
     finally:
         signal.signal(signal.SIGINT, previous)
+        sys.unraisablehook = previous_hook
 
 
 def _check_interrupted() -> None:
@@ -616,12 +642,13 @@ def _render(
             settings=settings,
         )
     image.stats["parse_seconds"] = parse_seconds
-    image.save(output, bit_depth=bit_depth, layers=layers)
+    _WRITTEN.append(image.save(output, bit_depth=bit_depth, layers=layers))
     for name, path in aov_paths.items():
-        save_npy(path, image.aovs[name])
+        _WRITTEN.append(save_npy(path, image.aovs[name]))
     if stats_path is not None:
         text = json.dumps(_json_safe(image.stats), indent=2) + "\n"
         write_atomic(stats_path, lambda fh: fh.write(text.encode()))
+        _WRITTEN.append(stats_path)
     if not quiet:
         line = summary(output, image.stats)
         if "cluster" in image.stats:
@@ -649,12 +676,16 @@ def _parse_crop(text: str | None) -> tuple[int, int, int, int] | None:
 def _warn_ignored(output: Path, settings, flags: dict) -> None:
     """Flags given but without effect on this render get a one-line warning, not silence."""
     from .image import ENCODED_SUFFIXES
+    from .video import is_video
 
     pixel_filter = flags.get("filter")
+    encoded = output.suffix.lower() in ENCODED_SUFFIXES or is_video(output)  # (videos are 8-bit frames)
+    if flags.get("min_spp") is not None and settings.noise_threshold is None:
+        _warn("--min-spp has no effect without a noise threshold (--noise-threshold)")
     for flag in ("exposure", "tonemap"):
-        if flags.get(flag) is not None and output.suffix.lower() not in ENCODED_SUFFIXES:
+        if flags.get(flag) is not None and not encoded:
             _warn(
-                f"--{flag} applies to {', '.join(ENCODED_SUFFIXES)} outputs only; {output} stores the "
+                f"--{flag} applies to {', '.join(ENCODED_SUFFIXES)} and video outputs only; {output} stores the "
                 "linear values as rendered"
             )
     if pixel_filter is not None and settings.mode == "raster":
@@ -912,6 +943,9 @@ def view(
                     f"{label} sets noise_threshold or time_limit, which raylume render uses: the live view "
                     "gives every pixel its spp"
                 )
+                plain = {"noise_threshold": None, "time_limit": None}  # (no second warning from its renders)
+                scene_model = scene_model.replace(render=plain)
+                settings = dataclasses.replace(settings, render=settings.render.model_copy(update=plain))
             code = run_view(scene_model, label, settings, host=host, port=port, open_browser=not no_browser)
     except KeyboardInterrupt:
         raise typer.Exit(130) from None

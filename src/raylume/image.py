@@ -103,7 +103,8 @@ def tone_map(rgb: np.ndarray, tonemap: str) -> np.ndarray:
     its luminance clipped); 'aces' is Hill's fit of ACES (the filmic look of game engines: a toe,
     a soft shoulder, bright colours desaturating towards white); 'agx' is Blender's default view
     (agx); 'neutral' is Khronos PBR Neutral (pbr_neutral), for glTF materials shown as authored."""
-    x = np.maximum(np.asarray(rgb, dtype=np.float64), 0.0)
+    # (above 1e9 every operator gives its white; ACES's curve would overflow float64 near 1e154)
+    x = np.asarray(rgb, dtype=np.float64).clip(0.0, 1e9)
     if tonemap == "reinhard":
         x = x / (1.0 + x @ _LUMINANCE)[..., None]
     elif tonemap == "aces":
@@ -123,7 +124,8 @@ def encode_levels(rgb: np.ndarray, encoding: str = "clamp", exposure: float = 0.
     0..1 (tone_map; 'none' clamps); 'clamp' is the seed's encoding, no transfer curve, 'srgb'
     applies the sRGB curve."""
     if exposure:
-        rgb = np.asarray(rgb, dtype=np.float32) * np.float32(2.0**exposure)
+        with np.errstate(over="ignore"):  # values past float32's range become inf, clipped below
+            rgb = np.asarray(rgb, dtype=np.float32) * np.float32(2.0**exposure)
     if tonemap == "none":
         x = np.nan_to_num(rgb, nan=0.0, posinf=1.0, neginf=0.0).clip(0.0, 1.0)
     else:
@@ -463,9 +465,11 @@ class Image:
     def height(self) -> int:
         return self.rgb.shape[0]
 
-    def to_uint8(self, encoding: str | None = None, exposure: float | None = None) -> np.ndarray:
+    def to_uint8(
+        self, encoding: str | None = None, exposure: float | None = None, tonemap: str | None = None
+    ) -> np.ndarray:
         exposure = self.exposure if exposure is None else exposure
-        return encode_8bit(self.rgb, encoding or self.encoding, exposure, self.tonemap)
+        return encode_8bit(self.rgb, encoding or self.encoding, exposure, tonemap or self.tonemap)
 
     def save(
         self,

@@ -45,6 +45,7 @@ def render(
     seed: int | None = None,
     filter: str | None = None,
     exposure: float | None = None,
+    tonemap: str | None = None,
     denoise: bool | None = None,
     noise_threshold: float | None = None,
     min_spp: int | None = None,

@@ -153,6 +153,7 @@ class Session:
         seed: int | None = None,
         filter: str | None = None,
         exposure: float | None = None,
+        tonemap: str | None = None,
         denoise: bool | None = None,
         noise_threshold: float | None = None,
         min_spp: int | None = None,
@@ -176,6 +177,8 @@ class Session:
         `cluster`: a Dask scheduler's address (`tcp://HOST:PORT`), `local` / `local:N` (a local
         cluster of N worker processes) or a `distributed.Client`: the image is rendered in
         tiles on its workers, bit-identical to the in-process render (raylume.cluster).
+
+        `exposure`, `tonemap`: how the Image encodes 8-bit outputs (Image.save, to_uint8).
 
         `noise_threshold`, `time_limit`: adaptive sampling (raylume.adaptive): tiles stop taking
         samples once their noise is below the threshold (after `min_spp` samples), or all once the
@@ -202,7 +205,7 @@ class Session:
         denoising = table.denoise and table.mode == "path"
         ignored = adaptive_ignored(table, on_cluster=cluster is not None)
         if ignored:
-            warn(f"noise_threshold and time_limit are ignored: {ignored}; every pixel takes spp samples")
+            warn(f"noise_threshold and time_limit are ignored: {ignored}")
         adaptive = samples_adaptively(table, on_cluster=cluster is not None)
         if cluster is not None:
             from .cluster import render_on_cluster  # loads Dask only when asked

@@ -106,11 +106,14 @@ def adaptive_ignored(table: RenderSettings, on_cluster: bool = False) -> str | N
     if not is_adaptive(table):
         return None
     if table.mode == "raster":
-        return "raster mode takes no samples"
+        return "raster mode draws every pixel once"
     if table.mode == "path" and table.integrator == "bdpt":
-        return "bdpt's light paths reach every pixel, so its tiles cannot stop apart (use integrator = 'path')"
+        return (
+            "bdpt's light paths reach every pixel, so its tiles cannot stop apart: every pixel takes spp samples "
+            "(use integrator = 'path')"
+        )
     if on_cluster:
-        return "a cluster renders in tiles of the whole spp (leave out --cluster)"
+        return "a cluster renders tiles of the whole spp: every pixel takes them (leave out --cluster)"
     return None
 
 
