@@ -505,6 +505,8 @@ def _interrupts_remembered():
     finally:
         signal.signal(signal.SIGINT, previous)
         sys.unraisablehook = previous_hook
+        _INTERRUPTED.clear()  # (a later command in this process starts afresh)
+        _WRITTEN.clear()
 
 
 def _check_interrupted() -> None:
