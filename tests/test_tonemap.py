@@ -27,7 +27,8 @@ from PIL import Image as PILImage
 from test_cli import assert_refused
 from test_cli import raylume as run_cli
 
-from raylume.image import TONEMAPS, Image, encode_levels, tone_map
+from raylume.image import Image, encode_levels
+from raylume.tonemap import TONEMAPS, tone_map
 
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])  # Rec. 709, independent of raylume's copy
 
