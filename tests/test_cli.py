@@ -401,29 +401,40 @@ def test_quiet_shows_no_compile_notice():
         assert status.__self__.timer is None and status.__self__.spinner is None
 
 
-def test_a_ctrl_c_that_a_library_swallowed_still_stops_the_render(tmp_path, monkeypatch):
+def test_a_ctrl_c_during_an_import_waits_for_it_and_stops_the_render(tmp_path, monkeypatch):
     """trimesh's optional imports catch BaseException: a Ctrl-C while they ran (reading a mesh
-    file the first time) was lost, and the render went on to write its image with exit 0."""
-    import signal
+    file the first time) was lost, and the render went on to write its image with exit 0, or it
+    broke trimesh, whose import then failed with a traceback. The Ctrl-C now waits for the import
+    to end, which stays whole, and stops the render at its next stage."""
+    import importlib
 
     from typer.testing import CliRunner
 
     import raylume.cli as cli
 
+    (tmp_path / "greedy_library.py").write_text(
+        "import signal\n"
+        "try:\n"
+        "    signal.raise_signal(signal.SIGINT)  # Ctrl-C while a library imports its optional parts ...\n"
+        "except BaseException:  # ... which catch everything, as trimesh's do\n"
+        "    SWALLOWED = True\n"
+        "else:\n"
+        "    SWALLOWED = False\n"
+    )
+    monkeypatch.syspath_prepend(str(tmp_path))
     resolve = cli._resolve_scene
+    imported = {}
 
-    def swallowing(*args, **kwargs):
-        try:
-            signal.raise_signal(signal.SIGINT)  # Ctrl-C while a library imports ...
-        except BaseException:  # ... which catches everything, as trimesh's imports do
-            pass
+    def importing(*args, **kwargs):
+        imported["module"] = importlib.import_module("greedy_library")
         return resolve(*args, **kwargs)
 
-    monkeypatch.setattr(cli, "_resolve_scene", swallowing)
+    monkeypatch.setattr(cli, "_resolve_scene", importing)
     monkeypatch.chdir(tmp_path)
     result = CliRunner().invoke(cli.app, ["render", "--width", "8", "--height", "8"])
     assert result.exit_code == 130, result.output
     assert "interrupted; nothing written" in result.output and not (tmp_path / "render.png").exists()
+    assert imported["module"].SWALLOWED is False  # the import ran whole
 
 
 @pytest.mark.parametrize("broken", [TypeError, ValueError])

@@ -150,13 +150,18 @@ def _errors_exit_2(debug: bool):
     except RaylumeError as exc:
         if debug:
             raise
-        _check_interrupted()  # (an error of a library that swallowed a Ctrl-C is the Ctrl-C)
+        _raise_if_interrupted()  # (an error of a library that swallowed a Ctrl-C is the Ctrl-C)
         _fail(str(exc))
     except (ValueError, OSError) as exc:
         if debug:
             raise
-        _check_interrupted()
+        _raise_if_interrupted()
         _fail(_error_text(exc))
+
+
+def _raise_if_interrupted() -> None:
+    if _INTERRUPTED.is_set():
+        raise KeyboardInterrupt
 
 
 @app.callback(invoke_without_command=True)
@@ -470,25 +475,42 @@ def _terminate_as_interrupt():
         signal.signal(signal.SIGTERM, previous)
 
 
-# Set by Ctrl-C during `raylume render`, even where a library swallowed its KeyboardInterrupt.
+# Set by Ctrl-C during `raylume render`; _DEFERRED while a Ctrl-C that came during an import waits
+# for the render's next stage (_interrupts_remembered).
 _INTERRUPTED = threading.Event()
+_DEFERRED = threading.Event()
 _WRITTEN: list[Path] = []  # the outputs `raylume render` has written, for its Ctrl-C message
+
+
+def _importing(frame) -> bool:
+    """Whether the interrupted frame runs inside an import (Python's import machinery)."""
+    while frame is not None:
+        if frame.f_code.co_filename.startswith("<frozen importlib"):
+            return True
+        frame = frame.f_back
+    return False
 
 
 @contextmanager
 def _interrupts_remembered():
-    """Ctrl-C raises KeyboardInterrupt, as by default, and is remembered: trimesh's optional
-    imports catch BaseException, so a Ctrl-C while they ran (reading a mesh file, the first
-    time) was lost and the render went on to the end. The render checks at each stage (the
-    status callbacks of _compile_notice, and after the scene is read)."""
+    """Ctrl-C during an import is held until the import ends: trimesh's optional imports catch
+    BaseException, so a KeyboardInterrupt raised inside them (reading a mesh file, the first time)
+    was lost and the render went on to the end, or broke trimesh, whose import then failed with
+    a TypeError. The render raises it at its next stage (the status callbacks of
+    _compile_notice, and after the scene is read). Elsewhere Ctrl-C raises at once, as by
+    default; an error that follows one is the Ctrl-C's doing (the render command's handler)."""
     if threading.current_thread() is not threading.main_thread():  # (signals go to the main thread)
         yield
         return
     _INTERRUPTED.clear()
+    _DEFERRED.clear()
     _WRITTEN.clear()
 
     def interrupt(signum, frame):
         _INTERRUPTED.set()
+        if _importing(frame):
+            _DEFERRED.set()
+            return
         raise KeyboardInterrupt
 
     def unraisable(info):
@@ -506,12 +528,14 @@ def _interrupts_remembered():
         signal.signal(signal.SIGINT, previous)
         sys.unraisablehook = previous_hook
         _INTERRUPTED.clear()  # (a later command in this process starts afresh)
+        _DEFERRED.clear()
         _WRITTEN.clear()
 
 
 def _check_interrupted() -> None:
-    """Raise the Ctrl-C that a library swallowed (_interrupts_remembered)."""
-    if _INTERRUPTED.is_set():
+    """Raise a Ctrl-C that came during an import (_interrupts_remembered), once."""
+    if _DEFERRED.is_set():
+        _DEFERRED.clear()
         raise KeyboardInterrupt
 
 
