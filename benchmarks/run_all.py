@@ -43,6 +43,8 @@ def benchmarks(quick: bool) -> list[list[str]]:
         ["bench_scaling.py"] + (["--quick"] if quick else []),
         ["bench_path.py"] + (["--quick"] if quick else ["--plot", str(HERE.parent / "docs/images/path_rmse.png")]),
         ["bench_bdpt.py"] + (["--size", "32x18", "--reference-spp", "64", "--rounds", "1"] if quick else []),
+        ["bench_adaptive.py"]
+        + (["--size", "32", "--spp", "128", "--thresholds", "0.1", "--rounds", "1"] if quick else []),
         ["bench_first_run.py"] + (["--repeats", "1"] if quick else []),
         ["bench_cluster.py"] + (["--quick"] if quick else []),
         ["bench_instances.py"]
