@@ -57,6 +57,20 @@ def test_passes_at_rest_converge_to_session_render_and_stop(slow):
         assert r.stop(1.0)
 
 
+def test_the_frames_are_tone_mapped_as_the_render_is():
+    session = raylume.Session(seed(spp=4))
+    r = vr.Renderer(session, resolve_settings(session.scene, {"tonemap": "agx", "exposure": 1.5}, threads=1))
+    r.add_watcher(1)
+    r.start()
+    try:
+        wait_for(lambda: r.latest is not None and r.latest.converged)
+        expected = session.render(width=24, height=18, spp=4, threads=1, aovs=False, tonemap="agx", exposure=1.5)
+        np.testing.assert_array_equal(r.latest.rgb8, expected.to_uint8())
+        assert not np.array_equal(r.latest.rgb8, session.render(width=24, height=18, spp=4, aovs=False).to_uint8())
+    finally:
+        assert r.stop(1.0)
+
+
 def test_a_view_nobody_watches_stops_after_one_lossless_frame():
     session = raylume.Session(seed(spp=64))
     r = vr.Renderer(session, resolve_settings(session.scene, threads=1))
@@ -134,6 +148,7 @@ def test_python_api_serves_in_the_background_and_stops():
         (["--mode", "wireframe"], ["--mode"]),
         (["--set", "camera.fov=500"], ["camera.fov"]),
         (["nosuch.toml"], ["nosuch.toml"]),
+        (["--tonemap", "filmic"], ["--tonemap", "agx"]),
     ],
 )
 def test_bad_view_flags_are_refused_before_serving(args, words):

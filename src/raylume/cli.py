@@ -935,6 +935,12 @@ def view(
             "Denoise at rest (switchable on the page)",
         ),
     ] = None,
+    tonemap: Annotated[
+        str | None,
+        typer.Option(
+            "--tonemap", metavar="NAME", help="Tone mapping of the frames: none | reinhard | aces | agx | neutral"
+        ),
+    ] = None,
     port: Annotated[int, typer.Option("--port", metavar="P", help="Port to listen on; 0 picks a free one")] = 8765,
     host: Annotated[
         str, typer.Option("--host", metavar="ADDR", help="Address to listen on (other than loopback: with a warning)")
@@ -957,7 +963,7 @@ def view(
     from .settings import is_adaptive, overrides_of, resolve_settings
     from .viewer.command import run_view
 
-    flags = overrides_of(locals())  # --width, --height, --spp, --mode, --denoise
+    flags = overrides_of(locals())  # --width, --height, --spp, --mode, --denoise, --tonemap
     try:
         # (the render thread's warnings too, as render prints them: one line each, and once)
         with _errors_exit_2(debug), _echo_warnings(once=True):
