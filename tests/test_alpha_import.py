@@ -6,24 +6,20 @@ against TOML)."""
 
 from __future__ import annotations
 
-import warnings
-
 import numpy as np
 import pytest
 from PIL import Image as PILImage
-from test_normal_map_import import BOARD_OBJ, MITSUBA, assert_renders_as_the_toml_board, messages
+from test_normal_map_import import (
+    BOARD_OBJ,
+    MITSUBA,
+    PBRT_HEAD,
+    assert_renders_as_the_toml_board,
+    loaded_with_warnings,
+)
 
 import raylume
 from raylume.scene.pbrt_scene import pbrt_document
 from raylume.scene.pbrt_tokens import PbrtError
-
-PBRT_HEAD = """
-LookAt 0 3 0.001  0 0 0  0 1 0
-Camera "perspective" "float fov" 30
-Film "rgb" "integer xresolution" 8 "integer yresolution" 8 "string filename" "x.exr"
-WorldBegin
-LightSource "distant" "point3 from" [0 1 0] "point3 to" [0 0 0]
-"""
 
 
 def write_mask(path, mode="L") -> None:
@@ -199,10 +195,7 @@ def write_mitsuba(tmp_path, text: str, mask_mode="L"):
     (tmp_path / "board.obj").write_text(BOARD_OBJ)
     (tmp_path / "wall.obj").write_text(WALL_OBJ)
     (tmp_path / "scene.xml").write_text(text)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        scene = raylume.load_scene(tmp_path / "scene.xml")
-    return scene, messages(caught)
+    return loaded_with_warnings(tmp_path / "scene.xml")
 
 
 @pytest.mark.parametrize("raw", [False, True])

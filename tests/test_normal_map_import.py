@@ -31,6 +31,14 @@ def messages(caught) -> list[str]:
     return [str(w.message) for w in caught if issubclass(w.category, SceneWarning)]
 
 
+def loaded_with_warnings(path):
+    """The scene at `path` and the scene warnings its loading gave."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scene = raylume.load_scene(path)
+    return scene, messages(caught)
+
+
 def test_pbrt_normalmap_is_the_materials_normal_map_on_every_material(tmp_path):
     write_normal_map(tmp_path / "bumps.png")
     (tmp_path / "scene.pbrt").write_text(
@@ -45,10 +53,8 @@ Material "diffuse"
 Shape "sphere" "float radius" 0.2
 """
     )
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        scene = raylume.load_scene(tmp_path / "scene.pbrt")
-    assert messages(caught) == []
+    scene, said = loaded_with_warnings(tmp_path / "scene.pbrt")
+    assert said == []
     document, _ = pbrt_document(tmp_path / "scene.pbrt")
     assert document["materials"]["coat"]["normal_map"] == {"file": "bumps.png"}
     mapped = [m for m in (scene.materials[obj.material] for obj in scene.objects) if m.normal_map is not None]
@@ -143,10 +149,7 @@ def write_mitsuba(tmp_path, text: str):
     PILImage.fromarray(heights, mode="L").save(tmp_path / "maps" / "heights.png")
     (tmp_path / "board.obj").write_text(BOARD_OBJ)
     (tmp_path / "scene.xml").write_text(text)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        scene = raylume.load_scene(tmp_path / "scene.xml")
-    return scene, messages(caught)
+    return loaded_with_warnings(tmp_path / "scene.xml")
 
 
 @pytest.mark.parametrize("wrap", [("", ""), ('<bsdf type="twosided">', "</bsdf>")])
