@@ -42,7 +42,6 @@ from .image import Image
 from .render_window import RenderInterrupted, WindowResult, allocate_aovs, render_window
 from .scene.checks import warn
 from .scene.model import Camera, RenderSettings
-from .settings import is_adaptive
 
 TILE = 16  # side of a tile in pixels: what stops as one (tile_edges: a sliver at the end joins its neighbour)
 FIRST_SHARE = 256  # the first rounds take ceil(spp / 256) samples a pixel each (at least 2)
@@ -209,13 +208,9 @@ def render_adaptive(
         return part
     rows, cols = slice(y0 - grid[2], y1 - grid[2]), slice(x0 - grid[0], x1 - grid[0])
     crop_aovs = {name: np.ascontiguousarray(array[rows, cols]) for name, array in part.aovs.items()}
-    spp = crop_aovs["spp"]
-    stats = {**part.adaptive, "samples": int(spp.sum()), "mean_spp": float(spp.mean())}
-    stats.update(min_spp=int(spp.min()), max_spp=int(spp.max()))
-    result = WindowResult(window, np.ascontiguousarray(part.rgb[rows, cols]), crop_aovs, part.seconds, part.rays)
-    result.rejected = part.rejected
-    result.adaptive = stats
-    return result
+    stats = {**part.adaptive, **samples_taken(crop_aovs["spp"])}
+    rgb = np.ascontiguousarray(part.rgb[rows, cols])
+    return WindowResult(window, rgb, crop_aovs, part.seconds, part.rays, part.rejected, adaptive=stats)
 
 
 def _render_tiles(
@@ -326,24 +321,28 @@ def _render_tiles(
     if stopped_by != "time" and threshold is not None and not open_tiles.any():
         stopped_by = "noise"
     aov_arrays["spp"] = acc.samples.astype(np.float32)  # asked for or not: it costs nothing
-    samples = int(acc.samples.sum())
     stats = {
         "noise_threshold": threshold,
         "time_limit": time_limit,
         "tile": TILE,
         "round_spp": sizes[0],
         "rounds": rounds_done,
-        "samples": samples,
-        "mean_spp": samples / (h * w),
-        "min_spp": int(acc.samples.min()),
-        "max_spp": int(acc.samples.max()),
+        **samples_taken(acc.samples),
         "tiles": th * tw,
         "tiles_converged": int((~open_tiles).sum()),
         "stopped_by": stopped_by,
     }
-    result = WindowResult(window, acc.mean(), aov_arrays, seconds, rays, rejected)
-    result.adaptive = stats
-    return result
+    return WindowResult(window, acc.mean(), aov_arrays, seconds, rays, rejected, adaptive=stats)
 
 
-__all__ = ["FIRST_CHECK", "TILE", "is_adaptive", "render_adaptive", "round_seed", "round_sizes", "tile_errors"]
+def samples_taken(spp: np.ndarray) -> dict:
+    """The statistics of the samples each pixel took: their sum, mean, least and most."""
+    return {
+        "samples": int(spp.sum()),
+        "mean_spp": float(spp.mean(dtype=np.float64)),
+        "min_spp": int(spp.min()),
+        "max_spp": int(spp.max()),
+    }
+
+
+__all__ = ["FIRST_CHECK", "TILE", "render_adaptive", "round_seed", "round_sizes", "tile_errors"]

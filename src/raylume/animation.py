@@ -68,13 +68,10 @@ def render_animation(
         return
     from .cluster import FrameRenderer
     from .image import Image
-    from .scene.checks import warn
-    from .settings import adaptive_ignored
+    from .settings import samples_adaptively
 
     table = settings.render
-    ignored = adaptive_ignored(table, on_cluster=True)
-    if ignored:
-        warn(f"noise_threshold and time_limit are ignored: {ignored}")
+    samples_adaptively(table, on_cluster=True, warn_if_ignored=True)  # (a cluster's frames: never)
     denoising = table.denoise and table.mode == "path"
     renderer = FrameRenderer(
         cluster, session.compiled, settings, aovs=denoising, progress=progress, frames=len(cameras)

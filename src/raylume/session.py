@@ -28,14 +28,13 @@ from .image import Image
 from .kernels.film.camera import camera_of, set_cone_spread
 from .kernels.film.film import Film
 from .render_window import RENDER_AOVS, add_samples_to_film, render_window
-from .scene.checks import warn, warn_about
+from .scene.checks import warn_about
 from .scene.model import Camera, Scene
 from .scene.open import SceneLike, open_scene
 from .scene.validation_errors import format_validation_error
 from .seen_light import denoise_path_image
 from .settings import (
     ResolvedSettings,
-    adaptive_ignored,
     is_whole_number,
     resolve_settings,
     samples_adaptively,
@@ -203,10 +202,7 @@ class Session:
         clock = _CompileClock(status)
         extra: dict = {}  # mode-specific statistics
         denoising = table.denoise and table.mode == "path"
-        ignored = adaptive_ignored(table, on_cluster=cluster is not None)
-        if ignored:
-            warn(f"noise_threshold and time_limit are ignored: {ignored}")
-        adaptive = samples_adaptively(table, on_cluster=cluster is not None)
+        adaptive = samples_adaptively(table, on_cluster=cluster is not None, warn_if_ignored=True)
         if cluster is not None:
             from .cluster import render_on_cluster  # loads Dask only when asked
 

@@ -117,9 +117,15 @@ def adaptive_ignored(table: RenderSettings, on_cluster: bool = False) -> str | N
     return None
 
 
-def samples_adaptively(table: RenderSettings, on_cluster: bool = False) -> bool:
-    """Whether a render of these settings samples adaptively."""
-    return is_adaptive(table) and adaptive_ignored(table, on_cluster) is None
+def samples_adaptively(table: RenderSettings, on_cluster: bool = False, warn_if_ignored: bool = False) -> bool:
+    """Whether a render of these settings samples adaptively; `warn_if_ignored`: a SceneWarning
+    saying why not, where they ask for it."""
+    ignored = adaptive_ignored(table, on_cluster)
+    if ignored and warn_if_ignored:
+        from .scene.checks import warn
+
+        warn(f"noise_threshold and time_limit are ignored: {ignored}")
+    return is_adaptive(table) and ignored is None
 
 
 def overrides_of(arguments: Mapping[str, Any]) -> dict[str, Any]:
