@@ -246,7 +246,8 @@ def _render_tiles(
     th, tw = len(tile_edges(h)) - 1, len(tile_edges(w)) - 1
     open_tiles = np.ones((th, tw), dtype=bool)
     aov_arrays = allocate_aovs(h, w) if aovs else {}
-    seconds = 0.0
+    seconds = 0.0  # the kernels' (render_seconds)
+    spent = 0.0  # what a time limit counts: the kernels and the noise checks
     rays = rejected = 0
     planned = h * w * settings.spp
     done = 0
@@ -263,23 +264,25 @@ def _render_tiles(
             return
         reached = done + extra
         if time_limit is not None:
-            spent = seconds + time.perf_counter() - window_started
-            reached = max(reached, int(planned * spent / time_limit))
+            reached = max(reached, int(planned * (spent + time.perf_counter() - window_started) / time_limit))
         shown = max(shown, min(reached, planned))
         progress(shown, planned)
+
+    def out_of_time(r: int) -> bool:
+        return r > 0 and time_limit is not None and spent >= time_limit
 
     try:
         for r, n in enumerate(sizes):
             if not open_tiles.any():
                 break
-            if r > 0 and time_limit is not None and seconds >= time_limit:
+            if out_of_time(r):
                 stopped_by = "time"
                 break
             table = settings.model_copy(update={"spp": n, "seed": round_seed(settings.seed, r)})
             # a time limit is checked between windows: after the first round (one window, the
             # whole), a tile row each, so that it stops within one's time
             for win in open_windows(open_tiles, window, join_rows=time_limit is None or r == 0):
-                if r > 0 and time_limit is not None and seconds >= time_limit:
+                if out_of_time(r):
                     stopped_by = "time"
                     break  # the tiles left keep the rounds they have
                 area = (win[1] - win[0]) * (win[3] - win[2])
@@ -298,6 +301,7 @@ def _render_tiles(
                 for name, array in part.aovs.items():
                     aov_arrays[name][rows, cols] = array
                 seconds += part.seconds
+                spent += part.seconds
                 rays += part.rays
                 rejected += part.rejected
                 done += area * n
@@ -310,7 +314,7 @@ def _render_tiles(
                 closing = open_tiles & (tile_errors(acc.pixel_error()) < threshold)
                 open_tiles &= ~closing
                 done += int(tile_areas(h, w)[closing].sum()) * (settings.spp - sum(sizes[: r + 1]))
-                seconds += time.perf_counter() - started
+                spent += time.perf_counter() - started
                 report()
     except KeyboardInterrupt as exc:
         least = int(acc.samples.min())
