@@ -206,7 +206,7 @@ def _read_parts(path: Path, file_type: str, shape_index: int = 0):
             # trimesh's binary PLY reader takes faces of one size only (a mesh of quads and
             # triangles, as Blender writes, is "unexpected length"): read by the module's own
             return [_read_own_ply(path)]
-        why = (_obj_problem(path) if file_type == "obj" else None) or _why(exc)
+        why = _format_problem(path, file_type) or _why(exc)
         raise MeshError(f"Mesh file {path} could not be parsed as {file_type.upper()}: {why}.") from exc
 
     parts = []
@@ -240,9 +240,18 @@ def _read_parts(path: Path, file_type: str, shape_index: int = 0):
     return parts
 
 
+def _format_problem(path: Path, file_type: str) -> str | None:
+    """What raylume's own look at a file trimesh could not parse finds wrong with it, or None."""
+    if file_type == "obj":
+        return _obj_problem(path)
+    if file_type == "stl":
+        return _stl_truncated(path)
+    return None
+
+
 def _stl_truncated(path: Path) -> str | None:
     """Why a binary STL file is cut short, or None: trimesh reads such a file as an
-    ASCII STL without triangles."""
+    ASCII STL, which finds no triangles (trimesh 4) or fails to decode it (trimesh 5.2)."""
     data = path.read_bytes()
     if len(data) < 84 or data[:5].lower() == b"solid" and b"facet" in data[:1024]:
         return None  # too short to be binary, or text
