@@ -21,15 +21,12 @@ the environment turned the wrong way (-40 degrees for +40) is 25 % off in some b
 normal-less mesh shaded with raylume's area-weighted vertex normals instead of Mitsuba's
 angle-weighted ones failed (block z -7.5), which is why the serialized scene asks for face normals.
 
-The normal map (seeds 0..15 unless named): as is, image-mean z 1.6 / 2.5 / 3.9 (R, G, B; limits
-4.9), worst block 5.9 (limit 6.4); seeds 100..115 z 0.9 / 1.8 / 3.1, worst block 2.1; the map read
-with y the other way fails (image-mean z -16 to -20, 9 blocks over); a flat map fails (z -5.5).
-Its blue-leaning positive z is Mitsuba 3.9's normalmap shadowing term (measured with its BSDF's
-eval: G = 2 / (1 + sqrt(1 + a^2 tan^2 theta_o)), a^2 = min(1, tan^2 theta_d / 8), theta_o the
-light's angle from the shading normal, theta_d the map's tilt), which raylume does not have: it
-darkens the blue sky's grazing light most. The scene keeps it small (the board faces the light
-within ~30 degrees, the map leans at most 20 degrees: G > 0.998 for that light).
-
+The normal map, with Mitsuba's shadowing function for normal maps switched off (raylume has
+none; on, it darkened Mitsuba's image by 0.12-0.13%, mostly the sky's grazing light): image-mean
+z 2.5 / 3.3 / 3.9 (R, G, B; limits 4.9), worst block 3.8 (limit 6.3), seeds 100..115 z 0.9 / 1.2 /
+1.6, worst block 3.3: raylume is 0.3-0.45% brighter there, with the shadowing function on 0.4-0.6%
+(old sampler: 0.05-0.25%); the map read with y the other way fails (image-mean z -16 to -20, 9
+blocks over); a flat map fails (z -5.5).
 The environment map's scene does not show the sky directly, only by reflection and lighting:
 Mitsuba's envmap spreads its rows from pole to pole (row j of H at v = j / (H - 1); measured with
 its emitter's eval), raylume's sit at the rows' centres ((j + 0.5) / H), and the sky seen directly
