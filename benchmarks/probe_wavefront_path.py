@@ -30,7 +30,15 @@ from numba import njit
 
 import raylume
 from raylume.compile import compile_scene
-from raylume.kernels.film.sampler import DIM_BSDF, DIM_LIGHT, dimension_key, key_uniform2, sample_key, sub_key
+from raylume.kernels.film.sampler import (
+    DIM_BSDF,
+    DIM_LIGHT,
+    dimension_key,
+    key_uniform2,
+    pixel_sample,
+    sample_key,
+    sub_key,
+)
 from raylume.kernels.geometry.shape_quad import CENTER, NORMAL, U, V, area
 from raylume.kernels.geometry.shapes import NO_HIT, PRIM_KIND, PRIM_MATERIAL, PRIM_ROW, QUAD, TRIANGLE, offset_epsilon
 from raylume.kernels.geometry.traverse import any_hit_between, closest_hit_leaving
@@ -106,7 +114,7 @@ def render_rows(S, X, img, W, H, spp, seed, stacks, R, I, light, Q, C, max_depth
             # camera rays: one sample of each pixel of row j
             for i in range(W):
                 key = sample_key(seed, j * W + i, s)
-                ux, uy = key_uniform2(key)
+                ux, uy = pixel_sample(key)
                 x = (2.0 * (i + ux) / W - 1.0) * tanh
                 y = (1.0 - 2.0 * (j + uy) / H) * tanh
                 inv = 1.0 / math.sqrt(x * x + y * y + 1.0)

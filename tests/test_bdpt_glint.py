@@ -115,14 +115,19 @@ def test_bdpt_with_glints_agrees_with_bdpt_without_and_with_path_mode(pixel_filt
 def test_a_glint_smaller_than_a_pixel_has_far_less_noise(monkeypatch):
     """A bulb whose reflection is a fraction of a pixel (the pixels' own samples meet it in a few
     of the 10 renders: their block means over seeds range 0.05-1.1): at the same 16 samples per
-    pixel the blocks' variance over seeds with the glint strategy is under a tenth of bdpt's
-    without it (measured 1/70), and the two agree per block."""
+    pixel the variance over seeds of the glint's block (the block where bdpt without the
+    strategy varies most) is under a tenth of bdpt's without it (measured 0.008-0.072 over four
+    sets of 10 seeds), and the two agree per block. The whole image's variance is no measure:
+    a rare caustic through the glass elsewhere, which neither way samples well, made it 0.01-0.18
+    of bdpt's without the strategy, by the seeds that met it."""
     session = raylume.Session(_glint_scene(0.05))
     seeds = range(10)
     glint = _block_means(_renders(session, 16, seeds, "", monkeypatch))
     plain = _block_means(_renders(session, 16, [100 + s for s in seeds], "noglint", monkeypatch))
     _assert_blocks_agree(glint, plain, "sub-pixel glint")
-    assert glint.var(axis=0, ddof=1).sum() < 0.1 * plain.var(axis=0, ddof=1).sum()
+    plain_var = plain.var(axis=0, ddof=1).sum(axis=-1)
+    at = np.unravel_index(plain_var.argmax(), plain_var.shape)
+    assert glint.var(axis=0, ddof=1).sum(axis=-1)[at] < 0.1 * plain_var[at]
 
 
 def test_the_shares_sum_to_the_image(monkeypatch):
@@ -174,11 +179,16 @@ def _load_example(example: Path, tmp_path: Path) -> raylume.Scene:
 def test_every_example_agrees_with_and_without_glints(example, tmp_path, monkeypatch):
     """Every example by bdpt, 32 x 24, 4 samples per pixel, max_depth 6, 6 seeds each way: with
     the glint strategy against without it, per 8 x 8 block and channel (where the guide finds
-    nothing, or the scene has media, the two are the same bits)."""
+    nothing, or the scene has media, the two are the same bits). The head lamp's beam seen
+    through its glass is the glint the strategy is for: the pixels' own samples meet it from
+    about 1024 a pixel (at 4 and 64, six seeds of one block all missed it, 0.0117 against
+    0.07-0.10, and their spread was no standard error), so its renders without the strategy
+    take 1024."""
     scene = _load_example(example, tmp_path)
     scene = scene.model_copy(update={"render": scene.render.model_copy(update={"mode": "path", "integrator": "bdpt"})})
     session = raylume.Session(scene)
     kw = dict(width=32, height=24, max_depth=6, threads=1)
     glint = _renders(session, 4, range(6), "", monkeypatch, **kw)
-    plain = _renders(session, 4, range(6), "noglint", monkeypatch, **kw)
+    plain_spp = 1024 if example.stem == "headlamp" else 4
+    plain = _renders(session, plain_spp, range(6), "noglint", monkeypatch, **kw)
     _assert_blocks_agree(_block_means(glint), _block_means(plain), f"{example.stem}, 8 x 8 blocks")

@@ -98,10 +98,16 @@ def test_an_absorbing_medium_attenuates_an_emitter_by_beer_lambert(medium, tmp_p
     s = absorbing_scene(medium).with_base_dir(tmp_path)
     mean, se = seeds_mean(s, range(8))
     expected = expected_beer_lambert(s)
-    # pixel centres' distances; samples spread over the pixel change them by < 1e-5 relative
-    z = (mean - expected) / np.maximum(se, 1e-12)
-    assert np.all(np.abs(z[se > 0]) < 5.5), np.abs(z).max()
-    assert np.all(np.abs(mean[se == 0] - expected[se == 0]) < 1e-4 * expected[se == 0])
+    # pixel centres' distances; samples spread over the pixel change them by < 1e-5 relative.
+    # Every pixel's estimate has the same distribution to 1% (the view is 10 degrees wide), so
+    # each channel's standard error is pooled over the pixels: one pixel's own, from 8 seeds of
+    # a few transmitted samples, is a poor estimate (0 where every seed happened to count one).
+    pooled = np.sqrt((se**2).mean(axis=(0, 1)))
+    random = pooled > 0  # the grid's tracking is random; the homogeneous medium's transmittance exact
+    z = (mean - expected)[..., random] / pooled[random]
+    assert np.all(np.abs(z) < 5.5), np.abs(z).max()
+    exact = ~random
+    assert np.all(np.abs(mean - expected)[..., exact] < 1e-4 * expected[..., exact])
     # the whole image per channel, more precisely
     image_z = (mean.mean((0, 1)) - expected.mean((0, 1))) / (se.mean((0, 1)) / math.sqrt(mean[..., 0].size) + 1e-12)
     assert np.all(np.abs(image_z) < 4.5 * math.sqrt(mean[..., 0].size)), image_z
@@ -310,7 +316,11 @@ def test_fog_is_lit_by_the_spot_light_inside_its_cone():
     clear = raylume.render(s.replace(render={"medium": None})).rgb
     sky_rows = slice(0, 6)  # above the floor's horizon: only fog there
     assert clear[sky_rows].max() == 0.0
-    assert lit[sky_rows, 13:19].mean() > 3 * lit[sky_rows, :4].mean() > 0
+    cone, side = lit[sky_rows, 13:19], lit[sky_rows, :4]
+    # medians: at 16 samples, one firefly of light scattered twice into the air beside the cone
+    # can outweigh the whole cone's mean (2.3 in one pixel; 1024 samples give 0.064 against 0.009)
+    assert np.median(cone) > 3 * np.median(side)
+    assert side.mean() > 0  # light scattered more than once reaches it
 
 
 @pytest.mark.parametrize("mode", ["trace", "cast", "raster"])

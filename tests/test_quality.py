@@ -566,18 +566,15 @@ def test_texture_lookup_is_a_convex_blend_of_texels(u, v, w, h):
 
 
 @settings(max_examples=300, deadline=None)
-@given(seed=st.integers(0, 2**32 - 1), pixel=st.integers(0, 2**40), n=st.integers(1, 4096), data=st.data())
-def test_samples_stay_in_the_unit_square_and_lens_strata_are_a_permutation(seed, pixel, n, data):
-    from raylume.kernels.film.sampler import concentric_disk, lens_sample, permute, sample_key, stratified_key
+@given(seed=st.integers(0, 2**32 - 1), pixel=st.integers(0, 2**40), s=st.integers(0, 4095))
+def test_samples_stay_in_the_unit_square_and_the_lens_disk(seed, pixel, s):
+    from raylume.kernels.film.sampler import concentric_disk, lens_sample, pixel_sample, sample_key
 
-    s = data.draw(st.integers(0, n - 1))
     key = np.uint64(sample_key(seed, pixel, s))  # back from Python as an int, which may not fit int64
-    for x, y in (stratified_key(key, s, n), lens_sample(key, s, n)):
+    for x, y in (pixel_sample(key), lens_sample(key)):
         assert 0.0 <= x < 1.0 and 0.0 <= y < 1.0
         dx, dy = concentric_disk(x, y)
         assert dx * dx + dy * dy <= 1.0 + 1e-12
-    if n <= 64:
-        assert sorted(permute(i, n, pixel) for i in range(n)) == list(range(n))
 
 
 @settings(max_examples=200, deadline=None)

@@ -9,8 +9,10 @@ change waits for one band at most; each pass is sent as a lossless PNG:
 * cast and trace mode fill one film of the scene's spp, then stop: the image is then
   bit-identical to `raylume render` of the same camera and size (at spp 1, after one pass);
 * path mode has no end: it fills films of max(spp, PATH_FILM_SPP) samples with seeds seed,
-  seed + 1, ... (a film's sample stratification is fixed by its total) and shows the mean of
-  all samples so far, weighted by their count, up to PATH_MAX_SPP;
+  seed + 1, ... (a film's texture filter, the ray cone, is set by its total, and each film's
+  samples are indices 0.. of its own low-discrepancy sequences, so the films are stratified
+  each alone, not together) and shows the mean of all samples so far, weighted by their count,
+  up to PATH_MAX_SPP;
 * raster mode draws the frame once.
 
 With denoising on (`--denoise`, the page's checkbox) path mode's frames are shown denoised: a

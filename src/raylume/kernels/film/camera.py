@@ -122,11 +122,11 @@ def camera_sample(cam, filt, seed, i, j, s, total_spp, width, height):
         x = i + 0.5
         y = j + 0.5
     else:
-        ux, uy = pixel_sample(key, s, total_spp)
+        ux, uy = pixel_sample(key)
         x, y, weight = filter_sample(filt, i, j, ux, uy)
     o, d = camera_ray(cam, x, y, width, height)
     if cam[CAM_LENS_RADIUS] > 0.0:
-        lu, lv = lens_sample(key, s, total_spp)
+        lu, lv = lens_sample(key)
         o, d = thin_lens_ray(cam, o, d, lu, lv)
     return o, d, weight, key
 

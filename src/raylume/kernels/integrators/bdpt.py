@@ -26,7 +26,7 @@ import math
 import numpy as np
 
 from ..film.camera import CAM_FORWARD, camera_importance, lens_area, lens_point
-from ..film.sampler import dimension_key, key_uniform2, sub_key
+from ..film.sampler import dimension_key, key_uniform2, ld_uniform2, sub_key
 from ..film.splat import splat
 from ..geometry.shapes import NO_HIT, offset_epsilon
 from ..geometry.traverse import any_hit_leaving
@@ -236,7 +236,7 @@ def _connect_light(C, Vc, Vl, saved, t, key, mis, node_stack, t_stack):
     pt = t - 1
     k = dimension_key(key, DIM_CONNECT_LIGHT, t)
     u_pick, _ = key_uniform2(k)
-    u1, u2 = key_uniform2(sub_key(k, 1))
+    u1, u2 = ld_uniform2(key, DIM_CONNECT_LIGHT, t)
     u3, u4 = key_uniform2(sub_key(k, 2))
     e, p_pick = pick_emitter(Em.cdf, u_pick)
     p, n, w_emit, le, pdf_pos, pdf_dir, hit = sample_emission(G, X, Em, Env, e, u1, u2, u3, u4, k, C.B)
@@ -288,8 +288,7 @@ def connect_camera(C, Vc, Vl, saved, s, key, mis, node_stack, t_stack):
     if not connectible(C.F, Vl, qs):
         return ZERO, -1.0, -1.0, 0
     cam = C.cam
-    k = dimension_key(key, DIM_CONNECT_LENS, s)
-    u1, u2 = key_uniform2(k)
+    u1, u2 = ld_uniform2(key, DIM_CONNECT_LENS, s)
     pl = lens_point(cam, u1, u2)
     f_axis = (cam[CAM_FORWARD], cam[CAM_FORWARD + 1], cam[CAM_FORWARD + 2])
     _copy_row(Vc, 0, saved, SAVED)

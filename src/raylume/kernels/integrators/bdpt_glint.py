@@ -54,6 +54,7 @@ from .bdpt_walk import emitter_sample
 INF = math.inf
 DIM_GLINT = np.uint64(0x611E7C0D)  # the strategy's film point (and lens point)
 DIM_GLINT_WALK = np.uint64(0x611E7A1C)  # its delta samples, per vertex
+DIM_PILOT = np.uint64(0x91107)  # a pilot sample's film point
 GUIDE_SEED = np.uint64(0x6A1DE5EED)  # the pilot samples' keys: sample_key(seed ^ this, pixel, k)
 DIM_GUIDE_LIGHT = np.uint64(0x6A1DE11E)  # a pilot's point on an emitter
 PILOTS = 16  # pilot samples per pixel
@@ -149,7 +150,7 @@ def _pilot_light(C, key):
     Em = C.Em
     if not (Em.cdf[Em.cdf.shape[0] - 1] > 0.0):
         return ZERO, ZERO
-    e, _, p, _, _, le, pdf_pos, _, _ = emitter_sample(C, dimension_key(key, DIM_GUIDE_LIGHT, 0))
+    e, _, p, _, _, le, pdf_pos, _, _ = emitter_sample(C, key, DIM_GUIDE_LIGHT)
     kind = Em.kind[e]
     if at_infinity(kind) or is_delta(kind) or not (pdf_pos > 0.0):
         return ZERO, ZERO
@@ -174,7 +175,7 @@ def glint_guide(C, seed, most, guide, rows, node_stack, t_stack):
                 if s == PILOTS_FIRST and not deltas:
                     break
                 key = sample_key(np.uint64(seed) ^ GUIDE_SEED, j * width + i, s)
-                ux, uy = key_uniform2(key)
+                ux, uy = key_uniform2(dimension_key(key, DIM_PILOT, 0))
                 u1, u2 = key_uniform2(sub_key(key, 1))
                 o, d = film_ray(cam, i + ux, j + uy, width, height, u1, u2)
                 target, le = _pilot_light(C, key)

@@ -19,7 +19,7 @@ import math
 import numpy as np
 
 from ..film.camera import CAM_FORWARD, camera_importance
-from ..film.sampler import DIM_BSDF, dimension_key, key_uniform2, sub_key
+from ..film.sampler import DIM_BSDF, dimension_key, key_uniform2, ld_uniform2, sub_key
 from ..geometry.shapes import NO_HIT, PRIM_LIGHT, offset_epsilon, split_hit, surface
 from ..geometry.traverse import any_hit_leaving, closest_hit_leaving
 from ..shading.alpha_map import in_hole
@@ -69,6 +69,7 @@ RR_DEPTH = 5  # as path mode: Russian roulette from this many segments on
 DIM_EMIT = np.uint64(0xE3177E47)  # the light subpath's emitter, point and direction
 DIM_LIGHT_WALK = np.uint64(0x11647A1C)  # its BSDF samples
 DIM_WALK_ROULETTE = np.uint64(0x2077E11E)
+DIM_WALK_LOBE = np.uint64(0x10BE0000)  # ^ dim: which lobe of the BSDF a vertex samples
 DIM_WALK_MEDIUM = np.uint64(0x3ED1A11E)  # free flights: per vertex and null boundary passed (^ dim)
 FIRST_HIT = -2  # random_walk's medium: the one around the first surface the ray meets
 MAX_CROSSINGS = 1024  # null boundaries one subpath passes at most (as path mode)
@@ -131,7 +132,7 @@ def random_walk(C, V, start, o, d, beta, pdf_dir, most, importance, key, dim, sp
                 made += 1
                 if made >= most:
                     break
-                u_a, u_b = key_uniform2(dimension_key(key, dim, i))
+                u_a, u_b = ld_uniform2(key, dim, i)
                 wi_w, phase = hg_sample(g, d, u_a, u_b)
                 pdf_fwd = phase  # HG is symmetric: the reverse density is the same
                 V[prev, V_PDF_REV] = convert_density(phase, V, i, V, prev)
@@ -204,9 +205,8 @@ def random_walk(C, V, start, o, d, beta, pdf_dir, most, importance, key, dim, sp
         ng, ns, s_axis, t_axis = shading_frame(two, not entering, ng, ns)
         wo_w = mul(d, -1.0)
         wo = to_local(wo_w, s_axis, t_axis, ns)
-        k2 = dimension_key(key, dim, i)
-        u0, u1 = key_uniform2(k2)
-        u2, _ = key_uniform2(sub_key(k2, 1))
+        u0, _ = key_uniform2(dimension_key(key, dim ^ DIM_WALK_LOBE, i))
+        u1, u2 = ld_uniform2(key, dim, i)
         wi, weight, pdf, delta = bsdf_sample(mat, m, colour, wo, u0, u1, u2)
         if not (pdf > 0.0) or not (weight[0] > 0.0 or weight[1] > 0.0 or weight[2] > 0.0):
             break
@@ -281,14 +281,16 @@ def camera_subpath(C, Vc, most, o, d, spread, key, node_stack, t_stack):
 
 
 @kernel_function
-def emitter_sample(C, k):
+def emitter_sample(C, key, dim):
     """A light picked by power and a point and direction leaving it (each kind's `emit`), from
-    the numbers of key k: (light, its pick probability, point, normal, direction, radiance,
-    position density, direction density, primitive hit). The light subpath's first vertex, and
-    the glint guide's pilots' light points (bdpt_glint.py)."""
+    the camera sample of `key`'s numbers of dimension `dim` (the point and the direction
+    low-discrepancy): (light, its pick probability, point, normal, direction, radiance, position
+    density, direction density, primitive hit). The light subpath's first vertex, and the glint
+    guide's pilots' light points (bdpt_glint.py)."""
+    k = dimension_key(key, dim, 0)
     u_pick, _ = key_uniform2(k)
-    u1, u2 = key_uniform2(sub_key(k, 1))
-    u3, u4 = key_uniform2(sub_key(k, 2))
+    u1, u2 = ld_uniform2(key, dim, 1)
+    u3, u4 = ld_uniform2(key, dim, 2)
     e, p_pick = pick_emitter(C.Em.cdf, u_pick)
     p, n, w, le, pdf_pos, pdf_dir, hit = sample_emission(C.G, C.X, C.Em, C.Env, e, u1, u2, u3, u4, k, C.B)
     return e, p_pick, p, n, w, le, pdf_pos, pdf_dir, hit
@@ -301,7 +303,7 @@ def light_subpath(C, Vl, most, key, node_stack, t_stack):
     F, Em = C.F, C.Em
     if most < 1 or not (Em.cdf[Em.cdf.shape[0] - 1] > 0.0):
         return 0, 0
-    e, p_pick, p, n, w, le, pdf_pos, pdf_dir, hit = emitter_sample(C, dimension_key(key, DIM_EMIT, 0))
+    e, p_pick, p, n, w, le, pdf_pos, pdf_dir, hit = emitter_sample(C, key, DIM_EMIT)
     if not (pdf_pos > 0.0 and pdf_dir > 0.0 and p_pick > 0.0) or not (le[0] > 0.0 or le[1] > 0.0 or le[2] > 0.0):
         return 0, 0
     kind = Em.kind[e]

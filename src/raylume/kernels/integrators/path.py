@@ -18,7 +18,7 @@ import math
 
 import numpy as np
 
-from ..film.sampler import DIM_BSDF, DIM_LIGHT, dimension_key, key_uniform2, sub_key
+from ..film.sampler import DIM_BSDF, DIM_LIGHT, dimension_key, key_uniform2, ld_uniform2, sub_key
 from ..geometry.shapes import NO_HIT, PRIM_LIGHT, offset_epsilon, split_hit, surface
 from ..geometry.traverse import any_hit_between, closest_hit_leaving
 from ..shading.alpha_map import in_hole
@@ -64,6 +64,7 @@ MIS = 0
 LIGHT_ONLY = 1
 BSDF_ONLY = 2
 DIM_ROULETTE = np.uint64(0x2077E77E)
+DIM_BSDF_LOBE = np.uint64(0xB5DF10BE)  # which lobe of the BSDF a bounce samples
 DIM_MEDIUM = np.uint64(0x3ED1A3ED)  # free flights through media: per segment and boundary crossed
 DIM_SHADOW_MEDIUM = np.uint64(0x5AD0BEEF)  # ratio tracking along shadow rays
 MAX_CROSSINGS = 1024  # null boundaries one path passes at most (a guard against endless rounding)
@@ -230,7 +231,7 @@ def path_segment(
     # materials.toml's time waited for it) arrives meanwhile.
     light_key = dimension_key(key, DIM_LIGHT, depth + 1)
     u_pick, _ = key_uniform2(light_key)
-    u1, u2 = key_uniform2(sub_key(light_key, 1))
+    u1, u2 = ld_uniform2(key, DIM_LIGHT, depth + 1)
     if Env.present:
         prefetch_environment(Env, u1)
     t, prim, b1, b2 = closest_hit_leaving(G, X, o, d, 0.0, INF, leaving, node_stack, t_stack)
@@ -263,7 +264,7 @@ def path_segment(
                     if tr[0] > 0.0 or tr[1] > 0.0 or tr[2] > 0.0:
                         weighed = not delta_l and strategy != LIGHT_ONLY
                         L = _add_light(L, hadamard(beta, tr), li, phase * _light_weight(p_pick * pdf_l, phase, weighed))
-            u_a, u_b = key_uniform2(dimension_key(key, DIM_BSDF, depth))
+            u_a, u_b = ld_uniform2(key, DIM_BSDF, depth)
             wi, phase = hg_sample(g, d, u_a, u_b)
             going, beta = _roulette(beta, key, depth)
             st = (
@@ -348,7 +349,6 @@ def path_segment(
     ng, ns = facing_normals(two_sided_here, not entering, ng, ns)
     cone += spread * t
     colour = albedo(G, F, X, m, prim, b1, b2, p, d, ng, cone)
-    bsdf_key = dimension_key(key, DIM_BSDF, depth)
     lights = Em.cdf[Em.cdf.shape[0] - 1] > 0.0 and not delta_only(mat, m)
     deferring = defer and is_diffuse(mat, m)
     # next-event estimation's light sample: where the shading is deferred, a point on a surface
@@ -374,7 +374,7 @@ def path_segment(
             density = p_pick * area if form == ENVIRONMENT_CELL else p_pick
             density = density if lights and lit and strategy != BSDF_ONLY else 0.0
             dist = INF if form == ENVIRONMENT_CELL else 0.0
-        b_u1, b_u2 = key_uniform2(bsdf_key)
+        b_u1, b_u2 = ld_uniform2(key, DIM_BSDF, depth)
         deferred = (p, ng, ns, colour, eps, form, aim, n_l, area, dist, li, density, weighed, b_u1, b_u2, np.int64(le))
         st = (o, d, beta, L, rays, depth, prev_pdf, prev_delta, cone, med, mis_o, mis_t, crossings, prim)
         return DEFERRED, st, deferred
@@ -403,8 +403,8 @@ def path_segment(
                     L = _add_light(L, hadamard(hadamard(beta, f), tr), li, scale)
 
     # continue the path
-    u0, u1 = key_uniform2(bsdf_key)
-    u2, _ = key_uniform2(sub_key(bsdf_key, 1))
+    u0, _ = key_uniform2(dimension_key(key, DIM_BSDF_LOBE, depth))
+    u1, u2 = ld_uniform2(key, DIM_BSDF, depth)
     wi_local, weight, pdf, delta = bsdf_sample(mat, m, colour, wo, u0, u1, u2)
     if not (pdf > 0.0) or not (weight[0] > 0.0 or weight[1] > 0.0 or weight[2] > 0.0):
         return DONE, _ended(st, L, rays), nothing
