@@ -6,8 +6,10 @@ reference (the mean of two 4096-spp renders of other seeds) by the threshold's o
 stopped before --spp, the error adaptive sampling bounds (a tile that reaches --spp is as noisy
 as its samples leave it, and where the reference's own noise is near a tile's, as around
 caustics, that tile measures the reference). Uniform sampling's spp for that error is found
-from a uniform render at the adaptive render's mean spp by the 1 / sqrt(spp) law, checked by a
-uniform render at that spp; its time is that render's. Rounds alternate adaptive, uniform
+from a uniform render at the adaptive render's mean spp by the 1 / sqrt(spp) law, then by the
+rate the error fell between that render and a render at that spp (the sampler's
+low-discrepancy points converge faster than 1 / sqrt(spp)); its time is the last uniform
+render's. Rounds alternate adaptive, uniform
 (--rounds), medians printed. Mitsuba 3 and pbrt-v4 have no adaptive sampler; the peer here is
 raylume's own uniform sampling.
 
@@ -77,9 +79,19 @@ def main() -> None:
                 a_err.append(tile_worst(adaptive.rgb, reference, stopped))
                 same = max(2, round(a_spp[-1]))
                 probe = raylume.render(scene, **size, spp=same, seed=r, aovs=False)
-                ratio = tile_worst(probe.rgb, reference, stopped) / a_err[-1]
+                e_same = tile_worst(probe.rgb, reference, stopped)
+                ratio = e_same / a_err[-1]
                 need = min(MAX_SPP, max(2, math.ceil(same * ratio**2)))
                 uniform = raylume.render(scene, **size, spp=need, seed=r, aovs=False)
+                e_need = tile_worst(uniform.rgb, reference, stopped)
+                if need != same and e_need > 0 and e_same > e_need:
+                    # the error's own rate between the two (low-discrepancy samples converge faster
+                    # than 1 / sqrt(spp)), and a uniform render at the spp it gives
+                    rate = math.log(e_same / e_need) / math.log(need / same)
+                    better = min(MAX_SPP, max(2, math.ceil(same * ratio ** (1.0 / rate))))
+                    if better != need:
+                        need = better
+                        uniform = raylume.render(scene, **size, spp=need, seed=r, aovs=False)
                 u_spp.append(need)
                 u_time.append(uniform.stats["render_seconds"])
                 u_err.append(tile_worst(uniform.rgb, reference, stopped))

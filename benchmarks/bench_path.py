@@ -24,10 +24,12 @@ the material showcase (examples/materials.toml), and error against time on the C
    skips it).
 2. Error against time (Cornell box only): 64 x 64 against tests/reference/cornell_mitsuba.npz
    (Mitsuba's mean over 65536 spp), the pixels that see any of the light left out, RMSE over
-   linear RGB. raylume and Mitsuba scalar_rgb at 4 .. 1024 spp, and raylume's 16 spp denoised by
-   Intel OIDN (its time includes the denoiser). New seeds every round, none of the reference's.
-   The reference's own noise adds about 1/64 of a 1024-spp render's variance to its squared
-   error (~0.8 % RMSE).
+   linear RGB. raylume and Mitsuba scalar_rgb at 4 .. 1024 spp, Mitsuba with its independent
+   sampler (the speed benchmark's and the reference's) and with its low-discrepancy `ldsampler`
+   (raylume's sampler is low-discrepancy too), and raylume's 16 spp denoised by Intel OIDN (its
+   time includes the denoiser). New seeds every round, none of the reference's. The reference's
+   own noise adds about 1/64 of an independent 1024-spp render's variance to its squared error
+   (~0.8 % RMSE), more of a low-discrepancy one's.
 3. The denoising goal (Cornell box only) at the speed benchmark's size (256 x 256): raw 256 spp
    against 16 spp denoised, RMSE against raylume's own 4096-spp render (cached in
    benchmarks/.cache, minutes to make the first time; --no-denoise-goal skips it), over all
@@ -146,16 +148,19 @@ class Raylume:
 
 
 class Mitsuba:
-    def __init__(self, variant: str, build: Callable[[], dict], threads=None):
+    def __init__(self, variant: str, build: Callable[[], dict], threads=None, sampler: str | None = None):
         """`build` makes the scene's load_dict dictionary (called once the variant is set); the
-        warm-up renders once on each thread count of `threads` (default: all cores)."""
+        warm-up renders once on each thread count of `threads` (default: all cores). `sampler`:
+        the sensor's sampler instead of the dictionary's (independent)."""
         import drjit as dr
         import mitsuba as mi
 
         self.mi, self.dr, self.variant = mi, dr, variant
-        self.name = f"Mitsuba {variant}"
+        self.name = f"Mitsuba {variant}" + (f" {sampler}" if sampler else "")
         mi.set_variant(variant)
         d = build()
+        if sampler:
+            d["sensor"]["sampler"]["type"] = sampler
         t = time.perf_counter()
         self.scene = mi.load_dict(d)
         self.setup_seconds = time.perf_counter() - t
@@ -300,6 +305,10 @@ def error_vs_time(args, doc, have_mitsuba: bool) -> dict:
     engines = [Raylume(W, H, depth)]
     if have_mitsuba:
         engines.append(Mitsuba("scalar_rgb", lambda: mitsuba_dict(doc, W, H)))
+        # raylume's sampler is low-discrepancy (scrambled Sobol points per pixel): its peer is
+        # Mitsuba's low-discrepancy sampler (scrambled (0, 2)-sequences, padded), beside the
+        # independent one its speed and the references use
+        engines.append(Mitsuba("scalar_rgb", lambda: mitsuba_dict(doc, W, H), sampler="ldsampler"))
 
     def rmse(img):
         return float(np.sqrt(np.mean((img[keep] - ref[keep]) ** 2)))
@@ -345,7 +354,7 @@ def plot(result: dict, path: str) -> None:
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(6, 4), dpi=100)
-    for name, style in (("raylume", "o-"), ("Mitsuba scalar_rgb", "s--")):
+    for name, style in (("raylume", "o-"), ("Mitsuba scalar_rgb", "s--"), ("Mitsuba scalar_rgb ldsampler", "^:")):
         pts = sorted((s, e, spp) for (n, spp, d), (e, s) in result.items() if n == name and not d)
         if not pts:
             continue
