@@ -177,6 +177,18 @@ def test_mitsuba_normalmap_warnings(tmp_path, text, message):
     assert any(message in w for w in warned), warned
 
 
+@pytest.mark.parametrize(("value", "warns"), [("false", False), ("true", True)])
+def test_mitsuba_normalmap_use_shadowing_function(tmp_path, value, warns):
+    """raylume has no shadowing function: `false` renders as Mitsuba does, in silence (the Mitsuba
+    comparison's normal-map scene sets it); `true` written out is named (Mitsuba's default, left
+    unset, passes in silence as it always has)."""
+    flag = f'<bsdf type="normalmap"><boolean name="use_shadowing_function" value="{value}"/>'
+    scene, warned = write_mitsuba(tmp_path, mitsuba_board().replace('<bsdf type="normalmap">', flag))
+    assert scene.objects[0].material.normal_map.file == "maps/bumps.png"
+    assert [w for w in warned if "use_shadowing_function = true" in w] == ([warned[0]] if warns else [])
+    assert len(warned) == (1 if warns else 0), warned
+
+
 # The Mitsuba board scene's twin in raylume's world (Mitsuba's mirrored, x -> -x: the camera looks
 # down -z from z = 5 with +x on the left), its objects given by each test
 BOARD_TOML = """

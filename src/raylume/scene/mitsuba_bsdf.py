@@ -12,13 +12,14 @@
 | null | null |
 | normalmap | its BSDF, with the bitmap as the material's `normal_map` |
 | bumpmap | its BSDF, with the bitmap as the material's `bump_map` (`scale` its height) |
+| mask | its BSDF, with a bitmap `opacity` as its `alpha_map` (cut at 0.5); a constant: null below 0.5 |
 
 Mitsuba's normalmap and bumpmap darken light that arrives at a grazing angle to the unperturbed
 surface by a shadowing function (Estevez et al. 2019; `use_shadowing_function`, true by
 default), which raylume does not have: with `use_shadowing_function = false` the two render the
 same maps alike; with it, Mitsuba's grazing light is a little darker (a fraction of a percent
 where the map leans 20 degrees and the light arrives within 30 degrees of the surface's normal).
-| mask | its BSDF, with a bitmap `opacity` as its `alpha_map` (cut at 0.5); a constant: null below 0.5 |
+The default passes in silence, as before the flag was read; `true` written out is warned about.
 
 A mask's bitmap is read as Mitsuba's eval_1 reads it, as far as raylume's alpha map can: its
 grey (alpha dropped), sRGB-decoded unless raw; an alpha channel is warned about.
@@ -366,7 +367,12 @@ def bsdf_table(ctx: Context, node: Node) -> dict:
         nested = _nested_bsdfs(node, props)
         key, what = ("normal_map", "normal map") if kind == "normalmap" else ("bump_map", "bump map")
         found = normal_map_table(ctx, node, props) if kind == "normalmap" else bump_map_table(ctx, node, props)
-        props.boolean("use_shadowing_function", True)  # raylume has none (module docstring)
+        if props.boolean("use_shadowing_function", False):  # asked for in so many words (module docstring)
+            ctx.warn(
+                node,
+                "use_shadowing_function = true: raylume has no shadowing function for normal and bump maps "
+                "(grazing light a little brighter than Mitsuba's); drawn without it",
+            )
         table = bsdf_table(ctx, nested[0])
         ctx.done(node, props)
         if found is None:
