@@ -313,7 +313,7 @@ def _render_tiles(
                 started = time.perf_counter()
                 closing = open_tiles & (tile_errors(acc.pixel_error()) < threshold)
                 open_tiles &= ~closing
-                done += int(tile_areas(h, w)[closing].sum()) * (settings.spp - sum(sizes[: r + 1]))
+                done += int(tile_areas(h, w)[closing].sum()) * (settings.spp - int(taken[r]))
                 spent += time.perf_counter() - started
                 report()
     except KeyboardInterrupt as exc:

@@ -218,7 +218,7 @@ def _read_parts(path: Path, file_type: str, shape_index: int = 0):
         v = np.asarray(geom.vertices, dtype=np.float64)
         f = np.asarray(geom.faces, dtype=np.int64)
         if v.ndim != 2 or v.shape[1] != 3:  # trimesh's OBJ reader takes a short `v` line so
-            why = (_obj_problem(path) if file_type == "obj" else None) or "its vertices are not 3D points"
+            why = _format_problem(path, file_type) or "its vertices are not 3D points"
             raise MeshError(f"Mesh file {path} could not be parsed as {file_type.upper()}: {why}.")
         if f.min() < 0 or f.max() >= len(v):
             raise MeshError(f"Mesh file {path} has a face index outside the range of its {len(v)} vertices.")
