@@ -121,6 +121,29 @@ def test_the_film_gives_the_same_bits_in_one_pass_or_several(scene, mode, pixel_
     assert image.rgb.tobytes() == whole.rgb().tobytes()
 
 
+@pytest.mark.parametrize("mode", ["trace", "path"])
+@pytest.mark.parametrize("pixel_filter", ["box", "gaussian", "mitchell"])
+def test_films_of_consecutive_samples_hold_what_one_film_of_them_all_holds(scene, mode, pixel_filter):
+    """Film.first_sample: films of one seed whose sample ranges follow each other hold the same
+    samples as one film of their total (the sums to rounding: added in another order). The last
+    film is of one sample, after others: a point of the filter's area, not the pixel's centre.
+    The texture filter is off: a film's ray cone is set by its own total."""
+    session = Session(scene.with_render(texture_filter=False))
+    whole = raylume.Film(40, 30, pixel_filter, total_spp=9)
+    session.add_samples(whole, 9, mode=mode, seed=7)
+    parts = [raylume.Film(40, 30, pixel_filter, total_spp=n, first_sample=k) for k, n in ((0, 4), (4, 4), (8, 1))]
+    for film in parts:
+        session.add_samples(film, film.total_spp, mode=mode, seed=7)
+    together = sum(film.sums for film in parts)
+    np.testing.assert_allclose(together, whole.sums, rtol=1e-12, atol=1e-12)
+    assert not np.array_equal(parts[1].sums, parts[0].sums)  # the second film's samples are new ones
+    centre = raylume.Film(40, 30, pixel_filter, total_spp=1)
+    session.add_samples(centre, 1, mode=mode, seed=7)
+    assert not np.array_equal(parts[2].sums, centre.sums)
+    with pytest.raises(ValueError, match="first_sample"):
+        raylume.Film(4, 4, total_spp=1, first_sample=-1)
+
+
 def test_a_film_refuses_more_samples_than_it_was_made_for(scene):
     session = Session(scene)
     film = raylume.Film(8, 8, total_spp=2)

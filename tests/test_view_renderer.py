@@ -172,24 +172,29 @@ def cornell(**render):
 
 
 def test_denoising_leaves_the_accumulation_as_it_is():
-    """With denoise on, path mode's films still hold exactly `raylume render`'s images of 16 spp
-    with seeds seed, seed + 1, ... (the bits of renders without --denoise), summed as without
-    denoising: only what is shown is denoised."""
+    """With denoise on, path mode's films still hold exactly the films of 16 spp that follow
+    each other in one sequence (the bits of films without --denoise), summed as without
+    denoising: only what is shown is denoised. Together they are `raylume render`'s image of
+    all their samples (to rounding: the Cornell box has no texture, whose filter a film's own
+    total sets)."""
     session = raylume.Session(cornell(spp=16, denoise=True))
     r = vr.Renderer(session, resolve_settings(session.scene, threads=1))
     r.add_watcher(1)
     r.start()
     try:
-        wait_for(lambda: r._job is not None and r._job.done_spp >= 16, timeout=300)
+        wait_for(lambda: r._job is not None and r._job.done_spp >= 32, timeout=300)
     finally:
         assert r.stop(5.0)
     job = r._job
     films = job.done_spp // 16
-    expected = None
+    expected = np.zeros((18, 24, 3))
     for k in range(films):
-        rgb = session.render(spp=16, seed=k, denoise=False, threads=1, aovs=False).rgb.astype(np.float64) * 16
-        expected = rgb if expected is None else expected + rgb
+        film = raylume.Film(24, 18, "box", total_spp=16, first_sample=16 * k)
+        session.add_samples(film, 16, threads=1)
+        expected += film.rgb().astype(np.float64) * 16
     np.testing.assert_array_equal(job.done_sum, expected)
+    whole = session.render(spp=job.done_spp, denoise=False, threads=1, aovs=False).rgb
+    np.testing.assert_allclose(job.done_sum / job.done_spp, whole, rtol=1e-5, atol=1e-7)
     assert r.latest.denoised and r.stats()["denoise"] is True and r.stats()["integrator"] == "path"
 
 

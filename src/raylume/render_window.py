@@ -186,7 +186,7 @@ def path_kernel():
 def _centres_only(cam: np.ndarray, film: Film) -> bool:
     """Whether the film's samples are one at each pixel's centre, through a pinhole, into sums
     without the unsigned half (variants.trace_features)."""
-    return film.total_spp == 1 and not cam[CAM_LENS_RADIUS] > 0.0 and film.sums.shape[2] == FILM_WIDTH
+    return film.pixel_centres and not cam[CAM_LENS_RADIUS] > 0.0 and film.sums.shape[2] == FILM_WIDTH
 
 
 def add_samples_to_film(S, cam, film: Film, spp: int, settings, aov: dict, progress, lanes: int, status=None):
@@ -206,7 +206,9 @@ def add_samples_to_film(S, cam, film: Film, spp: int, settings, aov: dict, progr
     # control[STOP] = 1 stops every lane before its next row; the lanes claim rows from counters in it
     control = np.zeros(CONTROL_SIZE, dtype=np.int64)
     background = tuple(float(c) for c in settings.background)
-    samples = (film.spp, spp, film.total_spp)  # first, count, total
+    # first, count, total: the kernels take total 1 as the pixel centre, so a film of one sample
+    # after others counts the samples before it
+    samples = (film.first_sample + film.spp, spp, film.first_sample + film.total_spp)
     X = features(S)  # None: the kernels' variant for spheres and opaque triangles only
     if settings.mode == "path":
         X = path_features(S)  # one variant of the path kernels for every scene (compiled once)

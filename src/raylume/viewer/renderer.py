@@ -8,11 +8,11 @@ change waits for one band at most; each pass is sent as a lossless PNG:
 
 * cast and trace mode fill one film of the scene's spp, then stop: the image is then
   bit-identical to `raylume render` of the same camera and size (at spp 1, after one pass);
-* path mode has no end: it fills films of max(spp, PATH_FILM_SPP) samples with seeds seed,
-  seed + 1, ... (a film's texture filter, the ray cone, is set by its total, and each film's
-  samples are indices 0.. of its own low-discrepancy sequences, so the films are stratified
-  each alone, not together) and shows the mean of all samples so far, weighted by their count,
-  up to PATH_MAX_SPP;
+* path mode has no end: it fills films of max(spp, PATH_FILM_SPP) samples, each with the
+  samples after the one before of the same low-discrepancy sequences (`Film.first_sample`), and
+  shows the mean of all samples so far, weighted by their count, up to PATH_MAX_SPP: k films are
+  the samples of one render of k times as many, stratified together (a film's texture filter,
+  the ray cone, is set by its own total);
 * raster mode draws the frame once.
 
 With denoising on (`--denoise`, the page's checkbox) path mode's frames are shown denoised: a
@@ -83,7 +83,6 @@ class _Job:
     settings: RenderSettings  # the [render] table at the job's size and mode
     batch: int  # total_spp of each film
     bands: list[Film] = field(default_factory=list)  # the film, as windowed films of row bands (none: raster)
-    generation: int = 0  # films completed (path mode: they used seeds seed .. seed + generation - 1)
     done_sum: np.ndarray | None = None  # sum over completed films of rgb * batch (float64)
     done_spp: int = 0
     rgb: np.ndarray | None = None  # raster mode's image
@@ -125,7 +124,7 @@ class _Job:
         s = self.settings
         edges = sorted({round(k * s.height / count) for k in range(count + 1)})
         self.bands = [
-            Film(s.width, s.height, s.filter, total_spp=self.batch, window=(0, s.width, y0, y1))
+            Film(s.width, s.height, s.filter, self.batch, window=(0, s.width, y0, y1), first_sample=self.done_spp)
             for y0, y1 in zip(edges[:-1], edges[1:])
         ]
         self.bands[0].compile_rgb(always=True)  # every frame's image by the kernel, however small
@@ -419,7 +418,7 @@ class Renderer:
             seconds = image.stats["render_seconds"]
         else:
             count = 1 if moving else self._pass_spp(job)
-            seed = s.seed + job.generation + job.seed_offset
+            seed = s.seed + job.seed_offset
             fill = job.aovs is not None and not job.aovs_filled
             for band in job.bands:
                 if job.epoch != self._epoch or self._stop:
@@ -445,7 +444,6 @@ class Renderer:
                     part = job.film_rgb().astype(np.float64) * job.batch
                     job.done_sum = part if job.done_sum is None else job.done_sum + part
                     job.done_spp += job.batch
-                    job.generation += 1
                     job.new_film(len(job.bands))
                 else:
                     job.finished = True

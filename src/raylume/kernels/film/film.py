@@ -148,7 +148,12 @@ class Film:
     sample per pixel is the pixel centre); `rgb()` reads the image at any time.
 
     `window` = (x0, x1, y0, y1): the film holds columns x0..x1-1 and rows y0..y1-1 only (a
-    crop; pbrt's --pixelbounds); its pixels equal that part of the whole image's film."""
+    crop; pbrt's --pixelbounds); its pixels equal that part of the whole image's film.
+
+    `first_sample`: the film holds samples first_sample..first_sample + total_spp - 1 of each
+    pixel's low-discrepancy sequences (default 0). Films of one seed whose ranges follow each
+    other are together the samples of one sequence, stratified together, as one film of their
+    total would be (the live view's films, each with the samples after the one before)."""
 
     def __init__(
         self,
@@ -157,10 +162,13 @@ class Film:
         pixel_filter: str = "box",
         total_spp: int = 1,
         window: tuple[int, int, int, int] | None = None,
+        first_sample: int = 0,
     ):
         for name, value in (("width", width), ("height", height), ("total_spp", total_spp)):
             if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1:
                 raise ValueError(f"{name} must be a whole number, at least 1 (got {value!r})")
+        if isinstance(first_sample, bool) or not isinstance(first_sample, numbers.Integral) or first_sample < 0:
+            raise ValueError(f"first_sample must be a whole number, at least 0 (got {first_sample!r})")
         if pixel_filter not in PIXEL_FILTERS:
             raise ValueError(f"pixel_filter must be one of {', '.join(PIXEL_FILTERS)} (got {pixel_filter!r})")
         x0, x1, y0, y1 = window if window is not None else (0, width, 0, height)
@@ -170,6 +178,7 @@ class Film:
         self.height = height
         self.window = (x0, x1, y0, y1)
         self.total_spp = total_spp
+        self.first_sample = int(first_sample)
         self.filter = filter_array(pixel_filter)
         self.filter_name = pixel_filter
         signed = np.isfinite(self.filter[FILTER_NEGATIVE])
@@ -191,6 +200,12 @@ class Film:
             x0, x1, y0, y1 = self.window
             self.splats = np.zeros((y1 - y0) * (x1 - x0) * 6, dtype=np.int64)
         return self.splats
+
+    @property
+    def pixel_centres(self) -> bool:
+        """Whether the film's one sample a pixel is the pixel's centre (a film of one sample,
+        the first of its sequence) rather than a point of the filter's area."""
+        return self.total_spp == 1 and self.first_sample == 0
 
     @property
     def kernel_window(self) -> tuple[int, int, int, int]:

@@ -105,7 +105,7 @@ def glint_cdf(S, film, strategy: tuple, guide_of: Callable[[np.ndarray], None]) 
     its filter's area), filters with negative lobes, the switch's "noglint" and unweighted
     strategies, or nothing found."""
     if film.glint is None:
-        off = S.media_present or S.pass_through or film.total_spp == 1
+        off = S.media_present or S.pass_through or film.pixel_centres
         off = off or np.isfinite(film.filter[FILTER_NEGATIVE]) or strategy[0] == NO_GLINT or strategy[2] == 0
         cdf = np.zeros(1)
         if not off:
