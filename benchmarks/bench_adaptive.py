@@ -9,7 +9,9 @@ caustics, that tile measures the reference). Uniform sampling's spp for that err
 from a uniform render at the adaptive render's mean spp by the 1 / sqrt(spp) law, then by the
 rate the error fell between that render and a render at that spp (the sampler's
 low-discrepancy points converge faster than 1 / sqrt(spp)); its time is the last uniform
-render's. Rounds alternate adaptive, uniform
+render's. The adaptive render's mean error over its stopped tiles and its image's MSE times
+its mean spp (lower: less error for the samples) compare versions of adaptive sampling: run
+the script with PYTHONPATH at another checkout's src. Rounds alternate adaptive, uniform
 (--rounds), medians printed. Mitsuba 3 and pbrt-v4 have no adaptive sampler; the peer here is
 raylume's own uniform sampling.
 
@@ -30,13 +32,18 @@ import numpy as np
 from common import REPO, machine, median_of, run_main, table
 
 
-def tile_worst(image: np.ndarray, reference: np.ndarray, tiles: np.ndarray) -> float:
-    """The largest mean error of the flagged tiles."""
+def tile_error(image: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """Each tile's mean error, by the threshold's measure."""
     from raylume.adaptive import tile_errors
 
     ref = reference.astype(np.float64)
     error = np.abs(image.astype(np.float64) - ref).sum(axis=2) / (1e-4 + np.sqrt(np.maximum(ref.sum(axis=2), 0)))
-    return float(tile_errors(error)[tiles].max())
+    return tile_errors(error)
+
+
+def tile_worst(image: np.ndarray, reference: np.ndarray, tiles: np.ndarray) -> float:
+    """The largest mean error of the flagged tiles."""
+    return float(tile_error(image, reference)[tiles].max())
 
 
 def main() -> None:
@@ -68,6 +75,7 @@ def main() -> None:
         rows = []
         for threshold in args.thresholds:
             a_time, a_spp, a_err, u_spp, u_time, u_err, stopped_share = [], [], [], [], [], [], []
+            a_mean, a_mse = [], []
             for r in range(args.rounds):
                 adaptive = raylume.render(scene, **size, spp=args.spp, noise_threshold=threshold, seed=r, aovs=False)
                 stopped = tile_errors(adaptive.aovs["spp"].astype(np.float64)) < args.spp
@@ -77,6 +85,8 @@ def main() -> None:
                 a_time.append(adaptive.stats["render_seconds"])
                 a_spp.append(adaptive.stats["adaptive"]["mean_spp"])
                 a_err.append(tile_worst(adaptive.rgb, reference, stopped))
+                a_mean.append(float(tile_error(adaptive.rgb, reference)[stopped].mean()))
+                a_mse.append(float(np.mean((adaptive.rgb.astype(np.float64) - reference) ** 2)) * a_spp[-1])
                 same = max(2, round(a_spp[-1]))
                 probe = raylume.render(scene, **size, spp=same, seed=r, aovs=False)
                 e_same = tile_worst(probe.rgb, reference, stopped)
@@ -96,7 +106,7 @@ def main() -> None:
                 u_time.append(uniform.stats["render_seconds"])
                 u_err.append(tile_worst(uniform.rgb, reference, stopped))
             if not a_time:
-                rows.append([threshold, "no tile stopped", "", "", "", "", "", "", ""])
+                rows.append([threshold, "no tile stopped", "", "", "", "", "", "", "", "", ""])
                 continue
             rows.append(
                 [
@@ -104,6 +114,8 @@ def main() -> None:
                     f"{100 * median_of(stopped_share):.0f}%",
                     f"{median_of(a_spp):.0f}",
                     f"{median_of(a_err):.4f}",
+                    f"{median_of(a_mean):.4f}",
+                    f"{median_of(a_mse):.4f}",
                     f"{median_of(a_time):.2f} s",
                     f"{median_of(u_spp):.0f}",
                     f"{median_of(u_err):.4f}",
@@ -119,6 +131,8 @@ def main() -> None:
                     "tiles stopped",
                     "adaptive: mean spp",
                     "worst tile error",
+                    "mean tile error",
+                    "image MSE x mean spp",
                     "time",
                     "uniform: spp for that error",
                     "worst tile error",

@@ -1,9 +1,9 @@
 """Adaptive sampling (raylume/adaptive.py) against what it promises.
 
-* Its noise estimate is the variance of a mean from rounds of unequal size: checked on
-  synthetic rounds of known variance, within the chi-square spread of the estimate.
-* Its image is the sample-weighted mean of plain renders, one a round, each with the round's
-  seed and samples: checked against those renders made one by one.
+* Its noise estimate is the standard error of a mean from two streams of unequal size:
+  checked on synthetic streams of known variance, within the spread of the estimate.
+* Its image is the sample-weighted mean of two plain renders, one a stream, each with the
+  stream's seed and samples: checked against those renders made one by one.
 * A tile that stops is as quiet as the threshold says: its error against a reference of
   8192 samples, measured as the threshold measures it (Cycles' measure), stays below the
   threshold. The estimate is a standard error, and a Gaussian error's mean magnitude is
@@ -27,7 +27,7 @@ from test_cli import assert_refused
 from test_cli import raylume as run_cli
 
 import raylume
-from raylume.adaptive import FIRST_CHECK, TILE, _Accumulator, round_seed, round_sizes, tile_errors
+from raylume.adaptive import FIRST_CHECK, TILE, _Streams, round_sizes, stream_seed, stream_sizes, tile_errors
 from raylume.render_window import RenderInterrupted
 
 REPO = Path(__file__).resolve().parents[1]
@@ -51,7 +51,7 @@ def test_round_sizes_add_up_and_grow_by_a_quarter():
     assert round_sizes(1) == [1]
     for spp in (2, 3, 4, 9, 16, 100, 1024, 4095, 4096):
         sizes = round_sizes(spp)
-        assert sum(sizes) == spp and min(sizes) >= 2, (spp, sizes)  # one sample is the pixel's centre
+        assert sum(sizes) == spp and min(sizes) >= 2, (spp, sizes)  # both streams take a sample of every round
         first = max(2, math.ceil(spp / 256))
         for r, size in enumerate(sizes):
             rule = first if r < FIRST_CHECK else max(first, math.ceil(sum(sizes[:r]) / 4))
@@ -62,36 +62,48 @@ def test_round_sizes_add_up_and_grow_by_a_quarter():
     assert len(round_sizes(4096)) < 30  # a few dozen windows' calls at most, not thousands
 
 
-def test_the_variance_of_a_mean_from_unequal_rounds():
-    """Rounds of 1, 1, 1, 1, 1, 2, 2, 3 and 4 samples of known variance: the estimate's mean
-    over many pixels is sigma^2 / N, within its chi-square spread (k - 1 degrees of freedom)."""
+def synthetic_sums(rng: np.random.Generator, n: int, level: float, sigma: float, shape: tuple) -> np.ndarray:
+    """Film sums (r, g, b, weight; the box filter's weights of 1) of n samples a pixel, each
+    channel level + N(0, sigma): their sum drawn at once, as N(n level, n sigma^2)."""
+    sums = np.empty(shape + (4,))
+    sums[..., :3] = rng.normal(n * level, sigma * math.sqrt(n), shape + (3,))
+    sums[..., 3] = n
+    return sums
+
+
+def test_the_standard_error_of_a_mean_from_two_unequal_streams():
+    """Streams of 30 and 10 samples of known variance: the estimate's mean over many pixels is
+    sigma / sqrt(N). One pixel's estimate is |m_A - m_B| sqrt(pi / 2) sqrt(n_A n_B) / N, whose
+    spread is sqrt(pi / 2 - 1) of its mean (a folded normal's)."""
     rng = np.random.default_rng(5)
-    sizes = round_sizes(300)[:9]
-    assert len(set(sizes)) > 2
-    sigma, level = 0.3, 0.6
-    acc = _Accumulator(60, 80)
-    means = [level + rng.normal(0.0, sigma / math.sqrt(n), (60, 80, 3)) for n in sizes]
-    for n, m in zip(sizes, means, strict=True):
-        acc.add(slice(None), slice(None), m, n)
-    N, k = sum(sizes), len(sizes)
-    estimate = acc.variance_of_mean()
-    expected = sigma**2 / N
-    spread = expected * math.sqrt(2 / (k - 1) / estimate.size)
+    h, w, sigma, level = 60, 80, 0.3, 0.6
+    streams = _Streams(h, w)
+    for k, n in enumerate((30, 10)):
+        streams.add(k, slice(None), slice(None), synthetic_sums(rng, n, level, sigma, (h, w)), n)
+    estimate = streams.standard_error()
+    expected = sigma / math.sqrt(40)
+    spread = expected * math.sqrt(math.pi / 2 - 1) / math.sqrt(estimate.size)
     assert abs(estimate.mean() - expected) < Z * spread, (estimate.mean(), expected, spread)
-    # the control: the rounds' means weighed alike (their variance over k) miss it by far
-    alike = np.var(means, axis=0, ddof=1) / k
-    assert abs(alike.mean() - expected) > 3 * Z * spread
+    # the control: the streams taken as halves (sqrt(n_A n_B) / N = 1 / 2) miss it by far
+    halves = estimate * 0.5 / (math.sqrt(300) / 40)
+    assert abs(halves.mean() - expected) > 3 * Z * spread
+    # the image is every sample's mean, as one film of both streams' sums
+    both = (streams.sums[0][..., :3] + streams.sums[1][..., :3]) / 40
+    np.testing.assert_allclose(streams.mean(), both, rtol=1e-6)
 
 
-def test_an_adaptive_image_is_the_mean_of_its_rounds(cornell):
+def test_an_adaptive_image_is_the_mean_of_its_streams(cornell):
     """With nothing to stop it early (a time limit never reached), the image is the
-    sample-weighted mean of one plain render a round, with the round's seed and samples."""
+    sample-weighted mean of one plain render a stream, with the stream's seed and samples:
+    every round went on with each stream's sequence."""
     W, spp, seed = 24, 12, 3
     image = raylume.render(cornell, width=W, height=W, spp=spp, seed=seed, time_limit=1e6, threads=2)
     assert image.stats["adaptive"]["stopped_by"] == "spp"
+    taken = np.array([stream_sizes(n) for n in round_sizes(spp)]).sum(axis=0)
+    assert taken.tolist() == [6, 6]
     total = np.zeros((W, W, 3))
-    for r, n in enumerate(round_sizes(spp)):
-        part = raylume.render(cornell, width=W, height=W, spp=n, seed=round_seed(seed, r), threads=2, aovs=False)
+    for k, n in enumerate(taken):
+        part = raylume.render(cornell, width=W, height=W, spp=int(n), seed=stream_seed(seed, k), threads=2, aovs=False)
         total += n * part.rgb.astype(np.float64)
     np.testing.assert_allclose(image.rgb, total / spp, rtol=2e-6, atol=1e-7)
     assert (image.aovs["spp"] == spp).all()

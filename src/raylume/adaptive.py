@@ -2,28 +2,32 @@
 below `noise_threshold`, its pixels have `spp` samples, or `time_limit` seconds have passed.
 
 A round renders the tiles still open with a few samples per pixel (`round_sizes`: the first
-four ceil(spp / 256) each, at least 2, then a quarter more each round) and a seed of its own
-(`round_seed`): each round is a whole stratified render of those pixels, as a render of that
-many samples would be, so a pixel that stops after any number of rounds holds an unbiased
-mean. (The rounds cannot be the passes of one render: its sampler stratifies over the total,
-row by row of strata, and the first samples alone would cover the top of the pixel.)
+four ceil(spp / 256) each, at least 2, then a quarter more each round), split between two
+streams: each pixel's samples are two low-discrepancy sequences of their own seeds
+(`stream_seed`), A taking the round's first half and B the rest, and each round continues both
+where the round before stopped (`render_window`'s `first` and `sums`). Any prefix of a
+sequence is an unbiased, stratified estimate, so a pixel that stops after any round holds an
+unbiased mean, with the stratification of its two sequences over all its rounds. (Rounds that
+each began a sequence of their own, as the first version's did, were stratified within a
+round only: that lost most of the low-discrepancy sampler's gain.)
 
-Rounds are independent estimates of a pixel, so their spread measures its noise: with k
-rounds of n_i samples and means m_i, sum n_i (m_i - m)^2 / (k - 1) estimates one sample's
-variance and, divided by the pixel's N samples, the variance of its mean. A pixel's error is
-Cycles' measure with that standard error for the difference of half images: the errors of r,
-g and b summed, over 1e-4 + the square root of the pixel's summed mean (noise in the dark
-counts more). A tile stops when the mean error of its pixels falls below the threshold,
-judged from its `FIRST_CHECK`-th round on (the spread of fewer is itself too noisy) and once
-it has `least_spp` samples (Cycles' minimum: a tile whose first samples found no rare bright
-path shows no spread for it). Dammertz et al., "A hierarchical automatic stopping condition
-for Monte Carlo global illumination" (WSCG 2010), stop in blocks as well, for the same reason.
+The two streams are independent estimates of the pixel, so their difference measures its
+noise, as Cycles' half buffer does: with n_A and n_B samples and means m_A and m_B, the mean of
+all N has the variance var(m_A - m_B) n_A n_B / N^2 (the sequences' own convergence included,
+whatever its rate), and |m_A - m_B| sqrt(pi / 2) estimates the standard deviation of the
+difference. A pixel's error is Cycles' measure with that standard error: the errors of r, g and
+b summed, over 1e-4 + the square root of the pixel's summed mean (noise in the dark counts
+more). One pixel's estimate is one absolute difference; a tile stops when the mean error of its
+pixels falls below the threshold, judged from its `FIRST_CHECK`-th round on and once it has
+`least_spp` samples (Cycles' minimum: a tile whose first samples found no rare bright path
+shows no difference for it). Dammertz et al., "A hierarchical automatic stopping condition for
+Monte Carlo global illumination" (WSCG 2010), stop in blocks as well, for the same reason.
 
 Stopping on an estimate of the noise is biased where a tile's first samples miss rare bright
 paths (caustics seen by path tracing: a tile that found none stops dark); `min_spp` raises the
 samples every tile takes first.
 
-The decisions depend only on the rounds' images, which depend on neither threads nor tiles:
+The decisions depend only on the streams' sums, which depend on neither threads nor tiles:
 the image depends on the scene, seed, spp, min_spp and threshold. A `time_limit` is checked between
 windows (after the first round, a tile row each) against the render time spent, so with one
 the image depends on the machine's speed too; it stays unbiased, as every tile holds whole
@@ -39,6 +43,7 @@ import numpy as np
 
 from .compile import CompiledScene
 from .image import Image
+from .kernels.film.film import film_rgb_numpy
 from .render_window import RenderInterrupted, WindowResult, allocate_aovs, render_window
 from .scene.checks import warn
 from .scene.model import Camera, RenderSettings
@@ -49,19 +54,24 @@ FIRST_CHECK = 4  # rounds a tile takes before its noise is judged
 GROWTH = 4  # a later round adds a quarter of the samples taken so far
 ERROR_FLOOR = 1e-4  # Cycles' epsilon under the square root of the pixel's brightness
 
+STREAMS = 2  # sequences a pixel: their difference is its noise
 _GOLDEN = 0x9E3779B97F4A7C15
 _MASK64 = (1 << 64) - 1
 
 
-def round_seed(seed: int, round_index: int) -> int:
-    """The seed of round `round_index` (the first keeps the render's own: an adaptive render's
-    first round is the plain render of its samples)."""
-    if round_index == 0:
+def stream_seed(seed: int, stream: int) -> int:
+    """The seed of stream `stream` (the first keeps the render's own)."""
+    if stream == 0:
         return seed
-    x = (seed * _GOLDEN + round_index) & _MASK64  # splitmix64's finaliser
+    x = (seed * _GOLDEN + stream) & _MASK64  # splitmix64's finaliser
     x = ((x ^ (x >> 30)) * 0xBF58476D1CE4E5B9) & _MASK64
     x = ((x ^ (x >> 27)) * 0x94D049BB133111EB) & _MASK64
     return (x ^ (x >> 31)) & 0xFFFFFFFF
+
+
+def stream_sizes(size: int) -> tuple[int, int]:
+    """A round's samples per pixel for streams A and B: A the larger half."""
+    return (size + 1) // 2, size // 2
 
 
 def least_spp(settings: RenderSettings) -> int:
@@ -80,8 +90,7 @@ def round_sizes(spp: int) -> list[int]:
     """Samples per pixel of each round, adding up to spp: FIRST_CHECK rounds of
     ceil(spp / FIRST_SHARE) samples, at least 2, then each round a quarter of the samples taken
     so far (so a tile takes at most a quarter more than it needed), the last what is left. No
-    round takes one sample while spp > 1: one sample is the pixel's centre, not a random point,
-    and rounds of it would neither average the pixel nor vary."""
+    round takes one sample while spp > 1: both streams take a sample of every round."""
     if spp == 1:
         return [1]
     first = max(2, -(-spp // FIRST_SHARE))
@@ -97,42 +106,55 @@ def round_sizes(spp: int) -> list[int]:
     return sizes
 
 
-class _Accumulator:
-    """A window's running sums: sum n_i m_i and sum n_i m_i^2 per pixel and channel (float64),
-    the samples N and the rounds k per pixel."""
+class _Streams:
+    """A window's two streams: each one's film sums (as render_window continues them) and the
+    samples it holds per pixel."""
 
     def __init__(self, h: int, w: int):
-        self.sum = np.zeros((h, w, 3))
-        self.sum_sq = np.zeros((h, w, 3))
-        self.samples = np.zeros((h, w), dtype=np.int64)
-        self.rounds = np.zeros((h, w), dtype=np.int64)
+        self.sums: list[np.ndarray | None] = [None] * STREAMS  # made by the first round
+        self.taken = np.zeros((STREAMS, h, w), dtype=np.int64)
 
-    def add(self, rows: slice, cols: slice, mean: np.ndarray, n: int) -> None:
-        m = mean.astype(np.float64)
-        self.sum[rows, cols] += n * m
-        self.sum_sq[rows, cols] += n * m * m
-        self.samples[rows, cols] += n
-        self.rounds[rows, cols] += 1
+    @property
+    def samples(self) -> np.ndarray:
+        """(h, w): the samples each pixel holds."""
+        return self.taken.sum(axis=0)
+
+    def window_sums(self, stream: int, rows: slice, cols: slice) -> np.ndarray | None:
+        """The stream's sums of a window, for render_window to continue (None before any)."""
+        sums = self.sums[stream]
+        return None if sums is None else np.ascontiguousarray(sums[rows, cols])
+
+    def add(self, stream: int, rows: slice, cols: slice, sums: np.ndarray, n: int) -> None:
+        """The window's sums after n more samples of the stream."""
+        if self.sums[stream] is None:
+            h, w = self.taken.shape[1:]
+            self.sums[stream] = np.zeros((h, w, sums.shape[2]))
+        self.sums[stream][rows, cols] = sums
+        self.taken[stream, rows, cols] += n
 
     def mean(self) -> np.ndarray:
-        n = np.maximum(self.samples, 1)[..., None]
-        return (self.sum / n).astype(np.float32)
+        """(h, w, 3) float32: every sample's filter-weighted mean, as one film of them all."""
+        held = [sums for sums in self.sums if sums is not None]
+        return film_rgb_numpy(held[0] if len(held) == 1 else held[0] + held[1])
 
-    def variance_of_mean(self) -> np.ndarray:
-        """(h, w, 3): the variance of each pixel's mean, sum n_i (m_i - m)^2 / (k - 1) / N
-        (module docstring); inf where a pixel has fewer than two rounds."""
-        n = np.maximum(self.samples, 1)[..., None].astype(np.float64)
-        k = self.rounds[..., None]
-        spread = np.maximum(self.sum_sq - self.sum * self.sum / n, 0.0)  # sum n_i (m_i - m)^2
+    def standard_error(self) -> np.ndarray:
+        """(h, w, 3): each pixel's standard error of its mean from the streams' difference,
+        |m_A - m_B| sqrt(pi / 2) sqrt(n_A n_B) / N (module docstring); inf where a stream holds
+        no sample."""
+        h, w = self.taken.shape[1:]
+        if any(sums is None for sums in self.sums):
+            return np.full((h, w, 3), np.inf)
+        a, b = (film_rgb_numpy(sums).astype(np.float64) for sums in self.sums)
+        n_a, n_b = self.taken.astype(np.float64)
         with np.errstate(divide="ignore", invalid="ignore"):
-            return np.where(k > 1, spread / np.maximum(k - 1, 1) / n, np.inf)
+            scale = np.where(n_a * n_b > 0, math.sqrt(math.pi / 2) * np.sqrt(n_a * n_b) / (n_a + n_b), np.inf)
+        return np.abs(a - b) * scale[..., None]
 
     def pixel_error(self) -> np.ndarray:
-        """Each pixel's error: its standard errors of r, g and b summed, over 1e-4 + the square
-        root of its summed mean (Cycles' measure)."""
-        noise = np.sqrt(self.variance_of_mean()).sum(axis=2)
-        n = np.maximum(self.samples, 1).astype(np.float64)
-        brightness = np.maximum(self.sum.sum(axis=2) / n, 0.0)
+        """Each pixel's error (module docstring): its standard errors of r, g and b summed,
+        over 1e-4 + the square root of its summed mean."""
+        noise = self.standard_error().sum(axis=2)
+        brightness = np.maximum(self.mean().astype(np.float64).sum(axis=2), 0.0)
         return noise / (ERROR_FLOOR + np.sqrt(brightness))
 
 
@@ -242,7 +264,11 @@ def _render_tiles(
             f"time_limit with spp {settings.spp}: one round renders the whole image (spp is the most samples a "
             "pixel takes: give it 1024 or more)"
         )
-    acc = _Accumulator(h, w)
+    streams = _Streams(h, w)
+    # each stream a sequence of its own seed, of spp samples at most
+    tables = [settings.model_copy(update={"seed": stream_seed(settings.seed, k)}) for k in range(STREAMS)]
+    per_round = np.array([stream_sizes(n) for n in sizes]).T  # (stream, round): samples a pixel
+    stream_first = np.cumsum(per_round, axis=1) - per_round  # where each round starts in each sequence
     th, tw = len(tile_edges(h)) - 1, len(tile_edges(w)) - 1
     open_tiles = np.ones((th, tw), dtype=bool)
     aov_arrays = allocate_aovs(h, w) if aovs else {}
@@ -278,7 +304,6 @@ def _render_tiles(
             if out_of_time(r):
                 stopped_by = "time"
                 break
-            table = settings.model_copy(update={"spp": n, "seed": round_seed(settings.seed, r)})
             # a time limit is checked between windows: after the first round (one window, the
             # whole), a tile row each, so that it stops within one's time
             for win in open_windows(open_tiles, window, join_rows=time_limit is None or r == 0):
@@ -286,24 +311,30 @@ def _render_tiles(
                     stopped_by = "time"
                     break  # the tiles left keep the rounds they have
                 area = (win[1] - win[0]) * (win[3] - win[2])
-
-                def window_progress(rows: int, total: int, area=area, n=n) -> None:
-                    report(area * n * rows // max(total, 1))
-
-                window_started = time.perf_counter()
-                part = render_window(
-                    compiled, camera, table, win, aovs=aovs and r == 0, lanes=lanes, progress=window_progress,
-                    status=status, cone_spp=settings.spp,
-                )  # fmt: skip
-                window_started = time.perf_counter()
                 rows, cols = slice(win[2] - y0, win[3] - y0), slice(win[0] - x0, win[1] - x0)
-                acc.add(rows, cols, part.rgb, n)
-                for name, array in part.aovs.items():
-                    aov_arrays[name][rows, cols] = array
-                seconds += part.seconds
-                spent += part.seconds
-                rays += part.rays
-                rejected += part.rejected
+                before = 0  # the round's samples a pixel of the window already has
+                for k, count in enumerate(stream_sizes(n)):
+                    if count == 0:
+                        continue  # spp 1: one sample, at the pixel's centre
+
+                    def window_progress(done_rows: int, total: int, area=area, count=count, before=before) -> None:
+                        report(area * (before + count * done_rows // max(total, 1)))
+
+                    window_started = time.perf_counter()
+                    part = render_window(
+                        compiled, camera, tables[k], win, aovs=aovs and r == 0 and k == 0, lanes=lanes,
+                        progress=window_progress, status=status, first=int(stream_first[k, r]), count=count,
+                        sums=streams.window_sums(k, rows, cols), cone_spp=settings.spp, keep_sums=True,
+                    )  # fmt: skip
+                    window_started = time.perf_counter()
+                    streams.add(k, rows, cols, part.sums, count)
+                    for name, array in part.aovs.items():
+                        aov_arrays[name][rows, cols] = array
+                    seconds += part.seconds
+                    spent += part.seconds
+                    rays += part.rays
+                    rejected += part.rejected
+                    before += count
                 done += area * n
                 report()
             if stopped_by == "time":
@@ -311,32 +342,32 @@ def _render_tiles(
             rounds_done = r + 1
             if threshold is not None and r in judged:
                 started = time.perf_counter()
-                closing = open_tiles & (tile_errors(acc.pixel_error()) < threshold)
+                closing = open_tiles & (tile_errors(streams.pixel_error()) < threshold)
                 open_tiles &= ~closing
                 done += int(tile_areas(h, w)[closing].sum()) * (settings.spp - int(taken[r]))
                 spent += time.perf_counter() - started
                 report()
     except KeyboardInterrupt as exc:
-        least = int(acc.samples.min())
+        least = int(streams.samples.min())
         if least == 0:
             raise  # in the first round, one window: its rows done, as a plain render's
-        partial = Image(acc.mean(), {}, {}, settings.encoding, exposure=settings.exposure, tonemap=settings.tonemap)
+        partial = Image(streams.mean(), {}, {}, settings.encoding, exposure=settings.exposure, tonemap=settings.tonemap)
         raise RenderInterrupted(partial, h, f"{rounds_done} rounds, {least} or more samples in every pixel") from exc
     if stopped_by != "time" and threshold is not None and not open_tiles.any():
         stopped_by = "noise"
-    aov_arrays["spp"] = acc.samples.astype(np.float32)  # asked for or not: it costs nothing
+    aov_arrays["spp"] = streams.samples.astype(np.float32)  # asked for or not: it costs nothing
     stats = {
         "noise_threshold": threshold,
         "time_limit": time_limit,
         "tile": TILE,
         "round_spp": sizes[0],
         "rounds": rounds_done,
-        **samples_taken(acc.samples),
+        **samples_taken(streams.samples),
         "tiles": th * tw,
         "tiles_converged": int((~open_tiles).sum()),
         "stopped_by": stopped_by,
     }
-    return WindowResult(window, acc.mean(), aov_arrays, seconds, rays, rejected, adaptive=stats)
+    return WindowResult(window, streams.mean(), aov_arrays, seconds, rays, rejected, adaptive=stats)
 
 
 def samples_taken(spp: np.ndarray) -> dict:
@@ -349,4 +380,4 @@ def samples_taken(spp: np.ndarray) -> dict:
     }
 
 
-__all__ = ["FIRST_CHECK", "TILE", "render_adaptive", "round_seed", "round_sizes", "tile_errors"]
+__all__ = ["FIRST_CHECK", "TILE", "render_adaptive", "round_sizes", "stream_seed", "stream_sizes", "tile_errors"]

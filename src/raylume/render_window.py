@@ -109,13 +109,16 @@ def render_window(
     sums: np.ndarray | None = None,
     splats: np.ndarray | None = None,
     cone_spp: int | None = None,
+    keep_sums: bool = False,
 ) -> WindowResult:
     """Render samples first..first+count-1 (default: all of settings.spp) of the pixels in
     `window` = (x0, x1, y0, y1) of the settings' image, continuing from the film `sums` of
     the samples before `first`. Needs no scene model, only the compiled scene and resolved
     settings: this is what a cluster's worker runs for one tile and one pass. `cone_spp`: the
     samples a pixel takes in all (default settings.spp), which narrow the texture filter's ray
-    cone (an adaptive render's rounds are renders of a few samples each)."""
+    cone (an adaptive render's rounds are renders of a few samples each). `keep_sums`: the
+    result holds the film's sums even once its samples are all in (adaptive sampling's streams
+    go on from them)."""
     W, H = settings.width, settings.height
     x0, x1, y0, y1 = window
     status = status or (lambda what, seconds=0.0: None)
@@ -154,7 +157,7 @@ def render_window(
         kernel_seconds,
         int(rays),
         film.rejected,
-        None if done else film.sums,
+        film.sums if keep_sums or not done else None,
         strategies=film.strategies,
         splats=None if done else film.splats,
     )
