@@ -189,6 +189,18 @@ def test_ctrl_c_keeps_the_rounds_done(cornell):
     partial = caught.value.image
     assert partial.rgb.shape == (32, 32, 3) and (partial.rgb.sum(axis=2) > 0).mean() > 0.9
     assert "samples in every pixel" in caught.value.done
+    # the rounds said are those every pixel has, as its spp AOV shows them
+    rounds, least = (int(word) for word in caught.value.done.replace(",", "").split()[0:3:2])
+    assert rounds >= 1 and sum(round_sizes(256)[:rounds]) == least == int(partial.aovs["spp"].min())
+
+
+def test_tiles_quiet_only_with_every_sample_stopped_by_spp(cornell):
+    """With too few samples for any tile to stop early (the warning says so), the render took
+    every sample: its stats say "spp", though its tiles end below the threshold."""
+    with pytest.warns(raylume.SceneWarning, match="every pixel takes them all"):
+        image = raylume.render(cornell, width=32, height=32, spp=8, noise_threshold=0.5, threads=2)
+    stats = image.stats["adaptive"]
+    assert stats["min_spp"] == 8 and stats["stopped_by"] == "spp", stats
 
 
 def test_the_command_line(tmp_path):

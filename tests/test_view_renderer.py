@@ -16,7 +16,7 @@ import pytest
 import raylume
 from raylume.errors import RaylumeError, SceneError
 from raylume.image import encode_8bit
-from raylume.kernels.film.film import Film
+from raylume.kernels.film.film import Film, sums_image
 from raylume.settings import resolve_settings
 from raylume.viewer import renderer as vr
 
@@ -103,18 +103,20 @@ def test_camera_and_mode_changes_are_validated():
     assert r.camera.position == (0.0, 0.0, 0.0) and r.camera.fov == pytest.approx(53.13)
 
 
-def test_path_films_are_averaged_by_their_sample_counts():
+def test_path_films_are_pooled_by_their_sums():
     # two completed films of 16 spp (means 1 and 3) and a third film with 8 spp of mean 6
     job = vr._Job(0, 0, None, "path", 1, None, 16)
-    job.done_sum = np.full((2, 2, 3), 1.0 * 16 + 3.0 * 16)
-    job.done_spp = 32
-    job.bands = [Film(2, 2, "box", total_spp=16, window=(0, 2, y, y + 1)) for y in (0, 1)]
-    for band in job.bands:
-        band.sums[..., :3] = 6.0 * 8
-        band.sums[..., 3] = 8
-        band.spp = 8
+    for mean in (1.0, 3.0, 6.0):
+        job.bands = [Film(2, 2, "box", total_spp=16, window=(0, 2, y, y + 1)) for y in (0, 1)]
+        n = 8 if mean == 6.0 else 16
+        for band in job.bands:
+            band.sums[..., :3] = mean * n
+            band.sums[..., 3] = n
+            band.spp = n
+        if n == 16:
+            job.pool_film()
     np.testing.assert_allclose(job.image(), (16 + 48 + 48) / 40)
-    assert job.spp == 40
+    assert job.spp == 40 and job.done_spp == 32
 
 
 def test_python_api_serves_in_the_background_and_stops():
@@ -171,13 +173,27 @@ def cornell(**render):
     return raylume.load_scene(CORNELL).with_render(width=24, height=18, mode="path", **render)
 
 
-def test_denoising_leaves_the_accumulation_as_it_is():
+def pooled_films(session, films: int, pixel_filter: str, **samples) -> tuple[np.ndarray, np.ndarray | None]:
+    """The sums and splat sums (bdpt) of `films` films of 16 spp that follow each other in one
+    sequence, added."""
+    sums = splats = None
+    for k in range(films):
+        film = raylume.Film(24, 18, pixel_filter, total_spp=16, first_sample=16 * k)
+        session.add_samples(film, 16, threads=1, **samples)
+        sums = film.sums.copy() if sums is None else sums + film.sums
+        if film.splats is not None:
+            splats = film.splats.copy() if splats is None else splats + film.splats
+    return sums, splats
+
+
+@pytest.mark.parametrize("pixel_filter", ["box", "mitchell"])
+def test_denoising_leaves_the_accumulation_as_it_is(pixel_filter):
     """With denoise on, path mode's films still hold exactly the films of 16 spp that follow
-    each other in one sequence (the bits of films without --denoise), summed as without
+    each other in one sequence (the bits of films without --denoise), pooled as without
     denoising: only what is shown is denoised. Together they are `raylume render`'s image of
     all their samples (to rounding: the Cornell box has no texture, whose filter a film's own
-    total sets)."""
-    session = raylume.Session(cornell(spp=16, denoise=True))
+    total sets), with Mitchell's negative lobes too, whose films' mean image would not be."""
+    session = raylume.Session(cornell(spp=16, denoise=True, filter=pixel_filter))
     r = vr.Renderer(session, resolve_settings(session.scene, threads=1))
     r.add_watcher(1)
     r.start()
@@ -186,15 +202,10 @@ def test_denoising_leaves_the_accumulation_as_it_is():
     finally:
         assert r.stop(5.0)
     job = r._job
-    films = job.done_spp // 16
-    expected = np.zeros((18, 24, 3))
-    for k in range(films):
-        film = raylume.Film(24, 18, "box", total_spp=16, first_sample=16 * k)
-        session.add_samples(film, 16, threads=1)
-        expected += film.rgb().astype(np.float64) * 16
-    np.testing.assert_array_equal(job.done_sum, expected)
+    np.testing.assert_array_equal(job.done_sums, pooled_films(session, job.done_spp // 16, pixel_filter)[0])
     whole = session.render(spp=job.done_spp, denoise=False, threads=1, aovs=False).rgb
-    np.testing.assert_allclose(job.done_sum / job.done_spp, whole, rtol=1e-5, atol=1e-7)
+    pooled = sums_image(job.done_sums, None, job.done_spp)
+    np.testing.assert_allclose(pooled, whole, rtol=1e-5, atol=1e-6)
     assert r.latest.denoised and r.stats()["denoise"] is True and r.stats()["integrator"] == "path"
 
 
@@ -302,23 +313,25 @@ def test_python_api_takes_denoise():
 
 def test_bdpt_films_are_one_band_and_equal_its_renders():
     """`raylume view --integrator bdpt`: a resting film is one band, however slow a pass (every
-    band would trace the whole image's light subpaths), and holds `raylume render`'s bdpt image
-    of 16 spp (splats included); /stats says the integrator."""
+    band would trace the whole image's light subpaths), and its films pooled are `raylume
+    render`'s bdpt image of all their samples (splats included); /stats says the integrator."""
     session = raylume.Session(cornell(spp=16, integrator="bdpt"))
     r = vr.Renderer(session, resolve_settings(session.scene, threads=1))
     r._cost[("path", False)] = 1.0  # as if a pass took a second: path mode would make row bands
     r.add_watcher(1)
     r.start()
     try:
-        wait_for(lambda: r._job is not None and r._job.done_spp >= 16, timeout=300)
+        wait_for(lambda: r._job is not None and r._job.done_spp >= 32, timeout=300)
     finally:
         assert r.stop(5.0)
-    assert len(r._job.bands) == 1 and r.stats()["integrator"] == "bdpt"
-    expected = sum(
-        session.render(spp=16, seed=k, threads=1, aovs=False).rgb.astype(np.float64) * 16
-        for k in range(r._job.done_spp // 16)
-    )
-    np.testing.assert_array_equal(r._job.done_sum, expected)
+    job = r._job
+    assert len(job.bands) == 1 and r.stats()["integrator"] == "bdpt"
+    sums, splats = pooled_films(session, job.done_spp // 16, "box", integrator="bdpt")
+    np.testing.assert_array_equal(job.done_sums, sums)
+    np.testing.assert_array_equal(job.done_splats, splats)
+    # the pooled films are bdpt's render of all their samples, splats included (to rounding)
+    whole = session.render(spp=job.done_spp, threads=1, aovs=False).rgb
+    np.testing.assert_allclose(sums_image(sums, splats, job.done_spp), whole, rtol=1e-5, atol=1e-6)
 
 
 @pytest.fixture

@@ -351,10 +351,14 @@ def _render_tiles(
         least = int(streams.samples.min())
         if least == 0:
             raise  # in the first round, one window: its rows done, as a plain render's
-        partial = Image(streams.mean(), {}, {}, settings.encoding, exposure=settings.exposure, tonemap=settings.tonemap)
-        raise RenderInterrupted(partial, h, f"{rounds_done} rounds, {least} or more samples in every pixel") from exc
-    if stopped_by != "time" and threshold is not None and not open_tiles.any():
-        stopped_by = "noise"
+        whole = int(np.searchsorted(taken, least, side="right"))  # rounds every pixel has (the last may have ended)
+        done_aovs = {**aov_arrays, "spp": streams.samples.astype(np.float32)}
+        partial = Image(
+            streams.mean(), done_aovs, {}, settings.encoding, exposure=settings.exposure, tonemap=settings.tonemap
+        )
+        raise RenderInterrupted(partial, h, f"{whole} rounds, {least} or more samples in every pixel") from exc
+    if stopped_by != "time" and threshold is not None and not open_tiles.any() and streams.samples.min() < settings.spp:
+        stopped_by = "noise"  # (tiles below the threshold only once they took every sample: "spp")
     aov_arrays["spp"] = streams.samples.astype(np.float32)  # asked for or not: it costs nothing
     stats = {
         "noise_threshold": threshold,

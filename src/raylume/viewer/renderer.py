@@ -10,9 +10,9 @@ change waits for one band at most; each pass is sent as a lossless PNG:
   bit-identical to `raylume render` of the same camera and size (at spp 1, after one pass);
 * path mode has no end: it fills films of max(spp, PATH_FILM_SPP) samples, each with the
   samples after the one before of the same low-discrepancy sequences (`Film.first_sample`), and
-  shows the mean of all samples so far, weighted by their count, up to PATH_MAX_SPP: k films are
-  the samples of one render of k times as many, stratified together (a film's texture filter,
-  the ray cone, is set by its own total);
+  shows all samples so far, the films' sums pooled, up to PATH_MAX_SPP: k films are one render
+  of k times as many samples, stratified together (a film's texture filter, the ray cone, is
+  set by its own total);
 * raster mode draws the frame once.
 
 With denoising on (`--denoise`, the page's checkbox) path mode's frames are shown denoised: a
@@ -43,7 +43,7 @@ import numpy as np
 from ..errors import SceneError
 from ..image import encode_8bit
 from ..kernels.film.camera import camera_of
-from ..kernels.film.film import Film
+from ..kernels.film.film import Film, sums_image
 from ..render_window import allocate_aovs
 from ..scene.model import Camera, RenderSettings
 from ..session import Session
@@ -83,7 +83,10 @@ class _Job:
     settings: RenderSettings  # the [render] table at the job's size and mode
     batch: int  # total_spp of each film
     bands: list[Film] = field(default_factory=list)  # the film, as windowed films of row bands (none: raster)
-    done_sum: np.ndarray | None = None  # sum over completed films of rgb * batch (float64)
+    # the completed films pooled: their sums (float64, the whole image's rows) and bdpt's splat
+    # sums, added as one film of all their samples would hold them
+    done_sums: np.ndarray | None = None
+    done_splats: np.ndarray | None = None
     done_spp: int = 0
     rgb: np.ndarray | None = None  # raster mode's image
     finished: bool = False
@@ -109,15 +112,31 @@ class _Job:
             return self.bands[0].rgb()
         return np.concatenate([band.rgb() for band in self.bands], axis=0)
 
+    def _film_sums(self) -> tuple[np.ndarray, np.ndarray | None]:
+        """The current film's sums over the whole image, and its splat sums (bdpt: one band)."""
+        sums = self.bands[0].sums if len(self.bands) == 1 else np.concatenate([b.sums for b in self.bands])
+        return sums, self.bands[0].splats
+
+    def pool_film(self) -> None:
+        """Add the current, completed film to the pooled films: their sums add (with a filter of
+        negative lobes, Mitchell's, the mean of the films' images would not be the image of all
+        their samples)."""
+        sums, splats = self._film_sums()
+        self.done_sums = sums.copy() if self.done_sums is None else self.done_sums + sums
+        if splats is not None:
+            self.done_splats = splats.copy() if self.done_splats is None else self.done_splats + splats
+        self.done_spp += self.bands[0].spp
+
     def image(self) -> np.ndarray:
         """Linear float32 RGB of every sample so far (one film: exactly its rgb())."""
         if not self.bands:
             return self.rgb
         if self.done_spp == 0:
             return self.film_rgb()
-        spp = self.bands[0].spp
-        total = self.done_sum + self.film_rgb().astype(np.float64) * spp
-        return (total / (self.done_spp + spp)).astype(np.float32)
+        sums, splats = self._film_sums()
+        if splats is not None:
+            splats = splats + self.done_splats
+        return sums_image(self.done_sums + sums, splats, self.spp)
 
     def new_film(self, count: int) -> None:
         """Films for rows split into `count` bands (about equal)."""
@@ -441,9 +460,7 @@ class Renderer:
                 job.finished = True  # one frame; at rest a new job accumulates
             elif job.bands[0].spp == job.batch:
                 if job.mode == "path" and job.spp < PATH_MAX_SPP:
-                    part = job.film_rgb().astype(np.float64) * job.batch
-                    job.done_sum = part if job.done_sum is None else job.done_sum + part
-                    job.done_spp += job.batch
+                    job.pool_film()
                     job.new_film(len(job.bands))
                 else:
                     job.finished = True

@@ -237,16 +237,7 @@ class Film:
         nearly nothing. Where more than a quarter of a pixel's samples are negative (weight
         sum below half the count), it takes the plain mean of its samples instead, so a
         constant image stays constant; negative results of the lobes are clipped to 0."""
-        if self._rgb_by_kernel():
-            out = np.empty(self.sums.shape[:2] + (3,), dtype=np.float32)
-            _film_rgb(self.sums, out)
-        else:
-            out = film_rgb_numpy(self.sums)
-        if self.splats is not None:
-            h, w = self.sums.shape[:2]
-            both = out.astype(np.float64) + splat_image(self.splats.reshape(h, w, 3, 2), self.spp)
-            out = np.maximum(both, 0.0).astype(np.float32)
-        return out
+        return sums_image(self.sums, self.splats, self.spp, self._rgb_by_kernel())
 
     @staticmethod
     def max_bytes_per_pixel() -> int:
@@ -263,6 +254,23 @@ def splat_image(sums: np.ndarray, spp: int) -> np.ndarray:
     hi = sums[..., 0].astype(np.float64)
     lo = sums[..., 1].astype(np.float64)
     return (hi / SPLAT_HI_SCALE + lo / (SPLAT_HI_SCALE * SPLAT_LO_SCALE)) / max(spp, 1)
+
+
+def sums_image(sums: np.ndarray, splats: np.ndarray | None, spp: int, by_kernel: bool = True) -> np.ndarray:
+    """float32 (H, W, 3): Film.rgb's image of film sums (H, W, columns) and, for bdpt, splat
+    sums (flat int64) of `spp` samples a pixel: films of one image pooled by adding their sums,
+    splats and spp are read as one film of all their samples. `by_kernel`: _film_rgb, else
+    numpy (the same bits)."""
+    if by_kernel:
+        out = np.empty(sums.shape[:2] + (3,), dtype=np.float32)
+        _film_rgb(sums, out)
+    else:
+        out = film_rgb_numpy(sums)
+    if splats is not None:
+        h, w = sums.shape[:2]
+        both = out.astype(np.float64) + splat_image(splats.reshape(h, w, 3, 2), spp)
+        out = np.maximum(both, 0.0).astype(np.float32)
+    return out
 
 
 # Film.rgb in numpy for films of unsigned sums below RGB_KERNEL_PIXELS while _film_rgb is not
