@@ -144,6 +144,29 @@ def test_films_of_consecutive_samples_hold_what_one_film_of_them_all_holds(scene
         raylume.Film(4, 4, total_spp=1, first_sample=-1)
 
 
+def test_a_films_texture_filter_narrows_with_the_samples_before_it(scene, monkeypatch):
+    """A film after others filters textures as a film of all their samples does (the ray cone
+    of first_sample + total_spp samples): its samples equal the second pass of that film."""
+    session = Session(scene)
+    whole = raylume.Film(40, 30, "box", total_spp=32)
+    session.add_samples(whole, 16, mode="path", seed=3)
+    first_half = whole.sums.copy()
+    session.add_samples(whole, 16, mode="path", seed=3)
+
+    def second_film() -> np.ndarray:
+        film = raylume.Film(40, 30, "box", total_spp=16, first_sample=16)
+        session.add_samples(film, 16, mode="path", seed=3)
+        return film.sums
+
+    np.testing.assert_allclose(second_film(), whole.sums - first_half, rtol=1e-9, atol=1e-9)
+    # the control: the same samples under a 16-sample film's wider cone blur the checker's edges
+    import raylume.session as session_module
+
+    cone = session_module.set_cone_spread
+    monkeypatch.setattr(session_module, "set_cone_spread", lambda cam, h, spp, on: cone(cam, h, 16, on))
+    assert not np.allclose(second_film(), whole.sums - first_half, rtol=1e-9, atol=1e-9)
+
+
 def test_a_film_refuses_more_samples_than_it_was_made_for(scene):
     session = Session(scene)
     film = raylume.Film(8, 8, total_spp=2)

@@ -305,9 +305,11 @@ class Session:
             self._compile(True)
         cam_model = self._camera(camera)
         S = self.compiled.for_camera(cam_model.position)
-        cam = set_cone_spread(
-            camera_of(cam_model, film.width, film.height), film.height, film.total_spp, table.texture_filter
-        )
+        # the texture filter's ray cone narrows with the samples of the sequence up to the film's
+        # end: films that follow each other end as narrow as one render of all their samples
+        cone_spp = film.first_sample + film.total_spp
+        cam = camera_of(cam_model, film.width, film.height)
+        set_cone_spread(cam, film.height, cone_spp, table.texture_filter)
         lanes = _use_threads(settings.threads)
         seconds, rays = add_samples_to_film(S, cam, film, spp, table, aovs or {}, progress, lanes)
         return {"rays": int(rays), "render_seconds": seconds}

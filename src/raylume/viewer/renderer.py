@@ -11,8 +11,8 @@ change waits for one band at most; each pass is sent as a lossless PNG:
 * path mode has no end: it fills films of max(spp, PATH_FILM_SPP) samples, each with the
   samples after the one before of the same low-discrepancy sequences (`Film.first_sample`), and
   shows all samples so far, the films' sums pooled, up to PATH_MAX_SPP: k films are one render
-  of k times as many samples, stratified together (a film's texture filter, the ray cone, is
-  set by its own total);
+  of k times as many samples, stratified together (a film's texture filter, the ray cone,
+  narrows with the samples up to its end, as that render's; only the first films' is wider);
 * raster mode draws the frame once.
 
 With denoising on (`--denoise`, the page's checkbox) path mode's frames are shown denoised: a

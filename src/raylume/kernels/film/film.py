@@ -153,7 +153,8 @@ class Film:
     `first_sample`: the film holds samples first_sample..first_sample + total_spp - 1 of each
     pixel's low-discrepancy sequences (default 0). Films of one seed whose ranges follow each
     other are together the samples of one sequence, stratified together, as one film of their
-    total would be (the live view's films, each with the samples after the one before)."""
+    total would be (the live view's films, each with the samples after the one before); the
+    texture filter's ray cone is that of first_sample + total_spp samples a pixel."""
 
     def __init__(
         self,
