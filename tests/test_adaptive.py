@@ -223,9 +223,9 @@ def test_the_command_line(tmp_path):
         assert ignored.returncode == 0 and "noise_threshold and time_limit are ignored: " + why in ignored.stderr
     assert_refused(run_cli("render", "--aov", "spp=x.npy", cwd=tmp_path), "--aov spp", "--noise-threshold")
     assert_refused(  # before any cluster is started or reached
-        run_cli("render", "--cluster", "local", "--noise-threshold", 0.1, "--aov", "spp=x.npy", cwd=tmp_path),
+        run_cli("render", "--cluster", "local", "--time-limit", 5, "--aov", "spp=x.npy", cwd=tmp_path),
         "--aov spp",
-        "a cluster renders tiles of the whole spp",
+        "a cluster's tiles share no clock for a time limit",
     )
     assert_refused(run_cli("render", "--noise-threshold", 0, cwd=tmp_path), "--noise-threshold")
     assert_refused(run_cli("render", "--min-spp", 0, cwd=tmp_path), "--min-spp")

@@ -115,6 +115,25 @@ def test_cluster_render_is_bit_identical_to_the_in_process_render(client, sessio
     assert image.stats["compile_seconds"] >= stats["compile_seconds"]
 
 
+def test_adaptive_sampling_on_a_cluster_is_bit_identical_to_the_in_process_render(client, session):
+    """With a noise threshold the cluster's tiles sample adaptively, their edges on the grid of
+    adaptive sampling's tiles, each of which stops as in-process: the same image, spp AOV and
+    statistics, for the whole image and for a crop; a time limit is left out with a warning."""
+    settings = dict(mode="path", spp=64, noise_threshold=0.05, min_spp=8, seed=5)
+    reference = session.render(threads=2, **settings)
+    image = session.render(cluster=client, **settings)
+    assert_same(reference, image)
+    assert len(np.unique(image.aovs["spp"])) > 1  # its tiles stopped apart
+    assert image.stats["adaptive"] == reference.stats["adaptive"]
+    assert image.stats["primary_rays"] == reference.stats["primary_rays"] < 40 * 30 * 64
+    crop = session.render(cluster=client, crop=(5, 37, 3, 21), **settings)
+    assert np.array_equal(crop.rgb, reference.rgb[3:21, 5:37])
+    assert np.array_equal(crop.aovs["spp"], reference.aovs["spp"][3:21, 5:37])
+    with pytest.warns(rl.SceneWarning, match="time_limit is ignored on a cluster"):
+        timed = session.render(cluster=client, time_limit=1e6, **settings)
+    assert np.array_equal(timed.rgb, reference.rgb)
+
+
 def test_bdpt_cluster_render_is_bit_identical_to_the_in_process_render(client, session):
     """Bidirectional path tracing on a cluster: every tile is the full render's window (its
     splats come from every pixel's light subpath and are summed exactly), so the pasted tiles

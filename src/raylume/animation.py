@@ -71,7 +71,7 @@ def render_animation(
     from .settings import samples_adaptively
 
     table = settings.render
-    samples_adaptively(table, on_cluster=True, warn_if_ignored=True)  # (a cluster's frames: never)
+    adaptive = samples_adaptively(table, on_cluster=True, warn_if_ignored=True)
     denoising = table.denoise and table.mode == "path"
     renderer = FrameRenderer(
         cluster, session.compiled, settings, aovs=denoising, progress=progress, frames=len(cameras)
@@ -84,5 +84,7 @@ def render_animation(
             rgb = denoise(rgb, result.aovs["albedo"], result.aovs["normal"])
         stats = {"width": table.width, "height": table.height, "spp": table.spp, "mode": table.mode, "frame": k,
                  "rays": result.rays, "render_seconds": result.seconds}  # fmt: skip
+        if adaptive:
+            stats["adaptive"] = result.adaptive
         yield k, Image(rgb, {}, stats, table.encoding, exposure=table.exposure, tonemap=table.tonemap)
     session.last_cluster_stats = renderer.stats()

@@ -39,7 +39,7 @@ from .errors import RaylumeError
 from .image import Image
 from .render_window import RenderInterrupted, WindowResult, allocate_aovs, render_window
 from .scene.model import Camera, RenderSettings
-from .settings import ResolvedSettings
+from .settings import ResolvedSettings, adaptive_ignored
 
 CONNECT_TIMEOUT = 4.0  # seconds: an unreachable scheduler is reported well within 10 s
 TILE_SECONDS = 1.0  # a task's target run time: long enough to hide its overhead, short enough to balance
@@ -483,8 +483,16 @@ def _render_tile(
     expected: dict,
 ) -> WindowResult:
     """One pass (samples first..first+count-1) of one tile, continuing `previous`, the tile's
-    pass before it (None for the first). AOVs are made in the first pass and carried on."""
+    pass before it (None for the first). AOVs are made in the first pass and carried on. With a
+    noise threshold (adaptive sampling) the tile is one task that samples adaptively, its
+    16 x 16 tiles on the whole image's grid, as in-process."""
     worker = _check_here(expected)
+    if settings.noise_threshold is not None:
+        from .adaptive import render_adaptive
+
+        result = render_adaptive(compiled, camera, settings, window, aovs=aovs, lanes=1)
+        result.cluster = {"passes": [(worker, result.seconds, result.rays)]}
+        return result
     result = render_window(
         compiled, camera, settings, window, aovs=aovs and previous is None, lanes=1, first=first, count=count,
         sums=None if previous is None else previous.sums, splats=None if previous is None else previous.splats,
@@ -518,7 +526,8 @@ def plan_tiles(
     """Split `window` into square tiles of about `tile_seconds` of work each (at the measured
     seconds per pixel-sample), at least `min_tiles` of them, and a tile's samples into passes
     when even a MIN_TILE_SIDE tile would take longer. Raster mode is one task: the rasterizer
-    draws whole frames."""
+    draws whole frames. With a noise threshold (adaptive sampling) a tile is one task whose edges
+    lie on adaptive sampling's grid of the whole image, so that no grid tile is sampled twice."""
     tile_seconds = TILE_SECONDS if tile_seconds is None else tile_seconds
     if settings.mode == "raster":
         return [Tile(window, ((0, None),))]
@@ -528,6 +537,8 @@ def plan_tiles(
     total = w * h * spp * sample_seconds
     n_tiles = max(min_tiles, math.ceil(total / tile_seconds), 1)
     side = max(MIN_TILE_SIDE, int(math.sqrt(w * h / n_tiles)))
+    if settings.noise_threshold is not None:
+        return _grid_tiles(window, settings, side)
     side_x, side_y = min(side, w), min(side, h)
     tile_cost = side_x * side_y * spp * sample_seconds
     n_passes = min(spp, max(1, math.ceil(tile_cost / tile_seconds)))
@@ -539,6 +550,26 @@ def plan_tiles(
         for tx in range(x0, x1, side_x):
             tiles.append(Tile((tx, min(tx + side_x, x1), ty, min(ty + side_y, y1)), passes))
     return tiles
+
+
+def _grid_tiles(window: tuple[int, int, int, int], settings: RenderSettings, side: int) -> list[Tile]:
+    """Tiles of about `side` pixels covering `window`, their edges on adaptive sampling's tile
+    grid of the whole image (adaptive.tile_edges), each one adaptive task."""
+    from .adaptive import TILE, tile_edges
+
+    x0, x1, y0, y1 = window
+    step = max(1, round(side / TILE))  # grid tiles a side
+
+    def cuts(lo: int, hi: int, size: int) -> list[int]:
+        inside = [int(e) for e in tile_edges(size)[::step] if lo < e < hi]
+        return [lo, *inside, hi]
+
+    xs, ys = cuts(x0, x1, settings.width), cuts(y0, y1, settings.height)
+    return [
+        Tile((xa, xb, ya, yb), ((0, None),))
+        for ya, yb in zip(ys[:-1], ys[1:], strict=True)
+        for xa, xb in zip(xs[:-1], xs[1:], strict=True)
+    ]
 
 
 # --- the client side ------------------------------------------------------------------------
@@ -584,7 +615,14 @@ class FrameRenderer:
 
     def _start(self, compiled, settings, aovs, progress, min_tiles, ahead, shuffle, frames) -> None:
         self.frames_expected = frames  # for the progress bar's total before all are submitted
-        self.settings = settings.render  # what the workers get: the [render] table
+        # what the workers get: the [render] table, with a noise threshold where the tiles sample
+        # adaptively (not raster mode nor bdpt), and no time limit (its tiles share no clock)
+        table = settings.render
+        adaptive = table.noise_threshold is not None and adaptive_ignored(table, on_cluster=True) is None
+        self.adaptive = adaptive
+        self.settings = table.model_copy(
+            update={"time_limit": None, "noise_threshold": table.noise_threshold if adaptive else None}
+        )
         self.window = settings.window
         self.aovs = aovs
         self.progress = progress
@@ -848,6 +886,8 @@ class FrameRenderer:
         x0, x1, y0, y1 = self.window
         rgb = np.zeros((y1 - y0, x1 - x0, 3), dtype=np.float32)
         aov_arrays = allocate_aovs(y1 - y0, x1 - x0) if self.aovs else {}
+        if self.adaptive:
+            aov_arrays["spp"] = np.zeros((y1 - y0, x1 - x0), dtype=np.float32)
         for tile, result in frame.results:
             tx0, tx1, ty0, ty1 = tile.window
             rows, cols = slice(ty0 - y0, ty1 - y0), slice(tx0 - x0, tx1 - x0)
@@ -855,6 +895,7 @@ class FrameRenderer:
             for name, array in result.aovs.items():
                 aov_arrays[name][rows, cols] = array
         results = [r for _, r in frame.results]
+        adaptive = _adaptive_stats([r.adaptive for r in results], aov_arrays["spp"]) if self.adaptive else {}
         return WindowResult(
             self.window,
             rgb,
@@ -862,6 +903,7 @@ class FrameRenderer:
             seconds=sum(r.seconds for r in results),
             rays=sum(r.rays for r in results),
             rejected=sum(r.rejected for r in results),
+            adaptive=adaptive,
         )
 
     def partial(self) -> tuple[WindowResult, int, int] | None:
@@ -908,6 +950,26 @@ class FrameRenderer:
             "compile_seconds": max(compiles, default=0.0),
             "per_worker": workers,
         }
+
+
+def _adaptive_stats(tiles: list[dict], spp: np.ndarray) -> dict:
+    """An adaptive render's statistics (adaptive.py) from its cluster tiles' and the samples each
+    pixel took."""
+    from .adaptive import samples_taken
+
+    ends = {t["stopped_by"] for t in tiles}
+    first = tiles[0]
+    return {
+        "noise_threshold": first["noise_threshold"],
+        "time_limit": None,
+        "tile": first["tile"],
+        "round_spp": first["round_spp"],
+        "rounds": max(t["rounds"] for t in tiles),
+        **samples_taken(spp),
+        "tiles": sum(t["tiles"] for t in tiles),
+        "tiles_converged": sum(t["tiles_converged"] for t in tiles),
+        "stopped_by": "noise" if ends == {"noise"} else "spp",
+    }
 
 
 def render_on_cluster(

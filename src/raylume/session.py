@@ -182,8 +182,9 @@ class Session:
         `noise_threshold`, `time_limit`: adaptive sampling (raylume.adaptive): tiles stop taking
         samples once their noise is below the threshold (after `min_spp` samples), or all once the
         time is spent; `spp` is then the most a pixel takes, the AOVs add `spp` (the samples each
-        pixel took) and the stats `adaptive`. Raster mode, bdpt and a cluster sample every pixel
-        alike, with a SceneWarning.
+        pixel took) and the stats `adaptive`. Raster mode and bdpt sample every pixel alike, with
+        a SceneWarning; a cluster samples adaptively by the threshold alone (a time limit is
+        ignored there, with a SceneWarning), its tiles on the same grid, so the same image.
 
         `settings`: settings already resolved (raylume.settings.resolve_settings), in place of
         width ... time_limit, threads and crop."""
@@ -211,6 +212,8 @@ class Session:
             )
             extra["cluster"] = part.cluster
             worker_compile_seconds = part.cluster["compile_seconds"]  # the longest of the workers'
+            if adaptive:
+                extra["adaptive"] = part.adaptive
         elif adaptive:
             worker_compile_seconds = 0.0
             part = render_adaptive(

@@ -112,19 +112,25 @@ def adaptive_ignored(table: RenderSettings, on_cluster: bool = False) -> str | N
             "bdpt's light paths reach every pixel, so its tiles cannot stop apart: every pixel takes spp samples "
             "(use integrator = 'path')"
         )
-    if on_cluster:
-        return "a cluster renders tiles of the whole spp: every pixel takes them (leave out --cluster)"
+    if on_cluster and table.noise_threshold is None:
+        return (
+            "a cluster's tiles share no clock for a time limit: every pixel takes spp samples (give "
+            "noise_threshold, or leave out --cluster)"
+        )
     return None
 
 
 def samples_adaptively(table: RenderSettings, on_cluster: bool = False, warn_if_ignored: bool = False) -> bool:
     """Whether a render of these settings samples adaptively; `warn_if_ignored`: a SceneWarning
-    saying why not, where they ask for it."""
+    saying why not, where they ask for it (and, on a cluster, that a time limit is left out)."""
     ignored = adaptive_ignored(table, on_cluster)
-    if ignored and warn_if_ignored:
+    if warn_if_ignored:
         from .scene.checks import warn
 
-        warn(f"noise_threshold and time_limit are ignored: {ignored}")
+        if ignored:
+            warn(f"noise_threshold and time_limit are ignored: {ignored}")
+        elif on_cluster and table.time_limit is not None:
+            warn("time_limit is ignored on a cluster (its tiles share no clock): noise_threshold and spp decide")
     return is_adaptive(table) and ignored is None
 
 
