@@ -12,7 +12,7 @@
   stopped tile's at these sample counts) raises it by a few percent.
 * Tiles of constant colour stop after the first check; no tile stops before min_spp (Cycles'
   rule unless set); the image is the same on any number of threads; a time limit stops with
-  whole rounds; where adaptive sampling cannot apply (raster mode, bdpt, a cluster) it is
+  whole rounds; where adaptive sampling cannot apply (raster mode, bdpt, a time limit alone on a cluster) it is
   ignored with a warning; bad values are refused with one line and exit status 2."""
 
 from __future__ import annotations
