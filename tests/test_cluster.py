@@ -18,6 +18,7 @@ import subprocess
 import sys
 import threading
 import time
+import warnings
 
 import numpy as np
 import pytest
@@ -28,6 +29,7 @@ import raylume as rl
 from raylume import cluster as C
 from raylume.animation import render_animation
 from raylume.cli import app
+from raylume.denoise import is_available as denoise_available
 from raylume.render_window import RenderInterrupted
 from raylume.settings import resolve_settings
 
@@ -115,23 +117,44 @@ def test_cluster_render_is_bit_identical_to_the_in_process_render(client, sessio
     assert image.stats["compile_seconds"] >= stats["compile_seconds"]
 
 
-def test_adaptive_sampling_on_a_cluster_is_bit_identical_to_the_in_process_render(client, session):
+@pytest.mark.parametrize("width, height", [(40, 30), (23, 40)])
+def test_adaptive_sampling_on_a_cluster_is_bit_identical_to_the_in_process_render(client, session, width, height):
     """With a noise threshold the cluster's tiles sample adaptively, their edges on the grid of
     adaptive sampling's tiles, each of which stops as in-process: the same image, spp AOV and
-    statistics, for the whole image and for a crop; a time limit is left out with a warning."""
-    settings = dict(mode="path", spp=64, noise_threshold=0.05, min_spp=8, seed=5)
+    statistics (stopped by noise where every tile converged, as in-process, though some of the
+    cluster's tasks had each of their tiles converge only at its last round), for the whole
+    image and for a crop; a time limit is left out with a warning."""
+    settings = dict(mode="path", spp=64, noise_threshold=0.05, min_spp=8, seed=5, width=width, height=height)
     reference = session.render(threads=2, **settings)
     image = session.render(cluster=client, **settings)
     assert_same(reference, image)
     assert len(np.unique(image.aovs["spp"])) > 1  # its tiles stopped apart
     assert image.stats["adaptive"] == reference.stats["adaptive"]
-    assert image.stats["primary_rays"] == reference.stats["primary_rays"] < 40 * 30 * 64
-    crop = session.render(cluster=client, crop=(5, 37, 3, 21), **settings)
-    assert np.array_equal(crop.rgb, reference.rgb[3:21, 5:37])
-    assert np.array_equal(crop.aovs["spp"], reference.aovs["spp"][3:21, 5:37])
+    assert image.stats["primary_rays"] == reference.stats["primary_rays"] < width * height * 64
+    crop = session.render(cluster=client, crop=(5, 21, 3, 21), **settings)
+    assert np.array_equal(crop.rgb, reference.rgb[3:21, 5:21])
+    assert np.array_equal(crop.aovs["spp"], reference.aovs["spp"][3:21, 5:21])
     with pytest.warns(rl.SceneWarning, match="time_limit is ignored on a cluster"):
         timed = session.render(cluster=client, time_limit=1e6, **settings)
     assert np.array_equal(timed.rgb, reference.rgb)
+
+
+def test_adaptive_sampling_on_a_cluster_warns_in_the_caller_and_stops_cleanly(client, session, monkeypatch):
+    """The warning that no tile can stop early comes once, in the caller (the workers' tasks are
+    quiet); Ctrl-C before any tile is done is a RenderInterrupted, as without a threshold."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        session.render(cluster=client, mode="path", spp=3, noise_threshold=0.05)
+    said = [w for w in caught if "every pixel takes them all" in str(w.message)]
+    assert len(said) == 1 and issubclass(said[0].category, rl.SceneWarning)
+    monkeypatch.setattr(C, "TILE_SECONDS", 1e-9)
+
+    def progress(done, total):
+        raise KeyboardInterrupt
+
+    with pytest.raises(RenderInterrupted) as stopped:
+        session.render(cluster=client, mode="path", spp=64, noise_threshold=0.05, progress=progress)
+    assert "tiles" in stopped.value.done
 
 
 def test_bdpt_cluster_render_is_bit_identical_to_the_in_process_render(client, session):
@@ -301,6 +324,27 @@ def test_animation_frames_on_the_cluster_equal_the_stills(client):
     assert sorted(remote) == [1, 2, 3, 4]
     for k in remote:
         assert np.array_equal(local[k].rgb, remote[k].rgb), k
+
+
+@pytest.mark.skipif(not denoise_available(), reason="pyoidn (raylume[denoise]) is not installed")
+def test_denoised_adaptive_animation_frames_on_the_cluster_equal_the_stills(client):
+    """Denoised frames of an adaptive path-traced animation: the cluster's frames are denoised
+    on the client as Session.render denoises a still (the light seen directly and the edges at
+    the frame's mean spp), so each equals the in-process frame."""
+    scene = rl.scene_from_dict(
+        {
+            **SCENE,
+            "render": {"width": 24, "height": 16, "mode": "path", "spp": 32, "denoise": True},
+            "animation": {"frames": 3, "camera": [{"frame": 0, "position": [0, 1, -1]}, {"frame": 2, "fov": 40}]},
+        }
+    )
+    session = rl.Session(scene)
+    settings = dict(noise_threshold=0.1, min_spp=8)
+    local = dict(render_animation(session, range(3), threads=1, **settings))
+    remote = dict(render_animation(session, range(3), cluster=client, threads=1, **settings))
+    for k in remote:
+        assert np.array_equal(local[k].rgb, remote[k].rgb), k
+        assert remote[k].stats["adaptive"]["mean_spp"] == local[k].stats["adaptive"]["mean_spp"]
 
 
 def test_a_malformed_or_unreachable_address_exits_2_within_10_seconds(tmp_path, monkeypatch):

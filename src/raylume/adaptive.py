@@ -214,10 +214,12 @@ def render_adaptive(
     lanes: int,
     progress: Callable[[int, int], None] | None = None,
     status: Callable | None = None,
+    quiet: bool = False,
 ) -> WindowResult:
     """Render `window` = (x0, x1, y0, y1) adaptively (module docstring). The result's `aovs`
     hold `spp`, the samples each pixel took (float32; with the others when `aovs`), and its
-    `adaptive` the statistics.
+    `adaptive` the statistics. `quiet`: no warnings about the rounds (a cluster's tasks: the
+    client gives them once).
 
     The tiles lie on the whole image's grid, so a crop renders the tiles its window touches
     whole and keeps its window: each tile stops as it does in the whole image, and the crop is
@@ -225,7 +227,9 @@ def render_adaptive(
     x0, x1, y0, y1 = window
     xs, ys = tile_edges(settings.width), tile_edges(settings.height)  # the whole image's grid
     grid = (int(xs[xs <= x0].max()), int(xs[xs >= x1].min()), int(ys[ys <= y0].max()), int(ys[ys >= y1].min()))
-    part = _render_tiles(compiled, camera, settings, grid, aovs=aovs, lanes=lanes, progress=progress, status=status)
+    part = _render_tiles(
+        compiled, camera, settings, grid, aovs=aovs, lanes=lanes, progress=progress, status=status, quiet=quiet
+    )
     if grid == window:
         return part
     rows, cols = slice(y0 - grid[2], y1 - grid[2]), slice(x0 - grid[0], x1 - grid[0])
@@ -233,6 +237,29 @@ def render_adaptive(
     stats = {**part.adaptive, **samples_taken(crop_aovs["spp"])}
     rgb = np.ascontiguousarray(part.rgb[rows, cols])
     return WindowResult(window, rgb, crop_aovs, part.seconds, part.rays, part.rejected, adaptive=stats)
+
+
+def _judged_rounds(settings: RenderSettings) -> set[int]:
+    """The rounds after which a tile may stop: from the FIRST_CHECK-th, once it has least_spp."""
+    taken = np.cumsum(round_sizes(settings.spp))
+    least = least_spp(settings)
+    return {r for r in range(FIRST_CHECK - 1, len(taken)) if taken[r] >= least}
+
+
+def warn_about_rounds(settings: RenderSettings) -> None:
+    """A SceneWarning where the settings leave adaptive sampling nothing to do: no tile can stop
+    before its last round, or a time limit with one round."""
+    sizes = round_sizes(settings.spp)
+    if settings.noise_threshold is not None and not _judged_rounds(settings) - {len(sizes) - 1}:
+        warn(
+            f"noise_threshold lets a tile stop after {FIRST_CHECK} rounds and {least_spp(settings)} samples; with "
+            f"spp {settings.spp} every pixel takes them all (spp is the most a pixel takes: give it more)"
+        )
+    if settings.time_limit is not None and len(sizes) == 1:
+        warn(
+            f"time_limit with spp {settings.spp}: one round renders the whole image (spp is the most samples a "
+            "pixel takes: give it 1024 or more)"
+        )
 
 
 def _render_tiles(
@@ -245,6 +272,7 @@ def _render_tiles(
     lanes: int,
     progress: Callable[[int, int], None] | None,
     status: Callable | None,
+    quiet: bool,
 ) -> WindowResult:
     """render_adaptive on a window whose corner lies on the tile grid."""
     x0, x1, y0, y1 = window
@@ -252,18 +280,9 @@ def _render_tiles(
     sizes = round_sizes(settings.spp)
     threshold, time_limit = settings.noise_threshold, settings.time_limit
     taken = np.cumsum(sizes)  # samples a pixel has after each round
-    least = least_spp(settings)
-    judged = {r for r in range(FIRST_CHECK - 1, len(sizes)) if taken[r] >= least}  # rounds after which tiles stop
-    if threshold is not None and not judged - {len(sizes) - 1}:
-        warn(
-            f"noise_threshold lets a tile stop after {FIRST_CHECK} rounds and {least} samples; with spp "
-            f"{settings.spp} every pixel takes them all (spp is the most a pixel takes: give it more)"
-        )
-    if time_limit is not None and len(sizes) == 1:
-        warn(
-            f"time_limit with spp {settings.spp}: one round renders the whole image (spp is the most samples a "
-            "pixel takes: give it 1024 or more)"
-        )
+    judged = _judged_rounds(settings)
+    if not quiet:
+        warn_about_rounds(settings)
     streams = _Streams(h, w)
     # each stream a sequence of its own seed, of spp samples at most
     tables = [settings.model_copy(update={"seed": stream_seed(settings.seed, k)}) for k in range(STREAMS)]

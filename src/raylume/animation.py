@@ -76,12 +76,19 @@ def render_animation(
     renderer = FrameRenderer(
         cluster, session.compiled, settings, aovs=denoising, progress=progress, frames=len(cameras)
     )
+    camera_of_frame = dict(cameras)
     for k, result in renderer.frames(cameras):
         rgb = result.rgb
-        if denoising:
-            from .denoise import denoise
+        if denoising:  # here, as Session.render denoises a cluster's still: the same image
+            from .seen_light import denoise_path_image
+            from .session import _use_threads
 
-            rgb = denoise(rgb, result.aovs["albedo"], result.aovs["normal"])
+            split = table.model_copy(update={"spp": max(2, round(result.adaptive["mean_spp"]))}) if adaptive else table
+            lanes = _use_threads(settings.threads)
+            albedo, normal = result.aovs["albedo"], result.aovs["normal"]
+            rgb, _ = denoise_path_image(
+                session.compiled, camera_of_frame[k], split, settings.window, lanes, rgb, albedo, normal
+            )
         stats = {"width": table.width, "height": table.height, "spp": table.spp, "mode": table.mode, "frame": k,
                  "rays": result.rays, "render_seconds": result.seconds}  # fmt: skip
         if adaptive:

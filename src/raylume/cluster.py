@@ -490,7 +490,7 @@ def _render_tile(
     if settings.noise_threshold is not None:
         from .adaptive import render_adaptive
 
-        result = render_adaptive(compiled, camera, settings, window, aovs=aovs, lanes=1)
+        result = render_adaptive(compiled, camera, settings, window, aovs=aovs, lanes=1, quiet=True)
         result.cluster = {"passes": [(worker, result.seconds, result.rays)]}
         return result
     result = render_window(
@@ -623,6 +623,10 @@ class FrameRenderer:
         self.settings = table.model_copy(
             update={"time_limit": None, "noise_threshold": table.noise_threshold if adaptive else None}
         )
+        if adaptive:  # once, here: the workers' tasks are quiet
+            from .adaptive import warn_about_rounds
+
+            warn_about_rounds(self.settings)
         self.window = settings.window
         self.aovs = aovs
         self.progress = progress
@@ -895,7 +899,9 @@ class FrameRenderer:
             for name, array in result.aovs.items():
                 aov_arrays[name][rows, cols] = array
         results = [r for _, r in frame.results]
-        adaptive = _adaptive_stats([r.adaptive for r in results], aov_arrays["spp"]) if self.adaptive else {}
+        adaptive = {}
+        if self.adaptive and results:  # (none yet: Ctrl-C before the first tile)
+            adaptive = _adaptive_stats([r.adaptive for r in results], aov_arrays["spp"], self.settings.spp)
         return WindowResult(
             self.window,
             rgb,
@@ -952,12 +958,14 @@ class FrameRenderer:
         }
 
 
-def _adaptive_stats(tiles: list[dict], spp: np.ndarray) -> dict:
+def _adaptive_stats(tiles: list[dict], spp: np.ndarray, most: int) -> dict:
     """An adaptive render's statistics (adaptive.py) from its cluster tiles' and the samples each
-    pixel took."""
+    pixel took (at most `most`): stopped by noise where every tile converged and some pixel took
+    fewer than `most`, as in-process."""
     from .adaptive import samples_taken
 
-    ends = {t["stopped_by"] for t in tiles}
+    converged = sum(t["tiles_converged"] for t in tiles)
+    every = sum(t["tiles"] for t in tiles)
     first = tiles[0]
     return {
         "noise_threshold": first["noise_threshold"],
@@ -966,9 +974,9 @@ def _adaptive_stats(tiles: list[dict], spp: np.ndarray) -> dict:
         "round_spp": first["round_spp"],
         "rounds": max(t["rounds"] for t in tiles),
         **samples_taken(spp),
-        "tiles": sum(t["tiles"] for t in tiles),
-        "tiles_converged": sum(t["tiles_converged"] for t in tiles),
-        "stopped_by": "noise" if ends == {"noise"} else "spp",
+        "tiles": every,
+        "tiles_converged": converged,
+        "stopped_by": "noise" if converged == every and spp.min() < most else "spp",
     }
 
 
