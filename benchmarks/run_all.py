@@ -54,6 +54,7 @@ def benchmarks(quick: bool) -> list[list[str]]:
             else []
         ),
         ["bench_view.py"] + (["--sizes", "160x120", "--seconds", "1", "--runs", "1"] if quick else []),
+        ["bench_view_films.py"] + (["--size", "16", "--films", "1", "4", "--seeds", "1"] if quick else []),
         ["cache_misses.py"] + (["--size", "256", "40k", "1M"] if quick else []),
         ["count_instructions.py"] + (["--size", "128", "10k"] if quick else []),
         ["probe_wavefront_path.py"] + (["--size", "64", "--spp", "2", "--rounds", "1"] if quick else []),
