@@ -376,21 +376,37 @@ def _render_tiles(
             streams.mean(), done_aovs, {}, settings.encoding, exposure=settings.exposure, tonemap=settings.tonemap
         )
         raise RenderInterrupted(partial, h, f"{whole} rounds, {least} or more samples in every pixel") from exc
-    if stopped_by != "time" and threshold is not None and not open_tiles.any() and streams.samples.min() < settings.spp:
-        stopped_by = "noise"  # (tiles below the threshold only once they took every sample: "spp")
-    aov_arrays["spp"] = streams.samples.astype(np.float32)  # asked for or not: it costs nothing
-    stats = {
-        "noise_threshold": threshold,
-        "time_limit": time_limit,
+    samples = streams.samples
+    aov_arrays["spp"] = samples.astype(np.float32)  # asked for or not: it costs nothing
+    converged = int((~open_tiles).sum())
+    stats = adaptive_stats(settings, samples, rounds_done, th * tw, converged, out_of_time=stopped_by == "time")
+    return WindowResult(window, streams.mean(), aov_arrays, seconds, rays, rejected, adaptive=stats)
+
+
+def adaptive_stats(
+    settings: RenderSettings, spp: np.ndarray, rounds: int, tiles: int, converged: int, out_of_time: bool = False
+) -> dict:
+    """An adaptive render's statistics (a cluster's: its tasks' together), from the samples each
+    pixel took, the rounds, the tiles and those that converged: stopped by the time limit, by
+    noise where every tile converged and some pixel took fewer than spp (tiles below the
+    threshold only once they took every sample stopped by spp), else by spp."""
+    if out_of_time:
+        stopped_by = "time"
+    elif settings.noise_threshold is not None and converged == tiles and int(spp.min()) < settings.spp:
+        stopped_by = "noise"
+    else:
+        stopped_by = "spp"
+    return {
+        "noise_threshold": settings.noise_threshold,
+        "time_limit": settings.time_limit,
         "tile": TILE,
-        "round_spp": sizes[0],
-        "rounds": rounds_done,
-        **samples_taken(streams.samples),
-        "tiles": th * tw,
-        "tiles_converged": int((~open_tiles).sum()),
+        "round_spp": round_sizes(settings.spp)[0],
+        "rounds": rounds,
+        **samples_taken(spp),
+        "tiles": tiles,
+        "tiles_converged": converged,
         "stopped_by": stopped_by,
     }
-    return WindowResult(window, streams.mean(), aov_arrays, seconds, rays, rejected, adaptive=stats)
 
 
 def samples_taken(spp: np.ndarray) -> dict:
@@ -403,4 +419,13 @@ def samples_taken(spp: np.ndarray) -> dict:
     }
 
 
-__all__ = ["FIRST_CHECK", "TILE", "render_adaptive", "round_sizes", "stream_seed", "stream_sizes", "tile_errors"]
+__all__ = [
+    "FIRST_CHECK",
+    "TILE",
+    "adaptive_stats",
+    "render_adaptive",
+    "round_sizes",
+    "stream_seed",
+    "stream_sizes",
+    "tile_errors",
+]

@@ -39,7 +39,7 @@ from .errors import RaylumeError
 from .image import Image
 from .render_window import RenderInterrupted, WindowResult, allocate_aovs, render_window
 from .scene.model import Camera, RenderSettings
-from .settings import ResolvedSettings, adaptive_ignored
+from .settings import ResolvedSettings, samples_adaptively
 
 CONNECT_TIMEOUT = 4.0  # seconds: an unreachable scheduler is reported well within 10 s
 TILE_SECONDS = 1.0  # a task's target run time: long enough to hide its overhead, short enough to balance
@@ -618,7 +618,7 @@ class FrameRenderer:
         # what the workers get: the [render] table, with a noise threshold where the tiles sample
         # adaptively (not raster mode nor bdpt), and no time limit (its tiles share no clock)
         table = settings.render
-        adaptive = table.noise_threshold is not None and adaptive_ignored(table, on_cluster=True) is None
+        adaptive = samples_adaptively(table, on_cluster=True)
         self.adaptive = adaptive
         self.settings = table.model_copy(
             update={"time_limit": None, "noise_threshold": table.noise_threshold if adaptive else None}
@@ -901,7 +901,12 @@ class FrameRenderer:
         results = [r for _, r in frame.results]
         adaptive = {}
         if self.adaptive and results:  # (none yet: Ctrl-C before the first tile)
-            adaptive = _adaptive_stats([r.adaptive for r in results], aov_arrays["spp"], self.settings.spp)
+            from .adaptive import adaptive_stats
+
+            tasks = [r.adaptive for r in results]
+            rounds = max(t["rounds"] for t in tasks)
+            tiles, converged = sum(t["tiles"] for t in tasks), sum(t["tiles_converged"] for t in tasks)
+            adaptive = adaptive_stats(self.settings, aov_arrays["spp"], rounds, tiles, converged)
         return WindowResult(
             self.window,
             rgb,
@@ -956,28 +961,6 @@ class FrameRenderer:
             "compile_seconds": max(compiles, default=0.0),
             "per_worker": workers,
         }
-
-
-def _adaptive_stats(tiles: list[dict], spp: np.ndarray, most: int) -> dict:
-    """An adaptive render's statistics (adaptive.py) from its cluster tiles' and the samples each
-    pixel took (at most `most`): stopped by noise where every tile converged and some pixel took
-    fewer than `most`, as in-process."""
-    from .adaptive import samples_taken
-
-    converged = sum(t["tiles_converged"] for t in tiles)
-    every = sum(t["tiles"] for t in tiles)
-    first = tiles[0]
-    return {
-        "noise_threshold": first["noise_threshold"],
-        "time_limit": None,
-        "tile": first["tile"],
-        "round_spp": first["round_spp"],
-        "rounds": max(t["rounds"] for t in tiles),
-        **samples_taken(spp),
-        "tiles": every,
-        "tiles_converged": converged,
-        "stopped_by": "noise" if converged == every and spp.min() < most else "spp",
-    }
 
 
 def render_on_cluster(
