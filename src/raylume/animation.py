@@ -80,10 +80,10 @@ def render_animation(
     for k, result in renderer.frames(cameras):
         rgb = result.rgb
         if denoising:  # here, as Session.render denoises a cluster's still: the same image
-            from .seen_light import denoise_path_image
+            from .seen_light import denoise_path_image, split_settings
             from .session import _use_threads
 
-            split = table.model_copy(update={"spp": max(2, round(result.adaptive["mean_spp"]))}) if adaptive else table
+            split = split_settings(table, result.adaptive if adaptive else None)
             lanes = _use_threads(settings.threads)
             albedo, normal = result.aovs["albedo"], result.aovs["normal"]
             rgb, _ = denoise_path_image(

@@ -110,6 +110,15 @@ def edge_spp(spp: int, window_pixels: int, edge_pixels: int) -> int:
     return more if more > spp else 0
 
 
+def split_settings(table: RenderSettings, adaptive: dict | None) -> RenderSettings:
+    """The settings denoise_path_image renders the light seen directly and the edges at: an
+    adaptive image's samples are its rounds', so at its mean spp (`adaptive`: its statistics),
+    that they cost what they cost beside a plain render; else the render's own."""
+    if not adaptive:
+        return table
+    return table.model_copy(update={"spp": max(2, round(adaptive["mean_spp"]))})
+
+
 def denoise_path_image(
     compiled: CompiledScene,
     camera: Camera,

@@ -32,7 +32,7 @@ from .scene.checks import warn_about
 from .scene.model import Camera, Scene
 from .scene.open import SceneLike, open_scene
 from .scene.validation_errors import format_validation_error
-from .seen_light import denoise_path_image
+from .seen_light import denoise_path_image, split_settings
 from .settings import (
     ResolvedSettings,
     is_whole_number,
@@ -239,11 +239,7 @@ class Session:
             extra["bdpt_strategies"] = dict(sorted(part.strategies.items()))
         if denoising:
             noisy = rgb
-            # an adaptive image's samples are its rounds': the light seen directly and the edges
-            # are rendered at its mean spp, so that they cost what they cost beside a plain render
-            split_table = (
-                table.model_copy(update={"spp": max(2, round(part.adaptive["mean_spp"]))}) if adaptive else table
-            )
+            split_table = split_settings(table, part.adaptive if adaptive else None)
             rgb, split = denoise_path_image(
                 self.compiled, cam_model, split_table, window, lanes, noisy, aov_arrays["albedo"], aov_arrays["normal"]
             )
