@@ -24,6 +24,8 @@ from typing import Any, TypeVar
 
 from numba.core.registry import CPUDispatcher
 
+from .vector_width import ENTRY_PIPELINE
+
 # Value-stack slots (8 bytes each) reserved by the frame that calls in: ~528 KB, a 1 MiB chunk.
 ROOMY_SLOTS = 66_000
 
@@ -67,10 +69,13 @@ class _CompilesOnRoomyStack(CPUDispatcher):
 
 def roomy_njit(*, cache: bool = False, **options: Any) -> Callable[[Callable[..., T]], Callable[..., T]]:
     """numba.njit(cache=cache, **options) for a kernel that Python calls often: it compiles on a
-    roomy frame stack whenever it compiles."""
+    roomy frame stack whenever it compiles, for the vector width the CPU prefers
+    (vector_width.py)."""
 
     def decorate(py_func: Callable[..., T]) -> Callable[..., T]:
-        dispatcher = _CompilesOnRoomyStack(py_func=py_func, locals={}, targetoptions=dict(options, nopython=True))
+        dispatcher = _CompilesOnRoomyStack(
+            py_func=py_func, locals={}, targetoptions=dict(options, nopython=True), pipeline_class=ENTRY_PIPELINE
+        )
         if cache:
             dispatcher.enable_caching()
         return dispatcher

@@ -11,6 +11,8 @@ from numba.core.codegen import JITCodeLibrary
 from numba.core.registry import CPUDispatcher
 from numba.extending import intrinsic
 
+from .vector_width import ENTRY_PIPELINE
+
 # fastmath without 'nnan'/'ninf': traversal relies on +-inf behaving as IEEE says.
 FAST = {"nsz", "arcp", "contract", "afn"}
 
@@ -142,9 +144,10 @@ class KernelFunction(CPUDispatcher):
 def python_entry(function: KernelFunction, cache: bool = False):
     """The same Python function compiled once more as a plain Numba function, wrappers included
     (an entry that called `function` could not hand back an array without reference counting);
-    with `cache`, into Numba's disk cache (benchmarks/common.cached_entry)."""
+    with `cache`, into Numba's disk cache (benchmarks/common.cached_entry); for the vector width
+    the CPU prefers, as the kernels' entries are (vector_width.py)."""
     options = {k: v for k, v in function.targetoptions.items() if k not in _NOT_FOR_NJIT}
-    return njit(cache=cache, **options)(function.py_func)
+    return njit(cache=cache, pipeline_class=ENTRY_PIPELINE, **options)(function.py_func)
 
 
 def kernel_function(py_func=None, /, **options):

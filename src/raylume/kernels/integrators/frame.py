@@ -26,6 +26,7 @@ from ..shading.environment import environment_radiance
 from ..shading.materials import albedo, aov_albedo
 from ..shading.normal_map import mapped_normal
 from ..vec import FAST, INLINE_OVERLOAD, dot, inline_function, kernel_function, madd, mul
+from ..vector_width import ENTRY_PIPELINE
 from .bdpt import MAX_SEGMENTS, bdpt_sample
 from .bdpt_glint import glint_guide
 from .bdpt_vertex import V_WIDTH, Context
@@ -69,7 +70,10 @@ def _cast_shade(G, F, X, Env, o, d, t, prim, b1, b2, spread, background):
 # Every lane counts the rows it finished in rows_done[lane * PROGRESS_STRIDE] (counters a cache
 # line apart, against false sharing) and checks control[STOP] before each row: the waiting
 # thread shows progress from the counters and stops a render within a row's time.
-LANE = dict(nogil=True, cache=True, fastmath=FAST, error_model="numpy", no_cfunc_wrapper=True)
+# pipeline_class: machine code for the vector width the CPU prefers (vector_width.py).
+LANE = dict(
+    nogil=True, cache=True, fastmath=FAST, error_model="numpy", no_cfunc_wrapper=True, pipeline_class=ENTRY_PIPELINE
+)
 
 
 class LaneControl(NamedTuple):
