@@ -8,9 +8,9 @@ eight float64 lanes, `<8 x double>`, 512 bits. LLVM's x86 backend splits such a 
 it, as all of Numba's are, gets them whole, in zmm registers, even on a CPU whose tuning prefers
 256-bit vectors. On Intel's AVX-512 cores a 512-bit instruction in flight switches off the
 vector unit of port 1 (and can lower the clock), so a few of them in a loop of 256-bit work
-slow all of it: on an Intel Xeon (AVX-512, LLVM's `rocketlake` tuning) the shadow packets of
-bumpy 40k and the bunny took 1.3x the time of the same code with 256-bit vectors, the hit
-packets 1.2-1.3x (docs/architecture.md, "256-bit vectors on AVX-512 cores").
+slow all of it: on an Intel Xeon (AVX-512, LLVM's `rocketlake` tuning) the packets of hit and
+shadow rays took 1.2-1.3x the time of the same code with 256-bit vectors (docs/architecture.md,
+"256-bit vectors on AVX-512 cores").
 
 So every kernel entry (`ENTRY_PIPELINE`) marks each function of its module, after LLVM's
 optimisation and before machine code, with min-legal-vector-width 256. Where the CPU's tuning
@@ -18,7 +18,7 @@ prefers 256-bit vectors the 512-bit ones are then split; where it prefers 512-bi
 (`getPreferVectorWidth`), or the CPU has no AVX-512, nothing changes. Marked after
 optimisation because LLVM drops the attribute from a function into which it inlines one
 without it, and a kernel inlines Numba's own helpers. llvmlite sets no string attributes, so the
-module goes through its IR text once (~0.04 s a MB, the shadow query's module 1.1 MB).
+module goes through its IR text once (0.31 s of a 63 s cold compile of path mode's kernels).
 """
 
 from __future__ import annotations
@@ -46,9 +46,10 @@ def narrow_vectors(text: str) -> str:
 
 
 # LLVM cuts a local name (a block's, a value's) to 1024 characters as it is set, and keeps the
-# cut names apart with a suffix; read back at that limit, two cut names lose their suffixes and
-# become one (Numba's mangled names, in the names of inlined blocks, run to thousands). The
-# module is read at a limit that keeps every name it prints whole, then LLVM's default again.
+# cut names apart with a suffix, so a printed module has longer names (Numba's mangled names,
+# in the names of inlined blocks, run to thousands); read back at that limit they are refused or
+# cut to one name, which broke a path kernel. The module is read at a limit that keeps every
+# name it prints whole, then at LLVM's default again.
 _NAME_LIMIT = "-non-global-value-max-name-size"
 _LLVM_NAME_LIMIT = 1024
 
