@@ -153,7 +153,8 @@ def _asm(function, *args) -> str:
 
 
 def test_the_vector_loops_are_vector_code():
-    """8 float64 lanes on AVX-512 (zmm), 4 on AVX2 (ymm): packed square roots and divisions
+    """8 float64 lanes where the CPU prefers 512-bit vectors (zmm), else 4 (ymm: AVX2, Intel's
+    AVX-512 cores, kernels/vector_width.py): packed square roots and divisions
     where a stage has them, packed arithmetic in the others. Should LLVM stop vectorising a
     loop, this fails (the images would not change)."""
     n = 16

@@ -1016,7 +1016,7 @@ def packet_closest(G, X, root, rows, axes, active, box, lane, prim, node_stack, 
                     prefetch_neighbours(tri, row, row - count)
                 # A leaf that one to six rays reach is tested ray by ray, four triangles per
                 # vector: the packet test computes all eight lanes in float64 (two ymm
-                # registers on AVX2) however few are active. On a mesh with several triangles
+                # registers on AVX2 and Intel's AVX-512 cores) however few are active. On a mesh with several triangles
                 # under each pixel most leaves are reached by one ray (bumpy 1M hit rays on
                 # a Zen 3: 91 -> 77 ms, 4M 149 -> 106; the same hits). Up to three rays until
                 # a few-ray hit kept its barycentrics undivided; since, six (benchmarks/

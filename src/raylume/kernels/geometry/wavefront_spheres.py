@@ -34,7 +34,7 @@ from ..vec import kernel_function
 from .packet import _array_data, _splat
 from .shape_triangle import EXACT, EXACT_DIVISION, exact_ops
 
-LANES = 8  # rays per vector: eight float64 in an AVX-512 register, two ymm registers on AVX2
+LANES = 8  # rays per vector: eight float64, one zmm register on Zen 4, two ymm elsewhere (vector_width.py)
 
 # Columns of the sphere table (the wavefront's per-primitive sphere rows)
 SX, SY, SZ, SR = 0, 1, 2, 3
