@@ -20,6 +20,7 @@ import threading
 import time
 import warnings
 
+import numba
 import numpy as np
 import pytest
 from test_cli import raylume
@@ -341,10 +342,15 @@ def test_denoised_adaptive_animation_frames_on_the_cluster_equal_the_stills(clie
     session = rl.Session(scene)
     settings = dict(noise_threshold=0.1, min_spp=8)
     local = dict(render_animation(session, range(3), threads=1, **settings))
+    before = numba.get_num_threads()
+    numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)  # the machine's cores (2 on CI's)
     remote = dict(render_animation(session, range(3), cluster=client, threads=1, **settings))
     for k in remote:
         assert np.array_equal(local[k].rgb, remote[k].rgb), k
         assert remote[k].stats["adaptive"]["mean_spp"] == local[k].stats["adaptive"]["mean_spp"]
+    # the frames' denoising on 1 thread gave Numba back the count it found, as a render does
+    assert numba.get_num_threads() == numba.config.NUMBA_NUM_THREADS
+    numba.set_num_threads(before)
 
 
 def test_a_malformed_or_unreachable_address_exits_2_within_10_seconds(tmp_path, monkeypatch):

@@ -80,14 +80,9 @@ def render_animation(
     for k, result in renderer.frames(cameras):
         rgb = result.rgb
         if denoising:  # here, as Session.render denoises a cluster's still: the same image
-            from .seen_light import denoise_path_image, split_settings
-            from .session import _use_threads
-
-            split = split_settings(table, result.adaptive if adaptive else None)
-            lanes = _use_threads(settings.threads)
             albedo, normal = result.aovs["albedo"], result.aovs["normal"]
-            rgb, _ = denoise_path_image(
-                session.compiled, camera_of_frame[k], split, settings.window, lanes, rgb, albedo, normal
+            rgb, _ = session._denoised(
+                camera_of_frame[k], settings, rgb, albedo, normal, result.adaptive if adaptive else None
             )
         stats = {"width": table.width, "height": table.height, "spp": table.spp, "mode": table.mode, "frame": k,
                  "rays": result.rays, "render_seconds": result.seconds}  # fmt: skip

@@ -19,6 +19,7 @@ from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING
 
 import numba
+import numpy as np
 from pydantic import ValidationError
 
 from .adaptive import render_adaptive
@@ -32,7 +33,7 @@ from .scene.checks import warn_about
 from .scene.model import Camera, Scene
 from .scene.open import SceneLike, open_scene
 from .scene.validation_errors import format_validation_error
-from .seen_light import denoise_path_image, split_settings
+from .seen_light import SplitStats, denoise_path_image, split_settings
 from .settings import (
     ResolvedSettings,
     is_whole_number,
@@ -239,10 +240,8 @@ class Session:
             extra["bdpt_strategies"] = dict(sorted(part.strategies.items()))
         if denoising:
             noisy = rgb
-            split_table = split_settings(table, part.adaptive if adaptive else None)
-            rgb, split = denoise_path_image(
-                self.compiled, cam_model, split_table, window, lanes, noisy, aov_arrays["albedo"], aov_arrays["normal"]
-            )
+            albedo, normal = aov_arrays["albedo"], aov_arrays["normal"]
+            rgb, split = self._denoised(cam_model, settings, noisy, albedo, normal, part.adaptive if adaptive else None)
             rays += split.rays
             extra["denoise_seconds"] = split.seconds
             extra["denoise_edge_pixels"] = split.edge_pixels
@@ -312,6 +311,25 @@ class Session:
         lanes = _use_threads(settings.threads)
         seconds, rays = add_samples_to_film(S, cam, film, spp, table, aovs or {}, progress, lanes)
         return {"rays": int(rays), "render_seconds": seconds}
+
+    @_threads_restored
+    def _denoised(
+        self,
+        camera: Camera,
+        settings: ResolvedSettings,
+        noisy: np.ndarray,
+        albedo: np.ndarray,
+        normal: np.ndarray,
+        adaptive: dict | None,
+    ) -> tuple[np.ndarray, SplitStats]:
+        """A path-mode image of `settings`' window denoised (seen_light.denoise_path_image): the
+        light seen directly and the edges rendered here, on settings.threads, at the render's
+        spp or an adaptive one's mean (`adaptive`: its statistics). The one way both a still
+        (render) and a cluster's animation frame (animation.render_animation) are denoised, so
+        that frame K is the still of frame K."""
+        lanes = _use_threads(settings.threads)
+        table = split_settings(settings.render, adaptive)
+        return denoise_path_image(self.compiled, camera, table, settings.window, lanes, noisy, albedo, normal)
 
     def _camera(self, camera) -> Camera:
         if camera is None:
