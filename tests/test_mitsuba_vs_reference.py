@@ -22,16 +22,15 @@ normal-less mesh shaded with raylume's area-weighted vertex normals instead of M
 angle-weighted ones failed (block z -7.5), which is why the serialized scene asks for face normals.
 
 The normal map, with Mitsuba's shadowing function for normal maps switched off (raylume has
-none; on, it darkened Mitsuba's image by 0.12-0.13%, mostly the sky's grazing light): image-mean
-z 2.5 / 3.3 / 3.9 (R, G, B; limits 4.9), worst block 3.8 (limit 6.3), seeds 100..115 z 0.9 / 1.2 /
-1.6, worst block 3.3: raylume is 0.3-0.45% brighter there, with the shadowing function on 0.4-0.6%
-(old sampler: 0.05-0.25%); the map read with y the other way fails (image-mean z -16 to -20, 9
-blocks over); a flat map fails (z -5.5). That 0.3% is the board's back, not its map: the board
-is open, and its back faces the floor; Mitsuba's one-sided BSDF is black there, raylume's
-surfaces are two-sided (docs/guide/mitsuba.md), so the floor takes light off the board's back
-(floor +0.6%, board +0.35%, 32 seeds x 512 spp against this reference). With a black quad a
-thousandth of the board's size behind it, as Mitsuba's back, raylume is within 0.13% of Mitsuba
-everywhere (image -0.05%, floor -0.13%, board +0.03%).
+none; on, it darkens Mitsuba's image by 0.12-0.13%, mostly the sky's grazing light), and a black
+rectangle just behind the board: the board's back faces the floor, black in Mitsuba's one-sided
+BSDF and diffuse in raylume, whose surfaces are two-sided (docs/guide/mitsuba.md); without the
+rectangle raylume's floor was 0.6% brighter, the image 0.3-0.45%, image-mean z up to 3.9. With
+it: image-mean z 0.6 / 0.8 / 0.7 (R, G, B; limits 4.9), worst block 4.1 (limit 6.2), seeds
+100..115 and 200..215 |z| <= 0.5, worst block 1.6; raylume's mean over 32 seeds x 256 spp is
+0.998-0.999 of Mitsuba's (0.9995-1.0004 of Mitsuba's with the shadowing function on). The map
+read with y the other way fails (image-mean z -19 to -21, 9 blocks over); a flat map fails (z
+-7.7 to -8.1).
 The environment map's scene does not show the sky directly, only by reflection and lighting:
 Mitsuba's envmap spreads its rows from pole to pole (row j of H at v = j / (H - 1); measured with
 its emitter's eval), raylume's sit at the rows' centres ((j + 0.5) / H), and the sky seen directly
