@@ -1016,9 +1016,9 @@ def packet_closest(G, X, root, rows, axes, active, box, lane, prim, node_stack, 
                     prefetch_neighbours(tri, row, row - count)
                 # A leaf that one to six rays reach is tested ray by ray, four triangles per
                 # vector: the packet test computes all eight lanes in float64 (two ymm
-                # registers on AVX2 and Intel's AVX-512 cores) however few are active. On a mesh with several triangles
-                # under each pixel most leaves are reached by one ray (bumpy 1M hit rays on
-                # a Zen 3: 91 -> 77 ms, 4M 149 -> 106; the same hits). Up to three rays until
+                # registers on AVX2 and Intel's AVX-512 cores) however few are active. On a
+                # mesh with several triangles under each pixel most leaves are reached by one
+                # ray (bumpy 1M hit rays on a Zen 3: 91 -> 77 ms, 4M 149 -> 106; the same hits). Up to three rays until
                 # a few-ray hit kept its barycentrics undivided; since, six (benchmarks/
                 # ab_queries.py, pinned: hit rays 40k, 1M and the bunny 2-3% faster, 4M the
                 # same; the bunny's shadow rays 2.5%, Nefertiti's and 4M's within 1%).

@@ -18,8 +18,8 @@ rest. The vector loops are `vector_loop`s (vec.py): compiled and optimised on th
 LLVM's loop vectoriser sees each loop alone (inlined into the row function first, it did not
 vectorise them). They run 8 rays a register where LLVM's tuning for the CPU prefers 512-bit
 vectors (AMD's Zen 4), 4 elsewhere (AVX2, and Intel's AVX-512 cores, tuned for 256-bit vectors);
-tests/test_wavefront.py checks the machine code. The rays' state is one flat array with rows a constant stride apart
-(below), so a loop over twenty rows is one pointer and constant offsets.
+tests/test_wavefront.py checks the machine code. The rays' state is one flat array with rows a
+constant stride apart (below), so a loop over twenty rows is one pointer and constant offsets.
 """
 
 import math
