@@ -155,6 +155,24 @@ def test_a_sphere_light_far_smaller_than_its_distance_hides_its_far_side():
     _diff_within(raylume.render(scene, **BDPT, aovs=False).rgb, raylume.render(point, aovs=False).rgb, "tiny light")
 
 
+def test_an_emissive_sphere_far_smaller_than_its_distance_hides_its_far_side_and_inside():
+    """The same for an emissive sphere object, which is in the BVH: its far side (strategy (1, t))
+    and the vertices of light subpaths that it emits into itself and that bounce inside it (its
+    colour is white) must not reach the floor. Connections stop SHADOW_SHORTEN (1e-5) of their
+    length short of the far end, more than this sphere's diameter: the floor was 10x too bright."""
+    r = 1e-5
+    bulb = {"type": "sphere", "center": [0, 0.5, 0], "radius": r,
+            "material": {"type": "diffuse", "color": [0.8, 0.8, 0.8], "emission": [1.0 / r**2] * 3}}  # fmt: skip
+    scene = _below_the_floor({}).replace(
+        objects=[{"type": "plane", "material": {"type": "diffuse", "color": [0.5, 0.5, 0.5]}}, bulb]
+    )
+    point = scene.replace(
+        objects=scene.objects[:1], lights=[{"type": "point", "position": [0, 0.5, 0], "intensity": math.pi}]
+    )
+    bdpt = raylume.render(scene, **BDPT, aovs=False).rgb
+    _diff_within(bdpt[12:], raylume.render(point, aovs=False).rgb[12:], "tiny emissive sphere (the floor)")
+
+
 def _every_light(folder):
     """tools/render_check.py's scene of every light, emitter and material kind."""
     import importlib.util

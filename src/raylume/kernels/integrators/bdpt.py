@@ -28,7 +28,8 @@ import numpy as np
 from ..film.camera import CAM_FORWARD, camera_importance, lens_area, lens_point
 from ..film.sampler import dimension_key, key_uniform2, ld_uniform2, sub_key
 from ..film.splat import splat
-from ..geometry.shapes import NO_HIT, offset_epsilon
+from ..geometry import shape_sphere
+from ..geometry.shapes import NO_HIT, PRIM_KIND, PRIM_ROW, SPHERE, offset_epsilon, split_hit
 from ..geometry.traverse import any_hit_leaving
 from ..shading.lights import (
     LIGHT_INTENSITY,
@@ -43,7 +44,7 @@ from ..shading.lights import (
 )
 from ..shading.lights.registry import hides_own_point
 from ..shading.materials import MAT_EMISSION, beer_lambert, two_sided
-from ..vec import add, any_positive, dot, hadamard, inline_function, kernel_function, mul, row3
+from ..vec import add, any_positive, dot, hadamard, inline_function, kernel_function, mul, row3, sub
 from .bdpt_glint import GLINT_COUNT, glint_sample, pixel_weight, through_delta_only
 from .bdpt_mis import mis_weight
 from .bdpt_vertex import (
@@ -138,6 +139,30 @@ def _self_hidden(C, A, i, e, n, w):
 
 
 @kernel_function
+def _own_sphere_hides(C, hit, q, p, near):
+    """Does the sphere that a connection's far end q lies on (`hit`: its primitive; NO_HIT, the
+    near end's own primitive `near` or another shape: no) hide q from the near end p? The
+    segment stops SHADOW_SHORTEN of its length short of q, so a sphere smaller than that is not
+    met on its near side: its far side, and the light subpaths' vertices inside an emissive
+    sphere, shone through it (a white emissive sphere of radius 1e-5, half a unit above a floor:
+    the floor 10x path mode's). A convex body: the segment from q meets the sphere again unless
+    it leaves q on the side p is on."""
+    if hit == NO_HIT or hit == near:
+        return False
+    G = C.G
+    k, inst = split_hit(C.X, hit)
+    if inst >= 0 or G.prims[k, PRIM_KIND] != SPHERE:
+        return False
+    row = np.int64(G.prims[k, PRIM_ROW])
+    centre = row3(G.shapes, row, shape_sphere.CENTER)
+    r = G.shapes[row, shape_sphere.RADIUS]
+    from_centre = sub(p, centre)
+    outside = dot(from_centre, from_centre) > r * r
+    leaves_outwards = dot(sub(q, centre), sub(p, q)) > 0.0
+    return outside != leaves_outwards
+
+
+@kernel_function
 def _into(C, A, i, w, d2):
     """Does a connection leave surface vertex A[i] along w into a dielectric's inside?"""
     if kind_of(A, i) != SURFACE or not (d2 < INF):
@@ -212,6 +237,8 @@ def connect(C, Vc, Vl, saved, s, t, key, mis, node_stack, t_stack):
     value = mul(hadamard(hadamard(beta_c, f_c), hadamard(f_l, row3(Vl, qs, V_BETA))), g)
     if not any_positive(value):
         return ZERO, 0
+    if _own_sphere_hides(C, np.int64(Vl[qs, V_HIT]), row3(Vl, qs, V_P), row3(Vc, pt, V_P), np.int64(Vc[pt, V_HIT])):
+        return ZERO, 0
     tr = _transmitted(C, Vc, pt, w, d2, _connection_key(key, s, t), node_stack, t_stack)
     if not any_positive(tr):
         return ZERO, 1
@@ -269,7 +296,10 @@ def _connect_light(C, Vc, Vl, saved, t, key, mis, node_stack, t_stack):
         if any_positive(value):
             rays = 1
             tr = _transmitted(C, Vc, pt, w, d2, _connection_key(key, 1, t), node_stack, t_stack)
-            if any_positive(tr) and not _self_hidden(C, Vc, pt, e, n, w):
+            hidden = _self_hidden(C, Vc, pt, e, n, w) or _own_sphere_hides(
+                C, hit, p, row3(Vc, pt, V_P), np.int64(Vc[pt, V_HIT])
+            )
+            if any_positive(tr) and not hidden:
                 value = _absorbed(C, Vc, pt, w, d2, hadamard(value, tr))
                 if mis:
                     Vl[0, V_PDF_FWD] = pdf_light_origin(C, Vl, 0, Vc, pt)
