@@ -229,6 +229,16 @@ def test_stats_count_rejected_samples_and_images_are_finite():
     assert np.isfinite(img.rgb).all() and (img.rgb >= 0).all()
 
 
+@pytest.mark.parametrize("integrator", ["path", "bdpt"])
+def test_a_scene_where_nothing_emits_is_black_without_rejected_samples(integrator):
+    """A black environment is the one light: its pick probability was 0 / 0, and every path that
+    left the scene a NaN sample, dropped (path mode: 4 of 16 samples a pixel on the sphere)."""
+    scene = _scene([SPHERE], environment={"color": [0, 0, 0]}, spp=4, integrator=integrator)
+    img = raylume.render(scene, aovs=False)
+    assert img.stats["rejected_samples"] == 0
+    assert (img.rgb == 0).all()
+
+
 def test_spot_light_lights_only_its_cone():
     """A spot pointing straight down at a floor: lit inside the outer cone, dark outside."""
     floor = {

@@ -20,7 +20,10 @@ def pick_emitter(cdf, u):
 
 @inline_function
 def pick_probability(cdf, e):
-    return (cdf[e + 1] - cdf[e]) / cdf[cdf.shape[0] - 1]
+    """The probability of picking row e: 0 when nothing emits (a black environment alone: its
+    row's share was 0 / 0, and every path that met it a NaN sample)."""
+    total = cdf[cdf.shape[0] - 1]
+    return (cdf[e + 1] - cdf[e]) / total if total > 0.0 else 0.0
 
 
 @kernel_function
