@@ -221,6 +221,9 @@ def test_max_depth_counts_segments_as_mitsuba():
     np.testing.assert_allclose(share * 32, np.round(share * 32), atol=1e-4)
     assert share.max() == pytest.approx(1.0) and (share == 0).mean() > 0.5
     assert means[0] < means[1] < means[2]
+    # 0: no segment, a black image (Mitsuba's; path mode gave max_depth 1's), in both integrators
+    for integrator in ("path", "bdpt"):
+        assert not raylume.render(scene, max_depth=0, integrator=integrator, aovs=False).rgb.any(), integrator
 
 
 def test_stats_count_rejected_samples_and_images_are_finite():

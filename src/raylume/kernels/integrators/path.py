@@ -9,7 +9,7 @@ heuristic (Veach's multiple importance sampling), so each light path is counted 
 delta lights and smooth (delta) BSDF lobes take the one strategy that can find them.
 
 Depth counts path segments as Mitsuba does: the camera ray is segment 1, so max_depth 1 shows
-only emitters seen directly and 2 is direct lighting; -1 is unlimited, with Russian roulette
+only emitters seen directly, 2 is direct lighting and 0 is black; -1 is unlimited, with Russian roulette
 from segment RR_DEPTH on. Random numbers come from the sampler's named dimensions keyed by
 (seed, pixel, sample, segment), so an image depends only on the scene, seed and spp.
 """
@@ -226,6 +226,8 @@ def path_segment(
     o, d, beta, L, rays, depth, prev_pdf, prev_delta, cone, med, mis_o, mis_t, crossings, leaving = st
     mat = F.materials
     nothing = NOTHING_DEFERRED
+    if max_depth == 0:  # no segment at all: black, as Mitsuba's max_depth 0 and bdpt's
+        return DONE, st, nothing
     # Next-event estimation's numbers for the surface this segment may reach, drawn before
     # its traversal so that the environment's alias slot (a cache miss: ~11% of
     # materials.toml's time waited for it) arrives meanwhile.
