@@ -223,6 +223,26 @@ def test_an_animation_shows_the_compile_notice_and_counts_compile_seconds(tmp_pa
     assert json.loads((tmp_path / "an.json").read_text())["compile_seconds"] >= 0.1
 
 
+def test_an_animations_stats_hold_the_stats_contract_summed_over_its_frames(tmp_path, raylume):
+    """DESIGN.md's --stats keys, as a still's: an animation's lacked threads, rays, primary_rays,
+    render_seconds and mrays_per_second. Its rays are its frames' (each a still's)."""
+    import json
+
+    (tmp_path / "flight.toml").write_text(FLIGHT)
+    result = raylume("render", "flight.toml", "-o", "a_%04d.png", "--frames", "0:3", "--stats", "an.json", "--quiet")
+    assert result.exit_code == 0, result.output
+    stats = json.loads((tmp_path / "an.json").read_text())
+    contract = "width height spp mode threads primitives triangles rays primary_rays build_seconds render_seconds"
+    for key in (*contract.split(), "mrays_per_second", "bvh_nodes", "bvh_bytes"):
+        assert key in stats, key
+    scene = rl.load_scene(tmp_path / "flight.toml")
+    stills = [rl.render(scene.replace(camera=camera_at(scene, k)), aovs=False).stats for k in range(3)]
+    assert stats["frames"] == 3 and stats["threads"] == stills[0]["threads"] >= 1
+    assert stats["primary_rays"] == 3 * 48 * 32 == sum(s["primary_rays"] for s in stills)
+    assert stats["rays"] == sum(s["rays"] for s in stills) > stats["primary_rays"]
+    assert stats["mrays_per_second"] == pytest.approx(stats["rays"] / stats["render_seconds"] / 1e6)
+
+
 def test_frame_k_still_and_refusals(tmp_path, raylume):
     (tmp_path / "flight.toml").write_text(FLIGHT)
     (tmp_path / "still.toml").write_text(

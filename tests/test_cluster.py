@@ -325,6 +325,9 @@ def test_animation_frames_on_the_cluster_equal_the_stills(client):
     assert sorted(remote) == [1, 2, 3, 4]
     for k in remote:
         assert np.array_equal(local[k].rgb, remote[k].rgb), k
+        # what an animation's --stats sums: a cluster frame's rays as the still's
+        assert remote[k].stats["primary_rays"] == local[k].stats["primary_rays"] == 24 * 16
+        assert remote[k].stats["rays"] == local[k].stats["rays"] and remote[k].stats["render_seconds"] > 0
 
 
 @pytest.mark.skipif(not denoise_available(), reason="pyoidn (raylume[denoise]) is not installed")

@@ -84,9 +84,11 @@ def render_animation(
             rgb, _ = session._denoised(
                 camera_of_frame[k], settings, rgb, albedo, normal, result.adaptive if adaptive else None
             )
+        primary = 0 if table.mode == "raster" else table.width * table.height * table.spp  # as Session.render's
         stats = {"width": table.width, "height": table.height, "spp": table.spp, "mode": table.mode, "frame": k,
-                 "rays": result.rays, "render_seconds": result.seconds}  # fmt: skip
+                 "rays": result.rays, "primary_rays": primary, "render_seconds": result.seconds}  # fmt: skip
         if adaptive:
             stats["adaptive"] = result.adaptive
+            stats["primary_rays"] = result.adaptive["samples"]
         yield k, Image(rgb, {}, stats, table.encoding, exposure=table.exposure, tonemap=table.tonemap)
     session.last_cluster_stats = renderer.stats()

@@ -45,6 +45,8 @@ def render_animation_to(
     written: list[Path] = []
     done = 0
     compile_seconds = None  # the frames' (in-process frames report theirs; the first one compiles)
+    work = {"rays": 0, "primary_rays": 0, "render_seconds": 0.0}  # the frames' summed (DESIGN.md's --stats)
+    threads = None  # in-process frames' (a cluster's: its workers' threads, below)
     frame_spp: list[float] = []  # adaptive sampling: each frame's mean samples a pixel
     try:
         with progress_bar(quiet) as progress, compile_notice(quiet, mode=table.mode) as status:
@@ -59,6 +61,9 @@ def render_animation_to(
                     writer.write(image.to_uint8())
                 else:
                     written.append(image.save(sequence_path(output, k), bit_depth=bit_depth))
+                for key in work:
+                    work[key] += image.stats.get(key, 0)
+                threads = image.stats.get("threads", threads)
                 if "compile_seconds" in image.stats:
                     compile_seconds = (compile_seconds or 0.0) + image.stats["compile_seconds"]
                 if "adaptive" in image.stats:
@@ -91,11 +96,15 @@ def render_animation_to(
             "mode": table.mode,
             "seconds": seconds,
             **session.compiled.stats,
+            **work,
+            "mrays_per_second": work["rays"] / work["render_seconds"] / 1e6 if work["render_seconds"] > 0 else 0.0,
         }
+        cluster_stats = getattr(session, "last_cluster_stats", None)
+        stats["threads"] = cluster_stats["threads"] if cluster_stats else threads
         if compile_seconds is not None:  # (on a cluster the workers compile: their stats say so)
             stats["compile_seconds"] = compile_seconds
-        if getattr(session, "last_cluster_stats", None):
-            stats["cluster"] = session.last_cluster_stats
+        if cluster_stats:
+            stats["cluster"] = cluster_stats
         if frame_spp:
             stats["adaptive"] = {"mean_spp": sum(frame_spp) / len(frame_spp), "frames_mean_spp": frame_spp}
         text = json.dumps(stats, indent=2, default=float) + "\n"
