@@ -79,8 +79,11 @@ def test_the_command_line_prints_each_warning_once_on_stderr(tmp_path):
 def test_triangles_far_from_the_origin_for_their_size_are_warned_about():
     """Triangles are stored in float32, whose spacing at 1e5 is 2^-7 (0.0078): a 1.4-unit mesh
     and a triangle there are rounded by 0.28% and 0.17% of their sizes, and at 1e7 they vanish
-    (nothing says so but this warning). The same objects near the origin, a sphere (float64)
-    and an instanced mesh (stored in its own space) far away, are not warned about."""
+    (nothing says so but this warning). The same objects near the origin, and an instanced mesh
+    (stored in its own space) far away, are not warned about. A sphere is float64 and keeps its
+    shape, but the rays that leave it start 1e-7 of its distance from the origin off it, 0.01 at
+    1e5, three times this one's box: a warning of its own (its shading and shadows were off
+    without a word)."""
     far, near = 100000.0, 10.0
     triangle = [[-0.5, -0.5, 0], [0.5, -0.5, 0], [0, 0.5, 0]]
 
@@ -103,6 +106,13 @@ def test_triangles_far_from_the_origin_for_their_size_are_warned_about():
     assert said(near) == []
     spacing = float(np.spacing(np.float32(far)))
     messages = said(far)  # one line, however many objects (a scene of loose triangles has hundreds)
+    offsets = [m for m in messages if "rays that leave" in m]
+    assert offsets == [
+        "objects[2] lies far from the origin for its size: rays that leave it, 1e+05 units out, start 0.01 off "
+        "its surface (289% of its 0.00346 across), so its shading and shadows are off; move the scene nearer "
+        "to the origin (or scale it up)"
+    ], messages
+    messages = [m for m in messages if m not in offsets]
     assert len(messages) == 1 and messages[0].startswith("objects[0] and objects[1] lie far from the origin")
     # the worst named: the mesh, 1.41 across, against the 1.12 of the triangle written out
     assert f"the corners of objects[0], 1e+05 units out, by up to {spacing / 2:.2g} (0.28%" in messages[0], messages

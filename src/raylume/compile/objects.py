@@ -67,6 +67,38 @@ def rounded_too_far(lo: np.ndarray, hi: np.ndarray) -> tuple[float, float, float
     return (farthest, size, rounding) if size > 0 and rounding > ROUNDING_WARNED * size else None
 
 
+# Rays leave a surface offset from it by 1e-7 of the point's distance from the origin
+# (kernels/geometry/shapes.offset_epsilon: float32 triangles' rounding, and no acne at any scale)
+RAY_OFFSET = 1e-7
+
+
+def offset_too_far(lo: np.ndarray, hi: np.ndarray) -> tuple[float, float, float] | None:
+    """rounded_too_far for an analytic shape, which float64 keeps exact: (its distance from the
+    origin, its size, the ray offset) where the offset of the rays that leave it is a visible
+    part of its size (a 1 cm sphere 1e5 units out: 1 cm, its shadows and terminator moved)."""
+    size = float(np.linalg.norm(hi - lo))
+    farthest = float(max(np.abs(lo).max(), np.abs(hi).max()))
+    offset = RAY_OFFSET * farthest
+    return (farthest, size, offset) if size > 0 and offset > ROUNDING_WARNED * size else None
+
+
+def warn_about_offsets(offset: dict[int, tuple[float, float, float]]) -> None:
+    """One warning for the analytic shapes offset_too_far found, naming the worst."""
+    if not offset:
+        return
+    worst = max(offset, key=lambda k: offset[k][2] / offset[k][1])
+    farthest, size, by = offset[worst]
+    names = [f"objects[{k}]" for k in sorted(offset)]
+    which = " and ".join(names) if len(names) <= 2 else f"{names[0]}, {names[1]} and {len(names) - 2} more"
+    one = len(names) == 1
+    warn(
+        f"{which} {'lies' if one else 'lie'} far from the origin for {'its size' if one else 'their sizes'}: "
+        f"rays that leave {'it' if one else f'objects[{worst}]'}, {farthest:.3g} units out, start {by:.2g} off "
+        f"its surface ({100 * by / size:.3g}% of its {size:.3g} across), so its shading and shadows are off; "
+        "move the scene nearer to the origin (or scale it up)"
+    )
+
+
 def warn_about_rounding(rounded: dict[int, tuple[float, float, float]]) -> None:
     """One warning for every object rounded_too_far found (a scene of loose triangles may have
     hundreds), naming the worst: the one rounded by the largest part of its size."""
@@ -229,16 +261,20 @@ class _Analytic:
         self.materials: list[int] = []
         self.objects: list[int] = []
 
-    def add(self, kind: Shape, row, material: int, obj: int) -> None:
+    def add(self, kind: Shape, row, material: int, obj: int) -> tuple[np.ndarray, np.ndarray] | None:
+        """Add a shape; returns its box (lo, hi), None for an unbounded one (a plane)."""
         padded = np.zeros(SHAPE_WIDTH, dtype=np.float64)
         padded[: len(row)] = row
+        box = None
         if is_bounded(kind):
             lo, hi = shape_bounds(kind, padded[None])
             _check_extent(float(max(np.abs(lo).max(), np.abs(hi).max())))
+            box = (lo[0], hi[0])
         self.rows.append(padded)
         self.kinds.append(int(kind))
         self.materials.append(material)
         self.objects.append(obj)
+        return box
 
     def table(self) -> np.ndarray:
         return np.asarray(self.rows, dtype=np.float64).reshape(-1, SHAPE_WIDTH)
@@ -264,6 +300,7 @@ class SceneGeometry:
         self.analytic = _Analytic()
         self.soup = _TriangleSoup()
         self.rounded: dict[int, tuple[float, float, float]] = {}  # objects float32 rounds visibly
+        self.offset: dict[int, tuple[float, float, float]] = {}  # analytic shapes the ray offset moves visibly
         self.instanced: list[_InstancedMesh] = []
 
     def add_mesh(
@@ -355,7 +392,9 @@ def gather_objects(scene: Scene, source: str) -> Gathered:
                     m = materials.setdefault(mat, len(materials))
                     _add_gltf_part(geometry, part, m, k, _reads_uvs(mat))
             elif kind is not None:
-                analytic.add(kind, ANALYTIC[kind].pack(obj, object_matrix(obj)), m, k)
+                box = analytic.add(kind, ANALYTIC[kind].pack(obj, object_matrix(obj)), m, k)
+                if box is not None and (found := offset_too_far(*box)) is not None:
+                    geometry.offset[k] = found
             elif isinstance(obj, Triangle):
                 uvs = np.array([[0, 0, 1, 0, 0, 1]], dtype=np.float32) if needs_uvs(obj) else None
                 corners = np.asarray(obj.vertices, dtype=np.float64)
@@ -383,4 +422,5 @@ def gather_objects(scene: Scene, source: str) -> Gathered:
         except OutOfRange as exc:
             raise SceneError(f"{source}: objects[{k}]: {exc}") from None
     warn_about_rounding(geometry.rounded)
+    warn_about_offsets(geometry.offset)
     return Gathered(geometry, materials, material_where, images, mesh_seconds)
