@@ -209,6 +209,10 @@ BAD = [
     ("missing", None, '"nowhere.npy"', "does not exist"),
     ("nan", np.full((2, 3, 4), np.nan), '"bad.npy"', "NaN"),
     ("singular", np.zeros((1, 3, 4)), '"bad.npy"', "singular"),
+    # well conditioned, but the inverse (1e40) is beyond float32: it was inf, the instance drawn
+    # by the rasterizer alone, and numpy's overflow warning printed
+    ("tiny-scale", np.diag([1.0, 1e-40, 1.0, 1.0])[None], '"bad.npy"', "beyond float32"),
+    ("huge-scale", np.diag([1.0, 1e39, 1.0, 1.0])[None], '"bad.npy"', "beyond float32"),
     ("shape", np.zeros((2, 3, 3)), '"bad.npy"', "(N, 4, 4) or (N, 3, 4)"),
     (
         "projective",

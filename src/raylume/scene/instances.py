@@ -88,13 +88,37 @@ def check_matrices(m: np.ndarray, what: str) -> np.ndarray:
     if singular.any():
         k = int(np.argmax(singular))
         raise InstanceError(f"{what}: matrix {k} is singular (it flattens the mesh; determinant {det[k]:.3g})")
+    # float32 holds the world-to-object matrices (inverse_rows): a scale below ~1e-38 (1e-40:
+    # well conditioned, but its inverse 1e40) would be inf there, and the instance drawn only
+    # by the rasterizer, which takes the matrix itself. The inverse's entries are cofactors (two
+    # products, each <= largest^2) over det, so exact inverses are taken only where that bound
+    # leaves a doubt (all of them cost ~0.8 s per million matrices).
+    with np.errstate(over="ignore"):
+        largest = np.abs(m).max(axis=(1, 2))
+        doubt = np.flatnonzero(~(2 * largest**2 / np.abs(det) * (1 + 3 * largest) < FLOAT32_LIMIT))
+        inverse_largest = np.zeros(n)
+        inverse_largest[doubt] = np.abs(_inverses(m[doubt])).max(axis=(1, 2))
+    beyond = ~(inverse_largest < FLOAT32_LIMIT) | ~(largest < FLOAT32_LIMIT)
+    if beyond.any():
+        k = int(np.argmax(beyond))
+        raise InstanceError(
+            f"{what}: matrix {k} (entries up to {largest[k]:.3g}) or its inverse (up to {inverse_largest[k]:.3g}) "
+            "is beyond float32's range, which holds instances' matrices: scale by between 1e-30 and 1e30"
+        )
     return np.ascontiguousarray(m, dtype=np.float64)
+
+
+FLOAT32_LIMIT = 1e38  # below float32's largest, 3.4e38
+
+
+def _inverses(m: np.ndarray) -> np.ndarray:
+    """float64 (N, 3, 4): each (3, 4) affine matrix's inverse (world to object)."""
+    inv = np.linalg.inv(m[:, :, :3])
+    t = -np.einsum("nij,nj->ni", inv, m[:, :, 3])
+    return np.concatenate([inv, t[:, :, None]], axis=2)
 
 
 def inverse_rows(m: np.ndarray) -> np.ndarray:
     """float32 (N, 12): each (3, 4) matrix's inverse (world to object), row-major, computed in
     float64 and rounded once."""
-    a = m[:, :, :3]
-    inv = np.linalg.inv(a)
-    t = -np.einsum("nij,nj->ni", inv, m[:, :, 3])
-    return np.ascontiguousarray(np.concatenate([inv, t[:, :, None]], axis=2).reshape(len(m), 12), dtype=np.float32)
+    return np.ascontiguousarray(_inverses(m).reshape(len(m), 12), dtype=np.float32)
