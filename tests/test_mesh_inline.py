@@ -96,6 +96,22 @@ def test_bad_numpy_tables_are_named(keys, words):
     assert "objects[0]" in str(caught.value) or "objects.0" in str(caught.value)
 
 
+def test_trimesh_arrays_are_numpy_tables():
+    """A trimesh mesh's vertices and faces (TrackedArray, an ndarray subclass) take the arrays'
+    checks: they went row by row, and complex vertices lost their imaginary parts silently."""
+    import trimesh
+
+    box = trimesh.creation.box()
+    assert type(box.vertices) is not np.ndarray
+    assert _mesh(vertices=box.vertices, faces=box.faces) == _mesh(
+        vertices=box.vertices.tolist(), faces=box.faces.tolist()
+    )
+    with pytest.raises(SceneError, match="must be numbers, got complex128"):
+        _mesh(vertices=box.vertices + 1j, faces=box.faces)
+    with pytest.raises(SceneError, match=r"3 columns .* shape \(8, 2\)"):
+        _mesh(vertices=box.vertices[:, :2], faces=box.faces)
+
+
 def test_disk_matrix_must_be_a_similarity():
     disk = {"type": "disk", "radius": 1, "transform": {"matrix": SHEAR}}
     with pytest.raises(SceneError, match="similarity"):

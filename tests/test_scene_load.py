@@ -239,6 +239,7 @@ def test_with_camera_takes_keys_or_a_camera():
 WRONG_TYPES = [
     ({"render": {"width": True}}, "render.width", "a number is needed, got true"),
     ({"render": {"width": "32"}}, "render.width", 'a number is needed, got "32"'),
+    ({"render": {"spp": np.True_}}, "render.spp", "a number is needed, got np.True_"),  # (no bool to Python)
     ({"render": {"texture_filter": "off"}}, "render.texture_filter", 'true or false is needed, got "off"'),
     ({"render": {"denoise": 1}}, "render.denoise", "true or false is needed, got 1"),
     ({"camera": {"fov": "40"}}, "camera.fov", "Input should be a valid number (got '40')"),

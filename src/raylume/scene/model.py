@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import math
+import sys
 from pathlib import Path
 from typing import Annotated, ClassVar, Literal, Union
 
@@ -71,8 +72,9 @@ def _shown(value) -> str:
 
 
 def _a_number(value):
-    """A number where one goes: pydantic's lax mode would take "32" for 32 and true for 1."""
-    if isinstance(value, (str, bytes, bool)):
+    """A number where one goes: pydantic's lax mode would take "32" for 32 and true for 1 (numpy's
+    true too, whose type is no bool)."""
+    if isinstance(value, (str, bytes)) or type(value).__name__ in ("bool", "bool_"):
         raise PydanticCustomError("number_type", "a number is needed, got {shown}", {"shown": _shown(value)})
     return value
 
@@ -935,8 +937,10 @@ def _array_rows(value, width: int, integers: bool) -> list[tuple]:
 
 
 def _is_array(value) -> bool:
-    """A numpy array (without importing numpy for other values)."""
-    return type(value).__module__ == "numpy" and hasattr(value, "shape")
+    """A numpy array, or a subclass of one (trimesh's TrackedArray, a mesh's own vertices and
+    faces: checked row by row before, complex vertices taken), without importing numpy."""
+    numpy = sys.modules.get("numpy")
+    return numpy is not None and isinstance(value, numpy.ndarray)
 
 
 class Mesh(Strict):
