@@ -33,6 +33,7 @@ from ..shading.materials import (
     bsdf_sample,
     importance_delta_weight,
     index_matched,
+    radiance_factor,
     two_sided,
 )
 from ..shading.media import MED_G, free_flight, hg_sample, medium_beyond, medium_leaving
@@ -230,6 +231,8 @@ def random_walk(C, V, start, o, d, beta, pdf_dir, most, importance, key, dim, sp
             weight = mul(weight, shading_correction(ng, ns, wo_w, wi_w))
         beta = hadamard(beta, weight)
         walk *= max(weight[0], weight[1], weight[2])
+        if not importance:  # without a camera subpath's radiance factors (path._roulette's eta2)
+            walk /= radiance_factor(mat, m, wo, wi)
         V[prev, V_PDF_REV] = convert_density(pdf_rev, V, i, V, prev)
         eps = offset_epsilon(F.epsilon_floor, p)
         o = madd(p, ng, eps if up else -eps)

@@ -63,7 +63,8 @@ def _rows(first: int, n: int) -> tuple[int, ...]:
 # the camera ray, and what the diffuse queue does not carry of path.path_start's state ...
 OX, OY, OZ, DX, DY, DZ, LR, LG, LB, CONE, SPREAD, WEIGHT = _rows(0, 12)
 ENV_U, ENV_COS = _rows(12, 2)  # an environment cell's light sample: its radiance is looked up last
-STATE_ROWS = 14
+(ETA2,) = _rows(14, 1)  # the refractions' radiance factors undone (path.path_start's eta2)
+STATE_ROWS = 15
 # ... and int64 rows of N (the sample's key is in the uint64 row K[slot]), with the place in
 # the diffuse queue (-1: none yet, the path starts at the camera) and the light row its shadow
 # ray aims at, and the form of that light's sample (path._partial_light)
@@ -210,9 +211,9 @@ def _store_result(S, N, k, st):
 @inline_function
 def _store_kept(S, N, k, st):
     """What the diffuse queue does not carry of a deferred path's state st (_resume_diffuse)."""
-    _, _, _, L, rays, depth, _, _, cone, med, _, _, crossings, leaving = st
+    _, _, _, L, rays, depth, _, _, cone, med, _, _, crossings, leaving, eta2 = st
     S[at(LR, k)], S[at(LG, k)], S[at(LB, k)] = L
-    S[at(CONE, k)] = cone
+    S[at(CONE, k)], S[at(ETA2, k)] = cone, eta2
     N[at(RAYS, k)], N[at(DEPTH, k)], N[at(MED, k)] = rays, depth, med
     N[at(CROSSINGS, k)], N[at(LEAVING, k)] = crossings, leaving
 
@@ -239,10 +240,11 @@ def _resume_diffuse(G, F, X, Em, Env, Md, S, N, Q, k, q, key, node_stack, t_stac
     o = (Q[at(NOX, q)], Q[at(NOY, q)], Q[at(NOZ, q)])
     d = (Q[at(NDX, q)], Q[at(NDY, q)], Q[at(NDZ, q)])
     going, beta = Q[at(GOING, q)] != 0.0, (Q[at(NBR, q)], Q[at(NBG, q)], Q[at(NBB, q)])
+    eta2 = S[at(ETA2, k)]  # (a diffuse surface refracts nothing)
     if going:
-        going, beta = _roulette(beta, key, depth)
+        going, beta = _roulette(beta, eta2, key, depth)
     cone, crossings = S[at(CONE, k)], N[at(CROSSINGS, k)]
-    return going, (o, d, beta, L, rays, depth, Q[at(NPDF, q)], False, cone, med, o, 0.0, crossings, leaving)
+    return going, (o, d, beta, L, rays, depth, Q[at(NPDF, q)], False, cone, med, o, 0.0, crossings, leaving, eta2)
 
 
 @inline_function

@@ -19,6 +19,7 @@ from .registry import (
     is_diffuse,
     kind_module,
     pack_material,
+    radiance_factor,
     two_sided,
 )
 from .table import (
@@ -77,6 +78,7 @@ __all__ = [
     "delta_only",
     "diffuse_lane_sample",
     "importance_delta_weight",
+    "radiance_factor",
     "index_matched",
     "is_diffuse",
     "kind_module",

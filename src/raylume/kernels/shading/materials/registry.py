@@ -74,17 +74,24 @@ def bsdf_sample(mat, m, color, wo, u0, u1, u2):
 
 
 @inline_function
+def radiance_factor(mat, m, wo, wi):
+    """The radiance factor (n_wo / n_wi)^2 in the weight of a sample from wo to wi (local frame)
+    that radiance transport has (lobes.py; a rough refraction's BTDF the same): 1 for every
+    direction on wo's side. Kinds that refract keep their index in MAT_IOR (the null boundary 1)."""
+    ior = mat[m, MAT_IOR]
+    if (wo[2] > 0.0) == (wi[2] > 0.0) or not (ior > 0.0):
+        return 1.0
+    ratio = 1.0 / ior if wo[2] > 0.0 else ior  # n on wo's side / n on wi's side
+    return ratio * ratio
+
+
+@inline_function
 def importance_delta_weight(mat, m, wo, wi, weight):
     """The weight of a delta sample (wi from wo, as `bsdf_sample` gave it) for importance, as a
     light subpath carries it (pbrt's TransportMode::Importance): a delta refraction's weight
-    loses the radiance factor (n_wo / n_wi)^2 that radiance transport has (lobes.py); every
-    other delta lobe (mirrors, the null boundary of index 1) is the same both ways. Kinds that
-    refract keep their index in MAT_IOR (the null boundary 1)."""
-    if (wo[2] > 0.0) == (wi[2] > 0.0):
-        return weight
-    ior = mat[m, MAT_IOR]
-    ratio = 1.0 / ior if wo[2] > 0.0 else ior  # n on wo's side / n on wi's side
-    return mul(weight, 1.0 / (ratio * ratio))
+    loses the radiance factor that radiance transport has; every other delta lobe (mirrors, the
+    null boundary of index 1) is the same both ways."""
+    return mul(weight, 1.0 / radiance_factor(mat, m, wo, wi))
 
 
 def pack_material(mat, row) -> None:
