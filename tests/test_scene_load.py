@@ -47,6 +47,22 @@ def test_toml_and_json_give_the_same_scene(tmp_path):
     assert a == b
     assert a.materials["red"].color == (1.0, 0.0, 0.0)
     assert a.base_dir == tmp_path.resolve()
+    # with a byte-order mark, as Windows' Notepad saves UTF-8 (both were "invalid" before)
+    for name in ("s.json", "s.toml"):
+        (tmp_path / f"bom_{name}").write_bytes(b"\xef\xbb\xbf" + (tmp_path / name).read_bytes())
+        assert load_scene(tmp_path / f"bom_{name}").model_dump(exclude={"base_dir"}) == a.model_dump(
+            exclude={"base_dir"}
+        )
+
+
+def test_a_key_twice_in_one_json_object_is_refused_as_in_toml(tmp_path):
+    """json keeps the last of repeated keys: a material written twice lost the first silently."""
+    (tmp_path / "twice.json").write_text('{"materials": {"m": {"color": [1, 0, 0]}, "m": {"color": [0, 1, 0]}}}')
+    with pytest.raises(SceneError, match=r'twice.json: invalid JSON: the key "m" appears twice in one object$'):
+        load_scene(tmp_path / "twice.json")
+    (tmp_path / "twice.toml").write_text("[materials.m]\ncolor = [1, 0, 0]\n[materials.m]\ncolor = [0, 1, 0]\n")
+    with pytest.raises(SceneError, match="twice.toml: invalid TOML"):
+        load_scene(tmp_path / "twice.toml")
 
 
 def test_defaults_of_an_empty_document():

@@ -20,7 +20,9 @@ def parse_document(text: str, path: Path) -> dict:
     """The document of a scene file's text: TOML, or JSON for a .json path."""
     kind = "TOML" if path.suffix.lower() == ".toml" else "JSON"
     try:
-        document = tomllib.loads(text) if kind == "TOML" else json.loads(text)
+        document = tomllib.loads(text) if kind == "TOML" else json.loads(text, object_pairs_hook=_unique_keys)
+    except _DuplicateKey as exc:
+        raise SceneError(f"{path}: invalid JSON: {exc}") from None
     except tomllib.TOMLDecodeError as exc:
         raise SceneError(f"{path}: invalid TOML: {exc}") from None
     except json.JSONDecodeError as exc:
@@ -34,6 +36,21 @@ def parse_document(text: str, path: Path) -> dict:
             f"{path}: a JSON scene must be an object with render, camera, materials, lights and objects keys"
         )
     return document
+
+
+class _DuplicateKey(ValueError):
+    pass
+
+
+def _unique_keys(pairs: list[tuple[str, object]]) -> dict:
+    """A JSON object, refused where a key repeats (as TOML refuses it): json keeps the last one
+    silently, so a material or key written twice lost the first without a word."""
+    table = {}
+    for key, value in pairs:
+        if key in table:
+            raise _DuplicateKey(f"the key {json.dumps(key)} appears twice in one object")
+        table[key] = value
+    return table
 
 
 def _number_problem(text: str, exc: ValueError) -> str:
