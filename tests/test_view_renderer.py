@@ -119,6 +119,29 @@ def test_path_films_are_pooled_by_their_sums():
     assert job.spp == 40 and job.done_spp == 32
 
 
+@pytest.mark.parametrize("port", [70000, -1, 8.5, True])
+def test_python_api_refuses_a_port_beyond_0_to_65535(port):
+    """The socket took 70000 as 4464, and -1 failed as a bad host."""
+    with pytest.raises(ValueError, match=r"port=.*: expected 0\.\.65535"):
+        raylume.view("seed", width=8, height=6, mode="cast", port=port, show=False)
+
+
+def test_a_background_view_left_running_ends_with_the_interpreter_quietly(tmp_path):
+    """live-view.md: "url.stop() # or leave it: it ends with the interpreter". It ended with a
+    traceback (the renderer stopped through an executor already shut down at exit)."""
+    import subprocess
+    import sys
+
+    code = (
+        "import raylume\n"
+        "url = raylume.view('seed', width=16, height=12, mode='cast', threads=1, show=False)\n"
+        "print(url, flush=True)\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, cwd=tmp_path)
+    assert done.returncode == 0 and done.stdout.startswith("http://127.0.0.1:"), done.stderr
+    assert "Traceback" not in done.stderr and "Error" not in done.stderr, done.stderr
+
+
 def test_python_api_serves_in_the_background_and_stops():
     url = raylume.view("seed", width=24, height=18, mode="trace", threads=1, show=False)
     try:

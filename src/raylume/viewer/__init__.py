@@ -53,6 +53,9 @@ def view(
     `integrator`: path mode's, "path" or "bdpt" (as `raylume view --integrator`). `defines`: a
     Mitsuba scene's $parameters (as --define)."""
     arguments = dict(locals())  # the call's arguments, before any other name is bound
+    if isinstance(port, bool) or not isinstance(port, int) or not 0 <= port <= 65535:
+        # (the socket took 70000 as 4464, and -1 as a bad host)
+        raise ValueError(f"port={port!r}: expected 0..65535 (0: a free port)")
     from ..scene.open import open_scene
     from ..session import Session
     from ..settings import overrides_of, resolve_settings

@@ -63,7 +63,11 @@ class Viewer:
             await self._stop.wait()
         finally:
             await self.server.stop()
-            await asyncio.to_thread(self.renderer.stop, STOP_SECONDS)
+            # here, not in the loop's executor: a background view still running at the
+            # interpreter's exit is stopped (atexit) after that executor has shut down, and
+            # asyncio.to_thread raised there (a traceback on every such exit). Nothing else
+            # waits for this loop once the server has stopped.
+            self.renderer.stop(STOP_SECONDS)
 
     def _stopped_by(self, sig: int) -> None:
         self.stopped_by = sig
