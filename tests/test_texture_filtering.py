@@ -11,6 +11,7 @@ from PIL import Image as PILImage
 import raylume
 from raylume.compile import mip_levels
 from raylume.kernels.shading.textures import TEX_CELL, TEX_COLOR_A, TEX_COLOR_B, TEX_WIDTH, filtered_checker, mip_lookup
+from raylume.scene.checks import SceneWarning
 
 A = (0.9, 0.8, 0.7)
 B = (0.1, 0.2, 0.3)
@@ -216,6 +217,31 @@ def test_a_16_bit_grey_texture_reads_as_its_8_bit_twin(tmp_path):
     grey8 = shown("grey8.png")
     assert 0.2 < grey8.mean() < 0.23  # sRGB 128 is linear 0.216
     np.testing.assert_array_equal(shown("grey16.png"), grey8)
+    # float greyscale (a TIFF's F mode) as it is: converted by Pillow it was 0 or 1/255
+    PILImage.fromarray(np.full((4, 4), 128 / 255, np.float32)).save(tmp_path / "grey.tif")
+    assert PILImage.open(tmp_path / "grey.tif").mode == "F"
+    np.testing.assert_allclose(shown("grey.tif"), grey8, rtol=1e-6)
+    # 16-bit colour, which Pillow decodes to 8 bits: read so, with a warning that says it
+    _write_png16_rgb(tmp_path / "rgb16.png", np.full((4, 4, 3), 32896, np.uint16))
+    assert PILImage.open(tmp_path / "rgb16.png").mode == "RGB"
+    with pytest.warns(SceneWarning, match="rgb16.png is a PNG of 16-bit colour, which is read at 8 bits"):
+        np.testing.assert_array_equal(shown("rgb16.png"), grey8)
+
+
+def _write_png16_rgb(path, rgb: np.ndarray) -> None:
+    """A PNG of 16-bit RGB (colour type 2), which Pillow cannot write: unfiltered rows."""
+    import struct
+    import zlib
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+
+    h, w, _ = rgb.shape
+    rows = b"".join(b"\x00" + rgb[y].astype(">u2").tobytes() for y in range(h))
+    header = struct.pack(">IIBBBBB", w, h, 16, 2, 0, 0, 0)
+    path.write_bytes(
+        b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(rows)) + chunk(b"IEND", b"")
+    )
 
 
 @pytest.mark.parametrize("u", [np.inf, -np.inf, np.nan, 1e300, 1e17 + 0.3, -1e-17, 0.999999999999])

@@ -11,6 +11,7 @@ import numpy as np
 from ..errors import SceneError
 from ..kernels.shading import materials as M
 from ..kernels.shading import textures as X
+from ..scene.checks import warn
 from ..scene.model import AlphaMap, BumpMap, ImageTexture, Material, NormalMap
 
 
@@ -22,13 +23,27 @@ def srgb_to_linear(x: np.ndarray) -> np.ndarray:
 def _rgb_of(im) -> np.ndarray:
     """An image's colours as float32 (H, W, 3) in 0..1, still sRGB-encoded. 16-bit and 32-bit
     greyscale (Pillow's I;16 and I modes) are scaled from their own range: Pillow's conversion
-    to RGB clips them at 255, and a 16-bit grey texture had rendered white."""
+    to RGB clips them at 255, and a 16-bit grey texture had rendered white. Float greyscale (a
+    TIFF's F mode) is read as it is, clipped to 0..1: converted, it was rounded to 0 or 1/255."""
     if im.mode.startswith("I;16") or im.mode == "I":
         grey = np.asarray(im, dtype=np.float64)
         top = 65535.0 if im.mode.startswith("I;16") or grey.max(initial=0) <= 65535 else 4294967295.0
         grey = np.clip(grey / top, 0.0, 1.0).astype(np.float32)
         return np.repeat(grey[..., None], 3, axis=2)
+    if im.mode == "F":
+        grey = np.clip(np.nan_to_num(np.asarray(im, dtype=np.float32)), 0.0, 1.0)
+        return np.repeat(grey[..., None], 3, axis=2)
     return np.asarray(im.convert("RGB"), dtype=np.float32) / np.float32(255.0)
+
+
+def eight_bit_colour_png(path: Path, im) -> bool:
+    """Whether `im` is a PNG of 16-bit colour (RGB or RGBA), which Pillow decodes to 8 bits: its
+    header's bit depth (byte 24) and colour type (byte 25: 2 RGB, 6 RGBA)."""
+    if im.format != "PNG" or im.mode not in ("RGB", "RGBA"):
+        return False
+    with open(path, "rb") as fh:
+        header = fh.read(26)
+    return len(header) == 26 and header[24] == 16 and header[25] in (2, 6)
 
 
 def _coverage_of(im) -> np.ndarray:
@@ -141,6 +156,11 @@ class TextureTable:
                 if im.width * im.height > self.MAX_TEXELS:
                     fail(f"texture {path} is {im.width} x {im.height}, more than {self.MAX_TEXELS} texels")
                 rgb = _coverage_of(im) if reading.startswith("coverage") else _rgb_of(im)
+                if eight_bit_colour_png(path, im):
+                    warn(
+                        f"{self.source}: {where}: {path} is a PNG of 16-bit colour, which is read at 8 bits (Pillow "
+                        "decodes no more); save a bump map or mask as 16-bit greyscale, which is read whole"
+                    )
         except SceneError:
             raise
         except (OSError, ValueError, PILImage.DecompressionBombError) as exc:
