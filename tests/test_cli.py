@@ -600,6 +600,27 @@ def test_aov_without_path_needs_an_exr_output(tmp_path, good):
     )
 
 
+def test_flags_without_effect_on_the_render_are_warned_about(tmp_path):
+    """A flag given where it does nothing says so in one line (--integrator had said nothing)."""
+    result = raylume("render", "--mode", "cast", "--width", 8, "--height", 6, "--denoise", "--integrator", "bdpt",
+                     "-o", "c.png", "-q", cwd=tmp_path)  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    assert result.stderr.splitlines() == [
+        "raylume: warning: --denoise has no effect in cast mode: it denoises path-traced images (--mode path)",
+        "raylume: warning: --integrator has no effect in cast mode: it picks path mode's (--mode path)",
+    ]
+    result = raylume("render", "--mode", "raster", "--width", 8, "--height", 6, "--filter", "gaussian", "-o", "r.png",
+                     "-q", cwd=tmp_path)  # fmt: skip
+    assert "--filter has no effect in raster mode" in result.stderr and result.returncode == 0
+
+
+def test_one_aov_given_two_files_is_refused(tmp_path, good):
+    """Only the last had been written, without a word."""
+    result = raylume("render", good, "-o", "o.png", "--aov", "depth=a.npy", "--aov", "depth=b.npy", cwd=tmp_path)
+    assert_refused(result, "--aov depth=b.npy", "a.npy names the depth AOV's file already")
+    assert not (tmp_path / "o.png").exists()
+
+
 def test_crop_writes_that_window_of_the_full_render(tmp_path):
     full = raylume("render", "--width", 60, "--height", 40, "--spp", 2, "-o", "full.npy", "--aov", "depth=fd.npy",
                    cwd=tmp_path)  # fmt: skip

@@ -197,6 +197,8 @@ def _parse_aovs(specs: list[str], output: Path) -> tuple[dict[str, Path], list[s
         if sep and not path:
             raise OutputError(f"--aov {spec}: expected NAME=PATH, e.g. --aov {name}={name}.npy")
         if sep:
+            if name in files:  # (the last one alone was written, without a word)
+                raise OutputError(f"--aov {spec}: --aov {name}={files[name]} names the {name} AOV's file already")
             files[name] = check_output_path(path, allowed=(".npy",))
         elif output.suffix.lower() != ".exr":
             raise OutputError(
@@ -720,6 +722,8 @@ def _warn_ignored(output: Path, settings, flags: dict) -> None:
         _warn("--filter has no effect with spp 1: the one sample is the pixel centre; use --spp 4 or more")
     if flags.get("denoise") and settings.mode != "path":
         _warn(f"--denoise has no effect in {settings.mode} mode: it denoises path-traced images (--mode path)")
+    if flags.get("integrator") is not None and settings.mode != "path":
+        _warn(f"--integrator has no effect in {settings.mode} mode: it picks path mode's (--mode path)")
 
 
 def summary(output: Path, s: dict) -> str:
