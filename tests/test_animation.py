@@ -223,6 +223,17 @@ def test_an_animation_shows_the_compile_notice_and_counts_compile_seconds(tmp_pa
     assert json.loads((tmp_path / "an.json").read_text())["compile_seconds"] >= 0.1
 
 
+def test_render_animation_takes_a_scene_as_render_does(tmp_path):
+    """A Scene instead of a Session (an AttributeError before): a session of its own."""
+    from raylume.animation import render_animation
+
+    (tmp_path / "flight.toml").write_text(FLIGHT)
+    scene = rl.load_scene(tmp_path / "flight.toml")
+    ((k, image),) = render_animation(scene, [2], width=16, height=12)
+    ((_, again),) = render_animation(rl.Session(scene), [2], width=16, height=12)
+    assert k == 2 and np.array_equal(image.rgb, again.rgb)
+
+
 def test_an_animations_stats_hold_the_stats_contract_summed_over_its_frames(tmp_path, raylume):
     """DESIGN.md's --stats keys, as a still's: an animation's lacked threads, rays, primary_rays,
     render_seconds and mrays_per_second. Its rays are its frames' (each a still's)."""

@@ -88,6 +88,12 @@ def test_convert_writes_toml_that_renders_bit_for_bit_the_same(tmp_path):
         np.testing.assert_array_equal(a, b)
 
 
+def test_save_scene_takes_a_scene_named_as_render_takes_it(tmp_path):
+    """A built-in scene's name or a file, as raylume.render takes them (an AttributeError before)."""
+    out = raylume.save_scene("seed", tmp_path / "seed.toml")
+    assert raylume.load(out) == raylume.builtin_scene("seed").with_base_dir(tmp_path)
+
+
 def test_save_scene_round_trips_a_toml_scene_into_another_folder(tmp_path):
     scene = raylume.load(REPO / "examples" / "cornell.toml")
     out = raylume.save_scene(scene, tmp_path / "cornell.json")

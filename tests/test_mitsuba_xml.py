@@ -65,6 +65,10 @@ def test_defaults_are_used_and_defines_win(tmp_path):
     text = xml(sphere(radius="$r"), extra='<default name="r" value="0.25"/>')
     assert load(tmp_path, text).objects[0].radius == 0.25
     assert load(tmp_path, text, defines={"r": "0.5"}).objects[0].radius == 0.5
+    # numbers as Mitsuba's Python API takes them ("expected str instance" before)
+    assert load(tmp_path, text, defines={"r": 0.5}).objects[0].radius == 0.5
+    with pytest.raises(TypeError, match=r"defines\['r'\]: a string or a number is needed, got \[0.5\]"):
+        load(tmp_path, text, defines={"r": [0.5]})
 
 
 def test_a_parameter_substitutes_inside_attribute_text(tmp_path):

@@ -13,7 +13,11 @@ from .scene.camera_path import TRACKS, animation_of, camera_at, interpolate  # n
 from .settings import OVERRIDES, ResolvedSettings, settings_of_call
 
 if TYPE_CHECKING:
+    from pathlib import Path
+
     from .image import Image
+    from .scene.model import Scene
+    from .session import Session
 
 
 def parse_frames(text: str, frames: int) -> range:
@@ -33,7 +37,7 @@ def parse_frames(text: str, frames: int) -> range:
 
 
 def render_animation(
-    session,
+    session: Session | Scene | str | Path,
     frames: Iterable[int] | None = None,
     *,
     cluster=None,
@@ -43,7 +47,8 @@ def render_animation(
     **arguments,
 ) -> Iterator[tuple[int, Image]]:
     """Render frames of the session's scene animation (default: all) and yield (frame, Image)
-    in order. `settings` (raylume.settings.resolve_settings), or `arguments` as Session.render
+    in order (a scene instead of a session, named as raylume.render takes one: a session of its
+    own). `settings` (raylume.settings.resolve_settings), or `arguments` as Session.render
     takes them (width, height, spp, mode, seed, ..., threads, crop), override the [render]
     table. With `cluster`, frames render in parallel on its workers (several frames in flight,
     each in tiles); frame K is bit-identical to the still of frame K. `progress(done, total)`
@@ -53,6 +58,10 @@ def render_animation(
     unknown = sorted(set(arguments) - {*OVERRIDES, "threads", "crop"})
     if unknown:
         raise TypeError(f"render_animation: unexpected keyword arguments {', '.join(unknown)}")
+    from .session import Session
+
+    if not isinstance(session, Session):  # a scene, named as raylume.render takes one
+        session = Session(session)
     scene, source = session.scene, session.source
     settings = settings_of_call(scene, arguments, settings, source)
     animation = animation_of(scene, source)

@@ -44,6 +44,17 @@ def foreign_document(path: Path, defines: dict[str, str] | None) -> tuple[dict, 
     raise SceneError(f"{path}: not a scene file of another renderer ({', '.join(FOREIGN_SUFFIXES)})")
 
 
+def _define_texts(defines: dict) -> dict[str, str]:
+    """Mitsuba's $parameters as the texts -D gives; numbers as Mitsuba's Python API takes them
+    (defines={"spp": 4}: a join of the values had failed with "expected str instance")."""
+    texts = {}
+    for name, value in defines.items():
+        if isinstance(value, bool) or not isinstance(value, (str, int, float)):
+            raise TypeError(f"defines[{name!r}]: a string or a number is needed, got {value!r}")
+        texts[str(name)] = value if isinstance(value, str) else repr(value)
+    return texts
+
+
 def load_scene(
     path: str | Path,
     overrides: Overrides | None = None,
@@ -62,6 +73,8 @@ def load_scene(
     path = Path(path)
     if defines and path.suffix.lower() not in DEFINE_SUFFIXES:
         raise SceneError(f"{path}: --define sets parameters of a Mitsuba scene (.xml), and this is not one")
+    if defines:
+        defines = _define_texts(defines)
     if path.suffix.lower() in FOREIGN_SUFFIXES:
         document, origins = foreign_document(path, defines)
         document = apply_overrides(document, overrides, path)
