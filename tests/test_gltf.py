@@ -318,6 +318,23 @@ def test_base_colour_factor_and_texture_reach_the_albedo(tmp_path):
     np.testing.assert_allclose(albedo[20, 32], [0, cyan, 1.0], rtol=1e-5)
 
 
+def test_a_texture_on_a_primitive_without_uvs_reads_one_texel_with_a_warning(tmp_path):
+    """No TEXCOORD_0 (invalid glTF, which exporters still write): the lookup at UV (0, 0)
+    everywhere, as before, and now a warning that names the primitive (it was silent)."""
+    PILImage.fromarray(np.array([[[255, 0, 0], [0, 0, 255]]], dtype=np.uint8)).save(tmp_path / "tex.png")
+    b = Builder()
+    b.doc["images"] = [{"uri": "tex.png"}]
+    b.doc["textures"] = [{"source": 0}]
+    textured = b.material(pbrMetallicRoughness={"baseColorTexture": {"index": 0}, "metallicFactor": 0})
+    b.node(mesh=b.mesh([[-1, -1, 0], [1, -1, 0], [1, 1, 0]], [[0, 1, 2]], textured))
+    b.camera(2 * math.atan(0.5), aspect=1.0, translation=[0, 0, 3])
+    scene = load_scene(b.gltf(tmp_path / "nouv.gltf")).replace(render={"texture_filter": False})
+    with pytest.warns(SceneWarning, match=r"objects\[0\]: meshes\[0\]/0 has no texture coordinates \(TEXCOORD_0\)"):
+        albedo = raylume.render(scene, width=16, height=16, mode="cast").aovs["albedo"]
+    seen = albedo[np.isfinite(albedo).all(axis=2) & (albedo.sum(axis=2) > 0)]
+    assert len(seen) > 20 and (seen == seen[0]).all()  # one lookup, at UV (0, 0), everywhere
+
+
 def test_normal_texture_turns_the_normal_up_the_image_and_scale_is_its_strength(tmp_path):
     # glTF's normal textures: +x right (increasing u), +y up the image, linear texels, the
     # normal 2 t - 1 with x and y times `scale`. A quad facing +z with u along +x and v down

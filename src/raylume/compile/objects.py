@@ -216,12 +216,17 @@ def _reads_uvs(material) -> bool:
     return isinstance(material.texture, ImageTexture) or maps
 
 
-def _add_gltf_part(geometry: SceneGeometry, part, m: int, k: int, needs_uvs: bool) -> None:
+def _add_gltf_part(geometry: SceneGeometry, part, m: int, k: int, needs_uvs: bool, source="<scene>") -> None:
     """A glTF mesh primitive (UVs where its material's texture needs them; a mesh without UVs
-    then reads texel (0, 0)): placed once, its world-space triangles; used by several nodes or
-    GPU instances, one stored mesh and an instance per matrix (those that flatten it skipped)."""
+    then reads UV (0, 0), with a warning): placed once, its world-space triangles; used by
+    several nodes or GPU instances, one stored mesh and an instance per matrix (those that
+    flatten it skipped)."""
     mesh = part.mesh
     if needs_uvs and mesh.uvs is None:
+        warn(
+            f"{source}: objects[{k}]: {part.name} has no texture coordinates (TEXCOORD_0), which its material's "
+            "texture or maps read: they read UV (0, 0) everywhere"
+        )
         mesh = mesh._replace(uvs=np.zeros((len(mesh.vertices), 2), np.float32))
     if len(part.matrices) == 1:
         for placed in flatten(part):
@@ -390,7 +395,7 @@ def gather_objects(scene: Scene, source: str) -> Gathered:
                     mat = imported.materials[part.material]
                     material_where.setdefault(mat, f"objects[{k}].file")
                     m = materials.setdefault(mat, len(materials))
-                    _add_gltf_part(geometry, part, m, k, _reads_uvs(mat))
+                    _add_gltf_part(geometry, part, m, k, _reads_uvs(mat), source)
             elif kind is not None:
                 box = analytic.add(kind, ANALYTIC[kind].pack(obj, object_matrix(obj)), m, k)
                 if box is not None and (found := offset_too_far(*box)) is not None:
