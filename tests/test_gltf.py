@@ -601,6 +601,12 @@ def broken_files(tmp_path) -> dict:
         pbrMetallicRoughness={"baseColorTexture": {"index": 0}}
     )
     out["texture"] = (b.gltf(tmp_path / "texture.gltf").name, ["images[0].uri", "gone.png", "does not exist"])
+    b = small_file(tmp_path)  # an embedded image that is none: named, without Pillow's repr of its bytes
+    b.doc["images"], b.doc["textures"] = [{"uri": "data:image/png;base64,bm90IGFuIGltYWdl"}], [{"source": 0}]
+    b.doc["meshes"][0]["primitives"][0]["material"] = b.material(
+        pbrMetallicRoughness={"baseColorTexture": {"index": 0}}
+    )
+    out["embedded"] = (b.gltf(tmp_path / "embedded.gltf").name, ["images[0] (data URI)", "cannot be decoded"])
     b = small_file(tmp_path)
     b.doc["nodes"][0]["matrix"] = [1, 0, 0, 0, 0, float("nan"), 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]
     out["matrix"] = (b.glb(tmp_path / "matrix.glb").name, ["nodes[0].matrix", "nan"])
@@ -616,6 +622,7 @@ def test_broken_files_are_refused_naming_the_file_and_the_fault(tmp_path):
             load_scene(tmp_path / file)
         message = str(caught.value)
         assert file in message and all(w in message for w in words), (name, message)
+        assert "object at 0x" not in message, message
 
 
 @pytest.mark.parametrize(

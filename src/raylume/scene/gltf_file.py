@@ -271,4 +271,5 @@ class GltfFile:
         except GltfError:
             raise
         except (OSError, ValueError, PILImage.DecompressionBombError) as exc:
-            self.fail(f"texture {name} cannot be decoded as an image (PNG or JPEG): {exc}")
+            why = str(exc).split(" <_io.BytesIO")[0]  # (Pillow names the in-memory file by its repr)
+            self.fail(f"texture {name} cannot be decoded as an image (PNG or JPEG): {why}")
