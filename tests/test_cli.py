@@ -165,6 +165,7 @@ def test_bad_scene_exits_2_with_message_and_writes_nothing(tmp_path, name):
         (["--mode", "photon"], "--mode"),
         (["--spp", "abc"], "spp"),
         (["-o", "out.gif"], "unknown output format"),
+        (["-o", "out.avi"], "use one of .png, .jpg, .jpeg, .npy, .exr, .hdr; for an animation .mp4, .gif, or frames"),
         (["-o", "missing/out.png"], "does not exist"),
         (["--aov", "color=c.npy"], "unknown AOV"),
         (["--aov", "depth"], "NAME=PATH"),

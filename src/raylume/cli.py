@@ -587,7 +587,7 @@ def _render(
     if is_sequence(output):
         output = check_sequence_path(output)
     elif not is_video(output):
-        output = check_output_path(output)
+        output = check_output_path(output, also="; for an animation .mp4, .gif, or frames like f_%04d.png")
     if frames is not None and frame is not None:
         raise OutputError("--frames A:B and --frame K exclude each other: several frames, or one still")
     if frames is not None and not animated:

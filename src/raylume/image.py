@@ -66,9 +66,10 @@ def encode_16bit(rgb: np.ndarray, encoding: str = "clamp", exposure: float = 0.0
     return np.round(encode_levels(rgb, encoding, exposure, tonemap) * 65535.0).astype(np.uint16)
 
 
-def check_output_path(path: str | Path, allowed=IMAGE_SUFFIXES) -> Path:
-    """Reject an output path before rendering: a folder, an unknown extension, a folder that is
-    missing, not a folder or not writable."""
+def check_output_path(path: str | Path, allowed=IMAGE_SUFFIXES, also: str = "") -> Path:
+    """Reject an output path before rendering: a folder, an unknown extension (`also`: what
+    else the caller takes, for its message), a folder that is missing, not a folder or not
+    writable."""
     path = Path(path)
     if path.is_dir():
         raise OutputError(
@@ -76,7 +77,7 @@ def check_output_path(path: str | Path, allowed=IMAGE_SUFFIXES) -> Path:
             f"e.g. {path / ('render' + allowed[0])}"
         )
     if path.suffix.lower() not in allowed:
-        raise OutputError(f"{path}: unknown output format {path.suffix or '(none)'!r}; use {_one_of(allowed)}")
+        raise OutputError(f"{path}: unknown output format {path.suffix or '(none)'!r}; use {_one_of(allowed)}{also}")
     check_writable_folder(path)
     return path
 
