@@ -255,6 +255,26 @@ def test_inline_transforms_equal_the_npy_form(scenes, tmp_path):
     np.testing.assert_array_equal(a[3][on], b[3][on])
 
 
+def test_a_numpy_array_of_matrices_equals_the_npy_form(scenes):
+    """From Python, the (N, 4, 4) array itself, as vertices and faces take arrays (it was
+    refused with every matrix printed); a bad one gets one line, with the array's shape."""
+    inst, _, _, mats = scenes
+    obj = inst.objects[-1]
+    given = inst.replace(objects=[*inst.objects[:-1], obj.model_copy(update={"instances": None})])
+    table = given.model_dump()
+    table["objects"][-1]["instances"] = mats
+    table["objects"][-1]["file"] = str(inst.base_dir / obj.file)
+    from_array = raylume.scene_from_dict(table)
+    o, d = grid_rays(16)
+    a = raylume.intersect(inst, o, d, instances=True)
+    b = raylume.intersect(from_array, o, d, instances=True)
+    for x, y in zip(a, b):
+        np.testing.assert_array_equal(x, y)
+    table["objects"][-1]["instances"] = mats[:, :3, :3]
+    with pytest.raises(raylume.SceneError, match=r"\(N, 4, 4\) or \(N, 3, 4\) matrices .*shape \(\d+, 3, 3\)\)$"):
+        raylume.scene_from_dict(table)
+
+
 @pytest.mark.parametrize("mode", ["cast", "path", "raster"])
 def test_every_mode_renders_instances(scenes, mode):
     inst, flat, _, _ = scenes

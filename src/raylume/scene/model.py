@@ -988,6 +988,19 @@ class Mesh(Strict):
             return _array_rows(value, 2 if info.field_name == "uvs" else 3, info.field_name == "faces")
         return handler(value)
 
+    @field_validator("instances", mode="before")
+    @classmethod
+    def _instance_array(cls, v):
+        """A numpy array of (N, 4, 4) or (N, 3, 4) matrices, as a .npy file holds them: each a
+        `matrix` transform (it was refused with every matrix printed), checked as inline ones
+        are (scene/instances.check_matrices, when the scene is compiled)."""
+        if not _is_array(v):
+            return v
+        if v.ndim != 3 or v.shape[1:] not in ((4, 4), (3, 4)) or v.dtype.kind not in "iuf":
+            raise ValueError("an array of instances holds (N, 4, 4) or (N, 3, 4) matrices of numbers")
+        bottom = [[0.0, 0.0, 0.0, 1.0]] if v.shape[1] == 3 else []
+        return [{"matrix": [*m.tolist(), *bottom]} for m in v.astype(float)]
+
     @field_validator("instances")
     @classmethod
     def _instances(cls, v):

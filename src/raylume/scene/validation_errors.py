@@ -186,6 +186,8 @@ def describe_error(error: dict, model: type[BaseModel]) -> str:
         value = value.get("type")
     elif kind in ("unknown_type", "material_ref") or isinstance(value, (dict, list)):
         return msg
+    if hasattr(value, "shape") and hasattr(value, "dtype"):  # a numpy array: its kind, not its values
+        return f"{msg} (got a {value.dtype} array of shape {value.shape})"
     return msg if _names_value(msg, value) else f"{msg} (got {value!r})"
 
 
