@@ -197,7 +197,8 @@ def test_ctrl_c_keeps_the_rounds_done(cornell):
 def test_tiles_quiet_only_with_every_sample_stopped_by_spp(cornell):
     """With too few samples for any tile to stop early (the warning says so), the render took
     every sample: its stats say "spp", though its tiles end below the threshold."""
-    with pytest.warns(raylume.SceneWarning, match="every pixel takes them all"):
+    said = "judges a tile from its 4th round and 8 samples a pixel on; spp 8 is 4 rounds, so every pixel takes them all"
+    with pytest.warns(raylume.SceneWarning, match=said):
         image = raylume.render(cornell, width=32, height=32, spp=8, noise_threshold=0.5, threads=2)
     stats = image.stats["adaptive"]
     assert stats["min_spp"] == 8 and stats["stopped_by"] == "spp", stats

@@ -251,9 +251,11 @@ def warn_about_rounds(settings: RenderSettings) -> None:
     before its last round, or a time limit with one round."""
     sizes = round_sizes(settings.spp)
     if settings.noise_threshold is not None and not _judged_rounds(settings) - {len(sizes) - 1}:
+        rounds = f"{len(sizes)} round{'s' if len(sizes) > 1 else ''}"
         warn(
-            f"noise_threshold lets a tile stop after {FIRST_CHECK} rounds and {least_spp(settings)} samples; with "
-            f"spp {settings.spp} every pixel takes them all (spp is the most a pixel takes: give it more)"
+            f"noise_threshold judges a tile from its {FIRST_CHECK}th round and {least_spp(settings)} samples a pixel "
+            f"on; spp {settings.spp} is {rounds}, so every pixel takes them all (spp is the most a pixel takes: give "
+            "it more)"
         )
     if settings.time_limit is not None and len(sizes) == 1:
         warn(
