@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 
 import pytest
+from test_cli import raylume as run_cli
 
 import raylume
 from raylume.errors import SceneError
@@ -86,6 +87,25 @@ def test_load_scene_validates_after_overrides(tmp_path):
     assert message.startswith(f"{path}") and "objects[0].radius" in message and "--set objects.0.radius=-2" in message
     with pytest.raises(SceneError, match=r"camera.zoom: unknown key 'zoom'"):
         load_scene(path, overrides=["camera.zoom=2"])
+
+
+def test_an_error_a_set_caused_names_it(tmp_path):
+    """command-line.md: "an error caused by a --set says which one": also where the --set
+    changed a table's type (every key of the table is then judged by it), and where the error
+    is found after validation (a texture file that does not exist)."""
+    path = tmp_path / "s.toml"
+    path.write_text('[[objects]]\ntype = "sphere"\ncenter = [0, 0, 3]\nradius = 1\n')
+    with pytest.raises(
+        SceneError, match=r"objects\[0\].radius: unknown key 'radius' \(set by --set objects.0.type=plane\)"
+    ):
+        load_scene(path, overrides=["objects.0.type=plane"])
+    texture = 'objects.0.material.texture={type="image", file="gone.png"}'
+    result = run_cli("render", path, "-o", "o.png", "-q", "--mode", "cast", "--set", "render.width=8", "--set", texture,
+                     cwd=tmp_path)  # fmt: skip
+    assert result.returncode == 2, result.stderr
+    assert result.stderr.rstrip().endswith(
+        """ does not exist (set by --set objects.0.material.texture={type="image", file="gone.png"})"""
+    ), result.stderr
 
 
 def test_json_scenes_and_builtins_take_overrides(tmp_path):

@@ -142,15 +142,20 @@ def _error_text(exc: Exception) -> str:
 
 
 @contextmanager
-def _errors_exit_2(debug: bool):
+def _errors_exit_2(debug: bool, assignments: list[str] | None = None):
     """Bad input (a RaylumeError, or an unexpected ValueError or OSError) becomes one paragraph
-    on stderr and exit status 2; --debug shows the traceback instead."""
+    on stderr and exit status 2; --debug shows the traceback instead. A scene's error that a
+    --set of `assignments` caused after validation (a texture file) says which one."""
     try:
         yield
     except RaylumeError as exc:
         if debug:
             raise
         _raise_if_interrupted()  # (an error of a library that swallowed a Ctrl-C is the Ctrl-C)
+        if isinstance(exc, SceneError) and assignments:
+            from .scene.overrides import attributed
+
+            _fail(attributed(str(exc), assignments))
         _fail(str(exc))
     except (ValueError, OSError) as exc:
         if debug:
@@ -411,7 +416,7 @@ def render(
     flags = overrides_of(locals())  # --width ... --denoise, by the [render] keys they set
     with _terminate_as_interrupt(), _interrupts_remembered():  # SIGTERM as Ctrl-C, below
         try:
-            with _errors_exit_2(debug), _echo_warnings(once=True):  # (an animation's frames: once each)
+            with _errors_exit_2(debug, assignments), _echo_warnings(once=True):  # (an animation's frames: once each)
                 _render(
                     scene,
                     output,
@@ -970,7 +975,7 @@ def view(
     flags = overrides_of(locals())  # --width, --height, --spp, --mode, --denoise, --tonemap
     try:
         # (the render thread's warnings too, as render prints them: one line each, and once)
-        with _errors_exit_2(debug), _echo_warnings(once=True):
+        with _errors_exit_2(debug, assignments), _echo_warnings(once=True):
             scene_model, label = _resolve_scene(scene, assignments or [], width, height, defines=defines)
             settings = resolve_settings(scene_model, flags, threads=threads, source=label, flags=True)
             warn_about(scene_model, settings.render.mode)  # a view's passes do not all go through render()
@@ -1015,7 +1020,7 @@ def convert(
     from .save import save_scene
     from .scene.export import SUFFIXES
 
-    with _errors_exit_2(debug), _echo_warnings():
+    with _errors_exit_2(debug, assignments), _echo_warnings():
         if output.suffix.lower() not in SUFFIXES:
             raise OutputError(f"-o {output}: a raylume scene file ends in .toml or .json")
         scene_model, label = _resolve_scene(scene, assignments or [], defines=defines)

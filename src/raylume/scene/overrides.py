@@ -12,6 +12,7 @@ value or an unknown key is reported as any other.
 from __future__ import annotations
 
 import copy
+import re
 import sys
 import tomllib
 from collections.abc import Iterable, Mapping
@@ -122,8 +123,24 @@ def _index(part: str, length: int, where: str, text: str) -> int:
     return index
 
 
+def attributed(message: str, overrides: Overrides | None) -> str:
+    """An error found after validation (a texture file, a mesh file) with the --set that set the
+    key it names, as validation's errors say it (format_validation_error): the last override
+    whose key (or a table above it) the message names after its file."""
+    if "(set by --set" in message:
+        return message
+    for keys, _, text in reversed(assignments(overrides)):
+        name = "".join(f"[{k}]" if k.isdigit() else f".{k}" for k in keys).lstrip(".")
+        if re.search(rf": {re.escape(name)}(?=[.:\[])", message):
+            return f"{message} (set by --set {text})"
+    return message
+
+
 def touches(path: list[str], loc: list[str]) -> bool:
     """Whether a validation error at `loc` concerns the value set at `path` (one lies within the
-    other: an error inside the new value, or a check of the table that holds it)."""
+    other: an error inside the new value, or a check of the table that holds it). A table's
+    `type` decides what every key of the table may be: setting it concerns them all."""
+    if len(path) > 1 and path[-1] == "type":
+        path = path[:-1]
     n = min(len(path), len(loc))
     return n > 0 and path[:n] == loc[:n]
