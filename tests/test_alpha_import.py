@@ -162,6 +162,25 @@ def test_pbrt_a_mirrored_float_image_is_refused_where_a_map_uses_it_naming_its_t
             pbrt_file(tmp_path, texture + use)
 
 
+def test_pbrt_an_unreadable_alpha_image_names_the_material_directive(tmp_path):
+    """An error found when the scene is compiled names the directive of the material the alpha
+    variant was made from, as a normal map's does (the variant's name, with its "+", went
+    unnamed)."""
+    pbrt_file(tmp_path, "")
+    (tmp_path / "broken.png").write_bytes(b"\x89PNG\r\n\x1a\n" + b"not an image")
+    body = """
+Texture "holes" "float" "imagemap" "string filename" "broken.png"
+Material "diffuse"
+Shape "trianglemesh" "point3 P" [0 0 0  1 0 0  0 0 1] "integer indices" [0 1 2] "point2 uv" [0 0 1 0 0 1]
+  "texture alpha" "holes"
+"""
+    (tmp_path / "scene.pbrt").write_text(PBRT_HEAD + body)
+    with pytest.raises(
+        raylume.SceneError, match=r"\+alpha-1.alpha_map.file \(\S*scene.pbrt:\d+: Material \"diffuse\"\): "
+    ):
+        raylume.render(tmp_path / "scene.pbrt", width=8, height=8, mode="cast")
+
+
 def mitsuba_mask(
     opacity: str, inner='<bsdf type="diffuse"><rgb name="reflectance" value="0.6, 0.5, 0.4"/></bsdf>', emitter=""
 ) -> str:

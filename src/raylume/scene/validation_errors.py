@@ -81,7 +81,7 @@ def name_origins(message: str, origins: dict[str, str]) -> str:
                 return f"{path} ({origins[key]}):"
         return match.group(0)
 
-    return re.sub(r"(?<=[:;] )([A-Za-z_][\w.\[\]-]*):", named, message)
+    return re.sub(r"(?<=[:;] )([A-Za-z_][\w.\[\]+-]*):", named, message)
 
 
 # How an untagged union's members read in a message (pydantic names each member in the error's
