@@ -256,6 +256,13 @@ WRONG_TYPES = [
     ({"render": {"width": True}}, "render.width", "a number is needed, got true"),
     ({"render": {"width": "32"}}, "render.width", 'a number is needed, got "32"'),
     ({"render": {"spp": np.True_}}, "render.spp", "a number is needed, got np.True_"),  # (no bool to Python)
+    # a list cut short, said of the list (pydantic names each missing place as a required key)
+    (
+        {"objects": [{"type": "sphere", "center": [0, 3], "radius": 1}]},
+        "objects[0].center",
+        "too few values: 2 given, 3 needed",
+    ),
+    ({"camera": {"position": [1]}}, "camera.position", "too few values: 1 given, 3 needed"),
     ({"render": {"texture_filter": "off"}}, "render.texture_filter", 'true or false is needed, got "off"'),
     ({"render": {"denoise": 1}}, "render.denoise", "true or false is needed, got 1"),
     ({"camera": {"fov": "40"}}, "camera.fov", "Input should be a valid number (got '40')"),

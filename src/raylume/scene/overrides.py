@@ -129,7 +129,11 @@ def attributed(message: str, overrides: Overrides | None) -> str:
     whose key (or a table above it) the message names after its file."""
     if "(set by --set" in message:
         return message
-    for keys, _, text in reversed(assignments(overrides)):
+    try:
+        given = assignments(overrides)
+    except SceneError:  # (a malformed --set is that very error)
+        return message
+    for keys, _, text in reversed(given):
         name = "".join(f"[{k}]" if k.isdigit() else f".{k}" for k in keys).lstrip(".")
         if re.search(rf": {re.escape(name)}(?=[.:\[])", message):
             return f"{message} (set by --set {text})"

@@ -38,7 +38,7 @@ def format_validation_error(
     `model` (its key suggestions come from there). `table` is where that model sits in a scene
     (("camera",) names keys camera.fov, ...); `key_name` names a key another way (command-line
     flags). `overrides` (--set) are named when they caused a problem."""
-    errors = _typos_for_missing_keys(merge_union_errors(exc.errors()), model)
+    errors = _short_lists(_typos_for_missing_keys(merge_union_errors(exc.errors()), model))
     set_by = assignments(overrides)
     lines = []
     for error in errors[:MAX_SHOWN]:
@@ -53,6 +53,34 @@ def format_validation_error(
         lines.append(f"{where}{describe_error(error, model)}{cause}")
     more = f" (and {len(errors) - MAX_SHOWN} more problems)" if len(errors) > MAX_SHOWN else ""
     return f"{source}: {context}" + "; ".join(lines) + more
+
+
+def _short_lists(errors: list[dict]) -> list[dict]:
+    """Lists cut short (a centre of two numbers) said of the list: pydantic names each missing
+    place as a required key ('center[2]: this key is required')."""
+    out, seen = [], {}
+    for error in errors:
+        loc = tuple(error["loc"])
+        if error["type"] != "missing" or not loc or not isinstance(loc[-1], int):
+            out.append(error)
+            continue
+        parent, needed = loc[:-1], loc[-1] + 1
+        if parent in seen:  # the same list, a later place missing too: the one error says the most
+            seen[parent]["needed"] = max(seen[parent]["needed"], needed)
+            continue
+        given = len(error["input"]) if isinstance(error.get("input"), (list, tuple)) else None
+        seen[parent] = {
+            "type": "too_short",
+            "loc": parent,
+            "needed": needed,
+            "given": given,
+            "input": error.get("input"),
+        }
+        out.append(seen[parent])
+    for error in seen.values():
+        has = f"{error['given']} given" if error["given"] is not None else "fewer given"
+        error["msg"] = f"too few values: {has}, {error['needed']} needed"
+    return out
 
 
 def _typos_for_missing_keys(errors: list[dict], model: type[BaseModel]) -> list[dict]:
