@@ -36,7 +36,7 @@ def _rgb_of(im) -> np.ndarray:
     return np.asarray(im.convert("RGB"), dtype=np.float32) / np.float32(255.0)
 
 
-def eight_bit_colour_png(path: Path, im) -> bool:
+def sixteen_bit_colour_png(path: Path, im) -> bool:
     """Whether `im` is a PNG of 16-bit colour (RGB or RGBA), which Pillow decodes to 8 bits: its
     header's bit depth (byte 24) and colour type (byte 25: 2 RGB, 6 RGBA)."""
     if im.format != "PNG" or im.mode not in ("RGB", "RGBA"):
@@ -156,7 +156,7 @@ class TextureTable:
                 if im.width * im.height > self.MAX_TEXELS:
                     fail(f"texture {path} is {im.width} x {im.height}, more than {self.MAX_TEXELS} texels")
                 rgb = _coverage_of(im) if reading.startswith("coverage") else _rgb_of(im)
-                if eight_bit_colour_png(path, im):
+                if sixteen_bit_colour_png(path, im):
                     warn(
                         f"{self.source}: {where}: {path} is a PNG of 16-bit colour, which is read at 8 bits (Pillow "
                         "decodes no more); save a bump map or mask as 16-bit greyscale, which is read whole"

@@ -10,7 +10,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..errors import SceneError
-from ..kernels.geometry.shapes import ANALYTIC, SHAPE_WIDTH, Shape, is_bounded
+from ..kernels.geometry.shapes import ANALYTIC, RAY_OFFSET, SHAPE_WIDTH, Shape, is_bounded
 from ..kernels.geometry.shapes import bounds as shape_bounds
 from ..scene.checks import warn
 from ..scene.gltf import flatten, load_gltf_object
@@ -67,14 +67,9 @@ def rounded_too_far(lo: np.ndarray, hi: np.ndarray) -> tuple[float, float, float
     return (farthest, size, rounding) if size > 0 and rounding > ROUNDING_WARNED * size else None
 
 
-# Rays leave a surface offset from it by 1e-7 of the point's distance from the origin
-# (kernels/geometry/shapes.offset_epsilon: float32 triangles' rounding, and no acne at any scale)
-RAY_OFFSET = 1e-7
-
-
 def offset_too_far(lo: np.ndarray, hi: np.ndarray) -> tuple[float, float, float] | None:
     """rounded_too_far for an analytic shape, which float64 keeps exact: (its distance from the
-    origin, its size, the ray offset) where the offset of the rays that leave it is a visible
+    origin, its size, the ray offset, shapes.offset_epsilon's) where the offset of the rays that leave it is a visible
     part of its size (a 1 cm sphere 1e5 units out: 1 cm, its shadows and terminator moved)."""
     size = float(np.linalg.norm(hi - lo))
     farthest = float(max(np.abs(lo).max(), np.abs(hi).max()))

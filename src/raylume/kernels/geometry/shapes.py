@@ -320,11 +320,16 @@ def surface(G, X, hit, b1, b2, p):
     )
 
 
+# Rays leave a surface this fraction of the point's distance from the origin off it: above
+# float32's rounding of the triangles there (6e-8), so no acne at any scale
+RAY_OFFSET = 1e-7
+
+
 @kernel_function
 def offset_epsilon(epsilon_floor, p):
     """Offset for rays leaving a surface at p: scaled to the hit's magnitude, so no acne at any
     scale (epsilon_floor: a tiny fraction of the scene's extent)."""
-    return 1e-7 * max(max_abs(p), epsilon_floor)
+    return RAY_OFFSET * max(max_abs(p), epsilon_floor)
 
 
 # --- emission: path mode samples points on emissive primitives (lights/surface.py) ---------
