@@ -702,6 +702,36 @@ def test_homogeneous_media_with_volpath(tmp_path):
     assert not scene.media and scene.objects[0].interior is None and scene.render.medium is None
 
 
+def test_a_cube_holding_a_medium_is_one_closed_mesh(tmp_path):
+    """Six quads, as a cube is otherwise, have no inside to fill: the scene was refused. The mesh
+    is the box [-1, 1]^3 placed by its to_world, closed (trimesh's check), its faces outward, a
+    mirroring to_world included; it holds the medium as trimesh's own box does (path mode)."""
+    import trimesh
+
+    medium = '<medium type="homogeneous" name="interior"><float name="sigma_t" value="1.5"/></medium>'
+    for scale in ("2, 1, 0.5", "-2, 1, 0.5"):
+        cube = f'<shape type="cube"><transform name="to_world"><scale value="{scale}"/></transform>'
+        text = xml(
+            cube + f'<bsdf type="null"/>{medium}</shape><emitter type="constant"/>',
+            extra='<integrator type="volpath"/>',
+        )
+        scene = load(tmp_path, text)
+        (obj,) = scene.objects
+        mesh = trimesh.Trimesh(np.array(obj.vertices), np.array(obj.faces), process=False)
+        assert obj.type == "mesh" and obj.interior is not None and len(obj.faces) == 12
+        assert mesh.is_watertight and mesh.volume == pytest.approx(8.0)  # positive: facing out
+        np.testing.assert_allclose(mesh.bounds, [[-2, -1, -0.5], [2, 1, 0.5]])
+    box = trimesh.creation.box(extents=[4, 2, 1])
+    twin = scene.replace(
+        objects=[obj.model_copy(update={"vertices": box.vertices.tolist(), "faces": box.faces.tolist()})]
+    )
+    size = {"width": 16, "height": 16, "spp": 64, "mode": "path"}
+    a, b = raylume.render(scene, **size, aovs=False).rgb, raylume.render(twin, seed=1, **size, aovs=False).rgb
+    assert 0.2 < a.mean() < 0.9  # the sky seen through the medium, dimmed
+    diff = (a.astype(np.float64) - b).mean(axis=2)
+    assert abs(diff.mean()) < 4 * diff.std(ddof=1) / math.sqrt(diff.size) + 1e-7
+
+
 # ---------------------------------------------------------------- a textured sphere's (u, v)
 
 

@@ -4,7 +4,7 @@
 | --- | --- |
 | obj, ply, serialized | mesh (file by path; serialized: shape_index), transform from to_world (a matrix if it shears) |
 | rectangle | quad |
-| cube | six quads |
+| cube | six quads (one closed mesh where it holds a medium) |
 | sphere | sphere (with an image texture or normal map: turned by its transform to Mitsuba's (u, v)) |
 | disk | disk |
 | cylinder | cylinder, capped = false (Mitsuba's is an open tube) |
@@ -127,7 +127,10 @@ class Shapes:
                     "runs up the image, so the map's slopes along v are drawn mirrored (lit from the other side)",
                 )
         elif kind == "cube":
-            objects = [self.quad(m, c, u, v, material) for c, u, v in CUBE_FACES]
+            if props.plugin("interior") is not None:  # a medium fills closed shapes: not six open quads
+                objects = [self.closed_cube(m, material)]
+            else:
+                objects = [self.quad(m, c, u, v, material) for c, u, v in CUBE_FACES]
         elif kind == "sphere":
             centre = props.point("center", np.zeros(3))
             radius = props.float("radius", 1.0)
@@ -261,6 +264,21 @@ class Shapes:
         if np.linalg.det(frame) < 0:
             frame = -frame
         return turned(self.ctx.world[:3, :3] @ frame @ Z_POLE_SPHERE, centre)
+
+    def closed_cube(self, m: np.ndarray, material) -> dict:
+        """Mitsuba's cube as one closed mesh of 12 triangles, its faces' corners shared, facing out
+        (a mirroring to_world turns the winding back): a closed shape a medium can fill."""
+        corners: dict[tuple, int] = {}
+        faces = []
+        for centre, u, v in CUBE_FACES:
+            c, u, v = (np.asarray(x, dtype=np.float64) for x in (centre, u, v))
+            quad = [c - u / 2 - v / 2, c + u / 2 - v / 2, c + u / 2 + v / 2, c - u / 2 + v / 2]  # u x v outward
+            ids = [corners.setdefault(tuple(q.tolist()), len(corners)) for q in quad]
+            faces += [[ids[0], ids[1], ids[2]], [ids[0], ids[2], ids[3]]]
+        if np.linalg.det((self.ctx.world @ m)[:3, :3]) < 0:
+            faces = [[a, c, b] for a, b, c in faces]
+        vertices = [self.ctx.point(m, corner) for corner in corners]
+        return {"type": "mesh", "vertices": vertices, "faces": faces, "material": material}
 
     def quad(self, m: np.ndarray, centre, u, v, material, outward: bool = True) -> dict:
         u, v = self.ctx.vector(m, u), self.ctx.vector(m, v)
