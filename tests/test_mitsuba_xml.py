@@ -702,6 +702,22 @@ def test_homogeneous_media_with_volpath(tmp_path):
     assert not scene.media and scene.objects[0].interior is None and scene.render.medium is None
 
 
+def test_a_lookat_without_up_takes_mitsubas_up(tmp_path):
+    """Mitsuba's up where <lookat> gives none is the first axis of its coordinate_system about
+    the direction, not +y: for this view Mitsuba 3.9.1's sensor has up (0.9672, -0.0575, -0.2476)
+    (its to_world read back), and raylume's image was rolled by about 90 degrees against it."""
+    scene = (
+        '<scene version="3.0.0"><sensor type="perspective"><transform name="to_world">'
+        '<lookat origin="2, 4, 7" target="0, 0.5, 0"{up}/></transform></sensor>' + sphere() + "</scene>"
+    )
+    a = load(tmp_path, scene.format(up=""), name="a.xml").camera
+    b = load(tmp_path, scene.format(up=' up="0.96720, -0.05748, -0.24758"'), name="b.xml").camera
+    np.testing.assert_allclose(a.position, b.position)
+    np.testing.assert_allclose(a.look_at, b.look_at)
+    np.testing.assert_allclose(a.up, b.up, atol=1e-4)
+    assert abs(a.up[1]) < 0.1  # not +y's roll
+
+
 def test_a_cube_holding_a_medium_is_one_closed_mesh(tmp_path):
     """Six quads, as a cube is otherwise, have no inside to fill: the scene was refused. The mesh
     is the box [-1, 1]^3 placed by its to_world, closed (trimesh's check), its faces outward, a

@@ -113,11 +113,29 @@ def _operation(op: Node) -> np.ndarray:
         else:
             raise op.error(f"value: expected 16 (4 x 4) or 9 (3 x 3) numbers, got {len(values)}")
     elif op.tag == "lookat":
-        up = _triple(op.attrs.get("up", "0, 1, 0"), op, "up")
-        return look_at(_triple(attr(op, "origin"), op, "origin"), _triple(attr(op, "target"), op, "target"), up)
+        origin, target = _triple(attr(op, "origin"), op, "origin"), _triple(attr(op, "target"), op, "target")
+        if "up" in op.attrs:
+            up = _triple(op.attrs["up"], op, "up")
+        else:  # Mitsuba's: the first axis of its coordinate_system about the direction (not +y)
+            up = _basis_first_axis(np.subtract(target, origin, dtype=np.float64))
+        return look_at(origin, target, up)
     else:
         raise op.error("is not a transform operation (translate, rotate, scale, matrix, lookat)")
     return m
+
+
+def _basis_first_axis(direction: np.ndarray) -> np.ndarray:
+    """The first tangent of Mitsuba's coordinate_system(n) (Duff et al. 2017, "Building an
+    orthonormal basis, revisited") for n the unit `direction`; a zero direction is left to
+    look_at's own error."""
+    length = float(np.linalg.norm(direction))
+    if not length > 0:
+        return np.array([0.0, 1.0, 0.0])
+    x, y, z = direction / length
+    sign = math.copysign(1.0, z)
+    a = -1.0 / (sign + z)
+    b = x * y * a
+    return np.array([1.0 + sign * x * x * a, sign * b, -sign * x])
 
 
 def transform(node: Node) -> np.ndarray:
