@@ -702,6 +702,21 @@ def test_homogeneous_media_with_volpath(tmp_path):
     assert not scene.media and scene.objects[0].interior is None and scene.render.medium is None
 
 
+def test_a_constant_spectrum_on_an_emitter_is_equal_energy_light(tmp_path):
+    """Mitsuba 3.9.1's scalar_rgb evaluates a constant emitter of <spectrum value="0.6"/> to
+    (0.7229, 0.5690, 0.5453), 0.6 times equal-energy light's sRGB, where an <rgb> or a <float> of
+    0.6 gives grey (as does a reflectance's spectrum); raylume had drawn every one grey."""
+    equal_energy = np.array([1.20479, 0.948291, 0.908916])
+    for tag, expected in (("spectrum", 0.6 * equal_energy), ("rgb", [0.6] * 3), ("float", [0.6] * 3)):
+        sky = f'<emitter type="constant"><{tag} name="radiance" value="0.6"/></emitter>'
+        point = f'<emitter type="point"><{tag} name="intensity" value="0.6"/></emitter>'
+        lamp = f'<emitter type="area"><{tag} name="radiance" value="0.6"/></emitter>'
+        scene = load(tmp_path, xml(sky + point + sphere(inner=lamp)))
+        np.testing.assert_allclose(scene.environment.color, expected, rtol=1e-5)
+        np.testing.assert_allclose(scene.lights[0].intensity, expected, rtol=1e-5)
+        np.testing.assert_allclose(scene.objects[0].material.emission, expected, rtol=1e-5)
+
+
 def test_a_lookat_without_up_takes_mitsubas_up(tmp_path):
     """Mitsuba's up where <lookat> gives none is the first axis of its coordinate_system about
     the direction, not +y: for this view Mitsuba 3.9.1's sensor has up (0.9672, -0.0575, -0.2476)

@@ -22,6 +22,10 @@ from .mitsuba_props import colour_of
 from .mitsuba_xml import Node
 
 ENVIRONMENT_SUFFIXES = (".exr", ".hdr")
+# Mitsuba's RGB variants read a constant <spectrum> on an emitter as light of equal energy at
+# every wavelength, whose linear sRGB (D65 white) is this: a constant emitter of spectrum 1
+# evaluates to it in Mitsuba 3.9.1's scalar_rgb (an <rgb> or a number stays grey)
+EQUAL_ENERGY_RGB = (1.20479, 0.948291, 0.908916)
 
 
 def _colour(ctx: Context, node: Node, props, name: str, default: float = 1.0) -> list[float]:
@@ -30,7 +34,10 @@ def _colour(ctx: Context, node: Node, props, name: str, default: float = 1.0) ->
         return [default] * 3
     if value.tag == "texture":
         raise value.error(f"{name}: a textured emitter has no raylume equivalent; give <rgb>")
-    return list(colour_of(value, name))
+    rgb = colour_of(value, name)
+    if value.tag == "spectrum":
+        return [c * e for c, e in zip(rgb, EQUAL_ENERGY_RGB, strict=True)]
+    return list(rgb)
 
 
 def area_radiance(ctx: Context, node: Node) -> list[float]:
