@@ -702,6 +702,15 @@ def test_homogeneous_media_with_volpath(tmp_path):
     assert not scene.media and scene.objects[0].interior is None and scene.render.medium is None
 
 
+def test_a_sensors_film_and_sampler_named_as_blenders_exporter_names_them(tmp_path):
+    """mitsuba-blender writes <film name="film"> and <sampler name="sampler">: read, and no
+    warning that the properties 'film' and 'sampler' were ignored (load fails on a warning)."""
+    sampler = '<sampler type="independent" name="sampler"><integer name="sample_count" value="8"/></sampler>'
+    text = xml(sphere()).replace('<film type="hdrfilm">', sampler + '<film type="hdrfilm" name="film">')
+    scene = load(tmp_path, text)
+    assert (scene.render.width, scene.render.height, scene.render.spp) == (16, 16, 8)
+
+
 def test_a_constant_spectrum_on_an_emitter_is_equal_energy_light(tmp_path):
     """Mitsuba 3.9.1's scalar_rgb evaluates a constant emitter of <spectrum value="0.6"/> to
     (0.7229, 0.5690, 0.5453), 0.6 times equal-energy light's sRGB, where an <rgb> or a <float> of

@@ -203,6 +203,8 @@ class Reader:
         spp = 4  # the independent sampler's default
         for plugin in props.plugins:
             p = ctx.props(plugin)
+            if "name" in plugin.attrs:  # read here (Blender's exporter names them "film", "sampler")
+                props.take(plugin.attrs["name"])
             if plugin.tag == "film":
                 if plugin.attrs.get("type") not in ("hdrfilm", "specfilm"):
                     ctx.warn(plugin, "raylume treats this film as an hdrfilm")
