@@ -71,6 +71,14 @@ def test_defaults_are_used_and_defines_win(tmp_path):
         load(tmp_path, text, defines={"r": [0.5]})
 
 
+def test_a_define_the_scene_never_uses_is_refused(tmp_path):
+    """As Mitsuba's -D ("Found unused parameters"): a misspelt name changed nothing, silently."""
+    text = xml(sphere(radius="$r"), extra='<default name="r" value="0.25"/>')
+    with pytest.raises(SceneError, match=r"--define rr: the scene has no parameter \$rr \(it has: \$r\)"):
+        load(tmp_path, text, defines={"rr": "0.5"})
+    assert load(tmp_path, text.replace("$r", "0.5"), defines={"r": "0.1"}).objects[0].radius == 0.5  # a <default>
+
+
 def test_a_parameter_substitutes_inside_attribute_text(tmp_path):
     text = xml(sphere(centre="$x, 0, 1"), extra='<default name="x" value="2"/>')
     assert load(tmp_path, text).objects[0].center == (-2.0, 0.0, 1.0)  # x mirrored into raylume's frame

@@ -87,13 +87,16 @@ def _parse_file(path: Path) -> Node:
     return roots[0]
 
 
-def substitute(text: str, parameters: dict[str, str], node: Node) -> str:
-    """`$name` in an attribute replaced by its value; an undefined name is an error."""
+def substitute(text: str, parameters: dict[str, str], node: Node, used: set[str] | None = None) -> str:
+    """`$name` in an attribute replaced by its value (its name added to `used`); an undefined
+    name is an error."""
 
     def value(match: re.Match) -> str:
         name = match.group(1)
         if name not in parameters:
             raise node.error(f"${name} is not defined (give it with --define {name}=VALUE or a <default>)")
+        if used is not None:
+            used.add(name)
         return parameters[name]
 
     return PARAMETER.sub(value, text)
@@ -104,15 +107,17 @@ class _Reader:
         self.parameters = dict(defines)
         self.search_paths: list[Path] = []
         self.folder = folder  # the scene file's
+        self.used: set[str] = set()  # parameters substituted or given a <default>
 
     def expand(self, node: Node, depth: int) -> list[Node]:
         """The node (or, for <include>, the included file's elements) after substitution."""
-        node.attrs = {key: substitute(value, self.parameters, node) for key, value in node.attrs.items()}
+        node.attrs = {key: substitute(value, self.parameters, node, self.used) for key, value in node.attrs.items()}
         if node.tag == "default":
             name, value = node.attrs.get("name"), node.attrs.get("value")
             if name is None or value is None:
                 raise node.error("needs name and value attributes")
             self.parameters.setdefault(name, value)  # a --define wins over the file's default
+            self.used.add(name)
             return []
         if node.tag == "path":
             folder = node.attrs.get("value")
@@ -181,4 +186,8 @@ def read_document(path: str | Path, defines: dict[str, str] | None = None) -> Do
         raise root.error(f"version {version}: raylume reads Mitsuba 3 scenes (version 2.x or 3.x)")
     reader = _Reader(defines or {}, path.resolve().parent)
     reader.expand(root, 0)
+    unused = sorted(set(defines or {}) - reader.used)
+    if unused:  # a misspelt name would otherwise change nothing, without a word (Mitsuba refuses it too)
+        known = ", ".join(f"${name}" for name in sorted(reader.used)) or "none"
+        raise SceneError(f"{path}: --define {unused[0]}: the scene has no parameter ${unused[0]} (it has: {known})")
     return Document(root, reader.parameters, reader.search_paths)
