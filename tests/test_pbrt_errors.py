@@ -104,9 +104,13 @@ def test_image_infinite_lights_need_exr_or_hdr(tmp_path):
     refused(tmp_path, CAMERA + 'LightSource "infinite" "string filename" "sky.png"\n', "bad.pbrt:3", ".exr or .hdr")
 
 
+OPTIONS = ("Camera", "Film", "Sampler", "Integrator", "PixelFilter", "Accelerator", "Option")
+
+
 def warned(tmp_path, text: str) -> list[str]:
     path = tmp_path / "w.pbrt"
-    path.write_text(CAMERA + text)
+    option = text.split(" ", 1)[0] in OPTIONS  # (pbrt sets options before WorldBegin)
+    path.write_text(text + CAMERA if option else CAMERA + text)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         load_scene(path)
@@ -162,9 +166,28 @@ def test_a_shape_without_surface_is_left_out_with_a_warning(tmp_path, shape, why
     assert [(o.type, o.radius) for o in scene.objects] == [("sphere", 0.5)]
 
 
+def test_options_inside_the_world_block_and_a_second_world_are_refused(tmp_path):
+    """pbrt-v4: "Options cannot be set inside world block". A Camera there had silently replaced
+    the first; a second WorldBegin passed too."""
+    for option in (
+        'Camera "perspective" "float fov" 10\n',
+        'Film "rgb"\n',
+        'Integrator "path"\n',
+        'Sampler "halton"\n',
+    ):
+        refused(tmp_path, CAMERA + option, "bad.pbrt:3:", "options are set before WorldBegin (", "bad.pbrt:2)")
+    refused(
+        tmp_path,
+        CAMERA + "WorldBegin\n",
+        "bad.pbrt:3: WorldBegin",
+        "a second WorldBegin (the first is at",
+        "bad.pbrt:2",
+    )
+
+
 def test_bdpt_is_read_as_raylume_s_bdpt_integrator(tmp_path):
     path = tmp_path / "b.pbrt"
-    path.write_text(CAMERA + 'Integrator "bdpt" "integer maxdepth" 2\n')
+    path.write_text('Integrator "bdpt" "integer maxdepth" 2\n' + CAMERA)
     scene = load_scene(path)
     assert scene.render.integrator == "bdpt" and scene.render.max_depth == 3
 

@@ -92,6 +92,7 @@ class Builder:
         self.material_directives: dict[str, Directive] = {}  # a document material -> the directive that made it
         self.alpha_materials: dict[tuple, str] = {}  # (material, its alpha_map) -> the variant's name
         self.origins: dict[str, str] = {}  # a key path ("objects[3]") -> its directive, set by finish()
+        self.world: Directive | None = None  # the WorldBegin: options before it, the scene after
 
     def warn(self, d: Directive, message: str) -> None:
         """Note a warning; the same one from many directives (10,000 curves) is issued once, with its
@@ -204,31 +205,46 @@ class Builder:
         self.state.ctm = self._pop("Transform", d).ctm
 
     def _WorldBegin(self, d, p):
+        if self.world is not None:
+            raise d.fail(f"a second WorldBegin (the first is at {self.world.where}); a file has one world block")
+        self.world = d
         self.state.ctm = np.eye(4)
         self.coordinate_systems["world"] = np.eye(4)
+
+    def _before_world(self, d) -> None:
+        """pbrt refuses a scene-wide option inside the world block ("Options cannot be set inside
+        world block"): a second Camera there had silently replaced the first."""
+        if self.world is not None:
+            raise d.fail(f"options are set before WorldBegin ({self.world.where}), not inside the world block")
 
     def _WorldEnd(self, d, p):
         pass  # pbrt-v3's end of the world block: nothing follows it
 
     def _Camera(self, d, p):
+        self._before_world(d)
         self.options.camera(d, p, self.state.ctm, self.warn)
         self.camera_directive = d
         self.coordinate_systems["camera"] = np.linalg.inv(self.state.ctm)
 
     def _Film(self, d, p):
+        self._before_world(d)
         self.options.film(d, p, self.warn)
 
     def _Sampler(self, d, p):
+        self._before_world(d)
         self.options.sampler(d, p)
 
     def _Integrator(self, d, p):
+        self._before_world(d)
         self.options.integrator_directive(d, p, self.warn)
         self.integrator_directive = d
 
     def _PixelFilter(self, d, p):
+        self._before_world(d)
         self.options.pixel_filter(d, p, self.warn)
 
     def _Accelerator(self, d, p):
+        self._before_world(d)
         for q in d.params:
             q.used = True  # how pbrt builds its BVH: nothing raylume draws
 
@@ -237,6 +253,7 @@ class Builder:
             self.warn(d, "raylume renders linear sRGB (Rec. 709) colours; RGB values are taken as sRGB")
 
     def _Option(self, d, p):
+        self._before_world(d)
         if p.has("seed"):
             self.options.seed = p.int("seed")
         for q in d.params:
