@@ -688,6 +688,19 @@ def test_an_environment_map_turns_with_the_mirror(tmp_path):
     assert np.linalg.det(np.array(mirrored.matrix)) == pytest.approx(-1)  # a mirrored sensor: a mirrored sky
 
 
+def test_an_interior_that_is_no_medium_is_named_at_its_shape(tmp_path):
+    """A <ref name="interior"> to a BSDF had been reported at the BSDF, as a heterogeneous medium."""
+    text = xml(
+        '<bsdf type="diffuse" id="m"/>' + sphere(inner='<ref id="m" name="interior"/>'),
+        extra='<integrator type="volpath"/>',
+    )
+    with pytest.raises(
+        SceneError,
+        match=r"scene.xml:\d+: <shape type=\"sphere\">: interior: expected a <medium>, got a <bsdf> \(id 'm'\)$",
+    ):
+        load(tmp_path, text)
+
+
 def test_homogeneous_media_with_volpath(tmp_path):
     medium = (
         '<medium type="homogeneous" id="{name}"><rgb name="albedo" value="0.5, 0.25, 1"/>'

@@ -22,9 +22,14 @@ class Media:
         self.names: dict[int, str] = {}  # id(node) -> its name in [media]
         self.outside: Node | None = None  # the sensor's medium: raylume's [render] medium
 
-    def name(self, node: Node) -> str | None:
+    def name(self, node: Node, holder: Node | None = None, role: str = "interior") -> str | None:
         """The [media] name of a <medium> element (defined on first use), or None when media are
-        not rendered."""
+        not rendered. `holder` and `role`: the element that names it and how, for the error
+        where `node` is no medium (a <ref name="interior"> to a BSDF)."""
+        if node.tag != "medium":
+            where = holder if holder is not None else node
+            key = f" (id {node.attrs['id']!r})" if "id" in node.attrs else ""
+            raise where.error(f"{role}: expected a <medium>, got a <{node.tag}>{key}")
         if not self.rendered:
             self.ctx.warn(node, "Mitsuba's path integrator ignores media, so this one is left out (volpath renders it)")
             return None

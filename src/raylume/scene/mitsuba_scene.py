@@ -152,7 +152,7 @@ class Reader:
         outside = props.plugin("medium") or next((p for p in props.plugins if p.tag == "medium"), None)
         if outside is not None:
             self.media.outside = outside
-            name = self.media.name(outside)
+            name = self.media.name(outside, node, "medium")
             if name is not None:
                 self.render["medium"] = name
         width, height = film

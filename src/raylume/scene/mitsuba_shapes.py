@@ -169,7 +169,7 @@ class Shapes:
             raise node.error("raylume has no such shape, and no shape that could honestly replace it")
         interior, exterior = props.plugin("interior"), props.plugin("exterior")
         if interior is not None:
-            name = self.media.name(interior)
+            name = self.media.name(interior, node)
             if name is not None:
                 for obj in objects:
                     obj["interior"] = name
