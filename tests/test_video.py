@@ -115,11 +115,14 @@ def _running_in(folder: Path) -> list[str]:
     return found
 
 
-@pytest.mark.parametrize("suffix", [".mp4", ".gif"])
-def test_sigterm_while_frames_are_written_cleans_up_as_ctrl_c(tmp_path, suffix):
+@pytest.mark.parametrize(
+    ("suffix", "sig"), [(".mp4", signal.SIGTERM), (".gif", signal.SIGTERM), (".mp4", signal.SIGINT)]
+)
+def test_sigterm_while_frames_are_written_cleans_up_as_ctrl_c(tmp_path, suffix, sig):
     """SIGTERM (kill, a job scheduler) had ended Python at once: a hidden temporary video was
     left (mode 0600), ffmpeg with it, and no word said. It now stops the animation as Ctrl-C
-    does, with exit status 128 + 15. Sent once the progress bar shows, so frames are in."""
+    does, with exit status 128 + 15. Sent once the progress bar shows, so frames are in. Ctrl-C
+    (SIGINT) says one line too: a second, "interrupted; nothing written", had followed it."""
     env = {**os.environ, "TTY_COMPATIBLE": "1", "TTY_INTERACTIVE": "1"}  # Rich draws its bar into the pipe
     env["PYTHONPATH"] = os.pathsep.join([str(SRC), env.get("PYTHONPATH", "")])  # this raylume, from any folder
     command = [sys.executable, "-m", "raylume.cli", "render", str(FLIGHT), "-o", f"f{suffix}"]
@@ -134,13 +137,14 @@ def test_sigterm_while_frames_are_written_cleans_up_as_ctrl_c(tmp_path, suffix):
     try:
         assert seen.wait(timeout=120), b"".join(chunks).decode(errors="replace")
         assert proc.poll() is None, "the animation ended before SIGTERM"
-        proc.send_signal(signal.SIGTERM)
+        proc.send_signal(sig)
         proc.wait(timeout=30)
     finally:
         proc.kill()
     proc.stderr.close()
     err = b"".join(chunks).decode(errors="replace")
-    assert proc.returncode == 128 + signal.SIGTERM, err
+    assert proc.returncode == 128 + sig, err
     assert "raylume: interrupted after" in err and "no video written" in err and "Traceback" not in err
+    assert err.count("raylume: interrupted") == 1, err
     assert list(tmp_path.iterdir()) == []
     assert _running_in(tmp_path) == []

@@ -439,6 +439,8 @@ def render(
             _interrupted(exc, output if partial else None, bit_depth)
         except KeyboardInterrupt:
             _interrupted_before_the_end()
+        except typer.Exit:
+            raise  # (an animation's own interrupted line, said already: not a second one)
         except Exception:
             if not _INTERRUPTED.is_set():
                 raise
