@@ -275,6 +275,10 @@ def test_frame_k_still_and_refusals(tmp_path, raylume):
     assert_refused(raylume("render", "flight.toml", "-o", "k.png", "--frame", 6), "frame 6")
     assert_refused(raylume("render", "still.toml", "-o", "v.mp4"), "[animation]")
     assert not (tmp_path / "v.mp4").exists()
+    # 16 bits a channel: PNG frames only, refused before any frame (a video had been 8-bit silently)
+    for out in ("v.mp4", "v.gif", "f_%02d.jpg"):
+        assert_refused(raylume("render", "flight.toml", "-o", out, "--bit-depth", 16), "--bit-depth 16 is for .png")
+    assert not list(tmp_path.glob("f_*")) and not (tmp_path / "v.gif").exists()
 
 
 def test_a_gif_holds_a_long_still_for_its_longest_delay(tmp_path):

@@ -606,8 +606,7 @@ def _render(
         raise OutputError(f"--frame {frame} renders a still: write it to an image (-o frame.png), not to {output}")
     if animated and (aov_specs or crop):
         raise OutputError(f"{output}: --aov and --crop are for stills; render one frame with --frame K for them")
-    if not animated:
-        check_bit_depth(output, bit_depth)
+    check_bit_depth(output, bit_depth)  # (an animation's too: videos had been silently 8-bit)
     aov_paths, layers = _parse_aovs(aov_specs, output)
     if stats_path is not None:
         stats_path = check_output_path(stats_path, allowed=(".json",))

@@ -305,8 +305,8 @@ def check_bit_depth(path: str | Path, bit_depth: int) -> None:
         raise OutputError(f"--bit-depth {bit_depth}: use 8 or 16")
     if Path(path).suffix.lower() != ".png":
         raise OutputError(
-            f"{path}: --bit-depth 16 is for .png outputs only (JPEG is 8-bit; .exr, .hdr and .npy "
-            "store floats); write a .png, or drop --bit-depth"
+            f"{path}: --bit-depth 16 is for .png outputs only (JPEG and videos are 8-bit; .exr, .hdr and "
+            ".npy store floats); write a .png, or drop --bit-depth"
         )
 
 
