@@ -198,6 +198,40 @@ def test_warmup_is_a_command(tmp_path):
     assert refused.exit_code == 2 and "--processes 0" in refused.stderr
 
 
+def test_warmup_stopped_by_sigterm_stops_its_compiling_processes(tmp_path):
+    """`raylume warmup` compiles in child processes (python -m raylume.warmup --part I/N): SIGTERM
+    had ended the command at once and left them compiling for minutes, re-parented to init. An
+    empty cache (XDG_CACHE_HOME) keeps them busy long enough; their --part arguments carry it."""
+    import os
+
+    env = {**os.environ, "XDG_CACHE_HOME": str(tmp_path / "cache")}
+    proc = subprocess.Popen([sys.executable, "-m", "raylume.cli", "warmup", "-j", "2"], env=env,
+                            stderr=subprocess.PIPE, text=True)  # fmt: skip
+
+    def parts() -> list[str]:  # the warm-up's children: the ones whose environment has this cache
+        found = []
+        for environ in Path("/proc").glob("[0-9]*/environ"):
+            try:
+                if str(tmp_path / "cache").encode() in environ.read_bytes():
+                    cmdline = (environ.parent / "cmdline").read_bytes().replace(b"\0", b" ").decode()
+                    found += [cmdline] if "raylume.warmup" in cmdline else []
+            except OSError:
+                continue
+        return found
+
+    deadline = time.monotonic() + 60
+    while len(parts()) < 2 and time.monotonic() < deadline:
+        time.sleep(0.2)
+    assert len(parts()) == 2, parts()
+    proc.send_signal(signal.SIGTERM)
+    _, stderr = proc.communicate(timeout=60)
+    assert proc.returncode == 128 + signal.SIGTERM, stderr
+    assert "raylume: warm-up interrupted" in stderr and "Traceback" not in stderr, stderr
+    assert parts() == []
+    refused = subprocess.run([sys.executable, "-m", "raylume.warmup", "--part", "1"], capture_output=True, text=True)
+    assert refused.returncode == 2 and "--part 1: expected I/N" in refused.stderr and "Traceback" not in refused.stderr
+
+
 def test_a_flag_given_twice_is_named_by_the_value_that_counts():
     """click keeps an option's last value, so the message quotes that one."""
     result = CliRunner().invoke(app, ["render", "--width", "32", "--width", "abc"])

@@ -1047,7 +1047,13 @@ def warmup(
     if processes is not None and processes < 1:
         _fail(f"--processes {processes}: expected 1 or more")
     report = None if quiet else (lambda line: typer.echo(f"raylume: warm-up: {line}", err=True))
-    if not warm_in_processes(processes or os.cpu_count() or 1, report):
+    with _terminate_as_interrupt():  # SIGTERM as Ctrl-C: the compiling processes stopped, not orphaned
+        try:
+            done = warm_in_processes(processes or os.cpu_count() or 1, report)
+        except KeyboardInterrupt:
+            typer.echo("raylume: warm-up interrupted; what was compiled stays in the cache", err=True)
+            raise typer.Exit(130) from None
+    if not done:
         _fail("the warm-up failed (see above); renders will compile their kernels when they need them")
 
 

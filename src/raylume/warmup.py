@@ -215,9 +215,16 @@ def warm_in_processes(processes: int, report: Callable[[str], None] | None = Non
     for reader in readers:
         reader.start()
     ok = True
-    for proc, reader in zip(procs, readers):
-        reader.join()
-        ok = proc.wait() == 0 and ok
+    try:
+        for proc, reader in zip(procs, readers):
+            reader.join()
+            ok = proc.wait() == 0 and ok
+    except BaseException:  # Ctrl-C or SIGTERM (raylume warmup's): the parts stop too, not orphaned
+        for proc in procs:
+            proc.terminate()
+        for proc in procs:
+            proc.wait()
+        raise
     if report is not None:
         report(f"every kernel compiled (or loaded from the cache) in {time.perf_counter() - started:.1f} s")
     return ok
@@ -228,7 +235,10 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--part", default="0/1", help="I/N: the I-th of N parts of the jobs (0-based)")
     parser.add_argument("--quiet", action="store_true")
     args = parser.parse_args(argv)
-    part, parts = (int(x) for x in args.part.split("/"))
+    try:
+        part, parts = (int(x) for x in args.part.split("/"))
+    except ValueError:  # ("x", "1", "1/2/3": a usage error, not a traceback)
+        parser.error(f"--part {args.part}: expected I/N with 0 <= I < N")
     if not 0 <= part < parts:
         parser.error(f"--part {args.part}: expected I/N with 0 <= I < N")
     seconds = warm_kernels(part, parts, report=None if args.quiet else print)
