@@ -330,6 +330,16 @@ def test_animation_frames_on_the_cluster_equal_the_stills(client):
         assert remote[k].stats["rays"] == local[k].stats["rays"] and remote[k].stats["render_seconds"] > 0
 
 
+def test_an_animation_on_the_cluster_says_the_scenes_warnings(client):
+    """In-process frames go through Session.render, which says them; the cluster's did not."""
+    scene = rl.scene_from_dict(
+        {**SCENE, "lights": [], "render": {"width": 8, "height": 6, "mode": "trace"},
+         "animation": {"frames": 2, "camera": [{"frame": 0, "position": [0, 1, -1]}, {"frame": 1, "fov": 40}]}}
+    )  # fmt: skip
+    with pytest.warns(rl.SceneWarning, match="no lights"):
+        assert len(dict(render_animation(rl.Session(scene), cluster=client))) == 2
+
+
 @pytest.mark.skipif(not denoise_available(), reason="pyoidn (raylume[denoise]) is not installed")
 def test_denoised_adaptive_animation_frames_on_the_cluster_equal_the_stills(client):
     """Denoised frames of an adaptive path-traced animation: the cluster's frames are denoised

@@ -77,9 +77,11 @@ def render_animation(
         return
     from .cluster import FrameRenderer
     from .image import Image
+    from .scene.checks import warn_about
     from .settings import samples_adaptively
 
     table = settings.render
+    warn_about(scene, table.mode)  # as Session.render says them for the frames it renders
     adaptive = samples_adaptively(table, on_cluster=True, warn_if_ignored=True)
     denoising = table.denoise and table.mode == "path"
     renderer = FrameRenderer(
