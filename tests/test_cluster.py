@@ -373,6 +373,9 @@ def test_a_malformed_or_unreachable_address_exits_2_within_10_seconds(tmp_path, 
     malformed = CliRunner().invoke(app, ["render", "--cluster", "somewhere"])
     assert malformed.exit_code == 2, malformed.output
     assert "--cluster somewhere" in malformed.output and "tcp://HOST:PORT" in malformed.output
+    for port in (0, 99999):  # no port: malformed at once (it waited for the refusal)
+        bad = CliRunner().invoke(app, ["render", "--cluster", f"tcp://127.0.0.1:{port}"])
+        assert bad.exit_code == 2 and "tcp://HOST:PORT" in bad.output, bad.output
     with socket.socket() as probe:
         probe.bind(("127.0.0.1", 0))
         port = probe.getsockname()[1]  # nothing listens there once closed

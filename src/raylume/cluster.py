@@ -87,7 +87,8 @@ def parse_address(text: str) -> tuple[str, int | str]:
         if not 1 <= n <= 1024:
             raise ClusterError(f"--cluster {text}: the number of local workers must be 1..1024")
         return "local", n
-    if re.fullmatch(r"(tcp|tls|ws|wss)://(\[[0-9A-Fa-f:.]+\]|[^\s/:\[\]]+):\d{1,5}", text):  # host or [IPv6]
+    match = re.fullmatch(r"(tcp|tls|ws|wss)://(\[[0-9A-Fa-f:.]+\]|[^\s/:\[\]]+):(\d{1,5})", text)  # host or [IPv6]
+    if match and 1 <= int(match.group(3)) <= 65535:  # (port 99999 had waited for a refusal)
         return "remote", text
     raise ClusterError(
         f"--cluster {text}: expected a Dask scheduler's address tcp://HOST:PORT (as `dask scheduler` prints it), "
