@@ -19,6 +19,8 @@ from typer.testing import CliRunner
 import raylume
 from raylume.cli import app
 from raylume.errors import OutputError
+from raylume.image import save_array
+from raylume.scene.checks import SceneWarning
 from raylume.video import VideoWriter
 
 SRC = Path(raylume.__file__).resolve().parents[1]
@@ -148,3 +150,21 @@ def test_sigterm_while_frames_are_written_cleans_up_as_ctrl_c(tmp_path, suffix, 
     assert err.count("raylume: interrupted") == 1, err
     assert list(tmp_path.iterdir()) == []
     assert _running_in(tmp_path) == []
+
+
+def test_a_file_name_of_up_to_255_bytes_is_written(tmp_path):
+    """The temporary beside it (a hidden name of the output's and a random part) had gone past
+    the file system's 255 bytes for names from ~241 on: the render done, then "File name too long"."""
+    frame = np.zeros((8, 8, 3), np.uint8)
+    save_array(tmp_path / ("d" * 251 + ".png"), frame.astype(np.float32))
+    writer = VideoWriter(tmp_path / ("e" * 251 + ".gif"), 8, 8, fps=10.0)
+    writer.write(frame)
+    writer.close()
+    assert sorted(len(p.name) for p in tmp_path.iterdir()) == [255, 255]
+
+
+def test_a_gif_faster_than_50_fps_is_warned_about(tmp_path):
+    """Most browsers show a GIF frame of under 20 ms for 100 ms: a 1000-fps flight played at 10."""
+    with pytest.warns(SceneWarning, match="a GIF at 120 fps: .* plays slower; write an .mp4"):
+        writer = VideoWriter(tmp_path / "fast.gif", 8, 8, fps=120.0)
+    writer.abort()

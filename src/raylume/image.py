@@ -126,7 +126,8 @@ def write_atomic(path: str | Path, write) -> None:
     path = Path(path)
     folder = path.parent if str(path.parent) else Path(".")
     try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=folder)
+        # (the name cut short: a file name of up to 255 bytes must still leave room for its temporary's)
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name[:100]}.", suffix=".part", dir=folder)
     except OSError as exc:
         if not folder.exists():  # said as check_writable_folder says it
             raise OutputError(f"{path}: the folder {folder} does not exist") from None

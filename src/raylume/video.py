@@ -80,11 +80,19 @@ class VideoWriter:
         self.frames = 0
         folder = self.path.parent if str(self.path.parent) else Path(".")
         check_writable_folder(self.path)
-        fd, tmp = tempfile.mkstemp(prefix=f".{self.path.stem}.", suffix=self.path.suffix, dir=folder)
+        # (the stem cut short, as write_atomic's: a long name leaves room for its temporary's)
+        fd, tmp = tempfile.mkstemp(prefix=f".{self.path.stem[:100]}.", suffix=self.path.suffix, dir=folder)
         os.close(fd)
         self.tmp = Path(tmp)
         self._gif: list = []
         self._ffmpeg = None
+        if self.path.suffix.lower() == ".gif" and self.fps > 50:
+            warnings.warn(
+                f"{self.path}: a GIF at {self.fps:g} fps: its frames' delays of under 20 ms are shown for 100 ms "
+                "by most browsers, so it plays slower; write an .mp4, or 50 fps or less",
+                SceneWarning,
+                stacklevel=2,
+            )
         if self.path.suffix.lower() == ".mp4":
             from .video_ffmpeg import FfmpegPipe
 
