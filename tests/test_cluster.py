@@ -330,6 +330,27 @@ def test_animation_frames_on_the_cluster_equal_the_stills(client):
         assert remote[k].stats["rays"] == local[k].stats["rays"] and remote[k].stats["render_seconds"] > 0
 
 
+def test_an_animations_stats_and_summary_on_the_cluster_say_what_a_stills_say(client, tmp_path, capsys):
+    """compile_seconds: the workers' (the longest), as a still on a cluster reports it (it was 0.0);
+    the summary names the workers."""
+    from raylume.cli import _compile_notice, _progress
+    from raylume.cli_animation import render_animation_to
+    from raylume.settings import resolve_settings
+
+    scene = rl.scene_from_dict(
+        {**SCENE, "render": {"width": 8, "height": 6, "mode": "trace"},
+         "animation": {"frames": 2, "camera": [{"frame": 0, "position": [0, 1, -1]}, {"frame": 1, "fov": 40}]}}
+    )  # fmt: skip
+    render_animation_to(
+        scene, "s.toml", tmp_path / "a.gif", None, resolve_settings(scene), cluster=client,
+        stats_path=tmp_path / "a.json", progress_bar=_progress, compile_notice=_compile_notice,
+    )  # fmt: skip
+    stats = json.loads((tmp_path / "a.json").read_text())
+    assert stats["compile_seconds"] == stats["cluster"]["compile_seconds"] > 0
+    said = capsys.readouterr().err
+    assert "2 frames 8x6 trace" in said and "; on 2 workers (" in said, said
+
+
 def test_an_animation_on_the_cluster_says_the_scenes_warnings(client):
     """In-process frames go through Session.render, which says them; the cluster's did not."""
     scene = rl.scene_from_dict(

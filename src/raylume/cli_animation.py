@@ -101,19 +101,22 @@ def render_animation_to(
         }
         cluster_stats = getattr(session, "last_cluster_stats", None)
         stats["threads"] = cluster_stats["threads"] if cluster_stats else threads
-        if compile_seconds is not None:  # (on a cluster the workers compile: their stats say so)
+        if compile_seconds is not None:
             stats["compile_seconds"] = compile_seconds
-        if cluster_stats:
+        if cluster_stats:  # the workers compile: the longest of theirs, as a still on a cluster says
             stats["cluster"] = cluster_stats
+            stats["compile_seconds"] = stats.get("compile_seconds", 0.0) + cluster_stats.get("compile_seconds", 0.0)
         if frame_spp:
             stats["adaptive"] = {"mean_spp": sum(frame_spp) / len(frame_spp), "frames_mean_spp": frame_spp}
         text = json.dumps(stats, indent=2, default=float) + "\n"
         write_atomic(stats_path, lambda fh: fh.write(text.encode()))
     if not quiet:
         where = output if writer is not None else f"{output} ({len(written)} files)"
+        workers = getattr(session, "last_cluster_stats", None)
         typer.echo(
             f"{where}: {done} frames {table.width}x{table.height} {table.mode} in {seconds:.2f} s "
             f"({done / seconds:.2f} frames/s)"
+            + (f"; on {workers['workers']} workers ({workers['tasks']} tasks)" if workers else "")
             + (f"; adaptive: {sum(frame_spp) / len(frame_spp):.1f} spp a pixel on average" if frame_spp else ""),
             err=True,
         )
