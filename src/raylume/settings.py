@@ -128,7 +128,8 @@ def samples_adaptively(table: RenderSettings, on_cluster: bool = False, warn_if_
         from .scene.checks import warn
 
         if ignored:
-            warn(f"noise_threshold and time_limit are ignored: {ignored}")
+            given = [key for key in ("noise_threshold", "time_limit") if getattr(table, key) is not None]
+            warn(f"{' and '.join(given)} {'are' if len(given) > 1 else 'is'} ignored: {ignored}")
         elif on_cluster and table.time_limit is not None:
             warn("time_limit is ignored on a cluster (its tiles share no clock): noise_threshold and spp decide")
     return is_adaptive(table) and ignored is None
