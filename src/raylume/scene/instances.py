@@ -58,6 +58,8 @@ def instance_matrices(obj: Mesh, base_dir: Path) -> np.ndarray | None:
         raise InstanceError(f"{what} must hold a float array of shape (N, 4, 4) or (N, 3, 4), not {array.dtype}")
     if array.ndim != 3 or array.shape[1:] not in ((4, 4), (3, 4)):
         raise InstanceError(f"{what} has shape {array.shape}; expected (N, 4, 4) or (N, 3, 4) matrices")
+    if len(array) > MAX_INSTANCES:  # before the float64 copy (a 400 MB int8 file had taken 3.7 GB to refuse)
+        raise InstanceError(f"{what} holds {len(array)} matrices, more than the {MAX_INSTANCES} supported")
     return check_matrices(array.astype(np.float64), what)
 
 
