@@ -450,3 +450,15 @@ def test_an_instance_costs_at_most_128_bytes(tmp_path):
     assert stats["instances"] == n and stats["triangles"] == faces
     assert stats["instanced_triangles"] == n * faces
     assert stats["bytes_per_instance"] <= 128, stats["bytes_per_instance"]
+
+
+def test_more_matrices_than_an_object_holds_are_refused_before_they_are_copied(tmp_path, monkeypatch):
+    """The count is checked on the file's own array: the float64 copy of a 2^25 + 1 int8 file
+    had peaked at 3.7 GB before the refusal. (The limit lowered for the test.)"""
+    from raylume.scene import instances
+
+    monkeypatch.setattr(instances, "MAX_INSTANCES", 4)
+    np.save(tmp_path / "many.npy", np.tile(np.eye(4, dtype=np.int8), (5, 1, 1)))
+    scene = write_scene(tmp_path, '"many.npy"')
+    result = CliRunner().invoke(app, ["render", str(scene), "-o", str(tmp_path / "o.png"), "--quiet"])
+    assert result.exit_code == 2 and "holds 5 matrices, more than the 4 supported" in result.output, result.output
