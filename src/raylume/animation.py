@@ -58,7 +58,7 @@ def render_animation(
     unknown = sorted(set(arguments) - {*OVERRIDES, "threads", "crop"})
     if unknown:
         raise TypeError(f"render_animation: unexpected keyword arguments {', '.join(unknown)}")
-    from .session import Session
+    from .session import Session, primary_rays
 
     if not isinstance(session, Session):  # a scene, named as raylume.render takes one
         session = Session(session)
@@ -95,11 +95,10 @@ def render_animation(
             rgb, _ = session._denoised(
                 camera_of_frame[k], settings, rgb, albedo, normal, result.adaptive if adaptive else None
             )
-        primary = 0 if table.mode == "raster" else table.width * table.height * table.spp  # as Session.render's
+        primary = primary_rays(table, table.width * table.height, result.adaptive if adaptive else None)
         stats = {"width": table.width, "height": table.height, "spp": table.spp, "mode": table.mode, "frame": k,
                  "rays": result.rays, "primary_rays": primary, "render_seconds": result.seconds}  # fmt: skip
         if adaptive:
             stats["adaptive"] = result.adaptive
-            stats["primary_rays"] = result.adaptive["samples"]
         yield k, Image(rgb, {}, stats, table.encoding, exposure=table.exposure, tonemap=table.tonemap)
     session.last_cluster_stats = renderer.stats()

@@ -85,6 +85,7 @@ def render_animation_to(
             writer.abort()
         raise
     seconds = time.perf_counter() - started
+    cluster_stats = getattr(session, "last_cluster_stats", None)  # (on a cluster: its workers')
     if stats_path is not None:
         stats = {
             "frames": done,
@@ -99,7 +100,6 @@ def render_animation_to(
             **work,
             "mrays_per_second": work["rays"] / work["render_seconds"] / 1e6 if work["render_seconds"] > 0 else 0.0,
         }
-        cluster_stats = getattr(session, "last_cluster_stats", None)
         stats["threads"] = cluster_stats["threads"] if cluster_stats else threads
         if compile_seconds is not None:
             stats["compile_seconds"] = compile_seconds
@@ -112,11 +112,10 @@ def render_animation_to(
         write_atomic(stats_path, lambda fh: fh.write(text.encode()))
     if not quiet:
         where = output if writer is not None else f"{output} ({len(written)} files)"
-        workers = getattr(session, "last_cluster_stats", None)
         typer.echo(
             f"{where}: {done} frames {table.width}x{table.height} {table.mode} in {seconds:.2f} s "
             f"({done / seconds:.2f} frames/s)"
-            + (f"; on {workers['workers']} workers ({workers['tasks']} tasks)" if workers else "")
+            + (f"; on {cluster_stats['workers']} workers ({cluster_stats['tasks']} tasks)" if cluster_stats else "")
             + (f"; adaptive: {sum(frame_spp) / len(frame_spp):.1f} spp a pixel on average" if frame_spp else ""),
             err=True,
         )

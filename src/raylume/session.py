@@ -229,9 +229,7 @@ class Session:
                 status=clock,
             )  # fmt: skip
         rgb, aov_arrays, kernel_seconds, rays = part.rgb, part.aovs, part.seconds, part.rays
-        primary = 0 if table.mode == "raster" else (x1 - x0) * (y1 - y0) * table.spp
-        if adaptive:
-            primary = part.adaptive["samples"]
+        primary = primary_rays(table, (x1 - x0) * (y1 - y0), part.adaptive if adaptive else None)
         if table.mode != "raster":
             extra["rejected_samples"] = part.rejected
         if table.mode == "path":
@@ -360,6 +358,14 @@ class _CompileClock:
         self._since = now if what == "compiling" else None
         if self.status is not None:
             self.status(what)
+
+
+def primary_rays(table, pixels: int, adaptive: dict | None) -> int:
+    """The stats' primary_rays of a render of `pixels` pixels: spp a pixel, the samples an adaptive
+    render took (`adaptive`: its statistics), none for the rasterizer."""
+    if table.mode == "raster":
+        return 0
+    return int(adaptive["samples"]) if adaptive is not None else pixels * table.spp
 
 
 def _use_threads(count: int) -> int:

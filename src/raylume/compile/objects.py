@@ -55,64 +55,65 @@ def object_matrix(obj) -> np.ndarray:
 ROUNDING_WARNED = 1e-3
 
 
-def rounded_too_far(lo: np.ndarray, hi: np.ndarray) -> tuple[float, float, float] | None:
-    """(its distance from the origin, its size, the rounding) of an object of box (lo, hi) whose
-    corners float32, which stores triangles, rounds by a visible part of its size, else None: an
-    object far from the origin for its size (a 1-unit box 1e5 units away is rounded by 0.4% of
-    it, and at 1e7 it vanishes). Spheres and the other analytic shapes are stored in float64 and
-    keep their shape."""
+def _moved_too_far(lo: np.ndarray, hi: np.ndarray, moved_at) -> tuple[float, float, float] | None:
+    """(its distance from the origin, its size, how far `moved_at(distance)` moves it) of an
+    object of box (lo, hi) that this moves by a visible part of its size, else None."""
     size = float(np.linalg.norm(hi - lo))
     farthest = float(max(np.abs(lo).max(), np.abs(hi).max()))
-    rounding = float(np.spacing(np.float32(farthest))) / 2
-    return (farthest, size, rounding) if size > 0 and rounding > ROUNDING_WARNED * size else None
+    by = moved_at(farthest)
+    return (farthest, size, by) if size > 0 and by > ROUNDING_WARNED * size else None
+
+
+def rounded_too_far(lo: np.ndarray, hi: np.ndarray) -> tuple[float, float, float] | None:
+    """_moved_too_far by float32's rounding, which stores triangles: an object far from the origin
+    for its size (a 1-unit box 1e5 units away is rounded by 0.4% of it, and at 1e7 it vanishes).
+    Spheres and the other analytic shapes are stored in float64 and keep their shape."""
+    return _moved_too_far(lo, hi, lambda farthest: float(np.spacing(np.float32(farthest))) / 2)
 
 
 def offset_too_far(lo: np.ndarray, hi: np.ndarray) -> tuple[float, float, float] | None:
-    """rounded_too_far for an analytic shape, which float64 keeps exact: (its distance from the
-    origin, its size, the ray offset, shapes.offset_epsilon's) where the offset of the rays that leave it is a visible
-    part of its size (a 1 cm sphere 1e5 units out: 1 cm, its shadows and terminator moved)."""
-    size = float(np.linalg.norm(hi - lo))
-    farthest = float(max(np.abs(lo).max(), np.abs(hi).max()))
-    offset = RAY_OFFSET * farthest
-    return (farthest, size, offset) if size > 0 and offset > ROUNDING_WARNED * size else None
+    """_moved_too_far by the offset of the rays that leave an analytic shape (shapes.offset_epsilon's):
+    a 1 cm sphere 1e5 units out has its shadows and terminator moved by 1 cm."""
+    return _moved_too_far(lo, hi, lambda farthest: RAY_OFFSET * farthest)
+
+
+def _named(found: dict[int, tuple[float, float, float]]) -> tuple[str, bool, int]:
+    """(the objects named for a warning, whether they are one, the worst: moved by the largest
+    part of its size) of what _moved_too_far found (a scene of loose triangles may have hundreds)."""
+    worst = max(found, key=lambda k: found[k][2] / found[k][1])
+    names = [f"objects[{k}]" for k in sorted(found)]
+    which = " and ".join(names) if len(names) <= 2 else f"{names[0]}, {names[1]} and {len(names) - 2} more"
+    return which, len(names) == 1, worst
+
+
+def _far_for_their_size(which: str, one: bool) -> str:
+    return f"{which} {'lies' if one else 'lie'} far from the origin for {'its size' if one else 'their sizes'}"
 
 
 def warn_about_offsets(offset: dict[int, tuple[float, float, float]]) -> None:
     """One warning for the analytic shapes offset_too_far found, naming the worst."""
     if not offset:
         return
-    worst = max(offset, key=lambda k: offset[k][2] / offset[k][1])
+    which, one, worst = _named(offset)
     farthest, size, by = offset[worst]
-    names = [f"objects[{k}]" for k in sorted(offset)]
-    which = " and ".join(names) if len(names) <= 2 else f"{names[0]}, {names[1]} and {len(names) - 2} more"
-    one = len(names) == 1
     warn(
-        f"{which} {'lies' if one else 'lie'} far from the origin for {'its size' if one else 'their sizes'}: "
-        f"rays that leave {'it' if one else f'objects[{worst}]'}, {farthest:.3g} units out, start {by:.2g} off "
-        f"its surface ({100 * by / size:.3g}% of its {size:.3g} across), so its shading and shadows are off; "
-        "move the scene nearer to the origin (or scale it up)"
+        f"{_far_for_their_size(which, one)}: rays that leave {'it' if one else f'objects[{worst}]'}, "
+        f"{farthest:.3g} units out, start {by:.2g} off its surface ({100 * by / size:.3g}% of its {size:.3g} "
+        "across), so its shading and shadows are off; move the scene nearer to the origin (or scale it up)"
     )
 
 
 def warn_about_rounding(rounded: dict[int, tuple[float, float, float]]) -> None:
-    """One warning for every object rounded_too_far found (a scene of loose triangles may have
-    hundreds), naming the worst: the one rounded by the largest part of its size."""
+    """One warning for every object rounded_too_far found, naming the worst."""
     if not rounded:
         return
-    worst = max(rounded, key=lambda k: rounded[k][2] / rounded[k][1])
+    which, one, worst = _named(rounded)
     farthest, size, rounding = rounded[worst]
-    names = [f"objects[{k}]" for k in sorted(rounded)]
-    if len(names) <= 2:
-        which = " and ".join(names)
-    else:
-        which = f"{names[0]}, {names[1]} and {len(names) - 2} more"
-    one = len(names) == 1
     whose = "its corners" if one else f"the corners of objects[{worst}]"
     warn(
-        f"{which} {'lies' if one else 'lie'} far from the origin for {'its size' if one else 'their sizes'}: "
-        f"float32, which stores triangles, rounds {whose}, {farthest:.3g} units out, by up to {rounding:.2g} "
-        f"({100 * rounding / size:.2g}% of its {size:.3g} across), so shapes and hits are off; move the scene "
-        "nearer to the origin (or scale it up)"
+        f"{_far_for_their_size(which, one)}: float32, which stores triangles, rounds {whose}, {farthest:.3g} units "
+        f"out, by up to {rounding:.2g} ({100 * rounding / size:.2g}% of its {size:.3g} across), so shapes and hits "
+        "are off; move the scene nearer to the origin (or scale it up)"
     )
 
 

@@ -58,19 +58,18 @@ def instance_matrices(obj: Mesh, base_dir: Path) -> np.ndarray | None:
         raise InstanceError(f"{what} must hold a float array of shape (N, 4, 4) or (N, 3, 4), not {array.dtype}")
     if array.ndim != 3 or array.shape[1:] not in ((4, 4), (3, 4)):
         raise InstanceError(f"{what} has shape {array.shape}; expected (N, 4, 4) or (N, 3, 4) matrices")
-    if len(array) > MAX_INSTANCES:  # before the float64 copy (a 400 MB int8 file had taken 3.7 GB to refuse)
-        raise InstanceError(f"{what} holds {len(array)} matrices, more than the {MAX_INSTANCES} supported")
-    return check_matrices(array.astype(np.float64), what)
+    return check_matrices(array, what)
 
 
 def check_matrices(m: np.ndarray, what: str) -> np.ndarray:
-    """The (N, 3, 4) affine part of (N, 4, 4) or (N, 3, 4) matrices after checking that every one
-    is finite, affine and invertible."""
+    """The (N, 3, 4) affine part of (N, 4, 4) or (N, 3, 4) matrices (of any number type) after
+    checking that every one is finite, affine and invertible, in float64."""
     n = len(m)
     if n == 0:
         raise InstanceError(f"{what} holds no matrices; give at least one (or leave instances out)")
-    if n > MAX_INSTANCES:
+    if n > MAX_INSTANCES:  # before the float64 copy (a 400 MB int8 file had taken 3.7 GB to refuse)
         raise InstanceError(f"{what} holds {n} matrices, more than the {MAX_INSTANCES} supported")
+    m = np.asarray(m, dtype=np.float64)
     finite = np.isfinite(m).all(axis=(1, 2))
     if not finite.all():
         raise InstanceError(f"{what}: matrix {int(np.argmin(finite))} has NaN or infinite entries")

@@ -127,7 +127,8 @@ def _operation(op: Node) -> np.ndarray:
 def _basis_first_axis(direction: np.ndarray) -> np.ndarray:
     """The first tangent of Mitsuba's coordinate_system(n) (Duff et al. 2017, "Building an
     orthonormal basis, revisited") for n the unit `direction`; a zero direction is left to
-    look_at's own error."""
+    look_at's own error. The kernels' lights/sampling.basis, which the scene layer does not
+    import, is the same frame but for n.z = -0.0, where Mitsuba takes the sign's (checked)."""
     length = float(np.linalg.norm(direction))
     if not length > 0:
         return np.array([0.0, 1.0, 0.0])

@@ -86,6 +86,16 @@ def intersect_sphere(o, d, center, radius, tmin, tmax):
     return INF
 
 
+@inline_function
+def sphere_hides_point(center, radius, p, n, w):
+    """Does the sphere hide its own point of outward normal n (any length) from p, which looks at
+    it along w? A convex body hides the points that face away, unless p is inside it. (A ray
+    test shortened by a fraction of its length misses a sphere smaller than that fraction:
+    bdpt's connections to such a sphere's far side, and into it, shone through.)"""
+    oc = sub(p, center)
+    return dot(oc, oc) > radius * radius and dot(n, w) > 0.0
+
+
 def _spheres_codegen(context, builder, sig, args):
     """intersect_sphere's arithmetic on four spheres at once, one per lane of a 4 x float64
     vector (one ymm register on AVX2), in the same order of operations, so every lane rounds

@@ -141,12 +141,12 @@ def _self_hidden(C, A, i, e, n, w):
 @kernel_function
 def _own_sphere_hides(C, hit, q, p, near):
     """Does the sphere that a connection's far end q lies on (`hit`: its primitive; NO_HIT, the
-    near end's own primitive `near` or another shape: no) hide q from the near end p? The
-    segment stops SHADOW_SHORTEN of its length short of q, so a sphere smaller than that is not
-    met on its near side: its far side, and the light subpaths' vertices inside an emissive
-    sphere, shone through it (a white emissive sphere of radius 1e-5, half a unit above a floor:
-    the floor 10x path mode's). A convex body: the segment from q meets the sphere again unless
-    it leaves q on the side p is on."""
+    near end's own primitive `near` or another shape: no) hide q from the near end p, as a
+    sphere light hides its far side (shape_sphere.sphere_hides_point)? The segment stops
+    SHADOW_SHORTEN of its length short of q, so a sphere smaller than that is not met on its
+    near side: its far side, and the light subpaths' vertices inside an emissive sphere, shone
+    through it (a white emissive sphere of radius 1e-5, half a unit above a floor: the floor 10x
+    path mode's)."""
     if hit == NO_HIT or hit == near:
         return False
     G = C.G
@@ -155,11 +155,7 @@ def _own_sphere_hides(C, hit, q, p, near):
         return False
     row = np.int64(G.prims[k, PRIM_ROW])
     centre = row3(G.shapes, row, shape_sphere.CENTER)
-    r = G.shapes[row, shape_sphere.RADIUS]
-    from_centre = sub(p, centre)
-    outside = dot(from_centre, from_centre) > r * r
-    leaves_outwards = dot(sub(q, centre), sub(p, q)) > 0.0
-    return outside != leaves_outwards
+    return shape_sphere.sphere_hides_point(centre, G.shapes[row, shape_sphere.RADIUS], p, sub(q, centre), sub(q, p))
 
 
 @kernel_function

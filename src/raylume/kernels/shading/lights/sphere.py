@@ -8,8 +8,8 @@ import math
 import numpy as np
 
 from ...film.sampler import concentric_disk, uniform_sphere
-from ...geometry.shape_sphere import intersect_sphere
-from ...vec import dot, inline_function, kernel_function, length, madd, normalize, row3, sub
+from ...geometry.shape_sphere import intersect_sphere, sphere_hides_point
+from ...vec import inline_function, kernel_function, length, madd, normalize, row3, sub
 from .sampling import basis, cosine_two_sided, sphere_cone, sphere_cone_pdf, two_sided_pdf
 from .table import (
     AREA_SHADOW_SHORTEN,
@@ -102,9 +102,7 @@ def hides(Em, e, p, n, w):
     A convex body hides the points that face away, unless p is inside it. (A ray test with the
     far end shortened by a fraction of the distance took points near the silhouette of a sphere
     smaller than that fraction as seen: bdpt's light sampling was 30% too bright at r = 1e-6.)"""
-    oc = sub(p, row3(Em.data, e, LIGHT_POSITION))
-    r = Em.data[e, LIGHT_RADIUS]
-    return dot(oc, oc) > r * r and dot(n, w) > 0.0
+    return sphere_hides_point(row3(Em.data, e, LIGHT_POSITION), Em.data[e, LIGHT_RADIUS], p, n, w)
 
 
 def bounds(row: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
