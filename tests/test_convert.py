@@ -119,7 +119,7 @@ def test_convert_refuses_bad_input_and_writes_nothing(tmp_path):
     assert_refused(cli("convert", bad, "-o", "out.toml", cwd=tmp_path), "bad.xml:7:", "$count is not defined")
     assert_refused(
         cli("convert", REPO / "examples" / "cornell.toml", "-o", "out.toml", "-D", "a=1", cwd=tmp_path),
-        "--define sets parameters of a Mitsuba scene",
+        "sets parameters of a Mitsuba scene",
     )
     assert_refused(  # as render says it (this said "cannot write the file (No such file ...)")
         cli("convert", source, "-o", "missing/out.toml", cwd=tmp_path), "the folder missing does not exist"

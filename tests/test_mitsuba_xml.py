@@ -513,7 +513,7 @@ def test_session_and_render_take_a_mitsuba_file_with_defines(tmp_path):
     image = raylume.render(path, defines={"x": "2"}, mode="cast", max_depth=1)
     columns = np.nonzero((image.aovs["object"] >= 0).any(axis=0))[0]
     assert columns.mean() > image.aovs["object"].shape[1] / 2  # Mitsuba's +x: the image's right
-    with pytest.raises(SceneError, match="--define sets parameters of a Mitsuba scene"):
+    with pytest.raises(SceneError, match="sets parameters of a Mitsuba scene"):
         raylume.render("seed", defines={"x": "1"})
 
 

@@ -29,8 +29,14 @@ import zipfile
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
-# files the package reads at run time (importlib.resources): they must be in the wheel
-PACKAGE_DATA = ("raylume/scenes/seed.toml", "raylume/viewer/static/index.html", "raylume/viewer/static/view.js")
+# files the package reads at run time (importlib.resources), and the PEP 561 marker that lets type
+# checkers read its annotations: they must be in the wheel
+PACKAGE_DATA = (
+    "raylume/py.typed",
+    "raylume/scenes/seed.toml",
+    "raylume/viewer/static/index.html",
+    "raylume/viewer/static/view.js",
+)
 
 
 def step(message: str) -> None:

@@ -45,19 +45,23 @@ _HOMES = {
 }
 
 
-def __getattr__(name: str):
-    home = _HOMES.get(name)
-    if home is not None:
-        value = getattr(importlib.import_module(home, __name__), name)
-    else:
-        try:  # a submodule (raylume.compile, raylume.cluster, ...) not imported yet
-            value = importlib.import_module(f".{name}", __name__)
-        except ModuleNotFoundError as error:
-            if error.name != f"{__name__}.{name}":
-                raise
-            raise AttributeError(f"module {__name__!r} has no attribute {name!r}") from None
-    globals()[name] = value
-    return value
+# Hidden from type checkers, which then read the names from the TYPE_CHECKING imports below and
+# refuse a misspelt one (raylume.rendr) instead of typing it as whatever __getattr__ returns.
+if not TYPE_CHECKING:
+
+    def __getattr__(name: str):
+        home = _HOMES.get(name)
+        if home is not None:
+            value = getattr(importlib.import_module(home, __name__), name)
+        else:
+            try:  # a submodule (raylume.compile, raylume.cluster, ...) not imported yet
+                value = importlib.import_module(f".{name}", __name__)
+            except ModuleNotFoundError as error:
+                if error.name != f"{__name__}.{name}":
+                    raise
+                raise AttributeError(f"module {__name__!r} has no attribute {name!r}") from None
+        globals()[name] = value
+        return value
 
 
 def __dir__() -> list[str]:

@@ -15,7 +15,7 @@ import numpy as np
 
 from .errors import OutputError
 from .scene.model import MAX_EXPOSURE
-from .tonemap import tone_map
+from .tonemap import TONEMAPS, tone_map
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".npy", ".exr", ".hdr")
 # Outputs that hold encoded (display) values; the others store linear floats as rendered.
@@ -54,6 +54,21 @@ def encode_levels(rgb: np.ndarray, encoding: str = "clamp", exposure: float = 0.
     elif encoding != "clamp":
         raise ValueError(f"unknown encoding {encoding!r}; use 'clamp' or 'srgb'")
     return x
+
+
+def check_display(encoding: str | None, exposure: float | None, tonemap: str | None) -> None:
+    """Refuse (ValueError) an encoding, exposure or tonemap that encode_levels cannot apply
+    (None: not given), before an image holds it or a file is written."""
+    if encoding is not None and encoding not in ("clamp", "srgb"):
+        raise ValueError(f"unknown encoding {encoding!r}; use 'clamp' or 'srgb'")
+    if tonemap is not None and tonemap not in TONEMAPS:
+        raise ValueError(f"unknown tonemap {tonemap!r}; use one of {', '.join(TONEMAPS)}")
+    if exposure is not None and (
+        isinstance(exposure, bool)
+        or not isinstance(exposure, (int, float, np.integer, np.floating))
+        or not -MAX_EXPOSURE <= exposure <= MAX_EXPOSURE  # (NaN fails too)
+    ):
+        raise ValueError(f"exposure must be a number of stops from -{MAX_EXPOSURE} to {MAX_EXPOSURE}, got {exposure!r}")
 
 
 def encode_8bit(rgb: np.ndarray, encoding: str = "clamp", exposure: float = 0.0, tonemap: str = "none") -> np.ndarray:
@@ -369,6 +384,10 @@ class Image:
         # A pixel past float32's range (a light of 1e38, or a tiny distance to a bright point) is
         # the largest float32, not inf: no output image holds NaN or inf (NaN samples are dropped
         # before they reach the film). One pass over the image; a copy only where it is needed.
+        rgb = np.asarray(rgb)
+        if rgb.ndim != 3 or rgb.shape[2] != 3:
+            raise ValueError(f"an Image holds RGB of shape (H, W, 3), got shape {rgb.shape}")
+        check_display(encoding, exposure, tonemap)
         if rgb.dtype.kind == "f" and not np.isfinite(rgb).all():
             rgb = np.nan_to_num(rgb, nan=0.0, posinf=np.finfo(rgb.dtype).max, neginf=-np.finfo(rgb.dtype).max)
         self.rgb = rgb
@@ -389,30 +408,27 @@ class Image:
     def to_uint8(
         self, encoding: str | None = None, exposure: float | None = None, tonemap: str | None = None
     ) -> np.ndarray:
+        """The image as 8-bit display values (H, W, 3): exposure, tone mapping and encoding, each the
+        image's own unless given."""
+        check_display(encoding, exposure, tonemap)
         exposure = self.exposure if exposure is None else exposure
         return encode_8bit(self.rgb, encoding or self.encoding, exposure, tonemap or self.tonemap)
 
     def save(
         self,
-        path: str | Path,
+        path: str | os.PathLike,
         encoding: str | None = None,
         exposure: float | None = None,
         *,
         bit_depth: int = 8,
         layers: list[str] | tuple[str, ...] = (),
+        tonemap: str | None = None,
     ) -> Path:
-        """Write .png (8 or 16 bits) or .jpg/.jpeg (8 bits): exposure, the image's tonemap, then encoding; .npy
-        (float32 linear), .exr (float linear; `layers` names AOVs to add as layers, see
-        EXR_LAYERS) or .hdr (Radiance RGBE, linear), atomically."""
+        """Write .png (8 or 16 bits) or .jpg/.jpeg (8 bits): exposure, tone mapping, then encoding
+        (each the image's own unless given); .npy (float32 linear), .exr (float linear; `layers`
+        names AOVs to add as layers, see EXR_LAYERS) or .hdr (Radiance RGBE, linear), atomically."""
         layers = [layers] if isinstance(layers, str) else list(layers)  # one name is a list of one
-        if exposure is not None and (
-            isinstance(exposure, bool)
-            or not isinstance(exposure, (int, float, np.integer, np.floating))
-            or not -MAX_EXPOSURE <= exposure <= MAX_EXPOSURE  # (NaN fails too)
-        ):
-            raise ValueError(
-                f"exposure must be a number of stops from -{MAX_EXPOSURE} to {MAX_EXPOSURE}, got {exposure!r}"
-            )
+        check_display(encoding, exposure, tonemap)
         missing = [name for name in layers if name not in self.aovs]
         if missing:
             raise OutputError(f"{path}: the image has no {', '.join(missing)} AOV to write as a layer")
@@ -423,14 +439,16 @@ class Image:
             self.exposure if exposure is None else exposure,
             bit_depth=bit_depth,
             layers={name: self.aovs[name] for name in layers},
-            tonemap=self.tonemap,
+            tonemap=tonemap or self.tonemap,
         )
 
     def _repr_png_(self) -> bytes:
         return png_bytes(self.to_uint8())
 
     def __array__(self, dtype=None, copy=None):
-        return self.rgb if dtype is None else self.rgb.astype(dtype)
+        # numpy 2's protocol: copy=True always copies (np.copy, np.array), copy=False refuses a
+        # copy it would need, None copies only to convert
+        return np.array(self.rgb, dtype=dtype, copy=copy)
 
     def __repr__(self) -> str:
         mode = self.stats.get("mode", "?")

@@ -4,7 +4,7 @@ scene."""
 from __future__ import annotations
 
 import os
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Literal, overload
 
 import numba
 import numpy as np
@@ -94,6 +94,44 @@ def _query(scene, origins, directions, tmin, tmax):
     origins = np.ascontiguousarray(origins.reshape(-1, 3))
     directions = np.ascontiguousarray(directions.reshape(-1, 3))
     return (S, geometry_features(S), origins, directions, *ray_spans(tmin, tmax, shape), shape)
+
+
+# Overloads, so that a type checker knows `t, obj, prim = intersect(...)` from the four arrays
+# that `instances=True` gives.
+@overload
+def intersect(
+    scene: Session | Scene | CompiledScene | str | os.PathLike,
+    origins: np.ndarray,
+    directions: np.ndarray,
+    *,
+    tmin: float | np.ndarray = 0.0,
+    tmax: float | np.ndarray = np.inf,
+    instances: Literal[False] = False,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]: ...
+
+
+@overload
+def intersect(
+    scene: Session | Scene | CompiledScene | str | os.PathLike,
+    origins: np.ndarray,
+    directions: np.ndarray,
+    *,
+    tmin: float | np.ndarray = 0.0,
+    tmax: float | np.ndarray = np.inf,
+    instances: Literal[True],
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]: ...
+
+
+@overload
+def intersect(
+    scene: Session | Scene | CompiledScene | str | os.PathLike,
+    origins: np.ndarray,
+    directions: np.ndarray,
+    *,
+    tmin: float | np.ndarray = 0.0,
+    tmax: float | np.ndarray = np.inf,
+    instances: bool = False,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray] | tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]: ...
 
 
 def intersect(

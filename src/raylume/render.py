@@ -6,6 +6,8 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
+    from distributed import Client
+
     from .image import Image
     from .render_window import AOV_NAMES, RENDER_AOVS, RenderInterrupted, allocate_aovs
     from .scene.open import SceneLike
@@ -34,7 +36,7 @@ def __getattr__(name: str):
 
 
 def render(
-    scene: SceneLike,
+    scene: SceneLike = None,
     *,
     width: int | None = None,
     height: int | None = None,
@@ -56,7 +58,7 @@ def render(
     source: str = "<scene>",
     crop: tuple[int, int, int, int] | None = None,
     status: Callable[[str], None] | None = None,
-    cluster=None,
+    cluster: str | Client | None = None,
     settings: ResolvedSettings | None = None,
     defines: dict[str, str] | None = None,
 ) -> Image:

@@ -98,7 +98,7 @@ class Session:
 
     def __init__(
         self,
-        scene: SceneLike,
+        scene: SceneLike = None,
         *,
         source: str = "<scene>",
         accelerate: bool = True,
@@ -106,7 +106,7 @@ class Session:
         status: Callable[[str], None] | None = None,
     ):
         """`scene`: a Scene, a path to a scene, glTF or mesh file, or a built-in scene's name
-        (as raylume.render takes it); `defines`: a Mitsuba scene's $parameters (as --define).
+        (as raylume.render takes it; None: the built-in `seed`); `defines`: a Mitsuba scene's $parameters (as --define).
         `status` hears "compiling the BVH builder" and "building" when the build compiles the
         BVH builder's kernels (the first build on a machine)."""
         scene, label = open_scene(scene, defines=defines)

@@ -14,6 +14,7 @@ DEFAULT_SCENE = "seed"
 
 
 def builtin_names() -> list[str]:
+    """The names of the built-in scenes (`raylume.builtin_scene(name)`, `raylume render NAME`)."""
     folder = resources.files("raylume") / "scenes"
     return sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".toml"))
 

@@ -5,6 +5,7 @@ scene document first, so validation and `--set` overrides are the same for every
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 from ..errors import SceneError
@@ -31,6 +32,7 @@ SCENE_SUFFIXES = (".toml", ".json", ".pbrt")
 # Other renderers' scene files read into a scene document by foreign_document (.pbrt: pbrt_scene)
 FOREIGN_SUFFIXES = (".xml",)
 DEFINE_SUFFIXES = (".xml",)  # the files whose $parameters --define sets (Mitsuba's)
+DEFINES_REFUSED = "--define (defines= in Python) sets parameters of a Mitsuba scene (.xml), and this is not one"
 
 
 def foreign_document(path: Path, defines: dict[str, str] | None) -> tuple[dict, dict[str, str]]:
@@ -56,10 +58,11 @@ def _define_texts(defines: dict) -> dict[str, str]:
 
 
 def load_scene(
-    path: str | Path,
+    path: str | os.PathLike,
     overrides: Overrides | None = None,
     source: str | None = None,
     defines: dict[str, str] | None = None,
+    camera: str | None = None,
 ) -> Scene:
     """Load and validate a scene file; relative paths inside it are resolved against its folder.
     A pbrt-v4 file (.pbrt) is read as pbrt would render it (scene/pbrt_scene.py).
@@ -69,10 +72,13 @@ def load_scene(
     --set takes them, or a {dotted key: value} mapping) edit the parsed document before
     validation (see scene/overrides.py). `source` names the scene in validation errors
     (default: the path). A Mitsuba scene (.xml) takes `defines`, {NAME: VALUE} for its $NAME
-    parameters (Mitsuba's -D); other files refuse them."""
+    parameters (Mitsuba's -D); other files refuse them. `camera` names a glTF file's camera (as
+    the command line's --camera; the first one by default); other files refuse it."""
     path = Path(path)
     if defines and path.suffix.lower() not in DEFINE_SUFFIXES:
-        raise SceneError(f"{path}: --define sets parameters of a Mitsuba scene (.xml), and this is not one")
+        raise SceneError(f"{path}: {DEFINES_REFUSED}")
+    if camera is not None and path.suffix.lower() not in (".gltf", ".glb"):
+        raise SceneError(f"{path}: a camera is chosen by name (--camera, camera=) in glTF files alone")
     if defines:
         defines = _define_texts(defines)
     if path.suffix.lower() in FOREIGN_SUFFIXES:
@@ -81,7 +87,7 @@ def load_scene(
         scene = scene_from_dict(document, source=source or path, overrides=overrides, origins=origins)
         return scene.with_base_dir(path.resolve().parent)
     if path.suffix.lower() in (".gltf", ".glb"):
-        return gltf_scene(path, overrides, source=source)
+        return gltf_scene(path, overrides, source=source, camera=camera)
     if path.suffix.lower() in SUPPORTED_EXTENSIONS:
         return mesh_scene(path, overrides, source=source)
     if path.suffix.lower() == ".pbrt":

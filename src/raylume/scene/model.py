@@ -9,9 +9,10 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import sys
 from pathlib import Path
-from typing import Annotated, ClassVar, Literal, Union
+from typing import TYPE_CHECKING, Annotated, Any, ClassVar, Literal, Union
 
 from pydantic import (
     AfterValidator,
@@ -42,10 +43,47 @@ MAX_EXPOSURE = 64  # stops either way: 2^64 is past any display's range
 PIXEL_FILTERS = ("box", "gaussian", "mitchell")
 
 
-class Strict(BaseModel):
+if TYPE_CHECKING:
+    from pydantic._internal._model_construction import ModelMetaclass
+else:
+    ModelMetaclass = type(BaseModel)
+
+
+class _SceneModels(ModelMetaclass):
+    # raylume.Camera(positon=...) from Python: one SceneError naming the key, as the scene's other
+    # paths give. Here, not in __init__: a model with its own __init__ has pydantic call it for
+    # every nested table it validates. Hidden from type checkers, which then check the call
+    # against the fields as for any pydantic model.
+    if not TYPE_CHECKING:
+
+        def __call__(cls, /, *args, **kwargs):
+            try:
+                return super().__call__(*args, **kwargs)
+            except ValidationError as exc:
+                raise SceneError(format_validation_error(exc, f"raylume.{cls.__name__}", cls)) from None
+
+
+class Strict(BaseModel, metaclass=_SceneModels):
     # The docstring under each field describes it: tools/docs_reference.py reads them from this file into the
     # documentation's scene reference (not pydantic's use_attribute_docstrings: it costs ~0.08 s at import).
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False, frozen=True)
+
+    def __repr_args__(self):
+        # an inline mesh of 100k triangles printed whole was 21 MB of text (a notebook's `scene`)
+        for name, value in super().__repr_args__():
+            yield name, _Abridged(value) if isinstance(value, list) and len(value) > _REPR_ITEMS else value
+
+
+_REPR_ITEMS = 8  # a longer list shows its first items and its length in a model's repr
+
+
+class _Abridged:
+    def __init__(self, items: list):
+        self.items = items
+
+    def __repr__(self) -> str:
+        shown = ", ".join(repr(item) for item in self.items[:3])
+        return f"[{shown}, ... {len(self.items)} items]"
 
 
 # float32's largest finite value: the kernels keep geometry, colours and the BVH's boxes in float32
@@ -101,6 +139,15 @@ Flag = Annotated[bool, BeforeValidator(_true_or_false)]
 Vec3 = tuple[FiniteFloat, FiniteFloat, FiniteFloat]
 
 
+def _fspath(value):
+    """A pathlib.Path (any os.PathLike) where a scene file names a file, as its string."""
+    return os.fspath(value) if isinstance(value, os.PathLike) else value
+
+
+# a file named by the scene: a string, or from Python a pathlib.Path
+FileName = Annotated[str, BeforeValidator(_fspath)]
+
+
 def _parse_hex(value: str) -> tuple[float, float, float]:
     text = value.strip()
     if not (len(text) == 7 and text[0] == "#"):
@@ -111,8 +158,19 @@ def _parse_hex(value: str) -> tuple[float, float, float]:
         raise ValueError(f"colour string {value!r} must look like '#rrggbb'") from None
 
 
+def _from_numpy(value):
+    """numpy's scalars and arrays as Python's numbers and lists (np.float32(1) -> 1.0, an array of
+    shape (3,) -> [r, g, b]), so that colours computed with numpy are taken as positions are."""
+    if type(value).__module__ == "numpy" and hasattr(value, "tolist"):
+        return value.tolist()
+    if isinstance(value, (list, tuple)):
+        return [c.tolist() if type(c).__module__ == "numpy" and hasattr(c, "tolist") else c for c in value]
+    return value
+
+
 def _colour(value, *, upper: float | None):
     """Accept [r, g, b] (linear floats) or '#rrggbb'; check components lie in 0..upper."""
+    value = _from_numpy(value)
     if isinstance(value, str):
         rgb = _parse_hex(value)
     else:
@@ -135,6 +193,7 @@ Color = Annotated[tuple[float, float, float], Field()]
 
 def _intensity(value):
     """A light intensity: a number (grey) or [r, g, b], each >= 0 (may exceed 1)."""
+    value = _from_numpy(value)
     if isinstance(value, bool):
         raise ValueError("intensity must be a number or [r, g, b]")
     if isinstance(value, (int, float)):
@@ -151,16 +210,16 @@ def _nonzero(v: Vec3, what: str) -> Vec3:
 
 
 class RenderSettings(Strict):
-    width: WholeNumber = Field(600, ge=1, le=MAX_SIDE)
+    width: WholeNumber = Field(default=600, ge=1, le=MAX_SIDE)
     """Image width in pixels."""
-    height: WholeNumber = Field(600, ge=1, le=MAX_SIDE)
+    height: WholeNumber = Field(default=600, ge=1, le=MAX_SIDE)
     """Image height in pixels."""
-    spp: WholeNumber = Field(1, ge=1, le=MAX_SPP)
+    spp: WholeNumber = Field(default=1, ge=1, le=MAX_SPP)
     """Samples per pixel; 1 traces the pixel centre, more are stratified over the pixel and combined by `filter`."""
     # Bounces (trace) or path segments (path, as Mitsuba counts them: 1 shows only emitters
     # seen directly, 2 is direct lighting, -1 unlimited with Russian roulette). Unset: 3 in
     # trace mode, -1 in path mode (`depth` is the value in force).
-    max_depth: WholeNumber | None = Field(None, ge=-1, le=MAX_DEPTH)
+    max_depth: WholeNumber | None = Field(default=None, ge=-1, le=MAX_DEPTH)
     """Trace mode: reflection and refraction bounces (unset: 3). Path mode: path segments as Mitsuba counts them, 1 =
     emitters seen directly, 2 = direct light, -1 = unlimited with Russian roulette from 5 segments (unset: -1)."""
     mode: Literal["cast", "trace", "path", "raster"] = "trace"
@@ -177,7 +236,7 @@ class RenderSettings(Strict):
     encoding: Literal["clamp", "srgb"] = "clamp"
     """How linear colour becomes 8-bit: `clamp` (the seed's: clamp to 0..1, times 255) or `srgb` (the sRGB transfer
     curve)."""
-    seed: WholeNumber = Field(0, ge=0, le=2**32 - 1)
+    seed: WholeNumber = Field(default=0, ge=0, le=2**32 - 1)
     """Random seed of the samples: the image depends only on the scene, the seed and spp, not on threads or machines."""
     # Pixel reconstruction filter for spp > 1 (box: the pixel itself; gaussian: radius 1.5 px,
     # sigma 0.5; mitchell: B = C = 1/3, radius 2 px). One sample per pixel is always the centre.
@@ -186,7 +245,7 @@ class RenderSettings(Strict):
     = C = 1/3, radius 2 px)."""
     # Exposure in stops: 8-bit outputs (PNG) are encoded from rgb * 2**exposure; float outputs
     # (.exr, .hdr, .npy) stay as rendered.
-    exposure: FiniteFloat = Field(0.0, ge=-MAX_EXPOSURE, le=MAX_EXPOSURE)
+    exposure: FiniteFloat = Field(default=0.0, ge=-MAX_EXPOSURE, le=MAX_EXPOSURE)
     """Exposure in stops for 8-bit outputs (PNG, JPEG), encoded from rgb x 2**exposure; float outputs stay as
     rendered."""
     # Tone mapping for 8-bit outputs, after exposure and before encoding (image.tone_map).
@@ -214,15 +273,15 @@ class RenderSettings(Strict):
     # Adaptive sampling (raylume/adaptive.py): tiles of 16 x 16 pixels rendered in rounds of a
     # few samples until their noise is below the threshold; spp is then the most a pixel takes.
     # Unset: every pixel takes spp.
-    noise_threshold: FiniteFloat | None = Field(None, gt=0)
+    noise_threshold: FiniteFloat | None = Field(default=None, gt=0)
     """Adaptive sampling: stop sampling a 16 x 16 tile once its pixels' mean error (Cycles' measure: the standard
     error of r + g + b over the square root of their mean) is below this, e.g. 0.01; `spp` is then the most a pixel
     takes. Unset: every pixel takes `spp` samples."""
-    min_spp: WholeNumber | None = Field(None, ge=1, le=MAX_SPP)
+    min_spp: WholeNumber | None = Field(default=None, ge=1, le=MAX_SPP)
     """Adaptive sampling: the samples every pixel takes before its tile may stop. Unset: Cycles' rule, ceil(16 /
     noise_threshold^0.3) (32 at 0.1, 40 at 0.05, 64 at 0.01); raise it where rare bright paths (caustics seen by path
     tracing) would be missed by the first samples."""
-    time_limit: FiniteFloat | None = Field(None, gt=0)
+    time_limit: FiniteFloat | None = Field(default=None, gt=0)
     """Stop sampling after this many seconds of rendering (after the first round: ceil(spp / 256) samples a pixel, at
     least 2); `spp` is the most a pixel takes. The image then depends on the machine's speed."""
 
@@ -250,23 +309,30 @@ class RenderSettings(Strict):
 
 
 class Camera(Strict):
+    """A pinhole (or thin-lens, with `aperture`) camera: `raylume.Camera(position=(0, 1, -3),
+    look_at=(0, 0, 0), fov=40)`. `fov` is the vertical field of view in degrees; the frame is
+    left-handed, as the seed's (by default at the origin looking along +z, x right, y up). Frozen:
+    `Scene.with_camera` and `Session.render(camera=...)` take a changed copy. A bad key or value
+    is a SceneError naming it."""
+
     position: Vec3 = (0.0, 0.0, 0.0)
     """Where the camera is (the eye)."""
     look_at: Vec3 = (0.0, 0.0, 1.0)
     """The point the camera looks at, the centre of the image."""
     up: Vec3 = (0.0, 1.0, 0.0)
     """Which way is up; must not be parallel to the viewing direction."""
-    fov: FiniteFloat = Field(53.13, gt=0, lt=180)
+    fov: FiniteFloat = Field(default=53.13, gt=0, lt=180)
     """Vertical field of view in degrees (53.13: the seed's 1 x 1 viewport at distance 1)."""
     # Thin lens: the lens diameter (0: a pinhole camera, rays from one point) and the distance, along
     # the viewing direction, of the plane in focus (default: the distance to look_at).
-    aperture: FiniteFloat = Field(0.0, ge=0)
+    aperture: FiniteFloat = Field(default=0.0, ge=0)
     """Lens diameter of a thin-lens camera; 0 is a pinhole, > 0 gives depth of field."""
-    focus_distance: FiniteFloat | None = Field(None, gt=0)
+    focus_distance: FiniteFloat | None = Field(default=None, gt=0)
     """Distance of the plane in focus along the viewing direction (unset: the distance to look_at)."""
 
     @property
     def focus(self) -> float:
+        """The distance of the plane in focus: `focus_distance`, else the distance to `look_at`."""
         if self.focus_distance is not None:
             return self.focus_distance
         return math.dist(self.position, self.look_at)
@@ -303,7 +369,7 @@ class Checker(Strict):
     """`"checker"`: a 3D checkerboard in world space."""
     colors: tuple[Color, Color] = ((1.0, 1.0, 1.0), (0.1, 0.1, 0.1))
     """The two colours of the cells, each `[r, g, b]` in 0..1 or `"#rrggbb"`."""
-    scale: FiniteFloat = Field(1.0, gt=0)
+    scale: FiniteFloat = Field(default=1.0, gt=0)
     """Side of one cell, in scene units."""
 
     @field_validator("colors", mode="before")
@@ -321,7 +387,7 @@ class ImageTexture(Strict):
 
     type: Literal["image"]
     """`"image"`: a PNG or JPEG mapped by the surface's UVs, repeating; sRGB-decoded."""
-    file: str
+    file: FileName
     """The image file, relative to the scene file."""
     scale: tuple[FiniteFloat, FiniteFloat] = (1.0, 1.0)
     """Multiplies the UVs: a number or `[u, v]` (2 = the image twice across)."""
@@ -341,7 +407,7 @@ class ImageTexture(Strict):
 class _SurfaceMap(Strict):
     """What the normal, bump and alpha maps share: an image looked up by the surface's UVs."""
 
-    file: str
+    file: FileName
     """The image file, relative to the scene file."""
     scale: tuple[FiniteFloat, FiniteFloat] = (1.0, 1.0)
     """Multiplies the UVs: a number or `[u, v]` (2 = the map twice across)."""
@@ -356,7 +422,7 @@ class NormalMap(_SurfaceMap):
     and glTF's convention) and z the shading normal. Looked up by the UVs times `scale`,
     bilinear and repeating, as an image texture is."""
 
-    strength: FiniteFloat = Field(1.0, ge=0)
+    strength: FiniteFloat = Field(default=1.0, ge=0)
     """Multiplies the normal's x and y before it is normalised (glTF's `normalTexture.scale`): 0
     leaves the surface flat, above 1 steepens it."""
 
@@ -367,7 +433,7 @@ class BumpMap(_SurfaceMap):
     times the texel's value (0..1), its shading normal that of the displaced surface (pbrt-v4's
     and Mitsuba 3's bump mapping). Looked up by the UVs times `scale`, bilinear and repeating."""
 
-    height: FiniteFloat = Field(0.01, ge=0)
+    height: FiniteFloat = Field(default=0.01, ge=0)
     """The displacement of a white texel, in scene units (black: none)."""
     encoding: Literal["linear", "srgb"] = "linear"
     """How the texels encode heights: `"linear"` as stored, `"srgb"` decoded from sRGB first (as pbrt-v4 reads 8-bit
@@ -381,7 +447,7 @@ class AlphaMap(_SurfaceMap):
     surface has a hole: rays pass through as if it were not there (glTF's alphaMode MASK;
     leaves, fences, lace)."""
 
-    cutoff: FiniteFloat = Field(0.5, gt=0, le=1)
+    cutoff: FiniteFloat = Field(default=0.5, gt=0, le=1)
     """Below this value (0..1) the surface is cut away (glTF's `alphaCutoff`)."""
     encoding: Literal["linear", "srgb"] = "linear"
     """How the texels encode coverage: `"linear"` as stored, `"srgb"` decoded from sRGB first, before the bilinear
@@ -454,13 +520,13 @@ class PhongMaterial(_MaterialBase):
 
     type: Literal["phong"] = "phong"
     """`"phong"`: the seed's model, the default when `type` is left out."""
-    specular: FiniteFloat | None = Field(None, gt=0)
+    specular: FiniteFloat | None = Field(default=None, gt=0)
     """Phong exponent of the highlight; left out: a matte surface."""
-    reflective: FiniteFloat = Field(0.0, ge=0, le=1)
+    reflective: FiniteFloat = Field(default=0.0, ge=0, le=1)
     """Mirror reflectivity, 0..1 (reflective + transparency <= 1)."""
-    transparency: FiniteFloat = Field(0.0, ge=0, le=1)
+    transparency: FiniteFloat = Field(default=0.0, ge=0, le=1)
     """Share of light refracted through the surface, 0..1."""
-    ior: FiniteFloat = Field(1.5, gt=0)
+    ior: FiniteFloat = Field(default=1.5, gt=0)
     """Index of refraction inside the surface."""
     absorption: Color = (0.0, 0.0, 0.0)
     """Beer-Lambert absorption coefficient per unit length inside, `[r, g, b]`."""
@@ -490,7 +556,7 @@ class ConductorMaterial(_MaterialBase):
 
     type: Literal["conductor"]
     """`"conductor"`: a metal, `color` times the Fresnel reflectance of `eta` + i `k`."""
-    roughness: FiniteFloat = Field(0.0, ge=0, le=1)  # GGX alpha, as Mitsuba's rough plugins
+    roughness: FiniteFloat = Field(default=0.0, ge=0, le=1)  # GGX alpha, as Mitsuba's rough plugins
     """GGX alpha, as Mitsuba's rough plugins take it; 0 is a perfect mirror."""
     eta: Color | None = None
     """Real part of the complex index of refraction, per RGB (give `k` too; neither: a perfect mirror times `color`)."""
@@ -515,9 +581,9 @@ class DielectricMaterial(_MaterialBase):
 
     type: Literal["dielectric"]
     """`"dielectric"`: glass, with Fresnel reflection and total internal reflection."""
-    ior: FiniteFloat = Field(1.5, gt=0)
+    ior: FiniteFloat = Field(default=1.5, gt=0)
     """Index of refraction inside."""
-    roughness: FiniteFloat = Field(0.0, ge=0, le=1)
+    roughness: FiniteFloat = Field(default=0.0, ge=0, le=1)
     """GGX alpha; 0 is smooth glass."""
     absorption: Color = (0.0, 0.0, 0.0)
     """Beer-Lambert absorption coefficient per unit length inside, `[r, g, b]`."""
@@ -533,10 +599,10 @@ class PlasticMaterial(_MaterialBase):
 
     type: Literal["plastic"]
     """`"plastic"`: diffuse `color` under a dielectric coating (Mitsuba's plastic)."""
-    ior: FiniteFloat = Field(1.5, gt=0)
+    ior: FiniteFloat = Field(default=1.5, gt=0)
     """Index of refraction of the coating, read within 1..3 (outside it, as its end): the fit of the diffuse Fresnel
     reflectance it uses, Mitsuba's, holds there."""
-    roughness: FiniteFloat = Field(0.0, ge=0, le=1)
+    roughness: FiniteFloat = Field(default=0.0, ge=0, le=1)
     """GGX alpha of the coating; 0 is smooth."""
 
 
@@ -669,7 +735,7 @@ class QuadLight(_LightBase):
     """First edge vector: the light spans position +- u/2 +- v/2."""
     v: Vec3
     """Second edge vector."""
-    samples: WholeNumber = Field(16, ge=1, le=MAX_LIGHT_SAMPLES)
+    samples: WholeNumber = Field(default=16, ge=1, le=MAX_LIGHT_SAMPLES)
     """Trace mode: shadow rays per shading point."""
 
     @model_validator(mode="after")
@@ -691,9 +757,9 @@ class SpotLight(_LightBase):
     """Where the light is."""
     direction: Vec3  # the way it shines
     """The way it shines."""
-    angle: FiniteFloat = Field(30.0, gt=0, le=180)
+    angle: FiniteFloat = Field(default=30.0, gt=0, le=180)
     """Outer half-angle of the cone, degrees."""
-    inner_angle: FiniteFloat | None = Field(None, ge=0, le=180)
+    inner_angle: FiniteFloat | None = Field(default=None, ge=0, le=180)
     """Full intensity inside this half-angle, falling smoothly to 0 at `angle` (unset: 3/4 of angle)."""
 
     @field_validator("direction")
@@ -723,7 +789,7 @@ class SphereLight(_LightBase):
     """Centre of the sphere."""
     radius: FiniteFloat = Field(gt=0)
     """Radius of the sphere."""
-    samples: WholeNumber = Field(16, ge=1, le=MAX_LIGHT_SAMPLES)
+    samples: WholeNumber = Field(default=16, ge=1, le=MAX_LIGHT_SAMPLES)
     """Trace mode: shadow rays per shading point, over its disk facing the point."""
 
 
@@ -788,7 +854,7 @@ class Transform(Strict):
 
 # `interior` (every object): the name of the medium inside a closed shape, in [media]; open
 # shapes refuse it.
-MediumRef = Annotated[str | None, Field(None, min_length=1)]
+MediumRef = Annotated[str | None, Field(default=None, min_length=1)]
 
 
 def _no_interior(obj, shape: str):
@@ -924,7 +990,8 @@ def _array_rows(value, width: int, integers: bool) -> list[tuple]:
     if not finite.all():
         row = int(np.flatnonzero(~finite)[0])
         raise ValueError(f"row {row} holds a value that is not a finite number, got {a[row].tolist()}")
-    if a.dtype.kind == "f" and len(a) and (huge := np.abs(a).max(axis=1) > F32_MAX).any():
+    # (float16 and float32 cannot pass float32's range: comparing them with 3.4e38 would warn)
+    if a.dtype.kind == "f" and a.itemsize > 4 and len(a) and (huge := np.abs(a).max(axis=1) > F32_MAX).any():
         row = int(np.flatnonzero(huge)[0])
         raise ValueError(f"row {row} holds a value beyond float32's range (3.4e38), got {a[row].tolist()}")
     if integers:
@@ -949,7 +1016,7 @@ class Mesh(Strict):
     # The triangles: a mesh file (relative to the scene file), or inline `vertices` with
     # `faces` (three vertex indices each, from 0; cross(v1 - v0, v2 - v0) is the front) and
     # optional per-vertex `normals` and `uvs`, as other renderers' files carry meshes.
-    file: str | None = None
+    file: FileName | None = None
     """The mesh file, relative to the scene file (or inline `vertices` and `faces` instead)."""
     vertices: list[Vec3] | None = None
     """Inline triangles instead of `file`: the vertex positions."""
@@ -968,12 +1035,12 @@ class Mesh(Strict):
     # "right": the file is right-handed (most OBJ and glTF): mirror x before the transform
     handedness: Literal["left", "right"] = "left"
     """`"right"`: the file is right-handed (most OBJ and glTF files), mirrored across x before the transform."""
-    shape_index: WholeNumber = Field(0, ge=0)
+    shape_index: WholeNumber = Field(default=0, ge=0)
     """Which mesh of a Mitsuba `.serialized` file (it holds several), from 0: Mitsuba's `shape_index`."""
     # Copies of the mesh, each placed by a matrix after `transform` (column vectors, p' = M @ [p, 1]):
     # a .npy file of shape (N, 4, 4) or (N, 3, 4), relative to the scene file, or inline
     # transforms. The mesh and its BVH are stored once (scene/instances.py, compile/instances.py).
-    instances: str | list[Transform] | None = None
+    instances: FileName | list[Transform] | None = None
     """Copies of the mesh, each placed by a matrix after `transform` (p' = M @ [p, 1]): a `.npy` of (N, 4, 4) or (N, 3,
     4) matrices relative to the scene file, or a list of transform tables. The mesh and its BVH are stored once."""
     interior: MediumRef = None  # the mesh must be closed (checked when it is loaded)
@@ -1160,7 +1227,7 @@ class Gltf(Strict):
 
     type: Literal["gltf"]
     """`"gltf"`: the meshes and materials of a glTF 2.0 file (its cameras and lights are not imported)."""
-    file: str
+    file: FileName
     """The `.gltf` or `.glb` file, relative to the scene file."""
     transform: Transform = Transform()
     """Applied after the file's own node transforms and the right- to left-handed conversion."""
@@ -1193,9 +1260,9 @@ class Environment(Strict):
 
     color: Color | None = None
     """Constant radiance `[r, g, b]` from every direction (give `color` or `file`)."""
-    file: str | None = None
+    file: FileName | None = None
     """An equirectangular `.hdr` or `.exr` image, relative to the scene file; importance-sampled in path mode."""
-    intensity: FiniteFloat = Field(1.0, ge=0)
+    intensity: FiniteFloat = Field(default=1.0, ge=0)
     """Scales the environment."""
     rotate: Vec3 = (0.0, 0.0, 0.0)
     """Degrees about x, then y, then z, as object transforms."""
@@ -1249,7 +1316,7 @@ class _MediumBase(Strict):
     """Absorption coefficient per scene unit of length, a number or `[r, g, b]`."""
     sigma_s: Color = (0.0, 0.0, 0.0)
     """Scattering coefficient per scene unit of length, a number or `[r, g, b]`."""
-    g: FiniteFloat = Field(0.0, gt=-1, lt=1)
+    g: FiniteFloat = Field(default=0.0, gt=-1, lt=1)
     """Henyey-Greenstein asymmetry: -1 back, 0 isotropic, 1 forward (the ends excluded)."""
 
     @field_validator("sigma_a", "sigma_s", mode="before")
@@ -1273,7 +1340,7 @@ class GridMedium(_MediumBase):
 
     type: Literal["grid"]
     """`"grid"`: a density that varies, from a voxel grid."""
-    density: str = Field(min_length=1)
+    density: FileName = Field(min_length=1)
     """A `.npy` float array of shape (nz, ny, nx), >= 0, relative to the scene file; scales sigma_a and sigma_s,
     trilinearly interpolated."""
     bounds_min: Vec3
@@ -1311,7 +1378,7 @@ class CameraKey(Strict):
     """The camera's look_at at this frame."""
     up: Vec3 | None = None
     """The camera's up at this frame."""
-    fov: FiniteFloat | None = Field(None, gt=0, lt=180)
+    fov: FiniteFloat | None = Field(default=None, gt=0, lt=180)
     """The camera's vertical field of view at this frame, degrees."""
 
 
@@ -1321,7 +1388,7 @@ class Animation(Strict):
 
     frames: WholeNumber = Field(ge=1, le=MAX_FRAMES)
     """Number of frames."""
-    fps: FiniteFloat = Field(24.0, gt=0, le=1000)
+    fps: FiniteFloat = Field(default=24.0, gt=0, le=1000)
     """Frames per second of a video."""
     interpolation: Literal["linear", "catmull-rom"] = "catmull-rom"
     """`catmull-rom` (smooth through every keyframe) or `linear`."""
@@ -1345,6 +1412,13 @@ class Animation(Strict):
 
 
 class Scene(Strict):
+    """A validated scene: the tables of a scene file (`render`, `camera`, `materials`, `lights`,
+    `objects`, `environment`, `media`, `animation`). Made by `raylume.load` (a file),
+    `raylume.scene_from_dict` (a dict as a file would hold it) or `raylume.builtin_scene`;
+    rendered by `raylume.render`, `raylume.Session` and `raylume.view`. Frozen: `replace`,
+    `with_camera` and `with_render` give validated copies. The keys are documented in the
+    scene reference (docs/reference/scene.md)."""
+
     render: RenderSettings = RenderSettings()
     """How to render: size, samples, mode, encoding."""
     camera: Camera = Camera()
@@ -1409,24 +1483,34 @@ class Scene(Strict):
             return ref
         return self.materials.get(ref, DEFAULT_MATERIAL)
 
-    def with_render(self, **overrides) -> Scene:
-        """A copy whose [render] table has the given (non-None) values replaced, re-validated."""
+    def with_render(self, **overrides: Any) -> Scene:
+        """A copy whose [render] table has the given (non-None) values replaced, re-validated
+        (`scene.with_render(width=64, spp=16)`); errors are SceneErrors naming the key."""
         values = {k: v for k, v in overrides.items() if v is not None}
         if not values:
             return self
-        return self.model_copy(update={"render": self.render.updated(**values)}).with_base_dir(self.base_dir)
+        return self._changed({"render": values}, "Scene.with_render")
 
-    def replace(self, **changes) -> Scene:
+    def replace(self, **changes: Any) -> Scene:
         """A validated copy with some tables changed, e.g. `scene.replace(camera={"fov": 40},
         render={"width": 64})`. A dict is merged into the table it names, nested tables too
         (`materials={"glass": {"ior": 1.33}}` changes one key of one material); anything else (a
         list of lights or objects, a Camera) replaces the table. Errors are SceneErrors naming
         the key path."""
+        return self._changed(changes, "Scene.replace")
+
+    def with_camera(self, camera: Camera | dict | None = None, **keys: Any) -> Scene:
+        """A copy with another camera: a Camera, or camera keys changing the current one
+        (`scene.with_camera(fov=40)`, `scene.with_camera({"position": [0, 1, -3]})`)."""
+        if camera is not None and not isinstance(camera, (Camera, dict)):
+            raise TypeError(f"camera must be a raylume.Camera or a dict of camera keys, got {camera!r}")
+        table = camera.model_dump() if isinstance(camera, Camera) else dict(camera or {})
+        return self._changed({"camera": {**table, **keys}}, "Scene.with_camera")
+
+    def _changed(self, changes: dict, call: str) -> Scene:
         for key in changes:
             if key not in type(self).model_fields:
-                raise SceneError(
-                    f"Scene.replace: unknown key {key!r}; a scene has {', '.join(type(self).model_fields)}"
-                )
+                raise SceneError(f"{call}: unknown key {key!r}; a scene has {', '.join(type(self).model_fields)}")
         document = self.model_dump(exclude_unset=True)
         for key, value in changes.items():
             if isinstance(value, BaseModel):
@@ -1437,16 +1521,8 @@ class Scene(Strict):
         try:
             scene = type(self).model_validate(document)
         except ValidationError as exc:
-            raise SceneError(format_validation_error(exc, "Scene.replace", type(self))) from None
+            raise SceneError(format_validation_error(exc, call, type(self))) from None
         return scene.with_base_dir(self.base_dir)
-
-    def with_camera(self, camera: Camera | dict | None = None, **keys) -> Scene:
-        """A copy with another camera: a Camera, or camera keys changing the current one
-        (`scene.with_camera(fov=40)`, `scene.with_camera({"position": [0, 1, -3]})`)."""
-        if camera is not None and not isinstance(camera, (Camera, dict)):
-            raise TypeError(f"camera must be a raylume.Camera or a dict of camera keys, got {camera!r}")
-        table = camera.model_dump() if isinstance(camera, Camera) else dict(camera or {})
-        return self.replace(camera={**table, **keys})
 
 
 def _merged(old, new):

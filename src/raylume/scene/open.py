@@ -11,7 +11,7 @@ from .autoframe import MESH_SUFFIXES, is_mesh_file, mesh_scene
 from .builtin import DEFAULT_SCENE, builtin_names, builtin_scene
 from .gltf import is_gltf_file
 from .gltf_scene import gltf_scene
-from .load import DEFINE_SUFFIXES, FOREIGN_SUFFIXES, SCENE_SUFFIXES, load_scene
+from .load import DEFINE_SUFFIXES, DEFINES_REFUSED, FOREIGN_SUFFIXES, SCENE_SUFFIXES, load_scene
 from .model import Scene
 
 SceneLike = Scene | str | os.PathLike | None
@@ -37,6 +37,9 @@ def open_scene(
     `overrides` are `--set` style KEY=VALUE strings. A name that is none of these is a
     SceneError that lists the built-ins."""
     if isinstance(scene, Scene):
+        if defines or camera is not None:  # (they were ignored)
+            given = "defines" if defines else "camera"
+            raise SceneError(f"{given}= applies to a file as it is read; this scene is a raylume.Scene already")
         return scene, "<scene>"
     if scene is not None and not isinstance(scene, str | os.PathLike):
         raise TypeError(
@@ -45,7 +48,7 @@ def open_scene(
         )
     name = DEFAULT_SCENE if scene is None else os.fspath(scene)
     if defines and Path(name).suffix.lower() not in DEFINE_SUFFIXES:
-        raise SceneError(f"{name}: --define sets parameters of a Mitsuba scene (.xml), and this is not one")
+        raise SceneError(f"{name}: {DEFINES_REFUSED}")
     if is_gltf_file(name):
         return gltf_scene(name, overrides, camera=camera, width=width, height=height), name
     if is_mesh_file(name):

@@ -12,7 +12,7 @@ rendering progressively and lets the mouse move the camera.
 from __future__ import annotations
 
 import atexit
-from pathlib import Path
+import os
 
 from ..scene.model import Scene
 
@@ -31,7 +31,7 @@ class ViewURL(str):
 
 
 def view(
-    scene: Scene | str | Path | None = None,
+    scene: Scene | str | os.PathLike | None = None,
     *,
     width: int | None = None,
     height: int | None = None,
@@ -39,6 +39,7 @@ def view(
     integrator: str | None = None,
     spp: int | None = None,
     denoise: bool | None = None,
+    tonemap: str | None = None,
     host: str = "127.0.0.1",
     port: int = 0,
     threads: int | None = None,
@@ -50,7 +51,8 @@ def view(
     `show`) the page is also shown inline in an iframe. Port 0 (the default here) picks a free
     port, so several views can run at once; `url.stop()` ends one. `denoise`: path mode's
     frames shown denoised (SVGF while the camera moves, OIDN at rest), as `raylume view --denoise`;
-    `integrator`: path mode's, "path" or "bdpt" (as `raylume view --integrator`). `defines`: a
+    `integrator`: path mode's, "path" or "bdpt" (as `raylume view --integrator`); `tonemap`: the
+    frames' tone mapping, none | reinhard | aces | agx | neutral (as --tonemap). `defines`: a
     Mitsuba scene's $parameters (as --define)."""
     arguments = dict(locals())  # the call's arguments, before any other name is bound
     if isinstance(port, bool) or not isinstance(port, int) or not 0 <= port <= 65535:
