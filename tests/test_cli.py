@@ -629,6 +629,7 @@ def test_crop_writes_that_window_of_the_full_render(tmp_path):
     part = raylume("render", "--width", 60, "--height", 40, "--spp", 2, "--crop", "10:35,5:30", "-o", "part.npy",
                    "--aov", "depth=pd.npy", cwd=tmp_path)  # fmt: skip
     assert part.returncode == 0, part.stderr
+    assert "part.npy: 25x25 window of 60x40 trace" in part.stdout + part.stderr  # the size of what is written
     want = np.load(tmp_path / "full.npy")[5:30, 10:35]
     got = np.load(tmp_path / "part.npy")
     assert got.shape == (25, 25, 3) and got.tobytes() == np.ascontiguousarray(want).tobytes()
@@ -640,3 +641,21 @@ def test_bad_crops_are_refused_before_rendering(tmp_path, crop):
     result = raylume("render", "--width", 60, "--height", 40, "--crop", crop, cwd=tmp_path)
     assert_refused(result, "crop")
     assert not (tmp_path / "render.png").exists()
+
+
+def test_a_path_scene_of_unlimited_depth_previews_in_cast_and_raster_mode(tmp_path):
+    """max_depth -1 (path mode's unlimited) was refused by --mode cast and raster, which trace no
+    bounces, and trace mode's refusal blamed the command line, not the file's key."""
+    scene = tmp_path / "scene.toml"
+    scene.write_text(
+        '[render]\nwidth = 8\nheight = 8\nmode = "path"\nmax_depth = -1\n'
+        '[[lights]]\ntype = "ambient"\n[[objects]]\ntype = "sphere"\ncenter = [0, 0, 3]\nradius = 1\n'
+    )
+    for mode in ("cast", "raster"):
+        result = raylume("render", scene, "--mode", mode, "-o", f"{mode}.png", cwd=tmp_path)
+        assert result.returncode == 0, result.stderr
+    (tmp_path / "trace.png").write_bytes(b"keep")
+    result = raylume("render", scene, "--mode", "trace", "-o", "trace.png", cwd=tmp_path)
+    assert_refused(result, "scene.toml: render.max_depth: -1", "--max-depth N")
+    assert (tmp_path / "trace.png").read_bytes() == b"keep"
+    assert raylume("render", scene, "--mode", "trace", "--max-depth", 2, "-o", "t.png", cwd=tmp_path).returncode == 0

@@ -551,6 +551,27 @@ def test_shared_meshes_and_gpu_instancing_place_every_copy(tmp_path):
     assert list(obj) == [0, 0, 0, -1, 0]
 
 
+def test_prim_and_instance_name_each_triangle_of_a_gltf_object(tmp_path):
+    """DESIGN.md section 3: `prim` is the triangle's index inside its object, so the meshes of a
+    glTF object number their triangles in turn (each had started at 0: two meshes' triangles
+    read the same object, instance and prim)."""
+    b = Builder()
+    one = b.mesh([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]])
+    two = b.mesh([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], [[0, 1, 2], [0, 2, 3]])  # a square: prims 1, 2
+    shared = b.mesh([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]])
+    b.node(mesh=one, translation=[0, 0, 0])
+    b.node(mesh=two, translation=[2, 0, 0])
+    b.node(mesh=shared, translation=[4, 0, 0])
+    b.node(mesh=shared, translation=[6, 0, 0])  # used twice: one stored mesh, two instances
+    scene = raylume.scene_from_dict({"objects": [{"type": "gltf", "file": str(b.glb(tmp_path / "parts.glb"))}]})
+    # glTF x is raylume's x, its z raylume's -z: rays from z = -10 along +z into each triangle
+    xs = [0.2, 2.8, 2.2, 4.2, 6.2]  # mesh one; the square's lower-right and upper-left halves; the two copies
+    origins = np.array([[x, 0.3 if k != 2 else 0.8, -10] for k, x in enumerate(xs)], float)
+    t, obj, prim, inst = raylume.intersect(scene, origins, np.tile([0.0, 0.0, 1.0], (5, 1)), instances=True)
+    assert np.isfinite(t).all() and list(obj) == [0] * 5
+    assert list(prim) == [0, 1, 2, 3, 3] and list(inst) == [0, 0, 0, 0, 1]
+
+
 def test_the_shipped_example_holds_what_the_readme_says():
     imported = read_gltf(Path(__file__).parents[1] / "examples" / "gltf" / "room.glb")
     assert [c.name for c in imported.cameras] == ["front"] and len(imported.lights) == 2

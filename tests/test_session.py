@@ -4,13 +4,17 @@ shipped by pickle. References are one-shot renders (raylume.render), which compi
 from __future__ import annotations
 
 import pickle
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 import raylume
 import raylume.compile
+from raylume.denoise import is_available
 from raylume.session import Session
+
+EXAMPLES = Path(__file__).parent.parent / "examples"
 
 SCENE = {
     "render": {"width": 48, "height": 36},
@@ -212,6 +216,21 @@ def test_a_crop_equals_that_window_of_the_full_render_bit_for_bit(scene, mode):
         assert part.aovs[name].tobytes() == want.tobytes(), name
     if mode != "raster":
         assert part.stats["primary_rays"] == (x1 - x0) * (y1 - y0) * 3
+
+
+@pytest.mark.skipif(not is_available(), reason="pyoidn (raylume[denoise]) is not installed")
+def test_a_denoised_crop_is_that_window_of_the_whole_denoised_render():
+    """The denoiser's value at a pixel depends on its neighbours: the window denoised alone
+    differed from the full render's window everywhere (by up to 0.12 at its border)."""
+    session = Session(EXAMPLES / "cornell.toml")
+    settings = dict(width=32, height=24, spp=2, mode="path", denoise=True)
+    full = session.render(**settings)
+    x0, x1, y0, y1 = 5, 21, 3, 17
+    part = session.render(**settings, crop=(x0, x1, y0, y1))
+    assert part.rgb.shape == (y1 - y0, x1 - x0, 3) and part.stats["crop"] == [x0, x1, y0, y1]
+    assert part.rgb.tobytes() == np.ascontiguousarray(full.rgb[y0:y1, x0:x1]).tobytes()
+    for name in ("noisy", "depth", "albedo"):
+        assert np.array_equal(part.aovs[name], full.aovs[name][y0:y1, x0:x1]), name
 
 
 @pytest.mark.parametrize("crop", [(0, 0, 0, 5), (5, 3, 0, 5), (0, 49, 0, 5), (0, 5, -1, 5)])

@@ -736,6 +736,9 @@ def summary(output: Path, s: dict) -> str:
     """The line printed after a render. A rasterizer traces no rays, so it gets no ray rate.
     Compilation (JIT, or loading the kernels from the cache) is reported apart from the build."""
     size = f"{output}: {s['width']}x{s['height']} {s['mode']}"
+    if s.get("crop"):  # the file holds the window
+        x0, x1, y0, y1 = s["crop"]
+        size = f"{output}: {x1 - x0}x{y1 - y0} window of {s['width']}x{s['height']} {s['mode']}"
     build = f"build {s['build_seconds']:.3f} s"
     if "compile_seconds" in s:
         build += f", compile {s['compile_seconds']:.2f} s"

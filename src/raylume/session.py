@@ -12,6 +12,7 @@ in rounds of tiles that stop when their noise is low (adaptive.py), or in tiles 
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import os
 import time
@@ -193,6 +194,11 @@ class Session:
         table = settings.render
         warn_about(self.scene, table.mode)
         cam_model = self._camera(camera)
+        cut = None
+        if table.denoise and table.mode == "path" and settings.crop is not None:
+            # the denoiser's value at a pixel depends on the pixels around it, so a denoised crop
+            # is the window of the whole image denoised (the window denoised alone had differed)
+            cut, settings = settings.crop, dataclasses.replace(settings, crop=None)
         window = settings.window
         x0, x1, y0, y1 = window
         lanes = _use_threads(settings.threads)
@@ -245,10 +251,14 @@ class Session:
             extra["denoise_edge_pixels"] = split.edge_pixels
             extra["denoise_edge_spp"] = split.edge_spp
             aov_arrays["noisy"] = noisy
+        if cut is not None:
+            x0, x1, y0, y1 = cut
+            rgb = rgb[y0:y1, x0:x1]
+            aov_arrays = {name: array[y0:y1, x0:x1] for name, array in aov_arrays.items()}
         stats = {
             "width": table.width,
             "height": table.height,
-            "crop": list(window) if settings.crop is not None else None,
+            "crop": list(window) if settings.crop is not None else list(cut) if cut is not None else None,
             "spp": table.spp,
             "mode": table.mode,
             "threads": lanes,

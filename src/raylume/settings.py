@@ -61,6 +61,12 @@ def resolve_settings(
     `source`'s render settings."""
     table = base.render if isinstance(base, Scene) else base
     values = {key: value for key, value in (overrides or {}).items() if value is not None}
+    if values.get("mode") == "trace" and table.max_depth == -1 and "max_depth" not in values:
+        # the scene's depth, not the mode asked for, is what to change: name its key
+        depth = "--max-depth N" if flags else "max_depth=N"
+        raise SceneError(
+            f"{source}: render.max_depth: -1 (unlimited) is for path mode; trace mode needs a depth >= 0 (give {depth})"
+        )
     if values:
         try:
             table = table.updated(**values)

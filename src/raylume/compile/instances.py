@@ -200,7 +200,7 @@ def build_instances(meshes: list, accelerate: bool = True) -> InstanceArrays:
         rows[:, PRIM_ROW] = prim_base + np.arange(n, dtype=np.int32)
         rows[:, PRIM_MATERIAL] = mesh.material
         rows[:, PRIM_OBJECT] = mesh.obj
-        rows[:, PRIM_FACE] = order
+        rows[:, PRIM_FACE] = mesh.first_face + order
         rows[:, PRIM_LIGHT] = -1
         prims.append(rows)
         tris.append(mesh.triangles[order])

@@ -148,7 +148,8 @@ class _TriangleSoup:
     """Triangles gathered object by object before the BVH reorders them."""
 
     def __init__(self):
-        self.parts: list[tuple] = []  # (verts (F, 9) f32, normals (F, 9) f32 or None, material, object)
+        # (verts (F, 9) f32, normals (F, 9) f32 or None, material, object, its first face's `prim`)
+        self.parts: list[tuple] = []
         self.uvs: list[np.ndarray | None] = []  # per part: (F, 6) f32 UVs, None when not needed
         self.degenerate = 0
 
@@ -159,8 +160,9 @@ class _TriangleSoup:
         material: int,
         obj: int,
         uvs6: np.ndarray | None = None,
+        first_face: int = 0,
     ):
-        self.parts.append((vertices9, normals9, material, obj))
+        self.parts.append((vertices9, normals9, material, obj, first_face))
         self.uvs.append(uvs6)
 
     def uv_array(self) -> np.ndarray:
@@ -186,7 +188,7 @@ class _TriangleSoup:
         smooth = np.concatenate([np.full(n, p[1] is not None) for n, p in zip(counts, self.parts)])
         material = np.concatenate([np.full(n, p[2], np.int32) for n, p in zip(counts, self.parts)])
         obj = np.concatenate([np.full(n, p[3], np.int32) for n, p in zip(counts, self.parts)])
-        face = np.concatenate([np.arange(n, dtype=np.int32) for n in counts])
+        face = np.concatenate([np.arange(p[4], p[4] + n, dtype=np.int32) for n, p in zip(counts, self.parts)])
         return verts, normals, smooth, material, obj, face
 
 
@@ -251,6 +253,7 @@ class _InstancedMesh(NamedTuple):
     obj: int
     matrices: np.ndarray  # float64 (N, 3, 4) object to world
     ids: np.ndarray  # int32 (N,): each instance's index within its object (the `instance` AOV)
+    first_face: int  # the `prim` AOV of its first triangle (after the object's other meshes')
 
 
 class _Analytic:
@@ -303,6 +306,7 @@ class SceneGeometry:
         self.rounded: dict[int, tuple[float, float, float]] = {}  # objects float32 rounds visibly
         self.offset: dict[int, tuple[float, float, float]] = {}  # analytic shapes the ray offset moves visibly
         self.instanced: list[_InstancedMesh] = []
+        self.faces_of: dict[int, int] = {}  # triangles added so far to each object (a glTF's meshes)
 
     def add_mesh(
         self,
@@ -315,7 +319,8 @@ class SceneGeometry:
         instance_ids: np.ndarray | None = None,
     ) -> None:
         """Add a triangle mesh of scene object `obj` (the `object` AOV) with row `material` of
-        the materials table. The `prim` AOV is the face's index in `mesh.faces`.
+        the materials table. The `prim` AOV is the face's index in `mesh.faces`, after the faces of
+        the object's meshes added before (a glTF object's meshes number its triangles in turn).
 
         Without `instances`, the mesh's vertices are in world space and its triangles join the
         world BVH with every other primitive. With `instances`, float (N, 3, 4) or (N, 4, 4)
@@ -339,13 +344,15 @@ class SceneGeometry:
         normals = None if mesh.normals is None else corners(mesh.normals)
         uv6 = corners(mesh.uvs) if uvs else None
         self.soup.degenerate += mesh.degenerate
+        first_face = self.faces_of.get(obj, 0)
+        self.faces_of[obj] = first_face + len(mesh.faces)
         if instances is None:
-            self.soup.add(tris, normals, material, obj, uv6)
+            self.soup.add(tris, normals, material, obj, uv6, first_face)
             return
         m = np.asarray(instances, dtype=np.float64)
         m = np.ascontiguousarray(m[:, :3, :])
         ids = np.arange(len(m), dtype=np.int32) if instance_ids is None else np.asarray(instance_ids, np.int32)
-        self.instanced.append(_InstancedMesh(tris, normals, uv6, material, obj, m, ids))
+        self.instanced.append(_InstancedMesh(tris, normals, uv6, material, obj, m, ids, first_face))
 
 
 class Gathered(NamedTuple):

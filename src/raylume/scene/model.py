@@ -287,8 +287,8 @@ class RenderSettings(Strict):
 
     @model_validator(mode="after")
     def _depth(self):
-        if self.max_depth == -1 and self.mode != "path":
-            raise ValueError(f"max_depth -1 (unlimited) is for path mode; {self.mode} mode needs a depth >= 0")
+        if self.max_depth == -1 and self.mode == "trace":  # (cast and raster modes trace no bounces)
+            raise ValueError("max_depth -1 (unlimited) is for path mode; trace mode needs a depth >= 0")
         return self
 
     def updated(self, **values) -> RenderSettings:
