@@ -324,6 +324,24 @@ def test_denoise_cannot_be_switched_on_without_oidn(monkeypatch):
     assert "raylume view:" not in result.output
 
 
+def test_python_api_takes_a_tonemap():
+    """As `raylume view --tonemap`: the frames are the render tone mapped."""
+    url = raylume.view("seed", width=24, height=18, mode="trace", tonemap="reinhard", threads=1, show=False)
+    try:
+        base, _, token = url.partition("/?token=")
+        png = urllib.request.urlopen(f"{base}/frame.png?token={token}", timeout=60).read()
+        from io import BytesIO
+
+        from PIL import Image
+
+        shown = np.asarray(Image.open(BytesIO(png)).convert("RGB"))
+        expected = raylume.render(seed(), threads=1, aovs=False)
+        np.testing.assert_array_equal(shown, encode_8bit(expected.rgb, "clamp", 0.0, "reinhard"))
+        assert not np.array_equal(shown, encode_8bit(expected.rgb, "clamp"))
+    finally:
+        url.stop()
+
+
 def test_python_api_takes_denoise():
     url = raylume.view(cornell(), denoise=True, threads=1, show=False)
     try:
