@@ -192,7 +192,7 @@ def _check_camera(scene: Scene, solids: list[_Solid], names: list[str], outer: i
 def _object_triangles(geometry) -> dict[int, np.ndarray]:
     """World-space triangles (F, 3, 3) of each mesh object (an instanced mesh: its first instance)."""
     parts: dict[int, list] = {}
-    for verts, _normals, _material, obj in geometry.soup.parts:
+    for verts, _normals, _material, obj, _first_face in geometry.soup.parts:
         parts.setdefault(int(obj), []).append(np.asarray(verts, dtype=np.float64).reshape(-1, 3, 3))
     for inst in geometry.instanced:
         tris = np.asarray(inst.triangles, dtype=np.float64).reshape(-1, 3, 3)
