@@ -160,12 +160,15 @@ def _parse_hex(value: str) -> tuple[float, float, float]:
 
 def _from_numpy(value):
     """numpy's scalars and arrays as Python's numbers and lists (np.float32(1) -> 1.0, an array of
-    shape (3,) -> [r, g, b]), so that colours computed with numpy are taken as positions are."""
-    if type(value).__module__ == "numpy" and hasattr(value, "tolist"):
-        return value.tolist()
+    shape (3,) -> [r, g, b]), also inside a list, so that colours computed with numpy are taken as
+    positions are."""
     if isinstance(value, (list, tuple)):
-        return [c.tolist() if type(c).__module__ == "numpy" and hasattr(c, "tolist") else c for c in value]
-    return value
+        return [_python_value(c) for c in value]
+    return _python_value(value)
+
+
+def _python_value(value):
+    return value.tolist() if type(value).__module__ == "numpy" and hasattr(value, "tolist") else value
 
 
 def _colour(value, *, upper: float | None):
